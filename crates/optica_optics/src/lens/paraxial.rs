@@ -1,0 +1,307 @@
+//! Paraxial (first-order) optics of a prescription: the y–nu trace, the ABCD
+//! matrix, focal lengths, the paraxial image plane and the entrance pupil.
+//!
+//! State of a paraxial ray: height `y` (mm) and reduced angle `ω = n·u`.
+//! At surface k with curvature c and media n → n', the power is
+//! `φ = (n' − n)·c` and refraction is `ω' = ω − y·φ`; a gap of thickness t in
+//! index n' transfers `y' = y + t·ω'/n'` (Smith, *Modern Optical Engineering*,
+//! ch. 2; the standard y–nu trace). As matrices on (y, ω): refraction
+//! `[[1, 0], [−φ, 1]]`, transfer `[[1, t/n'], [0, 1]]`.
+
+use thiserror::Error;
+
+use super::prescription::{LensPrescription, PrescriptionError};
+use crate::glass::Glass;
+
+/// A paraxial ray: height and reduced angle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParaxialRay {
+    /// Height above the axis in mm.
+    pub y: f64,
+    /// Reduced angle `n·u` (u the slope dy/dz in the current medium).
+    pub omega: f64,
+}
+
+/// A 2×2 ray-transfer matrix on (y, ω), row-major: `[[A, B], [C, D]]`.
+pub type Abcd = [[f64; 2]; 2];
+
+/// First-order properties of a lens at one wavelength (object at infinity).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParaxialProperties {
+    /// Wavelength in nm.
+    pub wavelength_nm: f64,
+    /// Effective focal length `1/Φ = −1/C` in mm.
+    pub efl_mm: f64,
+    /// Back focal length: last vertex to the rear focal point, in mm.
+    pub bfl_mm: f64,
+    /// Front focal length: front focal point to the first vertex, in mm.
+    pub ffl_mm: f64,
+    /// z of the paraxial image plane (rear focal plane) in the lens frame
+    /// (first vertex at z = 0).
+    pub image_z_mm: f64,
+    /// z of the entrance pupil (the paraxial image of the stop in object space).
+    pub entrance_pupil_z_mm: f64,
+    /// Radius of the entrance pupil in mm.
+    pub entrance_pupil_radius_mm: f64,
+    /// `efl / (2 · entrance pupil radius)`.
+    pub f_number: f64,
+}
+
+/// Why first-order properties do not exist.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum ParaxialError {
+    /// The prescription is invalid.
+    #[error(transparent)]
+    Prescription(#[from] PrescriptionError),
+    /// Wavelength not finite and positive.
+    #[error("wavelength must be a positive finite number of nm, got {0}")]
+    Wavelength(f64),
+    /// The system has no power (C = 0): no finite focal length.
+    #[error("the system is afocal (zero power): no finite focal length")]
+    Afocal,
+    /// The stop is imaged to infinity by the elements in front of it.
+    #[error("the entrance pupil is at infinity (the front group images the stop to infinity)")]
+    PupilAtInfinity,
+    /// A glass gives a non-finite index at this wavelength.
+    #[error("surface {surface}: the glass has no finite index at {wavelength_nm} nm")]
+    Index {
+        /// Index of the surface.
+        surface: usize,
+        /// The wavelength.
+        wavelength_nm: f64,
+    },
+}
+
+/// Refractive index in front of each surface and after each surface at `wavelength_nm`.
+pub(crate) fn indices(p: &LensPrescription, wavelength_nm: f64) -> Result<(Vec<f64>, Vec<f64>), ParaxialError> {
+    let mut before = Vec::with_capacity(p.surfaces.len());
+    let mut after = Vec::with_capacity(p.surfaces.len());
+    let mut n = Glass::Air.index(wavelength_nm);
+    for (k, s) in p.surfaces.iter().enumerate() {
+        let n2 = s.glass_after.index(wavelength_nm);
+        if !(n.is_finite() && n2.is_finite() && n > 0.0 && n2 > 0.0) {
+            return Err(ParaxialError::Index { surface: k, wavelength_nm });
+        }
+        before.push(n);
+        after.push(n2);
+        n = n2;
+    }
+    Ok((before, after))
+}
+
+fn check_wavelength(wavelength_nm: f64) -> Result<(), ParaxialError> {
+    if wavelength_nm.is_finite() && wavelength_nm > 0.0 { Ok(()) } else { Err(ParaxialError::Wavelength(wavelength_nm)) }
+}
+
+/// `a · b` for 2×2 matrices.
+pub fn mat_mul(a: Abcd, b: Abcd) -> Abcd {
+    [
+        [a[0][0] * b[0][0] + a[0][1] * b[1][0], a[0][0] * b[0][1] + a[0][1] * b[1][1]],
+        [a[1][0] * b[0][0] + a[1][1] * b[1][0], a[1][0] * b[0][1] + a[1][1] * b[1][1]],
+    ]
+}
+
+impl LensPrescription {
+    /// Traces a paraxial ray given just in front of the first vertex (in air)
+    /// and returns its state just after each surface: the height at the
+    /// surface and the reduced angle after refraction there.
+    pub fn trace_paraxial(&self, wavelength_nm: f64, start: ParaxialRay) -> Result<Vec<ParaxialRay>, ParaxialError> {
+        check_wavelength(wavelength_nm)?;
+        let (before, after) = indices(self, wavelength_nm)?;
+        let mut out = Vec::with_capacity(self.surfaces.len());
+        let (mut y, mut omega) = (start.y, start.omega);
+        for (k, s) in self.surfaces.iter().enumerate() {
+            if k > 0 {
+                let prev = &self.surfaces[k - 1];
+                y += prev.thickness_after_mm * omega / after[k - 1];
+            }
+            omega -= y * (after[k] - before[k]) * s.curvature;
+            out.push(ParaxialRay { y, omega });
+        }
+        Ok(out)
+    }
+
+    /// The ABCD matrix on (y, ω) from just in front of surface `from` to just
+    /// after surface `to` (inclusive, `from <= to`), refractions and the gaps
+    /// between them included.
+    pub fn abcd_between(&self, wavelength_nm: f64, from: usize, to: usize) -> Result<Abcd, ParaxialError> {
+        check_wavelength(wavelength_nm)?;
+        let (before, after) = indices(self, wavelength_nm)?;
+        let mut m: Abcd = [[1.0, 0.0], [0.0, 1.0]];
+        for k in from..=to.min(self.surfaces.len().saturating_sub(1)) {
+            if k > from {
+                let t = self.surfaces[k - 1].thickness_after_mm / after[k - 1];
+                m = mat_mul([[1.0, t], [0.0, 1.0]], m);
+            }
+            let phi = (after[k] - before[k]) * self.surfaces[k].curvature;
+            m = mat_mul([[1.0, 0.0], [-phi, 1.0]], m);
+        }
+        Ok(m)
+    }
+
+    /// The system matrix from the first vertex to the last (both refractions included).
+    pub fn system_matrix(&self, wavelength_nm: f64) -> Result<Abcd, ParaxialError> {
+        self.abcd_between(wavelength_nm, 0, self.surfaces.len().saturating_sub(1))
+    }
+
+    /// First-order properties at `wavelength_nm` (use [`crate::glass::LAMBDA_D_NM`]
+    /// for the d line, as patents do).
+    pub fn paraxial(&self, wavelength_nm: f64) -> Result<ParaxialProperties, ParaxialError> {
+        self.validate()?;
+        check_wavelength(wavelength_nm)?;
+        let (_, after) = indices(self, wavelength_nm)?;
+        let n_image = *after.last().expect("validated: at least one surface");
+        let [[a, _b], [c, d]] = self.system_matrix(wavelength_nm)?;
+        // Relative to the system's scale, a power this small is no power.
+        let length: f64 = self.table_image_z().max(self.surfaces.iter().map(|s| s.semi_aperture_mm).fold(0.0, f64::max));
+        if !(c.is_finite()) || c.abs() * length < 1e-12 {
+            return Err(ParaxialError::Afocal);
+        }
+        let efl = -1.0 / c;
+        let bfl = -a * n_image / c;
+        // Front focal length: a ray from the front focal point leaves parallel;
+        // with the object-space index of air (1), FFL = D / C (distance from
+        // the front focal point to the first vertex).
+        let ffl = -d / c;
+        let last_z = *self.vertex_z().last().expect("validated");
+        let stop = self.stop_index().expect("validated: one stop");
+        // Heights at the stop for unit height and for unit slope at vertex 0:
+        // h = a_s·y0 + b_s·u0 (object space is air, so ω0 = u0).
+        let m_stop = if stop == 0 {
+            [[1.0, 0.0], [0.0, 1.0]]
+        } else {
+            let m = self.abcd_between(wavelength_nm, 0, stop - 1)?;
+            let t = self.surfaces[stop - 1].thickness_after_mm / after[stop - 1];
+            mat_mul([[1.0, t], [0.0, 1.0]], m)
+        };
+        let (a_s, b_s) = (m_stop[0][0], m_stop[0][1]);
+        if a_s.abs() < 1e-12 {
+            return Err(ParaxialError::PupilAtInfinity);
+        }
+        let ep_radius = self.surfaces[stop].semi_aperture_mm / a_s.abs();
+        Ok(ParaxialProperties {
+            wavelength_nm,
+            efl_mm: efl,
+            bfl_mm: bfl,
+            ffl_mm: ffl,
+            image_z_mm: last_z + bfl,
+            entrance_pupil_z_mm: b_s / a_s,
+            entrance_pupil_radius_mm: ep_radius,
+            f_number: efl / (2.0 * ep_radius),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::builtin;
+    use super::*;
+    use crate::glass::LAMBDA_D_NM;
+    use crate::lens::LensSurface;
+
+    #[test]
+    fn tessar_and_double_gauss_focal_lengths_match_the_patents() {
+        // US 2,854,889 and US 2,701,982 state f = 100 mm; the last row's
+        // thickness is the back focal distance of each table.
+        for (p, bfd) in [(builtin::tessar(), 79.831), (builtin::double_gauss(), 55.742)] {
+            let q = p.paraxial(LAMBDA_D_NM).unwrap();
+            assert!((q.efl_mm / 100.0 - 1.0).abs() < 0.005, "{}: EFL {}", p.name, q.efl_mm);
+            // The tables round radii to 0.01 mm, which moves the focus by
+            // ~0.1 mm; hold the BFL to 0.2 % of the tabulated back focus.
+            assert!((q.bfl_mm / bfd - 1.0).abs() < 0.002, "{}: BFL {} vs {bfd}", p.name, q.bfl_mm);
+        }
+    }
+
+    #[test]
+    fn heliar_focal_length_is_the_normalised_one() {
+        // US 2,645,156 Example 1 is normalised to F = 1 (file scaled x100).
+        let q = builtin::heliar().paraxial(LAMBDA_D_NM).unwrap();
+        assert!((q.efl_mm / 100.0 - 1.0).abs() < 0.005, "EFL {}", q.efl_mm);
+        assert!((q.bfl_mm / 82.030 - 1.0).abs() < 0.002, "BFL {}", q.bfl_mm);
+        // The stop semi-aperture was chosen for f/3.5.
+        assert!((q.f_number - 3.5).abs() < 0.01, "f/{}", q.f_number);
+    }
+
+    #[test]
+    fn thin_lens_makers_formula() {
+        // A thin biconvex lens, n = 1.5, R = ±100: 1/f = (n−1)(2/R) → f = 100.
+        let p = LensPrescription::new(
+            "thin",
+            "lensmaker's equation",
+            vec![
+                LensSurface::stop(0.0, Glass::Air, 10.0),
+                LensSurface::new(100.0, 0.0, Glass::Constant(1.5), 10.0),
+                LensSurface::new(-100.0, 100.0, Glass::Air, 10.0),
+            ],
+        )
+        .unwrap();
+        let q = p.paraxial(550.0).unwrap();
+        assert!((q.efl_mm - 100.0).abs() < 1e-12);
+        assert!((q.bfl_mm - 100.0).abs() < 1e-12);
+        assert!((q.f_number - 5.0).abs() < 1e-12);
+        assert!(q.entrance_pupil_z_mm.abs() < 1e-12);
+    }
+
+    #[test]
+    fn thick_lens_gullstrand() {
+        // Thick lens: Φ = Φ1 + Φ2 − (t/n)Φ1Φ2 (Gullstrand); BFL = f(1 − (t/n)Φ1).
+        let (n, r1, r2, t) = (1.6, 40.0, -60.0, 8.0);
+        let p = LensPrescription::new(
+            "thick",
+            "Gullstrand",
+            vec![
+                LensSurface::new(r1, t, Glass::Constant(n), 15.0),
+                LensSurface::new(r2, 5.0, Glass::Air, 15.0),
+                LensSurface::stop(50.0, Glass::Air, 8.0),
+            ],
+        )
+        .unwrap();
+        let (p1, p2) = ((n - 1.0) / r1, (1.0 - n) / r2);
+        let phi = p1 + p2 - t / n * p1 * p2;
+        let q = p.paraxial(600.0).unwrap();
+        assert!((q.efl_mm - 1.0 / phi).abs() < 1e-9);
+        // BFL measured from the last vertex: that is the stop, 5 mm behind surface 2.
+        let bfl_from_s2 = (1.0 - t / n * p1) / phi;
+        assert!((q.bfl_mm - (bfl_from_s2 - 5.0)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn y_nu_trace_and_abcd_agree() {
+        let p = builtin::double_gauss();
+        let trace = p.trace_paraxial(LAMBDA_D_NM, ParaxialRay { y: 1.0, omega: 0.0 }).unwrap();
+        let [[a, _], [c, _]] = p.system_matrix(LAMBDA_D_NM).unwrap();
+        let last = trace.last().unwrap();
+        assert!((last.y - a).abs() < 1e-12 && (last.omega - c).abs() < 1e-15);
+        // The determinant of a (y, nu) system matrix is 1 (Lagrange invariant).
+        let m = p.system_matrix(LAMBDA_D_NM).unwrap();
+        assert!((m[0][0] * m[1][1] - m[0][1] * m[1][0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn achromat_focal_length_varies_little_from_f_to_c() {
+        // The Tessar is an achromat: its EFL changes by well under 1 % between
+        // the F and C lines (the glasses' nd/vd give the dispersion).
+        let p = builtin::tessar();
+        let f = p.paraxial(crate::glass::LAMBDA_F_NM).unwrap().efl_mm;
+        let c = p.paraxial(crate::glass::LAMBDA_C_NM).unwrap().efl_mm;
+        assert!((f - c).abs() < 1.0, "achromat: EFL varies < 1 % over F–C, got {f} vs {c}");
+    }
+
+    #[test]
+    fn bad_wavelength_and_afocal_are_typed() {
+        let p = builtin::tessar();
+        assert!(matches!(p.paraxial(f64::NAN), Err(ParaxialError::Wavelength(w)) if w.is_nan()));
+        assert!(matches!(p.paraxial(-5.0), Err(ParaxialError::Wavelength(_))));
+        let flat = LensPrescription::new(
+            "slab",
+            "flat glass has no power",
+            vec![
+                LensSurface::stop(1.0, Glass::Air, 5.0),
+                LensSurface::new(f64::INFINITY, 5.0, Glass::Constant(1.5), 10.0),
+                LensSurface::new(f64::INFINITY, 5.0, Glass::Air, 10.0),
+            ],
+        )
+        .unwrap();
+        assert_eq!(flat.paraxial(550.0), Err(ParaxialError::Afocal));
+    }
+}

@@ -1,0 +1,57 @@
+//! What a sweep gets from the runner: the quick flag, progress, timing.
+
+use std::io::Write;
+use std::time::Instant;
+
+/// Passed to every sweep.
+pub struct SweepContext {
+    /// Run a reduced sweep (used by the test suite): fewer knob values, smaller
+    /// references. The full sweep is the default of the command line.
+    pub quick: bool,
+    label: String,
+    started: Instant,
+    quiet: bool,
+}
+
+impl SweepContext {
+    /// A context for the sweep named `label`.
+    pub fn new(label: &str, quick: bool, quiet: bool) -> Self {
+        Self { quick, label: label.into(), started: Instant::now(), quiet }
+    }
+
+    /// Reports progress on stderr: `step` of `total`, with a short note.
+    pub fn progress(&self, step: usize, total: usize, note: &str) {
+        if self.quiet {
+            return;
+        }
+        let secs = self.started.elapsed().as_secs_f64();
+        eprintln!("[{}] {}/{} {} ({:.1} s)", self.label, step, total, note, secs);
+        let _ = std::io::stderr().flush();
+    }
+
+    /// Picks the quick or the full variant of a setting.
+    pub fn pick<T>(&self, quick: T, full: T) -> T {
+        if self.quick { quick } else { full }
+    }
+}
+
+/// Runs `f` repeatedly and returns the median wall time of one call in
+/// milliseconds, with the last result. Runs at least `min_runs` times and
+/// keeps going until about `budget_ms` has passed (at most 101 runs), so
+/// that fast calls are timed over many runs and slow ones only a few.
+pub fn time_ms<R>(min_runs: usize, budget_ms: f64, mut f: impl FnMut() -> R) -> (f64, R) {
+    let mut times = Vec::new();
+    let start = Instant::now();
+    let mut last;
+    loop {
+        let t = Instant::now();
+        last = std::hint::black_box(f());
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        let spent = start.elapsed().as_secs_f64() * 1e3;
+        if times.len() >= min_runs.max(1) && (spent >= budget_ms || times.len() >= 101) {
+            break;
+        }
+    }
+    times.sort_by(|a, b| a.total_cmp(b));
+    (times[times.len() / 2], last)
+}

@@ -1,0 +1,104 @@
+//! The report data: one shape for every plugin.
+//!
+//! ```json
+//! {"plugin": "dome", "adapter": "cpu", "knob": "tolerance_px",
+//!  "rows": [{"knob": 0.5, "error": {"max_px": 0.41}, "time_ms": 1.2,
+//!            "baseline_time_ms": 0.3, "work": {"segments": 1234}}],
+//!  "stability": [{"case": "antipode", "ok": true, "detail": "..."}]}
+//! ```
+//!
+//! `work` is an addition to the issue's shape: cost counters that are not
+//! times (segments emitted, rays traced, voxels visited). It is omitted when
+//! empty, so a reader of the base shape never sees it.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+/// A plugin's error-against-run-time sweep and its stability cases.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Report {
+    /// Plugin name as given on the command line (`optics`, `dome`, ...).
+    pub plugin: String,
+    /// What ran the measurement: `"cpu"` for CPU sweeps, else the wgpu adapter name.
+    pub adapter: String,
+    /// Name of the quality knob, with its unit (`"rays_per_side"`, `"tolerance_px"`).
+    pub knob: String,
+    /// What `baseline_time_ms` measures, in words (shown in the Markdown).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub baseline: String,
+    /// What the reference is, in words (shown in the Markdown).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub reference: String,
+    /// One row per knob value, in the order swept.
+    pub rows: Vec<Row>,
+    /// Stiff and extreme cases.
+    pub stability: Vec<StabilityCase>,
+}
+
+/// One knob setting.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Row {
+    /// The knob's value.
+    pub knob: f64,
+    /// Named errors against the reference (`"rel_rms"`, `"max_px"`, `"psnr_db"`).
+    pub error: BTreeMap<String, f64>,
+    /// Time of the method at this knob, in milliseconds.
+    pub time_ms: f64,
+    /// Time of the baseline measured in the same run, in milliseconds.
+    pub baseline_time_ms: f64,
+    /// Cost counters that are not times (optional addition to the shape).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub work: BTreeMap<String, f64>,
+}
+
+/// One stiff or extreme case and whether the method handled it.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct StabilityCase {
+    /// Short name of the case (`"total internal reflection"`).
+    pub case: String,
+    /// `true` when the result was finite, the fallback was the documented one
+    /// and, where the case is inside the model's range, the error within bound.
+    pub ok: bool,
+    /// What was observed, in words and numbers.
+    pub detail: String,
+}
+
+impl Report {
+    /// An empty CPU report for `plugin`, sweeping `knob`.
+    pub fn cpu(plugin: &str, knob: &str) -> Self {
+        Self {
+            plugin: plugin.into(),
+            adapter: "cpu".into(),
+            knob: knob.into(),
+            baseline: String::new(),
+            reference: String::new(),
+            rows: Vec::new(),
+            stability: Vec::new(),
+        }
+    }
+
+    /// Adds a stability case.
+    pub fn case(&mut self, case: &str, ok: bool, detail: impl Into<String>) {
+        self.stability.push(StabilityCase { case: case.into(), ok, detail: detail.into() });
+    }
+}
+
+impl Row {
+    /// A row with the given knob and times; add errors with [`Row::err`].
+    pub fn new(knob: f64, time_ms: f64, baseline_time_ms: f64) -> Self {
+        Self { knob, error: BTreeMap::new(), time_ms, baseline_time_ms, work: BTreeMap::new() }
+    }
+
+    /// Adds a named error.
+    pub fn err(mut self, name: &str, value: f64) -> Self {
+        self.error.insert(name.into(), value);
+        self
+    }
+
+    /// Adds a named cost counter.
+    pub fn work(mut self, name: &str, value: f64) -> Self {
+        self.work.insert(name.into(), value);
+        self
+    }
+}

@@ -1,0 +1,14 @@
+//! One module per sweep. Each exposes `pub fn run(ctx: &SweepContext) -> Report`
+//! and is listed in [`SWEEPS`] under the name the command line takes.
+
+use crate::{Report, SweepContext};
+
+pub mod optics;
+
+/// A named sweep.
+pub type SweepFn = fn(&SweepContext) -> Report;
+
+/// Every sweep the runner knows, in the order `all` runs them.
+pub const SWEEPS: &[(&str, SweepFn)] = &[
+    ("optics", optics::run),
+];

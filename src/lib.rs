@@ -1,0 +1,29 @@
+//! # optica — optics-and-perception rendering for Bevy
+//!
+//! optica turns five rendering papers into Bevy plugins: seeing through a
+//! spectacle prescription, insect compound eyes, gaze-driven level of detail,
+//! physically based lens flare and equidistant fisheye dome projection.
+//!
+//! This umbrella crate re-exports each plugin behind a cargo feature of its own,
+//! so a scene pays only for what it uses, and always re-exports the CPU
+//! reference [`optics`] that every plugin is tested against.
+//!
+//! | feature | what it adds |
+//! |---|---|
+//! | `window` | opens a real window in the examples (winit + X11); without it, or without a display, they render to PNG |
+//!
+//! Plugin features (`spectacles`, `compound_eye`, `foveated_lod`, `lens_flare`,
+//! `dome`) are added to this table as each plugin lands.
+//!
+//! ```
+//! use optica::optics::glass::Glass;
+//! let bk7 = Glass::catalog("N-BK7").unwrap();
+//! assert!((bk7.index(587.5618) - 1.5168).abs() < 1e-4);
+//! ```
+
+pub use optica_optics as optics;
+
+/// The usual imports.
+pub mod prelude {
+    pub use crate::optics;
+}

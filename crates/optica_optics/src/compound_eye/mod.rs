@@ -1,1 +1,113 @@
-//! (in progress)
+//! # Compound eye — the CPU reference of Sagawa's compound-eye shading
+//!
+//! Source: 佐川和輝, 「表面構造を考慮した複眼のリアルタイムレンダリング」, master's
+//! thesis, University of Tokyo, 平成26年度 (academic year 2014) (`papers/sagawa-compound-eye-thesis.txt`),
+//! chapter 6. Equation numbers below are the thesis's.
+//!
+//! ## The model (thesis §6.1–6.2, Fig. 6.1, 6.3, 6.4)
+//!
+//! Every triangle of the eye mesh carries an infinite square lattice in its
+//! texture coordinates: one texture unit is one facet (ommatidium). Under each
+//! cell, a sphere of radius `r` (the facet lens) touches the polygon from
+//! below at the cell centre; the *pigment plane* (テクスチャ平面, the pigment
+//! cells) lies parallel to the polygon at a depth `d` below it. The thesis
+//! puts it at `d = 2r` (eq. 6.29); we keep `d` and the index `n` separate
+//! parameters (a ball lens focuses at `n·r / (2(n−1))` from its centre, i.e.
+//! at `2.5r` below the polygon for `n = 1.5`, REFERENCE.md). A view ray
+//! refracts into and out of one sphere and the texel it reaches on the pigment
+//! plane darkens the surface colour (eq. 6.30): ommatidia whose axes point at
+//! the viewer show their dark centre — the moving *pseudopupil*.
+//!
+//! Units: world lengths for `r` and `d`; texture coordinates (after eq. 6.1)
+//! are in **facets** — that is the unit every `uv` in this module is in.
+//!
+//! ## Equations
+//!
+//! Texture resolution (§6.3), [`texture_axes::scale_uv`]:
+//! - (6.1) `T_vert = R_t · T_obj`
+//!
+//! Texture-axis vectors (§6.3.1), [`TextureAxes`]:
+//! - (6.2) `P = P_c + a·U_p + b·V_p` — any point of the polygon from its texture coordinate `(a, b)`
+//! - (6.3) `P_c = P_e − a_e·U_p − b_e·V_p` — from a known point `P_e` with texture coordinate `(a_e, b_e)`; we take `P_e = P_0`, `(a_e, b_e) = T_0`
+//! - (6.4) `P_10 = P_1 − P_0`
+//! - (6.5) `P_20 = P_2 − P_0`
+//! - (6.6) `T_10 = T_1 − T_0`
+//! - (6.7) `T_20 = T_2 − T_0`
+//! - (6.8) `U_p = i·P_10 + j·P_20`
+//! - (6.9) `V_p = k·P_10 + l·P_20`
+//! - (6.10) `P_AB = P_A − P_B = c·P_10 + d·P_20` — a displacement in the polygon
+//! - (6.11) `T_AB = T_A − T_B = c·T_10 + d·T_20` — the same displacement in texture space
+//! - (6.12) `i·T_10 + j·T_20 = (1, 0)ᵀ`
+//! - (6.13) `k·T_10 + l·T_20 = (0, 1)ᵀ`
+//! - (6.14) `A · [[i, k], [j, l]] = I` with `A = (T_10, T_20)` (columns)
+//! - (6.15) `[[i, k], [j, l]] = A⁻¹`
+//!
+//! `U_p`, `V_p` are the texture-space unit axes expressed in 3-D (`∂P/∂a`,
+//! `∂P/∂b`); their world length is the facet size, not 1.
+//!
+//! Entry-sphere search (§6.4), [`lattice`] and [`shading_path`]:
+//! - (6.16) `P = P_c + a·U_p + b·V_p` — the view ray's polygon hit and its texture coordinate
+//! - (6.17) `a' = ⌊a⌋ + 0.5` (a ≥ 0)
+//! - (6.18) `b' = ⌊b⌋ + 0.5` (b ≥ 0)
+//! - (6.19) `a' = ⌈a⌉ − 0.5` (a < 0)
+//! - (6.20) `b' = ⌈b⌉ − 0.5` (b < 0)
+//! - (6.21) `P' = P_c + a'·U_p + b'·V_p` — the cell centre on the polygon
+//! - (6.22) `S = P' − r·N` — the estimated sphere centre
+//! - (6.23) `P_s' = P_s + h·N` — a slice-plane hit `P_s` at depth `h`, projected back onto the polygon
+//! - (6.24) `P_s' = P_c + a_s·U_p + b_s·V_p`
+//! - (6.25) `P_s'c = P_s' − P_c`
+//! - (6.26) `a_s = [(V_p·V_p)(P_s'c·U_p) − (V_p·U_p)(P_s'c·V_p)] / [(U_p·U_p)(V_p·V_p) − (U_p·V_p)(V_p·U_p)]`
+//! - (6.27) `b_s = [(U_p·U_p)(P_s'c·V_p) − (U_p·V_p)(P_s'c·U_p)] / [(U_p·U_p)(V_p·V_p) − (U_p·V_p)(V_p·U_p)]`
+//!
+//! The slice planes are at depths `h = s·r/K`, `s = 0..=K` (`s = 0` is the
+//! polygon itself, the last one is at `h = r`); the first sphere the view ray
+//! intersects ends the search. `K` (the slice count) is the plugin's quality
+//! knob. Eq. 6.17–6.20 differ from `⌊a⌋ + 0.5` only on cell edges, where they
+//! break ties away from zero — which keeps the rule mirror-symmetric.
+//!
+//! Refraction and pigment plane (§6.5–6.6), [`ball_lens`], [`lattice`]:
+//! - (6.28) `N_D = (D − C) / ‖D − C‖` — the sphere normal at the entry (and, likewise, exit) point
+//! - (6.29) `P_T' = P_T + 2r·N` — the pigment-plane hit projected onto the polygon; we use `P_T + d·N`
+//! - (6.30) `c = c_t·(a + d) + s` — shading, left to the plugin
+//!
+//! ## What the thesis leaves open, and what we chose
+//!
+//! - Refraction into neighbouring spheres after the exit is a TODO in the
+//!   thesis (§6.5); the shading path follows the thesis (one lens), the exact
+//!   tracer can follow any number ([`exact_tracer::trace_exact`]'s `max_lenses`).
+//! - Misses, total internal reflection and escaping rays have no rule in the
+//!   thesis: see [`ShadeFallback`]. A missed lens is the thesis's rule: the
+//!   unrefracted ray goes on to the pigment plane (§6.4, last paragraph).
+//! - Degenerate and mirrored UV triangles: see [`TextureAxes`].
+//!
+//! ## Modules
+//!
+//! | module | what |
+//! |---|---|
+//! | [`texture_axes`] | `U_p`, `V_p`, `P_c` per triangle (6.1–6.15), UV ↔ point (6.2, 6.26–6.27) |
+//! | [`lattice`] | lens parameters, the lattice of one triangle: cells, lens centres, slices, pigment plane (6.16–6.25, 6.29) |
+//! | [`ball_lens`] | refraction into and out of one sphere (6.28), ball-lens focus |
+//! | [`outcome`] | what a traced view ray returns, and the fallbacks |
+//! | [`shading_path`] | the thesis's per-fragment path: the CPU twin of the shader |
+//! | [`exact_tracer`] | the reference: every lens the ray can reach |
+//! | [`pseudopupil`] | facet frames on a curved eye and the dark-centre test |
+
+// `!(x > y)` is how this module rejects NaN along with out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+pub mod ball_lens;
+pub mod error;
+pub mod exact_tracer;
+pub mod lattice;
+pub mod outcome;
+pub mod pseudopupil;
+pub mod shading_path;
+pub mod texture_axes;
+
+pub use ball_lens::{BallExit, ball_focal_length, refract_through_ball};
+pub use error::CompoundEyeError;
+pub use exact_tracer::{trace_exact, trace_exact_batch};
+pub use lattice::{Lattice, LensParams, MAX_SLICES};
+pub use outcome::{PigmentHit, Shade, ShadeFallback};
+pub use shading_path::{shade, shade_batch, shade_fragment};
+pub use texture_axes::TextureAxes;

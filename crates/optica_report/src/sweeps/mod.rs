@@ -3,6 +3,7 @@
 
 use crate::{Report, SweepContext};
 
+pub mod compound_eye;
 pub mod optics;
 
 /// A named sweep.
@@ -11,4 +12,5 @@ pub type SweepFn = fn(&SweepContext) -> Report;
 /// Every sweep the runner knows, in the order `all` runs them.
 pub const SWEEPS: &[(&str, SweepFn)] = &[
     ("optics", optics::run),
+    ("compound_eye", compound_eye::run),
 ];

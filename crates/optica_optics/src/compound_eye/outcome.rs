@@ -1,0 +1,95 @@
+//! What a traced view ray returns: a pigment-plane hit or a defined fallback.
+
+use glam::{DVec2, DVec3};
+
+/// Where a view ray reached the pigment plane.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PigmentHit {
+    /// Texture coordinate of the hit (eq. 6.29), in facets.
+    pub uv: DVec2,
+    /// The hit point on the pigment plane.
+    pub point: DVec3,
+    /// The first lens the ray went through (cell index), or `None` when it
+    /// missed every lens and reached the plane unrefracted (thesis §6.4, last
+    /// paragraph).
+    pub lens: Option<[i64; 2]>,
+    /// How many lenses the ray passed through (the shading path: 0 or 1).
+    pub lenses: u32,
+}
+
+impl PigmentHit {
+    /// The hit's offset from the centre of the first lens's own cell, in
+    /// facets (`None` without a lens). `(0, 0)` is the ommatidium's rhabdom.
+    pub fn offset_from_lens(&self) -> Option<DVec2> {
+        self.lens.map(|[i, j]| self.uv - DVec2::new(i as f64 + 0.5, j as f64 + 0.5))
+    }
+
+    /// `true` when the ray went through a lens and landed within
+    /// `dark_radius` facets of that ommatidium's centre: the principal
+    /// pseudopupil. (A texture tiled per cell, as in the thesis, also darkens
+    /// hits near a *neighbour's* centre: the secondary pseudopupils.)
+    pub fn on_own_centre(&self, dark_radius: f64) -> bool {
+        self.offset_from_lens().is_some_and(|o| o.length() < dark_radius)
+    }
+
+    /// The texel of the per-facet pigment texture, in `[0, 1)²`: the thesis
+    /// tiles one normalised texture over every cell (§6.2).
+    pub fn texel(&self) -> DVec2 {
+        self.uv - self.uv.floor()
+    }
+}
+
+/// Why no pigment hit exists. The material shades a fallback as unabsorbed
+/// (`c_t = 1` in eq. 6.30), so none of them darkens or NaNs a pixel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShadeFallback {
+    /// The ray does not reach the polygon from the front: parallel to it,
+    /// leaving it, or starting below it. (A rasterised fragment never is.)
+    PolygonMiss,
+    /// The ray or the lattice has a NaN or infinite component.
+    NonFinite,
+    /// Total internal reflection in the lens `lens` (only for `n < 1`, or
+    /// round-off at a tangent exit).
+    TotalInternalReflection {
+        /// The lens's cell.
+        lens: [i64; 2],
+    },
+    /// After the lens `lens` the ray heads back out (upwards or parallel to
+    /// the pigment plane), so it never reaches the pigment.
+    Escaped {
+        /// The last lens's cell.
+        lens: [i64; 2],
+    },
+    /// The exact tracer's cell walk exceeded its cap (a ray almost parallel
+    /// to the surface inside the lens layer).
+    TraversalLimit,
+}
+
+/// The result of tracing one view ray into the compound eye.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shade {
+    /// The ray reached the pigment plane.
+    Pigment(PigmentHit),
+    /// It did not; see [`ShadeFallback`].
+    Fallback(ShadeFallback),
+}
+
+impl Shade {
+    /// The pigment hit, if any.
+    pub fn hit(&self) -> Option<&PigmentHit> {
+        match self {
+            Shade::Pigment(h) => Some(h),
+            Shade::Fallback(_) => None,
+        }
+    }
+
+    /// The pigment texture coordinate, if any.
+    pub fn uv(&self) -> Option<DVec2> {
+        self.hit().map(|h| h.uv)
+    }
+
+    /// `true` when every number in the result is finite.
+    pub fn is_finite(&self) -> bool {
+        self.hit().is_none_or(|h| h.uv.is_finite() && h.point.is_finite())
+    }
+}

@@ -1,0 +1,139 @@
+//! The pseudopupil on a curved eye: facet frames and the dark-centre test.
+//!
+//! On one flat triangle every lens has the same axis `N`, so the pseudopupil
+//! only appears across a curved eye, where each facet has its own axis. A
+//! facet here is the lattice of a tangent plane with its own cell `(0, 0)`
+//! centred on the facet; a viewer sees the facet's dark centre (its rhabdom)
+//! when the view ray through the facet's lens apex lands within the dark
+//! radius of that lens's centre on the pigment plane. The biology: the dark
+//! patch of ommatidia whose axes point at the viewer, moving with the
+//! viewpoint (REFERENCE.md).
+
+use glam::DVec3;
+
+use super::error::CompoundEyeError;
+use super::exact_tracer::{THESIS_MAX_LENSES, trace_exact};
+use super::lattice::{Lattice, LensParams};
+use super::texture_axes::TextureAxes;
+use crate::ray::Ray;
+
+/// The lattice of one facet of a curved eye: the tangent plane at `centre`
+/// with outward unit `axis`, facets `facet` world units square, cell `(0, 0)`
+/// centred on `centre` (so its lens's apex is `centre`).
+pub fn facet_lattice(centre: DVec3, axis: DVec3, facet: f64, lens: LensParams) -> Result<Lattice, CompoundEyeError> {
+    let axis = axis.try_normalize().ok_or(CompoundEyeError::DegenerateTriangle)?;
+    if !(facet.is_finite() && facet > 0.0 && centre.is_finite()) {
+        return Err(CompoundEyeError::NonFinite);
+    }
+    let (u_hat, _) = axis.any_orthonormal_pair();
+    // Right-handed (U, V, N) regardless of the helper's choice.
+    let v_hat = axis.cross(u_hat);
+    let u = facet * u_hat;
+    let v = facet * v_hat;
+    let origin = centre - 0.5 * (u + v);
+    Lattice::new(TextureAxes::from_axes(origin, u, v, axis)?, lens)
+}
+
+/// The view ray from `viewer` to the apex of the facet's own lens (the
+/// centre of cell `(0, 0)` on the polygon), or `None` when the viewer is on
+/// or behind the facet's plane.
+pub fn ray_to_facet(lattice: &Lattice, viewer: DVec3) -> Option<Ray> {
+    let apex = lattice.axes().point_of(glam::DVec2::splat(0.5));
+    let ray = Ray::try_new(viewer, apex - viewer).ok()?;
+    (ray.dir.dot(lattice.axes().normal) < 0.0).then_some(ray)
+}
+
+/// `true` when `viewer` sees this facet's dark centre: the exact tracer's
+/// (thesis-model) pigment hit for [`ray_to_facet`] lies within `dark_radius`
+/// facets of the lens's own cell centre.
+pub fn shows_dark_centre(lattice: &Lattice, viewer: DVec3, dark_radius: f64) -> bool {
+    ray_to_facet(lattice, viewer).is_some_and(|ray| {
+        trace_exact(lattice, &ray, THESIS_MAX_LENSES)
+            .hit()
+            .is_some_and(|h| h.on_own_centre(dark_radius))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::compound_eye::shading_path::shade;
+
+    /// A hemispherical eye of radius 20 facets: facet axes on a grid of
+    /// tilts, every 2.5° up to 40° about x and y.
+    fn eye(lens: LensParams) -> Vec<(DVec3, Lattice)> {
+        let radius = 20.0;
+        let mut facets = Vec::new();
+        for i in -16..=16 {
+            for j in -16..=16 {
+                let (a, b) = ((i as f64 * 2.5).to_radians(), (j as f64 * 2.5).to_radians());
+                let axis = DVec3::new(a.tan(), b.tan(), 1.0).normalize();
+                facets.push((axis, facet_lattice(radius * axis, axis, 1.0, lens).unwrap()));
+            }
+        }
+        facets
+    }
+
+    fn dir_from(polar_deg: f64, azimuth_deg: f64) -> DVec3 {
+        let (t, p) = (polar_deg.to_radians(), azimuth_deg.to_radians());
+        DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+    }
+
+    /// (dark axes, largest dark angle, smallest bright angle) for a viewer far along `w`.
+    fn dark_set(eye: &[(DVec3, Lattice)], w: DVec3, rho: f64) -> (Vec<DVec3>, f64, f64) {
+        let viewer = 1e5 * w;
+        let (mut dark, mut max_dark, mut min_bright) = (Vec::new(), 0f64, f64::INFINITY);
+        for (axis, lattice) in eye {
+            let angle = axis.angle_between(w).to_degrees();
+            let ray = ray_to_facet(lattice, viewer).unwrap();
+            // The shading path agrees with the exact tracer on these apex rays:
+            // an apex ray always enters its own lens first.
+            let (e, s) = (trace_exact(lattice, &ray, 1), shade(lattice, &ray, 4));
+            assert!((e.uv().unwrap() - s.uv().unwrap()).length() < 1e-9);
+            if shows_dark_centre(lattice, viewer, rho) {
+                dark.push(*axis);
+                max_dark = max_dark.max(angle);
+            } else {
+                min_bright = min_bright.min(angle);
+            }
+        }
+        (dark, max_dark, min_bright)
+    }
+
+    #[test]
+    fn pseudopupil_is_the_facets_facing_the_viewer_and_moves_with_it() {
+        let lens = LensParams::thesis(0.5, 1.5).unwrap();
+        let eye = eye(lens);
+        let rho = 0.15;
+        let mut centroids = Vec::new();
+        for w in [dir_from(10.0, 30.0), dir_from(25.0, 200.0)] {
+            let (dark, max_dark, min_bright) = dark_set(&eye, w, rho);
+            // Exactly the facets within some angle of the viewer are dark:
+            // the dark set is a cap around the viewer's direction.
+            assert!(!dark.is_empty());
+            assert!(max_dark < min_bright, "dark up to {max_dark}°, bright from {min_bright}°");
+            // Paraxial estimate of the cap: offset ≈ 2rθ/n = ρ → θ ≈ 12.9°
+            // (r = 0.5, n = 1.5, ρ = 0.15 facet); the exact cap is near it.
+            assert!((8.0..16.0).contains(&max_dark), "cap {max_dark}°");
+            let centroid = dark.iter().copied().sum::<DVec3>().normalize();
+            assert!(centroid.angle_between(w).to_degrees() < 1.5, "centroid off the viewer by {}°",
+                centroid.angle_between(w).to_degrees());
+            centroids.push((centroid, dark.len()));
+        }
+        // It moved with the viewer: by the viewer's angle, to within 2°.
+        let moved = centroids[0].0.angle_between(centroids[1].0).to_degrees();
+        let viewer_moved = dir_from(10.0, 30.0).angle_between(dir_from(25.0, 200.0)).to_degrees();
+        assert!((moved - viewer_moved).abs() < 2.0, "pupil moved {moved}°, viewer {viewer_moved}°");
+    }
+
+    #[test]
+    fn facet_lattice_centres_its_lens_on_the_facet() {
+        let lens = LensParams::thesis(0.5, 1.5).unwrap();
+        let axis = DVec3::new(0.2, -0.3, 1.0).normalize();
+        let l = facet_lattice(5.0 * axis, axis, 1.0, lens).unwrap();
+        let s = l.lens_centre(glam::DVec2::splat(0.5));
+        assert!((s - (5.0 * axis - 0.5 * axis)).length() < 1e-14);
+        assert_eq!(l.axes().handedness, 1.0);
+        assert!(ray_to_facet(&l, -10.0 * axis).is_none());
+    }
+}

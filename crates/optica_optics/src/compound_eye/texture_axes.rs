@@ -1,0 +1,328 @@
+//! Texture-axis vectors `U_p`, `V_p` and the origin `P_c` of one triangle
+//! (thesis §6.3.1, eq. 6.1–6.15), and the maps between polygon points and
+//! texture coordinates (eq. 6.2, 6.25–6.27).
+//!
+//! Handedness: eq. 6.8–6.15 give `U_p × V_p = (P_10 × P_20) / det A`, so a
+//! mirrored UV triangle (`det A < 0`) has `U_p × V_p` pointing *into* the
+//! surface. The thesis never forms that cross product, and neither do we: the
+//! normal `N` comes from the winding (`P_10 × P_20`), so the lenses stay
+//! under the surface (eq. 6.22) on mirrored triangles too, and the sign is
+//! kept in [`TextureAxes::handedness`] for code that builds a tangent frame
+//! (Bevy's `Mesh::ATTRIBUTE_TANGENT` `w`, see [`TextureAxes::tangent_vec4`]).
+
+use glam::{DVec2, DVec3, DVec4};
+
+use super::error::CompoundEyeError;
+
+/// A UV triangle is degenerate when `|det A| ≤ UV_DET_REL_EPS · |T_10|·|T_20|`
+/// (the sine of the angle between its UV edges): beyond that the axes grow
+/// like `1/sin` and are useless in `f32` on the GPU long before `f64` fails.
+pub const UV_DET_REL_EPS: f64 = 1e-6;
+
+/// A position triangle is degenerate when `|P_10 × P_20| ≤ AREA_REL_EPS · |P_10|·|P_20|`.
+pub const AREA_REL_EPS: f64 = 1e-12;
+
+/// Eq. 6.1: texture coordinates sent to the shader are the mesh's scaled by
+/// the texture resolution `R_t` (facets per UV unit), so `R_t` sets how many
+/// facets cover the surface.
+pub fn scale_uv(t_obj: DVec2, texture_resolution: f64) -> DVec2 {
+    texture_resolution * t_obj
+}
+
+/// The texture frame of one triangle: `P = P_c + a·U_p + b·V_p` (eq. 6.2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TextureAxes {
+    /// `P_c`: the point with texture coordinate (0, 0) (eq. 6.3).
+    pub origin: DVec3,
+    /// `U_p = ∂P/∂a` (eq. 6.8): one facet along the texture's `a` axis, in world units.
+    pub u: DVec3,
+    /// `V_p = ∂P/∂b` (eq. 6.9): one facet along the texture's `b` axis, in world units.
+    pub v: DVec3,
+    /// Unit outward normal `N`, from the winding `P_10 × P_20` (not from `U_p × V_p`).
+    pub normal: DVec3,
+    /// `sign(det A)`: `+1` when `(U_p, V_p, N)` is right-handed, `−1` for mirrored UVs.
+    pub handedness: f64,
+    /// `None` when the axes are eq. 6.15's; otherwise why the fallback frame
+    /// of [`TextureAxes::from_triangle_or_fallback`] was used.
+    pub fallback: Option<CompoundEyeError>,
+    /// Gram determinant `(U·U)(V·V) − (U·V)²`, the denominator of eq. 6.26–6.27.
+    gram: f64,
+}
+
+impl TextureAxes {
+    /// The axes of a triangle with positions `p` and (already scaled, eq. 6.1)
+    /// texture coordinates `t`, by eq. 6.4–6.15, with `P_c` from eq. 6.3 at
+    /// `P_e = P_0`.
+    pub fn from_triangle(p: [DVec3; 3], t: [DVec2; 3]) -> Result<Self, CompoundEyeError> {
+        if !p.iter().all(|x| x.is_finite()) || !t.iter().all(|x| x.is_finite()) {
+            return Err(CompoundEyeError::NonFinite);
+        }
+        let p10 = p[1] - p[0]; // (6.4)
+        let p20 = p[2] - p[0]; // (6.5)
+        let t10 = t[1] - t[0]; // (6.6)
+        let t20 = t[2] - t[0]; // (6.7)
+        let cross = p10.cross(p20);
+        let area2 = cross.length();
+        if !(area2 > AREA_REL_EPS * p10.length() * p20.length()) || !area2.is_finite() {
+            return Err(CompoundEyeError::DegenerateTriangle);
+        }
+        let normal = cross / area2;
+        // (6.14): A = (T10, T20) as columns; det A is the doubled signed UV area.
+        let det = t10.x * t20.y - t20.x * t10.y;
+        if !(det.abs() > UV_DET_REL_EPS * t10.length() * t20.length()) {
+            return Err(CompoundEyeError::DegenerateUv { det });
+        }
+        // (6.15): [[i, k], [j, l]] = A⁻¹ = (1/det)·[[T20.y, −T20.x], [−T10.y, T10.x]].
+        let i = t20.y / det;
+        let j = -t10.y / det;
+        let k = -t20.x / det;
+        let l = t10.x / det;
+        let u = i * p10 + j * p20; // (6.8)
+        let v = k * p10 + l * p20; // (6.9)
+        let origin = p[0] - t[0].x * u - t[0].y * v; // (6.3)
+        let axes = Self::assemble(origin, u, v, normal, det.signum(), None);
+        if axes.gram > 0.0 && axes.gram.is_finite() && axes.origin.is_finite() {
+            Ok(axes)
+        } else {
+            // Only reachable with extreme magnitudes (overflow); same as a degenerate UV.
+            Err(CompoundEyeError::DegenerateUv { det })
+        }
+    }
+
+    /// [`TextureAxes::from_triangle`], or a defined fallback frame when it fails.
+    ///
+    /// Fallback (`fallback` holds the reason): an orthogonal frame in the
+    /// triangle's plane with both axes `fallback_cell` long (one facet; a
+    /// non-finite or non-positive value means 1), `U_p` along the longer of
+    /// `P_10`, `P_20`, right-handed, and `P_0 ↦ T_0` (eq. 6.3). A triangle
+    /// with no plane (zero area) or with non-finite input gets the world
+    /// frame (`N = +z`) through `P_0` (or the origin if `P_0` is not finite).
+    /// The rasteriser draws no fragment of a zero-area triangle, so this only
+    /// has to be finite.
+    pub fn from_triangle_or_fallback(p: [DVec3; 3], t: [DVec2; 3], fallback_cell: f64) -> Self {
+        let reason = match Self::from_triangle(p, t) {
+            Ok(axes) => return axes,
+            Err(e) => e,
+        };
+        let s = if fallback_cell.is_finite() && fallback_cell > 0.0 { fallback_cell } else { 1.0 };
+        let t0 = if t[0].is_finite() { t[0] } else { DVec2::ZERO };
+        let p0 = if p[0].is_finite() { p[0] } else { DVec3::ZERO };
+        let (u_hat, v_hat, normal) = match reason {
+            CompoundEyeError::DegenerateUv { .. } => {
+                let p10 = p[1] - p[0];
+                let p20 = p[2] - p[0];
+                let normal = p10.cross(p20).normalize();
+                let long = if p10.length_squared() >= p20.length_squared() { p10 } else { p20 };
+                let u_hat = long.normalize();
+                (u_hat, normal.cross(u_hat), normal)
+            }
+            _ => (DVec3::X, DVec3::Y, DVec3::Z),
+        };
+        let u = s * u_hat;
+        let v = s * v_hat;
+        let origin = p0 - t0.x * u - t0.y * v; // (6.3)
+        let axes = Self::assemble(origin, u, v, normal, 1.0, Some(reason));
+        if axes.origin.is_finite() && axes.gram > 0.0 && axes.gram.is_finite() {
+            axes
+        } else {
+            // Huge-but-finite input overflowed: the world frame at the origin.
+            Self::assemble(DVec3::ZERO, s * DVec3::X, s * DVec3::Y, DVec3::Z, 1.0, Some(reason))
+        }
+    }
+
+    /// Axes given directly (for lattices built without a mesh). `normal` is
+    /// normalised; the handedness is `sign((u × v)·normal)`. Returns
+    /// [`CompoundEyeError::DegenerateUv`] when `u`, `v` are (nearly) parallel
+    /// and [`CompoundEyeError::NonFinite`] for bad input.
+    pub fn from_axes(origin: DVec3, u: DVec3, v: DVec3, normal: DVec3) -> Result<Self, CompoundEyeError> {
+        if !origin.is_finite() || !u.is_finite() || !v.is_finite() || !normal.is_finite() {
+            return Err(CompoundEyeError::NonFinite);
+        }
+        let normal = normal.try_normalize().ok_or(CompoundEyeError::DegenerateTriangle)?;
+        let cross = u.cross(v);
+        let sin_len = cross.length();
+        if !(sin_len > UV_DET_REL_EPS * u.length() * v.length()) {
+            return Err(CompoundEyeError::DegenerateUv { det: 0.0 });
+        }
+        let handed = if cross.dot(normal) < 0.0 { -1.0 } else { 1.0 };
+        Ok(Self::assemble(origin, u, v, normal, handed, None))
+    }
+
+    fn assemble(origin: DVec3, u: DVec3, v: DVec3, normal: DVec3, handedness: f64, fallback: Option<CompoundEyeError>) -> Self {
+        let uu = u.dot(u);
+        let vv = v.dot(v);
+        let uv = u.dot(v);
+        Self { origin, u, v, normal, handedness, fallback, gram: uu * vv - uv * uv }
+    }
+
+    /// Eq. 6.2: the polygon point with texture coordinate `uv` (in facets).
+    pub fn point_of(&self, uv: DVec2) -> DVec3 {
+        self.origin + uv.x * self.u + uv.y * self.v
+    }
+
+    /// Eq. 6.25–6.27: the texture coordinate of `p` by least squares, i.e.
+    /// of `p`'s orthogonal projection onto the polygon's plane.
+    pub fn uv_of(&self, p: DVec3) -> DVec2 {
+        self.uv_rate(p - self.origin) // (6.25)
+    }
+
+    /// The linear part of [`TextureAxes::uv_of`]: how fast the texture
+    /// coordinate changes along `d` (eq. 6.26–6.27 applied to a direction).
+    pub fn uv_rate(&self, d: DVec3) -> DVec2 {
+        let uu = self.u.dot(self.u);
+        let vv = self.v.dot(self.v);
+        let uv = self.u.dot(self.v);
+        let du = d.dot(self.u);
+        let dv = d.dot(self.v);
+        DVec2::new(
+            (vv * du - uv * dv) / self.gram, // (6.26)
+            (uu * dv - uv * du) / self.gram, // (6.27)
+        )
+    }
+
+    /// Depth of `p` below the polygon plane along `−N` (negative above it).
+    pub fn depth(&self, p: DVec3) -> f64 {
+        (self.origin - p).dot(self.normal)
+    }
+
+    /// Heights of the lattice cell (a parallelogram with sides `U_p`, `V_p`):
+    /// its width across the `V_p` sides and across the `U_p` sides, in world units.
+    pub fn cell_heights(&self) -> (f64, f64) {
+        let area = self.gram.sqrt();
+        (area / self.v.length(), area / self.u.length())
+    }
+
+    /// A tangent in Bevy's `Mesh::ATTRIBUTE_TANGENT` convention: `xyz` is
+    /// `U_p` normalised, `w` the handedness, so that `w · (N × T)` points
+    /// along `V_p`'s component orthogonal to `U_p`.
+    pub fn tangent_vec4(&self) -> DVec4 {
+        self.u.normalize_or_zero().extend(self.handedness)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn close(a: DVec3, b: DVec3, tol: f64) -> bool {
+        (a - b).length() <= tol
+    }
+
+    #[test]
+    fn axes_of_hand_made_skewed_triangle() {
+        // Hand computation: P10 = (2,0,0), P20 = (0,1,1); T10 = (2,1), T20 = (0,1)
+        // → A = [[2,0],[1,1]], det 2, A⁻¹ = ½[[1,0],[−1,2]]: (i,j) = (½,−½), (k,l) = (0,1)
+        // → U_p = ½P10 − ½P20 = (1,−½,−½), V_p = P20 = (0,1,1).
+        // T0 = (3,−1) → P_c = P0 − 3U + V = (1,1,0) − (3,−1.5,−1.5) + (0,1,1) = (−2,3.5,2.5).
+        let p = [DVec3::new(1.0, 1.0, 0.0), DVec3::new(3.0, 1.0, 0.0), DVec3::new(1.0, 2.0, 1.0)];
+        let t = [DVec2::new(3.0, -1.0), DVec2::new(5.0, 0.0), DVec2::new(3.0, 0.0)];
+        let a = TextureAxes::from_triangle(p, t).unwrap();
+        assert!(close(a.u, DVec3::new(1.0, -0.5, -0.5), 1e-14), "{:?}", a.u);
+        assert!(close(a.v, DVec3::new(0.0, 1.0, 1.0), 1e-14), "{:?}", a.v);
+        assert!(close(a.origin, DVec3::new(-2.0, 3.5, 2.5), 1e-13), "{:?}", a.origin);
+        // N = P10 × P20 / |…| = (0,−2,2)/√8.
+        assert!(close(a.normal, DVec3::new(0.0, -1.0, 1.0) / 2f64.sqrt(), 1e-15));
+        assert_eq!(a.handedness, 1.0);
+        assert!(a.fallback.is_none());
+        // Every vertex maps back to its UV (eq. 6.2 and 6.26–6.27 are inverses on the plane).
+        for k in 0..3 {
+            assert!((a.uv_of(p[k]) - t[k]).length() < 1e-13);
+            assert!(close(a.point_of(t[k]), p[k], 1e-13));
+        }
+        // uv_of ignores the normal component (least squares = projection).
+        assert!((a.uv_of(p[1] + 5.0 * a.normal) - t[1]).length() < 1e-12);
+    }
+
+    #[test]
+    fn degenerate_uv_is_typed_and_falls_back_to_a_plane_frame() {
+        let p = [DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
+        // Collinear UVs (det = 0) and a collapsed UV edge.
+        for t in [
+            [DVec2::ZERO, DVec2::new(1.0, 1.0), DVec2::new(2.0, 2.0)],
+            [DVec2::new(0.5, 0.5), DVec2::new(0.5, 0.5), DVec2::new(1.0, 0.0)],
+            [DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(1.0, 1e-9)],
+        ] {
+            let err = TextureAxes::from_triangle(p, t).unwrap_err();
+            assert!(matches!(err, CompoundEyeError::DegenerateUv { .. }), "{err:?}");
+            let a = TextureAxes::from_triangle_or_fallback(p, t, 0.25);
+            assert_eq!(a.fallback, Some(err));
+            // Orthogonal, one facet = 0.25 long, in the triangle's plane (z = 0), right-handed.
+            assert!((a.u.length() - 0.25).abs() < 1e-15 && (a.v.length() - 0.25).abs() < 1e-15);
+            assert!(a.u.dot(a.v).abs() < 1e-15);
+            assert!(a.u.z.abs() < 1e-15 && a.v.z.abs() < 1e-15);
+            assert!(close(a.normal, DVec3::Z, 1e-15));
+            assert!(a.u.cross(a.v).dot(a.normal) > 0.0);
+            // U_p along the longer edge P10 = (2,0,0); P0 ↦ T0 (eq. 6.3).
+            assert!(close(a.u, DVec3::new(0.25, 0.0, 0.0), 1e-15));
+            assert!((a.uv_of(p[0]) - t[0]).length() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn degenerate_and_non_finite_triangles_are_typed() {
+        let t = [DVec2::ZERO, DVec2::X, DVec2::Y];
+        let line = [DVec3::ZERO, DVec3::X, 2.0 * DVec3::X];
+        assert_eq!(TextureAxes::from_triangle(line, t), Err(CompoundEyeError::DegenerateTriangle));
+        let a = TextureAxes::from_triangle_or_fallback(line, t, 1.0);
+        assert_eq!(a.fallback, Some(CompoundEyeError::DegenerateTriangle));
+        assert_eq!(a.normal, DVec3::Z);
+        let nan = [DVec3::ZERO, DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Y];
+        assert_eq!(TextureAxes::from_triangle(nan, t), Err(CompoundEyeError::NonFinite));
+        let a = TextureAxes::from_triangle_or_fallback(nan, t, f64::NAN);
+        assert!(a.origin.is_finite() && a.u.is_finite() && (a.u.length() - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn mirrored_uv_flips_handedness_not_the_normal() {
+        let p = [DVec3::ZERO, DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
+        let t = [DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
+        let tm = t.map(|x| DVec2::new(-x.x, x.y)); // mirrored in a: det A = −1
+        let a = TextureAxes::from_triangle(p, t).unwrap();
+        let m = TextureAxes::from_triangle(p, tm).unwrap();
+        assert_eq!(a.handedness, 1.0);
+        assert_eq!(m.handedness, -1.0);
+        // The normal follows the winding in both, so lenses stay under the surface.
+        assert_eq!(a.normal, m.normal);
+        assert!(close(m.u, -a.u, 1e-15) && close(m.v, a.v, 1e-15));
+        assert!(m.u.cross(m.v).dot(m.normal) < 0.0);
+        assert_eq!(m.tangent_vec4().w, -1.0);
+        // Bevy convention: w·(N × T) has a positive component along V_p.
+        let t4 = m.tangent_vec4();
+        assert!(t4.w * m.normal.cross(t4.truncate()).dot(m.v) > 0.0);
+        let q = DVec3::new(0.3, 0.6, 0.0);
+        let (ua, um) = (a.uv_of(q), m.uv_of(q));
+        assert!((ua - DVec2::new(-um.x, um.y)).length() < 1e-15);
+    }
+
+    #[test]
+    fn scale_uv_is_eq_6_1() {
+        assert_eq!(scale_uv(DVec2::new(0.25, 0.5), 40.0), DVec2::new(10.0, 20.0));
+    }
+
+    proptest! {
+        #[test]
+        fn finite_triangles_give_finite_axes_or_typed_error(
+            p in prop::array::uniform9(-1e3f64..1e3),
+            t in prop::array::uniform6(-1e2f64..1e2),
+        ) {
+            let p = [DVec3::new(p[0], p[1], p[2]), DVec3::new(p[3], p[4], p[5]), DVec3::new(p[6], p[7], p[8])];
+            let t = [DVec2::new(t[0], t[1]), DVec2::new(t[2], t[3]), DVec2::new(t[4], t[5])];
+            match TextureAxes::from_triangle(p, t) {
+                Ok(a) => {
+                    prop_assert!(a.u.is_finite() && a.v.is_finite() && a.origin.is_finite());
+                    for q in p {
+                        prop_assert!(a.uv_of(q).is_finite());
+                    }
+                }
+                Err(e) => {
+                    let typed = matches!(e, CompoundEyeError::DegenerateUv { .. } | CompoundEyeError::DegenerateTriangle);
+                    prop_assert!(typed, "{:?}", e);
+                }
+            }
+            let f = TextureAxes::from_triangle_or_fallback(p, t, 0.5);
+            prop_assert!(f.u.is_finite() && f.v.is_finite() && f.origin.is_finite() && f.normal.is_finite());
+            prop_assert!(f.uv_of(p[0]).is_finite());
+        }
+    }
+}

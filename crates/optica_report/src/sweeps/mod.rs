@@ -4,6 +4,7 @@
 use crate::{Report, SweepContext};
 
 pub mod compound_eye;
+pub mod foveated_lod;
 pub mod optics;
 
 /// A named sweep.
@@ -13,4 +14,5 @@ pub type SweepFn = fn(&SweepContext) -> Report;
 pub const SWEEPS: &[(&str, SweepFn)] = &[
     ("optics", optics::run),
     ("compound_eye", compound_eye::run),
+    ("foveated_lod", foveated_lod::run),
 ];

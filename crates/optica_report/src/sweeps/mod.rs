@@ -5,6 +5,7 @@ use crate::{Report, SweepContext};
 
 pub mod compound_eye;
 pub mod foveated_lod;
+pub mod lens_flare;
 pub mod optics;
 
 /// A named sweep.
@@ -15,4 +16,5 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
     ("optics", optics::run),
     ("compound_eye", compound_eye::run),
     ("foveated_lod", foveated_lod::run),
+    ("lens_flare", lens_flare::run),
 ];

@@ -1,0 +1,264 @@
+//! The collimated beam from a light at infinity and the square of the pupil
+//! plane the ray grid covers.
+//!
+//! The grid is regular on a plane `z = plane_z` (blog: "ランダム生成された光束
+//! でなく,等間隔に配置された光束を使用します" — regular, not random, so that
+//! grid cells on the sensor correspond to cells on the entrance plane). All
+//! rays are parallel to the light direction `d`; their power is measured as
+//! unit irradiance on a plane perpendicular to `d`, so a cell of area `A` on
+//! the pupil plane carries `A · d_z` (its beam cross-section).
+
+use glam::{DVec2, DVec3};
+
+use super::FlareError;
+use crate::lens::{LensPrescription, TracePath};
+use crate::ray::Ray;
+
+/// Smallest accepted `d_z` of the unit light direction: below it the beam is
+/// parallel to the lens (cos θ < 1e-9, θ > 89.99999994°) and carries no power.
+pub const MIN_LIGHT_Z: f64 = 1e-9;
+
+/// Entrance-pupil bounds are the paraxial pupil radius times this: real
+/// pupils are larger than paraxial ones off axis (pupil aberration) and the
+/// grid must not cut light off (`entrance_pupil_bounds_hold_all_light` checks it).
+pub const ENTRANCE_PUPIL_MARGIN: f64 = 1.25;
+
+/// The square `center ± half_width` (in x and y) of the plane `z = plane_z`
+/// that the ray grid covers, in the lens frame (first vertex at z = 0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PupilBounds {
+    /// z of the plane, mm.
+    pub plane_z: f64,
+    /// Centre of the square, mm.
+    pub center: DVec2,
+    /// Half the side of the square, mm.
+    pub half_width: f64,
+}
+
+impl PupilBounds {
+    /// Everything that can enter the front element: the square around its
+    /// clear disc, on the plane halfway down its sag at the rim, widened by
+    /// the lateral walk `|sag|/2 · tan θ` of oblique rays over that depth.
+    /// Use it for ghosts that reflect before reaching the stop, whose light is
+    /// not limited by the entrance pupil.
+    pub fn front_aperture(prescription: &LensPrescription, light: DVec3) -> Result<Self, FlareError> {
+        let d = light_direction(light)?;
+        prescription.validate().map_err(crate::lens::TraceError::from)?;
+        let s = &prescription.surfaces[0];
+        let h = s.semi_aperture_mm;
+        let c = s.curvature;
+        // Stable sag c h² / (1 + √(1 − c² h²)); validation guarantees |c h| <= 1.
+        let sag = c * h * h / (1.0 + (1.0 - (c * h).powi(2)).max(0.0).sqrt());
+        let tan = d.truncate().length() / d.z;
+        Ok(Self { plane_z: 0.5 * sag, center: DVec2::ZERO, half_width: h + 0.5 * sag.abs() * tan })
+    }
+
+    /// The paraxial entrance pupil at `wavelength_nm` (its plane and radius)
+    /// times [`ENTRANCE_PUPIL_MARGIN`]: the square of Hullin et al.'s "grid
+    /// over the entrance pupil". Light of any path that crosses the stop
+    /// before its first reflection comes through it.
+    pub fn entrance_pupil(prescription: &LensPrescription, wavelength_nm: f64) -> Result<Self, FlareError> {
+        let q = prescription.paraxial(wavelength_nm).map_err(crate::lens::TraceError::from)?;
+        let hw = q.entrance_pupil_radius_mm * ENTRANCE_PUPIL_MARGIN;
+        if !(hw.is_finite() && hw > 0.0 && q.entrance_pupil_z_mm.is_finite()) {
+            return Err(FlareError::InvalidBounds(hw));
+        }
+        Ok(Self { plane_z: q.entrance_pupil_z_mm, center: DVec2::ZERO, half_width: hw })
+    }
+
+    /// Bounds for `path`: the entrance pupil when the path crosses the stop
+    /// before its first reflection (the primary path; ghosts reflecting first
+    /// behind the stop), else the front aperture; falls back to the front
+    /// aperture when the paraxial pupil does not exist (afocal lens).
+    pub fn for_path(
+        prescription: &LensPrescription,
+        path: TracePath,
+        light: DVec3,
+        wavelength_nm: f64,
+    ) -> Result<Self, FlareError> {
+        let stop = prescription.stop_index().unwrap_or(0);
+        let stop_first = match path {
+            TracePath::Primary => true,
+            TracePath::Ghost { first, .. } => first > stop,
+        };
+        if stop_first && let Ok(b) = Self::entrance_pupil(prescription, wavelength_nm) {
+            return Ok(b);
+        }
+        Self::front_aperture(prescription, light)
+    }
+
+    /// Area of the square on its plane, mm².
+    pub fn area_mm2(&self) -> f64 {
+        4.0 * self.half_width * self.half_width
+    }
+
+    fn validate(&self) -> Result<(), FlareError> {
+        if self.plane_z.is_finite() && self.center.is_finite() && self.half_width.is_finite() && self.half_width > 0.0 {
+            Ok(())
+        } else {
+            Err(FlareError::InvalidBounds(self.half_width))
+        }
+    }
+}
+
+/// The unit light direction (direction of travel) from a user vector: finite,
+/// non-zero, with `d_z > MIN_LIGHT_Z` after normalising.
+pub fn light_direction(light: DVec3) -> Result<DVec3, FlareError> {
+    let bad = FlareError::InvalidLight(light.x, light.y, light.z);
+    let d = light.try_normalize().ok_or(bad.clone())?;
+    if d.z > MIN_LIGHT_Z { Ok(d) } else { Err(bad) }
+}
+
+/// Direction of travel of light arriving `field_deg` off axis, tilted
+/// towards the azimuth `azimuth_deg` (from +x towards +y):
+/// `(sin θ cos φ, sin θ sin φ, cos θ)`. The source itself lies in the
+/// opposite direction.
+pub fn light_from_field(field_deg: f64, azimuth_deg: f64) -> DVec3 {
+    let (t, a) = (field_deg.to_radians(), azimuth_deg.to_radians());
+    DVec3::new(t.sin() * a.cos(), t.sin() * a.sin(), t.cos())
+}
+
+/// A collimated beam: a light direction and the pupil square it fills.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Beam {
+    direction: DVec3,
+    bounds: PupilBounds,
+    start_z: f64,
+}
+
+impl Beam {
+    /// A beam along `light` (normalised; must travel towards +z) over `bounds`.
+    /// Rays start in front of the first surface's whole cap so every ray meets
+    /// surface 0 from the front.
+    pub fn new(prescription: &LensPrescription, light: DVec3, bounds: PupilBounds) -> Result<Self, FlareError> {
+        let direction = light_direction(light)?;
+        bounds.validate()?;
+        prescription.validate().map_err(crate::lens::TraceError::from)?;
+        let c0 = prescription.surfaces[0].curvature.abs();
+        let widest = prescription.surfaces.iter().map(|s| s.semi_aperture_mm).fold(0.0, f64::max);
+        // |sag(r)| <= r on a cap, so backing off by the largest radius a grid
+        // ray can have (capped by |R|) clears the cap.
+        let reach = bounds.center.length() + std::f64::consts::SQRT_2 * bounds.half_width + widest;
+        let depth = if c0 > 0.0 { reach.min(1.0 / c0) } else { 0.0 };
+        let start_z = bounds.plane_z.min(0.0) - depth - 1.0;
+        Ok(Self { direction, bounds, start_z })
+    }
+
+    /// [`Beam::new`] with [`PupilBounds::for_path`].
+    pub fn for_path(
+        prescription: &LensPrescription,
+        path: TracePath,
+        light: DVec3,
+        wavelength_nm: f64,
+    ) -> Result<Self, FlareError> {
+        let d = light_direction(light)?;
+        let b = PupilBounds::for_path(prescription, path, d, wavelength_nm)?;
+        Self::new(prescription, d, b)
+    }
+
+    /// Unit direction of travel.
+    pub fn direction(&self) -> DVec3 {
+        self.direction
+    }
+
+    /// The pupil square.
+    pub fn bounds(&self) -> PupilBounds {
+        self.bounds
+    }
+
+    /// Point of the pupil square at `(u, v) ∈ [0, 1]²`.
+    pub fn pupil_point(&self, u: f64, v: f64) -> DVec2 {
+        self.bounds.center + self.bounds.half_width * DVec2::new(2.0 * u - 1.0, 2.0 * v - 1.0)
+    }
+
+    /// The ray through the pupil point at `(u, v)`, started in front of the lens.
+    pub fn ray_at(&self, u: f64, v: f64) -> Ray {
+        let p = self.pupil_point(u, v);
+        let back = (self.bounds.plane_z - self.start_z) / self.direction.z;
+        Ray { origin: DVec3::new(p.x, p.y, self.bounds.plane_z) - self.direction * back, dir: self.direction }
+    }
+
+    /// Power of the whole square at unit irradiance normal to the beam:
+    /// `area · d_z` (the beam's cross-section), mm².
+    pub fn cross_section_mm2(&self) -> f64 {
+        self.bounds.area_mm2() * self.direction.z
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lens::builtin;
+
+    #[test]
+    fn light_validation() {
+        assert!(light_direction(DVec3::new(f64::NAN, 0.0, 1.0)).is_err());
+        assert!(light_direction(DVec3::ZERO).is_err());
+        assert!(light_direction(DVec3::new(1.0, 0.0, 0.0)).is_err(), "parallel to the lens");
+        assert!(light_direction(DVec3::new(0.0, 0.0, -1.0)).is_err(), "away from the lens");
+        let d = light_direction(DVec3::new(0.0, 3.0, 4.0)).unwrap();
+        assert!((d - DVec3::new(0.0, 0.6, 0.8)).length() < 1e-15);
+        let f = light_from_field(30.0, 90.0);
+        assert!((f - DVec3::new(0.0, 0.5, 0.75f64.sqrt())).length() < 1e-12);
+    }
+
+    #[test]
+    fn beam_rays_pass_their_pupil_points_and_start_in_front() {
+        let p = builtin::tessar();
+        let d = light_from_field(20.0, 30.0);
+        let beam = Beam::for_path(&p, TracePath::Primary, d, 550.0).unwrap();
+        let b = beam.bounds();
+        for (u, v) in [(0.0, 0.0), (1.0, 0.3), (0.5, 0.5)] {
+            let r = beam.ray_at(u, v);
+            let t = (b.plane_z - r.origin.z) / r.dir.z;
+            let q = r.at(t);
+            assert!((q.truncate() - beam.pupil_point(u, v)).length() < 1e-12);
+            // Surface 0 (R = 42.97) has its cap in z in [0, 42.97].
+            assert!(r.origin.z < -1.0);
+        }
+        // Cross-section: area · cos 20°.
+        assert!((beam.cross_section_mm2() - b.area_mm2() * 20f64.to_radians().cos()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn entrance_pupil_bounds_hold_all_light() {
+        // For every ghost that crosses the stop before reflecting, trace a
+        // 33² grid over the (larger) front-aperture square and check that
+        // every ray that gets through unclipped passes the entrance-pupil
+        // square too: the pupil bounds cut no light.
+        use crate::lens::{PreparedLens, ghosts};
+        use crate::lens_flare::{GridOptions, trace_grid};
+        for p in [builtin::tessar(), builtin::double_gauss()] {
+            let lens = PreparedLens::new(&p, 550.0).unwrap();
+            let stop = p.stop_index().unwrap();
+            for field in [0.0, 15.0] {
+                let d = light_from_field(field, 30.0);
+                let front = Beam::new(&p, d, PupilBounds::front_aperture(&p, d).unwrap()).unwrap();
+                let ep = PupilBounds::entrance_pupil(&p, 550.0).unwrap();
+                for (i, j) in ghosts(&p).into_iter().filter(|&(i, _)| i > stop) {
+                    let g = trace_grid(&lens, TracePath::ghost(i, j), &front, 33, &GridOptions::default()).unwrap();
+                    for (k, r) in g.rays.iter().enumerate() {
+                        if !(r.alive && r.r_rel <= 1.0) {
+                            continue;
+                        }
+                        let ray = front.ray_at((k % 33) as f64 / 32.0, (k / 33) as f64 / 32.0);
+                        let q = ray.at((ep.plane_z - ray.origin.z) / ray.dir.z).truncate() - ep.center;
+                        assert!(q.abs().max_element() <= ep.half_width, "{}: ({i},{j}) at {field}°", p.name);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bounds_choice_follows_the_stop() {
+        // Tessar stop is surface 3: ghost (5, 4) reflects behind it, (2, 0) in front.
+        let p = builtin::tessar();
+        let q = p.paraxial(550.0).unwrap();
+        let behind = PupilBounds::for_path(&p, TracePath::ghost(5, 4), DVec3::Z, 550.0).unwrap();
+        assert_eq!(behind.plane_z, q.entrance_pupil_z_mm);
+        assert!((behind.half_width - ENTRANCE_PUPIL_MARGIN * q.entrance_pupil_radius_mm).abs() < 1e-12);
+        let front = PupilBounds::for_path(&p, TracePath::ghost(2, 0), DVec3::Z, 550.0).unwrap();
+        assert_eq!(front.half_width, 19.2, "on axis: the front semi-aperture of US 2,854,889");
+    }
+}

@@ -7,6 +7,7 @@ pub mod compound_eye;
 pub mod foveated_lod;
 pub mod lens_flare;
 pub mod optics;
+pub mod spectacles;
 
 /// A named sweep.
 pub type SweepFn = fn(&SweepContext) -> Report;
@@ -17,4 +18,5 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
     ("compound_eye", compound_eye::run),
     ("foveated_lod", foveated_lod::run),
     ("lens_flare", lens_flare::run),
+    ("spectacles", spectacles::run),
 ];

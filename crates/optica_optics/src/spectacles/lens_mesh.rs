@@ -1,0 +1,199 @@
+//! A triangle mesh of a designed lens: back surface, front surface and rim,
+//! with outward normals, for rendering and for the per-vertex trace.
+//!
+//! Each surface is a polar grid: the vertex on the axis, then `rings` rings
+//! of `segments` vertices at radii `r_k = rim·k/rings`. The paper's lens had
+//! about 1,500 vertices per surface ([`LensMesh::PAPER_RINGS`] ×
+//! [`LensMesh::PAPER_SEGMENTS`] + 1 = 1,537). The rim is a band of two rings
+//! with its own vertices (radial normals), so the edge stays sharp.
+//! Triangles are counter-clockwise seen from outside.
+
+use std::f64::consts::PI;
+use std::ops::Range;
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use super::error::SpectaclesError;
+use super::lens_design::SpectacleLens;
+
+/// A lens mesh in the eye's frame (metres).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LensMesh {
+    /// Vertex positions.
+    pub positions: Vec<DVec3>,
+    /// Unit outward normals, one per vertex.
+    pub normals: Vec<DVec3>,
+    /// Triangles (indices into `positions`), counter-clockwise from outside.
+    pub triangles: Vec<[u32; 3]>,
+    /// Vertices of the back (eye-side) surface; the first is on the axis.
+    pub back: Range<usize>,
+    /// Vertices of the front surface; the first is on the axis.
+    pub front: Range<usize>,
+    /// Vertices of the rim band.
+    pub rim: Range<usize>,
+}
+
+impl LensMesh {
+    /// Rings of the paper-sized mesh.
+    pub const PAPER_RINGS: usize = 24;
+    /// Segments of the paper-sized mesh.
+    pub const PAPER_SEGMENTS: usize = 64;
+
+    /// Back-surface vertices (what the eye sees; the per-vertex trace's input).
+    pub fn back_positions(&self) -> &[DVec3] {
+        &self.positions[self.back.clone()]
+    }
+}
+
+/// Polar sample points `(x, y)` of a disc of radius `radius`: the centre,
+/// then `rings × segments` points (the mesh's vertex layout).
+pub fn polar_points(radius: f64, rings: usize, segments: usize) -> Vec<(f64, f64)> {
+    let mut v = Vec::with_capacity(1 + rings * segments);
+    v.push((0.0, 0.0));
+    for k in 1..=rings {
+        let r = radius * k as f64 / rings as f64;
+        for j in 0..segments {
+            let phi = 2.0 * PI * j as f64 / segments as f64;
+            v.push((r * phi.cos(), r * phi.sin()));
+        }
+    }
+    v
+}
+
+impl SpectacleLens {
+    /// The mesh at `rings × segments` resolution.
+    ///
+    /// Errors: `rings < 1` or `segments < 3`, or more vertices than `u32`
+    /// indexes. (A designed lens has both surfaces defined out to the rim.)
+    pub fn mesh(&self, rings: usize, segments: usize) -> Result<LensMesh, SpectaclesError> {
+        if rings < 1 || segments < 3 {
+            return Err(SpectaclesError::OutOfRange { what: "mesh rings (>= 1) / segments (>= 3)", value: rings.min(segments) as f64, min: 1.0, max: f64::INFINITY });
+        }
+        let per_surface = 1 + rings * segments;
+        let total = 2 * per_surface + 2 * segments;
+        if total > u32::MAX as usize || rings.checked_mul(segments).is_none() {
+            return Err(SpectaclesError::OutOfRange { what: "mesh vertex count", value: total as f64, min: 0.0, max: u32::MAX as f64 });
+        }
+        let pts = polar_points(self.rim_radius_m, rings, segments);
+        let mut positions = Vec::with_capacity(total);
+        let mut normals = Vec::with_capacity(total);
+        let fail = SpectaclesError::Degenerate("lens surface not defined out to the rim");
+        // Back: outward is towards the eye (−z), the surfaces' own normal.
+        for &(x, y) in &pts {
+            let p = self.back.point(x, y).ok_or(fail.clone())?;
+            positions.push(p);
+            normals.push(self.back.normal_at(p));
+        }
+        // Front: outward is into the scene (+z), minus the surface normal.
+        for &(x, y) in &pts {
+            let z = self.front.vertex_z + self.front.sag((x * x + y * y).sqrt()).ok_or(fail.clone())?;
+            let p = DVec3::new(x, y, z);
+            positions.push(p);
+            normals.push(-self.front.normal_at(p));
+        }
+        // Rim band: copies of the outermost rings with radial normals.
+        let outer = 1 + (rings - 1) * segments;
+        for j in 0..segments {
+            let p = positions[outer + j];
+            positions.push(p);
+            normals.push(DVec3::new(p.x, p.y, 0.0).normalize());
+        }
+        for j in 0..segments {
+            let p = positions[per_surface + outer + j];
+            positions.push(p);
+            normals.push(DVec3::new(p.x, p.y, 0.0).normalize());
+        }
+        let mut triangles = Vec::with_capacity(4 * rings * segments + 2 * segments);
+        let ring_vertex = |base: usize, k: usize, j: usize| -> usize {
+            if k == 0 { base } else { base + 1 + (k - 1) * segments + j % segments }
+        };
+        for (base, outward) in [(0, -1.0), (per_surface, 1.0)] {
+            for k in 0..rings {
+                for j in 0..segments {
+                    let a = ring_vertex(base, k, j);
+                    let b = ring_vertex(base, k, j + 1);
+                    let c = ring_vertex(base, k + 1, j);
+                    let d = ring_vertex(base, k + 1, j + 1);
+                    if k == 0 {
+                        triangles.push([a, c, d]);
+                    } else {
+                        triangles.push([a, c, d]);
+                        triangles.push([a, d, b]);
+                    }
+                }
+            }
+            // The polar grid winds counter-clockwise seen from +z; flip the
+            // back surface's triangles so that they face −z.
+            if outward < 0.0 {
+                let start = 0;
+                let end = triangles.len();
+                for t in &mut triangles[start..end] {
+                    t.swap(1, 2);
+                }
+            }
+        }
+        let rim_back = 2 * per_surface;
+        let rim_front = rim_back + segments;
+        for j in 0..segments {
+            let (b0, b1) = (rim_back + j, rim_back + (j + 1) % segments);
+            let (f0, f1) = (rim_front + j, rim_front + (j + 1) % segments);
+            triangles.push([b0, b1, f1]);
+            triangles.push([b0, f1, f0]);
+        }
+        Ok(LensMesh {
+            positions,
+            normals,
+            triangles: triangles.into_iter().map(|t| t.map(|i| i as u32)).collect(),
+            back: 0..per_surface,
+            front: per_surface..2 * per_surface,
+            rim: rim_back..total,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spectacles::lens_design::{LensDesignParams, Prescription, design_lens};
+
+    #[test]
+    fn lens_mesh_counts_and_orientation() {
+        let lens = design_lens(&Prescription::new(-3.0, -1.0, 20.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let m = lens.mesh(LensMesh::PAPER_RINGS, LensMesh::PAPER_SEGMENTS).unwrap();
+        // 1 + 24·64 = 1,537 vertices per surface (the paper: ~1,500).
+        assert_eq!(m.back.len(), 1537);
+        assert_eq!(m.front.len(), 1537);
+        assert_eq!(m.positions.len(), 2 * 1537 + 2 * 64);
+        // Per surface: 64 fan triangles + 2·64·23 quads' triangles; rim 2·64.
+        assert_eq!(m.triangles.len(), 2 * (64 + 2 * 64 * 23) + 2 * 64);
+        for n in &m.normals {
+            assert!((n.length() - 1.0).abs() < 1e-12);
+        }
+        // Every triangle's geometric normal agrees with its vertices' outward normals.
+        for t in &m.triangles {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            let g = (b - a).cross(c - a);
+            let avg: DVec3 = t.iter().map(|&i| m.normals[i as usize]).sum();
+            assert!(g.dot(avg) > 0.0, "{t:?}");
+        }
+        // Vertices lie on their surfaces; back normals face the eye, front the scene.
+        for &p in m.back_positions() {
+            assert!((p.z - lens.back.point(p.x, p.y).unwrap().z).abs() < 1e-15);
+        }
+        assert!(m.normals[m.back.start].z < -0.999 && m.normals[m.front.start].z > 0.999);
+        // Closed: the signed volume (divergence theorem) is positive and
+        // close to the lens volume π r² × mean thickness (−3/−4 D: 2–5 mm).
+        let vol: f64 = m
+            .triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum();
+        let disc = PI * 0.025f64.powi(2);
+        assert!(vol > disc * 0.002 && vol < disc * 0.006, "{vol}");
+        assert!(lens.mesh(0, 8).is_err() && lens.mesh(4, 2).is_err());
+    }
+}

@@ -1,0 +1,260 @@
+//! The two kinds of spectacle-lens surface: spherical (from `surface.rs`) and
+//! toric (for a cylinder in the prescription), behind one type.
+//!
+//! A toric surface has curvature `c_axis` in the meridian along the cylinder
+//! axis (direction `ξ = (cos a, sin a)` in the x–y plane) and `c_cross` in the
+//! meridian across it (`η`). It is the circle of curvature `c_cross` in the
+//! η–z plane, swept round an axis parallel to η at `z = 1/c_axis` — the
+//! surface a toric lap grinds. With `s(η) = c_cross η²/(1 + √(1 − c_cross² η²))`
+//! (the circle's sag) and `u = 1 − c_axis s`, the sag is
+//!
+//! ```text
+//! z − z_v = (1 − √(u² − c_axis² ξ²)) / c_axis
+//!         = [s (2 − c_axis s) + c_axis ξ²] / (1 + √(u² − c_axis² ξ²))
+//! ```
+//!
+//! written in the second form so that it stays exact as `c_axis → 0` (a
+//! cylinder) and for a flat surface. Equal curvatures give the sphere.
+//! Conventions as `surface.rs`: +z optical axis, normal towards −z at the
+//! vertex.
+
+use glam::{DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+
+use crate::ray::Ray;
+use crate::surface::{Hit, SphericalSurface, T_EPSILON};
+
+/// A toric surface (see the module docs), vertex on the z axis.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ToricSurface {
+    /// z of the vertex.
+    pub vertex_z: f64,
+    /// Curvature (1/m) in the meridian along the axis.
+    pub c_axis: f64,
+    /// Curvature (1/m) in the meridian perpendicular to the axis.
+    pub c_cross: f64,
+    /// Axis angle in radians, from +x towards +y.
+    pub axis_rad: f64,
+}
+
+/// Sag, its gradient, in local (ξ, η) coordinates; `None` off the surface.
+fn toric_local(c_axis: f64, c_cross: f64, xi: f64, eta: f64) -> Option<(f64, DVec2)> {
+    let q = 1.0 - c_cross * c_cross * eta * eta;
+    if !(q >= 0.0) {
+        return None;
+    }
+    let rq = q.sqrt();
+    let s = c_cross * eta * eta / (1.0 + rq);
+    let u = 1.0 - c_axis * s;
+    let w2 = u * u - c_axis * c_axis * xi * xi;
+    if !(u > 0.0 && w2 >= 0.0) {
+        return None;
+    }
+    let w = w2.sqrt();
+    let z = (s * (2.0 - c_axis * s) + c_axis * xi * xi) / (1.0 + w);
+    if w == 0.0 || rq == 0.0 {
+        // On the surface's equator the slope is infinite: no usable normal.
+        return None;
+    }
+    let ds = c_cross * eta / rq;
+    Some((z, DVec2::new(c_axis * xi / w, u * ds / w)))
+}
+
+impl ToricSurface {
+    fn rotate_in(&self, x: f64, y: f64) -> (f64, f64) {
+        let (s, c) = self.axis_rad.sin_cos();
+        (x * c + y * s, -x * s + y * c)
+    }
+
+    /// Sag `z − vertex_z` and its gradient `(∂z/∂x, ∂z/∂y)` at `(x, y)`;
+    /// `None` where the surface does not reach (beyond its equator).
+    pub fn sag_and_gradient(&self, x: f64, y: f64) -> Option<(f64, DVec2)> {
+        let (xi, eta) = self.rotate_in(x, y);
+        let (z, g) = toric_local(self.c_axis, self.c_cross, xi, eta)?;
+        let (s, c) = self.axis_rad.sin_cos();
+        Some((z, DVec2::new(g.x * c - g.y * s, g.x * s + g.y * c)))
+    }
+
+    /// Unit normal at `(x, y)` on the surface, towards −z (`(∇z, −1)` normalised).
+    pub fn normal_at(&self, p: DVec3) -> DVec3 {
+        match self.sag_and_gradient(p.x, p.y) {
+            Some((_, g)) => DVec3::new(g.x, g.y, -1.0).normalize(),
+            None => DVec3::NEG_Z,
+        }
+    }
+
+    /// The forward hit of `ray`, by Newton's method on
+    /// `f(t) = z(t) − z_v − sag(x(t), y(t))` from the hit on the sphere of
+    /// mean curvature (a good start: the two differ by the astigmatic part of
+    /// the sag only). `None` when the ray misses, the iteration leaves the
+    /// surface or does not converge in 50 steps, or the hit is behind.
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !ray.origin.is_finite() || !ray.dir.is_finite() || ray.dir == DVec3::ZERO {
+            return None;
+        }
+        let mean = SphericalSurface::new(self.vertex_z, 0.5 * (self.c_axis + self.c_cross));
+        let mut t = match mean.intersect(ray) {
+            Some(h) => h.t,
+            None if ray.dir.z != 0.0 => (self.vertex_z - ray.origin.z) / ray.dir.z,
+            None => return None,
+        };
+        if !t.is_finite() {
+            return None;
+        }
+        let scale = 1.0 + ray.origin.length();
+        for _ in 0..50 {
+            let p = ray.at(t);
+            let (sag, g) = self.sag_and_gradient(p.x, p.y)?;
+            let f = p.z - self.vertex_z - sag;
+            let df = ray.dir.z - g.x * ray.dir.x - g.y * ray.dir.y;
+            if df == 0.0 || !df.is_finite() {
+                return None;
+            }
+            let step = f / df;
+            t -= step;
+            if !t.is_finite() {
+                return None;
+            }
+            if step.abs() <= 1e-15 * scale {
+                break;
+            }
+        }
+        let point = ray.at(t);
+        let (sag, g) = self.sag_and_gradient(point.x, point.y)?;
+        if (point.z - self.vertex_z - sag).abs() > 1e-12 * scale || t <= T_EPSILON {
+            return None;
+        }
+        Some(Hit { t, point, normal: DVec3::new(g.x, g.y, -1.0).normalize() })
+    }
+}
+
+/// A spectacle-lens surface: spherical or toric.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum LensSurface {
+    /// A sphere (or plane) in the curvature form of `surface.rs`.
+    Spherical(SphericalSurface),
+    /// A torus for an astigmatic correction.
+    Toric(ToricSurface),
+}
+
+impl LensSurface {
+    /// z of the vertex.
+    pub fn vertex_z(&self) -> f64 {
+        match self {
+            LensSurface::Spherical(s) => s.vertex_z,
+            LensSurface::Toric(t) => t.vertex_z,
+        }
+    }
+
+    /// Sag `z − vertex_z` at `(x, y)`, `None` beyond the surface's equator.
+    pub fn sag(&self, x: f64, y: f64) -> Option<f64> {
+        match self {
+            LensSurface::Spherical(s) => {
+                let r = (x * x + y * y).sqrt();
+                // Exactly at the equator the normal is undefined: treat as off.
+                if (s.curvature * r).abs() >= 1.0 {
+                    return None;
+                }
+                s.sag(r)
+            }
+            LensSurface::Toric(t) => t.sag_and_gradient(x, y).map(|(z, _)| z),
+        }
+    }
+
+    /// The point of the surface above `(x, y)`.
+    pub fn point(&self, x: f64, y: f64) -> Option<DVec3> {
+        self.sag(x, y).map(|s| DVec3::new(x, y, self.vertex_z() + s))
+    }
+
+    /// Unit normal at a surface point, towards −z.
+    pub fn normal_at(&self, p: DVec3) -> DVec3 {
+        match self {
+            LensSurface::Spherical(s) => s.normal_at(p),
+            LensSurface::Toric(t) => t.normal_at(p),
+        }
+    }
+
+    /// The forward hit of `ray` on the surface.
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        match self {
+            LensSurface::Spherical(s) => s.intersect(ray),
+            LensSurface::Toric(t) => t.intersect(ray),
+        }
+    }
+
+    /// Largest and smallest curvature (1/m) over the meridians.
+    pub fn curvature_range(&self) -> (f64, f64) {
+        match self {
+            LensSurface::Spherical(s) => (s.curvature, s.curvature),
+            LensSurface::Toric(t) => (t.c_axis.min(t.c_cross), t.c_axis.max(t.c_cross)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn toric_equal_curvatures_is_the_sphere() {
+        // A torus whose two radii are equal is the sphere: same sag, normal
+        // and hit as surface.rs.
+        let c = -1.0 / 0.06;
+        let t = ToricSurface { vertex_z: 0.012, c_axis: c, c_cross: c, axis_rad: 0.7 };
+        let s = SphericalSurface::new(0.012, c);
+        for (x, y) in [(0.0f64, 0.0f64), (0.01, 0.0), (0.007, -0.013), (0.02, 0.015)] {
+            let r = (x * x + y * y).sqrt();
+            let (z, _) = t.sag_and_gradient(x, y).unwrap();
+            assert!((z - s.sag(r).unwrap()).abs() < 1e-16, "{x} {y}");
+            let p = DVec3::new(x, y, 0.012 + z);
+            assert!((t.normal_at(p) - s.normal_at(p)).length() < 1e-12);
+        }
+        let ray = Ray::new(DVec3::new(0.0, 0.0, -0.0135), DVec3::new(0.3, -0.2, 1.0));
+        let (ht, hs) = (t.intersect(&ray).unwrap(), s.intersect(&ray).unwrap());
+        assert!((ht.point - hs.point).length() < 1e-14 && (ht.t - hs.t).abs() < 1e-14);
+    }
+
+    #[test]
+    fn toric_principal_sections_are_circles() {
+        // Along the axis meridian the section is the circle of c_axis; across
+        // it the circle of c_cross (hand: sag of R = 0.1 at 0.02 is
+        // 0.1 − √(0.01 − 0.0004) = 0.00202062).
+        let a = 30f64.to_radians();
+        let t = ToricSurface { vertex_z: 0.0, c_axis: 10.0, c_cross: -1.0 / 0.05, axis_rad: a };
+        let along = DVec2::new(a.cos(), a.sin()) * 0.02;
+        let across = DVec2::new(-a.sin(), a.cos()) * 0.02;
+        let (z1, _) = t.sag_and_gradient(along.x, along.y).unwrap();
+        assert!((z1 - (0.1 - (0.01f64 - 0.0004).sqrt())).abs() < 1e-15);
+        let (z2, _) = t.sag_and_gradient(across.x, across.y).unwrap();
+        assert!((z2 + (0.05 - (0.0025f64 - 0.0004).sqrt())).abs() < 1e-15);
+        // A cylinder (c_axis = 0): no sag along the axis.
+        let cyl = ToricSurface { c_axis: 0.0, ..t };
+        assert!(cyl.sag_and_gradient(along.x, along.y).unwrap().0.abs() < 1e-20);
+    }
+
+    proptest! {
+        #[test]
+        fn toric_hits_lie_on_surface(
+            ca in -30f64..30.0, cc in -30f64..30.0, a in 0f64..3.2,
+            ox in -0.01f64..0.01, oy in -0.01f64..0.01,
+            dx in -0.8f64..0.8, dy in -0.8f64..0.8,
+        ) {
+            let t = ToricSurface { vertex_z: 0.012, c_axis: ca, c_cross: cc, axis_rad: a };
+            let ray = Ray::new(DVec3::new(ox, oy, -0.01), DVec3::new(dx, dy, 1.0));
+            if let Some(h) = t.intersect(&ray) {
+                prop_assert!(h.point.is_finite() && h.t > 0.0);
+                let (z, g) = t.sag_and_gradient(h.point.x, h.point.y).unwrap();
+                prop_assert!((h.point.z - 0.012 - z).abs() < 1e-12);
+                prop_assert!((h.normal.length() - 1.0).abs() < 1e-12 && h.normal.z < 0.0);
+                // Normal ⟂ the surface: compare with a finite-difference gradient.
+                let e = 1e-7;
+                let zx = t.sag_and_gradient(h.point.x + e, h.point.y).map(|v| v.0);
+                let zx0 = t.sag_and_gradient(h.point.x - e, h.point.y).map(|v| v.0);
+                if let (Some(a1), Some(a0)) = (zx, zx0) {
+                    prop_assert!(((a1 - a0) / (2.0 * e) - g.x).abs() < 1e-5 * (1.0 + g.x.abs()));
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,271 @@
+//! Per-vertex ray tracing through the lens (paper §3.1, steps (1) and (3a)):
+//! for each lens vertex, the ray from the eye through it, refracted at the
+//! back surface (air → glass) and at the front surface (glass → air).
+//!
+//! Outcomes are typed: a ray can exit through the front surface, be totally
+//! internally reflected there (thick minus lenses near the rim: critical angle
+//! `asin(1/n)` = 37.04° at n = 1.66), leave through the rim (the cylinder
+//! `r = blank radius` between the surfaces) before reaching the front
+//! surface, or miss the lens. No zero vector stands for TIR (unlike glam's
+//! and WGSL's `refract`).
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::lens_design::SpectacleLens;
+use crate::ray::Ray;
+use crate::surface::{Refraction, refract};
+
+/// What happened to a ray sent from the eye into the lens.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum LensTrace {
+    /// Through both surfaces: the exit point on the front surface and the
+    /// unit exit direction (into the scene).
+    Exit {
+        /// Where the ray entered (back surface).
+        back: DVec3,
+        /// Where it left (front surface).
+        front: DVec3,
+        /// Unit direction after the front surface.
+        dir: DVec3,
+    },
+    /// Totally internally reflected at the front surface.
+    TotalInternalReflection {
+        /// Where the ray entered.
+        back: DVec3,
+        /// Where it was reflected.
+        at: DVec3,
+    },
+    /// Reached the rim (edge cylinder) before the front surface.
+    EdgeExit {
+        /// Where the ray entered.
+        back: DVec3,
+        /// Where it meets the rim.
+        at: DVec3,
+    },
+    /// Did not enter the lens (outside the blank, or an invalid ray).
+    Missed,
+}
+
+impl LensTrace {
+    /// The exit ray (point on the front surface, unit direction), if the ray
+    /// got through.
+    pub fn exit_ray(&self) -> Option<Ray> {
+        match *self {
+            LensTrace::Exit { front, dir, .. } => Some(Ray { origin: front, dir }),
+            _ => None,
+        }
+    }
+
+    /// True for [`LensTrace::Exit`].
+    pub fn is_exit(&self) -> bool {
+        matches!(self, LensTrace::Exit { .. })
+    }
+}
+
+/// Parameter `s > 0` where `p + s d` meets the cylinder `x² + y² = r²` from
+/// inside, or `None` when `d` has no lateral component.
+fn rim_crossing(p: DVec3, d: DVec3, r: f64) -> Option<f64> {
+    let a = d.x * d.x + d.y * d.y;
+    if !(a > 0.0) {
+        return None;
+    }
+    let b = p.x * d.x + p.y * d.y;
+    let c = p.x * p.x + p.y * p.y - r * r;
+    let disc = b * b - a * c;
+    if !(disc >= 0.0) {
+        return None;
+    }
+    // The larger root (−b + √disc)/a, in the cancellation-free form: when
+    // b > 0 it is c/q with q = −(b + √disc) (product of the roots is c/a).
+    let sq = disc.sqrt();
+    let s = if b > 0.0 { c / (-(b + sq)) } else { (sq - b) / a };
+    (s.is_finite() && s >= 0.0).then_some(s)
+}
+
+impl SpectacleLens {
+    /// Traces `ray` (from the eye side, travelling towards +z) through the lens.
+    pub fn trace_from_eye(&self, ray: &Ray) -> LensTrace {
+        if !ray.is_valid() {
+            return LensTrace::Missed;
+        }
+        let r2 = self.rim_radius_m * self.rim_radius_m;
+        let Some(h1) = self.back.intersect(ray) else { return LensTrace::Missed };
+        if h1.point.truncate().length_squared() > r2 {
+            return LensTrace::Missed;
+        }
+        let back = h1.point;
+        let d1 = match refract(ray.dir, h1.normal, 1.0, self.index) {
+            Refraction::Transmitted(d) => d,
+            // Cannot happen from air into glass; kept total for safety.
+            Refraction::TotalInternalReflection => return LensTrace::TotalInternalReflection { back, at: back },
+        };
+        let inside = Ray { origin: back, dir: d1 };
+        let edge = || {
+            let s = rim_crossing(back, d1, self.rim_radius_m).unwrap_or(0.0);
+            LensTrace::EdgeExit { back, at: inside.at(s) }
+        };
+        let Some(h2) = self.front.intersect(&inside) else { return edge() };
+        if h2.point.truncate().length_squared() > r2 {
+            return edge();
+        }
+        match refract(d1, h2.normal, self.index, 1.0) {
+            Refraction::Transmitted(dir) => LensTrace::Exit { back, front: h2.point, dir },
+            Refraction::TotalInternalReflection => LensTrace::TotalInternalReflection { back, at: h2.point },
+        }
+    }
+
+    /// The ray from `eye_point` through `vertex`, traced through the lens.
+    /// Give back-surface vertices (the side the eye sees): the ray's first hit
+    /// is then the vertex itself.
+    pub fn trace_through_vertex(&self, eye_point: DVec3, vertex: DVec3) -> LensTrace {
+        match Ray::try_new(eye_point, vertex - eye_point) {
+            Ok(r) => self.trace_from_eye(&r),
+            Err(_) => LensTrace::Missed,
+        }
+    }
+}
+
+/// Per-vertex refraction of a whole set of lens vertices (paper §3.1 step
+/// (1)), in parallel.
+pub fn refract_vertices(lens: &SpectacleLens, eye_point: DVec3, vertices: &[DVec3]) -> Vec<LensTrace> {
+    vertices.par_iter().map(|v| lens.trace_through_vertex(eye_point, *v)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::glass::Glass;
+    use crate::spectacles::lens_design::{LensDesignParams, Prescription, design_lens};
+    use proptest::prelude::*;
+
+    fn lens(s: f64, params: LensDesignParams) -> SpectacleLens {
+        design_lens(&Prescription::sphere(s).unwrap(), &params).unwrap()
+    }
+
+    /// Centre of rotation 13.5 mm behind the cornea (z = 0).
+    const CR: DVec3 = DVec3::new(0.0, 0.0, -0.0135);
+
+    #[test]
+    fn per_vertex_axial_ray_is_undeviated() {
+        let l = lens(-4.0, LensDesignParams::default());
+        let t = l.trace_from_eye(&Ray::new(CR, DVec3::Z));
+        let LensTrace::Exit { back, front, dir } = t else { panic!("{t:?}") };
+        assert!((back - DVec3::new(0.0, 0.0, 0.012)).length() < 1e-15);
+        assert!((front.z - l.front.vertex_z).abs() < 1e-15);
+        assert!((dir - DVec3::Z).length() < 1e-15);
+    }
+
+    #[test]
+    fn per_vertex_plano_lens_is_a_plate() {
+        // A zero-power lens with flat surfaces is a plane-parallel plate: the
+        // exit direction equals the entry direction, the ray is shifted.
+        let p = LensDesignParams { base_curve_d: Some(0.0), ..LensDesignParams::default() };
+        let l = lens(0.0, p);
+        let d = DVec3::new(0.3, 0.1, 1.0).normalize();
+        let LensTrace::Exit { dir, .. } = l.trace_from_eye(&Ray::new(CR, d)) else { panic!() };
+        assert!((dir - d).length() < 1e-14);
+    }
+
+    #[test]
+    fn per_vertex_minus_lens_spreads_plus_lens_gathers() {
+        // Prentice's rule direction: a minus lens deviates rays away from the
+        // axis (base-out prism off-centre), a plus lens towards it.
+        let d = DVec3::new(0.2, 0.0, 1.0).normalize();
+        for (s, away) in [(-4.0, true), (4.0, false)] {
+            let l = lens(s, LensDesignParams::default());
+            let LensTrace::Exit { dir, .. } = l.trace_from_eye(&Ray::new(CR, d)) else { panic!() };
+            assert_eq!(dir.x / dir.z > d.x / d.z, away, "S {s}");
+        }
+    }
+
+    #[test]
+    fn per_vertex_tir_at_the_rim_of_a_thick_minus_lens() {
+        // REFERENCE.md: a −10 D lens of 50 mm blank at n = 1.66 (critical
+        // angle asin(1/1.66) = 37.04°) totally reflects near 60° off-axis.
+        // Rays from the pupil of the eye looking straight ahead (3 mm behind
+        // the cornea, 15 mm from the back vertex): exits up to 54°, TIR from
+        // 56° (found by this sweep: 55.x°) to 60°, then the rim; from the
+        // centre of rotation the rim comes first (edge exit from ~45°).
+        let n = 1.66;
+        assert!(((1.0f64 / n).asin().to_degrees() - 37.04).abs() < 0.01);
+        let l = lens(-10.0, LensDesignParams { material: Glass::Constant(n), ..LensDesignParams::default() });
+        let sweep = |from: DVec3| {
+            let mut first = (None, None);
+            for k in 0..=800 {
+                let deg = k as f64 * 0.1;
+                let a = deg.to_radians();
+                match l.trace_from_eye(&Ray::new(from, DVec3::new(a.sin(), 0.0, a.cos()))) {
+                    LensTrace::Exit { dir, front, .. } => {
+                        assert!(dir.is_finite() && front.is_finite());
+                    }
+                    LensTrace::TotalInternalReflection { at, .. } => {
+                        assert!(at.is_finite());
+                        // At the TIR point the glass-side incidence exceeds the critical angle.
+                        first.0.get_or_insert(deg);
+                    }
+                    LensTrace::EdgeExit { at, .. } => {
+                        assert!(((at.truncate().length()) - 0.025).abs() < 1e-12);
+                        first.1.get_or_insert(deg);
+                    }
+                    LensTrace::Missed => {}
+                }
+            }
+            first
+        };
+        let (tir, edge) = sweep(DVec3::new(0.0, 0.0, -0.003));
+        let tir = tir.expect("TIR must occur near the rim");
+        assert!((54.0..60.0).contains(&tir), "first TIR at {tir}°");
+        assert!(edge.unwrap() > tir);
+        let (tir_cr, edge_cr) = sweep(CR);
+        assert!(tir_cr.is_none() && (44.0..48.0).contains(&edge_cr.unwrap()), "{tir_cr:?} {edge_cr:?}");
+    }
+
+    #[test]
+    fn per_vertex_edge_exit_and_miss() {
+        // A ray aimed outside the blank misses; the rim-crossing root is on
+        // the cylinder.
+        let l = lens(-6.0, LensDesignParams::default());
+        assert_eq!(l.trace_from_eye(&Ray::new(CR, DVec3::new(0.9, 0.0, 0.3))), LensTrace::Missed);
+        assert_eq!(l.trace_from_eye(&Ray::new(CR, DVec3::new(f64::NAN, 0.0, 1.0))), LensTrace::Missed);
+        let p = DVec3::new(0.02, 0.0, 0.01);
+        let d = DVec3::new(0.6, 0.8, 0.1).normalize();
+        let s = rim_crossing(p, d, 0.025).unwrap();
+        assert!(((p + s * d).truncate().length() - 0.025).abs() < 1e-15);
+        assert_eq!(rim_crossing(p, DVec3::Z, 0.025), None);
+        // A steep ray just inside the rim of a thick-edged lens leaves through the edge.
+        let thick = lens(-20.0, LensDesignParams::default());
+        let hits: Vec<_> = (0..400)
+            .map(|k| {
+                let a = (k as f64 * 0.2).to_radians();
+                thick.trace_from_eye(&Ray::new(CR, DVec3::new(a.sin(), 0.0, a.cos())))
+            })
+            .collect();
+        assert!(hits.iter().any(|t| matches!(t, LensTrace::EdgeExit { .. })));
+    }
+
+    proptest! {
+        #[test]
+        fn per_vertex_finite_in_finite_out(
+            s in -12f64..8.0, x in -0.04f64..0.04, y in -0.04f64..0.04,
+            ex in -0.005f64..0.005, ez in -0.03f64..0.0,
+        ) {
+            let l = lens(s, LensDesignParams::default());
+            let t = l.trace_through_vertex(DVec3::new(ex, 0.0, ez), DVec3::new(x, y, 0.012));
+            match t {
+                LensTrace::Exit { back, front, dir } => {
+                    prop_assert!(back.is_finite() && front.is_finite() && dir.is_finite());
+                    // (dir.z may be <= 0: near the critical angle a strong minus
+                    // lens bends the exit ray past 90° from the axis.)
+                    prop_assert!((dir.length() - 1.0).abs() < 1e-12);
+                    prop_assert!(front.truncate().length() <= l.rim_radius_m + 1e-12);
+                }
+                LensTrace::TotalInternalReflection { back, at } | LensTrace::EdgeExit { back, at } => {
+                    prop_assert!(back.is_finite() && at.is_finite());
+                }
+                LensTrace::Missed => {}
+            }
+        }
+    }
+}

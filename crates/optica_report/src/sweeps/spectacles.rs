@@ -1,0 +1,343 @@
+//! Spectacles (Kakimoto et al.): error of the voxel field of displacement
+//! sets against the direct per-point reference, over the voxel resolution.
+//!
+//! * Scene: the paper's Fig. 8(d) case — a myopic presbyope (near point
+//!   0.5 m, far point 1.3 m, pupil A = 12 mm) corrected for near work by a
+//!   +1.5 D lens (n = 1.66, Vogel base curve, 50 mm blank, 12 mm vertex
+//!   distance), eye turning about its centre of rotation. Through the lens
+//!   the sharp zone moves to 0.29–0.44 m, so test points see both the near
+//!   bundle (nearer) and the far bundle (beyond).
+//! * Knob: `resolution_scale` k — voxels per axis k × (110, 77, 42) over a
+//!   fixed box of 5.5 × 3.85 × 2.1 m (k = 1 is the paper's 110×77×42 with
+//!   5 cm cubes) and aims k × (24 rings × 64 segments) so that the bundles
+//!   keep up with the voxels (k = 1: 1,537, the paper's ~1,500). Hole filling on.
+//! * Series: rows with `work.clones` = S. The main series is S = 10 (the
+//!   paper's); error names without suffix. The full sweep adds S = 4 and
+//!   S = 20 at every k, with the error names suffixed `_s4`, `_s20`, so that
+//!   each S is its own curve in the plot.
+//! * Errors (per point, then mean / max over points): `mean_mm`, `max_mm` —
+//!   |RMS radius of the field's set − RMS radius of the reference set|, mm
+//!   (the blur's size); `mean_mrad` — the same divided by the distance
+//!   (angular, mrad); `edge_mean_mm` — the same for the longest vector (the
+//!   disc's edge, which only S samples).
+//! * Reference: `reference_at` with 256 pupil rays per bundle at quasi-random
+//!   points (Halton) seen through the lens, 0.1–2 m away.
+//! * time_ms: the field precompute. baseline_time_ms: the per-vertex
+//!   refraction of one lens mesh (1,537 back-surface vertices, the paper's
+//!   lens size), which is the per-frame work of §3 when the lens moves.
+
+use optica_optics::glam::DVec3;
+use optica_optics::glass::Glass;
+use optica_optics::ray::Ray;
+use optica_optics::spectacles::field_reference::DEFAULT_DENSE_SAMPLES;
+use optica_optics::spectacles::lens_mesh::LensMesh;
+use optica_optics::spectacles::{
+    DisplacementField, Eye, EyePlacement, FieldSettings, LensDesignParams, LensTrace, Prescription, SpectacleLens,
+    SpectaclesError, design_lens, precompute_field, reference_at, refract_vertices,
+};
+
+use crate::{Report, Row, SweepContext, time_ms};
+
+/// Radical inverse in `base` (Halton).
+fn halton(i: usize, base: usize) -> f64 {
+    let (mut f, mut r, mut i) = (1.0, 0.0, i);
+    while i > 0 {
+        f /= base as f64;
+        r += f * (i % base) as f64;
+        i /= base;
+    }
+    r
+}
+
+/// A test point and its reference RMS and edge radii.
+struct RefPoint {
+    p: DVec3,
+    dist: f64,
+    rms: f64,
+    edge: f64,
+}
+
+/// Quasi-random points seen through the lens, with their references.
+fn reference_points(eye: &Eye, pl: &EyePlacement, lens: &SpectacleLens, want: usize) -> (Vec<RefPoint>, usize) {
+    let mut out = Vec::new();
+    let mut skipped = 0;
+    let mut i = 0;
+    while out.len() < want && i < want * 20 {
+        i += 1;
+        // A point of the back surface within 85 % of the rim, and a depth.
+        let r = 0.85 * lens.rim_radius_m * halton(i, 2).sqrt();
+        let phi = std::f64::consts::TAU * halton(i, 3);
+        let z = 0.1 * 20f64.powf(halton(i, 5)); // 0.1–2 m, log-uniform
+        let Some(on_lens) = lens.back.point(r * phi.cos(), r * phi.sin()) else { continue };
+        let dir = (on_lens - pl.centre_of_rotation).normalize();
+        let p = pl.centre_of_rotation + dir * ((z - pl.centre_of_rotation.z) / dir.z);
+        match reference_at(eye, pl, Some(lens), p, DEFAULT_DENSE_SAMPLES) {
+            Ok(rf) => out.push(RefPoint { p, dist: rf.distance_m, rms: rf.spread.rms_radius_m, edge: rf.spread.max_radius_m }),
+            Err(_) => skipped += 1,
+        }
+    }
+    (out, skipped)
+}
+
+/// Mean and max of the RMS-radius error (m), mean angular error (rad) and
+/// mean edge error (m) of `field` at the points.
+fn errors(field: &DisplacementField, pts: &[RefPoint]) -> (f64, f64, f64, f64) {
+    let (mut sum, mut max, mut ang, mut edge) = (0.0, 0.0f64, 0.0, 0.0);
+    for q in pts {
+        let s = field.spread_at(q.p).expect("test points lie in the box");
+        let e = (s.rms_radius_m - q.rms).abs();
+        sum += e;
+        max = max.max(e);
+        ang += e / q.dist;
+        edge += (s.max_radius_m - q.edge).abs();
+    }
+    let n = pts.len().max(1) as f64;
+    (sum / n, max, ang / n, edge / n)
+}
+
+/// The lens of the sweep: +1.5 D reading lens at n = 1.66 (the paper's index).
+fn sweep_lens() -> SpectacleLens {
+    design_lens(&Prescription::sphere(1.5).expect("valid"), &LensDesignParams::paper()).expect("+1.5 D is a lens")
+}
+
+/// Runs the sweep.
+pub fn run(ctx: &SweepContext) -> Report {
+    let mut report = Report::cpu("spectacles", "resolution_scale");
+    report.baseline = "per-vertex refraction of one lens mesh (1,537 back-surface vertices, rayon)".into();
+    report.reference = "direct per-point displacement set: chief ray solved through the point, near/far bundles of \
+                        256 pupil rays; errors on the set's RMS radius (mm, mrad) and longest vector (edge, mm)"
+        .into();
+
+    let eye = Eye::from_near_far(0.5, 1.3, 0.012).expect("Fig. 8 eye");
+    let pl = EyePlacement::default();
+    let lens = sweep_lens();
+    let scales: Vec<f64> = ctx.pick(vec![0.25, 0.5, 1.0], vec![0.25, 0.5, 0.75, 1.0, 1.25, 1.5]);
+    let series: Vec<(usize, Vec<f64>)> = ctx.pick(
+        vec![(10, scales.clone()), (4, vec![0.5]), (20, vec![0.5])],
+        vec![(10, scales.clone()), (4, scales.clone()), (20, scales.clone())],
+    );
+    let n_points = ctx.pick(60, 300);
+    let (runs, budget) = ctx.pick((1, 0.0), (3, 2000.0));
+    let total: usize = series.iter().map(|(_, s)| s.len()).sum::<usize>() + 1;
+
+    ctx.progress(0, total, "baseline and reference points");
+    let mesh = lens.mesh(LensMesh::PAPER_RINGS, LensMesh::PAPER_SEGMENTS).expect("mesh");
+    let back = mesh.back_positions().to_vec();
+    let (t_base, traces) = time_ms(3, ctx.pick(20.0, 500.0), || refract_vertices(&lens, pl.centre_of_rotation, &back));
+    let exits = traces.iter().filter(|t| t.is_exit()).count();
+    let (pts, skipped) = reference_points(&eye, &pl, &lens, n_points);
+
+    let mut step = 0;
+    for (clones, ks) in &series {
+        let suffix = if *clones == 10 { String::new() } else { format!("_s{clones}") };
+        for &k in ks {
+            step += 1;
+            ctx.progress(step, total, &format!("S = {clones}, scale {k}"));
+            let st = FieldSettings { clones: *clones, ..FieldSettings::paper().scaled(k) };
+            let (t, field) = time_ms(runs, budget, || precompute_field(&eye, &pl, Some(&lens), &st));
+            let field = match field {
+                Ok(f) => f,
+                Err(e) => {
+                    report.case(&format!("precompute S = {clones}, scale {k}"), false, e.to_string());
+                    continue;
+                }
+            };
+            let (mean, max, ang, edge) = errors(&field, &pts);
+            let s = field.stats();
+            report.rows.push(
+                Row::new(k, t, t_base)
+                    .err(&format!("mean_mm{suffix}"), mean * 1e3)
+                    .err(&format!("max_mm{suffix}"), max * 1e3)
+                    .err(&format!("mean_mrad{suffix}"), ang * 1e3)
+                    .err(&format!("edge_mean_mm{suffix}"), edge * 1e3)
+                    .work("clones", *clones as f64)
+                    .work("voxels", field.counts().len() as f64)
+                    .work("aims", s.aims as f64)
+                    .work("aims_failed", s.aims_failed as f64)
+                    .work("rays_traced", s.rays_traced as f64)
+                    .work("voxel_crossings", s.crossings as f64)
+                    .work("coverage", field.coverage())
+                    .work("fill_layers", s.fill_passes as f64)
+                    .work("points", pts.len() as f64)
+                    .work("points_skipped", skipped as f64)
+                    .work("baseline_exits", exits as f64),
+            );
+        }
+    }
+    ctx.progress(total, total, "stability cases");
+    stability(&mut report);
+    report
+}
+
+/// The stiff and extreme cases (REFERENCE.md, Spectacles: pitfalls).
+fn stability(report: &mut Report) {
+    let small = FieldSettings::paper().scaled(0.25);
+    let finite = |f: &DisplacementField| f.vectors().iter().all(|v| v.is_finite());
+
+    // TIR at the rim of a thick minus lens.
+    let minus = design_lens(
+        &Prescription::sphere(-10.0).expect("valid"),
+        &LensDesignParams { material: Glass::Constant(1.66), ..LensDesignParams::default() },
+    );
+    match minus {
+        Ok(l) => {
+            let pupil = DVec3::new(0.0, 0.0, -0.003);
+            let mut first_tir = None;
+            let mut all_finite = true;
+            for k in 0..=800 {
+                let a = (k as f64 * 0.1).to_radians();
+                match l.trace_from_eye(&Ray::new(pupil, DVec3::new(a.sin(), 0.0, a.cos()))) {
+                    LensTrace::Exit { dir, .. } => all_finite &= dir.is_finite(),
+                    LensTrace::TotalInternalReflection { at, .. } => {
+                        all_finite &= at.is_finite();
+                        first_tir.get_or_insert(k as f64 * 0.1);
+                    }
+                    LensTrace::EdgeExit { at, .. } => all_finite &= at.is_finite(),
+                    LensTrace::Missed => {}
+                }
+            }
+            let ok = all_finite && first_tir.is_some_and(|a| (50.0..65.0).contains(&a));
+            report.case(
+                "total internal reflection at the rim",
+                ok,
+                format!("−10 D, n = 1.66, 50 mm blank, rays from the pupil: first TIR at {first_tir:?}° (critical angle 37.04°), typed outcome, all finite"),
+            );
+        }
+        Err(e) => report.case("total internal reflection at the rim", false, e.to_string()),
+    }
+
+    // ±20 D.
+    let plus20 = design_lens(&Prescription::sphere(20.0).expect("valid"), &LensDesignParams::default());
+    let minus20 = design_lens(&Prescription::sphere(-20.0).expect("valid"), &LensDesignParams::default());
+    let eye20 = Eye::new(20.0, 1.0, 0.004).expect("valid");
+    let ok_plus = matches!(plus20, Err(SpectaclesError::SurfaceTooSteep { .. }));
+    let (ok_minus, detail_minus) = match &minus20 {
+        Ok(l) => {
+            let fv = l.measured_back_vertex_power_d(0.0).unwrap_or(f64::NAN);
+            let f = precompute_field(&Eye::new(-20.0, 1.0, 0.004).expect("valid"), &EyePlacement::default(), Some(l), &small);
+            let ok = (fv + 20.0).abs() < 0.01 && f.as_ref().is_ok_and(finite);
+            (ok, format!("−20 D designed (edge {:.1} mm), traced Fv = {fv:.4} D, field finite", l.edge_thickness_m(0.0).unwrap_or(f64::NAN) * 1e3))
+        }
+        Err(e) => (false, e.to_string()),
+    };
+    let naked20 = precompute_field(&eye20, &EyePlacement::default(), None, &small);
+    report.case(
+        "±20 D",
+        ok_plus && ok_minus && naked20.as_ref().is_ok_and(finite),
+        format!(
+            "+20 D CR-39 on 50 mm: {} (R1 = 19.2 mm < 25 mm); {detail_minus}; +20 D hyperopic naked-eye field finite",
+            match &plus20 {
+                Err(e) => e.to_string(),
+                Ok(_) => "designed (unexpected)".into(),
+            }
+        ),
+    );
+
+    // Zero pupil.
+    let eye0 = Eye::new(-2.0, 1.0, 0.0).expect("valid");
+    let lens = sweep_lens();
+    let f0 = precompute_field(&eye0, &EyePlacement::default(), Some(&lens), &small);
+    let r0 = reference_at(&eye0, &EyePlacement::default(), Some(&lens), DVec3::new(0.0, 0.0, 1.0), 64);
+    let ok = f0.as_ref().is_ok_and(|f| f.vectors().iter().all(|v| *v == optica_optics::glam::Vec3::ZERO))
+        && r0.as_ref().is_ok_and(|r| r.spread.rms_radius_m == 0.0);
+    report.case("zero pupil", ok, "A = 0: every displacement set is exactly zero (a pinhole), reference 0");
+
+    // Near point = far point (Amp = 0).
+    let eye_a0 = Eye::new(-2.0, 0.0, 0.004).expect("valid");
+    let corr = design_lens(&Prescription::sphere(-1.0 / (0.5 - 0.015)).expect("valid"), &LensDesignParams::default()).expect("lens");
+    let fa = precompute_field(&eye_a0, &EyePlacement::default(), Some(&corr), &small);
+    let ra = reference_at(&eye_a0, &EyePlacement::default(), Some(&corr), DVec3::new(0.0, 0.0, 2.0), 256);
+    let (ok, detail) = match (&fa, &ra) {
+        (Ok(f), Ok(r)) => {
+            // Fully corrected, focus at infinity: at 2 m, ΔD ≈ 0.5 D, disc ≈ A·z·ΔD = 4 mm.
+            let d = r.spread.disc_diameter_m();
+            (finite(f) && (d - 0.004).abs() < 0.0008, format!("−2 D, Amp 0, fully corrected: disc at 2 m {:.2} mm (A·z·ΔD = 4 mm), field finite", d * 1e3))
+        }
+        _ => (false, format!("{:?} {:?}", fa.err(), ra.err())),
+    };
+    report.case("near point = far point (Amp = 0)", ok, detail);
+
+    // Hyperope: virtual far point behind the eye.
+    let hyp = Eye::new(2.0, 0.5, 0.004).expect("valid");
+    let plus = design_lens(&Prescription::sphere(2.0).expect("valid"), &LensDesignParams::default()).expect("lens");
+    let naked = reference_at(&hyp, &EyePlacement::default(), None, DVec3::new(0.0, 0.0, 1.0), 256);
+    let through = reference_at(&hyp, &EyePlacement::default(), Some(&plus), DVec3::new(0.0, 0.0, 1.0), 256);
+    let fh = precompute_field(&hyp, &EyePlacement::default(), Some(&plus), &small);
+    let (ok, detail) = match (&naked, &through) {
+        (Ok(n), Ok(t)) => {
+            // Naked: P_far = −2, P_near = −1.5; V = 1/z from the pupil.
+            let z = n.distance_m;
+            let want = hyp.blur_disc_diameter_m(z).unwrap_or(f64::NAN);
+            let dn = n.spread.disc_diameter_m();
+            let dt = t.spread.disc_diameter_m();
+            (
+                (dn - want).abs() < 1e-9 && dt < 0.5 * dn && fh.as_ref().is_ok_and(finite),
+                format!("+2 D, Amp 0.5, point at 1 m: naked disc {:.2} mm (A·z·ΔD = {:.2} mm), through +2 D {:.2} mm", dn * 1e3, want * 1e3, dt * 1e3),
+            )
+        }
+        _ => (false, format!("{:?} {:?}", naked.err(), through.err())),
+    };
+    report.case("hyperope", ok, detail);
+
+    // Reference ray along a voxel axis, on a cell boundary.
+    let st = FieldSettings { fill_empty: false, aim_rings: 2, aim_segments: 4, ..FieldSettings::paper() };
+    let eye = Eye::new(-2.0, 1.0, 0.004).expect("valid");
+    let fb = precompute_field(&eye, &EyePlacement::paper(), None, &st);
+    let (ok, detail) = match &fb {
+        Ok(f) => {
+            let col = f.counts().cell_of(DVec3::new(0.0, 0.0, 1.0)).map(|c| c[0]);
+            let all = col.is_some_and(|cx| (0..42).all(|k| f.counts().get([cx, 38, k]).is_some_and(|c| *c > 0)));
+            (all && finite(f), format!("axial reference ray (direction (0,0,1)) on the plane x = 0 between columns 54 and 55: walked in column {col:?} for all 42 layers"))
+        }
+        Err(e) => (false, e.to_string()),
+    };
+    report.case("ray parallel to a voxel axis on a cell boundary", ok, detail);
+
+    // NaN prescription and NaN inputs.
+    let bad_rx = Prescription::new(f64::NAN, 0.0, 0.0);
+    let raw = Prescription { sphere_d: f64::NAN, cylinder_d: -1.0, axis_deg: 0.0 };
+    let bad_design = design_lens(&raw, &LensDesignParams::default());
+    let bad_eye = Eye::new(f64::NAN, 1.0, 0.004);
+    let bad_point = reference_at(&eye, &EyePlacement::default(), Some(&lens), DVec3::NAN, 16);
+    let ok = matches!(bad_rx, Err(SpectaclesError::NonFinite(_)))
+        && matches!(bad_design, Err(SpectaclesError::NonFinite(_)))
+        && bad_eye.is_err()
+        && bad_point.is_err();
+    report.case("NaN prescription", ok, "NaN sphere, NaN refractive error, NaN point: typed NonFinite errors, no panic");
+
+    // A point the lens cannot show.
+    let outside = reference_at(&eye, &EyePlacement::default(), Some(&lens), DVec3::new(3.0, 0.0, 0.3), 16);
+    report.case(
+        "point outside the lens's view",
+        matches!(outside, Err(SpectaclesError::NotThroughLens(_))),
+        format!("{:?}", outside.err()),
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quick_sweep_is_finite_and_error_falls_with_resolution() {
+        let ctx = SweepContext::new("spectacles", true, true);
+        let r = run(&ctx);
+        assert_eq!(r.rows.len(), 5);
+        for row in &r.rows {
+            assert!(row.time_ms.is_finite() && row.baseline_time_ms.is_finite());
+            for v in row.error.values().chain(row.work.values()) {
+                assert!(v.is_finite(), "{row:?}");
+            }
+        }
+        // The S = 10 series: rows 0..3 at scales 0.25, 0.5, 1.
+        let err = |i: usize, k: &str| r.rows[i].error[k];
+        for k in ["mean_mm", "max_mm", "mean_mrad"] {
+            assert!(err(2, k) < err(0, k), "{k} must fall from scale 0.25 to 1");
+            assert!(err(1, k) <= err(0, k) * 1.05 && err(2, k) <= err(1, k) * 1.05, "{k} rises");
+        }
+        assert!(r.rows[0].work["points"] >= 50.0);
+        for c in &r.stability {
+            assert!(c.ok, "{}: {}", c.case, c.detail);
+        }
+    }
+}

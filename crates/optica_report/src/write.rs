@@ -157,6 +157,8 @@ fn plot(report: &Report, path: &Path) -> Result<(), String> {
         .configure_mesh()
         .x_desc("time per run (ms)")
         .y_desc("error")
+        .x_label_formatter(&|v| num(*v))
+        .y_label_formatter(&|v| num(*v))
         .draw()
         .map_err(|e| e.to_string())?;
     for (i, name) in errors.iter().enumerate() {

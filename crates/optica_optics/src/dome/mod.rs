@@ -1,1 +1,132 @@
-//! (in progress)
+//! # Dome — equidistant fisheye projection with adaptive refinement
+//!
+//! The CPU reference of the dome plugin, after 城島由奈・藤村真生
+//! 「リアルタイム等距離射影変換のためのフラグメント精緻化」
+//! (Johjima & Fujimura, *Enhancing the exquisite fragment to equidistant
+//! projection technique in real-time*, `papers/johjima-equidistant-dome-projection.txt`),
+//! with the numbers of REFERENCE.md's Dome section.
+//!
+//! The paper projects every vertex of a planetarium scene equidistantly in
+//! the vertex shader (its earlier work \[1\]) and observes that the straight
+//! edges drawn between projected vertices are visibly wrong when an edge
+//! subtends a large angle (§2, fig. 1). It splits such edges in a geometry
+//! shader, by the angle they subtend (§3.2), splits triangles along their
+//! edges and triangulates the inside so that neighbours share edges (§3.3),
+//! and leaves small primitives of constant apparent size to a subdivision done
+//! once in advance (§3.1).
+//!
+//! ## Equations
+//!
+//! The paper has no numbered equations: it states the method as numbered
+//! steps (§3.2 steps 1–3, §3.3 steps 1–7, figs. 3–8) and takes r = fθ from
+//! its reference \[1\]. The formulas used here are numbered D1–D8; each says
+//! where it comes from.
+//!
+//! * **D1** (paper §2 via \[1\], REFERENCE.md) — equidistant projection: a
+//!   direction at polar angle θ from the dome axis and azimuth φ lands at
+//!   radius `r = f·θ` from the image centre, at angle φ.
+//! * **D2** (ours, numerics) — polar angle of a view-space point p in dome
+//!   coordinates (x, y, z) = (p·right, p·up, p·axis):
+//!   `θ = atan2(√(x² + y²), z)` — never `acos(z/|p|)`, which loses half the
+//!   digits near θ = 0 and θ = π. Pixel = `centre + f·θ·(x, −y)/√(x² + y²)`.
+//! * **D3** (domemaster convention, REFERENCE.md) — square frame of side S,
+//!   inscribed image circle: `f = (S/2)/(FOV/2)` px/rad (4K, 180°: f = 1303.8).
+//! * **D4** (paper §3.2 step 1, §3.3 step 1: "視野角 θ を算出する") — the angle
+//!   an edge a–b subtends at the viewer, `α = atan2(|a × b|, a·b)`; the paper's
+//!   split "according to the visual angle" is `n = ⌈α/Δ⌉` pieces
+//!   ([`SplitRule::VisualAngle`]).
+//! * **D5** (REFERENCE.md) — chord gap of a tangential piece subtending α at
+//!   polar angle θ: `s ≈ f·α²·(θ/sin θ − cos θ)/(8·sin θ)`, ≈ `f·α²·θ/12` near
+//!   the centre, `(π/16)·f·α²` on the 180° rim. At 4K/180° a 10° rim edge is
+//!   off by ~8 px and 0.5 px needs ≤ ~2.5° pieces there.
+//! * **D6** (ours, generalising D5 to any orientation) — normal acceleration
+//!   of the image of a great circle crossing the meridian at angle ψ:
+//!   `N(θ, ψ) = f·sin ψ·[T sin²ψ + K cos²ψ]/√(cos²ψ + (θ/sin θ)² sin²ψ)`,
+//!   `T = θ(θ − sin θ cos θ)/sin³θ`, `K = 2(sin θ − θ cos θ)/sin²θ`,
+//!   `s ≈ α²·N/8`; with Clairaut's `sin θ·sin ψ = sin θ₀` along the circle.
+//!   ψ = 90° gives D5, ψ = 0 (radial) gives 0. [`SplitRule::ChordGap`] uses
+//!   `n = ⌈α·√(N_max/(8·tol))⌉`, N_max at the arc's largest θ.
+//! * **D7** (ours, paper §3.2 step 2 "新しく頂点を生成する") — new vertices at equal
+//!   angles along the arc, placed on the 3D segment: the point seen at angle
+//!   β from a is `a + t·(b − a)` with
+//!   `t = |a| sin β / (|a| sin β + |b| sin(α − β))`.
+//! * **D8** (ours) — exact error of a chord: the largest pixel distance from
+//!   the projected great-circle arc to the chord between the projected
+//!   endpoints ([`chord_error_px`]).
+//!
+//! ## Conventions
+//!
+//! Bevy view space (camera looks along −Z, +Y up). At tilt 0 the dome axis is
+//! view −Z and the image's up is view +Y, so the audience front (bottom centre
+//! of the domemaster) is view −Y: mount the camera like a fisheye pointing at
+//! the zenith, up vector towards the back of the theatre. `tilt_deg` leans the
+//! dome forward: axis `(0, −sin τ, −cos τ)`. See [`DomeCamera`].
+//!
+//! ## Where the projection is singular
+//!
+//! * The camera origin: [`Projected::Origin`]; segments through the viewer:
+//!   [`DomeError::ThroughViewer`]; triangles touching the origin are left out.
+//! * The antipode (θ → π): [`Projected::Antipode`] within [`ANTIPODE_EPS_RAD`].
+//! * Behind the viewer, FOV ≤ 180°: clip against the view plane z = 0 before
+//!   projecting (segments and triangles; REFERENCE.md's lavapipe note).
+//! * FOV > 180°: the visible set is not convex. Segments are clipped exactly to
+//!   the guard cone θ ≤ θ_clip = (θ_max + π)/2 along their arc; triangles are
+//!   refined whole (edges leaving the guard cone get pieces of at most
+//!   π − θ_clip) and the sub-triangles reaching past the guard cone, or
+//!   covering the antipode, are culled. Between rim and guard, geometry lands
+//!   outside the image circle, where a renderer discards fragments. See
+//!   [`clip_segment`] and [`DomeProjection::theta_reach`].
+//!
+//! ## Triangles
+//!
+//! §3.3 as written spaces the interior by the split points of the two
+//! shorter sides; where the inside of a triangle is nearer the viewer than
+//! its sides this leaves interior edges several times too long (4.5× the
+//! tolerance on REFERENCE.md's room). We add a conforming bisection of such
+//! interior edges that never touches the triangle's boundary, so shared
+//! edges still split identically from both sides (`interior.rs`).
+//!
+//! ## Modules
+//!
+//! | file | what |
+//! |---|---|
+//! | `camera.rs` | [`DomeCamera`] settings, [`DomeProjection`] frame |
+//! | `projection.rs` | D1–D3 forward and inverse, [`Projected`] |
+//! | `arc.rs` | D4, D7: subtended angles, split points |
+//! | `rule.rs` | D4–D6: [`SplitRule`] |
+//! | `clip.rs` | view-plane and guard-cone clipping |
+//! | `refine.rs` | §3.2: segments and polylines |
+//! | `triangle.rs` | §3.3: triangles and meshes, crack-free |
+//! | `interior.rs` | conforming bisection of interior edges (our addition) |
+//! | `classify.rs` | §3.1: dynamic vs pre-subdivided primitives |
+//! | `measure.rs` | D8: exact chord error |
+//! | `error.rs` | [`DomeError`] |
+//!
+//! \[1\] 城島・高野・藤村・東: シェーダを用いたリアルタイム3次元CGのための等距離射影変換,
+//! 映像情報メディア学会年次大会 17-6 (2008).
+
+mod arc;
+mod camera;
+mod classify;
+mod clip;
+mod error;
+mod interior;
+mod measure;
+mod projection;
+mod refine;
+mod rule;
+mod triangle;
+
+pub use arc::{split_segment, subtended_angle};
+pub use camera::{DomeCamera, DomeProjection};
+pub use classify::{ApparentSize, PrimitiveKind, Treatment, classify, pre_subdivide};
+pub use clip::clip_segment;
+pub use error::DomeError;
+pub use measure::{EdgeErrors, SAMPLES, chord_error_px, polyline_error_px};
+pub use projection::{ANTIPODE_EPS_RAD, ImagePoint, Projected};
+pub use refine::{RefineStats, RefinedLines, RefinedSegment, refine_polyline, refine_segment, refine_segments};
+pub use rule::{
+    MAX_PIECES, Pieces, SplitRule, max_tangential_piece_rad, normal_acceleration_px, tangential_chord_gap_px,
+    tangential_factor,
+};
+pub use triangle::{RefinedMesh, TriMesh, refine_mesh, refine_triangle};

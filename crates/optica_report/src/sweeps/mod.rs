@@ -4,6 +4,7 @@
 use crate::{Report, SweepContext};
 
 pub mod compound_eye;
+pub mod dome;
 pub mod foveated_lod;
 pub mod lens_flare;
 pub mod optics;
@@ -15,8 +16,9 @@ pub type SweepFn = fn(&SweepContext) -> Report;
 /// Every sweep the runner knows, in the order `all` runs them.
 pub const SWEEPS: &[(&str, SweepFn)] = &[
     ("optics", optics::run),
-    ("compound_eye", compound_eye::run),
     ("foveated_lod", foveated_lod::run),
+    ("compound_eye", compound_eye::run),
     ("lens_flare", lens_flare::run),
     ("spectacles", spectacles::run),
+    ("dome", dome::run),
 ];

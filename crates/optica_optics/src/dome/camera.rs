@@ -1,0 +1,195 @@
+//! The dome camera's settings and the validated frame they define.
+//!
+//! Conventions (Bevy view space: the camera looks along −Z, +Y is up, +X right):
+//!
+//! * Mount the camera like a fisheye lens pointing at the zenith of an
+//!   untilted dome, its up vector (+Y) towards the back of the theatre. Then
+//!   view −Z is the dome axis (zenith, image centre) and view −Y is the
+//!   audience front on the horizon, which the domemaster puts at the bottom
+//!   centre of the frame. This is also Blender's fisheye camera convention
+//!   (axis −Z, image up +Y), so a Cycles equidistant render of the same scene
+//!   is a reference image without any rotation.
+//! * `tilt_deg` leans the dome forward (towards the audience front, view −Y)
+//!   by τ: dome axis `a = (0, −sin τ, −cos τ)`, image up `u = (0, cos τ, −sin τ)`,
+//!   image right `e = (1, 0, 0)`. At τ = 90° the axis is the horizontal front.
+//! * Domemaster frame: a square of `size_px`, the image circle inscribed, centre
+//!   at (size/2, size/2). Pixel coordinates are continuous, origin at the
+//!   top-left corner, +u right, +v down (pixel (i, j) covers [i, i+1)×[j, j+1)).
+//! * Equidistant: r = f·θ with f = (size/2)/(FOV/2) px per radian, θ the angle
+//!   from the dome axis (D1, D3 in the module docs).
+
+use std::f64::consts::PI;
+
+use glam::{DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+
+use super::error::DomeError;
+
+/// User-facing settings of a fisheye dome camera (domemaster output).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DomeCamera {
+    /// Full field of view of the fisheye in degrees, in (0, 360): 180 is the
+    /// standard dome, 210–250 are wide fisheyes.
+    pub fov_deg: f64,
+    /// Forward tilt of the dome in degrees (typical tilted domes: 10–30).
+    pub tilt_deg: f64,
+    /// Width and height of the square domemaster in pixels (2048, 4096, 8192).
+    pub size_px: u32,
+}
+
+impl Default for DomeCamera {
+    /// A 4K, 180°, untilted dome: the common domemaster.
+    fn default() -> Self {
+        Self { fov_deg: 180.0, tilt_deg: 0.0, size_px: 4096 }
+    }
+}
+
+impl DomeCamera {
+    /// Validated settings.
+    pub fn new(fov_deg: f64, tilt_deg: f64, size_px: u32) -> Result<Self, DomeError> {
+        let cam = Self { fov_deg, tilt_deg, size_px };
+        cam.validate()?;
+        Ok(cam)
+    }
+
+    /// Checks the settings: FOV in (0°, 360°), finite tilt, size ≥ 1.
+    pub fn validate(&self) -> Result<(), DomeError> {
+        if !(self.fov_deg > 0.0 && self.fov_deg < 360.0) {
+            return Err(DomeError::InvalidFov(self.fov_deg));
+        }
+        if !self.tilt_deg.is_finite() {
+            return Err(DomeError::InvalidTilt(self.tilt_deg));
+        }
+        if self.size_px == 0 {
+            return Err(DomeError::InvalidSize);
+        }
+        Ok(())
+    }
+
+    /// The projection these settings define (validates first).
+    pub fn projection(&self) -> Result<DomeProjection, DomeError> {
+        DomeProjection::new(*self)
+    }
+}
+
+/// A validated dome camera with its frame and scale precomputed; all the
+/// projection, clipping and refinement functions take this.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DomeProjection {
+    camera: DomeCamera,
+    /// Dome axis (zenith, image centre) in view space, unit.
+    axis: DVec3,
+    /// Image up in view space, unit, ⟂ axis.
+    up: DVec3,
+    /// Image right in view space, unit (= +X).
+    right: DVec3,
+    /// Half the field of view, radians (the rim's polar angle).
+    theta_max: f64,
+    /// f in px per radian.
+    focal_px: f64,
+    /// size/2 in px: the image centre's coordinates and the rim radius.
+    half_size: f64,
+}
+
+impl DomeProjection {
+    /// Builds the frame of `camera` (validates it first).
+    pub fn new(camera: DomeCamera) -> Result<Self, DomeError> {
+        camera.validate()?;
+        let tau = camera.tilt_deg.to_radians();
+        let (s, c) = tau.sin_cos();
+        let theta_max = 0.5 * camera.fov_deg.to_radians();
+        let half_size = 0.5 * f64::from(camera.size_px);
+        Ok(Self {
+            camera,
+            axis: DVec3::new(0.0, -s, -c),
+            up: DVec3::new(0.0, c, -s),
+            right: DVec3::X,
+            theta_max,
+            focal_px: half_size / theta_max,
+            half_size,
+        })
+    }
+
+    /// The settings this projection was built from.
+    pub fn camera(&self) -> DomeCamera {
+        self.camera
+    }
+
+    /// Dome axis (zenith, image centre) in view space, unit.
+    pub fn axis(&self) -> DVec3 {
+        self.axis
+    }
+
+    /// Image up (towards the top of the frame) in view space, unit.
+    pub fn up(&self) -> DVec3 {
+        self.up
+    }
+
+    /// Image right in view space, unit.
+    pub fn right(&self) -> DVec3 {
+        self.right
+    }
+
+    /// The rim's polar angle θ_max = FOV/2 in radians.
+    pub fn theta_max(&self) -> f64 {
+        self.theta_max
+    }
+
+    /// f = (size/2)/θ_max in px per radian (D3). 4K/180° gives 1303.8.
+    pub fn focal_px(&self) -> f64 {
+        self.focal_px
+    }
+
+    /// Side of the square domemaster in px.
+    pub fn size_px(&self) -> f64 {
+        2.0 * self.half_size
+    }
+
+    /// Radius of the image circle in px (= size/2).
+    pub fn rim_radius_px(&self) -> f64 {
+        self.half_size
+    }
+
+    /// The image centre (zenith) in pixel coordinates.
+    pub fn centre_px(&self) -> DVec2 {
+        DVec2::splat(self.half_size)
+    }
+
+    /// Whether geometry is clipped against the view plane z = 0 of the dome
+    /// frame before projection (FOV ≤ 180°; the visible set is then inside
+    /// the convex half-space in front of that plane).
+    pub fn clips_at_view_plane(&self) -> bool {
+        self.theta_max <= 0.5 * PI
+    }
+
+    /// Polar angle beyond which geometry is removed before or after
+    /// refinement: 90° (the view plane) for FOV ≤ 180°, else the guard cone
+    /// halfway between the rim and the antipode, (θ_max + π)/2. Between the
+    /// rim and this angle geometry is kept and lands outside the image circle,
+    /// where a renderer discards its fragments.
+    pub fn theta_clip(&self) -> f64 {
+        if self.clips_at_view_plane() { 0.5 * PI } else { 0.5 * (self.theta_max + PI) }
+    }
+
+    /// Largest polar angle a kept piece of geometry can reach: the clip angle
+    /// for FOV ≤ 180° (everything is clipped there), else halfway between the
+    /// guard cone and the antipode, (θ_clip + π)/2. For FOV > 180° triangles
+    /// are culled per sub-triangle at the guard cone, so a kept piece ends
+    /// inside it but its arc may bulge past it; the rule caps pieces that
+    /// leave the guard cone at π − θ_clip, which keeps every kept arc within
+    /// this angle, away from the antipode.
+    pub fn theta_reach(&self) -> f64 {
+        if self.clips_at_view_plane() { self.theta_clip() } else { 0.5 * (self.theta_clip() + PI) }
+    }
+
+    /// View-space point in dome coordinates: (along image right, along image
+    /// up, along the axis). The third component is positive in front.
+    pub fn to_dome(&self, p: DVec3) -> DVec3 {
+        DVec3::new(p.dot(self.right), p.dot(self.up), p.dot(self.axis))
+    }
+
+    /// Dome coordinates back to view space (inverse of [`Self::to_dome`]).
+    pub fn from_dome(&self, q: DVec3) -> DVec3 {
+        q.x * self.right + q.y * self.up + q.z * self.axis
+    }
+}

@@ -1,0 +1,181 @@
+//! The paper's classification of primitives (§3.1) and pre-subdivision.
+//!
+//! The paper sorts a planetarium's primitives into three classes:
+//!
+//! | primitive | examples (paper) | treatment |
+//! |---|---|---|
+//! | lines | constellation lines, coordinate grids | split per frame by the view (geometry shader) |
+//! | triangles whose apparent size changes | large stars, satellites, vehicles, buildings, scenery | split per frame by the view |
+//! | triangles of nearly constant apparent size | small stars, images, photos, constellation art | split once in advance, drawn without the geometry shader |
+//!
+//! Why the last class can be split once: its subtended angles do not change
+//! (the objects keep their distance from the viewer and only the view turns),
+//! and the paper's rule (D4) depends on the subtended angle alone, so one
+//! subdivision with the worst-case step ([`SplitRule::visual_angle_for_tolerance`])
+//! serves every view direction. [`pre_subdivide`] does that.
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::arc::Arc;
+use super::error::DomeError;
+use super::refine::RefineStats;
+use super::rule::{Pieces, SplitRule};
+use super::triangle::{RefinedMesh, TriMesh, subdivide_triangle};
+
+/// Kind of primitive (paper §3.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PrimitiveKind {
+    /// A line or polyline ("直線で表されるフラグメント").
+    Line,
+    /// A triangle ("三角形で表されるフラグメント").
+    Triangle,
+}
+
+/// Whether the apparent size of a primitive changes while the app runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ApparentSize {
+    /// It moves relative to the viewer, so its subtended angles change.
+    Changing,
+    /// It keeps its distance to the viewer (sky objects): only the view turns.
+    NearlyConstant,
+}
+
+/// How a primitive is refined (paper §3.1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Treatment {
+    /// Split every frame from the current view ([`refine_segment`](super::refine_segment),
+    /// [`refine_mesh`](super::refine_mesh)).
+    Dynamic,
+    /// Split once in advance ([`pre_subdivide`]) and drawn as is.
+    PreSubdivided,
+}
+
+/// The paper's classification: lines and triangles of changing size are
+/// dynamic; triangles of nearly constant size are pre-subdivided.
+pub fn classify(kind: PrimitiveKind, size: ApparentSize) -> Treatment {
+    match (kind, size) {
+        (PrimitiveKind::Triangle, ApparentSize::NearlyConstant) => Treatment::PreSubdivided,
+        _ => Treatment::Dynamic,
+    }
+}
+
+/// Splits a mesh once with the paper's rule, pieces of at most
+/// `max_piece_rad` subtended at the origin (the viewer's position; the
+/// mesh is in viewer-centred coordinates, any orientation). No clipping: the
+/// result is meant to be drawn from every view direction, and is crack-free
+/// like [`refine_mesh`](super::refine_mesh). Triangles with a non-finite
+/// vertex or an edge through the viewer are left out and counted.
+pub fn pre_subdivide(mesh: &TriMesh, max_piece_rad: f64) -> Result<RefinedMesh, DomeError> {
+    let rule = SplitRule::VisualAngle { max_piece_rad };
+    rule.validate()?;
+    mesh.validate()?;
+    let pieces = |arc: &Arc| {
+        let want = (arc.alpha / max_piece_rad).ceil();
+        let cap = f64::from(super::MAX_PIECES);
+        if want > cap {
+            Pieces { n: super::MAX_PIECES, capped: true }
+        } else {
+            Pieces { n: (want as u32).max(1), capped: false }
+        }
+    };
+    let parts: Vec<(TriMesh, RefineStats)> = mesh
+        .triangles
+        .par_iter()
+        .map(|t| {
+            let tri: [DVec3; 3] = t.map(|i| mesh.positions[i as usize]);
+            let mut st = RefineStats { input: 1, ..Default::default() };
+            match subdivide_triangle(tri, &pieces) {
+                Ok((m, capped)) => {
+                    st.capped_edges = usize::from(capped);
+                    (m, st)
+                }
+                Err(DomeError::NonFiniteVertex) => {
+                    st.dropped_nonfinite = 1;
+                    (TriMesh::default(), st)
+                }
+                Err(_) => {
+                    st.dropped_through_viewer = 1;
+                    (TriMesh::default(), st)
+                }
+            }
+        })
+        .collect();
+    let mut out = RefinedMesh::default();
+    let mut welder = super::triangle::Welder::default();
+    for (m, st) in &parts {
+        welder.add(m);
+        out.stats = out.stats.merge(*st);
+    }
+    out.mesh = welder.into_mesh();
+    out.stats.emitted = out.mesh.triangles.len();
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dome::{DomeCamera, EdgeErrors};
+    use glam::DQuat;
+    use proptest::prelude::*;
+
+    #[test]
+    fn paper_classes() {
+        use ApparentSize::*;
+        use PrimitiveKind::*;
+        assert_eq!(classify(Line, Changing), Treatment::Dynamic);
+        assert_eq!(classify(Line, NearlyConstant), Treatment::Dynamic);
+        assert_eq!(classify(Triangle, Changing), Treatment::Dynamic);
+        assert_eq!(classify(Triangle, NearlyConstant), Treatment::PreSubdivided);
+    }
+
+    /// A "constellation art" quad on the sky sphere: 40° × 30° at radius 100.
+    fn sky_quad() -> TriMesh {
+        let d = |az: f64, el: f64| {
+            let (az, el) = (az.to_radians(), el.to_radians());
+            DVec3::new(el.cos() * az.sin(), el.sin(), -el.cos() * az.cos()) * 100.0
+        };
+        TriMesh {
+            positions: vec![d(-20.0, -15.0), d(20.0, -15.0), d(20.0, 15.0), d(-20.0, 15.0)],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+        #[test]
+        fn pre_subdivided_sky_art_is_within_tolerance_in_every_view(
+            ax in -1.0f64..1.0, ay in -1.0f64..1.0, az in -1.0f64..1.0, angle in 0.0f64..6.3,
+        ) {
+            // Subdivide once with the worst-case step for 1 px at 4K/180°,
+            // then turn the view arbitrarily: every edge kept in front of the
+            // view plane is within 1 px.
+            let proj = DomeCamera::new(180.0, 0.0, 4096).unwrap().projection().unwrap();
+            let rule = SplitRule::visual_angle_for_tolerance(&proj, 1.0).unwrap();
+            let SplitRule::VisualAngle { max_piece_rad } = rule else { unreachable!() };
+            let once = pre_subdivide(&sky_quad(), max_piece_rad).unwrap();
+            prop_assume!(DVec3::new(ax, ay, az).length() > 0.1);
+            let q = DQuat::from_axis_angle(DVec3::new(ax, ay, az).normalize(), angle);
+            let edges: Vec<[DVec3; 2]> = once.mesh.edges().iter()
+                .map(|e| e.map(|i| q * once.mesh.positions[i as usize]))
+                .filter(|e| e.iter().all(|v| v.z <= 0.0))
+                .collect();
+            let err = EdgeErrors::of_edges(&proj, &edges);
+            prop_assert!(err.max_px <= 1.0, "{:?}", err);
+        }
+    }
+
+    #[test]
+    fn pre_subdivision_is_crack_free_and_counts_bad_input() {
+        let m = TriMesh::cuboid(DVec3::splat(-1.0), DVec3::splat(1.0), true);
+        let r = pre_subdivide(&m, 5f64.to_radians()).unwrap();
+        assert!(r.mesh.boundary_edges().is_empty());
+        assert!(r.mesh.triangles.len() > 12 * 50);
+        let mut bad = m.clone();
+        bad.positions[3] = DVec3::splat(f64::NAN);
+        let r = pre_subdivide(&bad, 0.1).unwrap();
+        assert!(r.stats.dropped_nonfinite > 0);
+        assert!(pre_subdivide(&m, 0.0).is_err());
+    }
+}

@@ -1,0 +1,291 @@
+//! How many pieces a segment needs: the paper's visual-angle rule and the
+//! chord-gap estimate.
+//!
+//! * [`SplitRule::VisualAngle`] is the paper's rule (§3.2 steps 1–2, D4): the
+//!   number of pieces depends on the subtended angle only,
+//!   `n = ⌈α / Δ⌉`. It is invariant under camera rotation, which is what lets
+//!   primitives fixed around the viewer be pre-subdivided once (§3.1).
+//!   [`SplitRule::visual_angle_for_tolerance`] picks Δ so that a tangential
+//!   piece at the worst polar angle kept ([`DomeProjection::theta_reach`])
+//!   meets a pixel tolerance — everywhere else it over-splits.
+//! * [`SplitRule::ChordGap`] uses the image curvature where it is largest on
+//!   the arc. REFERENCE.md gives the chord gap of a *tangential* piece
+//!   subtending α at polar angle θ (D5):
+//!   `s ≈ f·α²·(θ/sin θ − cos θ)/(8 sin θ) = α²·f·g(θ)/8`.
+//!   We generalise it to any orientation (D6): for a piece crossing the
+//!   meridian at angle ψ the normal acceleration of the image per unit arc
+//!   angle is
+//!   `N(θ, ψ) = f·sin ψ·[T sin²ψ + K cos²ψ] / √(cos²ψ + (θ/sin θ)² sin²ψ)`
+//!   with `T = θ(θ − sin θ cos θ)/sin³θ`, `K = 2(sin θ − θ cos θ)/sin²θ`, and
+//!   `s ≈ α²·N/8`. At ψ = 90° this is D5; at ψ = 0 (radial) it is 0, so radial
+//!   segments are never split. Along one great circle Clairaut's relation
+//!   `sin θ · sin ψ = sin θ₀` (θ₀ the circle's closest approach to the axis,
+//!   `sin θ₀ = |axis · pole|`) fixes ψ, and N grows monotonically with θ
+//!   (checked numerically against finite differences of the projection while
+//!   deriving this), so its maximum on an arc is at the arc's largest θ. Then
+//!   `n = ⌈α·√(N_max/(8·tol))⌉`.
+//!
+//! For FOV > 180° an arc that leaves the guard cone also gets pieces of at
+//! most π − θ_clip (see [`DomeProjection::theta_reach`]). Both rules cap n at
+//! [`MAX_PIECES`] (reported as `capped`).
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use super::arc::{Arc, canonical_less};
+use super::camera::DomeProjection;
+use super::error::DomeError;
+
+/// Largest number of pieces one edge is split into. Reached only for
+/// sub-pixel tolerances on huge edges or for edges near the antipode guard
+/// of FOVs close to 360°; the error bound may then not hold.
+pub const MAX_PIECES: u32 = 1024;
+
+/// Below this polar angle the curvature factors use their series
+/// (T, K, g → 2θ/3), avoiding the 0/0 of the closed forms.
+const SMALL_THETA: f64 = 1e-4;
+
+/// A rule giving the number of pieces of an edge.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum SplitRule {
+    /// The paper's rule: pieces of at most `max_piece_rad` subtended angle.
+    VisualAngle {
+        /// Largest subtended angle of one piece, radians.
+        max_piece_rad: f64,
+    },
+    /// Pieces whose estimated chord gap is at most `tolerance_px` (D5, D6).
+    ChordGap {
+        /// Largest distance between chord and true image, pixels.
+        tolerance_px: f64,
+    },
+}
+
+/// Number of pieces of one edge.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Pieces {
+    /// Pieces (≥ 1).
+    pub n: u32,
+    /// Whether [`MAX_PIECES`] limited `n`.
+    pub capped: bool,
+}
+
+/// g(θ) = (θ/sin θ − cos θ)/sin θ = (θ − sin θ cos θ)/sin²θ, the tangential
+/// curvature factor of D5 (2θ/3 near the zenith, π/2 on the 180° rim,
+/// unbounded towards the antipode).
+pub fn tangential_factor(theta: f64) -> f64 {
+    if theta < SMALL_THETA {
+        return 2.0 * theta / 3.0;
+    }
+    let (s, c) = theta.sin_cos();
+    (theta - s * c) / (s * s)
+}
+
+/// REFERENCE.md's chord gap (D5) of a tangential piece subtending `alpha`
+/// radians at polar angle `theta`, in px for `focal_px` px/rad.
+pub fn tangential_chord_gap_px(focal_px: f64, alpha: f64, theta: f64) -> f64 {
+    focal_px * alpha * alpha * tangential_factor(theta) / 8.0
+}
+
+/// Largest subtended angle of a tangential piece at polar angle `theta`
+/// whose chord gap (D5) is `tolerance_px`: `√(8·tol/(f·g(θ)))`.
+pub fn max_tangential_piece_rad(focal_px: f64, theta: f64, tolerance_px: f64) -> f64 {
+    (8.0 * tolerance_px / (focal_px * tangential_factor(theta))).sqrt()
+}
+
+/// N(θ, ψ) of D6: the normal acceleration, in px per rad², of the image of a
+/// great circle crossing polar angle `theta` at angle ψ to the meridian
+/// (`sin_psi` = 1 tangential, 0 radial). The chord gap of a piece subtending
+/// α is about α²·N/8.
+pub fn normal_acceleration_px(focal_px: f64, theta: f64, sin_psi: f64) -> f64 {
+    let sp = sin_psi.clamp(0.0, 1.0);
+    if theta < SMALL_THETA {
+        return focal_px * sp * 2.0 * theta / 3.0;
+    }
+    let cos2 = 1.0 - sp * sp;
+    let (s, c) = theta.sin_cos();
+    let t = theta * (theta - s * c) / (s * s * s);
+    let k = 2.0 * (s - theta * c) / (s * s);
+    let q = theta / s;
+    focal_px * sp * (t * sp * sp + k * cos2) / (cos2 + q * q * sp * sp).sqrt()
+}
+
+fn count(steps: f64) -> Pieces {
+    let want = steps.ceil();
+    if want.is_nan() || want > f64::from(MAX_PIECES) {
+        // The cap is the documented fallback (NaN cannot occur for valid arcs).
+        return Pieces { n: MAX_PIECES, capped: true };
+    }
+    Pieces { n: (want as u32).max(1), capped: false }
+}
+
+impl SplitRule {
+    /// The paper's rule calibrated for a pixel tolerance: Δ such that a
+    /// tangential piece at the largest polar angle a kept piece reaches
+    /// ([`DomeProjection::theta_reach`]) has chord gap `tolerance_px` (D5).
+    /// 4K/180° and 0.5 px give Δ ≈ 2.53° (REFERENCE.md: "≤ ~2.5°").
+    pub fn visual_angle_for_tolerance(proj: &DomeProjection, tolerance_px: f64) -> Result<Self, DomeError> {
+        if !(tolerance_px > 0.0 && tolerance_px.is_finite()) {
+            return Err(DomeError::InvalidTolerance(tolerance_px));
+        }
+        let max_piece_rad = max_tangential_piece_rad(proj.focal_px(), proj.theta_reach(), tolerance_px);
+        Ok(SplitRule::VisualAngle { max_piece_rad })
+    }
+
+    /// Checks the rule's parameter.
+    pub fn validate(&self) -> Result<(), DomeError> {
+        match *self {
+            SplitRule::VisualAngle { max_piece_rad: d } if !(d > 0.0 && d.is_finite()) => {
+                Err(DomeError::InvalidPieceAngle(d))
+            }
+            SplitRule::ChordGap { tolerance_px: t } if !(t > 0.0 && t.is_finite()) => {
+                Err(DomeError::InvalidTolerance(t))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Pieces for the segment a→b (view space) under this rule. Symmetric
+    /// in a and b bit for bit (the endpoints are ordered canonically first).
+    /// Errors as [`split_segment`](super::split_segment).
+    pub fn pieces(&self, proj: &DomeProjection, a: DVec3, b: DVec3) -> Result<Pieces, DomeError> {
+        self.validate()?;
+        let (p, q) = if canonical_less(b, a) { (b, a) } else { (a, b) };
+        let arc = Arc::new(p, q)?;
+        Ok(self.pieces_of_arc(proj, &arc))
+    }
+
+    /// Pieces of an arc built in canonical order (no validation).
+    pub(crate) fn pieces_of_arc(&self, proj: &DomeProjection, arc: &Arc) -> Pieces {
+        if arc.is_point() {
+            return Pieces { n: 1, capped: false };
+        }
+        let range = arc.theta_range(proj.axis());
+        // An arc leaving the guard cone (FOV > 180°, triangles: they are
+        // culled per sub-triangle, not clipped) gets pieces of at most
+        // π − θ_clip, so a kept piece cannot reach the antipode. Without
+        // this, a radial arc through the antipode (N = 0) stays one piece and
+        // its chord jumps across the image.
+        let leaves = !proj.clips_at_view_plane() && range.max > proj.theta_clip();
+        let guard = if leaves { arc.alpha / (PI - proj.theta_clip()) } else { 0.0 };
+        let steps = match *self {
+            SplitRule::VisualAngle { max_piece_rad } => arc.alpha / max_piece_rad,
+            SplitRule::ChordGap { tolerance_px } => {
+                let at = |theta: f64| {
+                    arc.alpha * (arc_normal_acceleration_px(proj, arc, theta) / (8.0 * tolerance_px)).sqrt()
+                };
+                if leaves {
+                    // Kept pieces end inside the guard cone and bulge past it
+                    // by at most half a piece: size the pieces for the guard
+                    // angle, then for that angle plus half such a piece (N
+                    // grows with θ, so this only shrinks the pieces).
+                    let n0 = at(proj.theta_clip()).max(guard).ceil().max(1.0);
+                    at((proj.theta_clip() + 0.5 * arc.alpha / n0).min(range.max))
+                } else {
+                    at(range.max)
+                }
+            }
+        };
+        count(steps.max(guard))
+    }
+}
+
+/// Largest N (D6) on an arc whose largest polar angle is `theta_max`,
+/// limited to [`DomeProjection::theta_reach`] (no kept piece goes further).
+pub(crate) fn arc_normal_acceleration_px(proj: &DomeProjection, arc: &Arc, theta_max: f64) -> f64 {
+    let theta = theta_max.min(proj.theta_reach()).min(PI - 1e-6);
+    let sin_theta0 = arc.pole().dot(proj.axis()).abs();
+    let s = theta.sin();
+    let sin_psi = if s > 0.0 { (sin_theta0 / s).min(1.0) } else { 1.0 };
+    normal_acceleration_px(proj.focal_px(), theta, sin_psi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dome::DomeCamera;
+
+    fn dome(fov: f64) -> DomeProjection {
+        DomeCamera::new(fov, 0.0, 4096).unwrap().projection().unwrap()
+    }
+
+    #[test]
+    fn reference_chord_gap_numbers() {
+        // REFERENCE.md: at 4K/180° a 10° tangential edge at the rim is off by
+        // ~8 px, and 0.5 px needs ≤ ~2.5° there.
+        let f = dome(180.0).focal_px();
+        let s = tangential_chord_gap_px(f, 10f64.to_radians(), PI / 2.0);
+        assert!((s - 7.8).abs() < 0.1, "s = {s}");
+        let d = max_tangential_piece_rad(f, PI / 2.0, 0.5).to_degrees();
+        assert!((d - 2.53).abs() < 0.01, "Δ = {d}°");
+        // The two limits quoted: f·α²·θ/12 near the centre, (π/16)·f·α² at the rim.
+        let a = 0.01;
+        assert!((tangential_chord_gap_px(f, a, 1e-3) / (f * a * a * 1e-3 / 12.0) - 1.0).abs() < 1e-6);
+        assert!((tangential_chord_gap_px(f, a, PI / 2.0) / (PI / 16.0 * f * a * a) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn normal_acceleration_limits() {
+        let f = 1000.0;
+        for theta in [1e-5, 1e-3, 0.3, 1.0, PI / 2.0, 2.0, 2.8] {
+            // Tangential: D6 reduces to D5.
+            let n = normal_acceleration_px(f, theta, 1.0);
+            assert!((n / (f * tangential_factor(theta)) - 1.0).abs() < 1e-6, "θ = {theta}");
+            // Radial: straight image.
+            assert_eq!(normal_acceleration_px(f, theta, 0.0), 0.0);
+            // Tangential is the worst orientation.
+            for sp in [0.1, 0.5, 0.9, 0.99] {
+                assert!(normal_acceleration_px(f, theta, sp) <= n * (1.0 + 1e-12));
+            }
+        }
+        // Monotone in θ along a great circle (Clairaut): closest approach 30°.
+        let s0 = 30f64.to_radians().sin();
+        let mut prev = 0.0;
+        for k in 30..=150 {
+            let th = f64::from(k).to_radians();
+            let n = normal_acceleration_px(f, th, s0 / th.sin());
+            assert!(n >= prev, "θ = {k}°");
+            prev = n;
+        }
+    }
+
+    #[test]
+    fn rim_edge_pieces_at_half_pixel() {
+        // A 10° tangential edge on the 4K/180° rim at 0.5 px: 10°/2.53° → 4.
+        let p = dome(180.0);
+        let h = 5f64.to_radians();
+        let a = DVec3::new(h.sin(), -h.cos(), 0.0) * 3.0;
+        let b = DVec3::new(-h.sin(), -h.cos(), 0.0) * 7.0;
+        let rule = SplitRule::ChordGap { tolerance_px: 0.5 };
+        assert_eq!(rule.pieces(&p, a, b).unwrap(), Pieces { n: 4, capped: false });
+        let paper = SplitRule::visual_angle_for_tolerance(&p, 0.5).unwrap();
+        assert_eq!(paper.pieces(&p, a, b).unwrap().n, 4);
+    }
+
+    #[test]
+    fn radial_segments_need_no_split() {
+        // Any segment in a plane through the dome axis projects to a straight
+        // line through the centre (REFERENCE.md): one piece at any tolerance.
+        let p = dome(180.0);
+        let rule = SplitRule::ChordGap { tolerance_px: 0.01 };
+        for phi in [0.0, 0.7, 2.0, 4.0] {
+            let (s, c) = f64::sin_cos(phi);
+            let a = DVec3::new(c * 0.1, s * 0.1, -1.0);
+            let b = DVec3::new(c * 5.0, s * 5.0, -0.01);
+            assert_eq!(rule.pieces(&p, a, b).unwrap().n, 1);
+        }
+    }
+
+    #[test]
+    fn bad_parameters_and_caps() {
+        let p = dome(180.0);
+        assert_eq!(SplitRule::ChordGap { tolerance_px: 0.0 }.validate(), Err(DomeError::InvalidTolerance(0.0)));
+        assert!(SplitRule::ChordGap { tolerance_px: f64::NAN }.validate().is_err());
+        assert!(SplitRule::VisualAngle { max_piece_rad: -1.0 }.validate().is_err());
+        assert!(SplitRule::visual_angle_for_tolerance(&p, f64::INFINITY).is_err());
+        let tiny = SplitRule::ChordGap { tolerance_px: 1e-12 };
+        let pc = tiny.pieces(&p, DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)).unwrap();
+        assert_eq!(pc, Pieces { n: MAX_PIECES, capped: true });
+    }
+}

@@ -1,0 +1,609 @@
+//! Refinement of triangles (paper §3.3) and of indexed meshes.
+//!
+//! The paper's steps, as implemented for every triangle by [`refine_triangle`]
+//! (after clipping) and [`pre_subdivide`](super::pre_subdivide):
+//!
+//! 1. Compute the subtended angle of the three edges (D4).
+//! 2. Split each edge by the rule (D5/D6, D7). Let AB be the edge of largest
+//!    angle and C the opposite corner (the corner of largest angle).
+//! 3. Join the new vertices of the two shorter edges AC (points P₀ = A … P_m = C)
+//!    and BC (Q₀ = B … Q_k = C) by "rungs", starting nearest AB. The paper
+//!    pairs them one to one; when m ≠ k we pair Pⱼ with Q⌊j·k/m⌋ (or the
+//!    mirror), j = 1 … max(m, k) − 1, so every vertex of the longer side gets
+//!    a rung, rungs never cross, the last rung ends at P_{m−1} and Q_{k−1}, and
+//!    consecutive rungs differ by at most one vertex on each side.
+//! 4. Split every rung by the rule.
+//! 5. Triangulate the strip between AB and the first rung by walking both
+//!    polylines alternately (where their vertex counts differ, advancing on
+//!    the side that gives the shorter diagonal).
+//! 6. Repeat for every pair of consecutive rungs, so neighbouring strips
+//!    share the split rung.
+//! 7. Fan the corner C with the last rung.
+//!
+//! Every edge is split from its canonically ordered endpoints, so a boundary
+//! edge shared with a neighbour gets bit-identical vertices from both sides:
+//! welding the output by exact position gives a crack-free mesh (a closed
+//! input mesh stays closed). All sub-triangles keep the input's winding.
+//!
+//! Then (our addition, `interior.rs`) interior edges that still need more
+//! than one piece — stitched diagonals and rung pieces where the inside of
+//! the triangle is nearer the viewer than its sides — are bisected
+//! conformingly, never touching the patch boundary.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::arc::{Arc, canonical_less, split_segment, subtended_angle};
+use super::camera::DomeProjection;
+use super::clip::clip_triangle_plane;
+use super::error::DomeError;
+use super::interior::bisect_interior;
+use super::refine::RefineStats;
+use super::rule::{Pieces, SplitRule};
+
+/// The interior bisection of a patch stops at this many times the
+/// triangles of the paper's triangulation (plus 4096); reported as capped.
+const INTERIOR_BUDGET_FACTOR: usize = 16;
+
+/// An indexed triangle mesh in view space (or viewer-centred space).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TriMesh {
+    /// Vertex positions.
+    pub positions: Vec<DVec3>,
+    /// Triangles as indices into `positions`.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriMesh {
+    /// An axis-aligned box as 8 shared vertices and 12 triangles (two per
+    /// face), wound outwards, or inwards when `inside_out` (a room seen from
+    /// inside). A test scene and a closed mesh for crack checks.
+    pub fn cuboid(min: DVec3, max: DVec3, inside_out: bool) -> Self {
+        let corner = |i: u32| {
+            DVec3::new(
+                if i & 1 == 0 { min.x } else { max.x },
+                if i & 2 == 0 { min.y } else { max.y },
+                if i & 4 == 0 { min.z } else { max.z },
+            )
+        };
+        let positions = (0..8).map(corner).collect();
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let mut triangles = Vec::with_capacity(12);
+        for q in quads {
+            for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+                triangles.push(if inside_out { [t[0], t[2], t[1]] } else { t });
+            }
+        }
+        Self { positions, triangles }
+    }
+
+    /// Checks that every index refers to a vertex.
+    pub fn validate(&self) -> Result<(), DomeError> {
+        let len = self.positions.len();
+        for t in &self.triangles {
+            for &index in t {
+                if index as usize >= len {
+                    return Err(DomeError::IndexOutOfRange { index, len });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Every undirected edge once, as sorted index pairs.
+    pub fn edges(&self) -> Vec<[u32; 2]> {
+        let mut e: Vec<[u32; 2]> = self
+            .triangles
+            .iter()
+            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+            .map(|[a, b]| if a < b { [a, b] } else { [b, a] })
+            .collect();
+        e.sort_unstable();
+        e.dedup();
+        e
+    }
+
+    /// Undirected edges used by exactly one triangle (the mesh boundary;
+    /// empty for a closed mesh).
+    pub fn boundary_edges(&self) -> Vec<[u32; 2]> {
+        let mut count: HashMap<[u32; 2], u32> = HashMap::new();
+        for t in &self.triangles {
+            for [a, b] in [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]] {
+                *count.entry(if a < b { [a, b] } else { [b, a] }).or_default() += 1;
+            }
+        }
+        let mut e: Vec<[u32; 2]> = count.into_iter().filter(|&(_, c)| c == 1).map(|(e, _)| e).collect();
+        e.sort_unstable();
+        e
+    }
+}
+
+/// A refined mesh and what happened.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RefinedMesh {
+    /// Output mesh, vertices welded by exact position.
+    pub mesh: TriMesh,
+    /// Counters (inputs are triangles).
+    pub stats: RefineStats,
+}
+
+/// Welds vertices by exact bits (−0 and +0 are one vertex).
+#[derive(Default)]
+pub(crate) struct Welder {
+    map: HashMap<[u64; 3], u32>,
+    mesh: TriMesh,
+}
+
+impl Welder {
+    fn vertex(&mut self, p: DVec3) -> u32 {
+        let key = [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
+        let mesh = &mut self.mesh;
+        *self.map.entry(key).or_insert_with(|| {
+            mesh.positions.push(p);
+            (mesh.positions.len() - 1) as u32
+        })
+    }
+
+    pub(crate) fn into_mesh(self) -> TriMesh {
+        self.mesh
+    }
+
+    /// Adds the triangles of `m` and the vertices they use (unused vertices,
+    /// e.g. of culled triangles, are left out).
+    pub(crate) fn add(&mut self, m: &TriMesh) {
+        let mut idx = vec![u32::MAX; m.positions.len()];
+        for t in &m.triangles {
+            let t = t.map(|i| {
+                if idx[i as usize] == u32::MAX {
+                    idx[i as usize] = self.vertex(m.positions[i as usize]);
+                }
+                idx[i as usize]
+            });
+            if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                self.mesh.triangles.push(t);
+            }
+        }
+    }
+}
+
+/// Paper §3.3 on one triangle, with no clipping: `pieces` gives the piece
+/// count of an edge (it is called with canonically ordered endpoints, so it
+/// may be any deterministic function). Returns the local mesh and whether a
+/// piece count was capped. Errors from the arcs (origin, through the viewer).
+pub(crate) fn subdivide_triangle(
+    tri: [DVec3; 3],
+    pieces: &(impl Fn(&Arc) -> Pieces + ?Sized),
+) -> Result<(TriMesh, bool), DomeError> {
+    let alphas = [0, 1, 2].map(|i| subtended_angle(tri[i], tri[(i + 1) % 3]));
+    let mut e = 0;
+    for i in 1..3 {
+        if alphas[i] > alphas[e] {
+            e = i;
+        }
+    }
+    // (A, B, C) is a rotation of the input, so it keeps the winding.
+    let (a, b, c) = (tri[e], tri[(e + 1) % 3], tri[(e + 2) % 3]);
+    let mut verts = vec![a, b, c];
+    let mut capped = false;
+    let mut split = |verts: &mut Vec<DVec3>, i0: u32, i1: u32| -> Result<Vec<u32>, DomeError> {
+        let (p, q) = (verts[i0 as usize], verts[i1 as usize]);
+        let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
+        let pc = pieces(&Arc::new(c0, c1)?);
+        capped |= pc.capped;
+        let pts = split_segment(p, q, pc.n)?;
+        let mut idx = Vec::with_capacity(pts.len());
+        idx.push(i0);
+        for &x in &pts[1..pts.len() - 1] {
+            idx.push(verts.len() as u32);
+            verts.push(x);
+        }
+        idx.push(i1);
+        Ok(idx)
+    };
+    let ab = split(&mut verts, 0, 1)?;
+    let side_p = split(&mut verts, 0, 2)?; // A → C
+    let side_q = split(&mut verts, 1, 2)?; // B → C
+    let (m, k) = (side_p.len() - 1, side_q.len() - 1);
+    let rungs = m.max(k);
+    let mut tris = Vec::new();
+    let mut lower = ab;
+    for j in 1..rungs {
+        let (pi, qi) = if m >= k { (j, j * k / m) } else { (j * m / k, j) };
+        let upper = split(&mut verts, side_p[pi], side_q[qi])?;
+        stitch(&verts, &lower, &upper, &mut tris);
+        lower = upper;
+    }
+    for w in lower.windows(2) {
+        push_tri(&mut tris, [w[0], w[1], 2]);
+    }
+    let mut mesh = TriMesh { positions: verts, triangles: tris };
+    // Our addition: interior diagonals that still need pieces are bisected
+    // (see interior.rs); the boundary is never touched.
+    let needs_split = |p: DVec3, q: DVec3| {
+        let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
+        Arc::new(c0, c1).is_ok_and(|arc| pieces(&arc).n > 1)
+    };
+    let budget = INTERIOR_BUDGET_FACTOR * mesh.triangles.len() + 4096;
+    capped |= bisect_interior(&mut mesh, &needs_split, budget);
+    Ok((mesh, capped))
+}
+
+fn push_tri(tris: &mut Vec<[u32; 3]>, t: [u32; 3]) {
+    if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+        tris.push(t);
+    }
+}
+
+/// Zigzag between two polylines running from the A side to the B side,
+/// `upper` nearer C (paper §3.3 steps 5–6, "交互にたどり結合する"). The paper
+/// alternates; with unequal vertex counts we advance on the side whose new
+/// diagonal subtends the smaller angle (greedy shortest diagonal), which
+/// equals alternation on a regular strip and keeps diagonals short when the
+/// two polylines are split differently. Between two polylines with distinct
+/// ends (a convex quad) any advance order is a valid triangulation; when the
+/// polylines share their first or last vertex (a wedge: consecutive rungs
+/// that end on the same side vertex) that vertex gets exactly one triangle,
+/// else the walk could join three collinear points of one polyline.
+/// Winding follows (A, B, C).
+fn stitch(verts: &[DVec3], lower: &[u32], upper: &[u32], tris: &mut Vec<[u32; 3]>) {
+    let (mut l, mut u) = (lower, upper);
+    if l[0] == u[0] {
+        push_tri(tris, [l[0], l[1], u[1]]);
+        (l, u) = (&l[1..], &u[1..]);
+    }
+    let shared_end = l.len() > 1 && u.len() > 1 && l.last() == u.last();
+    if shared_end {
+        let (nl, nu) = (l.len() - 1, u.len() - 1);
+        push_tri(tris, [l[nl - 1], l[nl], u[nu - 1]]);
+        (l, u) = (&l[..nl], &u[..nu]);
+    }
+    let (nl, nu) = (l.len() - 1, u.len() - 1);
+    let v = |i: u32| verts[i as usize];
+    let (mut i, mut j) = (0, 0);
+    while i < nl || j < nu {
+        let advance_lower = if i == nl {
+            false
+        } else if j == nu {
+            true
+        } else {
+            subtended_angle(v(l[i + 1]), v(u[j])) <= subtended_angle(v(l[i]), v(u[j + 1]))
+        };
+        if advance_lower {
+            push_tri(tris, [l[i], l[i + 1], u[j]]);
+            i += 1;
+        } else {
+            push_tri(tris, [l[i], u[j + 1], u[j]]);
+            j += 1;
+        }
+    }
+}
+
+/// Whether the ray from the origin along `d` passes through triangle `t`.
+fn covers_direction(t: &[DVec3; 3], d: DVec3) -> bool {
+    let det = t[0].dot(t[1].cross(t[2]));
+    if det == 0.0 {
+        return false;
+    }
+    let l0 = d.dot(t[1].cross(t[2])) / det;
+    let l1 = t[0].dot(d.cross(t[2])) / det;
+    let l2 = t[0].dot(t[1].cross(d)) / det;
+    l0 >= 0.0 && l1 >= 0.0 && l2 >= 0.0
+}
+
+/// Clips (FOV ≤ 180°), refines (paper §3.3) and, for FOV > 180°, culls at the
+/// antipode guard one triangle (see [`clip`](super::clip_segment) docs).
+/// Errors: a bad rule or a non-finite vertex. Parts touching the origin or
+/// with an edge through the viewer are left out and counted.
+pub fn refine_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) -> Result<RefinedMesh, DomeError> {
+    rule.validate()?;
+    if !tri.iter().all(|v| v.is_finite()) {
+        return Err(DomeError::NonFiniteVertex);
+    }
+    let mut stats = RefineStats { input: 1, ..Default::default() };
+    let parts = if proj.clips_at_view_plane() { clip_triangle_plane(proj.axis(), tri) } else { vec![tri] };
+    if parts.is_empty() {
+        stats.clipped_away = 1;
+    }
+    let scale = tri.iter().map(|v| v.length()).fold(0.0, f64::max);
+    let pieces = |arc: &Arc| rule.pieces_of_arc(proj, arc);
+    let mut welder = Welder::default();
+    let mut through = false;
+    for part in parts {
+        if part.iter().any(|v| v.length() <= 1e-12 * scale) {
+            through = true;
+            continue;
+        }
+        let (mut local, capped) = match subdivide_triangle(part, &pieces) {
+            Ok(r) => r,
+            Err(DomeError::ThroughViewer | DomeError::AtOrigin) => {
+                through = true;
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
+        stats.capped_edges += usize::from(capped);
+        if !proj.clips_at_view_plane() {
+            let limit = proj.theta_clip();
+            let anti = -proj.axis();
+            let before = local.triangles.len();
+            let pos = &local.positions;
+            local.triangles.retain(|t| {
+                let v = t.map(|i| pos[i as usize]);
+                v.iter().all(|&p| proj.theta(p) <= limit) && !covers_direction(&v, anti)
+            });
+            stats.culled += before - local.triangles.len();
+        }
+        welder.add(&local);
+    }
+    stats.dropped_through_viewer = usize::from(through);
+    stats.emitted = welder.mesh.triangles.len();
+    Ok(RefinedMesh { mesh: welder.mesh, stats })
+}
+
+/// Refines every triangle of a mesh in parallel and welds the result by exact
+/// position. Triangles with a non-finite vertex are left out and counted.
+/// Errors: a bad rule or an index out of range.
+pub fn refine_mesh(proj: &DomeProjection, mesh: &TriMesh, rule: SplitRule) -> Result<RefinedMesh, DomeError> {
+    rule.validate()?;
+    mesh.validate()?;
+    let patches: Vec<RefinedMesh> = mesh
+        .triangles
+        .par_iter()
+        .map(|t| {
+            let tri = t.map(|i| mesh.positions[i as usize]);
+            refine_triangle(proj, tri, rule).unwrap_or_else(|_| RefinedMesh {
+                mesh: TriMesh::default(),
+                stats: RefineStats { input: 1, dropped_nonfinite: 1, ..Default::default() },
+            })
+        })
+        .collect();
+    let mut welder = Welder::default();
+    let mut stats = RefineStats::default();
+    for p in &patches {
+        welder.add(&p.mesh);
+        stats = stats.merge(p.stats);
+    }
+    stats.emitted = welder.mesh.triangles.len();
+    Ok(RefinedMesh { mesh: welder.mesh, stats })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dome::DomeCamera;
+    use proptest::prelude::*;
+
+    fn dome(fov: f64) -> DomeProjection {
+        DomeCamera::new(fov, 0.0, 4096).unwrap().projection().unwrap()
+    }
+
+    fn box_mesh(min: DVec3, max: DVec3, inside_out: bool) -> TriMesh {
+        TriMesh::cuboid(min, max, inside_out)
+    }
+
+    fn area_normal(m: &TriMesh, t: [u32; 3]) -> DVec3 {
+        let p = t.map(|i| m.positions[i as usize]);
+        (p[1] - p[0]).cross(p[2] - p[0])
+    }
+
+    #[test]
+    fn closed_mesh_stays_closed() {
+        // A box in front of the viewer at 180°: nothing is clipped, so a
+        // crack-free refinement of a closed mesh is closed (every edge used
+        // by exactly two triangles).
+        let p = dome(180.0);
+        let m = box_mesh(DVec3::new(-3.0, -2.0, -6.0), DVec3::new(2.0, 3.0, -1.5), false);
+        for tol in [4.0, 1.0, 0.3] {
+            let r = refine_mesh(&p, &m, SplitRule::ChordGap { tolerance_px: tol }).unwrap();
+            assert!(r.mesh.triangles.len() > 12);
+            assert!(r.mesh.boundary_edges().is_empty(), "tol {tol}");
+        }
+    }
+
+    #[test]
+    fn shared_edge_split_identically_from_both_sides() {
+        // Two triangles sharing edge (a, b) with very different opposite
+        // corners: the split points on the edge are the same bits.
+        let p = dome(180.0);
+        let rule = SplitRule::ChordGap { tolerance_px: 0.5 };
+        let (a, b) = (DVec3::new(-3.0, -1.0, -1.0), DVec3::new(3.0, -0.5, -0.6));
+        let r1 = refine_triangle(&p, [a, b, DVec3::new(0.0, 4.0, -1.0)], rule).unwrap();
+        let r2 = refine_triangle(&p, [b, a, DVec3::new(0.1, -3.0, -0.2)], rule).unwrap();
+        let on_edge = |m: &TriMesh| {
+            let mut v: Vec<[u64; 3]> = m
+                .positions
+                .iter()
+                .filter(|&&x| (x - a).cross(b - a).length() < 1e-12)
+                .map(|x| [x.x.to_bits(), x.y.to_bits(), x.z.to_bits()])
+                .collect();
+            v.sort_unstable();
+            v
+        };
+        let (e1, e2) = (on_edge(&r1.mesh), on_edge(&r2.mesh));
+        assert!(e1.len() > 4);
+        assert_eq!(e1, e2);
+    }
+
+    #[test]
+    fn winding_is_kept_and_area_conserved() {
+        let p = dome(180.0);
+        let tri = [DVec3::new(-2.0, -1.0, -1.0), DVec3::new(3.0, -0.5, -0.6), DVec3::new(0.5, 4.0, -0.8)];
+        let n0 = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+        let r = refine_triangle(&p, tri, SplitRule::ChordGap { tolerance_px: 0.5 }).unwrap();
+        let mut area = 0.0;
+        for &t in &r.mesh.triangles {
+            let n = area_normal(&r.mesh, t);
+            assert!(n.dot(n0) > 0.0);
+            area += n.length();
+        }
+        assert!((area / n0.length() - 1.0).abs() < 1e-9, "area ratio {}", area / n0.length());
+    }
+
+    #[test]
+    fn unequal_sides_and_tiny_triangles() {
+        // A long thin triangle (sides with very different piece counts) and
+        // a triangle too small to split: valid fans, area conserved.
+        let p = dome(180.0);
+        let rule = SplitRule::ChordGap { tolerance_px: 0.5 };
+        for tri in [
+            [DVec3::new(-4.0, 0.0, -1.0), DVec3::new(4.0, 0.1, -1.0), DVec3::new(4.0, 0.6, -1.2)],
+            [DVec3::new(0.0, 0.0, -10.0), DVec3::new(0.01, 0.0, -10.0), DVec3::new(0.0, 0.01, -10.0)],
+        ] {
+            let n0 = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+            let r = refine_triangle(&p, tri, rule).unwrap();
+            let area: f64 = r.mesh.triangles.iter().map(|&t| area_normal(&r.mesh, t).length()).sum();
+            assert!((area / n0.length() - 1.0).abs() < 1e-9);
+            assert!(r.mesh.triangles.iter().all(|&t| area_normal(&r.mesh, t).dot(n0) > 0.0));
+            assert!(r.mesh.boundary_edges().len() >= 3);
+        }
+    }
+
+    #[test]
+    fn inside_out_room_clipped_at_view_plane() {
+        // REFERENCE.md's lavapipe case: a zenith camera inside a box. The
+        // floor (behind the viewer) is clipped away, walls are cut at z = 0;
+        // the only open boundary lies on the view plane.
+        let p = dome(180.0);
+        let m = box_mesh(DVec3::new(-4.0, -6.0, -3.0), DVec3::new(4.0, 3.0, 1.7), true);
+        let r = refine_mesh(&p, &m, SplitRule::ChordGap { tolerance_px: 2.0 }).unwrap();
+        assert_eq!(r.stats.clipped_away, 2);
+        assert!(r.mesh.positions.iter().all(|v| v.z <= 0.0));
+        let b = r.mesh.boundary_edges();
+        assert!(!b.is_empty());
+        for [i, j] in b {
+            assert!(r.mesh.positions[i as usize].z.abs() < 1e-12 && r.mesh.positions[j as usize].z.abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn wide_fov_culls_only_near_the_antipode() {
+        // 250°: no clipping; the floor under the zenith camera is refined and
+        // the sub-triangles near the antipode (beyond 152.5°) are culled. Every
+        // kept vertex is finite and inside the guard cone; everything inside
+        // the image circle (θ ≤ 125°) of the floor is kept: it is still
+        // covered by sub-triangles (checked on a grid of floor points).
+        let p = dome(250.0);
+        let m = box_mesh(DVec3::new(-4.0, -6.0, -3.0), DVec3::new(4.0, 3.0, 1.7), true);
+        let r = refine_mesh(&p, &m, SplitRule::ChordGap { tolerance_px: 2.0 }).unwrap();
+        assert!(r.stats.culled > 0);
+        assert!(r.mesh.positions.iter().all(|v| v.is_finite()));
+        for t in &r.mesh.triangles {
+            for &i in t {
+                assert!(p.theta(r.mesh.positions[i as usize]) <= p.theta_clip() + 1e-12);
+            }
+        }
+        let floor: Vec<[DVec3; 3]> = r
+            .mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| r.mesh.positions[i as usize]))
+            .filter(|v| v.iter().all(|q| (q.z - 1.7).abs() < 1e-9))
+            .collect();
+        for i in 0..16 {
+            for j in 0..18 {
+                // Cell centres: off the floor's own edges, where barycentric
+                // round-off could say "outside".
+                let q = DVec3::new(-3.75 + 0.5 * f64::from(i), -5.75 + 0.5 * f64::from(j), 1.7);
+                if p.theta(q) <= p.theta_max() {
+                    assert!(floor.iter().any(|v| covers_direction(v, q)), "{q} not covered");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bad_input() {
+        let p = dome(180.0);
+        let rule = SplitRule::ChordGap { tolerance_px: 1.0 };
+        let mut m = box_mesh(DVec3::splat(-1.0) - DVec3::Z * 3.0, DVec3::splat(1.0) - DVec3::Z * 3.0, false);
+        m.positions[0] = DVec3::new(f64::NAN, 0.0, 0.0);
+        let r = refine_mesh(&p, &m, rule).unwrap();
+        assert!(r.stats.dropped_nonfinite > 0);
+        assert!(r.mesh.positions.iter().all(|v| v.is_finite()));
+        m.triangles.push([0, 1, 99]);
+        assert_eq!(refine_mesh(&p, &m, rule), Err(DomeError::IndexOutOfRange { index: 99, len: 8 }));
+        // A triangle through the viewer (an edge passes the origin).
+        let t = [DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 0.0, 1.0), DVec3::new(0.0, 1.0, -1.0)];
+        let r = refine_triangle(&p, t, rule).unwrap();
+        assert_eq!(r.stats.dropped_through_viewer, 1);
+        assert!(r.mesh.positions.iter().all(|v| v.is_finite()));
+    }
+
+    fn v3() -> impl Strategy<Value = DVec3> {
+        (-5.0f64..5.0, -5.0f64..5.0, -5.0f64..5.0).prop_map(|(x, y, z)| DVec3::new(x, y, z))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        #[test]
+        fn refined_triangle_edges_are_within_tolerance(
+            fov in 90.0f64..250.0, tilt in -30.0f64..30.0, tol in 0.5f64..8.0,
+            a in v3(), b in v3(), c in v3(),
+        ) {
+            let p = DomeCamera::new(fov, tilt, 4096).unwrap().projection().unwrap();
+            let r = refine_triangle(&p, [a, b, c], SplitRule::ChordGap { tolerance_px: tol }).unwrap();
+            prop_assert!(r.mesh.positions.iter().all(|v| v.is_finite()));
+            // Every sub-triangle keeps the input's winding and has area: no
+            // collinear triples (they would hide T-junctions).
+            let n0 = (b - a).cross(c - a);
+            if n0.length() > 1e-3 {
+                for &t in &r.mesh.triangles {
+                    prop_assert!(area_normal(&r.mesh, t).dot(n0) > 0.0);
+                }
+            }
+            if r.stats.capped_edges == 0 {
+                let e = crate::dome::EdgeErrors::of_mesh(&p, &r.mesh);
+                prop_assert_eq!(e.failed, 0);
+                prop_assert!(e.max_px <= tol, "{:?} tol {}", e, tol);
+            }
+        }
+
+        #[test]
+        fn two_triangles_sharing_an_edge_leave_no_crack(
+            fov in 90.0f64..250.0, tilt in -30.0f64..30.0, tol in 0.5f64..8.0,
+            a in v3(), b in v3(), c in v3(), d in v3(),
+        ) {
+            // Triangles (a, b, c) and (b, a, d) share edge a–b. Refined
+            // separately, the open pieces each leaves on a–b must not have a
+            // vertex of the other strictly inside them (a T-junction, i.e. a
+            // crack). With FOV ≤ 180° both keep the same clipped part of a–b,
+            // so the pieces must be identical and the welded pair has no open
+            // piece on a–b at all. (With FOV > 180° each side may cull
+            // different sub-triangles beyond the rim.)
+            let p = DomeCamera::new(fov, tilt, 4096).unwrap().projection().unwrap();
+            let rule = SplitRule::ChordGap { tolerance_px: tol };
+            let ab = b - a;
+            prop_assume!(ab.length() > 1e-3);
+            let param = |v: DVec3| (v - a).dot(ab) / ab.length_squared();
+            let open_on_ab = |m: &TriMesh| {
+                let mut s: Vec<[f64; 2]> = m.boundary_edges().into_iter()
+                    .map(|e| e.map(|i| m.positions[i as usize]))
+                    .filter(|e| e.iter().all(|&v| (v - a).cross(ab).length() <= 1e-9 * ab.length() * (1.0 + a.length())))
+                    .map(|e| { let (s0, s1) = (param(e[0]), param(e[1])); [s0.min(s1), s0.max(s1)] })
+                    .collect();
+                s.sort_by(|x, y| x[0].total_cmp(&y[0]));
+                s
+            };
+            let one = refine_mesh(&p, &TriMesh { positions: vec![a, b, c], triangles: vec![[0, 1, 2]] }, rule).unwrap();
+            let other = refine_mesh(&p, &TriMesh { positions: vec![a, b, d], triangles: vec![[1, 0, 2]] }, rule).unwrap();
+            let (s1, s2) = (open_on_ab(&one.mesh), open_on_ab(&other.mesh));
+            for (x, y) in [(&s1, &s2), (&s2, &s1)] {
+                for piece in x {
+                    for q in y {
+                        for v in q {
+                            prop_assert!(!(piece[0] < *v && *v < piece[1]), "T-junction at {} in {:?}", v, piece);
+                        }
+                    }
+                }
+            }
+            if p.clips_at_view_plane() {
+                prop_assert_eq!(&s1, &s2);
+                let both = refine_mesh(&p, &TriMesh { positions: vec![a, b, c, d], triangles: vec![[0, 1, 2], [1, 0, 3]] }, rule).unwrap();
+                prop_assert!(open_on_ab(&both.mesh).is_empty());
+            }
+        }
+    }
+}

@@ -1,0 +1,418 @@
+//! Dome (Johjima & Fujimura): error of equidistant per-vertex projection with
+//! adaptive edge refinement, over the pixel tolerance.
+//!
+//! * Camera: 4K (4096²) domemaster, 180° FOV, untilted (f = 1303.8 px/rad).
+//! * Scene: random edges around the viewer — midpoints uniform in solid angle
+//!   over the front hemisphere, subtended angles 1°–60°, random orientation,
+//!   endpoint distances 1–20 (edges near the horizon cross the view plane and
+//!   are clipped) — and REFERENCE.md's inside-out room (8 × 9 × 4.7, viewer
+//!   1.7 above the floor, camera at the zenith) as a 12-triangle mesh.
+//! * Knob: `tolerance_px` of the chord-gap rule (`SplitRule::ChordGap`).
+//! * Errors: the exact chord error (D8: largest distance from the projected
+//!   great-circle arc to the drawn chord, 1-D search), per input edge the
+//!   worst of its pieces: `max_px`, `mean_px`. `paper_max_px`: the same edges
+//!   under the paper's visual-angle rule calibrated for the same tolerance at
+//!   the rim. `mesh_max_px`, `mesh_mean_px`: every edge of the refined room
+//!   (pieces, rungs, stitched diagonals). `unrefined_max_px` / `_mean_px`:
+//!   the edges drawn as one chord each (the baseline's error; constant).
+//! * Work: segments emitted (chord-gap and paper rules), room triangles.
+//! * time_ms: clip + refine (chord-gap) + project every output vertex of the
+//!   random edges; baseline_time_ms: project both endpoints of every edge.
+
+use std::f64::consts::{PI, TAU};
+
+use optica_optics::dome::{
+    DomeCamera, DomeError, DomeProjection, EdgeErrors, Projected, RefinedSegment, SplitRule, TriMesh, chord_error_px,
+    polyline_error_px, refine_mesh, refine_segment, refine_segments,
+};
+use optica_optics::glam::DVec3;
+
+use crate::{Report, Row, SweepContext, time_ms};
+
+/// SplitMix64: a small deterministic generator, so the scene is the same in
+/// every run.
+struct Rng(u64);
+
+impl Rng {
+    fn next_f64(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next_f64()
+    }
+}
+
+/// `n` random edges around the viewer of `proj`, midpoints with polar angle
+/// up to `max_theta` (uniform in solid angle), subtending `min_deg`–`max_deg`.
+fn random_edges(
+    proj: &DomeProjection,
+    n: usize,
+    max_theta: f64,
+    min_deg: f64,
+    max_deg: f64,
+    seed: u64,
+) -> Vec<[DVec3; 2]> {
+    let mut rng = Rng(seed);
+    (0..n)
+        .map(|_| {
+            let theta = rng.range(max_theta.cos(), 1.0).acos();
+            let phi = rng.range(0.0, TAU);
+            let half = 0.5 * rng.range(min_deg, max_deg).to_radians();
+            let omega = rng.range(0.0, PI);
+            let (st, ct) = theta.sin_cos();
+            let (sp, cp) = phi.sin_cos();
+            // Dome coordinates (right, up, along the axis).
+            let mid = DVec3::new(st * cp, st * sp, ct);
+            let e_theta = DVec3::new(ct * cp, ct * sp, -st);
+            let e_phi = DVec3::new(-sp, cp, 0.0);
+            let t = omega.cos() * e_theta + omega.sin() * e_phi;
+            let (sh, ch) = half.sin_cos();
+            let a = proj.from_dome(mid * ch - t * sh) * rng.range(1.0, 20.0);
+            let b = proj.from_dome(mid * ch + t * sh) * rng.range(1.0, 20.0);
+            [a, b]
+        })
+        .collect()
+}
+
+/// The room of REFERENCE.md's lavapipe note, seen by a zenith camera.
+fn room() -> TriMesh {
+    TriMesh::cuboid(DVec3::new(-4.0, -6.0, -3.0), DVec3::new(4.0, 3.0, 1.7), true)
+}
+
+/// Per input edge: the worst chord error of its refined pieces. Edges that
+/// fail to refine or measure are skipped (none in the sweep's scene).
+fn per_edge_errors(proj: &DomeProjection, edges: &[[DVec3; 2]], rule: SplitRule) -> (f64, f64, usize) {
+    let (mut max, mut sum, mut segments, mut n) = (0.0f64, 0.0, 0, 0);
+    for &[a, b] in edges {
+        let Ok(r) = refine_segment(proj, a, b, rule) else { continue };
+        segments += r.segment_count();
+        if r.strips.is_empty() {
+            continue;
+        }
+        let e = r.strips.iter().filter_map(|s| polyline_error_px(proj, s).ok()).fold(0.0, f64::max);
+        max = max.max(e);
+        sum += e;
+        n += 1;
+    }
+    (max, if n > 0 { sum / n as f64 } else { 0.0 }, segments)
+}
+
+/// Error of each edge drawn as a single chord (after clipping).
+fn unrefined_errors(proj: &DomeProjection, edges: &[[DVec3; 2]]) -> (f64, f64) {
+    let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0);
+    for &[a, b] in edges {
+        let Ok(parts) = optica_optics::dome::clip_segment(proj, a, b) else { continue };
+        for [p, q] in parts {
+            if let Ok(e) = chord_error_px(proj, p, q) {
+                max = max.max(e);
+                sum += e;
+                n += 1;
+            }
+        }
+    }
+    (max, if n > 0 { sum / n as f64 } else { 0.0 })
+}
+
+/// Whether every vertex of a refinement is finite and every piece within `tol`.
+fn pieces_within(proj: &DomeProjection, r: &RefinedSegment, tol: f64) -> (bool, f64) {
+    let finite = r.strips.iter().flatten().all(|v| v.is_finite());
+    let e = r.strips.iter().map(|s| polyline_error_px(proj, s).unwrap_or(f64::INFINITY)).fold(0.0, f64::max);
+    (finite && e <= tol, e)
+}
+
+/// Runs the sweep.
+pub fn run(ctx: &SweepContext) -> Report {
+    let mut report = Report::cpu("dome", "tolerance_px");
+    report.baseline = "projecting both endpoints of every random edge (one unrefined chord per edge)".into();
+    report.reference = "exact chord error D8: largest pixel distance between the equidistant image of the \
+                        great-circle arc an edge subtends and the drawn chord (sampling + golden-section search)"
+        .into();
+
+    let proj = DomeCamera::new(180.0, 0.0, 4096).and_then(|c| c.projection()).expect("4K/180° dome");
+    let n_edges = ctx.pick(400, 4000);
+    let tolerances: Vec<f64> = ctx.pick(vec![8.0, 2.0, 0.5], vec![8.0, 4.0, 2.0, 1.0, 0.5, 0.25]);
+    let (runs, budget) = ctx.pick((3, 40.0), (5, 400.0));
+    let edges = random_edges(&proj, n_edges, 89f64.to_radians(), 1.0, 60.0, 0x00D0_3E00);
+    let room = room();
+    let (un_max, un_mean) = unrefined_errors(&proj, &edges);
+
+    let (base_ms, _) = time_ms(runs, budget, || {
+        let mut visible = 0usize;
+        for &[a, b] in &edges {
+            for p in [a, b] {
+                visible += usize::from(matches!(proj.project(p), Projected::Visible(_)));
+            }
+        }
+        visible
+    });
+
+    let total = tolerances.len();
+    for (i, &tol) in tolerances.iter().enumerate() {
+        ctx.progress(i + 1, total, &format!("tolerance {tol} px"));
+        let rule = SplitRule::ChordGap { tolerance_px: tol };
+        let (ms, emitted) = time_ms(runs, budget, || {
+            let r = refine_segments(&proj, &edges, rule).expect("valid rule");
+            let mut visible = 0usize;
+            for p in r.strips.iter().flatten() {
+                visible += usize::from(matches!(proj.project(*p), Projected::Visible(_)));
+            }
+            (r.stats.emitted, visible)
+        });
+        let (max, mean, segments) = per_edge_errors(&proj, &edges, rule);
+        let paper = SplitRule::visual_angle_for_tolerance(&proj, tol).expect("valid tolerance");
+        let (paper_max, _, paper_segments) = per_edge_errors(&proj, &edges, paper);
+        let mesh = refine_mesh(&proj, &room, rule).expect("valid mesh");
+        let mesh_err = EdgeErrors::of_mesh(&proj, &mesh.mesh);
+        report.rows.push(
+            Row::new(tol, ms, base_ms)
+                .err("max_px", max)
+                .err("mean_px", mean)
+                .err("paper_max_px", paper_max)
+                .err("mesh_max_px", mesh_err.max_px)
+                .err("mesh_mean_px", mesh_err.mean_px)
+                .err("unrefined_max_px", un_max)
+                .err("unrefined_mean_px", un_mean)
+                .work("segments", emitted.0 as f64)
+                .work("paper_segments", paper_segments as f64)
+                .work("input_edges", edges.len() as f64)
+                .work("mesh_triangles", mesh.mesh.triangles.len() as f64),
+        );
+        debug_assert_eq!(segments, emitted.0);
+    }
+
+    stability(&mut report, ctx);
+    report
+}
+
+fn stability(report: &mut Report, ctx: &SweepContext) {
+    let dome = |fov: f64| DomeCamera::new(fov, 0.0, 4096).and_then(|c| c.projection()).expect("valid dome");
+    let tol = 0.5;
+    let rule = SplitRule::ChordGap { tolerance_px: tol };
+    let p180 = dome(180.0);
+    let p250 = dome(250.0);
+    let polar = |theta_deg: f64, phi_deg: f64, r: f64| {
+        let (t, f) = (theta_deg.to_radians(), phi_deg.to_radians());
+        DVec3::new(t.sin() * f.cos(), t.sin() * f.sin(), -t.cos()) * r
+    };
+
+    // The antipode itself: typed, not NaN.
+    let anti = p250.project(DVec3::new(0.0, 0.0, 5.0));
+    let near = p250.project(DVec3::new(1e-12, 0.0, 5.0));
+    report.case(
+        "antipode point",
+        anti == Projected::Antipode && near == Projected::Antipode,
+        format!("exact antipode -> {anti:?}; 2e-13 rad off -> {near:?}"),
+    );
+
+    // A segment passing behind the viewer 5° from the antipode, FOV 250°:
+    // clipped at the guard cone into two strips, each within tolerance.
+    let (a, b) = (polar(130.0, 0.0, 3.0), polar(130.0, 170.0, 4.0));
+    let case = match refine_segment(&p250, a, b, rule) {
+        Ok(r) => {
+            let (ok, e) = pieces_within(&p250, &r, tol);
+            (
+                ok && r.strips.len() == 2,
+                format!("{} strips, {} segments, max error {e:.3} px", r.strips.len(), r.segment_count()),
+            )
+        }
+        Err(e) => (false, format!("error {e}")),
+    };
+    report.case("segment passing the antipode (FOV 250°)", case.0, case.1);
+
+    // Behind the viewer at 180°: dropped; crossing the view plane: clipped.
+    let behind = refine_segment(&p180, polar(120.0, 10.0, 2.0), polar(150.0, 80.0, 3.0), rule);
+    let crossing = refine_segment(&p180, polar(60.0, 10.0, 2.0), polar(130.0, 80.0, 3.0), rule);
+    let case = match (behind, crossing) {
+        (Ok(bh), Ok(cr)) => {
+            let (ok, e) = pieces_within(&p180, &cr, tol);
+            let end = cr.strips.first().and_then(|s| s.last()).map_or(f64::NAN, |v| p180.theta(*v).to_degrees());
+            (
+                ok && bh.strips.is_empty() && cr.strips.len() == 1 && (end - 90.0).abs() < 1e-9,
+                format!("behind: {} strips; crossing: ends at θ = {end:.9}°, max error {e:.3} px", bh.strips.len()),
+            )
+        }
+        (b, c) => (false, format!("{b:?} {c:?}")),
+    };
+    report.case("points behind the viewer (FOV 180°)", case.0, case.1);
+
+    // The floor under a zenith camera (REFERENCE.md's lavapipe failure).
+    let case = match refine_mesh(&p180, &room(), rule) {
+        Ok(r) => {
+            let e = EdgeErrors::of_mesh(&p180, &r.mesh);
+            let behind = r.mesh.positions.iter().filter(|v| v.z > 1e-12).count();
+            (
+                r.stats.clipped_away == 2 && behind == 0 && e.failed == 0 && e.max_px <= tol,
+                format!(
+                    "{} of 12 triangles (the floor) clipped away, walls cut at z = 0; {} triangles, max edge error {:.3} px",
+                    r.stats.clipped_away,
+                    r.mesh.triangles.len(),
+                    e.max_px
+                ),
+            )
+        }
+        Err(e) => (false, format!("error {e}")),
+    };
+    report.case("floor under a zenith camera (FOV 180°)", case.0, case.1);
+
+    // FOV > 180°: random edges all around the viewer, and the room.
+    for fov in [220.0, 250.0] {
+        let p = dome(fov);
+        let edges = random_edges(&p, ctx.pick(200, 1000), PI, 1.0, 90.0, 0xFACE);
+        let (mut worst, mut finite, mut capped) = (0.0f64, true, 0);
+        for &[a, b] in &edges {
+            if let Ok(r) = refine_segment(&p, a, b, rule) {
+                capped += usize::from(r.capped);
+                let (_, e) = pieces_within(&p, &r, tol);
+                finite &= r.strips.iter().flatten().all(|v| v.is_finite());
+                worst = worst.max(e);
+            }
+        }
+        report.case(
+            &format!("FOV {fov}°: random edges all around"),
+            finite && worst <= tol && capped == 0,
+            format!("{} edges, max error {worst:.3} px, {capped} capped", edges.len()),
+        );
+    }
+    let case = match refine_mesh(&p250, &room(), rule) {
+        Ok(r) => {
+            let e = EdgeErrors::of_mesh(&p250, &r.mesh);
+            let inside = r.mesh.positions.iter().all(|v| v.is_finite() && p250.theta(*v) <= p250.theta_clip() + 1e-12);
+            (
+                inside && e.failed == 0 && e.max_px <= tol && r.stats.capped_edges == 0,
+                format!(
+                    "{} triangles, {} culled at the guard cone, max edge error {:.4} px, {} capped",
+                    r.mesh.triangles.len(),
+                    r.stats.culled,
+                    e.max_px,
+                    r.stats.capped_edges
+                ),
+            )
+        }
+        Err(e) => (false, format!("error {e}")),
+    };
+    report.case("FOV 250°: room with the floor around the antipode", case.0, case.1);
+
+    // Edges spanning ≥ 180° (through the viewer) and nearly 180°.
+    let through = refine_segment(&p180, polar(40.0, 0.0, 2.0), polar(140.0, 180.0, 3.0), rule);
+    let nearly = refine_segment(&p180, polar(40.0, 0.0, 2.0), polar(140.0, 180.02, 3.0), rule);
+    let nearly250 = refine_segment(&p250, polar(40.0, 0.0, 2.0), polar(140.0, 180.02, 3.0), rule);
+    let case = match (&through, &nearly, &nearly250) {
+        (Err(DomeError::ThroughViewer), Ok(n1), Ok(n2)) => {
+            let (ok1, e1) = pieces_within(&p180, n1, tol);
+            let (ok2, e2) = pieces_within(&p250, n2, tol);
+            (
+                ok1 && ok2,
+                format!(
+                    "180° span: typed ThroughViewer; 179.98° span: max error {e1:.3} px (FOV 180°, clipped), \
+                     {e2:.3} px (FOV 250°, {} segments)",
+                    n2.segment_count()
+                ),
+            )
+        }
+        other => (false, format!("{other:?}")),
+    };
+    report.case("edges spanning ≥ 180°", case.0, case.1);
+
+    // Degenerate zero-length edge.
+    let a = polar(30.0, 20.0, 2.0);
+    let case = match refine_segment(&p180, a, a, rule) {
+        Ok(r) => (
+            r.segment_count() == 1 && chord_error_px(&p180, a, a) == Ok(0.0),
+            format!("{} piece(s), error 0", r.segment_count()),
+        ),
+        Err(e) => (false, format!("error {e}")),
+    };
+    report.case("zero-length edge", case.0, case.1);
+
+    // NaN vertex: typed for one segment, counted (not fatal) in a mesh.
+    let nan = DVec3::new(f64::NAN, 0.0, -1.0);
+    let seg = refine_segment(&p180, a, nan, rule);
+    let mut bad_room = room();
+    bad_room.positions[5] = nan;
+    let case = match (seg, refine_mesh(&p180, &bad_room, rule)) {
+        (Err(DomeError::NonFiniteVertex), Ok(m)) => (
+            m.stats.dropped_nonfinite > 0 && m.mesh.positions.iter().all(|v| v.is_finite()),
+            format!("segment: NonFiniteVertex; mesh: {} triangles dropped, output finite", m.stats.dropped_nonfinite),
+        ),
+        (s, m) => (false, format!("{s:?} / {:?}", m.map(|m| m.stats))),
+    };
+    report.case("NaN vertex", case.0, case.1);
+
+    // Sub-micro-pixel tolerance: the piece cap, finite output.
+    let case = match refine_segment(
+        &p180,
+        polar(89.0, 0.0, 1.0),
+        polar(89.0, 90.0, 1.0),
+        SplitRule::ChordGap { tolerance_px: 1e-9 },
+    ) {
+        Ok(r) => (
+            r.capped && r.strips.iter().flatten().all(|v| v.is_finite()),
+            format!("capped at {} pieces", r.segment_count()),
+        ),
+        Err(e) => (false, format!("error {e}")),
+    };
+    report.case("tolerance 1e-9 px (piece cap)", case.0, case.1);
+
+    // FOV 359.9°: the guard cone is 0.05° wide; output stays finite.
+    let p = dome(359.9);
+    let edges = random_edges(&p, 200, PI, 1.0, 90.0, 0xBEEF);
+    let (mut finite, mut capped, mut n) = (true, 0, 0);
+    for &[a, b] in &edges {
+        if let Ok(r) = refine_segment(&p, a, b, rule) {
+            finite &= r.strips.iter().flatten().all(|v| v.is_finite());
+            capped += usize::from(r.capped);
+            n += r.segment_count();
+        }
+    }
+    report.case(
+        "FOV 359.9° (antipode 0.05° from the rim)",
+        finite,
+        format!(
+            "{n} segments from 200 edges, all finite; {capped} edges hit the piece cap (error bound not held there)"
+        ),
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quick_sweep_is_finite_and_error_falls_with_tolerance() {
+        let ctx = SweepContext::new("dome", true, true);
+        let r = run(&ctx);
+        assert_eq!(r.rows.len(), 3);
+        for row in &r.rows {
+            assert!(row.time_ms.is_finite() && row.baseline_time_ms.is_finite());
+            for v in row.error.values().chain(row.work.values()) {
+                assert!(v.is_finite(), "{row:?}");
+            }
+            // The rule holds its tolerance on edges and on the room mesh.
+            assert!(row.error["max_px"] <= row.knob, "{row:?}");
+            assert!(row.error["mesh_max_px"] <= row.knob, "{row:?}");
+            assert!(row.error["unrefined_max_px"] > 10.0 * row.knob);
+        }
+        for i in 1..r.rows.len() {
+            let (prev, cur) = (&r.rows[i - 1], &r.rows[i]);
+            assert!(cur.knob < prev.knob);
+            for k in ["max_px", "mean_px", "mesh_max_px"] {
+                assert!(cur.error[k] < prev.error[k], "{k} must fall as the tolerance tightens");
+            }
+            assert!(cur.work["segments"] > prev.work["segments"]);
+        }
+        // The position-aware rule needs fewer segments than the paper's
+        // worst-case visual-angle rule at the same tolerance.
+        for row in &r.rows {
+            assert!(row.work["segments"] < row.work["paper_segments"], "{row:?}");
+        }
+        for c in &r.stability {
+            assert!(c.ok, "{}: {}", c.case, c.detail);
+        }
+    }
+}

@@ -82,6 +82,26 @@ impl Report {
     pub fn case(&mut self, case: &str, ok: bool, detail: impl Into<String>) {
         self.stability.push(StabilityCase { case: case.into(), ok, detail: detail.into() });
     }
+
+    /// What a sweep's own test must fail on, in words: a non-finite time,
+    /// error or work counter in any row, and any stability case that is not ok.
+    /// Empty for a sane report.
+    pub fn problems(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        for row in &self.rows {
+            let numbers = [("time_ms", &row.time_ms), ("baseline_time_ms", &row.baseline_time_ms)];
+            let named = row.error.iter().chain(row.work.iter()).map(|(k, v)| (k.as_str(), v));
+            for (name, v) in numbers.into_iter().chain(named) {
+                if !v.is_finite() {
+                    out.push(format!("{} = {}: {name} is {v}", self.knob, row.knob));
+                }
+            }
+        }
+        for c in self.stability.iter().filter(|c| !c.ok) {
+            out.push(format!("stability case `{}` failed: {}", c.case, c.detail));
+        }
+        out
+    }
 }
 
 impl Row {
@@ -100,5 +120,23 @@ impl Row {
     pub fn work(mut self, name: &str, value: f64) -> Self {
         self.work.insert(name.into(), value);
         self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn problems_name_non_finite_numbers_and_failed_cases() {
+        let mut r = Report::cpu("demo", "n");
+        r.rows.push(Row::new(1.0, 2.0, 1.0).err("rel", 0.1).work("rays", 10.0));
+        r.case("fine", true, "ok");
+        assert!(r.problems().is_empty());
+        r.rows.push(Row::new(2.0, f64::NAN, 1.0).err("rel", f64::INFINITY));
+        r.case("broken", false, "NaN pixel");
+        let p = r.problems();
+        assert_eq!(p.len(), 3, "{p:?}");
+        assert!(p[0].contains("time_ms") && p[1].contains("rel") && p[2].contains("broken"));
     }
 }

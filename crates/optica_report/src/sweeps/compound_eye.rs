@@ -310,10 +310,8 @@ mod tests {
         let ctx = SweepContext::new("compound_eye", true, true);
         let r = run(&ctx);
         assert!(r.rows.len() >= 5);
-        for row in &r.rows {
-            assert!(row.time_ms.is_finite() && row.baseline_time_ms.is_finite());
-            assert!(row.error.values().all(|v| v.is_finite()), "{row:?}");
-        }
+        let problems = r.problems();
+        assert!(problems.is_empty(), "{problems:#?}");
         // Nested slice sets (0, 1, 2, 4, …): once a ray finds its true lens it
         // keeps it, so the wrong-lens fraction cannot grow.
         for w in r.rows.windows(2) {
@@ -322,8 +320,5 @@ mod tests {
         let (first, last) = (&r.rows[0].error, &r.rows[r.rows.len() - 1].error);
         assert!(last["mean_facets"] < 0.1 * first["mean_facets"], "{first:?} -> {last:?}");
         assert!(last["wrong_lens_frac"] < 0.1 * first["wrong_lens_frac"]);
-        for c in &r.stability {
-            assert!(c.ok, "{}: {}", c.case, c.detail);
-        }
     }
 }

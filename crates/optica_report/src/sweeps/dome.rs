@@ -388,11 +388,9 @@ mod tests {
         let ctx = SweepContext::new("dome", true, true);
         let r = run(&ctx);
         assert_eq!(r.rows.len(), 3);
+        let problems = r.problems();
+        assert!(problems.is_empty(), "{problems:#?}");
         for row in &r.rows {
-            assert!(row.time_ms.is_finite() && row.baseline_time_ms.is_finite());
-            for v in row.error.values().chain(row.work.values()) {
-                assert!(v.is_finite(), "{row:?}");
-            }
             // The rule holds its tolerance on edges and on the room mesh.
             assert!(row.error["max_px"] <= row.knob, "{row:?}");
             assert!(row.error["mesh_max_px"] <= row.knob, "{row:?}");
@@ -410,9 +408,6 @@ mod tests {
         // worst-case visual-angle rule at the same tolerance.
         for row in &r.rows {
             assert!(row.work["segments"] < row.work["paper_segments"], "{row:?}");
-        }
-        for c in &r.stability {
-            assert!(c.ok, "{}: {}", c.case, c.detail);
         }
     }
 }

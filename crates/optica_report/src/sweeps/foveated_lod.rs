@@ -340,12 +340,8 @@ mod tests {
         let ctx = SweepContext::new("foveated_lod", true, true);
         let r = run(&ctx);
         assert_eq!(r.rows.len(), 4);
-        for row in &r.rows {
-            assert!(row.time_ms.is_finite() && row.baseline_time_ms.is_finite());
-            for v in row.error.values().chain(row.work.values()) {
-                assert!(v.is_finite(), "{row:?}");
-            }
-        }
+        let problems = r.problems();
+        assert!(problems.is_empty(), "{problems:#?}");
         let err = |i: usize, k: &str| r.rows[i].error[k];
         for k in ["rmse", "gaze_weighted_rmse"] {
             assert!(err(3, k) < err(0, k), "{k} must fall from S = 1 to S = 8");
@@ -356,8 +352,5 @@ mod tests {
         // Foveation does less work than the baseline.
         let w = &r.rows[0].work;
         assert!(w["triangle_tests"] < w["baseline_triangle_tests"]);
-        for c in &r.stability {
-            assert!(c.ok, "{}: {}", c.case, c.detail);
-        }
     }
 }

@@ -280,15 +280,10 @@ mod tests {
         let ctx = SweepContext::new("lens_flare", true, true);
         let r = run(&ctx);
         assert_eq!(r.rows.len(), 4, "{:?}", r.stability);
-        for row in &r.rows {
-            assert!(row.error.values().all(|e| e.is_finite()), "{row:?}");
-            assert!(row.time_ms.is_finite() && row.baseline_time_ms.is_finite());
-        }
+        let problems = r.problems();
+        assert!(problems.is_empty(), "{problems:#?}");
         let (first, last) = (&r.rows[0], &r.rows[r.rows.len() - 1]);
         assert!(last.error["rel_l1"] < 0.5 * first.error["rel_l1"], "{:?}", r.rows);
         assert!(last.error["rel_l2"] < first.error["rel_l2"]);
-        for c in &r.stability {
-            assert!(c.ok, "{}: {}", c.case, c.detail);
-        }
     }
 }

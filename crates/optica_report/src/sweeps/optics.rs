@@ -303,19 +303,14 @@ mod tests {
         let ctx = SweepContext::new("optics", true, true);
         let r = run(&ctx);
         assert_eq!(r.rows.len(), 4);
-        for row in &r.rows {
-            assert!(row.time_ms.is_finite() && row.baseline_time_ms.is_finite());
-            assert!(row.error.values().all(|e| e.is_finite()), "{row:?}");
-        }
+        let problems = r.problems();
+        assert!(problems.is_empty(), "{problems:#?}");
         let first = &r.rows[0].error;
         let last = &r.rows[r.rows.len() - 1].error;
         for key in ["energy_rel", "rms_radius_rel", "centroid_over_rms"] {
             assert!(last[key] < first[key], "{key}: {} -> {}", first[key], last[key]);
         }
         assert!(last["energy_rel"] < 0.05, "32x32 against 128x128: {}", last["energy_rel"]);
-        for case in &r.stability {
-            assert!(case.ok, "{}: {}", case.case, case.detail);
-        }
         assert!(r.stability.len() >= 8);
     }
 

@@ -323,12 +323,8 @@ mod tests {
         let ctx = SweepContext::new("spectacles", true, true);
         let r = run(&ctx);
         assert_eq!(r.rows.len(), 5);
-        for row in &r.rows {
-            assert!(row.time_ms.is_finite() && row.baseline_time_ms.is_finite());
-            for v in row.error.values().chain(row.work.values()) {
-                assert!(v.is_finite(), "{row:?}");
-            }
-        }
+        let problems = r.problems();
+        assert!(problems.is_empty(), "{problems:#?}");
         // The S = 10 series: rows 0..3 at scales 0.25, 0.5, 1.
         let err = |i: usize, k: &str| r.rows[i].error[k];
         for k in ["mean_mm", "max_mm", "mean_mrad"] {
@@ -336,8 +332,5 @@ mod tests {
             assert!(err(1, k) <= err(0, k) * 1.05 && err(2, k) <= err(1, k) * 1.05, "{k} rises");
         }
         assert!(r.rows[0].work["points"] >= 50.0);
-        for c in &r.stability {
-            assert!(c.ok, "{}: {}", c.case, c.detail);
-        }
     }
 }

@@ -21,6 +21,8 @@
 //! assert!((bk7.index(587.5618) - 1.5168).abs() < 1e-4);
 //! ```
 
+#![warn(missing_docs)]
+
 pub use optica_optics as optics;
 
 /// The usual imports.

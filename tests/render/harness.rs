@@ -29,7 +29,8 @@ fn lit_cube_matches_its_golden() {
     // A cube must be there at all: the centre pixel is lit, not the clear colour.
     let centre = image.get_pixel(SIZE / 2, SIZE / 2);
     assert!(centre[0] > 60 && centre[0] > centre[2], "centre pixel {centre:?} is not the orange cube");
-    golden().assert_matches("lit_cube", &image, Tolerance::default());
+    let outcome = golden().assert_matches("lit_cube", &image, Tolerance::default());
+    eprintln!("lit cube against the golden: {outcome:?}");
 }
 
 #[test]
@@ -39,6 +40,7 @@ fn golden_comparison_fails_when_the_scene_changes() {
     let turned = render_cube(0.65).to_rgba8();
     match golden().updating(false).compare("lit_cube", &turned, Tolerance::default()) {
         Ok(GoldenOutcome::Differs { metrics, .. }) => {
+            eprintln!("turned cube against the golden: {metrics:?}");
             assert!(metrics.differing_fraction > Tolerance::default().max_differing_fraction)
         }
         other => panic!("a turned cube must not match the golden: {other:?}"),

@@ -30,6 +30,8 @@
 //! With the `winit` feature the harness removes Bevy's `WinitPlugin` from
 //! `DefaultPlugins`: enable it when your build enables Bevy's `bevy_winit`.
 
+#![warn(missing_docs)]
+
 mod error;
 pub mod golden;
 mod headless;

@@ -20,6 +20,10 @@
 //! | [`lens_flare`] | Hullin et al.: physically based lens flare |
 //! | [`dome`] | Johjima: equidistant fisheye dome projection |
 
+#![warn(missing_docs)]
+
+#![warn(missing_docs)]
+
 pub mod fresnel;
 pub mod glass;
 pub mod lens;

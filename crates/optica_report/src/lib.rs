@@ -13,6 +13,8 @@
 //! To add a sweep: a module in `sweeps/` with `pub fn run(&SweepContext) -> Report`
 //! and a line in [`sweeps::SWEEPS`].
 
+#![warn(missing_docs)]
+
 mod context;
 mod report;
 pub mod sweeps;

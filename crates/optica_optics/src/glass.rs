@@ -77,19 +77,34 @@ pub const N_BK7_C: [f64; 3] = [0.00600069867, 0.0200179144, 103.560653];
 
 /// Catalog entries given by n_d/V_d: (canonical name, n_d, V_d). Spectacle
 /// materials as published by lens makers; "crown" is ophthalmic crown glass.
+/// The high-index spectacle materials are sold by their index ("1.67"); their
+/// canonical names carry an `index-` prefix so that no catalog name is a
+/// number (a number in a lens file is always a constant index).
 const ABBE_CATALOG: [(&str, f64, f64); 7] = [
     ("CR-39", 1.498, 58.0),
     ("crown", 1.523, 59.0),
     ("Trivex", 1.53, 44.0),
     ("polycarbonate", 1.586, 30.0),
-    ("1.60", 1.60, 41.0),
-    ("1.67", 1.67, 32.0),
-    ("1.74", 1.74, 33.0),
+    ("index-1.60", 1.60, 41.0),
+    ("index-1.67", 1.67, 32.0),
+    ("index-1.74", 1.74, 33.0),
 ];
 
-/// Canonical catalog names, in [`Glass::catalog_names`] order.
+/// Bare numeric spellings [`Glass::catalog`] still accepts for the
+/// high-index spectacle materials (exact text only: `1.670` is not one), so
+/// callers that name a spectacle material by its index keep working. They are
+/// not canonical names, and the lens file never looks them up: there a number
+/// is a constant index.
+const NUMERIC_ALIASES: [(&str, &str); 3] = [("1.60", "index-1.60"), ("1.67", "index-1.67"), ("1.74", "index-1.74")];
+
+/// Canonical catalog names, in [`Glass::catalog_names`] order. None of them
+/// parses as a number.
 const CATALOG_NAMES: [&str; 9] =
-    ["air", "N-BK7", "CR-39", "crown", "Trivex", "polycarbonate", "1.60", "1.67", "1.74"];
+    ["air", "N-BK7", "CR-39", "crown", "Trivex", "polycarbonate", "index-1.60", "index-1.67", "index-1.74"];
+
+/// The visible band (nm) over which a lens prescription's glasses must have a
+/// usable index ([`Glass::first_bad_index`]).
+pub const VISIBLE_NM: (f64, f64) = (380.0, 780.0);
 
 /// Cauchy coefficients `(A, B)` (B in µm²) of the n_d/V_d model:
 /// `n(λ) = A + B/λ²` with `n(λ_d) = n_d` and `n(λ_F) − n(λ_C) = (n_d − 1)/V_d`,
@@ -221,8 +236,15 @@ impl Glass {
 
     /// A catalog glass by name, case-insensitive (surrounding spaces ignored);
     /// see [`Glass::catalog_names`]. `None` for an unknown name.
+    ///
+    /// The high-index spectacle materials are `index-1.60`, `index-1.67` and
+    /// `index-1.74`. For spectacle code that names them by their index, the
+    /// exact texts `1.60`, `1.67` and `1.74` are accepted as aliases here
+    /// (any other number, `1.670` included, is `None`); the lens file does
+    /// not use this lookup for numbers (there `1.67` is `Constant(1.67)`).
     pub fn catalog(name: &str) -> Option<Glass> {
         let name = name.trim();
+        let name = NUMERIC_ALIASES.iter().find(|(alias, _)| *alias == name).map_or(name, |(_, canonical)| canonical);
         if name.eq_ignore_ascii_case("air") {
             return Some(Glass::Air);
         }
@@ -238,6 +260,35 @@ impl Glass {
     /// The canonical names [`Glass::catalog`] knows.
     pub fn catalog_names() -> &'static [&'static str] {
         &CATALOG_NAMES
+    }
+
+    /// The first wavelength in `[lo_nm, hi_nm]` (checked every 5 nm, both
+    /// ends included) where the index is not finite or lies outside
+    /// `[min, max]`, with the index there (NaN when the model has none);
+    /// `None` when the whole band is fine. A Sellmeier term with `B ≠ 0` whose
+    /// pole `√C` falls in the band is reported at the pole even when the
+    /// 5 nm samples step over it.
+    ///
+    /// This is what lens validation uses (with [`VISIBLE_NM`] and indices in
+    /// [1, 3]): [`Glass::index`] hides a bad curve behind its fallback, and
+    /// a glass can be fine at the d line and not elsewhere — `1.5/0.05` (an
+    /// absurd Abbe number) has `n(700 nm) = −2.98`.
+    pub fn first_bad_index(&self, lo_nm: f64, hi_nm: f64, min: f64, max: f64) -> Option<(f64, f64)> {
+        if let Glass::Sellmeier { b, c } = self {
+            let (lo2, hi2) = ((lo_nm * 1e-3).powi(2), (hi_nm * 1e-3).powi(2));
+            for i in 0..3 {
+                if b[i] != 0.0 && (lo2..=hi2).contains(&c[i]) {
+                    return Some((c[i].sqrt() * 1e3, f64::NAN));
+                }
+            }
+        }
+        let steps = (((hi_nm - lo_nm) / 5.0).ceil().max(0.0) as usize).min(100_000);
+        (0..=steps)
+            .map(|k| if k == steps { hi_nm } else { lo_nm + 5.0 * k as f64 })
+            .find_map(|nm| {
+                let n = self.raw_index(nm);
+                (!(n.is_finite() && n >= min && n <= max)).then_some((nm, n))
+            })
     }
 }
 
@@ -309,6 +360,13 @@ mod tests {
         assert_eq!(Glass::catalog("TRIVEX"), Some(Glass::Abbe { nd: 1.53, vd: 44.0 }));
         assert_eq!(Glass::catalog("unobtainium"), None);
         assert_eq!(Glass::Air.abbe(), f64::INFINITY);
+        // No canonical name is a number (a number in a lens file is a
+        // constant index); the bare spectacle spellings are exact aliases.
+        assert!(Glass::catalog_names().iter().all(|n| n.parse::<f64>().is_err()));
+        assert_eq!(Glass::catalog("1.67"), Glass::catalog("index-1.67"));
+        assert_eq!(Glass::catalog("index-1.67"), Some(Glass::Abbe { nd: 1.67, vd: 32.0 }));
+        assert_eq!(Glass::catalog("1.670"), None);
+        assert_eq!(Glass::catalog("1.5"), None);
         assert!(!Glass::Constant(1.5).is_dispersive());
     }
 
@@ -328,6 +386,26 @@ mod tests {
         // A hand-built Sellmeier with a pole at the d line falls back to 1.
         let pole = Glass::Sellmeier { b: [1.0, 0.0, 0.0], c: [(LAMBDA_D_NM * 1e-3).powi(2), 0.0, 0.0] };
         assert!(pole.index(LAMBDA_D_NM).is_finite());
+    }
+
+    #[test]
+    fn glass_first_bad_index_over_the_visible() {
+        // 1.5/0.05: fine at the d line, n(700 nm) = −2.98 (A + B/λ² with
+        // B = 0.5/(0.05·(λF⁻² − λC⁻²)) = 5.237 µm², A = 1.5 − B/λd² = −13.67).
+        let g = Glass::Abbe { nd: 1.5, vd: 0.05 };
+        assert!((g.try_index(LAMBDA_D_NM).unwrap() - 1.5).abs() < 1e-12);
+        assert!((g.raw_index(700.0) + 2.98).abs() < 0.01, "{}", g.raw_index(700.0));
+        let (nm, n) = g.first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, 1.0, 3.0).unwrap();
+        assert!(nm < LAMBDA_D_NM && n > 3.0, "too high in the blue first: {nm} nm, n = {n}");
+        let (nm, n) = g.first_bad_index(LAMBDA_D_NM, VISIBLE_NM.1, 1.0, 3.0).unwrap();
+        assert!(nm > LAMBDA_D_NM && n < 1.0, "{nm} nm, n = {n}");
+        for name in Glass::catalog_names() {
+            assert_eq!(Glass::catalog(name).unwrap().first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, 1.0, 3.0), None, "{name}");
+        }
+        // A weak Sellmeier pole at 502.5 nm, between two 5 nm samples.
+        let pole = Glass::Sellmeier { b: [1e-9, 0.2, 0.0], c: [0.5025f64.powi(2), 0.01, 0.0] };
+        let (nm, n) = pole.first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, 1.0, 3.0).unwrap();
+        assert!((nm - 502.5).abs() < 1e-9 && n.is_nan(), "{nm} {n}");
     }
 
     proptest! {

@@ -25,7 +25,7 @@
 //! | [`prescription`] | [`LensPrescription`], [`LensSurface`], validation |
 //! | [`parse`] | the `.lens` text format: parse, write, load |
 //! | [`paraxial`] | y–nu trace, ABCD, EFL/BFL, image plane, entrance pupil |
-//! | [`trace`] | real rays: primary and ghost paths, r_rel, stop position, Fresnel throughput |
+//! | [`mod@trace`] | real rays: primary and ghost paths, r_rel, stop position, Fresnel throughput |
 //! | [`builtin`] | the lenses shipped in `assets/lenses/` |
 
 pub mod paraxial;
@@ -36,7 +36,9 @@ pub mod trace;
 pub use paraxial::{Abcd, ParaxialError, ParaxialProperties, ParaxialRay};
 pub use parse::ParseError;
 pub use prescription::{LensPrescription, LensSurface, PrescriptionError};
-pub use trace::{Pass, PreparedLens, TraceError, TracePath, TraceResult, ghosts, trace, trace_to};
+pub use trace::{
+    MAX_STOP_CROSSINGS, Pass, PreparedLens, TraceError, TracePath, TraceResult, ghosts, trace, trace_to,
+};
 
 /// The lens files shipped in `assets/lenses/`, compiled in: `(file name, text)`.
 ///
@@ -60,11 +62,15 @@ pub mod builtin {
     }
 
     /// Brendel Tessar, US 2,854,889: f = 100 mm, f/2.8, 7 interfaces (21 ghosts).
+    /// The patent says f/2.8; the table's stop semi-aperture (15.0 mm) gives a
+    /// paraxial f/2.73 at the d line.
     pub fn tessar() -> LensPrescription {
         shipped(0)
     }
 
     /// Angenieux double Gauss, US 2,701,982: f = 100 mm, f/1.1, 14 interfaces (91 ghosts).
+    /// The patent says f/1.1; the table's stop semi-aperture (25.5 mm) gives a
+    /// paraxial f/1.14 at the d line.
     pub fn double_gauss() -> LensPrescription {
         shipped(1)
     }
@@ -85,6 +91,7 @@ pub mod builtin {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::glass::Glass;
 
     #[test]
     fn shipped_files_parse_and_cite_their_patent() {
@@ -111,5 +118,66 @@ mod tests {
         let d = builtin::double_gauss();
         assert_eq!(d.surfaces.len(), 15);
         assert_eq!(d.surfaces[14].thickness_after_mm, 55.742);
+    }
+
+    /// One row of a REFERENCE.md table: R (`None` = the stop), t, n_d/V_d
+    /// (`None` = air), semi-aperture, all in mm.
+    type Row = (Option<f64>, f64, Option<(f64, f64)>, f64);
+
+    fn assert_table(p: &LensPrescription, rows: &[Row]) {
+        assert_eq!(p.surfaces.len(), rows.len(), "{}", p.name);
+        for (k, (s, &(r, t, glass, semi))) in p.surfaces.iter().zip(rows).enumerate() {
+            match r {
+                None => assert!(s.is_stop && s.curvature == 0.0, "{} row {k}: the stop", p.name),
+                Some(r) => assert!(!s.is_stop && s.curvature == 1.0 / r, "{} row {k}: R {} vs {r}", p.name, s.radius_mm()),
+            }
+            assert_eq!(s.thickness_after_mm, t, "{} row {k}: thickness", p.name);
+            let want = glass.map_or(Glass::Air, |(nd, vd)| Glass::Abbe { nd, vd });
+            assert_eq!(s.glass_after, want, "{} row {k}: medium", p.name);
+            assert_eq!(s.semi_aperture_mm, semi, "{} row {k}: semi-aperture", p.name);
+            assert_eq!(s.coating, None);
+        }
+    }
+
+    #[test]
+    fn shipped_tables_equal_the_reference_tables() {
+        // Copied from /work/shared/REFERENCE.md ("Lens flare", "Lens
+        // prescriptions"): R, t, n_d, V_d, semi-aperture (mm) per row.
+        // Brendel Tessar, US 2,854,889:
+        let tessar: [Row; 8] = [
+            (Some(42.97), 9.80, Some((1.6910, 54.8)), 19.2),
+            (Some(-115.33), 2.10, Some((1.5486, 45.4)), 19.2),
+            (Some(306.84), 4.16, None, 19.2),
+            (None, 4.00, None, 15.0),
+            (Some(-59.06), 1.87, Some((1.6398, 34.6)), 17.3),
+            (Some(40.93), 10.64, None, 17.3),
+            (Some(183.92), 7.05, Some((1.6910, 54.8)), 16.5),
+            (Some(-48.91), 79.831, None, 16.5),
+        ];
+        // Angenieux double Gauss, US 2,701,982:
+        let double_gauss: [Row; 15] = [
+            (Some(164.12), 10.99, Some((1.673, 32.2)), 54.0),
+            (Some(559.28), 0.23, None, 54.0),
+            (Some(100.12), 11.45, Some((1.670, 47.1)), 51.0),
+            (Some(213.54), 0.23, None, 51.0),
+            (Some(58.04), 22.95, Some((1.691, 54.7)), 41.0),
+            (Some(2551.0), 2.58, Some((1.673, 32.2)), 41.0),
+            (Some(32.39), 15.66, None, 27.0),
+            (None, 15.00, None, 25.5),
+            (Some(-40.42), 2.74, Some((1.699, 30.1)), 25.0),
+            (Some(192.98), 27.92, Some((1.620, 60.3)), 36.0),
+            (Some(-55.53), 0.23, None, 36.0),
+            (Some(192.98), 7.98, Some((1.691, 54.7)), 35.0),
+            (Some(-225.28), 0.23, None, 35.0),
+            (Some(175.10), 8.48, Some((1.691, 54.7)), 35.0),
+            (Some(-203.54), 55.742, None, 35.0),
+        ];
+        assert_table(&builtin::tessar(), &tessar);
+        assert_table(&builtin::double_gauss(), &double_gauss);
+        // The stop semi-apertures give paraxial f/2.73 and f/1.14 (the
+        // patents' f/2.8 and f/1.1 are the nominal marks).
+        let f = |p: LensPrescription| p.paraxial(crate::glass::LAMBDA_D_NM).unwrap().f_number;
+        assert!((f(builtin::tessar()) - 2.73).abs() < 0.005, "{}", f(builtin::tessar()));
+        assert!((f(builtin::double_gauss()) - 1.14).abs() < 0.005, "{}", f(builtin::double_gauss()));
     }
 }

@@ -11,7 +11,6 @@
 use thiserror::Error;
 
 use super::prescription::{LensPrescription, PrescriptionError};
-use crate::glass::Glass;
 
 /// A paraxial ray: height and reduced angle.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,26 +61,38 @@ pub enum ParaxialError {
     /// The stop is imaged to infinity by the elements in front of it.
     #[error("the entrance pupil is at infinity (the front group images the stop to infinity)")]
     PupilAtInfinity,
-    /// A glass gives a non-finite index at this wavelength.
-    #[error("surface {surface}: the glass has no finite index at {wavelength_nm} nm")]
+    /// A glass gives no index, or one below 1, at this wavelength
+    /// ([`crate::glass::Glass::try_index`]: evaluated as given, never clamped or replaced).
+    #[error("surface {surface}: the glass has no index >= 1 at {wavelength_nm} nm")]
     Index {
         /// Index of the surface.
         surface: usize,
         /// The wavelength.
         wavelength_nm: f64,
     },
+    /// A surface range that is empty or runs past the last surface.
+    #[error("no surfaces {from}..={to} in a lens of {count} surfaces")]
+    SurfaceRange {
+        /// First surface asked for.
+        from: usize,
+        /// Last surface asked for.
+        to: usize,
+        /// Surfaces in the lens.
+        count: usize,
+    },
 }
 
-/// Refractive index in front of each surface and after each surface at `wavelength_nm`.
+/// Refractive index in front of each surface and after each surface at
+/// `wavelength_nm`, by [`crate::glass::Glass::try_index`]: a glass with no
+/// index >= 1 there is [`ParaxialError::Index`], not the fallback of
+/// [`crate::glass::Glass::index`] (which
+/// clamps the wavelength and turns a non-positive index into 1, i.e. air).
 pub(crate) fn indices(p: &LensPrescription, wavelength_nm: f64) -> Result<(Vec<f64>, Vec<f64>), ParaxialError> {
     let mut before = Vec::with_capacity(p.surfaces.len());
     let mut after = Vec::with_capacity(p.surfaces.len());
-    let mut n = Glass::Air.index(wavelength_nm);
+    let mut n = 1.0; // object space is air
     for (k, s) in p.surfaces.iter().enumerate() {
-        let n2 = s.glass_after.index(wavelength_nm);
-        if !(n.is_finite() && n2.is_finite() && n > 0.0 && n2 > 0.0) {
-            return Err(ParaxialError::Index { surface: k, wavelength_nm });
-        }
+        let n2 = s.glass_after.try_index(wavelength_nm).map_err(|_| ParaxialError::Index { surface: k, wavelength_nm })?;
         before.push(n);
         after.push(n2);
         n = n2;
@@ -122,13 +133,22 @@ impl LensPrescription {
     }
 
     /// The ABCD matrix on (y, ω) from just in front of surface `from` to just
-    /// after surface `to` (inclusive, `from <= to`), refractions and the gaps
-    /// between them included.
+    /// after surface `to` (inclusive), refractions and the gaps between them
+    /// included. [`ParaxialError::SurfaceRange`] unless
+    /// `from <= to < surfaces.len()`.
     pub fn abcd_between(&self, wavelength_nm: f64, from: usize, to: usize) -> Result<Abcd, ParaxialError> {
         check_wavelength(wavelength_nm)?;
+        if !(from <= to && to < self.surfaces.len()) {
+            return Err(ParaxialError::SurfaceRange { from, to, count: self.surfaces.len() });
+        }
         let (before, after) = indices(self, wavelength_nm)?;
+        Ok(self.abcd_with(&before, &after, from, to))
+    }
+
+    /// [`Self::abcd_between`] with the indices evaluated and the range checked.
+    fn abcd_with(&self, before: &[f64], after: &[f64], from: usize, to: usize) -> Abcd {
         let mut m: Abcd = [[1.0, 0.0], [0.0, 1.0]];
-        for k in from..=to.min(self.surfaces.len().saturating_sub(1)) {
+        for k in from..=to {
             if k > from {
                 let t = self.surfaces[k - 1].thickness_after_mm / after[k - 1];
                 m = mat_mul([[1.0, t], [0.0, 1.0]], m);
@@ -136,12 +156,17 @@ impl LensPrescription {
             let phi = (after[k] - before[k]) * self.surfaces[k].curvature;
             m = mat_mul([[1.0, 0.0], [-phi, 1.0]], m);
         }
-        Ok(m)
+        m
     }
 
-    /// The system matrix from the first vertex to the last (both refractions included).
+    /// The system matrix from the first vertex to the last (both refractions
+    /// included); a lens without surfaces is
+    /// [`PrescriptionError::SurfaceCount`].
     pub fn system_matrix(&self, wavelength_nm: f64) -> Result<Abcd, ParaxialError> {
-        self.abcd_between(wavelength_nm, 0, self.surfaces.len().saturating_sub(1))
+        let Some(last) = self.surfaces.len().checked_sub(1) else {
+            return Err(PrescriptionError::SurfaceCount { count: 0 }.into());
+        };
+        self.abcd_between(wavelength_nm, 0, last)
     }
 
     /// First-order properties at `wavelength_nm` (use [`crate::glass::LAMBDA_D_NM`]
@@ -149,9 +174,11 @@ impl LensPrescription {
     pub fn paraxial(&self, wavelength_nm: f64) -> Result<ParaxialProperties, ParaxialError> {
         self.validate()?;
         check_wavelength(wavelength_nm)?;
-        let (_, after) = indices(self, wavelength_nm)?;
-        let n_image = *after.last().expect("validated: at least one surface");
-        let [[a, _b], [c, d]] = self.system_matrix(wavelength_nm)?;
+        let (before, after) = indices(self, wavelength_nm)?;
+        // Validated: 1..=MAX_SURFACES surfaces and exactly one stop.
+        let last = self.surfaces.len() - 1;
+        let n_image = after[last];
+        let [[a, _b], [c, d]] = self.abcd_with(&before, &after, 0, last);
         // Relative to the system's scale, a power this small is no power.
         let length: f64 = self.table_image_z().max(self.surfaces.iter().map(|s| s.semi_aperture_mm).fold(0.0, f64::max));
         if !(c.is_finite()) || c.abs() * length < 1e-12 {
@@ -163,14 +190,14 @@ impl LensPrescription {
         // with the object-space index of air (1), FFL = D / C (distance from
         // the front focal point to the first vertex).
         let ffl = -d / c;
-        let last_z = *self.vertex_z().last().expect("validated");
-        let stop = self.stop_index().expect("validated: one stop");
+        let last_z = self.vertex_z()[last];
+        let stop = self.stop_index().ok_or(PrescriptionError::StopCount { count: 0 })?;
         // Heights at the stop for unit height and for unit slope at vertex 0:
         // h = a_s·y0 + b_s·u0 (object space is air, so ω0 = u0).
         let m_stop = if stop == 0 {
             [[1.0, 0.0], [0.0, 1.0]]
         } else {
-            let m = self.abcd_between(wavelength_nm, 0, stop - 1)?;
+            let m = self.abcd_with(&before, &after, 0, stop - 1);
             let t = self.surfaces[stop - 1].thickness_after_mm / after[stop - 1];
             mat_mul([[1.0, t], [0.0, 1.0]], m)
         };
@@ -196,7 +223,7 @@ impl LensPrescription {
 mod tests {
     use super::super::builtin;
     use super::*;
-    use crate::glass::LAMBDA_D_NM;
+    use crate::glass::{Glass, LAMBDA_D_NM};
     use crate::lens::LensSurface;
 
     #[test]
@@ -285,6 +312,68 @@ mod tests {
         let f = p.paraxial(crate::glass::LAMBDA_F_NM).unwrap().efl_mm;
         let c = p.paraxial(crate::glass::LAMBDA_C_NM).unwrap().efl_mm;
         assert!((f - c).abs() < 1.0, "achromat: EFL varies < 1 % over F–C, got {f} vs {c}");
+    }
+
+    /// A singlet (stop, then one glass) with `glass`, not validated.
+    fn singlet_of(glass: Glass) -> LensPrescription {
+        LensPrescription {
+            name: "singlet".into(),
+            source: "test".into(),
+            surfaces: vec![
+                LensSurface::stop(2.0, Glass::Air, 5.0),
+                LensSurface::new(50.0, 4.0, glass, 10.0),
+                LensSurface::new(-50.0, 45.0, Glass::Air, 10.0),
+            ],
+            design_focal_length_mm: None,
+            design_f_number: None,
+        }
+    }
+
+    #[test]
+    fn glass_without_an_index_is_an_index_error_not_air() {
+        // 1.5/0.05 (a file medium with an absurd Abbe number) is 1.5 at the
+        // d line and −2.98 at 700 nm. `Glass::index` would have turned that
+        // into 1.0 (air) and traced on; the y–nu trace must refuse it, and
+        // validation must reject the glass naming the surface.
+        let p = singlet_of(Glass::Abbe { nd: 1.5, vd: 0.05 });
+        assert!(p.trace_paraxial(LAMBDA_D_NM, ParaxialRay { y: 1.0, omega: 0.0 }).is_ok());
+        let e = p.trace_paraxial(700.0, ParaxialRay { y: 1.0, omega: 0.0 }).unwrap_err();
+        assert_eq!(e, ParaxialError::Index { surface: 1, wavelength_nm: 700.0 });
+        assert!(matches!(p.system_matrix(700.0), Err(ParaxialError::Index { surface: 1, .. })));
+        assert!(matches!(
+            p.paraxial(LAMBDA_D_NM),
+            Err(ParaxialError::Prescription(PrescriptionError::IndexOverVisible { surface: 1, .. }))
+        ));
+        // 1.5/1.2 is usable over 380–780 nm (2.38 … 1.23) and valid, but its
+        // Cauchy curve A + B/λ² falls below 1 in the infrared (0.965 at
+        // 1500 nm): an index error there, not a lens of index 0.965.
+        let p = singlet_of(Glass::Abbe { nd: 1.5, vd: 1.2 });
+        p.validate().unwrap();
+        assert!(p.paraxial(780.0).is_ok());
+        assert_eq!(p.paraxial(1500.0), Err(ParaxialError::Index { surface: 1, wavelength_nm: 1500.0 }));
+    }
+
+    #[test]
+    fn matrices_of_bad_ranges_are_typed_not_panics() {
+        let p = builtin::tessar();
+        let n = p.surfaces.len();
+        assert!(p.abcd_between(LAMBDA_D_NM, 0, n - 1).is_ok());
+        assert_eq!(p.abcd_between(LAMBDA_D_NM, 0, n), Err(ParaxialError::SurfaceRange { from: 0, to: n, count: n }));
+        assert!(matches!(p.abcd_between(LAMBDA_D_NM, 3, 1), Err(ParaxialError::SurfaceRange { .. })));
+        assert!(matches!(p.abcd_between(LAMBDA_D_NM, usize::MAX, usize::MAX), Err(ParaxialError::SurfaceRange { .. })));
+        // A single surface: from = to = 0 is its refraction alone.
+        let m = p.abcd_between(LAMBDA_D_NM, 0, 0).unwrap();
+        assert_eq!((m[0][0], m[0][1], m[1][1]), (1.0, 0.0, 1.0));
+        assert!((m[1][0] + (1.6910 - 1.0) / 42.97).abs() < 1e-12);
+        // The public `surfaces` can be emptied: errors, not panics.
+        let empty = LensPrescription { surfaces: vec![], ..p };
+        assert_eq!(
+            empty.system_matrix(LAMBDA_D_NM),
+            Err(ParaxialError::Prescription(PrescriptionError::SurfaceCount { count: 0 }))
+        );
+        assert!(matches!(empty.abcd_between(LAMBDA_D_NM, 0, 0), Err(ParaxialError::SurfaceRange { count: 0, .. })));
+        assert!(matches!(empty.paraxial(LAMBDA_D_NM), Err(ParaxialError::Prescription(_))));
+        assert_eq!(empty.trace_paraxial(LAMBDA_D_NM, ParaxialRay { y: 1.0, omega: 0.0 }), Ok(vec![]));
     }
 
     #[test]

@@ -18,10 +18,15 @@
 //! patent-table convention). Fields:
 //! - `radius`: mm, `inf` (flat), or `stop` (the flat aperture stop);
 //! - `thickness`: mm, >= 0;
-//! - `medium`: `air`, a name [`Glass::catalog`] knows (`N-BK7`, `crown`, ...),
-//!   `nd/vd` like `1.6910/54.8` ([`Glass::Abbe`]), `n/inf` or a bare index
-//!   like `1.5` for no dispersion (a catalog name wins: `1.60` is the
-//!   spectacle material), or `sellmeier:B1,B2,B3,C1,C2,C3` (C in µm²);
+//! - `medium`: `air`, a name [`Glass::catalog`] knows (`N-BK7`, `crown`,
+//!   `CR-39`, `index-1.67`, ...), `nd/vd` like `1.6910/54.8`
+//!   ([`Glass::Abbe`]), `n/inf` or a bare number like `1.5` for a constant
+//!   index (no dispersion), or `sellmeier:B1,B2,B3,C1,C2,C3` (C in µm², all
+//!   six finite and >= 0). A bare number is *always* a constant index —
+//!   `1.67` and `1.670` alike; the dispersive spectacle material of index
+//!   1.67 is `index-1.67` (or `1.67/32`). The glass must have an index in
+//!   [1, 3] over 380–780 nm, not only at the d line (see
+//!   [`PrescriptionError::IndexOverVisible`]);
 //! - `semi_aperture`: clear radius in mm, > 0;
 //! - `coating` (optional): `none`, `index/thickness_nm` like `1.38/99.6`, or
 //!   `qw:index@wavelength_nm` for a quarter-wave layer.
@@ -212,8 +217,8 @@ fn radius_text(c: f64) -> String {
 fn glass_text(g: &Glass) -> String {
     match g {
         Glass::Air => "air".into(),
-        // `n/inf`: an Abbe number of infinity is no dispersion. A bare number
-        // could be read back as a catalog name (`1.60` is a spectacle glass).
+        // `n/inf`: an Abbe number of infinity is no dispersion (a bare number
+        // would read back the same; `n/inf` says so explicitly).
         Glass::Constant(n) => format!("{n}/inf"),
         Glass::Abbe { nd, vd } => format!("{nd}/{vd}"),
         Glass::Sellmeier { b, c } => format!("sellmeier:{},{},{},{},{},{}", b[0], b[1], b[2], c[0], c[1], c[2]),
@@ -377,13 +382,13 @@ fn medium(line: usize, text: &str) -> Result<Glass, ParseError> {
         return Ok(Glass::Air);
     }
     if let Some(list) = text.strip_prefix("sellmeier:") {
-        let v: Vec<f64> = list.split(',').map(number).collect::<Option<_>>().ok_or_else(|| {
-            bad("`sellmeier:B1,B2,B3,C1,C2,C3` with six finite numbers")
-        })?;
+        const SELLMEIER: &str = "`sellmeier:B1,B2,B3,C1,C2,C3` with six finite numbers >= 0 giving n_d >= 1";
+        let v: Vec<f64> = list.split(',').map(number).collect::<Option<_>>().ok_or_else(|| bad(SELLMEIER))?;
         if v.len() != 6 {
-            return Err(bad("`sellmeier:B1,B2,B3,C1,C2,C3` with six finite numbers"));
+            return Err(bad(SELLMEIER));
         }
-        return Ok(Glass::Sellmeier { b: [v[0], v[1], v[2]], c: [v[3], v[4], v[5]] });
+        // Checked: negative coefficients give curves no glass has.
+        return Glass::sellmeier_checked([v[0], v[1], v[2]], [v[3], v[4], v[5]]).map_err(|_| bad(SELLMEIER));
     }
     if let Some((nd, vd)) = text.split_once('/') {
         let no_dispersion = matches!(vd.to_ascii_lowercase().as_str(), "inf" | "infinity");
@@ -393,14 +398,15 @@ fn medium(line: usize, text: &str) -> Result<Glass, ParseError> {
             _ => Err(bad("`nd/vd` with nd >= 1 and vd > 0 (like `1.6910/54.8`), or `n/inf`")),
         };
     }
-    // Catalog names first: some are numbers (`1.60` is a spectacle glass with V = 41).
-    if let Some(g) = Glass::catalog(text) {
-        return Ok(g);
+    // A number is always a constant index, never a catalog lookup (which
+    // would make `1.67` the dispersive spectacle glass and `1.670` a constant).
+    if let Ok(n) = text.parse::<f64>() {
+        return match number(text) {
+            Some(_) if n >= 1.0 => Ok(Glass::Constant(n)),
+            _ => Err(bad("`air`, a catalog glass name, `nd/vd`, `n/inf` or an index >= 1")),
+        };
     }
-    match number(text) {
-        Some(n) if n >= 1.0 => Ok(Glass::Constant(n)),
-        _ => Err(bad("`air`, a catalog glass name, `nd/vd`, `n/inf` or an index >= 1")),
-    }
+    Glass::catalog(text).ok_or_else(|| bad("`air`, a catalog glass name, `nd/vd`, `n/inf` or an index >= 1"))
 }
 
 fn coating(line: usize, text: &str) -> Result<Option<Coating>, ParseError> {
@@ -553,6 +559,46 @@ stop   2.0   air          5.0
         assert!(matches!(e, ParseError::Invalid { line: Some(7), source: PrescriptionError::StopChangesMedium { .. } }));
         let e = err("name = empty\n");
         assert!(matches!(e, ParseError::Invalid { source: PrescriptionError::SurfaceCount { count: 0 }, .. }));
+    }
+
+    #[test]
+    fn a_bare_number_is_always_a_constant_index() {
+        // `1.67` used to be the catalog's dispersive spectacle glass 1.67/32
+        // while `1.670` was Constant(1.670).
+        for (text, want) in [
+            ("1.67", Glass::Constant(1.67)),
+            ("1.670", Glass::Constant(1.67)),
+            ("1.60", Glass::Constant(1.6)),
+            ("1.74", Glass::Constant(1.74)),
+            ("1.5", Glass::Constant(1.5)),
+            ("index-1.67", Glass::Abbe { nd: 1.67, vd: 32.0 }),
+            ("INDEX-1.60", Glass::Abbe { nd: 1.60, vd: 41.0 }),
+            ("CR-39", Glass::Abbe { nd: 1.498, vd: 58.0 }),
+            ("n-bk7", Glass::n_bk7()),
+        ] {
+            let p = LensPrescription::parse(&with_line(8, &format!("50 4.0 {text} 10"))).unwrap();
+            assert_eq!(p.surfaces[1].glass_after, want, "{text}");
+        }
+        // Numbers Rust parses but the format does not take are errors, not lookups.
+        for text in ["inf", "NaN", "0.9"] {
+            assert!(matches!(err(&with_line(8, &format!("50 4.0 {text} 10"))), ParseError::Field { line: 8, field: "medium", .. }), "{text}");
+        }
+    }
+
+    #[test]
+    fn bad_glass_data_is_rejected_with_line_and_field() {
+        // Sellmeier coefficients must be finite and >= 0.
+        for text in ["sellmeier:-1,0,0,0,0,0", "sellmeier:1.04,0.23,1.01,-0.006,0.02,103.6", "sellmeier:1,2,3,4,5,nan"] {
+            let e = err(&with_line(8, &format!("50 4.0 {text} 10")));
+            assert!(matches!(e, ParseError::Field { line: 8, field: "medium", .. }), "{text}: {e}");
+        }
+        // 1.5/0.05 is 1.5 at the d line but −2.98 at 700 nm: the row is named.
+        let e = err(&with_line(8, "50 4.0 1.5/0.05 10"));
+        assert!(
+            matches!(e, ParseError::Invalid { line: Some(8), source: PrescriptionError::IndexOverVisible { surface: 1, .. } }),
+            "{e}"
+        );
+        assert!(e.to_string().starts_with("line 8: surface 1: refractive index"), "{e}");
     }
 
     #[test]

@@ -10,13 +10,14 @@
 use thiserror::Error;
 
 use crate::fresnel::Coating;
-use crate::glass::{Glass, LAMBDA_D_NM};
+use crate::glass::{Glass, LAMBDA_D_NM, VISIBLE_NM};
 
 
 /// Most surfaces a prescription may have (a zoom has ~30; 64 leaves room).
 pub const MAX_SURFACES: usize = 64;
 
-/// Refractive indices accepted at the d line: vacuum to well past any glass.
+/// Refractive indices accepted at the d line and over the visible band
+/// ([`VISIBLE_NM`], 380–780 nm): vacuum to well past any glass.
 pub const INDEX_RANGE: (f64, f64) = (1.0, 3.0);
 
 /// One row of a lens table: a spherical (or flat) surface and what follows it.
@@ -166,6 +167,22 @@ pub enum PrescriptionError {
         /// The index at the d line.
         index: f64,
     },
+    /// A glass whose index leaves [`INDEX_RANGE`] (or has none) somewhere in
+    /// the visible band [`VISIBLE_NM`] although it is fine at the d line: a
+    /// dispersion curve no glass has (an `nd/vd` with an absurd Abbe number,
+    /// a Sellmeier pole in the visible).
+    #[error(
+        "surface {surface}: refractive index after it is {index} at {wavelength_nm} nm, outside [1, 3] \
+         (indices must be usable over 380–780 nm)"
+    )]
+    IndexOverVisible {
+        /// Index of the surface.
+        surface: usize,
+        /// The first wavelength (nm) found where the index is out of range.
+        wavelength_nm: f64,
+        /// The index there (NaN when the model has none, e.g. at a pole).
+        index: f64,
+    },
     /// The stop is curved.
     #[error("surface {surface}: the aperture stop must be flat (c = 0), got c = {curvature}")]
     StopNotFlat {
@@ -223,6 +240,7 @@ impl PrescriptionError {
             | Thickness { surface, .. }
             | HemispherePlus { surface, .. }
             | Index { surface, .. }
+            | IndexOverVisible { surface, .. }
             | StopNotFlat { surface, .. }
             | StopChangesMedium { surface, .. }
             | Coating { surface }
@@ -303,6 +321,11 @@ impl LensPrescription {
             if !(index.is_finite() && (INDEX_RANGE.0..=INDEX_RANGE.1).contains(&index)) {
                 return Err(PrescriptionError::Index { surface: k, index });
             }
+            if let Some((wavelength_nm, index)) =
+                s.glass_after.first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, INDEX_RANGE.0, INDEX_RANGE.1)
+            {
+                return Err(PrescriptionError::IndexOverVisible { surface: k, wavelength_nm, index });
+            }
             if s.is_stop {
                 if s.curvature != 0.0 {
                     return Err(PrescriptionError::StopNotFlat { surface: k, curvature: s.curvature });
@@ -363,9 +386,10 @@ impl LensPrescription {
         self.surfaces.iter().map(|s| s.thickness_after_mm).sum()
     }
 
-    /// Medium in front of surface `k` (air for k = 0).
-    pub fn glass_before(&self, k: usize) -> Glass {
-        if k == 0 { Glass::Air } else { self.surfaces[k - 1].glass_after }
+    /// Medium in front of surface `k`: air for `k = 0`, the image-space
+    /// medium for `k = surfaces.len()`, `None` beyond.
+    pub fn glass_before(&self, k: usize) -> Option<Glass> {
+        if k == 0 { Some(Glass::Air) } else { self.surfaces.get(k - 1).map(|s| s.glass_after) }
     }
 
     /// The same lens with `coating` on every interface (not on the stop), as
@@ -442,6 +466,15 @@ mod tests {
         check(&|s| s[1].curvature = 1.0 / 9.0, |e| matches!(e, PrescriptionError::HemispherePlus { surface: 1, .. }));
         check(&|s| s[1].glass_after = Glass::Constant(3.5), |e| matches!(e, PrescriptionError::Index { surface: 1, .. }));
         check(&|s| s[1].glass_after = Glass::Constant(0.9), |e| matches!(e, PrescriptionError::Index { surface: 1, .. }));
+        // Fine at the d line (1.5), n(700 nm) = −2.98: rejected, naming the surface.
+        check(
+            &|s| s[1].glass_after = Glass::Abbe { nd: 1.5, vd: 0.05 },
+            |e| matches!(e, PrescriptionError::IndexOverVisible { surface: 1, .. }),
+        );
+        check(
+            &|s| s[1].glass_after = Glass::Sellmeier { b: [0.3, 0.0, 0.0], c: [0.25, 0.0, 0.0] },
+            |e| matches!(e, PrescriptionError::IndexOverVisible { surface: 1, wavelength_nm, .. } if (*wavelength_nm - 500.0).abs() < 1e-9),
+        );
         check(&|s| s[0].curvature = 0.01, |e| matches!(e, PrescriptionError::StopNotFlat { surface: 0, .. }));
         check(
             &|s| s[0].glass_after = Glass::Constant(1.5),
@@ -451,6 +484,19 @@ mod tests {
             &|s| s[1].coating = Some(Coating { index: f64::NAN, thickness_nm: 100.0 }),
             |e| matches!(e, PrescriptionError::Coating { surface: 1 }),
         );
+    }
+
+    #[test]
+    fn glass_before_is_total() {
+        let p = LensPrescription::new("singlet", "test", singlet()).unwrap();
+        assert_eq!(p.glass_before(0), Some(Glass::Air));
+        assert_eq!(p.glass_before(2), Some(Glass::Constant(1.5)));
+        assert_eq!(p.glass_before(3), Some(Glass::Air), "image space");
+        assert_eq!(p.glass_before(4), None);
+        assert_eq!(p.glass_before(usize::MAX), None);
+        let empty = LensPrescription { surfaces: vec![], ..p };
+        assert_eq!(empty.glass_before(0), Some(Glass::Air));
+        assert_eq!(empty.glass_before(1), None);
     }
 
     #[test]

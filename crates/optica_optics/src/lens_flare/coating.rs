@@ -17,9 +17,10 @@ use crate::lens::LensPrescription;
 /// the d line.
 pub fn coat_air_interfaces(prescription: &LensPrescription, coating: Coating) -> LensPrescription {
     let mut p = prescription.clone();
-    let is_air = |g: &Glass| (g.index(LAMBDA_D_NM) - 1.0).abs() < 1e-9;
+    // try_index: a glass without an index is not air (`index` would say 1).
+    let is_air = |g: &Glass| g.try_index(LAMBDA_D_NM).is_ok_and(|n| (n - 1.0).abs() < 1e-9);
     for k in 0..p.surfaces.len() {
-        let before = p.glass_before(k);
+        let Some(before) = p.glass_before(k) else { continue };
         let s = &mut p.surfaces[k];
         if !s.is_stop && (is_air(&before) || is_air(&s.glass_after)) {
             s.coating = Some(coating);

@@ -6,14 +6,18 @@
 //! (`n(n−1)/2` of them) gets a cheap estimate from a coarse `k × k`-cell grid
 //! of its pupil square (k = 16 by default: 17² rays), the same cells as the
 //! grid method. A corner counts as passing when it is alive, `r_rel <= 1`
-//! and inside the aperture; a cell with `m` of 4 corners passing counts with
-//! the fraction `f = m/4`:
+//! and inside the aperture at every stop crossing; a cell with `m` of 4
+//! corners passing counts with the fraction `f = m/4`:
 //!
 //! ```text
-//! E = Σ_cells f · A_p · T̄          power reaching the sensor (mm², unit beam irradiance)
+//! E = Σ_cells f · I_c · A_s         power reaching the sensor (mm², unit beam irradiance)
 //! S = max(Σ_cells f · A_s, S_min)   image area the passing light covers (mm²)
 //! I = E / S                         mean irradiance of the ghost image
 //! ```
+//!
+//! with `I_c = T̄ · A_p / max(A_s, A_p / G)` the cell's bounded irradiance
+//! ([`super::intensity`]; `G` = [`EstimateOptions::max_gain`]), so a cell's
+//! power `I_c · A_s` is its `A_p · T̄` unless the bound clips it.
 //!
 //! `I` is the irradiance of the ghost averaged over its own image, the
 //! quantity that decides whether it is visible: a haze over the whole frame
@@ -22,9 +26,11 @@
 //! a few passing rays still gets the area those rays' cells cover — a
 //! covariance of two or three points is degenerate and would rank a
 //! nearly-dark ghost first. `S_min` (default one (10 µm)² pixel) keeps a
-//! focused ghost finite, and the cells' own gain bound applies. Ghosts are
-//! sorted by `I`, brightest first; [`cull`] drops those below a fraction of
-//! the brightest.
+//! focused ghost finite. Because `I` is then at most the `A_s`-weighted mean
+//! of the cells' `I_c`, the cells' gain bound carries over: `I <= G · T̄_max`
+//! (`T̄_max` the largest mean throughput of a counted cell; test
+//! `estimate_obeys_the_gain_bound`). Ghosts are sorted by `I`, brightest
+//! first; [`cull`] drops those below a fraction of the brightest.
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -32,7 +38,7 @@ use rayon::prelude::*;
 use super::FlareError;
 use super::aperture::Aperture;
 use super::grid_trace::{GridOptions, MAX_GRID, trace_grid};
-use super::intensity::{CellKind, GridRay};
+use super::intensity::{CellKind, DEFAULT_MAX_GAIN, GridRay};
 use super::pupil::Beam;
 use crate::lens::{LensPrescription, PreparedLens, TracePath, ghosts};
 
@@ -69,11 +75,18 @@ pub struct EstimateOptions {
     pub min_spread_mm2: f64,
     /// Sensor plane; `None` = the table's image plane.
     pub sensor_z: Option<f64>,
+    /// Gain bound `G` of the cells (finite, >= 1), as [`GridOptions::max_gain`].
+    pub max_gain: f64,
 }
 
 impl Default for EstimateOptions {
     fn default() -> Self {
-        Self { cells_per_side: DEFAULT_ESTIMATE_SIDE, min_spread_mm2: DEFAULT_MIN_SPREAD_MM2, sensor_z: None }
+        Self {
+            cells_per_side: DEFAULT_ESTIMATE_SIDE,
+            min_spread_mm2: DEFAULT_MIN_SPREAD_MM2,
+            sensor_z: None,
+            max_gain: DEFAULT_MAX_GAIN,
+        }
     }
 }
 
@@ -87,11 +100,12 @@ pub fn estimate_ghost(
 ) -> Result<GhostEstimate, FlareError> {
     let k = options.cells_per_side;
     if !(1..MAX_GRID).contains(&k) {
-        return Err(FlareError::InvalidGridSize { got: k + 1, max: MAX_GRID });
+        // k + 1 rays per side; saturating: k = usize::MAX must not overflow.
+        return Err(FlareError::InvalidGridSize { got: k.saturating_add(1), max: MAX_GRID });
     }
-    let grid_options = GridOptions { sensor_z: options.sensor_z, ..Default::default() };
+    let grid_options = GridOptions { sensor_z: options.sensor_z, max_gain: options.max_gain };
     let grid = trace_grid(lens, path, beam, k + 1, &grid_options)?;
-    let passes = |r: &GridRay| r.alive && r.r_rel <= 1.0 && aperture.contains(r.stop_xy);
+    let passes = |r: &GridRay| r.passes(aperture);
     let (mut w, mut m, mut passed) = (0.0, DVec2::ZERO, 0usize);
     for r in grid.rays.iter().filter(|r| passes(r)) {
         w += r.throughput;
@@ -106,7 +120,8 @@ pub fn estimate_ghost(
                 continue;
             }
             let f = grid.cell_corners(i, j).iter().filter(|r| passes(r)).count() as f64 / 4.0;
-            power += f * cell.mean_throughput * grid.cell_pupil_mm2;
+            // The cell's bounded power I_c · A_s (= A_p · T̄ unless clamped).
+            power += f * cell.power();
             area += f * cell.sensor_area_mm2;
         }
     }
@@ -223,6 +238,53 @@ mod tests {
         assert!((e.power / r.power - 1.0).abs() < 0.1, "{} vs {}", e.power, r.power);
         // On axis the ghost is centred on the axis.
         assert!(e.centroid.length() < 1e-6, "{:?}", e.centroid);
+    }
+
+    #[test]
+    fn absurd_sizes_and_gains_are_typed_not_overflows() {
+        let p = builtin::tessar();
+        let lens = PreparedLens::new(&p, 550.0).unwrap();
+        let path = TracePath::ghost(4, 2);
+        let beam = Beam::for_path(&p, path, DVec3::Z, 550.0).unwrap();
+        let ap = Aperture::of_stop(&p);
+        for k in [usize::MAX, usize::MAX - 1, MAX_GRID, 0] {
+            let o = EstimateOptions { cells_per_side: k, ..Default::default() };
+            let e = estimate_ghost(&lens, path, &beam, &ap, &o).unwrap_err();
+            assert_eq!(e, FlareError::InvalidGridSize { got: k.saturating_add(1), max: MAX_GRID }, "k = {k}");
+        }
+        assert!(estimate_ghost(&lens, path, &beam, &ap, &EstimateOptions { cells_per_side: MAX_GRID - 1, ..Default::default() }).is_ok());
+        for g in [f64::NAN, 0.5] {
+            let o = EstimateOptions { max_gain: g, ..Default::default() };
+            assert!(matches!(estimate_ghost(&lens, path, &beam, &ap, &o), Err(FlareError::InvalidGain(_))));
+        }
+    }
+
+    #[test]
+    fn estimate_obeys_the_gain_bound() {
+        // The module docs: I <= G · T̄_max. With G = 1 (no area gain allowed)
+        // no ghost may be brighter than its brightest ray's throughput.
+        // The double Gauss on axis has ghosts focusing far above it with the
+        // default G ((13, 1) ~74×), so the bound is really exercised.
+        use crate::lens_flare::grid_trace::trace_grid;
+        let p = builtin::double_gauss();
+        let lens = PreparedLens::new(&p, 550.0).unwrap();
+        let ap = Aperture::of_stop(&p);
+        let k = DEFAULT_ESTIMATE_SIDE;
+        let (mut focusing, mut lit) = (0, 0);
+        for (i, j) in ghosts(&p) {
+            let path = TracePath::ghost(i, j);
+            let beam = Beam::for_path(&p, path, DVec3::Z, 550.0).unwrap();
+            let grid = trace_grid(&lens, path, &beam, k + 1, &GridOptions::default()).unwrap();
+            let t_max = grid.rays.iter().filter(|r| r.alive).map(|r| r.throughput).fold(0.0, f64::max);
+            let free = estimate_ghost(&lens, path, &beam, &ap, &EstimateOptions::default()).unwrap();
+            let one = EstimateOptions { max_gain: 1.0, ..Default::default() };
+            let bound = estimate_ghost(&lens, path, &beam, &ap, &one).unwrap();
+            assert!(bound.intensity <= t_max * (1.0 + 1e-12), "({i},{j}): {} > {t_max}", bound.intensity);
+            assert!(bound.power <= free.power * (1.0 + 1e-12));
+            focusing += (free.intensity > 10.0 * t_max) as usize;
+            lit += (free.power > 0.0) as usize;
+        }
+        assert!(focusing >= 3 && lit >= 40, "{focusing} focusing of {lit} lit ghosts");
     }
 
     #[test]

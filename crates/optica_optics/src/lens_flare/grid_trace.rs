@@ -134,7 +134,7 @@ pub(crate) fn trace_one(lens: &PreparedLens, path: TracePath, beam: &Beam, u: f6
             alive: true,
             sensor: r.position.truncate(),
             r_rel: r.r_rel,
-            stop_xy: r.stop_xy,
+            stop_xy: r.stop_xy_all,
             throughput: r.throughput,
         },
         _ => GridRay::DEAD,
@@ -356,7 +356,7 @@ mod tests {
                         prop_assert!(c.power() <= grid.cell_pupil_mm2 * c.mean_throughput * (1.0 + 1e-12));
                     }
                     for r in &grid.rays {
-                        prop_assert!(r.sensor.is_finite() && r.stop_xy.is_finite() && r.r_rel.is_finite());
+                        prop_assert!(r.sensor.is_finite() && r.stop_xy.iter().all(|p| p.is_finite()) && r.r_rel.is_finite());
                     }
                 }
             }

@@ -41,6 +41,9 @@
 
 use glam::DVec2;
 
+use super::aperture::Aperture;
+use crate::lens::MAX_STOP_CROSSINGS;
+
 /// Default bound `G` on a cell's area gain `A_p / A_s` (see the module docs).
 pub const DEFAULT_MAX_GAIN: f64 = 1e6;
 
@@ -55,8 +58,10 @@ pub struct GridRay {
     /// Largest `r / semi_aperture` along the path; > 1 means blocked
     /// (kept unclipped so the grid stays continuous, clipped per pixel).
     pub r_rel: f64,
-    /// (x, y) of the first crossing of the stop plane, mm.
-    pub stop_xy: DVec2,
+    /// (x, y) of every crossing of the stop plane, mm, first first (three
+    /// for a ghost straddling the stop; for one crossing all three entries
+    /// are that crossing), as [`crate::lens::TraceResult::stop_xy_all`].
+    pub stop_xy: [DVec2; MAX_STOP_CROSSINGS],
     /// Fresnel throughput of the path (coated where the prescription says).
     pub throughput: f64,
 }
@@ -64,7 +69,13 @@ pub struct GridRay {
 impl GridRay {
     /// A ray that died in the lens.
     pub const DEAD: GridRay =
-        GridRay { alive: false, sensor: DVec2::ZERO, r_rel: 0.0, stop_xy: DVec2::ZERO, throughput: 0.0 };
+        GridRay { alive: false, sensor: DVec2::ZERO, r_rel: 0.0, stop_xy: [DVec2::ZERO; MAX_STOP_CROSSINGS], throughput: 0.0 };
+
+    /// `true` when the ray reached the sensor, inside every semi-aperture
+    /// (`r_rel <= 1`) and inside `aperture` at every stop crossing.
+    pub fn passes(&self, aperture: &Aperture) -> bool {
+        self.alive && self.r_rel <= 1.0 && self.stop_xy.iter().all(|&p| aperture.contains(p))
+    }
 }
 
 /// How a cell maps to the sensor.
@@ -190,7 +201,7 @@ mod tests {
     use super::*;
 
     fn ray(x: f64, y: f64, t: f64) -> GridRay {
-        GridRay { alive: true, sensor: DVec2::new(x, y), r_rel: 0.5, stop_xy: DVec2::ZERO, throughput: t }
+        GridRay { alive: true, sensor: DVec2::new(x, y), r_rel: 0.5, stop_xy: [DVec2::ZERO; 3], throughput: t }
     }
 
     #[test]

@@ -34,7 +34,13 @@
 //! Ray tracing (光束追跡): the sequence of surfaces of a ghost is known, so no
 //! acceleration structure; a line meets a sphere where
 //! `t² + 2 B t + C = 0` (`B = q·d`, `C = |q|² − r²`, unit `d`), taken on the cap
-//! through the vertex — the blog's `t = √(B² − C)·sgn(r d_z) − B`, in
+//! through the vertex. The blog writes that root `t = √(B² − C)·sgn(r·d_z) − B`
+//! for light travelling −z (Hullin's convention); here light travels +z, and
+//! the same cap is
+//! ```text
+//! t = √(B² − C)·sgn(−R·d_z) − B      (R > 0, d_z > 0: the nearer root)
+//! ```
+//! (test `blog_root_in_this_crates_convention`), computed in
 //! [`crate::surface`] in a cancellation-free form with curvature `c = 1/R`
 //! (flat is `c = 0`). At every hit
 //! ```text
@@ -54,9 +60,10 @@
 //! ([`intensity`] documents folded and degenerate cells, and why we use
 //! signed shoelace areas instead of the blog's Bretschneider formula).
 //!
-//! Per pixel the aperture-plane position and `r_rel` are interpolated over the
-//! quad and the pixel is dropped outside the aperture shape or where
-//! `r_rel > 1` ([`raster`]).
+//! Per pixel the aperture-plane position (of every stop crossing: three for a
+//! ghost reflecting behind and then in front of the stop) and `r_rel` are
+//! interpolated over the quad and the pixel is dropped outside the aperture
+//! shape at any crossing or where `r_rel > 1` ([`raster`]).
 //!
 //! Dispersion: everything above is per wavelength — the indices `n(λ)` and
 //! the coating reflectance change, so a ghost moves and changes colour
@@ -123,3 +130,37 @@ pub use intensity::{CellKind, DEFAULT_MAX_GAIN, GridCell, GridRay, cell_intensit
 pub use pupil::{Beam, PupilBounds, light_direction, light_from_field};
 pub use raster::{SensorImage, SensorWindow, rasterise, rasterise_into};
 pub use reference::{ImageError, ReferenceImage, compare, downsample, reference_image};
+
+#[cfg(test)]
+mod tests {
+    use crate::ray::Ray;
+    use crate::surface::SphericalSurface;
+    use glam::DVec3;
+
+    #[test]
+    fn blog_root_in_this_crates_convention() {
+        // The module docs' root for light travelling +z:
+        // t = √(B² − C)·sgn(−R·d_z) − B, with q = origin − centre, B = q·d,
+        // C = |q|² − R², against the tracer's cap intersection, for both
+        // signs of R and of d_z. (The blog's sgn(R·d_z) picks the other
+        // root in every one of these cases.)
+        let vertex_z = 2.0;
+        for (r, origin, dir) in [
+            (40.0, DVec3::new(0.0, 5.0, -10.0), DVec3::new(0.0, 0.05, 1.0)),
+            (-40.0, DVec3::new(0.0, 5.0, -10.0), DVec3::new(0.0, -0.05, 1.0)),
+            (40.0, DVec3::new(0.0, 5.0, 4.0), DVec3::new(0.0, 0.05, -1.0)),
+            (-40.0, DVec3::new(0.0, 5.0, 12.0), DVec3::new(0.0, 0.05, -1.0)),
+        ] {
+            let ray = Ray::new(origin, dir);
+            let d = ray.dir;
+            let q = ray.origin - DVec3::new(0.0, 0.0, vertex_z + r);
+            let (b, c) = (q.dot(d), q.length_squared() - r * r);
+            let root = |sign: f64| (b * b - c).sqrt() * sign - b;
+            let hit = SphericalSurface::new(vertex_z, 1.0 / r).intersect(&ray).unwrap();
+            let ours = root((-r * d.z).signum());
+            assert!((ours - hit.t).abs() < 1e-9, "R = {r}, d_z = {}: {ours} vs {}", d.z, hit.t);
+            let blogs = root((r * d.z).signum());
+            assert!((blogs - hit.t).abs() > 1.0, "R = {r}: the blog's sign in +z travel is the far root");
+        }
+    }
+}

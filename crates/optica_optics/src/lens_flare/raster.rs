@@ -10,11 +10,14 @@
 //! flat irradiance. Coverage is exact: each triangle is clipped against each
 //! pixel square (Sutherland–Hodgman), so a pixel gets `I × overlap area`
 //! and a cell deposits exactly its power however small it is. The clip is per
-//! fragment (triangle ∩ pixel): `r_rel` and the stop-plane position are
-//! interpolated (barycentric, linear on the triangle) at the fragment's
-//! centroid and the fragment is dropped when `r_rel > 1` or the aperture
-//! does not contain the position — the CPU twin of a pixel shader that
-//! discards by an aperture texture.
+//! fragment (triangle ∩ pixel): `r_rel` and the stop-plane position of every
+//! stop crossing are interpolated (barycentric, linear on the triangle) at
+//! the fragment's centroid and the fragment is dropped when `r_rel > 1` or
+//! the aperture does not contain one of the positions — the CPU twin of a
+//! pixel shader that discards by an aperture texture. A ghost `(i, j)` with
+//! `j < stop < i` crosses the stop three times and the aperture shape is
+//! tested at all three (the first alone would let a bladed stop clip only
+//! the first pass, the later ones only by the round `r_rel`).
 
 use glam::DVec2;
 
@@ -22,6 +25,7 @@ use super::FlareError;
 use super::aperture::Aperture;
 use super::grid_trace::RayGrid;
 use super::intensity::{CellKind, GridRay};
+use crate::lens::MAX_STOP_CROSSINGS;
 
 /// Most pixels a window may have (4096²).
 pub const MAX_PIXELS: usize = 4096 * 4096;
@@ -213,8 +217,11 @@ fn triangle(image: &mut SensorImage, v: [&GridRay; 3], intensity: f64, aperture:
         let l2 = (p[1] - p[0]).perp_dot(q - p[0]) * inv;
         let l0 = 1.0 - l1 - l2;
         let r_rel = l0 * v[0].r_rel + l1 * v[1].r_rel + l2 * v[2].r_rel;
-        let stop = l0 * v[0].stop_xy + l1 * v[1].stop_xy + l2 * v[2].stop_xy;
-        r_rel <= 1.0 && aperture.contains(stop)
+        // Every stop crossing (three for a ghost straddling the stop).
+        r_rel <= 1.0
+            && (0..MAX_STOP_CROSSINGS).all(|k| {
+                aperture.contains(l0 * v[0].stop_xy[k] + l1 * v[1].stop_xy[k] + l2 * v[2].stop_xy[k])
+            })
     };
     for iy in y0..=y1 {
         let (ya, yb) = (w.min.y + iy as f64 * w.pixel_mm, w.min.y + (iy + 1) as f64 * w.pixel_mm);
@@ -243,7 +250,7 @@ mod tests {
     use crate::lens_flare::intensity::{DEFAULT_MAX_GAIN, cell_intensity};
 
     fn ray(x: f64, y: f64, r_rel: f64) -> GridRay {
-        GridRay { alive: true, sensor: DVec2::new(x, y), r_rel, stop_xy: DVec2::ZERO, throughput: 1.0 }
+        GridRay { alive: true, sensor: DVec2::new(x, y), r_rel, stop_xy: [DVec2::ZERO; 3], throughput: 1.0 }
     }
 
     fn one_cell(rays: [GridRay; 4]) -> RayGrid {

@@ -23,7 +23,8 @@
 //!
 //! The reference has Monte-Carlo noise of its own; a second reference with
 //! another seed measures it (reported as the stability case "reference noise
-//! floor"): the errors cannot fall below it.
+//! floor", which fails above [`NOISE_FLOOR_MAX_L1`] relative L1 or
+//! [`NOISE_FLOOR_MAX_ENERGY`] relative energy): the errors cannot fall below it.
 //!
 //! `time_ms`: grid trace + rasterise at N. `baseline_time_ms`: the
 //! brute-force reference (K² rays, traced and binned), measured once per
@@ -43,6 +44,14 @@ const WAVELENGTH_NM: f64 = 550.0;
 const FIELD_DEG: f64 = 10.0;
 const AZIMUTH_DEG: f64 = 30.0;
 const GHOST: (usize, usize) = (7, 5);
+/// Largest accepted relative L1 between two references of different seeds
+/// (the noise floor): measured 0.060 quick (200² rays, 24² px) and 0.022
+/// full (1000² rays, 64² px), relative energy −0.0023 and −0.0002; the
+/// bounds leave room above both (the seeds are fixed, so this is
+/// deterministic, and a reference twice as noisy as measured fails).
+pub const NOISE_FLOOR_MAX_L1: f64 = 0.1;
+/// Largest accepted |relative energy| between the two references.
+pub const NOISE_FLOOR_MAX_ENERGY: f64 = 0.01;
 
 fn coated(p: &LensPrescription) -> LensPrescription {
     coat_air_interfaces(p, Coating::quarter_wave(1.38, WAVELENGTH_NM))
@@ -99,7 +108,7 @@ pub fn run(ctx: &SweepContext) -> Report {
     {
         Some(e) => report.case(
             "reference noise floor",
-            e.rel_l1.is_finite(),
+            e.rel_l1 < NOISE_FLOOR_MAX_L1 && e.rel_energy.abs() < NOISE_FLOOR_MAX_ENERGY,
             format!(
                 "two references with different seeds differ by rel_l1 {:.4}, rel_l2 {:.4}, rel_energy {:+.5}",
                 e.rel_l1, e.rel_l2, e.rel_energy
@@ -166,15 +175,15 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     })();
     push(report, "caustic folding", r);
 
-    // Grazing light: 89° off axis on the Tessar.
-    let r = grid_case(&builtin::tessar(), TracePath::ghost(7, 5), light_from_field(89.0, 0.0));
+    // Grazing light: 89° off axis on the Tessar: only has to stay finite.
+    let r = grid_case(&builtin::tessar(), TracePath::ghost(7, 5), light_from_field(89.0, 0.0), Alive::Any);
     push(report, "grazing light angle (89°)", r);
 
     // Light outside the field (the Tessar covers ±12° on a 36 × 24 mm
     // sensor): at 40° part of the grid misses the front sphere or meets TIR
     // (dead cells next to live ones); at 75° every ray dies.
-    for deg in [40.0, 75.0] {
-        let r = grid_case(&builtin::tessar(), TracePath::ghost(4, 2), light_from_field(deg, 0.0));
+    for (deg, alive) in [(40.0, Alive::Partly), (75.0, Alive::None)] {
+        let r = grid_case(&builtin::tessar(), TracePath::ghost(4, 2), light_from_field(deg, 0.0), alive);
         push(report, &format!("light outside the field ({deg}°)"), r);
     }
 
@@ -243,8 +252,20 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     push(report, "dispersion (450 vs 650 nm)", r);
 }
 
-/// A case that only has to stay finite: trace, rasterise, check for NaN.
-fn grid_case(p: &LensPrescription, path: TracePath, light: DVec3) -> Result<String, FlareError> {
+/// How many rays of a [`grid_case`] must reach the sensor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Alive {
+    /// Any number.
+    Any,
+    /// Some, but not all: dead cells next to live ones.
+    Partly,
+    /// None: an all-black image.
+    None,
+}
+
+/// Trace, rasterise, check for NaN and that the rays reaching the sensor
+/// are as `alive` says.
+fn grid_case(p: &LensPrescription, path: TracePath, light: DVec3, alive: Alive) -> Result<String, FlareError> {
     let p = coated(p);
     let lens = PreparedLens::new(&p, WAVELENGTH_NM)?;
     let beam = Beam::for_path(&p, path, light, WAVELENGTH_NM)?;
@@ -254,9 +275,14 @@ fn grid_case(p: &LensPrescription, path: TracePath, light: DVec3) -> Result<Stri
     let s = g.stats();
     let finite = img.power.iter().all(|v| v.is_finite() && *v >= 0.0)
         && g.cells.iter().all(|c| c.intensity.is_finite() || c.kind == CellKind::Dead);
+    let as_expected = match alive {
+        Alive::Any => true,
+        Alive::Partly => s.alive_rays > 0 && s.alive_rays < g.rays.len(),
+        Alive::None => s.alive_rays == 0 && img.total() == 0.0,
+    };
     Ok(format!(
-        "{}{} of {} rays reach the sensor, {} live cells, image total {:.3e} (finite, no NaN)",
-        if finite { "" } else { "FAILED: " },
+        "{}{} of {} rays reach the sensor (expected: {alive:?}), {} live cells, image total {:.3e} (finite, no NaN)",
+        if finite && as_expected { "" } else { "FAILED: " },
         s.alive_rays,
         g.rays.len(),
         s.alive_cells,
@@ -282,6 +308,9 @@ mod tests {
         assert_eq!(r.rows.len(), 4, "{:?}", r.stability);
         let problems = r.problems();
         assert!(problems.is_empty(), "{problems:#?}");
+        for case in ["reference noise floor", "light outside the field (40°)", "light outside the field (75°)"] {
+            assert!(r.stability.iter().any(|c| c.case == case && c.ok), "{case}: {:?}", r.stability);
+        }
         let (first, last) = (&r.rows[0], &r.rows[r.rows.len() - 1]);
         assert!(last.error["rel_l1"] < 0.5 * first.error["rel_l1"], "{:?}", r.rows);
         assert!(last.error["rel_l2"] < first.error["rel_l2"]);

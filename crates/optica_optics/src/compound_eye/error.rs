@@ -22,6 +22,16 @@ pub enum CompoundEyeError {
         /// `det A`, the signed doubled UV area.
         det: f64,
     },
+    /// A normal given to [`super::TextureAxes::from_axes`] is not
+    /// perpendicular to the lattice plane `U_p × V_p`.
+    #[error("normal is not perpendicular to the lattice plane: |cos| to U x V = {cos} < 1 - 1e-9")]
+    NormalNotPerpendicular {
+        /// `|N̂·(U_p × V_p)| / |U_p × V_p|` (NaN never reaches here).
+        cos: f64,
+    },
+    /// A facet size (the side of one lattice cell) is not finite and positive.
+    #[error("facet size {0} is not finite and positive")]
+    BadFacet(f64),
     /// The lens radius is not finite and positive.
     #[error("lens radius {0} is not finite and positive")]
     BadRadius(f64),

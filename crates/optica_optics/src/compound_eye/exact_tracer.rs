@@ -82,7 +82,7 @@ pub(crate) fn first_lens(
     let r = lattice.lens().radius;
     // The t-range in which the ray is inside the layer −eps ≤ depth ≤ 2r + eps.
     let h0 = axes.depth(origin);
-    let down = -dir.dot(axes.normal);
+    let down = -dir.dot(axes.normal());
     let (lo, hi) = (-eps, 2.0 * r + eps);
     let (t_start, t_end) = if down > 0.0 {
         (((lo - h0) / down).max(0.0), (hi - h0) / down)

@@ -130,7 +130,7 @@ impl Lattice {
     #[inline]
     pub fn lens_centre(&self, centre_uv: DVec2) -> DVec3 {
         let p_prime = self.axes.point_of(centre_uv); // (6.21)
-        p_prime - self.lens.radius * self.axes.normal // (6.22)
+        p_prime - self.lens.radius * self.axes.normal() // (6.22)
     }
 
     /// Eq. 6.23–6.27: the texture coordinate of a point `p_s` on the slice
@@ -138,7 +138,7 @@ impl Lattice {
     /// (`P_s' = P_s + h·N`) and solving eq. 6.24 by least squares.
     #[inline]
     pub fn slice_uv(&self, p_s: DVec3, h: f64) -> DVec2 {
-        let p_s_prime = p_s + h * self.axes.normal; // (6.23)
+        let p_s_prime = p_s + h * self.axes.normal(); // (6.23)
         self.axes.uv_of(p_s_prime) // (6.24)–(6.27)
     }
 
@@ -153,7 +153,7 @@ impl Lattice {
     /// or `None` when it does not go deeper (`−dir·N ≤ 1e-12`): it escapes.
     #[inline]
     pub fn to_pigment_plane(&self, origin: DVec3, dir: DVec3) -> Option<DVec3> {
-        let down = -dir.dot(self.axes.normal);
+        let down = -dir.dot(self.axes.normal());
         if !(down > 1e-12) {
             return None;
         }

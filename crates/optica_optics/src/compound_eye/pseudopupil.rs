@@ -20,11 +20,19 @@ use crate::ray::Ray;
 /// The lattice of one facet of a curved eye: the tangent plane at `centre`
 /// with outward unit `axis`, facets `facet` world units square, cell `(0, 0)`
 /// centred on `centre` (so its lens's apex is `centre`).
+///
+/// Errors: [`CompoundEyeError::NonFinite`] for a non-finite `centre` or
+/// `axis`, [`CompoundEyeError::DegenerateTriangle`] for a zero `axis` (no
+/// plane), [`CompoundEyeError::BadFacet`] for a `facet` that is not finite
+/// and positive, and [`Lattice::new`]'s errors for the lens.
 pub fn facet_lattice(centre: DVec3, axis: DVec3, facet: f64, lens: LensParams) -> Result<Lattice, CompoundEyeError> {
-    let axis = axis.try_normalize().ok_or(CompoundEyeError::DegenerateTriangle)?;
-    if !(facet.is_finite() && facet > 0.0 && centre.is_finite()) {
+    if !(centre.is_finite() && axis.is_finite()) {
         return Err(CompoundEyeError::NonFinite);
     }
+    if !(facet.is_finite() && facet > 0.0) {
+        return Err(CompoundEyeError::BadFacet(facet));
+    }
+    let axis = axis.try_normalize().ok_or(CompoundEyeError::DegenerateTriangle)?;
     let (u_hat, _) = axis.any_orthonormal_pair();
     // Right-handed (U, V, N) regardless of the helper's choice.
     let v_hat = axis.cross(u_hat);
@@ -40,7 +48,7 @@ pub fn facet_lattice(centre: DVec3, axis: DVec3, facet: f64, lens: LensParams) -
 pub fn ray_to_facet(lattice: &Lattice, viewer: DVec3) -> Option<Ray> {
     let apex = lattice.axes().point_of(glam::DVec2::splat(0.5));
     let ray = Ray::try_new(viewer, apex - viewer).ok()?;
-    (ray.dir.dot(lattice.axes().normal) < 0.0).then_some(ray)
+    (ray.dir.dot(lattice.axes().normal()) < 0.0).then_some(ray)
 }
 
 /// `true` when `viewer` sees this facet's dark centre: the exact tracer's
@@ -133,7 +141,25 @@ mod tests {
         let l = facet_lattice(5.0 * axis, axis, 1.0, lens).unwrap();
         let s = l.lens_centre(glam::DVec2::splat(0.5));
         assert!((s - (5.0 * axis - 0.5 * axis)).length() < 1e-14);
-        assert_eq!(l.axes().handedness, 1.0);
+        assert_eq!(l.axes().handedness(), 1.0);
         assert!(ray_to_facet(&l, -10.0 * axis).is_none());
+    }
+
+    #[test]
+    fn facet_lattice_reports_the_right_error() {
+        let lens = LensParams::thesis(0.5, 1.5).unwrap();
+        let (c, a) = (DVec3::new(0.0, 0.0, 5.0), DVec3::Z);
+        // A NaN or infinite axis or centre is non-finite input, not a degenerate plane.
+        for axis in [DVec3::new(f64::NAN, 0.0, 1.0), DVec3::new(0.0, f64::INFINITY, 1.0)] {
+            assert_eq!(facet_lattice(c, axis, 1.0, lens), Err(CompoundEyeError::NonFinite));
+        }
+        assert_eq!(facet_lattice(DVec3::splat(f64::NAN), a, 1.0, lens), Err(CompoundEyeError::NonFinite));
+        // A finite zero axis has no plane.
+        assert_eq!(facet_lattice(c, DVec3::ZERO, 1.0, lens), Err(CompoundEyeError::DegenerateTriangle));
+        // A finite facet size ≤ 0 is a bad facet, not a non-finite input.
+        assert_eq!(facet_lattice(c, a, 0.0, lens), Err(CompoundEyeError::BadFacet(0.0)));
+        assert_eq!(facet_lattice(c, a, -1.0, lens), Err(CompoundEyeError::BadFacet(-1.0)));
+        assert!(matches!(facet_lattice(c, a, f64::NAN, lens), Err(CompoundEyeError::BadFacet(f)) if f.is_nan()));
+        assert!(facet_lattice(c, a, 1.0, lens).is_ok());
     }
 }

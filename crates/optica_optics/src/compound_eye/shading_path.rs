@@ -23,10 +23,15 @@
 //! straight ray crosses each column once, in order. So a lens picked at a
 //! slice that the ray intersects at all is the *first* lens it meets unless
 //! the first lens's column lay wholly between two slices; with `K → ∞` the
-//! path therefore finds the exact first lens for every ray that reaches it
-//! above the lenses' equator (`h ≤ r`). Rays that slip between lenses and
-//! enter one below its equator (grazing rays through the gaps at cell
-//! corners) stay unresolved at any `K` — that is the method's error floor.
+//! path therefore finds the exact first lens for every ray that is inside
+//! that lens's column somewhere between the polygon and the last slice
+//! (`0 ≤ h ≤ r`, the lenses' equator plane). Rays that reach their first
+//! lens's column only below depth `r` (grazing rays that slip through the
+//! gaps between lenses, at cell corners, and cross into the column deep
+//! down) stay unresolved at any `K` — that is the method's error floor. Where
+//! the ray meets the sphere does not matter: a ray that is in the column
+//! above depth `r` is found even when it enters the sphere below its
+//! equator.
 //!
 //! Measured (report sweep `compound_eye`: unit facets, touching lenses
 //! `r = ½`, `n = 1.5`, `d = 2r`, rays from 0° to 89°): the wrong-lens
@@ -55,7 +60,7 @@ pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<DVec3, Shade
     if !ray.origin.is_finite() || !ray.dir.is_finite() || !(ray.dir.length_squared() > 0.0) {
         return Err(ShadeFallback::NonFinite);
     }
-    let cos = -ray.dir.dot(axes.normal);
+    let cos = -ray.dir.dot(axes.normal());
     if !(cos > MIN_COS) {
         return Err(ShadeFallback::PolygonMiss);
     }
@@ -86,7 +91,7 @@ pub fn shade_fragment(lattice: &Lattice, p: DVec3, dir: DVec3, slices: u32) -> S
     if !p.is_finite() || !dir.is_finite() {
         return Shade::Fallback(ShadeFallback::NonFinite);
     }
-    let cos = -dir.dot(axes.normal);
+    let cos = -dir.dot(axes.normal());
     if !(cos > MIN_COS) {
         return Shade::Fallback(ShadeFallback::PolygonMiss);
     }
@@ -211,6 +216,30 @@ mod tests {
     }
 
     #[test]
+    fn entering_a_lens_below_its_equator_is_resolved_when_in_its_column_above_r() {
+        // The error floor is about the column, not the sphere: this ray starts
+        // in the corner of cell (0, 0) at (0.02, 0.02), heads for the lens axis
+        // and down (direction ∝ (1, 1, −4)) and stays in column (0, 0) all the
+        // way. It is still outside the sphere at depth r (0.502 from the axis)
+        // and enters it between depths 0.5 and 0.6, below the equator; the
+        // slice at the polygon already picks that lens.
+        let l = unit_lattice(0.5, 1.5, 1.0);
+        let dir = DVec3::new(1.0, 1.0, -4.0).normalize();
+        let ray = ray_at(0.02, 0.02, dir);
+        let p = polygon_entry(&l, &ray).unwrap();
+        let t = l.lens_entry(&Ray { origin: p, dir }, l.lens_centre(DVec2::splat(0.5))).unwrap();
+        let entry_depth = l.axes().depth(p + t * dir);
+        assert!(entry_depth > 0.5 && entry_depth < 0.6, "enters at depth {entry_depth}");
+        let exact = *trace_exact(&l, &ray, 1).hit().unwrap();
+        assert_eq!(exact.lens, Some([0, 0]));
+        for k in [0, 1, 8] {
+            let got = *shade(&l, &ray, k).hit().unwrap();
+            assert_eq!(got.lens, exact.lens, "K = {k}");
+            assert!((got.uv - exact.uv).length() < 1e-12);
+        }
+    }
+
+    #[test]
     fn n_equal_one_is_a_straight_line() {
         let l = unit_lattice(0.5, 1.0, 1.3);
         for k in 0..50 {
@@ -273,7 +302,7 @@ mod tests {
         let lens = LensParams::thesis(0.5, 1.5).unwrap();
         let a = Lattice::new(TextureAxes::from_triangle(p, t).unwrap(), lens).unwrap();
         let m = Lattice::new(TextureAxes::from_triangle(p, tm).unwrap(), lens).unwrap();
-        assert_eq!(m.axes().handedness, -1.0);
+        assert_eq!(m.axes().handedness(), -1.0);
         for k in 0..200 {
             let f = k as f64;
             let dir = DVec3::new((f * 0.7).cos(), (f * 0.7).sin(), -0.2 - (f * 0.013) % 1.5).normalize();

@@ -29,22 +29,52 @@ pub fn scale_uv(t_obj: DVec2, texture_resolution: f64) -> DVec2 {
     texture_resolution * t_obj
 }
 
+/// Relative tolerance of [`TextureAxes::from_axes`]'s perpendicularity check:
+/// a given normal `N` is accepted when `|N̂·(U_p × V_p)| / |U_p × V_p| ≥ 1 − NORMAL_COS_EPS`
+/// (within about 4.5e-5 rad of the lattice plane's normal).
+pub const NORMAL_COS_EPS: f64 = 1e-9;
+
 /// The texture frame of one triangle: `P = P_c + a·U_p + b·V_p` (eq. 6.2).
+///
+/// Invariants every constructor establishes and the rest of the module relies
+/// on: `U_p`, `V_p` finite and not parallel, `N` a unit vector exactly along
+/// `±(U_p × V_p)` (so depth along `N` and the `uv` projection are independent
+/// and each lens stays inside its cell's column), and the cached Gram
+/// determinant of eq. 6.26–6.27 matching `U_p`, `V_p`. The fields are private
+/// so that these cannot be broken after construction; read them with the
+/// getters.
+///
+/// ```
+/// # use optica_optics::compound_eye::TextureAxes;
+/// # use optica_optics::glam::{DVec2, DVec3};
+/// let a = TextureAxes::from_axes(DVec3::ZERO, 2.0 * DVec3::X, DVec3::Y, DVec3::Z).unwrap();
+/// assert_eq!(a.u(), 2.0 * DVec3::X);
+/// assert_eq!(a.uv_of(DVec3::new(1.0, 1.0, 0.0)), DVec2::new(0.5, 1.0));
+/// ```
+///
+/// A field cannot be assigned (it would leave the cached Gram determinant stale):
+///
+/// ```compile_fail
+/// # use optica_optics::compound_eye::TextureAxes;
+/// # use optica_optics::glam::DVec3;
+/// let mut a = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z).unwrap();
+/// a.u = 2.0 * DVec3::X;
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TextureAxes {
     /// `P_c`: the point with texture coordinate (0, 0) (eq. 6.3).
-    pub origin: DVec3,
+    origin: DVec3,
     /// `U_p = ∂P/∂a` (eq. 6.8): one facet along the texture's `a` axis, in world units.
-    pub u: DVec3,
+    u: DVec3,
     /// `V_p = ∂P/∂b` (eq. 6.9): one facet along the texture's `b` axis, in world units.
-    pub v: DVec3,
+    v: DVec3,
     /// Unit outward normal `N`, from the winding `P_10 × P_20` (not from `U_p × V_p`).
-    pub normal: DVec3,
+    normal: DVec3,
     /// `sign(det A)`: `+1` when `(U_p, V_p, N)` is right-handed, `−1` for mirrored UVs.
-    pub handedness: f64,
+    handedness: f64,
     /// `None` when the axes are eq. 6.15's; otherwise why the fallback frame
     /// of [`TextureAxes::from_triangle_or_fallback`] was used.
-    pub fallback: Option<CompoundEyeError>,
+    fallback: Option<CompoundEyeError>,
     /// Gram determinant `(U·U)(V·V) − (U·V)²`, the denominator of eq. 6.26–6.27.
     gram: f64,
 }
@@ -130,22 +160,82 @@ impl TextureAxes {
         }
     }
 
-    /// Axes given directly (for lattices built without a mesh). `normal` is
-    /// normalised; the handedness is `sign((u × v)·normal)`. Returns
+    /// Axes given directly (for lattices built without a mesh).
+    ///
+    /// `normal` must be perpendicular to the lattice plane: only its side
+    /// is taken from it. It is accepted when `|N̂·(U_p × V_p)| / |U_p × V_p|
+    /// ≥ 1 − NORMAL_COS_EPS` and then *replaced* by exactly
+    /// `±(U_p × V_p)/|U_p × V_p|` with the sign of `N·(U_p × V_p)`; that sign
+    /// is the handedness. A tilted normal is rejected (it would put the
+    /// lenses off their cells' columns and mix depth into the texture
+    /// coordinates) rather than silently projected.
+    ///
+    /// Errors: [`CompoundEyeError::NonFinite`] for non-finite input,
+    /// [`CompoundEyeError::DegenerateTriangle`] for a zero `normal`,
     /// [`CompoundEyeError::DegenerateUv`] when `u`, `v` are (nearly) parallel
-    /// and [`CompoundEyeError::NonFinite`] for bad input.
+    /// and [`CompoundEyeError::NormalNotPerpendicular`] for a tilted `normal`.
     pub fn from_axes(origin: DVec3, u: DVec3, v: DVec3, normal: DVec3) -> Result<Self, CompoundEyeError> {
         if !origin.is_finite() || !u.is_finite() || !v.is_finite() || !normal.is_finite() {
             return Err(CompoundEyeError::NonFinite);
         }
-        let normal = normal.try_normalize().ok_or(CompoundEyeError::DegenerateTriangle)?;
+        let given = normal.try_normalize().ok_or(CompoundEyeError::DegenerateTriangle)?;
         let cross = u.cross(v);
         let sin_len = cross.length();
-        if !(sin_len > UV_DET_REL_EPS * u.length() * v.length()) {
+        if !(sin_len > UV_DET_REL_EPS * u.length() * v.length()) || !sin_len.is_finite() {
             return Err(CompoundEyeError::DegenerateUv { det: 0.0 });
         }
-        let handed = if cross.dot(normal) < 0.0 { -1.0 } else { 1.0 };
-        Ok(Self::assemble(origin, u, v, normal, handed, None))
+        let plane_normal = cross / sin_len;
+        let cos = given.dot(plane_normal);
+        if !(cos.abs() >= 1.0 - NORMAL_COS_EPS) {
+            return Err(CompoundEyeError::NormalNotPerpendicular { cos: cos.abs() });
+        }
+        let handed = if cos < 0.0 { -1.0 } else { 1.0 };
+        let axes = Self::assemble(origin, u, v, handed * plane_normal, handed, None);
+        if axes.gram > 0.0 && axes.gram.is_finite() {
+            Ok(axes)
+        } else {
+            // Only reachable with extreme magnitudes (overflow or underflow of U·U, V·V).
+            Err(CompoundEyeError::DegenerateUv { det: 0.0 })
+        }
+    }
+
+    /// `P_c`: the point with texture coordinate (0, 0) (eq. 6.3).
+    #[inline]
+    pub fn origin(&self) -> DVec3 {
+        self.origin
+    }
+
+    /// `U_p = ∂P/∂a` (eq. 6.8): one facet along the texture's `a` axis, in world units.
+    #[inline]
+    pub fn u(&self) -> DVec3 {
+        self.u
+    }
+
+    /// `V_p = ∂P/∂b` (eq. 6.9): one facet along the texture's `b` axis, in world units.
+    #[inline]
+    pub fn v(&self) -> DVec3 {
+        self.v
+    }
+
+    /// Unit outward normal `N`, perpendicular to `U_p` and `V_p`: from the
+    /// winding `P_10 × P_20` for triangles, `±(U_p × V_p)/|U_p × V_p|` for
+    /// [`TextureAxes::from_axes`].
+    #[inline]
+    pub fn normal(&self) -> DVec3 {
+        self.normal
+    }
+
+    /// `sign(det A)`: `+1` when `(U_p, V_p, N)` is right-handed, `−1` for mirrored UVs.
+    #[inline]
+    pub fn handedness(&self) -> f64 {
+        self.handedness
+    }
+
+    /// `None` when the axes are eq. 6.15's (or given directly); otherwise why
+    /// the fallback frame of [`TextureAxes::from_triangle_or_fallback`] was used.
+    #[inline]
+    pub fn fallback(&self) -> Option<CompoundEyeError> {
+        self.fallback
     }
 
     fn assemble(origin: DVec3, u: DVec3, v: DVec3, normal: DVec3, handedness: f64, fallback: Option<CompoundEyeError>) -> Self {
@@ -296,6 +386,53 @@ mod tests {
     }
 
     #[test]
+    fn from_axes_rejects_a_normal_off_the_lattice_plane() {
+        // (1, 0, 1)/√2 is 45° off U × V = +z: the lenses would sit off their
+        // cells' columns and poke through the polygon.
+        let tilted = DVec3::new(1.0, 0.0, 1.0) / 2f64.sqrt();
+        match TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, tilted) {
+            Err(CompoundEyeError::NormalNotPerpendicular { cos }) => assert!((cos - tilted.z).abs() < 1e-15),
+            other => panic!("{other:?}"),
+        }
+        // In the plane: rejected too, not a handedness of +1.
+        assert!(matches!(
+            TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::X),
+            Err(CompoundEyeError::NormalNotPerpendicular { .. })
+        ));
+        // 1e-3 rad off: still rejected (the tolerance is 1 − cos ≤ 1e-9).
+        let off = DVec3::new(1e-3, 0.0, 1.0);
+        assert!(TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, off).is_err());
+        // Within the tolerance, and of any length: only the side is taken; the
+        // stored normal is exactly ±(U × V)/|U × V|.
+        let a = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(1e-6, 0.0, 3.0)).unwrap();
+        assert_eq!((a.normal(), a.handedness()), (DVec3::Z, 1.0));
+        let m = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(0.0, -1e-6, -0.5)).unwrap();
+        assert_eq!((m.normal(), m.handedness()), (DVec3::NEG_Z, -1.0));
+        // Depth along N and the uv projection stay independent.
+        let q = DVec3::new(0.3, 0.7, -0.4);
+        assert_eq!(a.uv_of(q), DVec2::new(0.3, 0.7));
+        assert_eq!(a.depth(q), 0.4);
+        assert_eq!(
+            TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ZERO),
+            Err(CompoundEyeError::DegenerateTriangle)
+        );
+    }
+
+    #[test]
+    fn getters_match_the_cached_gram_determinant() {
+        // With private fields, the axes read back are the ones the cached Gram
+        // determinant belongs to: uv_rate and cell_heights use them consistently.
+        let a = TextureAxes::from_axes(DVec3::ONE, 2.0 * DVec3::X, DVec3::new(0.5, 1.0, 0.0), DVec3::Z).unwrap();
+        assert_eq!((a.origin(), a.u(), a.v()), (DVec3::ONE, 2.0 * DVec3::X, DVec3::new(0.5, 1.0, 0.0)));
+        assert_eq!(a.fallback(), None);
+        assert!((a.uv_rate(a.u()) - DVec2::X).length() < 1e-15);
+        assert!((a.uv_rate(a.v()) - DVec2::Y).length() < 1e-15);
+        // Cell: a parallelogram of area 2 with sides 2 and √1.25.
+        let (hu, hv) = a.cell_heights();
+        assert!((hu - 2.0 / 1.25f64.sqrt()).abs() < 1e-15 && (hv - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
     fn scale_uv_is_eq_6_1() {
         assert_eq!(scale_uv(DVec2::new(0.25, 0.5), 40.0), DVec2::new(10.0, 20.0));
     }
@@ -323,6 +460,29 @@ mod tests {
             let f = TextureAxes::from_triangle_or_fallback(p, t, 0.5);
             prop_assert!(f.u.is_finite() && f.v.is_finite() && f.origin.is_finite() && f.normal.is_finite());
             prop_assert!(f.uv_of(p[0]).is_finite());
+        }
+
+        /// Whatever normal is given, accepted axes have N a unit vector
+        /// perpendicular to U_p and V_p, with the handedness its side.
+        #[test]
+        fn from_axes_normal_is_perpendicular_or_rejected(
+            u in prop::array::uniform3(-10.0f64..10.0),
+            v in prop::array::uniform3(-10.0f64..10.0),
+            n in prop::array::uniform3(-1.0f64..1.0),
+            snap in prop::bool::ANY,
+        ) {
+            let (u, v) = (DVec3::from(u), DVec3::from(v));
+            // Half the cases: a normal near ±(U × V), to exercise acceptance.
+            let n = if snap { u.cross(v) * n[0].signum() + 1e-7 * DVec3::from(n) * u.cross(v).length() } else { DVec3::from(n) };
+            if let Ok(a) = TextureAxes::from_axes(DVec3::ZERO, u, v, n) {
+                let scale = u.length() * v.length();
+                prop_assert!((a.normal().length() - 1.0).abs() < 1e-15);
+                prop_assert!(a.normal().dot(u).abs() <= 1e-12 * u.length());
+                prop_assert!(a.normal().dot(v).abs() <= 1e-12 * v.length());
+                prop_assert!(a.handedness() * u.cross(v).dot(a.normal()) > 0.0);
+                prop_assert!(n.dot(a.normal()) > 0.0);
+                prop_assert!(a.depth(u + v).abs() <= 1e-12 * (1.0 + scale));
+            }
         }
     }
 }

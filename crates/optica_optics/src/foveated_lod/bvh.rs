@@ -2,8 +2,11 @@
 //!
 //! No maintained crate fits here: `bvh` 0.13 is built on nalgebra and
 //! `obvhs` 0.4 on glam 0.33–0.34 in f32, while this crate is glam 0.32 in f64.
-//! So this is a plain binned-SAH BVH (16 bins, leaves of at most 4
-//! primitives), generic over primitives: the caller gives one box per
+//! So this is a plain binned-SAH BVH (16 bins), generic over primitives. Nodes
+//! of at most 4 primitives always become leaves; up to 16 may stay a leaf
+//! when the SAH finds no split cheaper than testing them all, and larger
+//! nodes are always split (at the median when the SAH finds nothing), so no
+//! leaf holds more than 16 primitives. The caller gives one box per
 //! primitive at build time and a hit test per primitive at query time. The
 //! scene uses it twice: over each mesh's triangles (the paper builds one BVH
 //! per object, because each object's polygon count changes independently) and
@@ -75,24 +78,39 @@ impl Aabb {
         2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
     }
 
-    /// Slab test: the entry distance of the ray into the box if it enters it
-    /// within [0, t_max]. `inv_dir` is 1/dir per component (±∞ for 0).
+    /// Slab test: the entry distance of the ray into the (closed) box if it
+    /// enters it within [0, t_max]. `inv_dir` is 1/dir per component (±∞ for
+    /// a zero component).
     ///
-    /// A 0·∞ = NaN (origin on a slab plane of an axis the ray is parallel to)
-    /// is ignored by `f64::min`/`max`, which only ever keeps a box the ray
-    /// grazes: the test is conservative, never misses a hit.
+    /// An axis the ray is parallel to (`inv_dir` infinite, so also a
+    /// direction component too small to invert) is handled explicitly: an
+    /// origin outside that slab is a miss, an origin inside it or on one of
+    /// its planes leaves the slab unconstrained. The generic form would
+    /// compute `0·∞ = NaN` for an origin on a plane, which culls a box the
+    /// ray grazes along a face, and `+∞` for an origin outside, which keeps a
+    /// box it never reaches. The empty box is never hit, and the result is
+    /// always finite.
     #[inline]
     pub fn hit(&self, origin: DVec3, inv_dir: DVec3, t_max: f64) -> Option<f64> {
-        let t1 = (self.min - origin) * inv_dir;
-        let t2 = (self.max - origin) * inv_dir;
         let mut t_near = 0.0f64;
         let mut t_far = t_max;
         for a in 0..3 {
-            let (lo, hi) = (t1[a].min(t2[a]), t1[a].max(t2[a]));
-            t_near = t_near.max(lo);
-            t_far = t_far.min(hi);
+            let (lo_plane, hi_plane, o, inv) = (self.min[a], self.max[a], origin[a], inv_dir[a]);
+            if !(lo_plane <= hi_plane) {
+                return None; // empty (or NaN) box
+            }
+            if inv.is_infinite() {
+                if o < lo_plane || o > hi_plane {
+                    return None;
+                }
+                continue;
+            }
+            let t1 = (lo_plane - o) * inv;
+            let t2 = (hi_plane - o) * inv;
+            t_near = t_near.max(t1.min(t2));
+            t_far = t_far.min(t1.max(t2));
         }
-        (t_near <= t_far).then_some(t_near)
+        (t_near <= t_far && t_near < f64::INFINITY).then_some(t_near)
     }
 }
 
@@ -117,7 +135,11 @@ pub struct Bvh {
     indices: Vec<u32>,
 }
 
+/// Nodes of at most this many primitives always become leaves.
 const MAX_LEAF: usize = 4;
+/// Nodes of more than this many primitives are always split; between
+/// [`MAX_LEAF`] and this the SAH decides. So no leaf holds more.
+const MAX_SAH_LEAF: usize = 4 * MAX_LEAF;
 const BINS: usize = 16;
 /// SAH cost of one box test relative to one primitive test.
 const TRAVERSAL_COST: f64 = 1.0;
@@ -282,7 +304,7 @@ fn build_node(
     };
     let mid = match mid {
         Some(m) => m,
-        None if n > 4 * MAX_LEAF || extent[axis] == 0.0 => {
+        None if n > MAX_SAH_LEAF || extent[axis] == 0.0 => {
             // SAH found nothing better than a leaf, or all centres coincide:
             // split at the median (by index when the centres are equal) so
             // that big leaves never form.
@@ -339,7 +361,7 @@ fn sah_split(boxes: &[Aabb], centers: &[DVec3], idx: &mut [u32], axis: usize, cb
     let area = bounds.surface_area();
     let leaf_cost = idx.len() as f64;
     let split_cost = TRAVERSAL_COST + if area > 0.0 { best.0 / area } else { f64::INFINITY };
-    if !(best.0.is_finite() && (split_cost < leaf_cost || idx.len() > 4 * MAX_LEAF)) {
+    if !(best.0.is_finite() && (split_cost < leaf_cost || idx.len() > MAX_SAH_LEAF)) {
         return None;
     }
     // Partition by bin.
@@ -404,6 +426,130 @@ mod tests {
         assert_eq!(b.hit(r2.origin, r2.dir.recip(), f64::INFINITY), None);
     }
 
+    #[test]
+    fn slab_test_with_zero_direction_components() {
+        let b = Aabb {
+            min: DVec3::splat(-1.0),
+            max: DVec3::splat(1.0),
+        };
+        let inf = f64::INFINITY;
+        // Along +y with x = 1.5, outside the x slab: a miss, even for t_max = ∞
+        // (the generic slab test returned Some(+∞) and kept the box).
+        for dir in [DVec3::Y, DVec3::new(-0.0, 1.0, 0.0)] {
+            assert_eq!(b.hit(DVec3::new(1.5, -3.0, 0.0), dir.recip(), inf), None);
+            assert_eq!(b.hit(DVec3::new(-1.5, -3.0, 0.0), dir.recip(), inf), None);
+        }
+        // Along ±y in the planes x = ±1 (origin on a slab plane): the ray
+        // grazes the face and enters the closed box at t = 2 (the generic test
+        // gave +∞ on the min plane and a miss on the max plane).
+        for x in [-1.0, 1.0] {
+            for dir in [DVec3::Y, DVec3::new(-0.0, 1.0, -0.0)] {
+                assert_eq!(b.hit(DVec3::new(x, -3.0, 0.0), dir.recip(), inf), Some(2.0), "x = {x}");
+                assert_eq!(b.hit(DVec3::new(x, -3.0, 0.0), dir.recip(), 1.5), None);
+            }
+            assert_eq!(b.hit(DVec3::new(x, 3.0, 0.0), DVec3::NEG_Y.recip(), inf), Some(2.0));
+            // On an edge (two planes), along the third axis.
+            assert_eq!(b.hit(DVec3::new(x, 1.0, 4.0), DVec3::NEG_Z.recip(), inf), Some(3.0));
+        }
+        // Inside with two zero components: entry 0.
+        assert_eq!(b.hit(DVec3::new(0.5, -1.0, 1.0), DVec3::X.recip(), inf), Some(0.0));
+        // The empty box is never hit; a flat box (min = max on one axis) is.
+        assert_eq!(Aabb::EMPTY.hit(DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0).recip(), inf), None);
+        assert_eq!(Aabb::EMPTY.hit(DVec3::ZERO, DVec3::X.recip(), inf), None);
+        let flat = Aabb { min: DVec3::new(0.0, -1.0, -1.0), max: DVec3::new(0.0, 1.0, 1.0) };
+        assert_eq!(flat.hit(DVec3::new(0.0, -2.0, 0.0), DVec3::Y.recip(), inf), Some(1.0));
+        assert_eq!(flat.hit(DVec3::new(-2.0, 0.0, 0.0), DVec3::X.recip(), inf), Some(2.0));
+    }
+
+    #[test]
+    fn bvh_keeps_a_hit_grazing_a_node_face() {
+        // Boxes as primitives (exact closed-box test): a ray along +y lying
+        // in the max-x plane of the whole set must still find box 1's face.
+        let boxes = [
+            Aabb { min: DVec3::new(-1.0, 0.0, -1.0), max: DVec3::new(0.0, 1.0, 1.0) },
+            Aabb { min: DVec3::new(0.0, 2.0, -1.0), max: DVec3::new(1.0, 3.0, 1.0) },
+        ];
+        let bvh = Bvh::build(&boxes);
+        let ray = Ray::new(DVec3::new(1.0, -1.0, 0.0), DVec3::Y);
+        let got = bvh.closest(&ray, f64::INFINITY, |i, tm| reference_box_t(&boxes[i], &ray).filter(|&t| t < tm));
+        assert_eq!(got, Some((1, 3.0)));
+        assert!(bvh.any(&ray, 10.0, |i| reference_box_t(&boxes[i], &ray).is_some_and(|t| t < 10.0)));
+        // And a ray parallel to x outside every y slab is culled at the root.
+        let away = Ray::new(DVec3::new(-5.0, 10.0, 0.0), DVec3::X);
+        let mut tested = 0;
+        bvh.closest(&away, f64::INFINITY, |_, _| {
+            tested += 1;
+            None
+        });
+        assert_eq!(tested, 0);
+    }
+
+    /// Leaf sizes of a BVH.
+    fn leaf_sizes(bvh: &Bvh) -> Vec<usize> {
+        bvh.nodes
+            .iter()
+            .filter_map(|n| match n.kind {
+                NodeKind::Leaf { count, .. } => Some(count as usize),
+                NodeKind::Inner { .. } => None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn leaves_hold_at_most_sixteen_and_the_sah_may_keep_more_than_four() {
+        // 12 almost coincident big boxes: every split costs more than testing
+        // them all, so the SAH keeps one leaf of 12 (more than MAX_LEAF).
+        let boxes: Vec<Aabb> = (0..12)
+            .map(|k| {
+                let o = DVec3::new(1e-3 * k as f64, 0.0, 0.0);
+                Aabb { min: o - 5.0, max: o + 5.0 }
+            })
+            .collect();
+        assert_eq!(leaf_sizes(&Bvh::build(&boxes)), vec![12]);
+        // 40 of them: more than MAX_SAH_LEAF, so always split.
+        let boxes: Vec<Aabb> = (0..40)
+            .map(|k| {
+                let o = DVec3::new(1e-3 * k as f64, 0.0, 0.0);
+                Aabb { min: o - 5.0, max: o + 5.0 }
+            })
+            .collect();
+        let sizes = leaf_sizes(&Bvh::build(&boxes));
+        assert!(sizes.iter().all(|&n| n <= MAX_SAH_LEAF) && sizes.iter().sum::<usize>() == 40, "{sizes:?}");
+    }
+
+    /// Reference ray–box test for closed boxes, written out per axis with
+    /// the sign of the direction (no reciprocals, no NaN): the entry distance
+    /// in [0, ∞), if any.
+    fn reference_box_t(b: &Aabb, ray: &Ray) -> Option<f64> {
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for a in 0..3 {
+            let (o, d) = (ray.origin[a], ray.dir[a]);
+            if d == 0.0 {
+                if o < b.min[a] || o > b.max[a] {
+                    return None;
+                }
+            } else {
+                let (near, far) = if d > 0.0 { (b.min[a], b.max[a]) } else { (b.max[a], b.min[a]) };
+                t0 = t0.max((near - o) / d);
+                t1 = t1.min((far - o) / d);
+            }
+        }
+        (t0 <= t1).then_some(t0)
+    }
+
+    /// An axis-aligned direction (one or two zero components) from an index.
+    fn axis_dir(k: usize, a: f64, b: f64) -> DVec3 {
+        let s = if k % 2 == 0 { 1.0 } else { -1.0 };
+        match (k / 2) % 6 {
+            0 => DVec3::new(s, 0.0, 0.0),
+            1 => DVec3::new(0.0, s, 0.0),
+            2 => DVec3::new(0.0, 0.0, s),
+            3 => DVec3::new(0.0, s * a, b),
+            4 => DVec3::new(s * a, 0.0, b),
+            _ => DVec3::new(s * a, b, 0.0),
+        }
+    }
+
     proptest! {
         /// BVH closest/any hit = brute force over random spheres and rays.
         #[test]
@@ -429,6 +575,77 @@ mod tests {
                 let brute_any = s.iter().any(|&(c, r)| sphere_t(&ray, c, r).is_some_and(|t| t < t_max));
                 let fast_any = bvh.any(&ray, t_max, |i| sphere_t(&ray, s[i].0, s[i].1).is_some_and(|t| t < t_max));
                 prop_assert_eq!(brute_any, fast_any);
+            }
+            // Axis-aligned rays (zero direction components) from origins on
+            // the spheres' box planes, edges and corners, grazing them.
+            for (k, &(ox, oy, oz, dx, dy, _)) in rays.iter().enumerate() {
+                if s.is_empty() {
+                    break;
+                }
+                let (c, r) = s[k % s.len()];
+                let face = |v: f64, lo: f64, hi: f64| if v < -0.3 { lo } else if v > 0.3 { hi } else { v };
+                let o = DVec3::new(face(dx, c.x - r, c.x + r), face(dy, c.y - r, c.y + r), face(ox / 12.0, c.z - r, c.z + r));
+                let dir = axis_dir(k, 0.3 + dx.abs(), 0.2 + dy.abs());
+                let ray = Ray::new(o - 20.0 * dir.normalize() * (oy / 12.0).abs().min(0.5) , dir);
+                let brute = s.iter().enumerate()
+                    .filter_map(|(i, &(c, r))| sphere_t(&ray, c, r).map(|t| (i, t)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
+                let fast = bvh.closest(&ray, f64::INFINITY, |i, tm| sphere_t(&ray, s[i].0, s[i].1).filter(|&t| t < tm));
+                prop_assert_eq!(brute.map(|b| b.1), fast.map(|f| f.1));
+                let t_max = 5.0 + oz.abs();
+                let brute_any = s.iter().any(|&(c, r)| sphere_t(&ray, c, r).is_some_and(|t| t < t_max));
+                let fast_any = bvh.any(&ray, t_max, |i| sphere_t(&ray, s[i].0, s[i].1).is_some_and(|t| t < t_max));
+                prop_assert_eq!(brute_any, fast_any);
+            }
+        }
+
+        /// The same with boxes as primitives (an exact closed-box test), so
+        /// that rays lying in a box face really hit it: axis-aligned rays
+        /// from origins on the boxes' planes, edges and corners.
+        #[test]
+        fn bvh_equals_brute_force_for_rays_in_box_planes(
+            cubes in proptest::collection::vec((-8i32..8, -8i32..8, -8i32..8, 1i32..4, 1i32..4, 1i32..4), 1..80),
+            rays in proptest::collection::vec((0usize..1000, 0usize..12, 0usize..27, -1.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0), 1..30),
+        ) {
+            // Integer-aligned boxes, so that many share planes with their nodes.
+            let boxes: Vec<Aabb> = cubes.iter().map(|&(x, y, z, a, b, c)| {
+                let min = DVec3::new(x as f64, y as f64, z as f64);
+                Aabb { min, max: min + DVec3::new(a as f64, b as f64, c as f64) }
+            }).collect();
+            let bvh = Bvh::build(&boxes);
+            for &(which, k, corner, back, fa, fb) in &rays {
+                let b = boxes[which % boxes.len()];
+                // Each coordinate on the min plane, the max plane or inside the slab.
+                let pick = |sel: usize, lo: f64, hi: f64, f: f64| match sel % 3 {
+                    0 => lo,
+                    1 => hi,
+                    _ => lo + f * (hi - lo),
+                };
+                let o = DVec3::new(
+                    pick(corner, b.min.x, b.max.x, fa),
+                    pick(corner / 3, b.min.y, b.max.y, fb),
+                    pick(corner / 9, b.min.z, b.max.z, 0.5),
+                );
+                // Power-of-two components, not normalised: 1/d is exact, so the
+                // slab test and the reference agree to the bit and grazing
+                // cases cannot flip by rounding.
+                let dir = axis_dir(k, [0.5, 1.0, 2.0][which % 3], [0.25, 1.0, 4.0][(which / 3) % 3]);
+                let ray = Ray { origin: o - 4.0 * back * dir, dir };
+                let brute = boxes.iter().enumerate()
+                    .filter_map(|(i, b)| reference_box_t(b, &ray).map(|t| (i, t)))
+                    .min_by(|a, b| a.1.total_cmp(&b.1));
+                let fast = bvh.closest(&ray, f64::INFINITY, |i, tm| reference_box_t(&boxes[i], &ray).filter(|&t| t < tm));
+                prop_assert_eq!(brute.map(|b| b.1), fast.map(|f| f.1), "ray {:?}", ray);
+                let t_max = 3.0;
+                let brute_any = boxes.iter().any(|b| reference_box_t(b, &ray).is_some_and(|t| t < t_max));
+                let fast_any = bvh.any(&ray, t_max, |i| reference_box_t(&boxes[i], &ray).is_some_and(|t| t < t_max));
+                prop_assert_eq!(brute_any, fast_any, "ray {:?}", ray);
+                // The box test itself agrees with the reference on every box.
+                for bx in &boxes {
+                    let want = reference_box_t(bx, &ray);
+                    let got = bx.hit(ray.origin, ray.dir.recip(), f64::INFINITY);
+                    prop_assert_eq!(want, got, "{:?} {:?}", bx, ray);
+                }
             }
         }
     }

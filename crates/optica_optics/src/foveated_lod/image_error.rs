@@ -1,12 +1,13 @@
 //! Image error of a foveated render against the full-quality render.
 //!
-//! * `rmse`: root-mean-square difference over all pixels and the three
+//! * [`rmse`]: root-mean-square difference over all pixels and the three
 //!   linear-RGB channels.
-//! * `gaze_weighted_rmse`: the same with each pixel weighted by a
-//!   non-negative weight, normally the pixel's continuous eq. 8 level: an
-//!   error where the viewer looks counts fully, one outside the field not at
-//!   all. This is the error the method promises to keep small; plain RMSE
-//!   also counts the periphery it deliberately degrades.
+//! * [`weighted_rmse`] (the report's `gaze_weighted_rmse` column): the same
+//!   with each pixel weighted by a non-negative weight, normally the pixel's
+//!   continuous eq. 8 level: an error where the viewer looks counts fully,
+//!   one outside the field not at all. This is the error the method promises
+//!   to keep small; plain RMSE also counts the periphery it deliberately
+//!   degrades.
 
 use glam::DVec3;
 

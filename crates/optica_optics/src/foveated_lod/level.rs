@@ -253,8 +253,31 @@ impl VisualField {
         f
     }
 
+    /// [`VisualField::validate`] as a cheap test (no allocation), for use per ray.
+    #[inline]
+    pub fn is_valid(&self) -> bool {
+        let extent_ok = |v: f64| v > self.central && v <= PI;
+        let nose_ok = self.eye == EyeModel::Paper || extent_ok(self.nose);
+        self.central.is_finite()
+            && self.central > 0.0
+            && self.ear.is_finite()
+            && self.upper.is_finite()
+            && self.lower.is_finite()
+            && self.nose.is_finite()
+            && extent_ok(self.ear)
+            && extent_ok(self.upper)
+            && extent_ok(self.lower)
+            && nose_ok
+    }
+
     /// Checks that eq. 8 is well defined: all angles finite, 0 < central, and
     /// every extent the model uses greater than the central radius and at most π.
+    ///
+    /// The fields are public (and deserialisable), so the level functions do
+    /// not trust them: for a field that fails this check,
+    /// [`VisualField::level_of_angles`] (and so [`VisualField::level`] and
+    /// the tracer's `pixel_levels`) return 1 everywhere — when unsure, full
+    /// quality — and [`VisualField::region`] returns [`FieldRegion::Central`].
     pub fn validate(&self) -> Result<(), FoveatedError> {
         let all = [self.central, self.ear, self.nose, self.upper, self.lower];
         if all.iter().any(|v| !v.is_finite()) {
@@ -338,10 +361,12 @@ impl VisualField {
         }
     }
 
-    /// The region of eq. 8 for given angles.
+    /// The region of eq. 8 for given angles. [`FieldRegion::Central`] (full
+    /// quality) for an invalid field (see [`VisualField::validate`]) or
+    /// non-finite angles, like [`VisualField::level_of_angles`].
     pub fn region(&self, angles: FieldAngles) -> FieldRegion {
         let l = angles.eccentricity();
-        if l <= self.central {
+        if !self.is_valid() || !l.is_finite() || l <= self.central {
             FieldRegion::Central
         } else if l <= self.boundary(angles) {
             FieldRegion::Peripheral
@@ -352,10 +377,12 @@ impl VisualField {
 
     /// Eq. 6 and 8: the level in [0, 1] for given angles.
     ///
-    /// Non-finite angles give 1 (documented fallback: when unsure, full quality).
+    /// Documented fallback (when unsure, full quality): non-finite angles, and
+    /// any angles for a field that fails [`VisualField::validate`] (say a NaN
+    /// central radius from a hand-edited config), give 1.
     pub fn level_of_angles(&self, angles: FieldAngles) -> f64 {
         let l = angles.eccentricity();
-        if !l.is_finite() {
+        if !l.is_finite() || !self.is_valid() {
             return 1.0;
         }
         if l <= self.central {
@@ -367,15 +394,16 @@ impl VisualField {
         }
         let denom = big_l - self.central;
         if denom.is_nan() || denom <= 0.0 {
-            // Only reachable with a field that fails `validate` (L ≤ central).
-            return 0.0;
+            // Unreachable for a valid field (L ≥ min extent > central); full quality if it ever is.
+            return 1.0;
         }
         ((big_l - l) / denom).clamp(0.0, 1.0)
     }
 
     /// The level of a direction given in the gaze frame, (d_f, d_r, d_u).
     ///
-    /// Documented fallback: a zero or non-finite direction gives 1 (full quality).
+    /// Documented fallback: a zero or non-finite direction, or an invalid
+    /// field, gives 1 (full quality).
     pub fn level_local(&self, local: DVec3) -> f64 {
         if !local.is_finite() || local == DVec3::ZERO {
             return 1.0;
@@ -586,8 +614,44 @@ mod tests {
             });
             let d = 1e-10;
             assert!((at(CENTRAL_RADIUS - d) - at(CENTRAL_RADIUS + d)).abs() < 1e-8);
-            assert!((at(big_l - d) - at(big_l + d)).abs() < 1e-8);
+            // At L eq. 8 is 0 by construction; what can fail is the linear
+            // fall reaching it: d/(L − π/6) just inside, 0 just outside.
+            let inside = 1e-6;
+            assert!((at(big_l - inside) - inside / (big_l - CENTRAL_RADIUS)).abs() < 1e-12);
             assert!(at(big_l + d) == 0.0 && at(big_l) < 1e-12);
+        }
+    }
+
+    #[test]
+    fn boundary_and_level_are_continuous_across_the_angle_axes() {
+        // REFERENCE.md: "the boundary must be continuous across the axes".
+        // b switches 60°/70° at m_β = 0 (φ = 0°, 180°); a switches ear/nose at
+        // m_α = 0 for the per-eye models (φ = ±90°). |∂level/∂φ| ≤ |L′|/(L − π/6)
+        // ≤ 0.92 per rad and |L′| ≤ 1 rad per rad for these angles, so a
+        // step of 2ε may change either by at most 2ε; a switched semi-axis in a
+        // term that does not vanish there would change them by ~0.1.
+        let eps = 1e-7;
+        for eye in [EyeModel::Paper, EyeModel::LeftEye, EyeModel::RightEye] {
+            for shape in [BoundaryShape::PaperEq7, BoundaryShape::TrueEllipse] {
+                let f = VisualField::with_options(eye, shape);
+                for axis in [0.0, 90.0, 180.0, 270.0] {
+                    for l_deg in [31.0, 45.0, 59.0, 69.0, 80.0, 89.0] {
+                        let l = l_deg * DEG;
+                        // The angles eq. 4–5 give: unsigned m_α for the paper's model.
+                        let angles = |phi: f64| {
+                            let ma = l * phi.cos();
+                            FieldAngles {
+                                m_alpha: if eye == EyeModel::Paper { ma.abs() } else { ma },
+                                m_beta: l * phi.sin(),
+                            }
+                        };
+                        let (a, b) = (angles(axis * DEG - eps), angles(axis * DEG + eps));
+                        let dl = (f.boundary(a) - f.boundary(b)).abs();
+                        let dv = (f.level_of_angles(a) - f.level_of_angles(b)).abs();
+                        assert!(dl <= 2.0 * eps && dv <= 2.0 * eps, "{eye:?} {shape:?} φ {axis}° l {l_deg}°: ΔL {dl}, Δlevel {dv}");
+                    }
+                }
+            }
         }
     }
 
@@ -618,6 +682,48 @@ mod tests {
         assert!(f.validate().is_ok());
         f.eye = EyeModel::LeftEye;
         assert!(f.validate().is_err());
+    }
+
+    #[test]
+    fn invalid_field_gives_full_quality_not_background() {
+        // A NaN central radius used to make every direction level 0 (background).
+        let mut bad = Vec::new();
+        for (name, set) in [
+            ("central NaN", (|f: &mut VisualField| f.central = f64::NAN) as fn(&mut VisualField)),
+            ("central 0", |f| f.central = 0.0),
+            ("upper below central", |f| f.upper = 0.4),
+            ("lower NaN", |f| f.lower = f64::NAN),
+            ("ear > π", |f| f.ear = 4.0),
+            ("ear ∞", |f| f.ear = f64::INFINITY),
+        ] {
+            let mut f = VisualField::paper();
+            set(&mut f);
+            assert!(f.validate().is_err() && !f.is_valid(), "{name}");
+            bad.push((name, f));
+        }
+        let mut right_nose_bad = VisualField::with_options(EyeModel::RightEye, BoundaryShape::PaperEq7);
+        right_nose_bad.nose = f64::NAN;
+        bad.push(("per-eye nose NaN", right_nose_bad));
+        let frame = GazeFrame::new(DVec3::ZERO, DVec3::NEG_Z, DVec3::Y).unwrap();
+        for (name, f) in bad {
+            for d in [DVec3::X, dir_ab(45.0, 10.0), dir_ab(0.0, -65.0), DVec3::NEG_X, DVec3::Y] {
+                assert_eq!(f.level_local(d), 1.0, "{name}: {d}");
+            }
+            assert_eq!(f.level(&frame, DVec3::new(0.3, -0.2, -1.0)), 1.0, "{name}");
+            let far = FieldAngles { m_alpha: 2.0, m_beta: 0.5 };
+            assert_eq!((f.level_of_angles(far), f.region(far)), (1.0, FieldRegion::Central), "{name}");
+        }
+        // is_valid agrees with validate: the paper model ignores the nose
+        // extent's range (not its finiteness).
+        let mut p = VisualField::paper();
+        p.nose = 0.1;
+        assert!(p.is_valid() && p.validate().is_ok());
+        p.nose = f64::NAN;
+        assert!(!p.is_valid() && p.validate().is_err());
+        for eye in [EyeModel::Paper, EyeModel::LeftEye, EyeModel::RightEye] {
+            let f = VisualField::with_options(eye, BoundaryShape::TrueEllipse);
+            assert!(f.is_valid() && f.validate().is_ok());
+        }
     }
 
     fn unit(v: DVec3) -> DVec3 {

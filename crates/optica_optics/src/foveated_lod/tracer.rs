@@ -38,6 +38,23 @@ pub struct TraceSettings {
     pub reflect_max: u32,
 }
 
+impl TraceSettings {
+    /// `width × height`, or [`FoveatedError::InvalidParameter`] when the
+    /// product overflows `usize` or the image (one colour and one set of work
+    /// counters per pixel) could not be allocated at all. A zero side gives 0.
+    pub fn pixel_count(&self) -> Result<usize, FoveatedError> {
+        let too_big = || {
+            FoveatedError::InvalidParameter(format!("image of {}×{} pixels is too large", self.width, self.height))
+        };
+        let n = self.width.checked_mul(self.height).ok_or_else(too_big)?;
+        let per_pixel = std::mem::size_of::<(DVec3, TraceStats)>();
+        if n > isize::MAX as usize / per_pixel {
+            return Err(too_big());
+        }
+        Ok(n)
+    }
+}
+
 /// Work counters of a render.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct TraceStats {
@@ -252,25 +269,33 @@ pub fn trace_ray(
 /// everywhere under [`GazeEstimate::FullQuality`]), quantised by `quant`.
 ///
 /// The level of a pixel is taken along its primary ray from the camera's
-/// eye, which is where the gaze frame sits in a tracked CAVE.
+/// eye, which is where the gaze frame sits in a tracked CAVE. An invalid
+/// `field` gives 1 everywhere ([`VisualField::level_of_angles`]).
+///
+/// Errors: [`FoveatedError::InvalidParameter`] when `width × height`
+/// overflows ([`TraceSettings::pixel_count`]). A zero side gives no levels.
 pub fn pixel_levels(
     camera: &Camera,
     settings: &TraceSettings,
     field: &VisualField,
     gaze: &GazeEstimate,
     quant: LevelQuantization,
-) -> Vec<f64> {
+) -> Result<Vec<f64>, FoveatedError> {
     let (w, h) = (settings.width, settings.height);
-    (0..w * h)
+    let n = settings.pixel_count()?;
+    Ok((0..n)
         .into_par_iter()
         .map(|i| {
             let ray = camera.primary_ray(i % w, i / w, w, h);
             quant.apply(gaze.level(field, ray.dir))
         })
-        .collect()
+        .collect())
 }
 
 /// Renders with one level per pixel (`levels.len()` must be width × height).
+///
+/// Errors: [`FoveatedError::InvalidParameter`] for an empty image, a
+/// `width × height` that overflows, or a level count that differs from it.
 pub fn render(
     scene: &super::scene::Scene,
     camera: &Camera,
@@ -281,7 +306,8 @@ pub fn render(
     if w == 0 || h == 0 {
         return Err(FoveatedError::InvalidParameter("empty image".into()));
     }
-    if levels.len() != w * h {
+    let n = settings.pixel_count()?;
+    if levels.len() != n {
         return Err(FoveatedError::InvalidParameter(format!(
             "{} levels for {}×{} pixels",
             levels.len(),
@@ -289,7 +315,7 @@ pub fn render(
             h
         )));
     }
-    let out: Vec<(DVec3, TraceStats)> = (0..w * h)
+    let out: Vec<(DVec3, TraceStats)> = (0..n)
         .into_par_iter()
         .map(|i| {
             let mut st = TraceStats::default();
@@ -307,13 +333,17 @@ pub fn render(
     })
 }
 
-/// The full-quality render (level 1 for every ray): the reference of the report.
+/// The full-quality render (level 1 for every ray): the reference of the
+/// report. Errors as [`render`].
 pub fn render_full_quality(
     scene: &super::scene::Scene,
     camera: &Camera,
     settings: &TraceSettings,
 ) -> Result<RenderedImage, FoveatedError> {
-    render(scene, camera, settings, &vec![1.0; settings.width * settings.height])
+    if settings.width == 0 || settings.height == 0 {
+        return Err(FoveatedError::InvalidParameter("empty image".into()));
+    }
+    render(scene, camera, settings, &vec![1.0; settings.pixel_count()?])
 }
 
 #[cfg(test)]
@@ -361,7 +391,7 @@ mod tests {
     fn gaze_behind_the_head_renders_background_only() {
         let (scene, cam, s) = setup(16);
         let behind = GazeEstimate::Tracked(GazeFrame::new(cam.eye(), DVec3::Z, DVec3::Y).unwrap());
-        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &behind, LevelQuantization::Continuous);
+        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &behind, LevelQuantization::Continuous).unwrap();
         assert!(lv.iter().all(|&l| l == 0.0));
         let img = render(&scene, &cam, &s, &lv).unwrap();
         assert!(img.pixels.iter().all(|&p| p == scene.background));
@@ -372,7 +402,7 @@ mod tests {
     fn full_quality_fallback_equals_the_reference() {
         let (scene, cam, s) = setup(12);
         let lost = GazeEstimate::FullQuality { last: None };
-        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &lost, LevelQuantization::Steps(4));
+        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &lost, LevelQuantization::Steps(4)).unwrap();
         let a = render(&scene, &cam, &s, &lv).unwrap();
         let b = render_full_quality(&scene, &cam, &s).unwrap();
         assert_eq!(a, b);
@@ -398,7 +428,7 @@ mod tests {
     fn foveation_saves_work_and_stays_finite() {
         let (scene, cam, s) = setup(16);
         let gaze = GazeEstimate::Tracked(GazeFrame::new(cam.eye(), DVec3::new(1.0, -0.2, -1.0), DVec3::Y).unwrap());
-        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &gaze, LevelQuantization::Continuous);
+        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &gaze, LevelQuantization::Continuous).unwrap();
         let fov = render(&scene, &cam, &s, &lv).unwrap();
         let full = render_full_quality(&scene, &cam, &s).unwrap();
         assert!(fov.pixels.iter().all(|p| p.is_finite()));
@@ -406,6 +436,45 @@ mod tests {
         assert!(fov.stats.rays() <= full.stats.rays());
         assert!(fov.stats.background_pixels > 0);
         assert!(render(&scene, &cam, &s, &lv[1..]).is_err());
+    }
+
+    #[test]
+    fn oversized_image_is_a_typed_error_not_an_overflow() {
+        // width × height overflows usize: debug builds used to panic, release
+        // builds to wrap (here to 0, i.e. an image of no pixels).
+        let (scene, cam, _) = setup(4);
+        let field = VisualField::paper();
+        let gaze = GazeEstimate::FullQuality { last: None };
+        let invalid = |r: Result<(), FoveatedError>| matches!(r, Err(FoveatedError::InvalidParameter(_)));
+        for (w, h) in [(usize::MAX, 2), (1 << (usize::BITS / 2), 1 << (usize::BITS / 2)), (usize::MAX / 3, 5)] {
+            let s = TraceSettings { width: w, height: h, reflect_max: 3 };
+            assert!(s.width.checked_mul(s.height).is_none());
+            assert!(invalid(s.pixel_count().map(|_| ())));
+            assert!(invalid(render(&scene, &cam, &s, &[]).map(|_| ())));
+            assert!(invalid(render_full_quality(&scene, &cam, &s).map(|_| ())));
+            assert!(invalid(pixel_levels(&cam, &s, &field, &gaze, LevelQuantization::Continuous).map(|_| ())));
+        }
+        // No overflow, but no allocation could hold it: typed too, before any allocation.
+        let huge = TraceSettings { width: usize::MAX / 8, height: 1, reflect_max: 3 };
+        assert!(invalid(huge.pixel_count().map(|_| ())));
+        assert!(invalid(render_full_quality(&scene, &cam, &huge).map(|_| ())));
+        // Ordinary sizes are unaffected.
+        let ok = TraceSettings { width: 3, height: 2, reflect_max: 3 };
+        assert_eq!(ok.pixel_count(), Ok(6));
+        assert_eq!(pixel_levels(&cam, &ok, &field, &gaze, LevelQuantization::Continuous).unwrap(), vec![1.0; 6]);
+    }
+
+    #[test]
+    fn invalid_field_renders_full_quality() {
+        // A visual field with a NaN central radius (public fields, deserialisable)
+        // used to give level 0, i.e. background, for every pixel.
+        let (scene, cam, s) = setup(8);
+        let mut field = VisualField::paper();
+        field.central = f64::NAN;
+        let gaze = GazeEstimate::Tracked(GazeFrame::new(cam.eye(), DVec3::new(1.0, -0.2, -1.0), DVec3::Y).unwrap());
+        let lv = pixel_levels(&cam, &s, &field, &gaze, LevelQuantization::Steps(4)).unwrap();
+        assert!(lv.iter().all(|&l| l == 1.0));
+        assert_eq!(render(&scene, &cam, &s, &lv).unwrap(), render_full_quality(&scene, &cam, &s).unwrap());
     }
 
     #[test]

@@ -175,12 +175,12 @@ fn stability(report: &mut Report) {
         let axes = TextureAxes::from_triangle_or_fallback(p, t, 1.0);
         let l = Lattice::new(axes, lens);
         let finite = l.as_ref().is_ok_and(|l| probe.iter().all(|r| both(l, r).iter().all(Shade::is_finite)));
-        let ok = matches!(err, Err(CompoundEyeError::DegenerateUv { .. })) && axes.fallback.is_some() && finite;
+        let ok = matches!(err, Err(CompoundEyeError::DegenerateUv { .. })) && axes.fallback().is_some() && finite;
         report.case(
             "degenerate UV triangle",
             ok,
             format!("from_triangle: {err:?}; fallback frame |U| = {:.3}, U·V = {:.1e}; all results finite: {finite}",
-                axes.u.length(), axes.u.dot(axes.v)),
+                axes.u().length(), axes.u().dot(axes.v())),
         );
     }
 
@@ -202,12 +202,12 @@ fn stability(report: &mut Report) {
                 }
             }
         }
-        let ok = m.axes().handedness == -1.0 && worst < 1e-9 && same_kind;
+        let ok = m.axes().handedness() == -1.0 && worst < 1e-9 && same_kind;
         report.case(
             "mirrored UV",
             ok,
             format!("handedness {}; max |uv − mirror(uv_mirrored)| = {worst:.1e} facets; same outcomes: {same_kind}",
-                m.axes().handedness),
+                m.axes().handedness()),
         );
     }
 

@@ -46,12 +46,36 @@ pub enum VoxelError {
 }
 
 /// A regular grid of cells holding one `T` each.
+///
+/// Deserialisation goes through [`VoxelGrid::from_vec`], so a grid read from
+/// disk has the same invariants as a built one (finite origin, positive cell
+/// size, non-zero dims, `cells.len()` = their product); a bad one is a
+/// [`VoxelError`] (as the deserialiser's error), never a later panic.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RawVoxelGrid<T>")]
 pub struct VoxelGrid<T> {
     origin: DVec3,
     cell_size: DVec3,
     dims: [usize; 3],
     cells: Vec<T>,
+}
+
+/// The serialised form of a [`VoxelGrid`], unchecked; only used to route
+/// deserialisation through [`VoxelGrid::from_vec`].
+#[derive(Deserialize)]
+struct RawVoxelGrid<T> {
+    origin: DVec3,
+    cell_size: DVec3,
+    dims: [usize; 3],
+    cells: Vec<T>,
+}
+
+impl<T> TryFrom<RawVoxelGrid<T>> for VoxelGrid<T> {
+    type Error = VoxelError;
+
+    fn try_from(r: RawVoxelGrid<T>) -> Result<Self, VoxelError> {
+        Self::from_vec(r.origin, r.cell_size, r.dims, r.cells)
+    }
 }
 
 fn check_geometry(origin: DVec3, cell_size: DVec3, dims: [usize; 3]) -> Result<usize, VoxelError> {
@@ -220,7 +244,9 @@ impl<T> VoxelGrid<T> {
     where
         T: Copy + Add<Output = T> + Mul<f64, Output = T>,
     {
-        if !point.is_finite() {
+        // (A grid has at least one cell on every axis; the emptiness check
+        // keeps this total even so.)
+        if !point.is_finite() || self.cells.is_empty() {
             return None;
         }
         let u = (point - self.origin) / self.cell_size - 0.5;
@@ -228,11 +254,13 @@ impl<T> VoxelGrid<T> {
         let mut i1 = [0usize; 3];
         let mut w = [0.0f64; 3];
         for a in 0..3 {
-            let max = (self.dims[a] - 1) as f64;
+            // One cell on an axis: max = 0, both corners are cell 0, weight 0.
+            let last = self.dims[a].saturating_sub(1);
+            let max = last as f64;
             let x = u[a].clamp(0.0, max);
             let f = x.floor().min((max - 1.0).max(0.0));
             i0[a] = f as usize;
-            i1[a] = (i0[a] + 1).min(self.dims[a] - 1);
+            i1[a] = (i0[a] + 1).min(last);
             w[a] = x - f;
         }
         let v = |x: usize, y: usize, z: usize| self.cells[x + self.dims[0] * (y + self.dims[1] * z)];
@@ -511,6 +539,43 @@ mod tests {
         }
         assert!((g.trilinear(DVec3::new(-5.0, 1.0, 0.25)).unwrap() - f(DVec3::new(0.5, 1.0, 0.25))).abs() < 1e-12);
         assert!(g.trilinear(DVec3::NAN).is_none());
+    }
+
+    #[test]
+    fn voxel_grid_deserialisation_is_validated() {
+        // A good grid round-trips.
+        let g = VoxelGrid::from_fn(DVec3::new(-1.0, 0.0, 2.0), DVec3::new(0.5, 1.0, 2.0), [3, 2, 1], |c| c[0] as u32).unwrap();
+        let json = serde_json::to_string(&g).unwrap();
+        assert_eq!(serde_json::from_str::<VoxelGrid<u32>>(&json).unwrap(), g);
+        // Zero dims (would underflow `dims − 1` in `trilinear`), short
+        // storage (would panic in `get`), a bad cell size: all rejected by
+        // the deserialiser with the constructor's message.
+        let bad = |origin: &str, size: &str, dims: &str, cells: &str| {
+            let j = format!(r#"{{"origin":{origin},"cell_size":{size},"dims":{dims},"cells":{cells}}}"#);
+            serde_json::from_str::<VoxelGrid<f64>>(&j).err().map(|e| e.to_string())
+        };
+        assert_eq!(bad("[0,0,0]", "[1,1,1]", "[1,1,1]", "[5.0]"), None);
+        let e = bad("[0,0,0]", "[1,1,1]", "[0,1,1]", "[]").expect("zero dims must be rejected");
+        assert!(e.contains("zero or too large"), "{e}");
+        let e = bad("[0,0,0]", "[1,1,1]", "[2,2,1]", "[1.0]").expect("short storage must be rejected");
+        assert!(e.contains("needs 4 cells, got 1"), "{e}");
+        let e = bad("[0,0,0]", "[1,-1,1]", "[1,1,1]", "[1.0]").expect("negative cell size must be rejected");
+        assert!(e.contains("cell size"), "{e}");
+        assert!(bad("[0,0,0]", "[1,1,1]", "[18446744073709551615,2,1]", "[1.0]").is_some());
+    }
+
+    #[test]
+    fn voxel_trilinear_with_single_cell_axes() {
+        // One cell per axis: the value everywhere (clamped), no underflow.
+        let g = VoxelGrid::new(DVec3::ZERO, DVec3::ONE, [1, 1, 1], 3.5).unwrap();
+        for p in [DVec3::splat(0.5), DVec3::splat(-7.0), DVec3::new(1e300, -1e300, 0.0)] {
+            assert_eq!(g.trilinear(p), Some(3.5), "{p}");
+        }
+        // One cell on x and z, three on y: linear along y only.
+        let g = VoxelGrid::from_fn(DVec3::ZERO, DVec3::ONE, [1, 3, 1], |c| c[1] as f64).unwrap();
+        assert_eq!(g.trilinear(DVec3::new(0.2, 1.5, 0.9)), Some(1.0));
+        assert_eq!(g.trilinear(DVec3::new(5.0, 2.0, -3.0)), Some(1.5));
+        assert_eq!(g.trilinear(DVec3::new(0.5, 9.0, 0.5)), Some(2.0));
     }
 
     #[test]

@@ -25,11 +25,18 @@ use serde::{Deserialize, Serialize};
 
 use super::error::DomeError;
 
+/// Smallest field of view accepted, in degrees. Below it the scale
+/// f = (size/2)/(FOV/2) is so large that it says nothing useful (at 1e-320°
+/// it is ∞ and every projection NaN); at this bound and 2³² px it is still
+/// ~5·10¹⁷ px/rad, finite, and so is every projected pixel (≤ f·π).
+pub const MIN_FOV_DEG: f64 = 1e-6;
+
 /// User-facing settings of a fisheye dome camera (domemaster output).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DomeCamera {
-    /// Full field of view of the fisheye in degrees, in (0, 360): 180 is the
-    /// standard dome, 210–250 are wide fisheyes.
+    /// Full field of view of the fisheye in degrees, in
+    /// [[`MIN_FOV_DEG`], 360): 180 is the standard dome, 210–250 are wide
+    /// fisheyes.
     pub fov_deg: f64,
     /// Forward tilt of the dome in degrees (typical tilted domes: 10–30).
     pub tilt_deg: f64,
@@ -52,9 +59,16 @@ impl DomeCamera {
         Ok(cam)
     }
 
-    /// Checks the settings: FOV in (0°, 360°), finite tilt, size ≥ 1.
+    /// Checks the settings: FOV in [[`MIN_FOV_DEG`], 360°) with a finite
+    /// positive scale f, finite tilt, size ≥ 1.
     pub fn validate(&self) -> Result<(), DomeError> {
-        if !(self.fov_deg > 0.0 && self.fov_deg < 360.0) {
+        if !(self.fov_deg >= MIN_FOV_DEG && self.fov_deg < 360.0) {
+            return Err(DomeError::InvalidFov(self.fov_deg));
+        }
+        // Implied by the bound; checked so that the frame's "never NaN"
+        // does not rest on arithmetic elsewhere.
+        let f = focal_px(self.fov_deg, self.size_px);
+        if !(f.is_finite() && f > 0.0) {
             return Err(DomeError::InvalidFov(self.fov_deg));
         }
         if !self.tilt_deg.is_finite() {
@@ -70,6 +84,16 @@ impl DomeCamera {
     pub fn projection(&self) -> Result<DomeProjection, DomeError> {
         DomeProjection::new(*self)
     }
+}
+
+/// θ_max = FOV/2 in radians.
+fn theta_max(fov_deg: f64) -> f64 {
+    0.5 * fov_deg.to_radians()
+}
+
+/// f = (size/2)/θ_max in px per radian.
+fn focal_px(fov_deg: f64, size_px: u32) -> f64 {
+    0.5 * f64::from(size_px) / theta_max(fov_deg)
 }
 
 /// A validated dome camera with its frame and scale precomputed; all the
@@ -97,16 +121,14 @@ impl DomeProjection {
         camera.validate()?;
         let tau = camera.tilt_deg.to_radians();
         let (s, c) = tau.sin_cos();
-        let theta_max = 0.5 * camera.fov_deg.to_radians();
-        let half_size = 0.5 * f64::from(camera.size_px);
         Ok(Self {
             camera,
             axis: DVec3::new(0.0, -s, -c),
             up: DVec3::new(0.0, c, -s),
             right: DVec3::X,
-            theta_max,
-            focal_px: half_size / theta_max,
-            half_size,
+            theta_max: theta_max(camera.fov_deg),
+            focal_px: focal_px(camera.fov_deg, camera.size_px),
+            half_size: 0.5 * f64::from(camera.size_px),
         })
     }
 
@@ -191,5 +213,34 @@ impl DomeProjection {
     /// Dome coordinates back to view space (inverse of [`Self::to_dome`]).
     pub fn from_dome(&self, q: DVec3) -> DVec3 {
         q.x * self.right + q.y * self.up + q.z * self.axis
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dome::Projected;
+
+    #[test]
+    fn dome_camera_rejects_fovs_with_no_finite_scale() {
+        // 1e-320° (subnormal): θ_max underflows, f = ∞, projection NaN.
+        for fov in [1e-320, f64::MIN_POSITIVE, 1e-300, 1e-7, 0.0, -1.0, 360.0, f64::NAN, f64::INFINITY] {
+            assert!(matches!(DomeCamera::new(fov, 0.0, 4096), Err(DomeError::InvalidFov(_))), "{fov}");
+            let cam = DomeCamera { fov_deg: fov, tilt_deg: 0.0, size_px: 4096 };
+            assert!(matches!(cam.projection(), Err(DomeError::InvalidFov(_))), "{fov}");
+        }
+        // At the bound and the largest size, f and every pixel are finite.
+        for size in [1, 4096, u32::MAX] {
+            let p = DomeCamera::new(MIN_FOV_DEG, 10.0, size).unwrap().projection().unwrap();
+            assert!(p.focal_px().is_finite() && p.focal_px() > 0.0);
+            for q in [DVec3::new(0.0, 0.0, -1.0), DVec3::new(1e-12, 0.0, -1.0), DVec3::new(1.0, 2.0, 3.0), DVec3::new(0.3, -1.0, 0.0)] {
+                match p.project(q) {
+                    Projected::Visible(ip) | Projected::OutsideFov(ip) => {
+                        assert!(ip.pixel.is_finite() && ip.theta.is_finite(), "{size} {q}: {ip:?}")
+                    }
+                    other => panic!("{size} {q}: {other:?}"),
+                }
+            }
+        }
     }
 }

@@ -10,9 +10,11 @@ use thiserror::Error;
 /// batch functions (see [`RefineStats`](super::RefineStats)).
 #[derive(Debug, Clone, Copy, PartialEq, Error)]
 pub enum DomeError {
-    /// The field of view must lie in (0°, 360°): 360° would put the antipode,
-    /// where the projection is singular, on the rim.
-    #[error("field of view {0}° is outside (0°, 360°)")]
+    /// The field of view must lie in [1e-6°, 360°)
+    /// ([`MIN_FOV_DEG`](super::MIN_FOV_DEG)): 360° would put the
+    /// antipode, where the projection is singular, on the rim; below 1e-6°
+    /// the scale f = (size/2)/(FOV/2) grows without use to ∞ (NaN pixels).
+    #[error("field of view {0}° is outside [1e-6°, 360°)")]
     InvalidFov(f64),
     /// The tilt must be finite.
     #[error("dome tilt {0}° is not finite")]

@@ -118,7 +118,7 @@ mod rule;
 mod triangle;
 
 pub use arc::{split_segment, subtended_angle};
-pub use camera::{DomeCamera, DomeProjection};
+pub use camera::{DomeCamera, DomeProjection, MIN_FOV_DEG};
 pub use classify::{ApparentSize, PrimitiveKind, Treatment, classify, pre_subdivide};
 pub use clip::clip_segment;
 pub use error::DomeError;

@@ -141,6 +141,21 @@ pub fn trace_bundle(
     vergence_d: f64,
     samples: &[DVec2],
 ) -> Result<TracedBundle, BundleFailure> {
+    trace_bundle_counted(lens, placement, aim, pupil_radius_m, vergence_d, samples, &mut 0)
+}
+
+/// [`trace_bundle`], adding to `traced` the number of rays actually traced
+/// through the lens: the reference ray and the pupil rays up to the first
+/// that fails (none without a lens: the naked eye's rays are straight lines).
+pub(crate) fn trace_bundle_counted(
+    lens: Option<&SpectacleLens>,
+    placement: &EyePlacement,
+    aim: DVec3,
+    pupil_radius_m: f64,
+    vergence_d: f64,
+    samples: &[DVec2],
+    traced: &mut usize,
+) -> Result<TracedBundle, BundleFailure> {
     let Some(aim) = aim.try_normalize() else { return Err(BundleFailure::Degenerate) };
     if !(placement.is_valid() && pupil_radius_m.is_finite() && vergence_d.is_finite()) {
         return Err(BundleFailure::Degenerate);
@@ -150,10 +165,13 @@ pub fn trace_bundle(
     // rather than round-off from tracing the same ray S times.
     let pinhole = pupil_radius_m == 0.0;
     let (e1, e2) = perpendicular_frame(aim);
-    let exit = |ray: Ray| -> Option<Ray> {
+    let mut exit = |ray: Ray| -> Option<Ray> {
         match lens {
             None => Some(ray),
-            Some(l) => l.trace_from_eye(&ray).exit_ray(),
+            Some(l) => {
+                *traced += 1;
+                l.trace_from_eye(&ray).exit_ray()
+            }
         }
     };
     let chief_in = Ray { origin: placement.centre_of_rotation, dir: aim };

@@ -45,6 +45,11 @@ pub struct PointReference {
 /// Pupil rays of the dense bundle by default.
 pub const DEFAULT_DENSE_SAMPLES: usize = 256;
 
+/// Most pupil rays [`reference_at`] accepts per bundle: 65,536, 256 times the
+/// default (the reference's sampling error is already far below the field's
+/// at the default; more would only allocate and trace without limit).
+pub const MAX_DENSE_SAMPLES: usize = 1 << 16;
+
 fn aim_of(slopes: DVec2) -> DVec3 {
     DVec3::new(slopes.x, slopes.y, 1.0).normalize()
 }
@@ -116,7 +121,8 @@ fn solve_aim(lens: Option<&SpectacleLens>, placement: &EyePlacement, p: DVec3) -
 /// The reference displacement spread at `point` for `eye` at `placement`
 /// through `lens` (`None`: naked eye), with `dense_samples` pupil rays.
 ///
-/// Errors: a bad eye, placement or point; `dense_samples == 0`;
+/// Errors: a bad eye, placement or point; `dense_samples` outside
+/// `1..=`[`MAX_DENSE_SAMPLES`] (checked before anything is allocated);
 /// [`SpectaclesError::NotThroughLens`] when no reference ray through the lens
 /// reaches the point or a pupil ray is blocked; a point behind the lens exit.
 pub fn reference_at(
@@ -133,8 +139,13 @@ pub fn reference_at(
     if !placement.is_valid() {
         return Err(SpectaclesError::NonFinite("eye placement"));
     }
-    if dense_samples == 0 {
-        return Err(SpectaclesError::OutOfRange { what: "dense samples", value: 0.0, min: 1.0, max: f64::INFINITY });
+    if !(1..=MAX_DENSE_SAMPLES).contains(&dense_samples) {
+        return Err(SpectaclesError::OutOfRange {
+            what: "dense samples",
+            value: dense_samples as f64,
+            min: 1.0,
+            max: MAX_DENSE_SAMPLES as f64,
+        });
     }
     let (aim, chief) = solve_aim(lens, placement, point)?;
     let samples = pupil_samples(dense_samples);
@@ -202,6 +213,21 @@ mod tests {
         assert!(reference_at(&eye, &pl, None, DVec3::new(0.0, 0.0, -1.0), 16).is_err());
         assert!(reference_at(&eye, &pl, None, DVec3::NAN, 16).is_err());
         assert!(reference_at(&eye, &pl, None, DVec3::Z, 0).is_err());
+    }
+
+    #[test]
+    fn field_reference_huge_dense_samples_are_typed() {
+        // Rejected before `pupil_samples` allocates (usize::MAX would abort
+        // on allocation; 2^40 would hang tracing).
+        let eye = Eye::new(-2.0, 1.0, 0.004).unwrap();
+        let pl = EyePlacement::default();
+        for n in [usize::MAX, 1 << 40, MAX_DENSE_SAMPLES + 1] {
+            assert!(
+                matches!(reference_at(&eye, &pl, None, DVec3::Z, n), Err(SpectaclesError::OutOfRange { what: "dense samples", .. })),
+                "{n}"
+            );
+        }
+        assert!(reference_at(&eye, &pl, None, DVec3::Z, MAX_DENSE_SAMPLES).is_ok());
     }
 
     proptest! {

@@ -46,10 +46,31 @@ impl LensMesh {
     }
 }
 
+/// Largest polar layout [`polar_points`] (and so a mesh surface or a voxel
+/// field's aim layout) accepts: 4,194,304 points, 2,700 times the paper's
+/// 1,537 (a mesh surface of that size is already ~200 MB of positions and
+/// normals, a field's aims that many bundle pairs).
+pub const MAX_POLAR_POINTS: usize = 1 << 22;
+
+/// `1 + rings × segments`, the number of points of the polar layout, or
+/// `None` when it overflows or exceeds [`MAX_POLAR_POINTS`].
+pub fn polar_point_count(rings: usize, segments: usize) -> Option<usize> {
+    rings.checked_mul(segments)?.checked_add(1).filter(|&n| n <= MAX_POLAR_POINTS)
+}
+
+fn too_many_points(what: &'static str, rings: usize, segments: usize) -> SpectaclesError {
+    // The product in f64 cannot overflow; it is only reported.
+    SpectaclesError::OutOfRange { what, value: 1.0 + rings as f64 * segments as f64, min: 1.0, max: MAX_POLAR_POINTS as f64 }
+}
+
 /// Polar sample points `(x, y)` of a disc of radius `radius`: the centre,
 /// then `rings × segments` points (the mesh's vertex layout).
-pub fn polar_points(radius: f64, rings: usize, segments: usize) -> Vec<(f64, f64)> {
-    let mut v = Vec::with_capacity(1 + rings * segments);
+///
+/// Errors: more than [`MAX_POLAR_POINTS`] points (checked before anything is
+/// multiplied or allocated).
+pub fn polar_points(radius: f64, rings: usize, segments: usize) -> Result<Vec<(f64, f64)>, SpectaclesError> {
+    let n = polar_point_count(rings, segments).ok_or_else(|| too_many_points("polar points 1 + rings × segments", rings, segments))?;
+    let mut v = Vec::with_capacity(n);
     v.push((0.0, 0.0));
     for k in 1..=rings {
         let r = radius * k as f64 / rings as f64;
@@ -58,24 +79,26 @@ pub fn polar_points(radius: f64, rings: usize, segments: usize) -> Vec<(f64, f64
             v.push((r * phi.cos(), r * phi.sin()));
         }
     }
-    v
+    Ok(v)
 }
 
 impl SpectacleLens {
     /// The mesh at `rings × segments` resolution.
     ///
-    /// Errors: `rings < 1` or `segments < 3`, or more vertices than `u32`
-    /// indexes. (A designed lens has both surfaces defined out to the rim.)
+    /// Errors: `rings < 1` or `segments < 3`, or more than
+    /// [`MAX_POLAR_POINTS`] vertices per surface (checked before any size
+    /// is computed; it keeps every index within `u32`). (A designed lens has
+    /// both surfaces defined out to the rim.)
     pub fn mesh(&self, rings: usize, segments: usize) -> Result<LensMesh, SpectaclesError> {
         if rings < 1 || segments < 3 {
             return Err(SpectaclesError::OutOfRange { what: "mesh rings (>= 1) / segments (>= 3)", value: rings.min(segments) as f64, min: 1.0, max: f64::INFINITY });
         }
-        let per_surface = 1 + rings * segments;
+        let too_many = || too_many_points("mesh vertices per surface 1 + rings × segments", rings, segments);
+        let per_surface = polar_point_count(rings, segments).ok_or_else(too_many)?;
+        // per_surface <= 2^22 and segments < per_surface: no overflow, and
+        // total < 2^24 fits u32.
         let total = 2 * per_surface + 2 * segments;
-        if total > u32::MAX as usize || rings.checked_mul(segments).is_none() {
-            return Err(SpectaclesError::OutOfRange { what: "mesh vertex count", value: total as f64, min: 0.0, max: u32::MAX as f64 });
-        }
-        let pts = polar_points(self.rim_radius_m, rings, segments);
+        let pts = polar_points(self.rim_radius_m, rings, segments)?;
         let mut positions = Vec::with_capacity(total);
         let mut normals = Vec::with_capacity(total);
         let fail = SpectaclesError::Degenerate("lens surface not defined out to the rim");
@@ -195,5 +218,24 @@ mod tests {
         let disc = PI * 0.025f64.powi(2);
         assert!(vol > disc * 0.002 && vol < disc * 0.006, "{vol}");
         assert!(lens.mesh(0, 8).is_err() && lens.mesh(4, 2).is_err());
+    }
+
+    #[test]
+    fn lens_mesh_huge_sizes_are_typed_errors() {
+        // Sizes whose product overflows usize, or is merely huge, are
+        // rejected before any arithmetic or allocation (no overflow panic,
+        // no multi-gigabyte allocation).
+        let lens = design_lens(&Prescription::sphere(-2.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let too_big = |r: Result<LensMesh, SpectaclesError>| matches!(r, Err(SpectaclesError::OutOfRange { .. }));
+        assert!(too_big(lens.mesh(usize::MAX, 3)));
+        assert!(too_big(lens.mesh(3, usize::MAX)));
+        assert!(too_big(lens.mesh(1 << 32, 1 << 32)));
+        assert!(too_big(lens.mesh(1 << 20, 64)));
+        assert!(matches!(polar_points(0.025, usize::MAX, usize::MAX), Err(SpectaclesError::OutOfRange { .. })));
+        assert!(polar_points(0.025, MAX_POLAR_POINTS, 1).is_err());
+        assert_eq!(polar_point_count(usize::MAX, 2), None);
+        assert_eq!(polar_point_count(usize::MAX, 1), None);
+        assert_eq!(polar_point_count(MAX_POLAR_POINTS - 1, 1), Some(MAX_POLAR_POINTS));
+        assert_eq!(polar_points(0.025, 24, 64).unwrap().len(), 1537);
     }
 }

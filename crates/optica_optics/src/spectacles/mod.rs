@@ -65,6 +65,15 @@
 //!   of the refracted bundle), defined also when it lies at or beyond
 //!   infinity; far sets point-mirrored so that averaging never cancels.
 //! - Optional hole filling of voxels no reference ray crossed.
+//! - The per-voxel average counts every crossing, in-focus ones as zero sets
+//!   ([`voxel_field::VoxelAverage::AllCrossings`], the default), where the
+//!   paper averages only the recorded near/far sets
+//!   ([`voxel_field::VoxelAverage::RecordedSets`], an option). They differ
+//!   in voxels straddling the corrected near or far point: the paper's mean
+//!   of the blurred crossings overstates the blur of a voxel partly in
+//!   focus, and the dilution measures slightly closer to the direct
+//!   reference (sweep `spectacles`, quick: mean error 0.248 vs 0.253 mm at
+//!   scale 0.5, 0.413 vs 0.415 mm at 0.25; max error equal).
 //! - A direct reference per point ([`field_reference`]) to measure the
 //!   field's error.
 //!
@@ -98,4 +107,4 @@ pub use lens_mesh::LensMesh;
 pub use lens_surface::{LensSurface, ToricSurface};
 pub use per_vertex::{LensTrace, refract_vertices};
 pub use viewpoint::{ViewpointFit, virtual_viewpoint, virtual_viewpoint_of_traces};
-pub use voxel_field::{DisplacementField, FieldSettings, FieldStats, precompute_field};
+pub use voxel_field::{DisplacementField, FieldSettings, FieldStats, VoxelAverage, precompute_field};

@@ -10,7 +10,10 @@
 //! * Knob: `resolution_scale` k — voxels per axis k × (110, 77, 42) over a
 //!   fixed box of 5.5 × 3.85 × 2.1 m (k = 1 is the paper's 110×77×42 with
 //!   5 cm cubes) and aims k × (24 rings × 64 segments) so that the bundles
-//!   keep up with the voxels (k = 1: 1,537, the paper's ~1,500). Hole filling on.
+//!   keep up with the voxels (k = 1: 1,537, the paper's ~1,500). Hole filling
+//!   on; per-voxel average over all crossings (`VoxelAverage::AllCrossings`,
+//!   the crate's default; the paper's `RecordedSets` measured 0–2 % higher
+//!   mean error at quick settings, see `voxel_field::VoxelAverage`).
 //! * Series: rows with `work.clones` = S. The main series is S = 10 (the
 //!   paper's); error names without suffix. The full sweep adds S = 4 and
 //!   S = 20 at every k, with the error names suffixed `_s4`, `_s20`, so that

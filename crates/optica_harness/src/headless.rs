@@ -292,10 +292,20 @@ fn retarget_cameras(
     }
 }
 
+/// How long renderer creation may take before the harness gives up.
+const ADAPTER_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(60);
+
 fn finish(app: &mut App) -> Result<(), HarnessError> {
-    // Renderer creation is asynchronous: wait for it like `App::run` would.
+    // Renderer creation is asynchronous: wait for it like `App::run` would,
+    // but not forever: with no adapter at all Bevy's creation task panics on
+    // its own thread and the plugins never leave `Adding`.
+    let started = std::time::Instant::now();
     while app.plugins_state() == PluginsState::Adding {
+        if started.elapsed() > ADAPTER_TIMEOUT {
+            return Err(HarnessError::NoAdapter);
+        }
         bevy::tasks::tick_global_task_pools_on_main_thread();
+        std::thread::yield_now();
     }
     app.finish();
     app.cleanup();

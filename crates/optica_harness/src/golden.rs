@@ -140,7 +140,7 @@ mod tests {
 
     fn checker(offset: u32) -> RgbaImage {
         RgbaImage::from_fn(48, 48, |x, y| {
-            let on = ((x + offset) / 8 + y / 8) % 2 == 0;
+            let on = ((x + offset) / 8 + y / 8).is_multiple_of(2);
             image::Rgba(if on { [230, 200, 40, 255] } else { [20, 40, 90, 255] })
         })
     }

@@ -21,8 +21,9 @@
 //! | [`dome`] | Johjima: equidistant fisheye dome projection |
 
 #![warn(missing_docs)]
-
-#![warn(missing_docs)]
+// `!(x > 0.0)` is how this crate rejects NaN together with out-of-range
+// values; rewriting it as `x <= 0.0` would let NaN through.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod fresnel;
 pub mod glass;

@@ -93,7 +93,6 @@
 //! | [`pseudopupil`] | facet frames on a curved eye and the dark-centre test |
 
 // `!(x > y)` is how this module rejects NaN along with out-of-range values.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod ball_lens;
 pub mod error;

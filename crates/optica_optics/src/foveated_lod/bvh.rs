@@ -539,7 +539,7 @@ mod tests {
 
     /// An axis-aligned direction (one or two zero components) from an index.
     fn axis_dir(k: usize, a: f64, b: f64) -> DVec3 {
-        let s = if k % 2 == 0 { 1.0 } else { -1.0 };
+        let s = if k.is_multiple_of(2) { 1.0 } else { -1.0 };
         match (k / 2) % 6 {
             0 => DVec3::new(s, 0.0, 0.0),
             1 => DVec3::new(0.0, s, 0.0),

@@ -143,7 +143,7 @@ pub fn compare(test: &SensorImage, reference: &SensorImage) -> Option<ImageError
         r2 += r * r;
         t1 += t;
     }
-    if !(r1 > 0.0 && r2 > 0.0) || !(l1.is_finite() && l2.is_finite()) {
+    if !(r1 > 0.0 && r2 > 0.0 && l1.is_finite() && l2.is_finite()) {
         return None;
     }
     Some(ImageError { rel_l1: l1 / r1, rel_l2: (l2 / r2).sqrt(), rel_energy: (t1 - r1) / r1 })

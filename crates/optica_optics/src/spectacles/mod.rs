@@ -85,7 +85,6 @@
 
 // `!(x > 0.0)` is this module's NaN-rejecting idiom (NaN fails every
 // comparison, so it lands in the error branch); keep it.
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod bundle;
 pub mod error;

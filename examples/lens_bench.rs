@@ -211,7 +211,7 @@ impl LensDrawing {
             let h = -reach + 2.0 * reach * i as f64 / (FAN_RAYS - 1) as f64;
             let aim = DVec3::new(0.0, h, pupil.entrance_pupil_z_mm);
             let origin = aim - light * (aim.z - start_z as f64) / light.z;
-            let ray = Ray::new(origin, light);
+            let ray = Ray::new(origin, light).map_err(|e| e.to_string())?;
             for (path, lines) in [(TracePath::Primary, 0), (ghost, 1)] {
                 let (points, result) = prepared.trace_polyline(ray, path, sensor_z);
                 let target = match (&result, lines) {

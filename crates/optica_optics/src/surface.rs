@@ -172,15 +172,15 @@ impl SphericalSurface {
     /// expected unit; a non-unit `dir` is handled, `t` then scales with it).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let c = self.curvature;
-        if !c.is_finite() || !self.vertex_z.is_finite() || !ray.origin.is_finite() {
+        if !c.is_finite() || !self.vertex_z.is_finite() || !ray.origin().is_finite() {
             return None;
         }
-        let len = ray.dir.length();
+        let len = ray.dir().length();
         if !(len.is_finite() && len > 0.0) {
             return None;
         }
-        let d = ray.dir / len;
-        let q = ray.origin - DVec3::new(0.0, 0.0, self.vertex_z);
+        let d = ray.dir() / len;
+        let q = ray.origin() - DVec3::new(0.0, 0.0, self.vertex_z);
         // F(t) = a t² + 2 b t + k with unit d.
         let qd = q.dot(d);
         let b = c * qd - d.z;
@@ -210,7 +210,7 @@ impl SphericalSurface {
             return None;
         }
         let t = t_unit / len;
-        let point = ray.origin + d * t_unit;
+        let point = ray.origin() + d * t_unit;
         // On the far cap the normal c q − ẑ points to +z: not this surface.
         if c * (point.z - self.vertex_z) > 1.0 {
             return None;
@@ -228,15 +228,15 @@ impl SphericalSurface {
 /// centre, no cancellation for far origins, Haines et al., *Ray Tracing Gems*
 /// ch. 7) and the roots are `q/a` and `c/q` with `q = −(b + sign(b)√(aD))`.
 pub fn intersect_sphere(ray: &Ray, center: DVec3, radius: f64) -> Option<SphereHits> {
-    if !radius.is_finite() || radius == 0.0 || !center.is_finite() || !ray.origin.is_finite() {
+    if !radius.is_finite() || radius == 0.0 || !center.is_finite() || !ray.origin().is_finite() {
         return None;
     }
-    let d = ray.dir;
+    let d = ray.dir();
     let a = d.length_squared();
     if !(a.is_finite() && a > 0.0) {
         return None;
     }
-    let oc = ray.origin - center;
+    let oc = ray.origin() - center;
     let b = oc.dot(d);
     let cterm = oc.length_squared() - radius * radius;
     let perp = oc - (b / a) * d;
@@ -320,7 +320,7 @@ mod tests {
         // Sag = 10 − √(100 − 9) = 0.460608 (also 0.9 / (1 + √0.91)), so
         // t = 5.460608 and the normal is (0, 3, 0.460608 − 10)/10.
         let s = SphericalSurface::from_radius(0.0, 10.0).unwrap();
-        let h = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, -5.0), DVec3::Z)).unwrap();
+        let h = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, -5.0), DVec3::Z).unwrap()).unwrap();
         let sag = 10.0 - 91f64.sqrt();
         assert!((h.t - (5.0 + sag)).abs() < 1e-13);
         assert!((h.point.z - sag).abs() < 1e-13);
@@ -333,14 +333,14 @@ mod tests {
     fn surface_concave_takes_vertex_cap_both_directions() {
         // R = −10 at z = 0: sphere spans z in [−20, 0]; the cap is z in [−10, 0].
         let s = SphericalSurface::new(0.0, -0.1);
-        let from_left = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, -30.0), DVec3::Z)).unwrap();
+        let from_left = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, -30.0), DVec3::Z).unwrap()).unwrap();
         let sag = -(10.0 - 91f64.sqrt());
         assert!((from_left.point.z - sag).abs() < 1e-12, "{from_left:?}");
-        let from_right = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, 5.0), DVec3::NEG_Z)).unwrap();
+        let from_right = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, 5.0), DVec3::NEG_Z).unwrap()).unwrap();
         assert!((from_right.point.z - sag).abs() < 1e-12);
         // Convex surface hit from the right (a reflected flare ray).
         let s = SphericalSurface::new(0.0, 0.1);
-        let h = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, 30.0), DVec3::NEG_Z)).unwrap();
+        let h = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, 30.0), DVec3::NEG_Z).unwrap()).unwrap();
         assert!((h.point.z + sag).abs() < 1e-12);
         assert!(h.normal.z < 0.0);
     }
@@ -348,16 +348,15 @@ mod tests {
     #[test]
     fn surface_flat_and_misses() {
         let s = SphericalSurface::flat(2.0);
-        let h = s.intersect(&Ray::new(DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.6, 0.8))).unwrap();
+        let h = s.intersect(&Ray::new(DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.6, 0.8)).unwrap()).unwrap();
         assert!((h.t - 2.5).abs() < 1e-15);
         assert_eq!(h.normal, DVec3::NEG_Z);
         // Parallel to the plane, behind the origin, and past the sphere.
-        assert!(s.intersect(&Ray::new(DVec3::ZERO, DVec3::X)).is_none());
-        assert!(s.intersect(&Ray::new(DVec3::new(0.0, 0.0, 3.0), DVec3::Z)).is_none());
+        assert!(s.intersect(&Ray::new(DVec3::ZERO, DVec3::X).unwrap()).is_none());
+        assert!(s.intersect(&Ray::new(DVec3::new(0.0, 0.0, 3.0), DVec3::Z).unwrap()).is_none());
         let s = SphericalSurface::new(0.0, 0.1);
-        assert!(s.intersect(&Ray::new(DVec3::new(0.0, 10.5, -5.0), DVec3::Z)).is_none());
-        assert!(s.intersect(&Ray::new(DVec3::ZERO, DVec3::ZERO)).is_none());
-        assert!(SphericalSurface::new(0.0, f64::NAN).intersect(&Ray::new(DVec3::ZERO, DVec3::Z)).is_none());
+        assert!(s.intersect(&Ray::new(DVec3::new(0.0, 10.5, -5.0), DVec3::Z).unwrap()).is_none());
+        assert!(SphericalSurface::new(0.0, f64::NAN).intersect(&Ray::new(DVec3::ZERO, DVec3::Z).unwrap()).is_none());
         assert!(SphericalSurface::from_radius(0.0, 0.0).is_err());
         assert_eq!(SphericalSurface::from_radius(1.0, f64::NEG_INFINITY).unwrap().curvature, 0.0);
     }
@@ -368,7 +367,7 @@ mod tests {
         // full relative precision; a naive (−b − √D)/a would cancel 1 − 1 and
         // be wrong by ~1e-16, far above the tolerances below.
         // c = 1e-12 (R = 1e12) at height 1: sag = c r²/(1 + √(1 − c²r²)) = 5e-13.
-        let ray = Ray::new(DVec3::new(0.0, 1.0, -1e-8), DVec3::Z);
+        let ray = Ray::new(DVec3::new(0.0, 1.0, -1e-8), DVec3::Z).unwrap();
         let h = SphericalSurface::new(0.0, 1e-12).intersect(&ray).unwrap();
         assert!((h.t - (1e-8 + 5e-13)).abs() < 1e-22, "{}", h.t);
         // The same ray on c = 0 differs by just the sag: continuous at c = 0.
@@ -376,7 +375,7 @@ mod tests {
         assert!((h.t - h0.t - 5e-13).abs() < 1e-22);
         // Near-axis ray (height 1e-9) on c = 1: sag = 5e-19.
         let s = SphericalSurface::new(0.0, 1.0);
-        let h = s.intersect(&Ray::new(DVec3::new(1e-9, 0.0, -1e-8), DVec3::Z)).unwrap();
+        let h = s.intersect(&Ray::new(DVec3::new(1e-9, 0.0, -1e-8), DVec3::Z).unwrap()).unwrap();
         assert!((h.t - (1e-8 + 5e-19)).abs() < 1e-23, "{}", h.t);
         assert!((s.sag(1e-9).unwrap() - 5e-19).abs() < 1e-33);
     }
@@ -386,21 +385,21 @@ mod tests {
         // Ray starting inside the sphere beyond its centre, travelling +z:
         // the vertex cap is behind it.
         let s = SphericalSurface::new(0.0, 0.1);
-        assert!(s.intersect(&Ray::new(DVec3::new(0.0, 0.0, 15.0), DVec3::Z)).is_none());
+        assert!(s.intersect(&Ray::new(DVec3::new(0.0, 0.0, 15.0), DVec3::Z).unwrap()).is_none());
     }
 
     #[test]
     fn sphere_hand_worked_roots() {
         // Unit sphere at (0,0,5), ray from origin along +z: t = 4 and 6.
-        let h = intersect_sphere(&Ray::new(DVec3::ZERO, DVec3::Z), DVec3::new(0.0, 0.0, 5.0), 1.0).unwrap();
+        let h = intersect_sphere(&Ray::new(DVec3::ZERO, DVec3::Z).unwrap(), DVec3::new(0.0, 0.0, 5.0), 1.0).unwrap();
         assert!((h.t_near - 4.0).abs() < 1e-15 && (h.t_far - 6.0).abs() < 1e-15);
         assert_eq!(h.first_forward(T_EPSILON), Some(h.t_near));
         // Far origin (1e8) and small sphere: roots still accurate.
-        let h = intersect_sphere(&Ray::new(DVec3::new(0.0, 0.5, -1e8), DVec3::Z), DVec3::ZERO, 1.0).unwrap();
+        let h = intersect_sphere(&Ray::new(DVec3::new(0.0, 0.5, -1e8), DVec3::Z).unwrap(), DVec3::ZERO, 1.0).unwrap();
         let half = 0.75f64.sqrt();
         assert!((h.t_near - (1e8 - half)).abs() < 1e-7 && (h.t_far - (1e8 + half)).abs() < 1e-7);
-        assert!(intersect_sphere(&Ray::new(DVec3::ZERO, DVec3::Z), DVec3::new(0.0, 2.0, 5.0), 1.0).is_none());
-        assert!(intersect_sphere(&Ray::new(DVec3::ZERO, DVec3::Z), DVec3::ZERO, 0.0).is_none());
+        assert!(intersect_sphere(&Ray::new(DVec3::ZERO, DVec3::Z).unwrap(), DVec3::new(0.0, 2.0, 5.0), 1.0).is_none());
+        assert!(intersect_sphere(&Ray::new(DVec3::ZERO, DVec3::Z).unwrap(), DVec3::ZERO, 0.0).is_none());
     }
 
     #[test]
@@ -432,7 +431,7 @@ mod tests {
             d in unit(),
         ) {
             let s = SphericalSurface::new(vz, c);
-            let ray = Ray::new(DVec3::from(o), d);
+            let ray = Ray::new(DVec3::from(o), d).unwrap();
             if let Some(h) = s.intersect(&ray) {
                 prop_assert!(h.t.is_finite() && h.t > 0.0);
                 prop_assert!(h.point.is_finite() && h.normal.is_finite());
@@ -460,7 +459,7 @@ mod tests {
             o in prop::array::uniform3(-30f64..30.0),
             d in unit(),
         ) {
-            let ray = Ray::new(DVec3::from(o), d);
+            let ray = Ray::new(DVec3::from(o), d).unwrap();
             let c = DVec3::from(centre);
             if let Some(h) = intersect_sphere(&ray, c, r) {
                 prop_assert!(h.t_near <= h.t_far);
@@ -469,7 +468,7 @@ mod tests {
                 }
             } else {
                 // A miss means the line's distance from the centre exceeds r.
-                let oc = ray.origin - c;
+                let oc = ray.origin() - c;
                 let dist = (oc - oc.dot(d) * d).length();
                 prop_assert!(dist >= r * (1.0 - 1e-12));
             }

@@ -344,8 +344,8 @@ impl GridTraversal {
         t_max: f64,
     ) -> Self {
         let mut it = Self {
-            origin: ray.origin,
-            dir: ray.dir,
+            origin: ray.origin(),
+            dir: ray.dir(),
             grid_lo: grid_origin,
             cell_size,
             dims,
@@ -354,8 +354,8 @@ impl GridTraversal {
             t_end: 0.0,
             remaining: 0,
         };
-        let d = ray.dir;
-        let o = ray.origin;
+        let d = ray.dir();
+        let o = ray.origin();
         if check_geometry(grid_origin, cell_size, dims).is_err()
             || !o.is_finite()
             || !d.is_finite()
@@ -489,7 +489,8 @@ mod tests {
     }
 
     fn walk(g: &VoxelGrid<u8>, o: [f64; 3], d: [f64; 3]) -> Vec<([usize; 3], f64, f64)> {
-        g.traverse(&Ray::new(DVec3::from(o), DVec3::from(d))).collect()
+        // A ray that cannot be built (zero or NaN) walks no cell.
+        Ray::new(DVec3::from(o), DVec3::from(d)).map(|r| g.traverse(&r).collect()).unwrap_or_default()
     }
 
     fn cells(w: &[([usize; 3], f64, f64)]) -> Vec<[usize; 3]> {
@@ -588,7 +589,7 @@ mod tests {
         }
         // Only [1.5, 2.5] of that ray: half of cell 0, half of cell 1.
         let w: Vec<_> = grid441()
-            .traverse_segment(&Ray::new(DVec3::new(-1.0, 0.5, 0.5), DVec3::X), 1.5, 2.5)
+            .traverse_segment(&Ray::new(DVec3::new(-1.0, 0.5, 0.5), DVec3::X).unwrap(), 1.5, 2.5)
             .collect();
         assert_eq!(w, vec![([0, 0, 0], 1.5, 2.0), ([1, 0, 0], 2.0, 2.5)]);
     }
@@ -647,10 +648,10 @@ mod tests {
         assert!(walk(&g, [5.0, 0.5, 0.5], [1.0, 0.1, 0.0]).is_empty());
         assert!(walk(&g, [0.5, 0.5, 0.5], [0.0, 0.0, 0.0]).is_empty());
         assert!(walk(&g, [0.5, f64::NAN, 0.5], [1.0, 0.0, 0.0]).is_empty());
-        assert_eq!(g.traverse_segment(&Ray::new(DVec3::splat(0.5), DVec3::X), 2.0, 1.0).count(), 0);
-        assert_eq!(g.traverse_segment(&Ray::new(DVec3::splat(0.5), DVec3::X), f64::NAN, 1.0).count(), 0);
+        assert_eq!(g.traverse_segment(&Ray::new(DVec3::splat(0.5), DVec3::X).unwrap(), 2.0, 1.0).count(), 0);
+        assert_eq!(g.traverse_segment(&Ray::new(DVec3::splat(0.5), DVec3::X).unwrap(), f64::NAN, 1.0).count(), 0);
         // Whole line (t from −∞): all four cells of the row.
-        assert_eq!(g.traverse_segment(&Ray::new(DVec3::new(2.5, 0.5, 0.5), DVec3::X), f64::NEG_INFINITY, f64::INFINITY).count(), 4);
+        assert_eq!(g.traverse_segment(&Ray::new(DVec3::new(2.5, 0.5, 0.5), DVec3::X).unwrap(), f64::NEG_INFINITY, f64::INFINITY).count(), 4);
     }
 
     /// A coordinate that is sometimes snapped onto a cell boundary, to
@@ -694,7 +695,7 @@ mod tests {
         #![proptest_config(ProptestConfig::with_cases(512))]
         #[test]
         fn traversal_properties((g, o, d, t_min, t_max) in case()) {
-            let ray = Ray::new(o, d);
+            let ray = Ray::new(o, d).unwrap();
             let w: Vec<_> = g.traverse_segment(&ray, t_min, t_max).collect();
             let scale = 1.0 + o.abs().max_element() + g.bounds().1.abs().max_element();
             let tol = 1e-9 * scale;
@@ -752,7 +753,7 @@ mod tests {
             dt in 0.0f64..1e7,
         ) {
             let g = VoxelGrid::new(DVec3::splat(-2.0), DVec3::splat(0.37), [11, 3, 7], 0u8).unwrap();
-            for (cell, te, tx) in g.traverse_segment(&Ray::new(DVec3::from(o), DVec3::from(d)), t0, t0 + dt) {
+            for (cell, te, tx) in g.traverse_segment(&Ray::new(DVec3::from(o), DVec3::from(d)).unwrap(), t0, t0 + dt) {
                 prop_assert!(g.index(cell).is_some() && te.is_finite() && tx.is_finite() && te <= tx);
             }
         }

@@ -112,7 +112,7 @@ fn num(v: f64) -> String {
     }
 }
 
-static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
 
 /// Error (log) against time in ms (log), one series per error name, each
 /// point labelled with its knob value.

@@ -70,9 +70,9 @@ mod tests {
     /// Distance from the centre at which a paraxial ray at height `h`,
     /// parallel to the axis, crosses the axis after the ball.
     fn axis_crossing(r: f64, n: f64, h: f64) -> f64 {
-        let ray = Ray::new(DVec3::new(h, 0.0, 10.0 * r), -DVec3::Z);
+        let ray = Ray::new(DVec3::new(h, 0.0, 10.0 * r), -DVec3::Z).unwrap();
         let hits = intersect_sphere(&ray, DVec3::ZERO, r).unwrap();
-        let out = refract_through_ball(ray.at(hits.t_near), ray.dir, DVec3::ZERO, r, n).unwrap();
+        let out = refract_through_ball(ray.at(hits.t_near), ray.dir(), DVec3::ZERO, r, n).unwrap();
         // x(t) = exit.x + t·dir.x = 0.
         let t = -out.exit.x / out.dir.x;
         -(out.exit.z + t * out.dir.z)

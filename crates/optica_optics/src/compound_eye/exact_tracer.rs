@@ -39,7 +39,7 @@ pub fn trace_exact(lattice: &Lattice, ray: &Ray, max_lenses: u32) -> Shade {
     };
     let lens = lattice.lens();
     let mut origin = p;
-    let mut dir = ray.dir;
+    let mut dir = ray.dir();
     let mut first = None;
     let mut last = None;
     let mut count = 0;
@@ -115,7 +115,7 @@ pub(crate) fn first_lens(
     };
     let mut t_max = DVec2::new(next(cell.x, uv0.x, duv.x), next(cell.y, uv0.y, duv.y));
     let t_delta = DVec2::new(inv_abs(duv.x), inv_abs(duv.y));
-    let view = Ray { origin, dir };
+    let view = Ray::from_unit(origin, dir);
     let mut best: Option<([i64; 2], DVec3, f64)> = None;
     for _ in 0..MAX_CELLS {
         for di in -1..=1 {
@@ -185,7 +185,7 @@ mod tests {
     fn ray_at(x: f64, y: f64, polar_deg: f64, azimuth_deg: f64) -> Ray {
         let (t, p) = (polar_deg.to_radians(), azimuth_deg.to_radians());
         let dir = DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), -t.cos());
-        Ray::new(DVec3::new(x, y, 0.0) - dir, dir)
+        Ray::new(DVec3::new(x, y, 0.0) - dir, dir).unwrap()
     }
 
     /// A set of rays over one cell: `m × m` points, 8 azimuths, at `polar_deg`.
@@ -279,7 +279,7 @@ mod tests {
     /// Brute force: the nearest lens entry over a 61 × 61 block of lenses.
     fn brute_first_lens(l: &Lattice, ray: &Ray) -> Option<([i64; 2], f64)> {
         let p = polygon_entry(l, ray).ok()?;
-        let view = Ray { origin: p, dir: ray.dir };
+        let view = Ray::from_unit(p, ray.dir());
         let mut best: Option<([i64; 2], f64)> = None;
         for i in -30..=30 {
             for j in -30..=30 {
@@ -309,7 +309,7 @@ mod tests {
             let l = Lattice::new(axes, LensParams::thesis(r, 1.5).unwrap()).unwrap();
             let ray = ray_at(x, y, polar, azimuth);
             let p = polygon_entry(&l, &ray).unwrap();
-            let walk = first_lens(&l, p, ray.dir, None).unwrap();
+            let walk = first_lens(&l, p, ray.dir(), None).unwrap();
             let brute = brute_first_lens(&l, &ray);
             prop_assert_eq!(walk.map(|w| w.0), brute.map(|b| b.0));
             if let (Some(w), Some(b)) = (walk, brute) {

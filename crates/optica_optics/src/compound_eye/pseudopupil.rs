@@ -47,8 +47,8 @@ pub fn facet_lattice(centre: DVec3, axis: DVec3, facet: f64, lens: LensParams) -
 /// or behind the facet's plane.
 pub fn ray_to_facet(lattice: &Lattice, viewer: DVec3) -> Option<Ray> {
     let apex = lattice.axes().point_of(glam::DVec2::splat(0.5));
-    let ray = Ray::try_new(viewer, apex - viewer).ok()?;
-    (ray.dir.dot(lattice.axes().normal()) < 0.0).then_some(ray)
+    let ray = Ray::new(viewer, apex - viewer).ok()?;
+    (ray.dir().dot(lattice.axes().normal()) < 0.0).then_some(ray)
 }
 
 /// `true` when `viewer` sees this facet's dark centre: the exact tracer's

@@ -57,14 +57,14 @@ pub const MIN_COS: f64 = 1e-12;
 /// Shared with the exact tracer so both start from the same fragment.
 pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<DVec3, ShadeFallback> {
     let axes = lattice.axes();
-    if !ray.origin.is_finite() || !ray.dir.is_finite() || !(ray.dir.length_squared() > 0.0) {
+    if !ray.origin().is_finite() || !ray.dir().is_finite() || !(ray.dir().length_squared() > 0.0) {
         return Err(ShadeFallback::NonFinite);
     }
-    let cos = -ray.dir.dot(axes.normal());
+    let cos = -ray.dir().dot(axes.normal());
     if !(cos > MIN_COS) {
         return Err(ShadeFallback::PolygonMiss);
     }
-    let h0 = axes.depth(ray.origin);
+    let h0 = axes.depth(ray.origin());
     if h0 > lattice.eps() {
         // The ray starts under the surface: no fragment is drawn for it.
         return Err(ShadeFallback::PolygonMiss);
@@ -77,7 +77,7 @@ pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<DVec3, Shade
 /// below the polygon (clamped to [`MAX_SLICES`]; 0 = the polygon alone).
 pub fn shade(lattice: &Lattice, ray: &Ray, slices: u32) -> Shade {
     match polygon_entry(lattice, ray) {
-        Ok(p) => shade_fragment(lattice, p, ray.dir, slices),
+        Ok(p) => shade_fragment(lattice, p, ray.dir(), slices),
         Err(f) => Shade::Fallback(f),
     }
 }
@@ -95,7 +95,7 @@ pub fn shade_fragment(lattice: &Lattice, p: DVec3, dir: DVec3, slices: u32) -> S
     if !(cos > MIN_COS) {
         return Shade::Fallback(ShadeFallback::PolygonMiss);
     }
-    let view = Ray { origin: p, dir };
+    let view = Ray::from_unit(p, dir);
     let k = slices.min(MAX_SLICES);
     // Step 2: slice-plane search (6.16–6.27).
     let mut found = false;
@@ -179,7 +179,7 @@ mod tests {
     /// The view ray that crosses the polygon at `(x, y)` with direction `dir`.
     fn ray_at(x: f64, y: f64, dir: DVec3) -> Ray {
         let dir = dir.normalize();
-        Ray::new(DVec3::new(x, y, 0.0) - 2.0 * dir, dir)
+        Ray::new(DVec3::new(x, y, 0.0) - 2.0 * dir, dir).unwrap()
     }
 
     #[test]
@@ -227,7 +227,7 @@ mod tests {
         let dir = DVec3::new(1.0, 1.0, -4.0).normalize();
         let ray = ray_at(0.02, 0.02, dir);
         let p = polygon_entry(&l, &ray).unwrap();
-        let t = l.lens_entry(&Ray { origin: p, dir }, l.lens_centre(DVec2::splat(0.5))).unwrap();
+        let t = l.lens_entry(&Ray::from_unit(p, dir), l.lens_centre(DVec2::splat(0.5))).unwrap();
         let entry_depth = l.axes().depth(p + t * dir);
         assert!(entry_depth > 0.5 && entry_depth < 0.6, "enters at depth {entry_depth}");
         let exact = *trace_exact(&l, &ray, 1).hit().unwrap();
@@ -246,7 +246,7 @@ mod tests {
             let a = k as f64 * 0.37;
             let dir = DVec3::new(a.cos() * (k as f64 * 0.03), a.sin() * (k as f64 * 0.02), -1.0).normalize();
             let ray = ray_at(0.1 * k as f64, -0.07 * k as f64, dir);
-            let straight = ray.at((ray.origin.z + 1.3) / -ray.dir.z);
+            let straight = ray.at((ray.origin().z + 1.3) / -ray.dir().z);
             for got in [shade(&l, &ray, 4), trace_exact(&l, &ray, 1), trace_exact(&l, &ray, 6)] {
                 let h = got.hit().unwrap();
                 assert!((h.point - straight).length() < 1e-12, "k {k}");
@@ -269,15 +269,13 @@ mod tests {
     #[test]
     fn rays_that_do_not_reach_the_polygon_fall_back() {
         let l = unit_lattice(0.5, 1.5, 1.0);
-        let parallel = Ray::new(DVec3::new(0.0, 0.0, 1.0), DVec3::X);
-        let leaving = Ray::new(DVec3::new(0.0, 0.0, 1.0), DVec3::Z);
-        let below = Ray::new(DVec3::new(0.0, 0.0, -0.2), -DVec3::Z);
-        let nan = Ray { origin: DVec3::new(f64::NAN, 0.0, 1.0), dir: -DVec3::Z };
+        let parallel = Ray::new(DVec3::new(0.0, 0.0, 1.0), DVec3::X).unwrap();
+        let leaving = Ray::new(DVec3::new(0.0, 0.0, 1.0), DVec3::Z).unwrap();
+        let below = Ray::new(DVec3::new(0.0, 0.0, -0.2), -DVec3::Z).unwrap();
         for (ray, want) in [
             (parallel, ShadeFallback::PolygonMiss),
             (leaving, ShadeFallback::PolygonMiss),
             (below, ShadeFallback::PolygonMiss),
-            (nan, ShadeFallback::NonFinite),
         ] {
             assert_eq!(shade(&l, &ray, 4), Shade::Fallback(want));
             assert_eq!(trace_exact(&l, &ray, 4), Shade::Fallback(want));
@@ -342,7 +340,7 @@ mod tests {
             d in prop::array::uniform3(-1.0f64..1.0),
             slices in 0u32..80,
         ) {
-            let ray = Ray::new(DVec3::from(o), DVec3::from(d));
+            let ray = Ray::new(DVec3::from(o), DVec3::from(d)).unwrap();
             for got in [shade(&lattice, &ray, slices), trace_exact(&lattice, &ray, 1), trace_exact(&lattice, &ray, 5)] {
                 prop_assert!(got.is_finite(), "{:?}", got);
                 if let Shade::Pigment(h) = got {

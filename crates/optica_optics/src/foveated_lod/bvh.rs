@@ -176,18 +176,28 @@ impl Bvh {
     /// The closest hit: `test(prim, t_max)` returns the hit distance of
     /// primitive `prim` if it is below `t_max`. Returns the primitive and its
     /// distance. Children are visited near first, so `t_max` shrinks early.
-    pub fn closest<F>(&self, ray: &Ray, t_max: f64, mut test: F) -> Option<(usize, f64)>
+    pub fn closest<F>(&self, ray: &Ray, t_max: f64, test: F) -> Option<(usize, f64)>
+    where
+        F: FnMut(usize, f64) -> Option<f64>,
+    {
+        self.closest_along(ray.origin(), ray.dir(), t_max, test)
+    }
+
+    /// [`Bvh::closest`] along any finite `dir`, unit or not (`t` is then in
+    /// units of `|dir|`): the tests use power-of-two directions, whose
+    /// reciprocals are exact.
+    pub(crate) fn closest_along<F>(&self, origin: DVec3, dir: DVec3, t_max: f64, mut test: F) -> Option<(usize, f64)>
     where
         F: FnMut(usize, f64) -> Option<f64>,
     {
         if self.nodes.is_empty() {
             return None;
         }
-        let inv = ray.dir.recip();
+        let inv = dir.recip();
         let mut best: Option<(usize, f64)> = None;
         let mut t_best = t_max;
         let mut stack: Vec<(u32, f64)> = Vec::with_capacity(64);
-        if let Some(t) = self.nodes[0].bounds.hit(ray.origin, inv, t_best) {
+        if let Some(t) = self.nodes[0].bounds.hit(origin, inv, t_best) {
             stack.push((0, t));
         }
         while let Some((ni, t_enter)) = stack.pop() {
@@ -206,8 +216,8 @@ impl Bvh {
                     }
                 }
                 NodeKind::Inner { left, right } => {
-                    let hl = self.nodes[left as usize].bounds.hit(ray.origin, inv, t_best);
-                    let hr = self.nodes[right as usize].bounds.hit(ray.origin, inv, t_best);
+                    let hl = self.nodes[left as usize].bounds.hit(origin, inv, t_best);
+                    let hr = self.nodes[right as usize].bounds.hit(origin, inv, t_best);
                     match (hl, hr) {
                         (Some(a), Some(b)) => {
                             // Push the far child first so the near one pops first.
@@ -231,16 +241,24 @@ impl Bvh {
 
     /// Any hit (for shadow rays): `test(prim)` is true when the primitive
     /// blocks the ray before `t_max`; stops at the first.
-    pub fn any<F>(&self, ray: &Ray, t_max: f64, mut test: F) -> bool
+    pub fn any<F>(&self, ray: &Ray, t_max: f64, test: F) -> bool
+    where
+        F: FnMut(usize) -> bool,
+    {
+        self.any_along(ray.origin(), ray.dir(), t_max, test)
+    }
+
+    /// [`Bvh::any`] along any finite `dir` (see [`Bvh::closest_along`]).
+    pub(crate) fn any_along<F>(&self, origin: DVec3, dir: DVec3, t_max: f64, mut test: F) -> bool
     where
         F: FnMut(usize) -> bool,
     {
         if self.nodes.is_empty() {
             return false;
         }
-        let inv = ray.dir.recip();
+        let inv = dir.recip();
         let mut stack: Vec<u32> = Vec::with_capacity(64);
-        if self.nodes[0].bounds.hit(ray.origin, inv, t_max).is_some() {
+        if self.nodes[0].bounds.hit(origin, inv, t_max).is_some() {
             stack.push(0);
         }
         while let Some(ni) = stack.pop() {
@@ -254,7 +272,7 @@ impl Bvh {
                 }
                 NodeKind::Inner { left, right } => {
                     for c in [left, right] {
-                        if self.nodes[c as usize].bounds.hit(ray.origin, inv, t_max).is_some() {
+                        if self.nodes[c as usize].bounds.hit(origin, inv, t_max).is_some() {
                             stack.push(c);
                         }
                     }
@@ -385,8 +403,8 @@ mod tests {
 
     /// Ray–sphere test used as a primitive (distance of the near forward root).
     fn sphere_t(ray: &Ray, c: DVec3, r: f64) -> Option<f64> {
-        let oc = ray.origin - c;
-        let b = oc.dot(ray.dir);
+        let oc = ray.origin() - c;
+        let b = oc.dot(ray.dir());
         let q = oc.length_squared() - r * r;
         let disc = b * b - q;
         if disc < 0.0 {
@@ -399,7 +417,7 @@ mod tests {
     #[test]
     fn empty_and_single() {
         let e = Bvh::build(&[]);
-        let r = Ray::new(DVec3::ZERO, DVec3::X);
+        let r = Ray::new(DVec3::ZERO, DVec3::X).unwrap();
         assert!(e.closest(&r, f64::INFINITY, |_, _| Some(1.0)).is_none());
         assert!(!e.any(&r, f64::INFINITY, |_| true));
         let one = Bvh::build(&[Aabb {
@@ -416,14 +434,14 @@ mod tests {
             max: DVec3::splat(1.0),
         };
         // From (−3, 0, 0) along +x: enters at t = 2.
-        let r = Ray::new(DVec3::new(-3.0, 0.0, 0.0), DVec3::X);
-        assert_eq!(b.hit(r.origin, r.dir.recip(), f64::INFINITY), Some(2.0));
-        assert_eq!(b.hit(r.origin, r.dir.recip(), 1.5), None);
+        let r = Ray::new(DVec3::new(-3.0, 0.0, 0.0), DVec3::X).unwrap();
+        assert_eq!(b.hit(r.origin(), r.dir().recip(), f64::INFINITY), Some(2.0));
+        assert_eq!(b.hit(r.origin(), r.dir().recip(), 1.5), None);
         // Inside: entry 0.
-        assert_eq!(b.hit(DVec3::ZERO, r.dir.recip(), 10.0), Some(0.0));
+        assert_eq!(b.hit(DVec3::ZERO, r.dir().recip(), 10.0), Some(0.0));
         // Parallel and outside a slab: miss.
-        let r2 = Ray::new(DVec3::new(-3.0, 2.0, 0.0), DVec3::X);
-        assert_eq!(b.hit(r2.origin, r2.dir.recip(), f64::INFINITY), None);
+        let r2 = Ray::new(DVec3::new(-3.0, 2.0, 0.0), DVec3::X).unwrap();
+        assert_eq!(b.hit(r2.origin(), r2.dir().recip(), f64::INFINITY), None);
     }
 
     #[test]
@@ -470,12 +488,12 @@ mod tests {
             Aabb { min: DVec3::new(0.0, 2.0, -1.0), max: DVec3::new(1.0, 3.0, 1.0) },
         ];
         let bvh = Bvh::build(&boxes);
-        let ray = Ray::new(DVec3::new(1.0, -1.0, 0.0), DVec3::Y);
+        let ray = Ray::new(DVec3::new(1.0, -1.0, 0.0), DVec3::Y).unwrap();
         let got = bvh.closest(&ray, f64::INFINITY, |i, tm| reference_box_t(&boxes[i], &ray).filter(|&t| t < tm));
         assert_eq!(got, Some((1, 3.0)));
         assert!(bvh.any(&ray, 10.0, |i| reference_box_t(&boxes[i], &ray).is_some_and(|t| t < 10.0)));
         // And a ray parallel to x outside every y slab is culled at the root.
-        let away = Ray::new(DVec3::new(-5.0, 10.0, 0.0), DVec3::X);
+        let away = Ray::new(DVec3::new(-5.0, 10.0, 0.0), DVec3::X).unwrap();
         let mut tested = 0;
         bvh.closest(&away, f64::INFINITY, |_, _| {
             tested += 1;
@@ -521,9 +539,13 @@ mod tests {
     /// the sign of the direction (no reciprocals, no NaN): the entry distance
     /// in [0, ∞), if any.
     fn reference_box_t(b: &Aabb, ray: &Ray) -> Option<f64> {
+        reference_box_t_along(b, ray.origin(), ray.dir())
+    }
+
+    fn reference_box_t_along(b: &Aabb, origin: DVec3, dir: DVec3) -> Option<f64> {
         let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
         for a in 0..3 {
-            let (o, d) = (ray.origin[a], ray.dir[a]);
+            let (o, d) = (origin[a], dir[a]);
             if d == 0.0 {
                 if o < b.min[a] || o > b.max[a] {
                     return None;
@@ -565,7 +587,7 @@ mod tests {
                 if d.length() < 1e-3 {
                     continue;
                 }
-                let ray = Ray::new(DVec3::new(ox, oy, oz), d);
+                let ray = Ray::new(DVec3::new(ox, oy, oz), d).unwrap();
                 let brute = s.iter().enumerate()
                     .filter_map(|(i, &(c, r))| sphere_t(&ray, c, r).map(|t| (i, t)))
                     .min_by(|a, b| a.1.total_cmp(&b.1));
@@ -586,7 +608,7 @@ mod tests {
                 let face = |v: f64, lo: f64, hi: f64| if v < -0.3 { lo } else if v > 0.3 { hi } else { v };
                 let o = DVec3::new(face(dx, c.x - r, c.x + r), face(dy, c.y - r, c.y + r), face(ox / 12.0, c.z - r, c.z + r));
                 let dir = axis_dir(k, 0.3 + dx.abs(), 0.2 + dy.abs());
-                let ray = Ray::new(o - 20.0 * dir.normalize() * (oy / 12.0).abs().min(0.5) , dir);
+                let ray = Ray::new(o - 20.0 * dir.normalize() * (oy / 12.0).abs().min(0.5) , dir).unwrap();
                 let brute = s.iter().enumerate()
                     .filter_map(|(i, &(c, r))| sphere_t(&ray, c, r).map(|t| (i, t)))
                     .min_by(|a, b| a.1.total_cmp(&b.1));
@@ -630,20 +652,21 @@ mod tests {
                 // slab test and the reference agree to the bit and grazing
                 // cases cannot flip by rounding.
                 let dir = axis_dir(k, [0.5, 1.0, 2.0][which % 3], [0.25, 1.0, 4.0][(which / 3) % 3]);
-                let ray = Ray { origin: o - 4.0 * back * dir, dir };
+                let origin = o - 4.0 * back * dir;
+                let ray = (origin, dir);
                 let brute = boxes.iter().enumerate()
-                    .filter_map(|(i, b)| reference_box_t(b, &ray).map(|t| (i, t)))
+                    .filter_map(|(i, b)| reference_box_t_along(b, origin, dir).map(|t| (i, t)))
                     .min_by(|a, b| a.1.total_cmp(&b.1));
-                let fast = bvh.closest(&ray, f64::INFINITY, |i, tm| reference_box_t(&boxes[i], &ray).filter(|&t| t < tm));
+                let fast = bvh.closest_along(origin, dir, f64::INFINITY, |i, tm| reference_box_t_along(&boxes[i], origin, dir).filter(|&t| t < tm));
                 prop_assert_eq!(brute.map(|b| b.1), fast.map(|f| f.1), "ray {:?}", ray);
                 let t_max = 3.0;
-                let brute_any = boxes.iter().any(|b| reference_box_t(b, &ray).is_some_and(|t| t < t_max));
-                let fast_any = bvh.any(&ray, t_max, |i| reference_box_t(&boxes[i], &ray).is_some_and(|t| t < t_max));
+                let brute_any = boxes.iter().any(|b| reference_box_t_along(b, origin, dir).is_some_and(|t| t < t_max));
+                let fast_any = bvh.any_along(origin, dir, t_max, |i| reference_box_t_along(&boxes[i], origin, dir).is_some_and(|t| t < t_max));
                 prop_assert_eq!(brute_any, fast_any, "ray {:?}", ray);
                 // The box test itself agrees with the reference on every box.
                 for bx in &boxes {
-                    let want = reference_box_t(bx, &ray);
-                    let got = bx.hit(ray.origin, ray.dir.recip(), f64::INFINITY);
+                    let want = reference_box_t_along(bx, origin, dir);
+                    let got = bx.hit(origin, dir.recip(), f64::INFINITY);
                     prop_assert_eq!(want, got, "{:?} {:?}", bx, ray);
                 }
             }
@@ -662,7 +685,7 @@ mod tests {
         ];
         let bvh = Bvh::build(&boxes);
         assert!(bvh.node_count() > 25);
-        let r = Ray::new(DVec3::new(0.5, 0.5, -1.0), DVec3::Z);
+        let r = Ray::new(DVec3::new(0.5, 0.5, -1.0), DVec3::Z).unwrap();
         let mut seen = 0;
         bvh.closest(&r, f64::INFINITY, |_, _| {
             seen += 1;

@@ -141,10 +141,11 @@ impl CaveWall {
         Ok(d)
     }
 
-    /// The primary ray from `eye` through the wall point (s, t). The eye is
-    /// not checked here; [`CaveWall::check_eye`] once per frame.
-    pub fn ray_through(&self, eye: DVec3, s: f64, t: f64) -> Ray {
-        Ray::new(eye, self.point_at(s, t) - eye)
+    /// The primary ray from `eye` through the wall point (s, t); `None` when
+    /// the eye is not finite or on the wall point. The eye is not checked
+    /// against the wall here; [`CaveWall::check_eye`] once per frame.
+    pub fn ray_through(&self, eye: DVec3, s: f64, t: f64) -> Option<Ray> {
+        Ray::new(eye, self.point_at(s, t) - eye).ok()
     }
 
     /// The off-axis view and projection of this wall from `eye` (module docs).

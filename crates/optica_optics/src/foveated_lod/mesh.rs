@@ -212,7 +212,7 @@ impl TriangleMesh {
         let [a, b, c] = self.triangles[i].map(|k| self.positions[k as usize]);
         let e1 = b - a;
         let e2 = c - a;
-        let p = ray.dir.cross(e2);
+        let p = ray.dir().cross(e2);
         let det = e1.dot(p);
         // Relative test: a ray in the triangle's plane (or a zero-area
         // triangle) has no unique hit.
@@ -220,13 +220,13 @@ impl TriangleMesh {
             return None;
         }
         let inv = 1.0 / det;
-        let s = ray.origin - a;
+        let s = ray.origin() - a;
         let u = s.dot(p) * inv;
         if !(0.0..=1.0).contains(&u) {
             return None;
         }
         let q = s.cross(e1);
-        let v = ray.dir.dot(q) * inv;
+        let v = ray.dir().dot(q) * inv;
         if v < 0.0 || u + v > 1.0 {
             return None;
         }
@@ -327,7 +327,7 @@ mod tests {
     #[test]
     fn sphere_is_wound_outwards_and_hit_near_the_radius() {
         let m = TriangleMesh::uv_sphere(DVec3::ZERO, 2.0, 24, 48).unwrap();
-        let ray = Ray::new(DVec3::new(0.1, 0.2, -10.0), DVec3::Z);
+        let ray = Ray::new(DVec3::new(0.1, 0.2, -10.0), DVec3::Z).unwrap();
         let mut n = 0;
         let h = m.intersect(&ray, f64::INFINITY, &mut n).unwrap();
         // The inscribed polygon lies inside the sphere by at most
@@ -346,7 +346,7 @@ mod tests {
                                        dx in -1.0f64..1.0, dy in -1.0f64..1.0, dz in -1.0f64..1.0) {
             let d = DVec3::new(dx, dy, dz);
             prop_assume!(d.length() > 1e-3);
-            let ray = Ray::new(DVec3::new(ox, oy, oz), d);
+            let ray = Ray::new(DVec3::new(ox, oy, oz), d).unwrap();
             let meshes = [
                 TriangleMesh::uv_sphere(DVec3::new(0.5, 0.0, 0.0), 1.5, 9, 14).unwrap(),
                 TriangleMesh::torus(DVec3::ZERO, DVec3::new(0.3, 1.0, 0.1), 2.0, 0.6, 17, 7).unwrap(),

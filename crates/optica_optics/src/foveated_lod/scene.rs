@@ -332,7 +332,7 @@ mod tests {
         let eye = DVec3::new(0.0, 1.5, 0.0);
         for k in 0..200 {
             let a = k as f64 * 0.61;
-            let ray = Ray::new(eye, DVec3::new(a.cos(), -0.3 + 0.5 * (1.7 * a).sin(), a.sin() - 0.5));
+            let ray = Ray::new(eye, DVec3::new(a.cos(), -0.3 + 0.5 * (1.7 * a).sin(), a.sin() - 0.5)).unwrap();
             for level in [1.0, 0.3, 0.0] {
                 let mut n = 0;
                 let got = s.intersect(&ray, level, f64::INFINITY, &mut n).map(|h| h.hit.t);

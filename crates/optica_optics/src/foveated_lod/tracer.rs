@@ -162,8 +162,9 @@ impl Camera {
     }
 
     /// The primary ray through the centre of pixel (x, y) of a w × h image
-    /// (row 0 at the top).
-    pub fn primary_ray(&self, x: usize, y: usize, w: usize, h: usize) -> Ray {
+    /// (row 0 at the top); `None` where the camera cannot form a ray (a
+    /// non-finite eye or frame), which the renderer draws as background.
+    pub fn primary_ray(&self, x: usize, y: usize, w: usize, h: usize) -> Option<Ray> {
         let s = (x as f64 + 0.5) / w as f64;
         let t = 1.0 - (y as f64 + 0.5) / h as f64;
         match *self {
@@ -176,10 +177,7 @@ impl Camera {
                 let right = forward.cross(up);
                 let half_h = (fov_y / 2.0).tan();
                 let half_w = half_h * w as f64 / h as f64;
-                Ray::new(
-                    eye,
-                    forward + right * ((2.0 * s - 1.0) * half_w) + up * ((2.0 * t - 1.0) * half_h),
-                )
+                Ray::new(eye, forward + right * ((2.0 * s - 1.0) * half_w) + up * ((2.0 * t - 1.0) * half_h)).ok()
             }
             Self::Wall { wall, eye } => wall.ray_through(eye, s, t),
         }
@@ -204,7 +202,7 @@ fn trace(scene: &super::scene::Scene, ray: &Ray, level: f64, depth: u32, limit: 
     let p = ray.at(h.hit.t);
     // Two-sided: turn both normals towards the incoming ray.
     let mut geo = mesh.face_normal(h.hit.triangle);
-    if geo.dot(ray.dir) > 0.0 {
+    if geo.dot(ray.dir()) > 0.0 {
         geo = -geo;
     }
     let mut n = mesh.shading_normal(&h.hit);
@@ -212,7 +210,7 @@ fn trace(scene: &super::scene::Scene, ray: &Ray, level: f64, depth: u32, limit: 
         n = -n;
     }
     let origin = p + geo * offset(p);
-    let view = -ray.dir;
+    let view = -ray.dir();
     let mut local = scene.ambient * m.color;
     for light in scene.lights() {
         let to_l = light.position - origin;
@@ -226,7 +224,7 @@ fn trace(scene: &super::scene::Scene, ray: &Ray, level: f64, depth: u32, limit: 
             continue;
         }
         st.shadow_rays += 1;
-        if scene.occluded(&Ray { origin, dir: l }, level, dist, &mut st.triangle_tests) {
+        if scene.occluded(&Ray::from_unit(origin, l), level, dist, &mut st.triangle_tests) {
             continue;
         }
         let irr = light.intensity / (dist * dist);
@@ -239,7 +237,7 @@ fn trace(scene: &super::scene::Scene, ray: &Ray, level: f64, depth: u32, limit: 
     let mut color = local * (1.0 - m.reflectance);
     if depth < limit {
         st.reflection_rays += 1;
-        let r = Ray::new(origin, reflect(ray.dir, n));
+        let r = Ray::from_unit(origin, reflect(ray.dir(), n));
         // A shading normal can send the reflection into the surface; it then
         // simply hits the surface again, which is finite and rare.
         color += trace(scene, &r, level, depth + 1, limit, st) * m.reflectance;
@@ -257,7 +255,7 @@ pub fn trace_ray(
     stats: &mut TraceStats,
 ) -> DVec3 {
     let level = sanitize_level(level);
-    if level <= 0.0 || !ray.is_valid() {
+    if level <= 0.0 {
         stats.background_pixels += 1;
         return scene.background;
     }
@@ -286,8 +284,10 @@ pub fn pixel_levels(
     Ok((0..n)
         .into_par_iter()
         .map(|i| {
-            let ray = camera.primary_ray(i % w, i / w, w, h);
-            quant.apply(gaze.level(field, ray.dir))
+            match camera.primary_ray(i % w, i / w, w, h) {
+                Some(ray) => quant.apply(gaze.level(field, ray.dir())),
+                None => 0.0,
+            }
         })
         .collect())
 }
@@ -319,8 +319,13 @@ pub fn render(
         .into_par_iter()
         .map(|i| {
             let mut st = TraceStats::default();
-            let ray = camera.primary_ray(i % w, i / w, w, h);
-            let c = trace_ray(scene, &ray, levels[i], settings.reflect_max, &mut st);
+            let c = match camera.primary_ray(i % w, i / w, w, h) {
+                Some(ray) => trace_ray(scene, &ray, levels[i], settings.reflect_max, &mut st),
+                None => {
+                    st.background_pixels += 1;
+                    scene.background
+                }
+            };
             (c, st)
         })
         .collect();
@@ -372,7 +377,7 @@ mod tests {
     fn level_zero_ray_gives_background_and_no_work() {
         let (scene, cam, _) = setup(8);
         let mut st = TraceStats::default();
-        let ray = cam.primary_ray(8, 9, 16, 16);
+        let ray = cam.primary_ray(8, 9, 16, 16).unwrap();
         assert_eq!(trace_ray(&scene, &ray, 0.0, 3, &mut st), scene.background);
         assert_eq!(
             st,
@@ -415,7 +420,7 @@ mod tests {
         // level 1 → up to 3 (Reflect_max = 3).
         // Pixel (8, 9) of 16 looks at the mirror sphere 0.26 m from its centre.
         let (scene, cam, _) = setup(8);
-        let ray = cam.primary_ray(8, 9, 16, 16);
+        let ray = cam.primary_ray(8, 9, 16, 16).unwrap();
         let mut a = TraceStats::default();
         trace_ray(&scene, &ray, 1.0 / 3.0, 3, &mut a);
         assert_eq!(a.reflection_rays, 1);
@@ -490,7 +495,7 @@ mod tests {
     #[test]
     fn pinhole_centre_ray_is_forward() {
         let c = Camera::pinhole(DVec3::ZERO, DVec3::NEG_Z, DVec3::Y, 1.0).unwrap();
-        let r = c.primary_ray(1, 1, 3, 3);
-        assert!((r.dir - DVec3::NEG_Z).length() < 1e-15);
+        let r = c.primary_ray(1, 1, 3, 3).unwrap();
+        assert!((r.dir() - DVec3::NEG_Z).length() < 1e-15);
     }
 }

@@ -15,7 +15,7 @@
 //! let ghosts = lens::ghosts(&tessar);
 //! assert_eq!(ghosts.len(), 21);
 //! let (i, j) = ghosts[0];
-//! let ray = Ray::new(DVec3::new(0.0, 5.0, -10.0), DVec3::Z);
+//! let ray = Ray::new(DVec3::new(0.0, 5.0, -10.0), DVec3::Z).unwrap();
 //! let hit = lens::trace(&tessar, ray, LAMBDA_D_NM, TracePath::ghost(i, j)).unwrap();
 //! assert!(hit.throughput < 0.01);
 //! ```
@@ -45,9 +45,9 @@ pub use trace::{
 /// They live in the workspace's `assets/` so that examples and users read the
 /// same files; compiling them in keeps the built-ins available without a path.
 pub const LENS_FILES: &[(&str, &str)] = &[
-    ("tessar-us2854889.lens", include_str!("../../../../assets/lenses/tessar-us2854889.lens")),
-    ("double-gauss-us2701982.lens", include_str!("../../../../assets/lenses/double-gauss-us2701982.lens")),
-    ("heliar-us2645156.lens", include_str!("../../../../assets/lenses/heliar-us2645156.lens")),
+    ("tessar-us2854889.lens", include_str!("../../lenses/tessar-us2854889.lens")),
+    ("double-gauss-us2701982.lens", include_str!("../../lenses/double-gauss-us2701982.lens")),
+    ("heliar-us2645156.lens", include_str!("../../lenses/heliar-us2645156.lens")),
 ];
 
 /// The shipped prescriptions, parsed from [`LENS_FILES`].

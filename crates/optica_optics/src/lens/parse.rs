@@ -610,7 +610,7 @@ stop   2.0   air          5.0
 
     #[test]
     fn load_reads_a_shipped_file() {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/lenses/tessar-us2854889.lens");
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("lenses/tessar-us2854889.lens");
         let p = LensPrescription::load(path).unwrap();
         assert_eq!(p.surfaces.len(), 8);
     }

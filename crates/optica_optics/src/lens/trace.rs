@@ -332,7 +332,7 @@ impl PreparedLens {
         path: TracePath,
         sensor_z: f64,
     ) -> (Vec<DVec3>, Result<TraceResult, TraceError>) {
-        let mut points = vec![ray.origin];
+        let mut points = vec![ray.origin()];
         let result = self.trace_impl(ray, path, sensor_z, Some(&mut points));
         if let Ok(r) = &result {
             points.push(r.position);
@@ -350,7 +350,6 @@ impl PreparedLens {
         if !sensor_z.is_finite() {
             return Err(TraceError::InvalidSensor(sensor_z));
         }
-        let ray = Ray::try_new(ray.origin, ray.dir).map_err(|_| TraceError::InvalidRay)?;
         self.check_path(path)?;
         let mut st =
             State { ray, r_rel: 0.0, throughput: 1.0, stop_xy: [DVec2::ZERO; MAX_STOP_CROSSINGS], stop_crossings: 0, points };
@@ -375,11 +374,11 @@ impl PreparedLens {
                 }
             }
         }
-        let d = st.ray.dir;
+        let d = st.ray.dir();
         if d.z.is_nan() || d.z <= 1e-12 {
             return Err(TraceError::MissedSensor { dir_z: d.z });
         }
-        let t = (sensor_z - st.ray.origin.z) / d.z;
+        let t = (sensor_z - st.ray.origin().z) / d.z;
         let mut position = st.ray.at(t);
         position.z = sensor_z;
         if !position.is_finite() {
@@ -412,7 +411,7 @@ impl PreparedLens {
         }
         // Back the origin off a little and accept a hit at most that far behind:
         // the surface may pass through the ray's origin (touching surfaces).
-        let back = Ray { origin: ray.origin - ray.dir * COINCIDENT_TOLERANCE_MM, dir: ray.dir };
+        let back = Ray::from_unit(ray.origin() - ray.dir() * COINCIDENT_TOLERANCE_MM, ray.dir());
         match geometry.intersect(&back) {
             Some(h) if h.t <= 2.0 * COINCIDENT_TOLERANCE_MM + T_EPSILON => {
                 Ok(Hit { t: h.t - COINCIDENT_TOLERANCE_MM, ..h })
@@ -436,14 +435,14 @@ impl PreparedLens {
                 *slot = DVec2::new(p.x, p.y);
             }
             st.stop_crossings += 1;
-            st.ray = Ray { origin: p, dir: st.ray.dir };
+            st.ray = Ray::from_unit(p, st.ray.dir());
             return Ok(());
         }
         let (n1, n2) = match pass {
             Pass::Forward => (s.n_before, s.n_after),
             Pass::Backward => (s.n_after, s.n_before),
         };
-        let cos_i = st.ray.dir.dot(hit.normal).abs().min(1.0);
+        let cos_i = st.ray.dir().dot(hit.normal).abs().min(1.0);
         let reflectance = match &s.coating {
             Some(c) => c.reflectance(cos_i, n1, n2, self.wavelength_nm),
             None => fresnel_unpolarized(cos_i, n1, n2),
@@ -451,9 +450,9 @@ impl PreparedLens {
         let dir = match event {
             Event::Reflect => {
                 st.throughput *= reflectance;
-                reflect(st.ray.dir, hit.normal)
+                reflect(st.ray.dir(), hit.normal)
             }
-            Event::Refract => match refract(st.ray.dir, hit.normal, n1, n2) {
+            Event::Refract => match refract(st.ray.dir(), hit.normal, n1, n2) {
                 Refraction::Transmitted(d) => {
                     st.throughput *= 1.0 - reflectance;
                     d
@@ -463,7 +462,7 @@ impl PreparedLens {
                 }
             },
         };
-        st.ray = Ray { origin: p, dir };
+        st.ray = Ray::from_unit(p, dir);
         Ok(())
     }
 }
@@ -480,7 +479,7 @@ mod tests {
     fn polyline_follows_the_trace() {
         let lens = builtin::tessar();
         let prepared = PreparedLens::new(&lens, LAMBDA_D_NM).unwrap();
-        let ray = Ray::new(DVec3::new(0.0, 5.0, -20.0), DVec3::Z);
+        let ray = Ray::new(DVec3::new(0.0, 5.0, -20.0), DVec3::Z).unwrap();
         let sensor = prepared.table_sensor_z();
         let (points, result) = prepared.trace_polyline(ray, TracePath::Primary, sensor);
         let result = result.unwrap();
@@ -515,7 +514,7 @@ mod tests {
         for p in [builtin::tessar(), builtin::double_gauss(), builtin::heliar()] {
             let q = p.paraxial(LAMBDA_D_NM).unwrap();
             let h = 1e-3;
-            let ray = Ray::new(DVec3::new(0.0, h, -20.0), DVec3::Z);
+            let ray = Ray::new(DVec3::new(0.0, h, -20.0), DVec3::Z).unwrap();
             let r = trace_to(&p, ray, LAMBDA_D_NM, TracePath::Primary, q.image_z_mm).unwrap();
             let last_z = *p.vertex_z().last().unwrap();
             // Where the exit ray meets the axis.
@@ -548,7 +547,7 @@ mod tests {
         // Normal incidence: R = ((n−1)/(n+1))² = 0.04 for n = 1.5 on either
         // side; ghost (2, 1) = T·R·R·T = 0.96² · 0.04² = 0.00147456.
         let p = slab(1.5);
-        let ray = Ray::new(DVec3::new(1.0, 2.0, -1.0), DVec3::Z);
+        let ray = Ray::new(DVec3::new(1.0, 2.0, -1.0), DVec3::Z).unwrap();
         let r = trace(&p, ray, 550.0, TracePath::ghost(2, 1)).unwrap();
         assert!((r.throughput - 0.96 * 0.96 * 0.04 * 0.04).abs() < 1e-15, "{}", r.throughput);
         assert!((r.position - DVec3::new(1.0, 2.0, 45.0)).length() < 1e-12);
@@ -567,7 +566,7 @@ mod tests {
         let big_r = 0.5 * (rs + rp); // same value from inside at the refracted angle
         let want = (1.0 - big_r) * big_r * big_r * (1.0 - big_r);
         let dir = DVec3::new(si, 0.0, ci);
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -1.0), dir), 550.0, TracePath::ghost(2, 1)).unwrap();
+        let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -1.0), dir).unwrap(), 550.0, TracePath::ghost(2, 1)).unwrap();
         assert!((r.throughput - want).abs() < 1e-15, "{} vs {want}", r.throughput);
         // Lateral walk: 1 mm in air to the stop, 5 mm air, then three 10 mm glass
         // crossings at tan θt, then 30 mm air; all tangents by hand.
@@ -587,11 +586,11 @@ mod tests {
         let t = |k: usize| 1.0 - r(k);
         let want = t(0) * t(1) * t(2) * t(4) * t(5) * r(6) * r(5) * t(6) * t(7);
         let p = builtin::tessar();
-        let got = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -10.0), DVec3::Z), LAMBDA_D_NM, TracePath::ghost(6, 5)).unwrap();
+        let got = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::ghost(6, 5)).unwrap();
         assert!((got.throughput / want - 1.0).abs() < 1e-12, "{} vs {want}", got.throughput);
         assert!(got.position.truncate().length() < 1e-12 && got.stop_crossings == 1);
         // Ghost (5, 2) straddles the stop: it crosses the stop plane three times.
-        let got = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -10.0), DVec3::Z), LAMBDA_D_NM, TracePath::ghost(5, 2)).unwrap();
+        let got = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::ghost(5, 2)).unwrap();
         let want = t(0) * t(1) * t(2) * t(4) * r(5) * t(4) * r(2) * t(4) * t(5) * t(6) * t(7);
         assert!((got.throughput / want - 1.0).abs() < 1e-12, "{} vs {want}", got.throughput);
         assert_eq!(got.stop_crossings, 3);
@@ -610,7 +609,7 @@ mod tests {
         assert!((mean * mean - 1.72e-3).abs() < 5e-6);
         assert!((0.5 * (rs * rs + rp * rp) - 1.99e-3).abs() < 5e-6);
         // Slab ghost (2, 1): T R R T, every interface at the same angle pair.
-        let r = trace(&slab(1.5), Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::new(si, 0.0, ci)), 550.0, TracePath::ghost(2, 1))
+        let r = trace(&slab(1.5), Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::new(si, 0.0, ci)).unwrap(), 550.0, TracePath::ghost(2, 1))
             .unwrap();
         let exact = 0.5 * ((1.0 - rs).powi(2) * rs * rs + (1.0 - rp).powi(2) * rp * rp);
         assert!((r.throughput - 1.58e-3).abs() < 5e-6, "{}", r.throughput);
@@ -626,7 +625,7 @@ mod tests {
         let mut s = slab(1.5).surfaces;
         s[1].glass_after = Glass::Abbe { nd: 1.5, vd: 1.2 };
         let p = LensPrescription::new("low", "hand", s.clone()).unwrap();
-        let ray = Ray::new(DVec3::new(0.0, 1.0, -1.0), DVec3::Z);
+        let ray = Ray::new(DVec3::new(0.0, 1.0, -1.0), DVec3::Z).unwrap();
         assert!(trace(&p, ray, 780.0, TracePath::Primary).is_ok());
         assert_eq!(
             trace(&p, ray, 1500.0, TracePath::Primary),
@@ -647,7 +646,7 @@ mod tests {
         // Tessar ghost (5, 2) straddles the stop (surface 3): three crossings,
         // at three different places for an oblique ray; the first is stop_xy.
         let p = builtin::tessar();
-        let ray = Ray::new(DVec3::new(0.0, 2.0, -10.0), DVec3::new(0.0, 0.05, 1.0));
+        let ray = Ray::new(DVec3::new(0.0, 2.0, -10.0), DVec3::new(0.0, 0.05, 1.0)).unwrap();
         let r = trace(&p, ray, LAMBDA_D_NM, TracePath::ghost(5, 2)).unwrap();
         assert_eq!(r.stop_crossings, 3);
         assert_eq!(r.stop_xy_all[0], r.stop_xy);
@@ -673,7 +672,7 @@ mod tests {
         let coat = Coating::quarter_wave(nc, wl);
         let p = slab(n).with_coating_everywhere(coat);
         let rr = ((n - nc * nc) / (n + nc * nc)).powi(2);
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::Z), wl, TracePath::ghost(2, 1)).unwrap();
+        let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::Z).unwrap(), wl, TracePath::ghost(2, 1)).unwrap();
         let want = (1.0 - rr) * rr * rr * (1.0 - rr);
         assert!((r.throughput - want).abs() < 1e-14, "{} vs {want}", r.throughput);
     }
@@ -683,11 +682,11 @@ mod tests {
         // Surface 0 of the Tessar has R = 42.97 mm: a ray 60 mm off axis,
         // parallel to it, has no intersection with that sphere.
         let p = builtin::tessar();
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 60.0, -10.0), DVec3::Z), LAMBDA_D_NM, TracePath::Primary);
+        let r = trace(&p, Ray::new(DVec3::new(0.0, 60.0, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::Primary);
         assert_eq!(r, Err(TraceError::Missed { surface: 0, pass: Pass::Forward }));
         // A ray inside the sphere but outside the semi-aperture (19.2 mm)
         // keeps going to the sensor, flagged by r_rel > 1.
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 19.5, -10.0), DVec3::Z), LAMBDA_D_NM, TracePath::Primary)
+        let r = trace(&p, Ray::new(DVec3::new(0.0, 19.5, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::Primary)
             .expect("a ray 0.3 mm outside the front semi-aperture is traced, not lost");
         assert!(r.r_rel > 1.0 && r.position.is_finite(), "{r:?}");
     }
@@ -706,18 +705,14 @@ mod tests {
             ],
         )
         .unwrap();
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 9.0, -1.0), DVec3::Z), 550.0, TracePath::Primary);
+        let r = trace(&p, Ray::new(DVec3::new(0.0, 9.0, -1.0), DVec3::Z).unwrap(), 550.0, TracePath::Primary);
         assert_eq!(r, Err(TraceError::TotalInternalReflection { surface: 2, pass: Pass::Forward }));
     }
 
     #[test]
     fn bad_inputs_are_typed() {
         let p = builtin::tessar();
-        let nan = Ray { origin: DVec3::new(f64::NAN, 0.0, -1.0), dir: DVec3::Z };
-        assert_eq!(trace(&p, nan, 550.0, TracePath::Primary), Err(TraceError::InvalidRay));
-        let zero = Ray { origin: DVec3::ZERO, dir: DVec3::ZERO };
-        assert_eq!(trace(&p, zero, 550.0, TracePath::Primary), Err(TraceError::InvalidRay));
-        let ok = Ray::new(DVec3::new(0.0, 1.0, -1.0), DVec3::Z);
+        let ok = Ray::new(DVec3::new(0.0, 1.0, -1.0), DVec3::Z).unwrap();
         assert!(matches!(trace(&p, ok, f64::NAN, TracePath::Primary), Err(TraceError::InvalidWavelength(_))));
         assert!(matches!(trace(&p, ok, 550.0, TracePath::ghost(4, 3)), Err(TraceError::InvalidPath { .. })));
         assert!(matches!(trace(&p, ok, 550.0, TracePath::ghost(2, 2)), Err(TraceError::InvalidPath { .. })));
@@ -741,7 +736,7 @@ mod tests {
             ],
         )
         .unwrap();
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -5.0), DVec3::Z), 550.0, TracePath::Primary).unwrap();
+        let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -5.0), DVec3::Z).unwrap(), 550.0, TracePath::Primary).unwrap();
         assert!(r.position.is_finite() && r.position.x.abs() < 1e-12);
     }
 
@@ -750,7 +745,7 @@ mod tests {
         // The Heliar's plano surface (c = 0, not the stop) in the middle of a path.
         let p = builtin::heliar();
         assert!(p.surfaces[6].is_flat() && !p.surfaces[6].is_stop);
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 5.0, -10.0), DVec3::Z), LAMBDA_D_NM, TracePath::Primary).unwrap();
+        let r = trace(&p, Ray::new(DVec3::new(0.0, 5.0, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::Primary).unwrap();
         assert!(r.position.y.abs() < 0.5, "f/3.5 Heliar focuses a 5 mm ray near the axis: {}", r.position.y);
         assert_eq!(r.position.z, p.table_image_z());
     }
@@ -766,7 +761,7 @@ mod tests {
             let p = match which { 0 => builtin::tessar(), 1 => builtin::double_gauss(), 2 => builtin::heliar(), _ => slab(1.7) };
             let gh = ghosts(&p);
             let path = if g % 5 == 0 { TracePath::Primary } else { let (i, j) = gh[g % gh.len()]; TracePath::ghost(i, j) };
-            let ray = Ray::new(DVec3::new(x, y, z), DVec3::new(dx, dy, dz));
+            let ray = Ray::new(DVec3::new(x, y, z), DVec3::new(dx, dy, dz)).unwrap();
             match trace(&p, ray, wl, path) {
                 Ok(r) => {
                     prop_assert!(r.position.is_finite() && r.direction.is_finite());

@@ -151,9 +151,9 @@ mod tests {
             (40.0, DVec3::new(0.0, 5.0, 4.0), DVec3::new(0.0, 0.05, -1.0)),
             (-40.0, DVec3::new(0.0, 5.0, 12.0), DVec3::new(0.0, 0.05, -1.0)),
         ] {
-            let ray = Ray::new(origin, dir);
-            let d = ray.dir;
-            let q = ray.origin - DVec3::new(0.0, 0.0, vertex_z + r);
+            let ray = Ray::new(origin, dir).unwrap();
+            let d = ray.dir();
+            let q = ray.origin() - DVec3::new(0.0, 0.0, vertex_z + r);
             let (b, c) = (q.dot(d), q.length_squared() - r * r);
             let root = |sign: f64| (b * b - c).sqrt() * sign - b;
             let hit = SphericalSurface::new(vertex_z, 1.0 / r).intersect(&ray).unwrap();

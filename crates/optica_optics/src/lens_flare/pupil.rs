@@ -188,7 +188,7 @@ impl Beam {
     pub fn ray_at(&self, u: f64, v: f64) -> Ray {
         let p = self.pupil_point(u, v);
         let back = (self.bounds.plane_z - self.start_z) / self.direction.z;
-        Ray { origin: DVec3::new(p.x, p.y, self.bounds.plane_z) - self.direction * back, dir: self.direction }
+        Ray::from_unit(DVec3::new(p.x, p.y, self.bounds.plane_z) - self.direction * back, self.direction)
     }
 
     /// Power of the whole square at unit irradiance normal to the beam:
@@ -223,11 +223,11 @@ mod tests {
         let b = beam.bounds();
         for (u, v) in [(0.0, 0.0), (1.0, 0.3), (0.5, 0.5)] {
             let r = beam.ray_at(u, v);
-            let t = (b.plane_z - r.origin.z) / r.dir.z;
+            let t = (b.plane_z - r.origin().z) / r.dir().z;
             let q = r.at(t);
             assert!((q.truncate() - beam.pupil_point(u, v)).length() < 1e-12);
             // Surface 0 (R = 42.97) has its cap in z in [0, 42.97].
-            assert!(r.origin.z < -1.0);
+            assert!(r.origin().z < -1.0);
         }
         // Cross-section: area · cos 20°.
         assert!((beam.cross_section_mm2() - b.area_mm2() * 20f64.to_radians().cos()).abs() < 1e-9);
@@ -255,7 +255,7 @@ mod tests {
                             continue;
                         }
                         let ray = front.ray_at((k % 33) as f64 / 32.0, (k / 33) as f64 / 32.0);
-                        let q = ray.at((ep.plane_z - ray.origin.z) / ray.dir.z).truncate() - ep.center;
+                        let q = ray.at((ep.plane_z - ray.origin().z) / ray.dir().z).truncate() - ep.center;
                         assert!(q.abs().max_element() <= ep.half_width, "{}: ({i},{j}) at {field}°", p.name);
                     }
                 }

@@ -98,7 +98,7 @@ pub fn perpendicular_frame(a: DVec3) -> (DVec3, DVec3) {
 }
 
 /// A bundle after the lens.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TracedBundle {
     /// The refracted reference ray: exit point on the front surface (or the
     /// pupil centre without a lens) and unit direction.
@@ -174,29 +174,29 @@ pub(crate) fn trace_bundle_counted(
             }
         }
     };
-    let chief_in = Ray { origin: placement.centre_of_rotation, dir: aim };
+    let chief_in = Ray::from_unit(placement.centre_of_rotation, aim);
     let chief = match lens {
-        None => Ray { origin: pupil, dir: aim },
+        None => Ray::from_unit(pupil, aim),
         Some(_) => exit(chief_in).ok_or(BundleFailure::Chief)?,
     };
-    let a = chief.dir;
+    let a = chief.dir();
     let mut heights = Vec::with_capacity(samples.len());
     let mut slopes = Vec::with_capacity(samples.len());
     for s in samples {
         let r = (e1 * s.x + e2 * s.y) * pupil_radius_m;
-        let ray = Ray::new(pupil + r, aim - r * vergence_d);
+        let ray = Ray::new(pupil + r, aim - r * vergence_d).map_err(|_| BundleFailure::PupilRay)?;
         let out = exit(ray).ok_or(BundleFailure::PupilRay)?;
-        let da = out.dir.dot(a);
+        let da = out.dir().dot(a);
         if !(da > 1e-9) {
             return Err(BundleFailure::PupilRay);
         }
-        let t = (chief.origin - out.origin).dot(a) / da;
+        let t = (chief.origin() - out.origin()).dot(a) / da;
         if pinhole {
             heights.push(DVec3::ZERO);
             slopes.push(DVec3::ZERO);
         } else {
-            heights.push(out.origin + out.dir * t - chief.origin);
-            slopes.push(out.dir / da - a);
+            heights.push(out.origin() + out.dir() * t - chief.origin());
+            slopes.push(out.dir() / da - a);
         }
     }
     let num: f64 = heights.iter().zip(&slopes).map(|(r, u)| r.dot(*u)).sum();

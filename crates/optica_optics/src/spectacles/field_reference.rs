@@ -15,7 +15,7 @@
 //! `S` pupil rays. So `field − reference` measures exactly the field's error.
 
 use glam::{DVec2, DVec3};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::bundle::{EyePlacement, Region, Spread, displacement_set, pupil_samples, trace_bundle};
 use super::error::SpectaclesError;
@@ -24,7 +24,7 @@ use super::lens_design::SpectacleLens;
 use crate::ray::Ray;
 
 /// The reference at one point.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PointReference {
     /// Unit aim from the centre of rotation.
     pub aim: DVec3,
@@ -57,15 +57,15 @@ fn aim_of(slopes: DVec2) -> DVec3 {
 /// The refracted reference ray of `aim`, or `None` when it does not get through.
 fn exit_chief(lens: Option<&SpectacleLens>, placement: &EyePlacement, aim: DVec3) -> Option<Ray> {
     match lens {
-        None => Some(Ray { origin: placement.pupil_centre(aim), dir: aim }),
-        Some(l) => l.trace_from_eye(&Ray { origin: placement.centre_of_rotation, dir: aim }).exit_ray(),
+        None => Some(Ray::from_unit(placement.pupil_centre(aim), aim)),
+        Some(l) => l.trace_from_eye(&Ray::from_unit(placement.centre_of_rotation, aim)).exit_ray(),
     }
 }
 
 /// Offset of `p` from the ray's line, as (x, y) (the ray is within ~80° of +z).
 fn miss(ray: &Ray, p: DVec3) -> DVec2 {
-    let v = p - ray.origin;
-    (v - ray.dir * v.dot(ray.dir)).truncate()
+    let v = p - ray.origin();
+    (v - ray.dir() * v.dot(ray.dir())).truncate()
 }
 
 /// Solves for the aim whose refracted reference ray passes through `p`.
@@ -153,7 +153,7 @@ pub fn reference_at(
     let blocked = |_| SpectaclesError::NotThroughLens("a pupil ray is blocked by TIR or the rim");
     let near = trace_bundle(lens, placement, aim, rho, eye.near_point_vergence_d(), &samples).map_err(blocked)?;
     let far = trace_bundle(lens, placement, aim, rho, eye.far_point_vergence_d(), &samples).map_err(blocked)?;
-    let s = (point - chief.origin).dot(chief.dir);
+    let s = (point - chief.origin()).dot(chief.dir());
     if !(s > 0.0) {
         return Err(SpectaclesError::Degenerate("point behind the lens exit"));
     }

@@ -309,11 +309,11 @@ impl SpectacleLens {
         let h = 1e-4;
         let m = DVec2::from_angle(theta_deg.to_radians());
         let start = DVec3::new(h * m.x, h * m.y, self.front.vertex_z + 0.1);
-        let ray = Ray::new(start, DVec3::NEG_Z);
+        let ray = Ray::from_unit(start, DVec3::NEG_Z);
         let fail = SpectaclesError::Degenerate("paraxial ray missed the lens");
         let h1 = self.front.intersect(&ray).ok_or(fail.clone())?;
-        let d1 = refract(ray.dir, h1.normal, 1.0, self.index).direction().ok_or(fail.clone())?;
-        let h2 = self.back.intersect(&Ray::new(h1.point, d1)).ok_or(fail.clone())?;
+        let d1 = refract(ray.dir(), h1.normal, 1.0, self.index).direction().ok_or(fail.clone())?;
+        let h2 = self.back.intersect(&Ray::from_unit(h1.point, d1)).ok_or(fail.clone())?;
         let d2 = refract(d1, h2.normal, self.index, 1.0).direction().ok_or(fail)?;
         // Optician's frame: z′ = −z, so the slope is (dx/dz′) = d_xy / (−d_z).
         let slope = d2.truncate() / (-d2.z);

@@ -89,24 +89,24 @@ impl ToricSurface {
     /// the sag only). `None` when the ray misses, the iteration leaves the
     /// surface or does not converge in 50 steps, or the hit is behind.
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if !ray.origin.is_finite() || !ray.dir.is_finite() || ray.dir == DVec3::ZERO {
+        if !ray.origin().is_finite() || !ray.dir().is_finite() || ray.dir() == DVec3::ZERO {
             return None;
         }
         let mean = SphericalSurface::new(self.vertex_z, 0.5 * (self.c_axis + self.c_cross));
         let mut t = match mean.intersect(ray) {
             Some(h) => h.t,
-            None if ray.dir.z != 0.0 => (self.vertex_z - ray.origin.z) / ray.dir.z,
+            None if ray.dir().z != 0.0 => (self.vertex_z - ray.origin().z) / ray.dir().z,
             None => return None,
         };
         if !t.is_finite() {
             return None;
         }
-        let scale = 1.0 + ray.origin.length();
+        let scale = 1.0 + ray.origin().length();
         for _ in 0..50 {
             let p = ray.at(t);
             let (sag, g) = self.sag_and_gradient(p.x, p.y)?;
             let f = p.z - self.vertex_z - sag;
-            let df = ray.dir.z - g.x * ray.dir.x - g.y * ray.dir.y;
+            let df = ray.dir().z - g.x * ray.dir().x - g.y * ray.dir().y;
             if df == 0.0 || !df.is_finite() {
                 return None;
             }
@@ -210,7 +210,7 @@ mod tests {
             let p = DVec3::new(x, y, 0.012 + z);
             assert!((t.normal_at(p) - s.normal_at(p)).length() < 1e-12);
         }
-        let ray = Ray::new(DVec3::new(0.0, 0.0, -0.0135), DVec3::new(0.3, -0.2, 1.0));
+        let ray = Ray::new(DVec3::new(0.0, 0.0, -0.0135), DVec3::new(0.3, -0.2, 1.0)).unwrap();
         let (ht, hs) = (t.intersect(&ray).unwrap(), s.intersect(&ray).unwrap());
         assert!((ht.point - hs.point).length() < 1e-14 && (ht.t - hs.t).abs() < 1e-14);
     }
@@ -241,7 +241,7 @@ mod tests {
             dx in -0.8f64..0.8, dy in -0.8f64..0.8,
         ) {
             let t = ToricSurface { vertex_z: 0.012, c_axis: ca, c_cross: cc, axis_rad: a };
-            let ray = Ray::new(DVec3::new(ox, oy, -0.01), DVec3::new(dx, dy, 1.0));
+            let ray = Ray::new(DVec3::new(ox, oy, -0.01), DVec3::new(dx, dy, 1.0)).unwrap();
             if let Some(h) = t.intersect(&ray) {
                 prop_assert!(h.point.is_finite() && h.t > 0.0);
                 let (z, g) = t.sag_and_gradient(h.point.x, h.point.y).unwrap();

@@ -334,7 +334,7 @@ pub fn precompute_field(
         .enumerate()
         .flat_map_iter(|(k, b)| {
             let walk = b.as_ref().map(|(near, far)| {
-                let chief = Ray { origin: near.chief.origin, dir: near.chief.dir };
+                let chief = Ray::from_unit(near.chief.origin(), near.chief.dir());
                 let (wn, wf) = (near.vergence_d, far.vergence_d);
                 counts.traverse(&chief).filter_map(move |(cell, t0, t1)| {
                     let s = 0.5 * (t0 + t1);
@@ -701,7 +701,7 @@ mod tests {
         let (mut near_n, mut total) = (0usize, 0usize);
         for a in aims(None, &pl, &st).unwrap() {
             let b = trace_bundle_counted(None, &pl, a, rho, eye.near_point_vergence_d(), &samples, &mut 0).unwrap();
-            let z0 = b.chief.origin.z;
+            let z0 = b.chief.origin().z;
             let s = 0.5 * ((0.3 - z0) + (0.6 - z0)) / a.z;
             total += 1;
             if s < 0.5 {

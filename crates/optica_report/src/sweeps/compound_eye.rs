@@ -33,7 +33,7 @@ fn thesis_lattice(index: f64) -> Lattice {
 fn ray_at(x: f64, y: f64, polar_deg: f64, azimuth_deg: f64) -> Ray {
     let (t, p) = (polar_deg.to_radians(), azimuth_deg.to_radians());
     let dir = DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), -t.cos());
-    Ray::new(DVec3::new(x, y, 0.0) - dir, dir)
+    Ray::new(DVec3::new(x, y, 0.0) - dir, dir).expect("the sweep's rays are finite")
 }
 
 /// Rays at each polar angle, `azimuths` azimuths (offset so none is along a
@@ -240,7 +240,7 @@ fn stability(report: &mut Report) {
     {
         let low = thesis_lattice(0.7);
         let dir = DVec3::new(60f64.to_radians().sin(), 0.0, -60f64.to_radians().cos());
-        let ray = Ray::new(DVec3::new(0.5, 0.5, 0.0) - dir, dir);
+        let ray = Ray::new(DVec3::new(0.5, 0.5, 0.0) - dir, dir).expect("the sweep's rays are finite");
         let want = Shade::Fallback(ShadeFallback::TotalInternalReflection { lens: [0, 0] });
         let got = both(&low, &ray);
         let finite = probe.iter().all(|r| both(&low, r).iter().all(Shade::is_finite));
@@ -254,7 +254,7 @@ fn stability(report: &mut Report) {
 
     // A ray missing every lens (normal incidence through a corner gap) goes straight on.
     {
-        let ray = Ray::new(DVec3::new(0.95, 1.02, 1.0), -DVec3::Z);
+        let ray = Ray::new(DVec3::new(0.95, 1.02, 1.0), -DVec3::Z).expect("the sweep's rays are finite");
         let got = both(&l, &ray);
         let ok = got.iter().all(|g| {
             g.hit().is_some_and(|h| h.lens.is_none() && (h.uv - DVec2::new(0.95, 1.02)).length() < 1e-12)
@@ -272,7 +272,7 @@ fn stability(report: &mut Report) {
         let one = thesis_lattice(1.0);
         let mut worst = 0f64;
         for ray in &probe {
-            let straight = ray.at((ray.origin.z + 1.0) / -ray.dir.z);
+            let straight = ray.at((ray.origin().z + 1.0) / -ray.dir().z);
             for s in both(&one, ray) {
                 worst = worst.max(s.hit().map_or(f64::INFINITY, |h| (h.point - straight).length()));
             }
@@ -283,13 +283,12 @@ fn stability(report: &mut Report) {
     // Rays that cannot reach the polygon, NaN rays, a ray skimming the surface.
     {
         let cases = [
-            (Ray::new(DVec3::new(0.0, 0.0, 1.0), DVec3::X), ShadeFallback::PolygonMiss),
-            (Ray::new(DVec3::new(0.0, 0.0, 1.0), DVec3::Z), ShadeFallback::PolygonMiss),
-            (Ray { origin: DVec3::new(f64::NAN, 0.0, 1.0), dir: -DVec3::Z }, ShadeFallback::NonFinite),
+            (Ray::new(DVec3::new(0.0, 0.0, 1.0), DVec3::X).expect("the sweep's rays are finite"), ShadeFallback::PolygonMiss),
+            (Ray::new(DVec3::new(0.0, 0.0, 1.0), DVec3::Z).expect("the sweep's rays are finite"), ShadeFallback::PolygonMiss),
         ];
         let ok = cases.iter().all(|(r, want)| both(&l, r).iter().all(|g| *g == Shade::Fallback(*want)));
         // Along a cell edge, just under the surface: never meets a lens within the walk's cap.
-        let skim = Ray { origin: DVec3::new(0.3, 0.0, 0.0), dir: DVec3::new(1.0, 0.0, -1e-9).normalize() };
+        let skim = Ray::new(DVec3::new(0.3, 0.0, 0.0), DVec3::new(1.0, 0.0, -1e-9)).expect("the sweep's rays are finite");
         let got = both(&l, &skim);
         let skim_ok = got.iter().all(Shade::is_finite);
         report.case(

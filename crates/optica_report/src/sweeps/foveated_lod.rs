@@ -377,8 +377,8 @@ fn stability(
             .enumerate()
             .filter(|&(_, &s)| s > params.dead_band)
             .map(|(k, _)| {
-                let r = cam.primary_ray(k % settings.width, k / settings.width, settings.width, settings.height);
-                let d = g0.to_local(r.dir);
+                let Some(r) = cam.primary_ray(k % settings.width, k / settings.width, settings.width, settings.height) else { return 0.0 };
+                let d = g0.to_local(r.dir());
                 1.0 / d.x.hypot(d.z)
             })
             .fold(0.0, f64::max);

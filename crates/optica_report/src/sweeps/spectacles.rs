@@ -189,7 +189,7 @@ fn stability(report: &mut Report) {
             let mut all_finite = true;
             for k in 0..=800 {
                 let a = (k as f64 * 0.1).to_radians();
-                match l.trace_from_eye(&Ray::new(pupil, DVec3::new(a.sin(), 0.0, a.cos()))) {
+                match l.trace_from_eye(&Ray::new(pupil, DVec3::new(a.sin(), 0.0, a.cos())).expect("the sweep's rays are finite")) {
                     LensTrace::Exit { dir, .. } => all_finite &= dir.is_finite(),
                     LensTrace::TotalInternalReflection { at, .. } => {
                         all_finite &= at.is_finite();

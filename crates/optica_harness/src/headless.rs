@@ -1,222 +1,303 @@
 //! Running a Bevy app without a window and reading back what it rendered.
 
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use bevy::{
-    app::PluginsState,
+    app::{PluginGroupBuilder, PluginsState},
     asset::RenderAssetUsages,
     camera::RenderTarget,
     prelude::*,
     render::{
         RenderApp, RenderPlugin,
+        diagnostic::RenderDiagnosticsPlugin,
         error_handler::{RenderErrorHandler, RenderErrorPolicy},
         gpu_readback::{Readback, ReadbackComplete},
         pipelined_rendering::PipelinedRenderingPlugin,
-        render_resource::{CachedPipelineState, PipelineCache, TextureFormat},
+        render_resource::{CachedPipelineState, PipelineCache, TextureFormat, TextureUsages},
         renderer::{RenderAdapterInfo, RenderDevice},
         settings::{RenderCreation, WgpuSettings},
     },
+    time::TimeUpdateStrategy,
     window::ExitCondition,
 };
+use image::{Rgba32FImage, RgbaImage};
 
-use crate::HarnessError;
+use crate::timing::{FrameTimings, SpanCollector};
+use crate::{Adapter, AdapterInfo, HarnessError, Pixels, RenderedFrame};
 
-/// Which device renders.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub enum Adapter {
-    /// Mesa's lavapipe (`llvmpipe`), the CPU Vulkan device. The default, so that
-    /// golden images are produced by the same rasteriser on every machine.
-    #[default]
-    Software,
-    /// Whatever adapter wgpu picks first (a GPU where there is one).
-    Auto,
-    /// An adapter whose name contains this string.
-    Named(String),
-    /// wgpu's noop backend: shaders and pipelines are validated, nothing is
-    /// drawn. For [`Headless::check_pipelines`] on machines with no driver.
-    Noop,
-}
+/// A change to Bevy's `DefaultPlugins` before the app is built, e.g. an
+/// asset folder or a default image sampler.
+pub type PluginsHook = Arc<dyn Fn(PluginGroupBuilder) -> PluginGroupBuilder + Send + Sync>;
 
-/// Settings of a headless run. Build one, then call [`Headless::render`] or
-/// [`Headless::check_pipelines`].
+/// The largest image side a run accepts: wgpu's default `max_texture_dimension_2d`.
+pub const MAX_SIDE: u32 = 8192;
+
+/// The simulated time between frames unless [`Headless::time_step`] says
+/// otherwise: 1/60 s, a common display rate, so animations advance the same
+/// in every run whatever the machine's speed.
+pub const DEFAULT_TIME_STEP: Duration = Duration::from_nanos(16_666_667);
+
+/// Settings of a headless run. Build one with [`Headless::new`] and the
+/// builder methods, then call [`Headless::render`],
+/// [`Headless::check_pipelines`] or [`Headless::time_frames`].
+///
+/// Time is deterministic by default: every frame advances Bevy's `Time` by
+/// [`DEFAULT_TIME_STEP`] (`TimeUpdateStrategy::ManualDuration`), so an
+/// animated scene renders the same frame on every machine.
 ///
 /// ```no_run
 /// use bevy::prelude::*;
 /// use optica_harness::Headless;
 ///
 /// let frame = Headless::new(128, 128)
+///     .frames(5)
 ///     .render(|app| {
 ///         app.add_systems(Startup, |mut commands: Commands| {
-///             // Any camera without an image target is pointed at the harness' image.
+///             // A camera without an image target is pointed at the harness' image.
 ///             commands.spawn((Camera3d::default(), Transform::from_xyz(0.0, 0.0, 5.0)));
 ///         });
 ///     })
 ///     .expect("render");
-/// println!("{} rendered {}×{}", frame.adapter, frame.width, frame.height);
+/// println!("{} rendered {}×{}", frame.adapter, frame.width(), frame.height());
 /// ```
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Headless {
-    /// Width of the rendered image in pixels.
-    pub width: u32,
-    /// Height of the rendered image in pixels.
-    pub height: u32,
-    /// Frames to run before reading back (pipelines compile synchronously, so
-    /// one is often enough; animations and temporal effects need more).
-    pub frames: u32,
-    /// Read back linear HDR floats (an `Rgba16Float` target, no tonemapping
-    /// applied by the harness) instead of 8-bit sRGB.
-    pub hdr: bool,
-    /// Which device renders.
-    pub adapter: Adapter,
+    width: u32,
+    height: u32,
+    frames: u32,
+    hdr: bool,
+    adapter: Adapter,
+    time_step: Option<Duration>,
+    plugins: Option<PluginsHook>,
 }
 
-/// What a headless run produced.
-#[derive(Clone, Debug)]
-pub struct RenderedFrame {
-    /// Adapter name and backend, e.g. `llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)`.
-    pub adapter: String,
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// The 8-bit sRGB image (present when `hdr` was false).
-    pub rgba8: Option<image::RgbaImage>,
-    /// Linear RGBA floats, row-major (present when `hdr` was true).
-    pub hdr: Option<Vec<[f32; 4]>>,
-    /// Number of render pipelines that compiled.
-    pub pipelines: usize,
-}
-
-impl RenderedFrame {
-    /// The 8-bit image; for an HDR frame, its values clamped to [0, 1] and
-    /// encoded as sRGB.
-    pub fn to_rgba8(&self) -> image::RgbaImage {
-        if let Some(img) = &self.rgba8 {
-            return img.clone();
-        }
-        let px = self.hdr.as_deref().unwrap_or(&[]);
-        image::RgbaImage::from_fn(self.width, self.height, |x, y| {
-            let p = px[(y * self.width + x) as usize];
-            let enc = |v: f32| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8;
-            image::Rgba([enc(p[0]), enc(p[1]), enc(p[2]), (p[3].clamp(0.0, 1.0) * 255.0 + 0.5) as u8])
-        })
+impl std::fmt::Debug for Headless {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Headless")
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("frames", &self.frames)
+            .field("hdr", &self.hdr)
+            .field("adapter", &self.adapter)
+            .field("time_step", &self.time_step)
+            .field("plugins", &self.plugins.as_ref().map(|_| "hook"))
+            .finish()
     }
 }
 
 /// What [`Headless::check_pipelines`] found.
 #[derive(Clone, Debug)]
 pub struct PipelineReport {
-    /// Adapter name and backend.
-    pub adapter: String,
+    /// The adapter that compiled them.
+    pub adapter: AdapterInfo,
     /// Pipelines created successfully.
     pub ok: usize,
     /// Pipelines still queued or compiling after the run (none expected with
     /// synchronous compilation).
     pub pending: usize,
+    /// Labels of the pipelines that compiled, in cache order (unlabelled ones
+    /// as `(unlabelled)`), so a test can check which ones a scene built.
+    pub labels: Vec<String>,
 }
 
 impl Headless {
-    /// A run of `width`×`height` pixels, 3 frames, 8-bit, on lavapipe.
+    /// A run of `width`×`height` pixels, 3 frames, 8-bit, on lavapipe, with
+    /// deterministic time.
     pub fn new(width: u32, height: u32) -> Self {
-        Self { width, height, frames: 3, hdr: false, adapter: Adapter::Software }
+        Self {
+            width,
+            height,
+            frames: 3,
+            hdr: false,
+            adapter: Adapter::Software,
+            time_step: Some(DEFAULT_TIME_STEP),
+            plugins: None,
+        }
     }
 
-    /// Sets the number of frames to run before the readback.
+    /// Frames to run before the readback (at least 1). Pipelines compile
+    /// synchronously, so one is often enough; animations and temporal effects need more.
     pub fn frames(mut self, frames: u32) -> Self {
         self.frames = frames.max(1);
         self
     }
 
-    /// Reads back linear HDR floats.
+    /// Reads back linear HDR floats (an `Rgba16Float` target; the harness
+    /// turns tonemapping off on every camera) instead of 8-bit sRGB.
     pub fn hdr(mut self, hdr: bool) -> Self {
         self.hdr = hdr;
         self
     }
 
-    /// Chooses the device.
+    /// Chooses the device. The run fails with [`HarnessError::WrongAdapter`]
+    /// rather than silently use another one when the chosen one is missing.
     pub fn adapter(mut self, adapter: Adapter) -> Self {
         self.adapter = adapter;
         self
     }
 
+    /// Advances Bevy's `Time` by `step` every frame
+    /// (`TimeUpdateStrategy::ManualDuration`). The default is [`DEFAULT_TIME_STEP`].
+    pub fn time_step(mut self, step: Duration) -> Self {
+        self.time_step = Some(step);
+        self
+    }
+
+    /// Lets Bevy's `Time` follow the wall clock, as in a real app: animated
+    /// scenes then differ from run to run.
+    pub fn real_time(mut self) -> Self {
+        self.time_step = None;
+        self
+    }
+
+    /// Changes Bevy's `DefaultPlugins` before the app is built: an asset
+    /// folder, a default image sampler, a plugin disabled.
+    ///
+    /// ```no_run
+    /// use bevy::prelude::*;
+    /// use optica_harness::Headless;
+    ///
+    /// let headless = Headless::new(64, 64).default_plugins(|plugins| {
+    ///     plugins
+    ///         .set(AssetPlugin { file_path: "my_assets".into(), ..default() })
+    ///         .set(ImagePlugin::default_nearest())
+    /// });
+    /// ```
+    pub fn default_plugins(
+        mut self,
+        hook: impl Fn(PluginGroupBuilder) -> PluginGroupBuilder + Send + Sync + 'static,
+    ) -> Self {
+        self.plugins = Some(Arc::new(hook));
+        self
+    }
+
+    /// The image width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// The image height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
     /// Builds the app, lets `setup` add plugins and systems, runs
     /// [`Headless::frames`] frames and reads the image back.
     ///
-    /// Every `Camera` that targets a window (the default) is redirected to the
+    /// Every camera that targets a window (the default) is redirected to the
     /// harness' image, so a scene's ordinary setup works unchanged.
     pub fn render(&self, setup: impl FnOnce(&mut App)) -> Result<RenderedFrame, HarnessError> {
         let _one_at_a_time = lock();
         if self.adapter == Adapter::Noop {
             return Err(HarnessError::NoPixelsOnNoop);
         }
-        if self.width == 0 || self.height == 0 || self.width > 8192 || self.height > 8192 {
-            return Err(HarnessError::BadSize(self.width, self.height));
-        }
-        let mut app = self.build_app()?;
-        let format = if self.hdr { TextureFormat::Rgba16Float } else { TextureFormat::Rgba8UnormSrgb };
-        let mut target = Image::new_target_texture(self.width, self.height, format, None);
-        target.asset_usage = RenderAssetUsages::RENDER_WORLD;
-        // The readback copies from the texture.
-        target.texture_descriptor.usage |= bevy::render::render_resource::TextureUsages::COPY_SRC;
-        let handle = app.world_mut().resource_mut::<Assets<Image>>().add(target);
-        app.insert_resource(HarnessTarget { image: handle.clone(), hdr: self.hdr });
-        app.add_systems(PreUpdate, retarget_cameras);
-        setup(&mut app);
-        finish(&mut app)?;
-
+        let (mut app, handle) = self.prepare(setup, false)?;
         for _ in 0..self.frames {
             step(&mut app)?;
         }
-        let received: Arc<Mutex<Option<Vec<u8>>>> = Arc::default();
-        let sink = received.clone();
-        app.world_mut().spawn(Readback::texture(handle)).observe(
-            move |event: On<ReadbackComplete>, mut commands: Commands| {
-                *sink.lock().unwrap() = Some(event.data.clone());
-                commands.entity(event.entity).despawn();
-            },
-        );
-        // The readback is copied in the frame after it is requested and mapped
-        // asynchronously: a few frames at most.
-        for _ in 0..8 {
-            step(&mut app)?;
-            if received.lock().unwrap().is_some() {
-                break;
-            }
-        }
-        let data = received.lock().unwrap().take().ok_or(HarnessError::NoReadback)?;
+        let data = read_back(&mut app, handle)?;
         let pipelines = pipeline_states(&mut app)?.ok;
-        let adapter = adapter_name(&mut app);
-        let (rgba8, hdr) = if self.hdr {
-            (None, Some(decode_rgba16f(&data, self.width, self.height)?))
+        let adapter = adapter_info(&mut app)?;
+        let pixels = if self.hdr {
+            Pixels::Hdr(decode_rgba16f(&data, self.width, self.height)?)
         } else {
-            (Some(decode_rgba8(&data, self.width, self.height)?), None)
+            Pixels::Rgba8(decode_rgba8(&data, self.width, self.height)?)
         };
-        Ok(RenderedFrame { adapter, width: self.width, height: self.height, rgba8, hdr, pipelines })
+        Ok(RenderedFrame { adapter, pixels, pipelines })
     }
 
     /// Runs the app for [`Headless::frames`] frames and checks that every
     /// pipeline compiled, that wgpu reported no error and that the app did
     /// not ask to exit. Works on [`Adapter::Noop`], where no driver exists.
     ///
-    /// Cameras are pointed at a small image target as in [`Headless::render`].
+    /// Cameras are pointed at an image target as in [`Headless::render`].
     pub fn check_pipelines(&self, setup: impl FnOnce(&mut App)) -> Result<PipelineReport, HarnessError> {
         let _one_at_a_time = lock();
-        let mut app = self.build_app()?;
-        let mut target = Image::new_target_texture(self.width.max(1), self.height.max(1), TextureFormat::Rgba8UnormSrgb, None);
-        target.asset_usage = RenderAssetUsages::RENDER_WORLD;
-        let handle = app.world_mut().resource_mut::<Assets<Image>>().add(target);
-        app.insert_resource(HarnessTarget { image: handle, hdr: false });
-        app.add_systems(PreUpdate, retarget_cameras);
-        setup(&mut app);
-        finish(&mut app)?;
+        let (mut app, _) = self.prepare(setup, false)?;
         for _ in 0..self.frames {
             step(&mut app)?;
         }
         let states = pipeline_states(&mut app)?;
-        Ok(PipelineReport { adapter: adapter_name(&mut app), ok: states.ok, pending: states.pending })
+        Ok(PipelineReport { adapter: adapter_info(&mut app)?, ok: states.ok, pending: states.pending, labels: states.labels })
     }
 
-    fn build_app(&self) -> Result<App, HarnessError> {
+    /// Times the scene: runs `warmup` frames, then `frames` timed frames,
+    /// and returns the wall time of each frame (the app's update with the GPU
+    /// waited for) and every render pass's time span, GPU time from timestamp
+    /// queries where the adapter has them. See [`FrameTimings`].
+    ///
+    /// Passes record spans through Bevy's `RenderDiagnosticsPlugin`, which
+    /// the harness adds: Bevy's own passes do, and so can yours:
+    ///
+    /// ```ignore
+    /// let diagnostics = ctx.diagnostic_recorder();
+    /// let diagnostics = diagnostics.as_deref();
+    /// let span = diagnostics.time_span(ctx.command_encoder(), "my_plugin/my_pass");
+    /// // ... encode the pass ...
+    /// span.end(ctx.command_encoder());
+    /// ```
+    pub fn time_frames(
+        &self,
+        warmup: u32,
+        frames: u32,
+        setup: impl FnOnce(&mut App),
+    ) -> Result<FrameTimings, HarnessError> {
+        let _one_at_a_time = lock();
+        if self.adapter == Adapter::Noop {
+            return Err(HarnessError::NoPixelsOnNoop);
+        }
+        if frames == 0 {
+            return Err(HarnessError::NoFrames);
+        }
+        let (mut app, _) = self.prepare(setup, true)?;
+        for _ in 0..warmup {
+            step(&mut app)?;
+        }
+        let mut collector = SpanCollector::default();
+        // Spans of warm-up frames still arrive in the first timed frames:
+        // start from whatever the store holds now.
+        collector.skip_seen(app.world());
+        let mut frame_ms = Vec::with_capacity(frames as usize);
+        for _ in 0..frames {
+            let started = std::time::Instant::now();
+            step(&mut app)?;
+            frame_ms.push(started.elapsed().as_secs_f64() * 1e3);
+            collector.collect(app.world());
+        }
+        // Diagnostics are read back asynchronously, one to three frames
+        // late: run untimed frames until every span has caught up.
+        for _ in 0..crate::timing::MAX_DIAGNOSTIC_LAG_FRAMES {
+            if collector.complete(frames as usize) {
+                break;
+            }
+            step(&mut app)?;
+            collector.collect(app.world());
+        }
+        Ok(FrameTimings::new(adapter_info(&mut app)?, frame_ms, collector.finish(frames as usize)))
+    }
+
+    /// The app with its target image, set up and finished, before any frame.
+    fn prepare(&self, setup: impl FnOnce(&mut App), timing: bool) -> Result<(App, Handle<Image>), HarnessError> {
+        if self.width == 0 || self.height == 0 || self.width > MAX_SIDE || self.height > MAX_SIDE {
+            return Err(HarnessError::BadSize(self.width, self.height));
+        }
+        let mut app = self.build_app(timing)?;
+        let format = if self.hdr { TextureFormat::Rgba16Float } else { TextureFormat::Rgba8UnormSrgb };
+        let mut target = Image::new_target_texture(self.width, self.height, format, None);
+        target.asset_usage = RenderAssetUsages::RENDER_WORLD;
+        // The readback copies from the texture.
+        target.texture_descriptor.usage |= TextureUsages::COPY_SRC;
+        let handle = app.world_mut().resource_mut::<Assets<Image>>().add(target);
+        app.insert_resource(HarnessTarget { image: handle.clone(), hdr: self.hdr });
+        app.add_systems(PreUpdate, retarget_cameras);
+        setup(&mut app);
+        finish(&mut app)?;
+        check_adapter(&self.adapter, &adapter_info(&mut app)?)?;
+        Ok((app, handle))
+    }
+
+    fn build_app(&self, timing: bool) -> Result<App, HarnessError> {
         let render_creation = match &self.adapter {
             Adapter::Noop => crate::noop::render_creation()?,
             Adapter::Auto => RenderCreation::Automatic(Box::default()),
@@ -230,6 +311,7 @@ impl Headless {
             })),
         };
         let plugins = DefaultPlugins
+            .build()
             .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
             .set(RenderPlugin { render_creation, synchronous_pipeline_compilation: true, ..default() })
             // Frames must be finished when `update` returns, for a deterministic readback.
@@ -238,8 +320,18 @@ impl Headless {
             .disable::<bevy::log::LogPlugin>();
         #[cfg(feature = "winit")]
         let plugins = plugins.disable::<bevy::winit::WinitPlugin>();
+        let plugins = match &self.plugins {
+            Some(hook) => hook(plugins),
+            None => plugins,
+        };
         let mut app = App::new();
         app.add_plugins(plugins);
+        if timing {
+            app.add_plugins(RenderDiagnosticsPlugin);
+        }
+        if let Some(step) = self.time_step {
+            app.insert_resource(TimeUpdateStrategy::ManualDuration(step));
+        }
         app.init_resource::<RenderErrors>();
         // Record wgpu errors instead of only logging them, so a test can say what failed.
         app.insert_resource(RenderErrorHandler(|error, main_world, _| {
@@ -253,7 +345,7 @@ impl Headless {
 }
 
 /// Runs one headless app at a time per process: test threads would otherwise
-/// start several renderers on the same two cores and share Bevy's global task
+/// start several renderers on the same cores and share Bevy's global task
 /// pools. A panic in one run must not poison the others.
 fn lock() -> std::sync::MutexGuard<'static, ()> {
     static LOCK: Mutex<()> = Mutex::new(());
@@ -292,8 +384,9 @@ fn retarget_cameras(
     }
 }
 
-/// How long renderer creation may take before the harness gives up.
-const ADAPTER_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(60);
+/// How long renderer creation may take before the harness gives up: lavapipe
+/// starts in about a second; a missing driver never finishes.
+const ADAPTER_TIMEOUT: Duration = Duration::from_secs(60);
 
 fn finish(app: &mut App) -> Result<(), HarnessError> {
     // Renderer creation is asynchronous: wait for it like `App::run` would,
@@ -315,7 +408,18 @@ fn finish(app: &mut App) -> Result<(), HarnessError> {
     Ok(())
 }
 
-fn step(app: &mut App) -> Result<(), HarnessError> {
+/// Bevy falls back to any adapter when the named one is missing; a golden
+/// image or a timing from the wrong device must fail instead.
+fn check_adapter(wanted: &Adapter, got: &AdapterInfo) -> Result<(), HarnessError> {
+    let ok = match wanted {
+        Adapter::Software => got.name.to_lowercase().contains("llvmpipe"),
+        Adapter::Named(name) => got.name.to_lowercase().contains(&name.to_lowercase()),
+        Adapter::Auto | Adapter::Noop => true,
+    };
+    if ok { Ok(()) } else { Err(HarnessError::WrongAdapter { wanted: format!("{wanted:?}"), got: got.summary() }) }
+}
+
+pub(crate) fn step(app: &mut App) -> Result<(), HarnessError> {
     app.update();
     if let Some(device) = app.world().get_resource::<RenderDevice>() {
         let _ = device.wgpu_device().poll(wgpu::PollType::Wait { submission_index: None, timeout: None });
@@ -330,28 +434,53 @@ fn step(app: &mut App) -> Result<(), HarnessError> {
     Ok(())
 }
 
+/// The readback is copied in the frame after it is requested and mapped
+/// asynchronously: a few frames at most.
+const READBACK_FRAMES: u32 = 8;
+
+fn read_back(app: &mut App, handle: Handle<Image>) -> Result<Vec<u8>, HarnessError> {
+    let received: Arc<Mutex<Option<Vec<u8>>>> = Arc::default();
+    let sink = received.clone();
+    app.world_mut().spawn(Readback::texture(handle)).observe(
+        move |event: On<ReadbackComplete>, mut commands: Commands| {
+            *sink.lock().unwrap_or_else(|p| p.into_inner()) = Some(event.data.clone());
+            commands.entity(event.entity).despawn();
+        },
+    );
+    for _ in 0..READBACK_FRAMES {
+        step(app)?;
+        if let Some(data) = received.lock().unwrap_or_else(|p| p.into_inner()).take() {
+            return Ok(data);
+        }
+    }
+    Err(HarnessError::NoReadback(READBACK_FRAMES))
+}
+
 struct PipelineStates {
     ok: usize,
     pending: usize,
+    labels: Vec<String>,
 }
 
 fn pipeline_states(app: &mut App) -> Result<PipelineStates, HarnessError> {
     let render = app.get_sub_app(RenderApp).ok_or(HarnessError::NoAdapter)?;
     let cache = render.world().resource::<PipelineCache>();
-    let mut ok = 0;
-    let mut pending = 0;
+    let mut states = PipelineStates { ok: 0, pending: 0, labels: Vec::new() };
     let mut errors = Vec::new();
     for pipeline in cache.pipelines() {
         match &pipeline.state {
-            CachedPipelineState::Ok(_) => ok += 1,
+            CachedPipelineState::Ok(_) => {
+                states.ok += 1;
+                states.labels.push(pipeline_label(&pipeline.descriptor));
+            }
             CachedPipelineState::Err(e) => errors.push(format!("{}: {e}", pipeline_label(&pipeline.descriptor))),
-            _ => pending += 1,
+            _ => states.pending += 1,
         }
     }
     if !errors.is_empty() {
         return Err(HarnessError::Pipelines(errors.join("\n")));
     }
-    Ok(PipelineStates { ok, pending })
+    Ok(states)
 }
 
 fn pipeline_label(descriptor: &bevy::render::render_resource::PipelineDescriptor) -> String {
@@ -360,90 +489,40 @@ fn pipeline_label(descriptor: &bevy::render::render_resource::PipelineDescriptor
         D::RenderPipelineDescriptor(d) => d.label.clone(),
         D::ComputePipelineDescriptor(d) => d.label.clone(),
     };
-    label.map_or_else(|| "(unlabelled pipeline)".into(), |l| l.to_string())
+    label.map_or_else(|| "(unlabelled)".into(), |l| l.to_string())
 }
 
-fn adapter_name(app: &mut App) -> String {
+fn adapter_info(app: &mut App) -> Result<AdapterInfo, HarnessError> {
     let info = app
         .get_sub_app(RenderApp)
         .and_then(|r| r.world().get_resource::<RenderAdapterInfo>())
-        .or_else(|| app.world().get_resource::<RenderAdapterInfo>());
-    match info {
-        Some(info) => format!("{} ({:?})", info.name, info.backend),
-        None => "unknown".into(),
-    }
+        .or_else(|| app.world().get_resource::<RenderAdapterInfo>())
+        .ok_or(HarnessError::NoAdapter)?;
+    Ok(AdapterInfo::from_wgpu(info))
 }
 
-/// Readback rows are padded to 256 bytes; strip the padding.
-fn unpad(data: &[u8], width: u32, height: u32, bytes_per_pixel: u32) -> Result<Vec<u8>, HarnessError> {
+/// Readback rows are padded to 256 bytes (wgpu's `COPY_BYTES_PER_ROW_ALIGNMENT`); strip the padding.
+pub(crate) fn unpad(data: &[u8], width: u32, height: u32, bytes_per_pixel: u32) -> Result<Vec<u8>, HarnessError> {
     let row = (width * bytes_per_pixel) as usize;
-    let padded = row.div_ceil(256) * 256;
+    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
     let h = height as usize;
     if data.len() == row * h {
         return Ok(data.to_vec());
     }
-    if data.len() < padded * (h - 1) + row {
+    if h == 0 || data.len() < padded * (h - 1) + row {
         return Err(HarnessError::BadReadback(data.len(), row * h));
     }
     Ok((0..h).flat_map(|y| data[y * padded..y * padded + row].iter().copied()).collect())
 }
 
-fn decode_rgba8(data: &[u8], width: u32, height: u32) -> Result<image::RgbaImage, HarnessError> {
+fn decode_rgba8(data: &[u8], width: u32, height: u32) -> Result<RgbaImage, HarnessError> {
     let bytes = unpad(data, width, height, 4)?;
-    image::RgbaImage::from_raw(width, height, bytes).ok_or(HarnessError::BadReadback(data.len(), (width * height * 4) as usize))
+    RgbaImage::from_raw(width, height, bytes).ok_or(HarnessError::BadReadback(data.len(), (width * height * 4) as usize))
 }
 
-fn decode_rgba16f(data: &[u8], width: u32, height: u32) -> Result<Vec<[f32; 4]>, HarnessError> {
+fn decode_rgba16f(data: &[u8], width: u32, height: u32) -> Result<Rgba32FImage, HarnessError> {
     let bytes = unpad(data, width, height, 8)?;
-    Ok(bytes
-        .chunks_exact(8)
-        .map(|p| {
-            let c = |i: usize| f16_to_f32(u16::from_le_bytes([p[2 * i], p[2 * i + 1]]));
-            [c(0), c(1), c(2), c(3)]
-        })
-        .collect())
-}
-
-/// IEEE 754 half to single precision (subnormals, infinities and NaN included).
-pub(crate) fn f16_to_f32(h: u16) -> f32 {
-    let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exp = ((h >> 10) & 0x1f) as i32;
-    let frac = (h & 0x3ff) as f32;
-    match exp {
-        0 => sign * frac * 2f32.powi(-24),
-        31 if frac == 0.0 => sign * f32::INFINITY,
-        31 => f32::NAN,
-        _ => sign * (1.0 + frac / 1024.0) * 2f32.powi(exp - 15),
-    }
-}
-
-/// The sRGB transfer function.
-pub fn linear_to_srgb(v: f32) -> f32 {
-    if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn half_floats_decode() {
-        assert_eq!(f16_to_f32(0x3c00), 1.0);
-        assert_eq!(f16_to_f32(0xc000), -2.0);
-        assert_eq!(f16_to_f32(0x3800), 0.5);
-        assert_eq!(f16_to_f32(0x0001), 2f32.powi(-24));
-        assert!(f16_to_f32(0x7c00).is_infinite());
-        assert!(f16_to_f32(0x7e00).is_nan());
-    }
-
-    #[test]
-    fn padded_rows_are_stripped() {
-        // 3 px of 4 bytes = 12 bytes a row, padded to 256.
-        let mut data = vec![0u8; 256 * 2];
-        data[..12].copy_from_slice(&[1; 12]);
-        data[256..268].copy_from_slice(&[2; 12]);
-        let out = unpad(&data, 3, 2, 4).unwrap();
-        assert_eq!(out.len(), 24);
-        assert!(out[..12].iter().all(|&b| b == 1) && out[12..].iter().all(|&b| b == 2));
-    }
+    let floats: Vec<f32> =
+        bytes.chunks_exact(2).map(|h| half::f16::from_le_bytes([h[0], h[1]]).to_f32()).collect();
+    Rgba32FImage::from_raw(width, height, floats).ok_or(HarnessError::BadReadback(data.len(), (width * height * 8) as usize))
 }

@@ -1,30 +1,65 @@
 //! # optica_harness — headless Bevy render tests
 //!
-//! Everything a Bevy developer needs to test a scene without a window or a GPU:
+//! Golden-image tests and GPU timings of your own Bevy scenes, with no
+//! window and no GPU:
 //!
 //! - [`Headless`] runs an app for a few frames on Mesa's lavapipe (or any
-//!   adapter) and returns the image, 8-bit or linear HDR, and the adapter name;
+//!   adapter) with deterministic time, and returns the frame (8-bit or linear
+//!   HDR) with the [`AdapterInfo`] that rendered it;
+//! - [`Golden`] and [`assert_golden!`] compare a frame with a checked-in PNG
+//!   of the same adapter family, with insta-style update modes and pending
+//!   files to review;
+//! - [`Headless::time_frames`] measures frame times and every render pass's
+//!   GPU time (timestamp queries through Bevy's `RenderDiagnosticsPlugin`),
+//!   median and spread over N frames after a warm-up;
 //! - [`Headless::check_pipelines`] proves every pipeline compiles, also on
 //!   wgpu's noop backend where no driver exists;
-//! - [`metrics`] computes PSNR, SSIM and ꟻLIP;
-//! - [`Golden`] compares a render with a checked-in PNG, writes a diff on
-//!   failure and regenerates goldens when `OPTICA_UPDATE_GOLDEN=1`.
+//! - [`metrics`] computes PSNR, SSIM and ꟻLIP.
 //!
-//! A golden test of your own scene:
+//! **Prerequisite:** a Vulkan driver. On a headless Linux machine or CI,
+//! `apt-get install mesa-vulkan-drivers` gives lavapipe, the CPU device the
+//! default [`Adapter::Software`] asks for. Without it a run fails with
+//! [`HarnessError::NoAdapter`]; it never skips.
 //!
-//! ```no_run
-//! use bevy::prelude::*;
-//! use optica_harness::{Golden, Headless, Tolerance};
+//! ## A golden test of your own scene
 //!
-//! fn scene(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>) {
-//!     commands.spawn((Mesh3d(meshes.add(Cuboid::default())), MeshMaterial3d(materials.add(Color::WHITE))));
-//!     commands.spawn((DirectionalLight::default(), Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y)));
-//!     commands.spawn((Camera3d::default(), Transform::from_xyz(2.0, 2.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y)));
-//! }
+//! This is `tests/harness/user_scene.rs` of this crate, run by its tests:
 //!
-//! let frame = Headless::new(96, 96).render(|app| { app.add_systems(Startup, scene); }).unwrap();
-//! Golden::new(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden"))
-//!     .assert_matches("my_scene", &frame.to_rgba8(), Tolerance::default());
+//! ```ignore
+#![doc = include_str!("../tests/harness/user_scene.rs")]
+//! ```
+//!
+//! The first run writes `tests/golden/user_scene__lit_cube_matches_its_golden.new.png`
+//! and fails, asking you to review it; accept it and commit the PNG.
+//!
+//! ## The update workflow
+//!
+//! `OPTICA_GOLDEN` chooses what a comparison may write (see [`golden`] for
+//! the full table): `never` on CI (when `CI` is set), `pending` elsewhere
+//! (a missing or changed render is written as `<name>.new.png` with a
+//! ꟻLIP difference map `<name>.diff.png`, and the test fails), `missing`
+//! (write new goldens), `overwrite` (rewrite changed goldens; unchanged ones
+//! are left alone). After an intended change of a scene:
+//!
+//! ```sh
+//! cargo test                              # fails, writes .new.png files
+//! # look at tests/golden/*.new.png and *.diff.png, then accept them:
+//! OPTICA_GOLDEN=overwrite cargo test      # or Golden::accept_pending()
+//! ```
+//!
+//! Goldens record the adapter that made them inside the PNG and are kept per
+//! adapter family: a render on a GPU is compared with a GPU golden
+//! (`<name>@nvidia-h200.png`), never with the lavapipe one, and without one
+//! the failure says which families do have a golden. `tests/harness/golden_workflow.rs`
+//! exercises every mode.
+//!
+//! ## GPU timing of a pass
+//!
+//! This is `tests/harness/timing.rs`: a render pass that records its own time
+//! span, timed with Bevy's own passes:
+//!
+//! ```ignore
+#![doc = include_str!("../tests/harness/timing.rs")]
 //! ```
 //!
 //! With the `winit` feature the harness removes Bevy's `WinitPlugin` from
@@ -32,12 +67,18 @@
 
 #![warn(missing_docs)]
 
+mod adapter;
 mod error;
+mod frame;
 pub mod golden;
 mod headless;
 pub mod metrics;
 mod noop;
+mod timing;
 
+pub use adapter::{Adapter, AdapterInfo};
 pub use error::HarnessError;
-pub use golden::{Golden, GoldenOutcome, Tolerance};
-pub use headless::{Adapter, Headless, HarnessTarget, PipelineReport, RenderedFrame, linear_to_srgb};
+pub use frame::{Pixels, RenderedFrame};
+pub use golden::{Golden, GoldenOutcome, Tolerance, UpdateMode, WriteReason};
+pub use headless::{DEFAULT_TIME_STEP, HarnessTarget, Headless, MAX_SIDE, PipelineReport, PluginsHook};
+pub use timing::{FrameTimings, MAX_DIAGNOSTIC_LAG_FRAMES, PassTime, SpanTiming, Stats, TimeSource};

@@ -19,6 +19,14 @@ pub struct ImageMetrics {
     pub differing_fraction: f64,
 }
 
+impl ImageMetrics {
+    /// The metrics of two images that cannot be compared (different sizes):
+    /// NaN PSNR, SSIM and ꟻLIP, every pixel differing. No tolerance accepts them.
+    pub fn incomparable() -> Self {
+        Self { psnr_db: f64::NAN, ssim: f64::NAN, flip_mean: f64::NAN, flip_max: f64::NAN, differing_fraction: 1.0 }
+    }
+}
+
 /// Why two images cannot be compared.
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[error("images differ in size: {0:?} vs {1:?}")]

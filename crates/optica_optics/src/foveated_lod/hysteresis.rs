@@ -40,16 +40,18 @@ fn step_of(level: f64, steps: u32) -> u32 {
 
 /// Default number of level steps S of [`HysteresisParams`]: 8. A step of
 /// 1/8 is finer than eq. 9's reflection steps (1/Reflect_max = 1/3 for the
-/// paper's Reflect_max = 3) and than a chain of a few meshes, so quantising
-/// costs little detail (the report's sweep over S shows the error flattening
-/// from S = 8 on).
+/// paper's Reflect_max = 3) and than a chain of a few meshes, while leaving
+/// room for the default dead band, which must stay below one step (δ < 1/S).
 pub const DEFAULT_LEVEL_STEPS: u32 = 8;
 
 /// Default dead band δ of [`HysteresisParams`], in level units: 0.05. The
 /// steepest ramp of eq. 8 for the paper's field is the upward one, 1/(60° −
-/// 30°) per degree, so a gaze jitter of up to 1° (the order of an eye
-/// tracker's noise) moves a level by at most 1/30 ≈ 0.033 < 0.05 and never
-/// switches a step back and forth; δ < 1/S holds for S up to 19.
+/// 30°) per degree of ray angle, so a gaze jitter of up to 1° (the order of
+/// an eye tracker's noise) moves a level by at most 1/30 ≈ 0.033 < 0.05 and
+/// never switches a step back and forth. The exception is near the ear side
+/// (±E_r), where the paper's angles amplify gaze motion (see
+/// [`VisualField`](super::VisualField)); there the level is at most 1/7.
+/// δ < 1/S holds for S up to 19.
 pub const DEFAULT_DEAD_BAND: f64 = 0.05;
 
 /// Default minimum dwell before a downgrade, in seconds: 0.25, about one
@@ -400,7 +402,7 @@ mod tests {
 
     proptest! {
         /// Whatever the input (large jitter, NaN), the switch count in T
-        /// seconds stays within D + (D + 1)·S, D = ⌈T/dwell⌉ (module docs).
+        /// seconds stays within D + (D + 1)·S, D = ⌈T/dwell⌉ (`LodHysteresis` docs).
         #[test]
         fn switches_are_bounded(levels in proptest::collection::vec(-0.5f64..1.5, 1..400)) {
             let p = params();

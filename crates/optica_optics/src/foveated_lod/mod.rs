@@ -57,6 +57,25 @@
 //!   CAVE wall from the tracked eye (the paper's CAVE had front, right and
 //!   floor screens).
 //!
+//! ```
+//! use optica_optics::foveated_lod::{GazeTracker, TrackerSample, VisualField, lod_for_level, reflect_limit};
+//! use optica_optics::glam::DVec3;
+//!
+//! // The tracker's sample of this frame: eye 1.5 m up, looking along −Z.
+//! let mut tracker = GazeTracker::new(0.2)?;
+//! let sample = TrackerSample::Gaze { eye: DVec3::new(0.0, 1.5, 0.0), gaze: DVec3::NEG_Z, up: DVec3::Y };
+//! let gaze = tracker.update(sample, 0.0);
+//! // A ray 65° to the right of the gaze: (100° − 65°)/(100° − 30°) = 0.5.
+//! let a = 65f64.to_radians();
+//! let level = gaze.level(&VisualField::paper(), DVec3::new(a.sin(), 0.0, -a.cos()));
+//! assert!((level - 0.5).abs() < 1e-12);
+//! // Eq. 9 with Reflect_max = 3: ⌊1.5⌋ = 1 reflection. Eq. 10 over a chain
+//! // of 500, 1500 and 5804 triangles: 3152 needed, so the 5804 mesh.
+//! assert_eq!(reflect_limit(level, 3), 1);
+//! assert_eq!(lod_for_level(&[500, 1500, 5804], level), 2);
+//! # Ok::<(), optica_optics::foveated_lod::FoveatedError>(())
+//! ```
+//!
 //! ## Additions the paper does not specify
 //!
 //! The tracker policy, the quantisation and hysteresis, and the CAVE

@@ -1,18 +1,4 @@
-//! A small Whitted tracer with a level per ray (the paper's §3.3.3, Steps 2–6).
-//!
-//! For each pixel: its level (eq. 1–8, optionally quantised and held by the
-//! hysteresis) decides everything. Level 0 → background colour, no ray
-//! (Step 2). Otherwise the primary ray is traced with the reflection limit of
-//! eq. 9 and every object is intersected at the mesh of eq. 10 (Steps 3–4);
-//! shadow and reflection rays inherit the level (§3.3.1: rays spawned by
-//! reflection get the same level as their primary ray).
-//!
-//! Shading: ambient + per light (shadow ray, 1/d² falloff) Lambert + Phong;
-//! a reflective object mixes (1 − k_r)·local + k_r·reflected. When eq. 9's
-//! limit stops the recursion the reflected term is dropped (black), as in
-//! Whitted's cut-off, so that every extra bounce only adds light and a deeper
-//! limit is never further from the full-quality image in that term.
-//! Refraction is not modelled: the demo scenes have no transparent objects.
+//! A small Whitted tracer with a level per ray (documented on [`trace_ray`]).
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -275,9 +261,25 @@ fn trace(scene: &TracerScene, ray: &Ray, level: f64, depth: u32, limit: u32, st:
     color
 }
 
-/// Traces one primary ray at `level` (Steps 2–6): background for level 0,
-/// else the Whitted colour with eq. 9's reflection limit and eq. 10's meshes.
-/// A level outside [0, 1] is clamped; NaN counts as 1 (full quality).
+/// Traces one primary ray at `level`, Steps 2–6 of the paper's §3.3.3, in
+/// linear RGB.
+///
+/// The level (eq. 1–8, optionally quantised and held by the hysteresis)
+/// decides everything. Level 0 → background colour, no ray (Step 2).
+/// Otherwise the ray is traced with the reflection limit of eq. 9 and every
+/// object is intersected at the mesh of eq. 10 (Steps 3–4); shadow and
+/// reflection rays inherit the level (§3.3.1: rays spawned by reflection get
+/// the same level as their primary ray). A level outside [0, 1] is clamped;
+/// NaN counts as 1 (full quality).
+///
+/// Shading (after T. Whitted, "An Improved Illumination Model for Shaded
+/// Display", *Communications of the ACM* 23(6), 1980, the paper's tracer):
+/// ambient + per light (shadow ray, 1/d² falloff) Lambert + Phong; a
+/// reflective object mixes (1 − k_r)·local + k_r·reflected. When eq. 9's
+/// limit stops the recursion the reflected term is dropped (black), as in
+/// Whitted's cut-off, so that every extra bounce only adds light and a deeper
+/// limit is never further from the full-quality image in that term.
+/// Refraction is not modelled: the demo scenes have no transparent objects.
 pub fn trace_ray(scene: &TracerScene, ray: &Ray, level: f64, reflect_max: u32, stats: &mut TraceStats) -> DVec3 {
     let level = sanitize_level(level);
     if level <= 0.0 {
@@ -308,7 +310,8 @@ pub fn pixel_levels(
         .collect()
 }
 
-/// Renders with one level per pixel, row-major.
+/// Renders with one level per pixel, row-major: [`trace_ray`] for each
+/// pixel's primary ray, in parallel.
 ///
 /// Errors: [`FoveatedError::LengthMismatch`] when `levels` does not hold
 /// one level per pixel.

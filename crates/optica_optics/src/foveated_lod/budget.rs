@@ -1,37 +1,36 @@
 //! Eq. 9 and 10: what a ray's level buys — its reflection depth and the
 //! polygon count of every object it is tested against.
-//!
-//! * Eq. 9: Reflect_i = level_i × Reflect_max, the largest number of
-//!   reflections/refractions of ray R_i. Step 6 of §3.3.3 stops tracing when
-//!   the count *exceeds* Reflect_i, so an integer count n is allowed iff
-//!   n ≤ Reflect_i, i.e. n ≤ ⌊Reflect_i⌋: [`reflect_limit`] is that floor.
-//! * Eq. 10: N_j = level_i (N_j,max − N_j,min) + N_j,min, the polygon count of
-//!   object O_j for ray R_i. The paper uses progressive meshes (any count); with
-//!   a discrete chain of meshes [`choose_lod`] takes the coarsest mesh that has
-//!   at least N_j triangles, so a ray never gets fewer polygons than eq. 10 asks.
 
 /// Tolerance for products such as (2/3)·3 that are integers mathematically but
 /// round to 1.9999999999999998; without it a quantised level would lose a
-/// whole reflection to rounding.
-const ROUND_SLACK: f64 = 1e-9;
+/// whole reflection (or a whole hysteresis step) to rounding. Rounding leaves
+/// such products a few 1e-16 short; 1e-9 is far above that and far below the
+/// smallest level step anyone quantises to.
+pub(crate) const ROUND_SLACK: f64 = 1e-9;
 
 /// Clamps a level to [0, 1]; NaN becomes 1 (documented fallback: full quality).
 #[inline]
-pub fn sanitize_level(level: f64) -> f64 {
+pub(crate) fn sanitize_level(level: f64) -> f64 {
     if level.is_nan() { 1.0 } else { level.clamp(0.0, 1.0) }
 }
 
 /// Eq. 9: the largest number of reflections a ray of this level may make,
-/// ⌊level × Reflect_max⌋ (see the module docs for why the floor).
+/// ⌊level × Reflect_max⌋.
+///
+/// The paper's eq. 9 is Reflect_i = level_i × Reflect_max, and Step 6 of its
+/// §3.3.3 stops tracing when the count *exceeds* Reflect_i, so an integer
+/// count n is allowed iff n ≤ Reflect_i, i.e. n ≤ ⌊Reflect_i⌋. A level
+/// outside [0, 1] is clamped; NaN counts as 1 (full quality).
 #[inline]
 pub fn reflect_limit(level: f64, reflect_max: u32) -> u32 {
     let r = sanitize_level(level) * reflect_max as f64;
     ((r + ROUND_SLACK).floor() as u32).min(reflect_max)
 }
 
-/// Eq. 10: the polygon count N_j = level (N_max − N_min) + N_min (a real
-/// number; the paper's progressive meshes realise it to the nearest polygon).
-/// `n_min > n_max` is treated as the two swapped.
+/// Eq. 10: the polygon count N_j = level (N_max − N_min) + N_min of an
+/// object for a ray of this level (a real number; the paper's progressive
+/// meshes realise it to the nearest polygon). `n_min > n_max` is treated as
+/// the two swapped; the level is clamped as in [`reflect_limit`].
 #[inline]
 pub fn polygon_budget(level: f64, n_min: usize, n_max: usize) -> f64 {
     let (lo, hi) = if n_min <= n_max { (n_min, n_max) } else { (n_max, n_min) };
@@ -40,13 +39,28 @@ pub fn polygon_budget(level: f64, n_min: usize, n_max: usize) -> f64 {
 
 /// The index, in a chain of meshes sorted by ascending triangle count, of the
 /// coarsest mesh with at least `budget` triangles; the finest if none has.
-/// An empty chain returns 0 (callers never build one: scenes reject it).
+/// An empty chain returns 0.
+///
+/// The paper uses progressive meshes (any count); with a discrete chain this
+/// takes the coarsest mesh that meets eq. 10, so a ray never gets fewer
+/// polygons than eq. 10 asks.
 pub fn choose_lod(triangle_counts: &[usize], budget: f64) -> usize {
     let need = budget - ROUND_SLACK;
     triangle_counts
         .iter()
         .position(|&n| n as f64 >= need)
         .unwrap_or(triangle_counts.len().saturating_sub(1))
+}
+
+/// Eq. 10 then [`choose_lod`] for a chain sorted by ascending triangle count:
+/// N_min is the first count, N_max the last, and the result the index of the
+/// mesh an object uses for a ray (or an object) of this level. An empty chain
+/// returns 0.
+pub fn lod_for_level(triangle_counts: &[usize], level: f64) -> usize {
+    match (triangle_counts.first(), triangle_counts.last()) {
+        (Some(&lo), Some(&hi)) => choose_lod(triangle_counts, polygon_budget(level, lo, hi)),
+        _ => 0,
+    }
 }
 
 #[cfg(test)]
@@ -89,6 +103,18 @@ mod tests {
         assert_eq!(choose_lod(&chain, 5624.0), 3);
         assert_eq!(choose_lod(&chain, 9999.0), 3);
         assert_eq!(choose_lod(&[], 10.0), 0);
+    }
+
+    #[test]
+    fn lod_for_level_is_eq10_over_the_chain() {
+        // N_min = 528, N_max = 5624: level 0.5 → 3076 → 5624 (index 3);
+        // 0.2 → 1547.2 → 2600; 0.1 → 1037.6 → 1224; 0 → 528.
+        let chain = [528, 1224, 2600, 5624];
+        let got: Vec<usize> = [1.0, 0.5, 0.2, 0.1, 0.0].iter().map(|&l| lod_for_level(&chain, l)).collect();
+        assert_eq!(got, vec![3, 3, 2, 1, 0]);
+        assert_eq!(lod_for_level(&chain, f64::NAN), 3, "NaN is full quality");
+        assert_eq!(lod_for_level(&[], 0.5), 0);
+        assert_eq!(lod_for_level(&[7], 0.0), 0);
     }
 
     proptest! {

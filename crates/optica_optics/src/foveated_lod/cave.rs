@@ -1,26 +1,25 @@
-//! CAVE walls and the off-axis ("generalised perspective") projection from a
-//! tracked eye (Kooima, *Generalized Perspective Projection*, 2008).
-//!
-//! The paper renders on a CAVE of front, right and floor screens (§4.1). Each
-//! wall is a fixed rectangle in the world; the eye moves, so each wall needs
-//! its own asymmetric frustum whose edges pass through the wall's corners.
-//! With the wall's unit axes v_r (right), v_u (up) and v_n = v_r × v_u (normal,
-//! towards the viewer), corners p_a (lower left), p_b (lower right), p_c (upper
-//! left) and eye p_e:
-//!
-//! * d = −(p_a − p_e)·v_n is the eye–wall distance; the eye must be in front,
-//!   d > 0 (on the plane the frustum is infinite, behind it mirrored);
-//! * l = v_r·(p_a − p_e)·n/d, r = v_r·(p_b − p_e)·n/d,
-//!   b = v_u·(p_a − p_e)·n/d, t = v_u·(p_c − p_e)·n/d;
-//! * projection = frustum(l, r, b, t, n, f), view = Mᵀ·T(−p_e) with M = [v_r v_u v_n].
-//!
-//! The wall's corners then project exactly to the NDC corners (tested).
+//! CAVE walls and the off-axis projection from a tracked eye (documented on
+//! [`CaveWall::off_axis`]).
 
 use glam::{DMat4, DVec3, DVec4};
 use serde::{Deserialize, Serialize};
 
 use super::error::FoveatedError;
+use crate::input;
 use crate::ray::Ray;
+
+/// Largest |cos| of the angle between a wall's two edges that
+/// [`CaveWall::new`] accepts as a right angle. 1e-9 admits corners measured
+/// or typed to nine significant digits (a 3 m wall placed to the
+/// nanometre) and refuses any wall skewed by more than 0.2 milliarcseconds,
+/// for which the off-axis frustum would no longer fit the wall's corners.
+const RIGHT_ANGLE_TOLERANCE: f64 = 1e-9;
+
+/// Smallest eye–wall distance, relative to the wall's size (width + height),
+/// for which the off-axis frustum exists. The frustum's extents grow as
+/// near/d; at d = 1e-9 wall sizes they are already 1e9 times the near
+/// distance, and the projection's entries lose all precision below that.
+const MIN_EYE_DISTANCE_REL: f64 = 1e-9;
 
 /// Which depth convention the projection matrix uses (x and y are the same in all).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -35,8 +34,10 @@ pub enum DepthConvention {
     ReverseInfinite,
 }
 
-/// A rectangular CAVE wall, seen from its front (the side its normal points to).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// A rectangular CAVE wall (world coordinates, m), seen from its front (the
+/// side its normal points to). Built by [`CaveWall::new`], so its corners are
+/// finite and form a rectangle.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct CaveWall {
     lower_left: DVec3,
     lower_right: DVec3,
@@ -70,19 +71,20 @@ impl OffAxisProjection {
 }
 
 impl CaveWall {
-    /// A wall from three corners. Errors: non-finite corners, a zero edge, or
-    /// edges that are not perpendicular (to 1e-9 relative): the corners must
-    /// form a rectangle.
+    /// A wall from three corners (m). Errors: [`FoveatedError::Input`] for a
+    /// non-finite corner; [`FoveatedError::DegenerateWall`] for a zero edge
+    /// or edges that are not perpendicular (|cos| above 1e-9): the corners
+    /// must form a rectangle.
     pub fn new(lower_left: DVec3, lower_right: DVec3, upper_left: DVec3) -> Result<Self, FoveatedError> {
-        if !(lower_left.is_finite() && lower_right.is_finite() && upper_left.is_finite()) {
-            return Err(FoveatedError::NonFinite("wall corner"));
+        for c in [lower_left, lower_right, upper_left] {
+            input::finite_vec3("CAVE wall corner (m)", c)?;
         }
         let (e_r, e_u) = (lower_right - lower_left, upper_left - lower_left);
         let (lr, lu) = (e_r.length(), e_u.length());
         if !(lr > 0.0 && lu > 0.0) {
             return Err(FoveatedError::DegenerateWall("zero-length edge"));
         }
-        if (e_r.dot(e_u) / (lr * lu)).abs() > 1e-9 {
+        if (e_r.dot(e_u) / (lr * lu)).abs() > RIGHT_ANGLE_TOLERANCE {
             return Err(FoveatedError::DegenerateWall("edges are not perpendicular"));
         }
         Ok(Self {
@@ -92,7 +94,7 @@ impl CaveWall {
         })
     }
 
-    /// Lower-left corner p_a.
+    /// Lower-left corner p_a (m).
     pub fn lower_left(&self) -> DVec3 {
         self.lower_left
     }
@@ -127,28 +129,70 @@ impl CaveWall {
         self.lower_left + (self.lower_right - self.lower_left) * s + (self.upper_left - self.lower_left) * t
     }
 
-    /// Checks that the eye is finite and in front of the wall by more than
-    /// 1e-9 of the wall's size (the frustum divides by the distance).
+    /// The eye–wall distance d (m) of an eye in front of the wall.
+    ///
+    /// Errors: [`FoveatedError::Input`] for a non-finite eye;
+    /// [`FoveatedError::EyeNotInFront`] for an eye on the wall's plane, behind
+    /// it, or in front by less than 1e-9 of the wall's size (width + height),
+    /// where the frustum, which divides by the distance, loses all precision.
     pub fn check_eye(&self, eye: DVec3) -> Result<f64, FoveatedError> {
-        if !eye.is_finite() {
-            return Err(FoveatedError::NonFinite("eye position"));
-        }
+        let eye = input::finite_vec3("eye position (m)", eye)?;
         let d = self.signed_distance(eye);
         let size = (self.lower_right - self.lower_left).length() + (self.upper_left - self.lower_left).length();
-        if d.is_nan() || d <= 1e-9 * size {
+        if !(d > MIN_EYE_DISTANCE_REL * size) {
             return Err(FoveatedError::EyeNotInFront { distance: d });
         }
         Ok(d)
     }
 
-    /// The primary ray from `eye` through the wall point (s, t); `None` when
-    /// the eye is not finite or on the wall point. The eye is not checked
-    /// against the wall here; [`CaveWall::check_eye`] once per frame.
-    pub fn ray_through(&self, eye: DVec3, s: f64, t: f64) -> Option<Ray> {
-        Ray::new(eye, self.point_at(s, t) - eye).ok()
+    /// The primary ray from `eye` through the wall point at fractions (s, t)
+    /// (see [`CaveWall::point_at`]): the ray-traced twin of the off-axis
+    /// projection.
+    ///
+    /// Errors: those of [`CaveWall::check_eye`], and [`FoveatedError::Input`]
+    /// for a non-finite s or t.
+    pub fn ray_through(&self, eye: DVec3, s: f64, t: f64) -> Result<Ray, FoveatedError> {
+        self.check_eye(eye)?;
+        let s = input::finite("wall fraction s", s)?;
+        let t = input::finite("wall fraction t", t)?;
+        Ok(self.ray_from_checked_eye(eye, s, t))
     }
 
-    /// The off-axis view and projection of this wall from `eye` (module docs).
+    /// [`CaveWall::ray_through`] for an eye that [`CaveWall::check_eye`] has
+    /// accepted and finite (s, t): the point is on the wall's plane and the
+    /// eye strictly in front of it, so the direction is finite and non-zero.
+    #[inline]
+    pub(crate) fn ray_from_checked_eye(&self, eye: DVec3, s: f64, t: f64) -> Ray {
+        Ray::from_unit(eye, (self.point_at(s, t) - eye).normalize())
+    }
+
+    /// The off-axis ("generalised perspective") view and projection of this
+    /// wall from `eye` (R. Kooima, *Generalized Perspective Projection*,
+    /// Louisiana State University, 2008), in Bevy's axes: the view looks down
+    /// −z at the wall, +y up; `near` and `far` in metres.
+    ///
+    /// The paper renders on a CAVE of front, right and floor screens (its
+    /// §4.1; see [`front_right_floor`]). Each wall is a fixed rectangle in the
+    /// world; the eye moves, so each wall needs its own asymmetric frustum
+    /// whose edges pass through the wall's corners. With the wall's unit axes
+    /// v_r (right), v_u (up) and v_n = v_r × v_u (normal, towards the viewer),
+    /// corners p_a (lower left), p_b (lower right), p_c (upper left) and eye
+    /// p_e:
+    ///
+    /// * d = −(p_a − p_e)·v_n is the eye–wall distance; the eye must be in
+    ///   front, d > 0 (on the plane the frustum is infinite, behind it mirrored);
+    /// * l = v_r·(p_a − p_e)·n/d, r = v_r·(p_b − p_e)·n/d,
+    ///   b = v_u·(p_a − p_e)·n/d, t = v_u·(p_c − p_e)·n/d;
+    /// * projection = frustum(l, r, b, t, n, f), view = Mᵀ·T(−p_e) with
+    ///   M = [v_r v_u v_n].
+    ///
+    /// The wall's corners then project exactly to the NDC corners.
+    ///
+    /// Errors: those of [`CaveWall::check_eye`]; [`FoveatedError::Input`]
+    /// for a near distance that is not positive and finite, or (except with
+    /// [`DepthConvention::ReverseInfinite`], which ignores `far`) a far
+    /// distance that is not finite; [`FoveatedError::InvalidClipPlanes`] for
+    /// far ≤ near.
     pub fn off_axis(
         &self,
         eye: DVec3,
@@ -156,9 +200,12 @@ impl CaveWall {
         far: f64,
         depth: DepthConvention,
     ) -> Result<OffAxisProjection, FoveatedError> {
-        let far_ok = depth == DepthConvention::ReverseInfinite || (far > near && far.is_finite());
-        if !(near > 0.0 && near.is_finite() && far_ok) {
-            return Err(FoveatedError::InvalidClipPlanes { near, far });
+        let near = input::positive("near clip distance (m)", near)?;
+        if depth != DepthConvention::ReverseInfinite {
+            let far = input::finite("far clip distance (m)", far)?;
+            if !(far > near) {
+                return Err(FoveatedError::InvalidClipPlanes { near, far });
+            }
         }
         let d = self.check_eye(eye)?;
         let (vr, vu, vn) = self.basis();
@@ -197,12 +244,14 @@ impl CaveWall {
 }
 
 /// The three walls of the paper's CAVE (§4.1: front, right, floor) for a cube
-/// of side `size` with its floor at y = 0 and centred on x = z = 0; the front
-/// wall faces +z, the right wall −x, the floor +y. All normals point inwards.
+/// of side `size` (m) with its floor at y = 0 and centred on x = z = 0, in
+/// Bevy's axes: the front wall is at z = −size/2 and faces +z (a viewer at the
+/// centre looks along −Z at it), the right wall faces −x, the floor +y. All
+/// normals point inwards.
+///
+/// Errors: [`FoveatedError::Input`] for a size that is not positive and finite.
 pub fn front_right_floor(size: f64) -> Result<[CaveWall; 3], FoveatedError> {
-    if !(size > 0.0 && size.is_finite()) {
-        return Err(FoveatedError::InvalidParameter(format!("CAVE size {size} must be > 0")));
-    }
+    let size = input::positive("CAVE side (m)", size)?;
     let h = size / 2.0;
     Ok([
         CaveWall::new(
@@ -218,6 +267,7 @@ pub fn front_right_floor(size: f64) -> Result<[CaveWall; 3], FoveatedError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::{Expected, InvalidInput};
     use proptest::prelude::*;
 
     fn assert_corners(w: &CaveWall, eye: DVec3, depth: DepthConvention) {
@@ -287,11 +337,20 @@ mod tests {
         let behind = w.off_axis(DVec3::new(0.0, 1.0, -2.0), 0.1, 10.0, DepthConvention::ZeroToOne);
         assert!(matches!(behind, Err(FoveatedError::EyeNotInFront { distance }) if distance < 0.0));
         let nan = w.off_axis(DVec3::new(f64::NAN, 1.0, 0.0), 0.1, 10.0, DepthConvention::ZeroToOne);
-        assert!(matches!(nan, Err(FoveatedError::NonFinite(_))));
-        assert!(matches!(
-            w.off_axis(DVec3::new(0.0, 1.0, 0.0), 0.0, 10.0, DepthConvention::ZeroToOne),
-            Err(FoveatedError::InvalidClipPlanes { .. })
-        ));
+        assert!(matches!(nan, Err(FoveatedError::Input(e)) if e.what == "eye position (m)"));
+        let inside = DVec3::new(0.0, 1.0, 0.0);
+        assert_eq!(
+            w.off_axis(inside, 0.0, 10.0, DepthConvention::ZeroToOne),
+            Err(FoveatedError::Input(InvalidInput::new("near clip distance (m)", 0.0, Expected::Positive)))
+        );
+        assert_eq!(
+            w.off_axis(inside, 0.1, f64::INFINITY, DepthConvention::MinusOneToOne),
+            Err(FoveatedError::Input(InvalidInput::new("far clip distance (m)", f64::INFINITY, Expected::Finite)))
+        );
+        assert_eq!(
+            w.off_axis(inside, 0.1, 0.1, DepthConvention::ZeroToOne),
+            Err(FoveatedError::InvalidClipPlanes { near: 0.1, far: 0.1 })
+        );
         assert!(
             w.off_axis(
                 DVec3::new(0.0, 1.0, 0.0),
@@ -305,10 +364,33 @@ mod tests {
 
     #[test]
     fn degenerate_walls_are_rejected() {
-        assert!(CaveWall::new(DVec3::ZERO, DVec3::ZERO, DVec3::Y).is_err());
-        assert!(CaveWall::new(DVec3::ZERO, DVec3::X, DVec3::new(0.1, 1.0, 0.0)).is_err());
-        assert!(CaveWall::new(DVec3::ZERO, DVec3::X, DVec3::NAN).is_err());
-        assert!(front_right_floor(-1.0).is_err());
+        assert_eq!(CaveWall::new(DVec3::ZERO, DVec3::ZERO, DVec3::Y), Err(FoveatedError::DegenerateWall("zero-length edge")));
+        assert_eq!(
+            CaveWall::new(DVec3::ZERO, DVec3::X, DVec3::new(0.1, 1.0, 0.0)),
+            Err(FoveatedError::DegenerateWall("edges are not perpendicular"))
+        );
+        let nan = CaveWall::new(DVec3::ZERO, DVec3::X, DVec3::NAN).unwrap_err();
+        assert!(matches!(nan, FoveatedError::Input(e) if e.what == "CAVE wall corner (m)" && e.value.is_nan()));
+        assert_eq!(
+            front_right_floor(-1.0).unwrap_err(),
+            FoveatedError::Input(InvalidInput::new("CAVE side (m)", -1.0, Expected::Positive))
+        );
+    }
+
+    #[test]
+    fn ray_through_checks_the_eye_and_the_fractions() {
+        let w = front_right_floor(3.0).unwrap()[0];
+        let eye = DVec3::new(0.2, 1.4, 0.3);
+        // Through the wall's centre: the direction points at (0, 1.5, −1.5).
+        let r = w.ray_through(eye, 0.5, 0.5).unwrap();
+        let want = (DVec3::new(0.0, 1.5, -1.5) - eye).normalize();
+        assert!((r.dir() - want).length() < 1e-15 && r.origin() == eye);
+        assert!(matches!(w.ray_through(DVec3::new(0.0, 1.0, -2.0), 0.5, 0.5), Err(FoveatedError::EyeNotInFront { .. })));
+        assert_eq!(
+            w.ray_through(eye, f64::INFINITY, 0.5).unwrap_err(),
+            FoveatedError::Input(InvalidInput::new("wall fraction s", f64::INFINITY, Expected::Finite))
+        );
+        assert!(matches!(w.ray_through(eye, 0.5, f64::NAN), Err(FoveatedError::Input(e)) if e.what == "wall fraction t"));
     }
 
     proptest! {

@@ -1,40 +1,37 @@
 //! Image error of a foveated render against the full-quality render.
-//!
-//! * [`rmse`]: root-mean-square difference over all pixels and the three
-//!   linear-RGB channels.
-//! * [`weighted_rmse`] (the report's `gaze_weighted_rmse` column): the same
-//!   with each pixel weighted by a non-negative weight, normally the pixel's
-//!   continuous eq. 8 level: an error where the viewer looks counts fully,
-//!   one outside the field not at all. This is the error the method promises
-//!   to keep small; plain RMSE also counts the periphery it deliberately
-//!   degrades.
 
 use glam::DVec3;
 
 use super::error::FoveatedError;
+use crate::input;
 
-/// RMS difference over all pixels and channels.
+/// RMS difference over all pixels and the three linear-RGB channels.
+/// Errors as [`weighted_rmse`].
 pub fn rmse(a: &[DVec3], b: &[DVec3]) -> Result<f64, FoveatedError> {
     weighted_rmse(a, b, &vec![1.0; a.len()])
 }
 
-/// Weighted RMS difference: √(Σ wᵢ |aᵢ − bᵢ|² / (3 Σ wᵢ)). All weights zero
-/// gives 0 (no pixel the viewer can see). Errors: length mismatch, a
-/// negative or non-finite weight, or a non-finite pixel.
+/// Weighted RMS difference √(Σ wᵢ |aᵢ − bᵢ|² / (3 Σ wᵢ)), the report's
+/// `gaze_weighted_rmse` when the weights are the pixels' continuous eq. 8
+/// levels: an error where the viewer looks counts fully, one outside the
+/// field not at all. This is the error the method promises to keep small;
+/// plain [`rmse`] also counts the periphery it deliberately degrades. All
+/// weights zero gives 0 (no pixel the viewer can see).
+///
+/// Errors: [`FoveatedError::LengthMismatch`] when `b` or `w` differs in
+/// length from `a`; [`FoveatedError::Input`] for a negative or non-finite
+/// weight or a non-finite pixel.
 pub fn weighted_rmse(a: &[DVec3], b: &[DVec3], w: &[f64]) -> Result<f64, FoveatedError> {
-    if a.len() != b.len() || a.len() != w.len() {
-        return Err(FoveatedError::InvalidParameter(format!(
-            "image sizes differ: {}, {}, {} weights",
-            a.len(),
-            b.len(),
-            w.len()
-        )));
+    for (what, len) in [("pixels of the second image", b.len()), ("pixel weights", w.len())] {
+        if len != a.len() {
+            return Err(FoveatedError::LengthMismatch { what, expected: a.len(), got: len });
+        }
     }
-    if w.iter().any(|&x| !(x >= 0.0 && x.is_finite())) {
-        return Err(FoveatedError::InvalidParameter("weights must be finite and ≥ 0".into()));
+    for &x in w {
+        input::non_negative("pixel weight", x)?;
     }
-    if a.iter().chain(b).any(|p| !p.is_finite()) {
-        return Err(FoveatedError::NonFinite("pixel"));
+    for &p in a.iter().chain(b) {
+        input::finite_vec3("pixel colour", p)?;
     }
     let sw: f64 = w.iter().sum();
     if sw == 0.0 {
@@ -52,6 +49,7 @@ pub fn weighted_rmse(a: &[DVec3], b: &[DVec3], w: &[f64]) -> Result<f64, Foveate
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::{Expected, InvalidInput};
 
     #[test]
     fn hand_computed_errors() {
@@ -66,9 +64,30 @@ mod tests {
         // Weight only the others: 0.
         assert_eq!(weighted_rmse(&a, &b, &[1.0, 1.0, 0.0, 1.0]).unwrap(), 0.0);
         assert_eq!(weighted_rmse(&a, &b, &[0.0; 4]).unwrap(), 0.0);
-        assert!(weighted_rmse(&a, &b, &[f64::NAN, 0.0, 0.0, 0.0]).is_err());
-        assert!(rmse(&a, &b[1..]).is_err());
-        b[0] = DVec3::NAN;
-        assert!(rmse(&a, &b).is_err());
+    }
+
+    #[test]
+    fn bad_inputs_are_typed_errors() {
+        let a = vec![DVec3::ZERO; 4];
+        let mut b = a.clone();
+        let weight = |x: f64| match weighted_rmse(&a, &b, &[x, 0.0, 0.0, 0.0]) {
+            Err(FoveatedError::Input(e)) => (e.what, e.expected),
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(weight(f64::NAN), ("pixel weight", Expected::NonNegative));
+        assert_eq!(weight(-1.0), ("pixel weight", Expected::NonNegative));
+        assert_eq!(
+            rmse(&a, &b[1..]),
+            Err(FoveatedError::LengthMismatch { what: "pixels of the second image", expected: 4, got: 3 })
+        );
+        assert_eq!(
+            weighted_rmse(&a, &b, &[1.0]),
+            Err(FoveatedError::LengthMismatch { what: "pixel weights", expected: 4, got: 1 })
+        );
+        b[0] = DVec3::new(0.0, f64::INFINITY, 0.0);
+        assert_eq!(
+            rmse(&a, &b),
+            Err(FoveatedError::Input(InvalidInput::new("pixel colour", f64::INFINITY, Expected::FiniteVector)))
+        );
     }
 }

@@ -1,142 +1,105 @@
-//! The visual-field level function of eq. 1–8.
-//!
-//! A ray direction is expressed in the gaze frame (eq. 1–3), turned into the
-//! two angles (m_α, m_β) of the paper's fig. 2 (eq. 4–5), and its level is a
-//! piecewise-linear fall-off from 1 inside the central field (l ≤ π/6) to 0 at
-//! the peripheral boundary L (eq. 6–8).
-//!
-//! ## Angles by atan2
-//!
-//! The paper writes eq. 4–5 as `acos` of a normalised component. `acos` of a
-//! rounded ratio slightly above 1 is NaN, and its slope is infinite at 0 and
-//! π, so here the same angles are computed as
-//!
-//! * eq. 4: m_α = acos(d_f / √(d_f² + d_r²)) = atan2(|d_r|, d_f) ∈ [0, π],
-//! * eq. 5: m_β = ±acos|d_f / √(d_f² + d_u²)| (sign of d_u) = atan2(d_u, |d_f|) ∈ [−π/2, π/2],
-//!
-//! which are identical where the paper's forms are defined and finite for every
-//! finite direction, including a gaze behind the head (m_α → π).
-//!
-//! ## Where the paper's angles are singular
-//!
-//! m_α is undefined at d_f = d_r = 0 (straight up or down) and m_β at
-//! d_f = d_u = 0 (straight right or left). Here atan2(0, 0) = 0 is used. Up and
-//! down are harmless: l ≥ π/2 > L there, so the level is 0 in a whole
-//! neighbourhood. Right/left on the ear side are a genuine discontinuity of the
-//! paper's level function: near ±E_r, m_α ≈ π/2 while m_β takes any value in
-//! [−π/2, π/2] depending on the approach, so the level jumps between 0 and
-//! (100° − 90°)/(100° − 30°) = 1/7 (the value returned exactly at ±E_r). It is
-//! a property of the paper's parametrisation, not of this code, and it lies
-//! deep in the periphery where the level is at most 1/7. Everywhere else the
-//! level is continuous (tested numerically).
-//!
-//! ## The boundary (eq. 7) and its options
-//!
-//! Eq. 7 is, with φ the polar angle of (m_α, m_β), L(φ) = √(a²cos²φ + b²sin²φ),
-//! with a = 5π/9 (100°, ear side) and b = π/3 (60°) above, 7π/18 (70°) below.
-//! It is not an ellipse (an ellipse has 1/L² = cos²φ/a² + sin²φ/b²), and
-//! because m_α is unsigned the nose side (π/3 in §2) never enters it. Both are
-//! kept as the default ([`EyeModel::Paper`], [`BoundaryShape::PaperEq7`]);
-//! [`EyeModel::LeftEye`]/[`EyeModel::RightEye`] (signed m_α, ear and nose sides
-//! swapped between the eyes) and [`BoundaryShape::TrueEllipse`] are opt-in.
+//! The visual-field level function of eq. 1–8 (documented on [`VisualField`]).
 
 use std::f64::consts::PI;
 
-use glam::{DQuat, DVec3};
+use glam::{DQuat, DVec3, DVec4};
 use serde::{Deserialize, Serialize};
 
 use super::error::FoveatedError;
+use crate::input::{self, Expected, InvalidInput};
 
-/// Radius of the central field, π/6 (30°): the paper's threshold in eq. 8.
-pub const CENTRAL_RADIUS: f64 = PI / 6.0;
-/// Ear-side (temporal) extent of the field, 5π/9 (100°): §2 and eq. 7.
-pub const EAR_SIDE: f64 = 5.0 * PI / 9.0;
-/// Nose-side (nasal) extent, π/3 (60°): §2; used only by the per-eye option.
-pub const NOSE_SIDE: f64 = PI / 3.0;
-/// Upper extent, π/3 (60°): §2 and eq. 7 (m_β ≥ 0).
-pub const UPPER_SIDE: f64 = PI / 3.0;
-/// Lower extent, 7π/18 (70°): §2 and eq. 7 (m_β < 0).
-pub const LOWER_SIDE: f64 = 7.0 * PI / 18.0;
+/// Smallest sine of the angle between a gaze and its up hint that
+/// [`GazeFrame::new`] accepts. Below it the cross product E_f × up is of the
+/// order of its own rounding error (a few 1e-16 per component), so E_r would
+/// point in a direction set by rounding; 1e-9 (a 0.2-milliarcsecond angle)
+/// leaves that error a millionth of E_r while refusing only up hints that are
+/// parallel to the gaze for every practical purpose.
+const MIN_GAZE_UP_SINE: f64 = 1e-9;
 
-/// The operator's gaze frame: eye position V and the orthonormal axes E_f
-/// (gaze), E_r (right of the gaze) and E_u (up of the gaze) of eq. 1–3.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// The operator's gaze frame of eq. 1–3: eye position V and the orthonormal
+/// axes E_f (gaze), E_r (right of the gaze) and E_u (up of the gaze), world
+/// coordinates in metres. Built by [`GazeFrame::new`] or
+/// [`GazeFrame::from_rotation`], so the axes are always unit and orthogonal.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct GazeFrame {
-    /// Eye position V (world).
-    pub eye: DVec3,
-    /// E_f, unit gaze direction.
-    pub forward: DVec3,
-    /// E_r, unit, to the right of the gaze.
-    pub right: DVec3,
-    /// E_u, unit, up from the gaze (E_u = E_r × E_f).
-    pub up: DVec3,
+    eye: DVec3,
+    forward: DVec3,
+    right: DVec3,
+    up: DVec3,
 }
 
 impl GazeFrame {
-    /// A right-handed gaze frame from an eye, a gaze direction and an up hint
-    /// (E_r = E_f × up_hint, E_u = E_r × E_f).
+    /// A right-handed gaze frame from an eye position (m), a gaze direction
+    /// and an up hint, neither of which need be unit: E_f = gaze/|gaze|,
+    /// E_r = E_f × up_hint normalised, E_u = E_r × E_f.
     ///
-    /// Errors: non-finite input, a zero gaze, or an up hint parallel to the
-    /// gaze (roll would be undefined, and the field is not roll invariant
-    /// because up and down differ). Use [`GazeFrame::from_rotation`] for a
-    /// tracker that reports an orientation.
+    /// Errors: [`FoveatedError::Input`] for a non-finite eye, or a gaze or up
+    /// hint that is zero or not finite; [`FoveatedError::DegenerateDirection`]
+    /// for an up hint parallel to the gaze (the roll would be undefined, and
+    /// the field is not roll invariant because up and down differ). Use
+    /// [`GazeFrame::from_rotation`] for a tracker that reports an orientation.
     pub fn new(eye: DVec3, gaze: DVec3, up_hint: DVec3) -> Result<Self, FoveatedError> {
-        if !eye.is_finite() {
-            return Err(FoveatedError::NonFinite("eye position"));
-        }
-        if !gaze.is_finite() || !up_hint.is_finite() {
-            return Err(FoveatedError::NonFinite("gaze or up direction"));
-        }
-        let forward = gaze
-            .try_normalize()
-            .ok_or(FoveatedError::DegenerateDirection("zero gaze"))?;
-        let up_hint = up_hint
-            .try_normalize()
-            .ok_or(FoveatedError::DegenerateDirection("zero up hint"))?;
+        let eye = input::finite_vec3("eye position (m)", eye)?;
+        let forward = input::direction("gaze direction", gaze)?;
+        let up_hint = input::direction("gaze up hint", up_hint)?;
         let right = forward.cross(up_hint);
-        // sin of the angle between gaze and up hint; below ~1e-9 the cross
-        // product is rounding noise and E_r would point anywhere.
-        if right.length() < 1e-9 {
-            return Err(FoveatedError::DegenerateDirection("up hint parallel to gaze"));
+        if right.length() < MIN_GAZE_UP_SINE {
+            return Err(FoveatedError::DegenerateDirection("up hint parallel to the gaze"));
         }
         let right = right.normalize();
         let up = right.cross(forward);
-        Ok(Self {
-            eye,
-            forward,
-            right,
-            up,
-        })
+        Ok(Self { eye, forward, right, up })
     }
 
-    /// A gaze frame from a head/eye orientation in Bevy's convention: the gaze
-    /// is the rotated −Z, right the rotated +X, up the rotated +Y.
+    /// A gaze frame from an eye position (m) and a head or eye orientation in
+    /// Bevy's convention: the gaze is the rotated −Z, right the rotated +X, up
+    /// the rotated +Y. The quaternion need not be unit; it is normalised.
+    ///
+    /// Errors: [`FoveatedError::Input`] for a non-finite eye or quaternion, or
+    /// a quaternion too short to normalise.
     pub fn from_rotation(eye: DVec3, rotation: DQuat) -> Result<Self, FoveatedError> {
-        if !eye.is_finite() || !rotation.is_finite() {
-            return Err(FoveatedError::NonFinite("eye position or rotation"));
+        const WHAT: &str = "eye rotation (quaternion)";
+        let eye = input::finite_vec3("eye position (m)", eye)?;
+        let q = DVec4::from(rotation);
+        if let Some(bad) = q.to_array().into_iter().find(|c| !c.is_finite()) {
+            return Err(InvalidInput::new(WHAT, bad, Expected::FiniteVector).into());
         }
-        let len = rotation.length();
-        if len.is_nan() || len <= 1e-12 {
-            return Err(FoveatedError::DegenerateDirection("zero quaternion"));
-        }
-        let q = rotation / len;
-        Ok(Self {
-            eye,
-            forward: q * DVec3::NEG_Z,
-            right: q * DVec3::X,
-            up: q * DVec3::Y,
-        })
+        let q = q
+            .try_normalize()
+            .map(DQuat::from_vec4)
+            .ok_or(InvalidInput::new(WHAT, q.length(), Expected::Direction))?;
+        Ok(Self { eye, forward: q * DVec3::NEG_Z, right: q * DVec3::X, up: q * DVec3::Y })
+    }
+
+    /// Eye position V (world, m).
+    #[inline]
+    pub fn eye(&self) -> DVec3 {
+        self.eye
+    }
+
+    /// E_f, the unit gaze direction.
+    #[inline]
+    pub fn forward(&self) -> DVec3 {
+        self.forward
+    }
+
+    /// E_r, unit, to the right of the gaze.
+    #[inline]
+    pub fn right(&self) -> DVec3 {
+        self.right
+    }
+
+    /// E_u, unit, up from the gaze (E_u = E_r × E_f).
+    #[inline]
+    pub fn up(&self) -> DVec3 {
+        self.up
     }
 
     /// Eq. 1–3: the world direction D' in the gaze frame, D = (d_f, d_r, d_u)
     /// with d_f = E_f·D', d_r = E_r·D', d_u = E_u·D' (returned as x, y, z).
     #[inline]
     pub fn to_local(&self, dir_world: DVec3) -> DVec3 {
-        DVec3::new(
-            self.forward.dot(dir_world),
-            self.right.dot(dir_world),
-            self.up.dot(dir_world),
-        )
+        DVec3::new(self.forward.dot(dir_world), self.right.dot(dir_world), self.up.dot(dir_world))
     }
 
     /// The inverse of [`GazeFrame::to_local`]: (d_f, d_r, d_u) to a world direction.
@@ -146,7 +109,9 @@ impl GazeFrame {
     }
 }
 
-/// The two angles of fig. 2 between the gaze and a ray, in radians.
+/// The two angles of the paper's fig. 2 between the gaze and a ray, in
+/// radians. Plain data: any values are accepted, and the level of non-finite
+/// angles is 1 (see [`VisualField::level_of_angles`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct FieldAngles {
     /// m_α, the horizontal angle (eq. 4). Unsigned in [0, π] for
@@ -168,9 +133,9 @@ impl FieldAngles {
 /// Which field region a ray falls in (§3.3.1, the cases of eq. 8).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum FieldRegion {
-    /// l ≤ π/6: central field, level 1.
+    /// l ≤ central radius (π/6 in the paper): central field, level 1.
     Central,
-    /// π/6 < l ≤ L: peripheral field, level falls linearly.
+    /// central < l ≤ L: peripheral field, level falls linearly.
     Peripheral,
     /// L < l: outside the field, level 0 (not traced, background).
     Outside,
@@ -202,27 +167,97 @@ pub enum BoundaryShape {
     TrueEllipse,
 }
 
-/// The visual field and its level function (eq. 4–8).
-///
-/// The defaults are the paper's: 30° central radius, 100° ear side, 60° nose
-/// side (unused by the default model), 60° up, 70° down, [`EyeModel::Paper`],
-/// [`BoundaryShape::PaperEq7`].
+/// The angular extents of a visual field, in radians from the gaze: plain
+/// data, checked when a [`VisualField`] is built from it.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct VisualField {
-    /// Central-field radius in radians (π/6).
+pub struct FieldExtents {
+    /// Radius of the central field, where the level is 1.
     pub central: f64,
-    /// Ear-side extent in radians (5π/9).
+    /// Ear-side (temporal) extent.
     pub ear: f64,
-    /// Nose-side extent in radians (π/3); only the per-eye models use it.
+    /// Nose-side (nasal) extent; only the per-eye models use it.
     pub nose: f64,
-    /// Upper extent in radians (π/3).
+    /// Upper extent.
     pub upper: f64,
-    /// Lower extent in radians (7π/18).
+    /// Lower extent.
     pub lower: f64,
-    /// Horizontal angle convention.
-    pub eye: EyeModel,
-    /// Boundary shape.
-    pub boundary: BoundaryShape,
+}
+
+impl FieldExtents {
+    /// The paper's field: central radius π/6 (30°), the threshold of eq. 8;
+    /// ear side 5π/9 (100°), nose side π/3 (60°), up π/3 (60°), down 7π/18
+    /// (70°), the extents of §2 (the Japanese average the paper takes from
+    /// Mitsuhashi, Hatada and Yano, *Image and Visual Information Science*,
+    /// Corona Publishing, 2009), of which eq. 7 uses the ear side, up and down.
+    ///
+    /// Clinical perimetry gives nearly the same field: central vision is the
+    /// inner 30°, and the peripheral field extends 100° laterally (to the ear
+    /// side), 60° medially (to the nose), 60° up and 75° down (R. H. Spector,
+    /// "Visual Fields", ch. 116 of Walker, Hall and Hurst (eds.), *Clinical
+    /// Methods*, 3rd ed., Butterworths, 1990).
+    pub const PAPER: Self = Self {
+        central: PI / 6.0,
+        ear: 5.0 * PI / 9.0,
+        nose: PI / 3.0,
+        upper: PI / 3.0,
+        lower: 7.0 * PI / 18.0,
+    };
+}
+
+/// The visual field and its level function: eq. 4–8 of Mochizuki and Makino.
+///
+/// A ray direction in the gaze frame (eq. 1–3, [`GazeFrame::to_local`]) is
+/// turned into the two angles (m_α, m_β) of the paper's fig. 2 (eq. 4–5,
+/// [`VisualField::angles`]); its level is 1 inside the central field
+/// (l ≤ π/6), falls linearly to 0 at the peripheral boundary L (eq. 6–8,
+/// [`VisualField::level_of_angles`]), and is 0 beyond. The linear fall is
+/// the paper's choice (eq. 8), not a measured acuity curve.
+///
+/// Built by [`VisualField::paper`], [`VisualField::with_options`] (the
+/// paper's extents) or [`VisualField::new`] (checked extents), so the level
+/// functions trust it and check nothing per ray.
+///
+/// # Angles by atan2
+///
+/// The paper writes eq. 4–5 as `acos` of a normalised component. `acos` of a
+/// rounded ratio slightly above 1 is NaN, and its slope is infinite at 0 and
+/// π, so here the same angles are computed as
+///
+/// * eq. 4: m_α = acos(d_f / √(d_f² + d_r²)) = atan2(|d_r|, d_f) ∈ [0, π],
+/// * eq. 5: m_β = ±acos|d_f / √(d_f² + d_u²)| (sign of d_u) = atan2(d_u, |d_f|) ∈ [−π/2, π/2],
+///
+/// which are identical where the paper's forms are defined and finite for
+/// every finite direction, including a gaze behind the head (m_α → π).
+///
+/// # Where the paper's angles are singular
+///
+/// m_α is undefined at d_f = d_r = 0 (straight up or down) and m_β at
+/// d_f = d_u = 0 (straight right or left). Here atan2(0, 0) = 0 is used. Up
+/// and down are harmless: l ≥ π/2 > L there, so the level is 0 in a whole
+/// neighbourhood. Right/left on the ear side are a genuine discontinuity of
+/// the paper's level function: near ±E_r, m_α ≈ π/2 while m_β takes any
+/// value in [−π/2, π/2] depending on the approach, so the level jumps between
+/// 0 and (100° − 90°)/(100° − 30°) = 1/7 (the value returned exactly at
+/// ±E_r). It is a property of the paper's parametrisation, deep in the
+/// periphery where the level is at most 1/7. Everywhere else the level is
+/// continuous.
+///
+/// # The boundary (eq. 7) and its options
+///
+/// Eq. 7 is, with φ the polar angle of (m_α, m_β), L(φ) = √(a²cos²φ + b²sin²φ),
+/// with a = 5π/9 (100°, ear side) and b = π/3 (60°) above, 7π/18 (70°) below
+/// (the extents of [`FieldExtents::PAPER`]). It is not an ellipse (an
+/// ellipse has 1/L² = cos²φ/a² + sin²φ/b²), and because m_α is unsigned the
+/// nose side (π/3 in the paper's §2) never enters it. Both are kept as the
+/// default ([`EyeModel::Paper`], [`BoundaryShape::PaperEq7`]);
+/// [`EyeModel::LeftEye`]/[`EyeModel::RightEye`] (signed m_α, ear and nose
+/// sides swapped between the eyes) and [`BoundaryShape::TrueEllipse`] are
+/// opt-in.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct VisualField {
+    extents: FieldExtents,
+    eye: EyeModel,
+    boundary: BoundaryShape,
 }
 
 impl Default for VisualField {
@@ -232,79 +267,51 @@ impl Default for VisualField {
 }
 
 impl VisualField {
-    /// The paper's field (§2, eq. 7–8), unsigned m_α, eq. 7 boundary.
+    /// The paper's field ([`FieldExtents::PAPER`]), unsigned m_α, eq. 7 boundary.
     pub const fn paper() -> Self {
-        Self {
-            central: CENTRAL_RADIUS,
-            ear: EAR_SIDE,
-            nose: NOSE_SIDE,
-            upper: UPPER_SIDE,
-            lower: LOWER_SIDE,
-            eye: EyeModel::Paper,
-            boundary: BoundaryShape::PaperEq7,
-        }
+        Self::with_options(EyeModel::Paper, BoundaryShape::PaperEq7)
     }
 
-    /// The paper's angles with an explicit eye model and boundary shape.
+    /// The paper's extents with an explicit eye model and boundary shape.
     pub const fn with_options(eye: EyeModel, boundary: BoundaryShape) -> Self {
-        let mut f = Self::paper();
-        f.eye = eye;
-        f.boundary = boundary;
-        f
+        Self { extents: FieldExtents::PAPER, eye, boundary }
     }
 
-    /// [`VisualField::validate`] as a cheap test (no allocation), for use per ray.
-    #[inline]
-    pub fn is_valid(&self) -> bool {
-        let extent_ok = |v: f64| v > self.central && v <= PI;
-        let nose_ok = self.eye == EyeModel::Paper || extent_ok(self.nose);
-        self.central.is_finite()
-            && self.central > 0.0
-            && self.ear.is_finite()
-            && self.upper.is_finite()
-            && self.lower.is_finite()
-            && self.nose.is_finite()
-            && extent_ok(self.ear)
-            && extent_ok(self.upper)
-            && extent_ok(self.lower)
-            && nose_ok
-    }
-
-    /// Checks that eq. 8 is well defined: all angles finite, 0 < central, and
-    /// every extent the model uses greater than the central radius and at most π.
+    /// A field with its own extents. The central radius must lie in (0, π],
+    /// and each outer extent (ear, nose, up, down) in [central, π], so that
+    /// eq. 8's fall runs outwards from the central field.
     ///
-    /// The fields are public (and deserialisable), so the level functions do
-    /// not trust them: for a field that fails this check,
-    /// [`VisualField::level_of_angles`] (and so [`VisualField::level`] and
-    /// the tracer's `pixel_levels`) return 1 everywhere — when unsure, full
-    /// quality — and [`VisualField::region`] returns [`FieldRegion::Central`].
-    pub fn validate(&self) -> Result<(), FoveatedError> {
-        let all = [self.central, self.ear, self.nose, self.upper, self.lower];
-        if all.iter().any(|v| !v.is_finite()) {
-            return Err(FoveatedError::NonFinite("visual-field angle"));
+    /// Errors: [`FoveatedError::Input`] naming the first extent out of range.
+    pub fn new(extents: FieldExtents, eye: EyeModel, boundary: BoundaryShape) -> Result<Self, FoveatedError> {
+        let central = input::positive("central field radius (rad)", extents.central)?;
+        input::in_range("central field radius (rad)", central, 0.0, PI)?;
+        for (what, v) in [
+            ("ear-side field extent (rad)", extents.ear),
+            ("nose-side field extent (rad)", extents.nose),
+            ("upper field extent (rad)", extents.upper),
+            ("lower field extent (rad)", extents.lower),
+        ] {
+            input::in_range(what, v, central, PI)?;
         }
-        if self.central <= 0.0 {
-            return Err(FoveatedError::InvalidField(format!(
-                "central radius {} ≤ 0",
-                self.central
-            )));
-        }
-        let mut used = vec![("ear", self.ear), ("upper", self.upper), ("lower", self.lower)];
-        if self.eye != EyeModel::Paper {
-            used.push(("nose", self.nose));
-        }
-        for (name, v) in used {
-            if v <= self.central || v > PI {
-                return Err(FoveatedError::InvalidField(format!(
-                    "{name} extent {v} rad must lie in (central = {}, π]",
-                    self.central
-                )));
-            }
-        }
-        Ok(())
+        Ok(Self { extents, eye, boundary })
     }
 
-    /// Eq. 4–5 (atan2 forms, see the module docs) for a direction in the gaze
+    /// The extents, in radians.
+    pub fn extents(&self) -> FieldExtents {
+        self.extents
+    }
+
+    /// The horizontal angle convention.
+    pub fn eye_model(&self) -> EyeModel {
+        self.eye
+    }
+
+    /// The boundary shape.
+    pub fn boundary_shape(&self) -> BoundaryShape {
+        self.boundary
+    }
+
+    /// Eq. 4–5 (atan2 forms, see the type's docs) for a direction in the gaze
     /// frame, `local = (d_f, d_r, d_u)`; it need not be unit.
     #[inline]
     pub fn angles(&self, local: DVec3) -> FieldAngles {
@@ -322,22 +329,12 @@ impl VisualField {
     /// The horizontal semi-axis a for the side of the field `m_alpha` lies on.
     #[inline]
     fn horizontal_extent(&self, m_alpha: f64) -> f64 {
+        let e = &self.extents;
         match self.eye {
-            EyeModel::Paper => self.ear,
-            EyeModel::RightEye => {
-                if m_alpha >= 0.0 {
-                    self.ear
-                } else {
-                    self.nose
-                }
-            }
-            EyeModel::LeftEye => {
-                if m_alpha <= 0.0 {
-                    self.ear
-                } else {
-                    self.nose
-                }
-            }
+            EyeModel::Paper => e.ear,
+            EyeModel::RightEye if m_alpha >= 0.0 => e.ear,
+            EyeModel::LeftEye if m_alpha <= 0.0 => e.ear,
+            EyeModel::RightEye | EyeModel::LeftEye => e.nose,
         }
     }
 
@@ -349,7 +346,7 @@ impl VisualField {
     pub fn boundary(&self, angles: FieldAngles) -> f64 {
         let (ma, mb) = (angles.m_alpha, angles.m_beta);
         let a = self.horizontal_extent(ma);
-        let b = if mb >= 0.0 { self.upper } else { self.lower };
+        let b = if mb >= 0.0 { self.extents.upper } else { self.extents.lower };
         let l2 = ma * ma + mb * mb;
         if l2 == 0.0 {
             return a;
@@ -361,12 +358,11 @@ impl VisualField {
         }
     }
 
-    /// The region of eq. 8 for given angles. [`FieldRegion::Central`] (full
-    /// quality) for an invalid field (see [`VisualField::validate`]) or
-    /// non-finite angles, like [`VisualField::level_of_angles`].
+    /// The region of eq. 8 for given angles; [`FieldRegion::Central`] (full
+    /// quality) for non-finite angles, like [`VisualField::level_of_angles`].
     pub fn region(&self, angles: FieldAngles) -> FieldRegion {
         let l = angles.eccentricity();
-        if !self.is_valid() || !l.is_finite() || l <= self.central {
+        if !l.is_finite() || l <= self.extents.central {
             FieldRegion::Central
         } else if l <= self.boundary(angles) {
             FieldRegion::Peripheral
@@ -377,33 +373,26 @@ impl VisualField {
 
     /// Eq. 6 and 8: the level in [0, 1] for given angles.
     ///
-    /// Documented fallback (when unsure, full quality): non-finite angles, and
-    /// any angles for a field that fails [`VisualField::validate`] (say a NaN
-    /// central radius from a hand-edited config), give 1.
+    /// Documented fallback (when unsure, full quality): non-finite angles give 1.
     pub fn level_of_angles(&self, angles: FieldAngles) -> f64 {
         let l = angles.eccentricity();
-        if !l.is_finite() || !self.is_valid() {
-            return 1.0;
-        }
-        if l <= self.central {
+        let central = self.extents.central;
+        if !l.is_finite() || l <= central {
             return 1.0;
         }
         let big_l = self.boundary(angles);
         if l > big_l {
             return 0.0;
         }
-        let denom = big_l - self.central;
-        if denom.is_nan() || denom <= 0.0 {
-            // Unreachable for a valid field (L ≥ min extent > central); full quality if it ever is.
-            return 1.0;
-        }
-        ((big_l - l) / denom).clamp(0.0, 1.0)
+        // central < l ≤ L here, so the denominator is positive.
+        ((big_l - l) / (big_l - central)).clamp(0.0, 1.0)
     }
 
-    /// The level of a direction given in the gaze frame, (d_f, d_r, d_u).
+    /// The level of a direction given in the gaze frame, (d_f, d_r, d_u); it
+    /// need not be unit.
     ///
-    /// Documented fallback: a zero or non-finite direction, or an invalid
-    /// field, gives 1 (full quality).
+    /// Documented fallback: a zero or non-finite direction has no angles and
+    /// gives 1 (full quality).
     pub fn level_local(&self, local: DVec3) -> f64 {
         if !local.is_finite() || local == DVec3::ZERO {
             return 1.0;
@@ -425,6 +414,7 @@ mod tests {
     use proptest::prelude::*;
 
     const DEG: f64 = PI / 180.0;
+    const P: FieldExtents = FieldExtents::PAPER;
 
     /// A local direction at horizontal angle `a` (right positive) and vertical
     /// angle `b` in the paper's sense: tan(m_α) = d_r/d_f, tan(m_β) = d_u/d_f.
@@ -480,8 +470,8 @@ mod tests {
                 m_alpha: 0.7 * phi.cos(),
                 m_beta: 0.7 * phi.sin(),
             };
-            let b = if phi >= 0.0 { UPPER_SIDE } else { LOWER_SIDE };
-            let polar = (EAR_SIDE.powi(2) * phi.cos().powi(2) + b * b * phi.sin().powi(2)).sqrt();
+            let b = if phi >= 0.0 { P.upper } else { P.lower };
+            let polar = (P.ear.powi(2) * phi.cos().powi(2) + b * b * phi.sin().powi(2)).sqrt();
             assert!((f.boundary(angles) - polar).abs() < 1e-12, "phi {phi}");
         }
     }
@@ -546,9 +536,14 @@ mod tests {
         assert_eq!(f.level_local(DVec3::new(f64::NAN, 0.0, 1.0)), 1.0);
         assert_eq!(f.level_local(DVec3::new(f64::INFINITY, 0.0, 1.0)), 1.0);
         assert_eq!(f.level_local(DVec3::ZERO), 1.0);
-        assert!(GazeFrame::new(DVec3::ZERO, DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Y).is_err());
-        assert!(GazeFrame::new(DVec3::ZERO, DVec3::Y, DVec3::Y).is_err());
-        assert!(GazeFrame::new(DVec3::ZERO, DVec3::ZERO, DVec3::Y).is_err());
+        // Angles are plain data: non-finite ones are full quality, central.
+        let nan = FieldAngles { m_alpha: f64::NAN, m_beta: 0.3 };
+        assert_eq!((f.level_of_angles(nan), f.region(nan)), (1.0, FieldRegion::Central));
+        let inf = FieldAngles { m_alpha: 0.1, m_beta: f64::NEG_INFINITY };
+        assert_eq!((f.level_of_angles(inf), f.region(inf)), (1.0, FieldRegion::Central));
+        // The gaze frame itself refuses such input (see
+        // `gaze_frame_input_errors_name_the_input`); these are directions
+        // handed to the level function directly.
     }
 
     #[test]
@@ -613,18 +608,17 @@ mod tests {
                 m_beta: s,
             });
             let d = 1e-10;
-            assert!((at(CENTRAL_RADIUS - d) - at(CENTRAL_RADIUS + d)).abs() < 1e-8);
+            assert!((at(P.central - d) - at(P.central + d)).abs() < 1e-8);
             // At L eq. 8 is 0 by construction; what can fail is the linear
             // fall reaching it: d/(L − π/6) just inside, 0 just outside.
             let inside = 1e-6;
-            assert!((at(big_l - inside) - inside / (big_l - CENTRAL_RADIUS)).abs() < 1e-12);
+            assert!((at(big_l - inside) - inside / (big_l - P.central)).abs() < 1e-12);
             assert!(at(big_l + d) == 0.0 && at(big_l) < 1e-12);
         }
     }
 
     #[test]
     fn boundary_and_level_are_continuous_across_the_angle_axes() {
-        // REFERENCE.md: "the boundary must be continuous across the axes".
         // b switches 60°/70° at m_β = 0 (φ = 0°, 180°); a switches ear/nose at
         // m_α = 0 for the per-eye models (φ = ±90°). |∂level/∂φ| ≤ |L′|/(L − π/6)
         // ≤ 0.92 per rad and |L′| ≤ 1 rad per rad for these angles, so a
@@ -660,69 +654,81 @@ mod tests {
         let q = DQuat::from_rotation_y(0.4) * DQuat::from_rotation_x(-0.2);
         let a = GazeFrame::from_rotation(DVec3::ONE, q).unwrap();
         let b = GazeFrame::new(DVec3::ONE, q * DVec3::NEG_Z, q * DVec3::Y).unwrap();
-        assert!((a.forward - b.forward).length() < 1e-12);
-        assert!((a.right - b.right).length() < 1e-12);
-        assert!((a.up - b.up).length() < 1e-12);
+        assert!((a.forward() - b.forward()).length() < 1e-12);
+        assert!((a.right() - b.right()).length() < 1e-12);
+        assert!((a.up() - b.up()).length() < 1e-12);
+        // A quaternion of any length is normalised; a zero or NaN one is refused.
+        let c = GazeFrame::from_rotation(DVec3::ONE, q * 3.0).unwrap();
+        assert!((c.forward() - a.forward()).length() < 1e-12);
+        let zero = GazeFrame::from_rotation(DVec3::ONE, DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0)).unwrap_err();
+        assert!(matches!(zero, FoveatedError::Input(e) if e.expected == Expected::Direction && e.value == 0.0));
+        let nan = GazeFrame::from_rotation(DVec3::ONE, DQuat::from_xyzw(0.0, f64::NAN, 0.0, 1.0)).unwrap_err();
+        assert!(matches!(nan, FoveatedError::Input(e) if e.expected == Expected::FiniteVector && e.value.is_nan()));
         let d = DVec3::new(0.3, -0.5, 0.8);
         assert!((a.to_world(a.to_local(d)) - d).length() < 1e-12);
     }
 
     #[test]
-    fn validate_rejects_impossible_fields() {
-        assert!(VisualField::paper().validate().is_ok());
-        let mut f = VisualField::paper();
-        f.upper = 0.4; // below the 30° central radius
-        assert!(matches!(f.validate(), Err(FoveatedError::InvalidField(_))));
-        f = VisualField::paper();
-        f.central = f64::NAN;
-        assert!(matches!(f.validate(), Err(FoveatedError::NonFinite(_))));
-        // The nose extent only matters for the per-eye models.
-        f = VisualField::paper();
-        f.nose = 0.1;
-        assert!(f.validate().is_ok());
-        f.eye = EyeModel::LeftEye;
-        assert!(f.validate().is_err());
+    fn new_rejects_impossible_fields_naming_the_extent() {
+        let ok = |e: FieldExtents| VisualField::new(e, EyeModel::Paper, BoundaryShape::PaperEq7);
+        assert_eq!(ok(P).unwrap(), VisualField::paper());
+        let range = |what: &'static str, value: f64, min: f64| {
+            FoveatedError::Input(InvalidInput::new(what, value, Expected::Range { min, max: PI }))
+        };
+        // An outer extent inside the 30° central radius.
+        assert_eq!(ok(FieldExtents { upper: 0.4, ..P }), Err(range("upper field extent (rad)", 0.4, P.central)));
+        assert_eq!(ok(FieldExtents { ear: 4.0, ..P }), Err(range("ear-side field extent (rad)", 4.0, P.central)));
+        assert_eq!(ok(FieldExtents { nose: 0.1, ..P }), Err(range("nose-side field extent (rad)", 0.1, P.central)));
+        let lower = ok(FieldExtents { lower: f64::INFINITY, ..P }).unwrap_err();
+        assert_eq!(lower, range("lower field extent (rad)", f64::INFINITY, P.central));
+        // The central radius: positive, then at most π.
+        let positive = |value| FoveatedError::Input(InvalidInput::new("central field radius (rad)", value, Expected::Positive));
+        assert_eq!(ok(FieldExtents { central: 0.0, ..P }), Err(positive(0.0)));
+        assert!(matches!(ok(FieldExtents { central: f64::NAN, ..P }),
+            Err(FoveatedError::Input(e)) if e.expected == Expected::Positive && e.value.is_nan()));
+        assert_eq!(ok(FieldExtents { central: 4.0, ..P }), Err(range("central field radius (rad)", 4.0, 0.0)));
+        // An extent equal to the central radius is a step, not a ramp: legal,
+        // and the level stays in [0, 1] across it.
+        let step = ok(FieldExtents { upper: P.central, ..P }).unwrap();
+        assert_eq!(step.level_local(dir_ab(0.0, 29.0)), 1.0);
+        assert_eq!(step.level_local(dir_ab(0.0, 31.0)), 0.0);
+        // Accessors give back what was built.
+        let f = VisualField::new(P, EyeModel::LeftEye, BoundaryShape::TrueEllipse).unwrap();
+        assert_eq!((f.extents(), f.eye_model(), f.boundary_shape()), (P, EyeModel::LeftEye, BoundaryShape::TrueEllipse));
     }
 
     #[test]
-    fn invalid_field_gives_full_quality_not_background() {
-        // A NaN central radius used to make every direction level 0 (background).
-        let mut bad = Vec::new();
-        for (name, set) in [
-            ("central NaN", (|f: &mut VisualField| f.central = f64::NAN) as fn(&mut VisualField)),
-            ("central 0", |f| f.central = 0.0),
-            ("upper below central", |f| f.upper = 0.4),
-            ("lower NaN", |f| f.lower = f64::NAN),
-            ("ear > π", |f| f.ear = 4.0),
-            ("ear ∞", |f| f.ear = f64::INFINITY),
-        ] {
-            let mut f = VisualField::paper();
-            set(&mut f);
-            assert!(f.validate().is_err() && !f.is_valid(), "{name}");
-            bad.push((name, f));
-        }
-        let mut right_nose_bad = VisualField::with_options(EyeModel::RightEye, BoundaryShape::PaperEq7);
-        right_nose_bad.nose = f64::NAN;
-        bad.push(("per-eye nose NaN", right_nose_bad));
-        let frame = GazeFrame::new(DVec3::ZERO, DVec3::NEG_Z, DVec3::Y).unwrap();
-        for (name, f) in bad {
-            for d in [DVec3::X, dir_ab(45.0, 10.0), dir_ab(0.0, -65.0), DVec3::NEG_X, DVec3::Y] {
-                assert_eq!(f.level_local(d), 1.0, "{name}: {d}");
+    fn gaze_frame_input_errors_name_the_input() {
+        let e = GazeFrame::new(DVec3::new(0.0, f64::NAN, 0.0), DVec3::NEG_Z, DVec3::Y).unwrap_err();
+        assert!(matches!(e, FoveatedError::Input(i) if i.what == "eye position (m)"));
+        let e = GazeFrame::new(DVec3::ZERO, DVec3::ZERO, DVec3::Y).unwrap_err();
+        assert_eq!(e, FoveatedError::Input(InvalidInput::new("gaze direction", 0.0, Expected::Direction)));
+        let e = GazeFrame::new(DVec3::ZERO, DVec3::NEG_Z, DVec3::ZERO).unwrap_err();
+        assert_eq!(e, FoveatedError::Input(InvalidInput::new("gaze up hint", 0.0, Expected::Direction)));
+        assert_eq!(
+            GazeFrame::new(DVec3::ZERO, DVec3::Y * 2.0, DVec3::Y),
+            Err(FoveatedError::DegenerateDirection("up hint parallel to the gaze"))
+        );
+        // A gaze of any length is normalised; the frame is orthonormal.
+        let f = GazeFrame::new(DVec3::ONE, DVec3::new(0.0, 0.0, -5.0), DVec3::new(0.0, 3.0, 1.0)).unwrap();
+        assert_eq!((f.eye(), f.forward(), f.right()), (DVec3::ONE, DVec3::NEG_Z, DVec3::X));
+        assert!((f.up() - DVec3::Y).length() < 1e-15);
+    }
+
+    #[test]
+    fn ear_side_of_a_rotated_gaze_stays_within_the_documented_jump() {
+        // In a rotated frame the world ray E_r has rounding-size d_f and d_u,
+        // so m_β is arbitrary there (the singularity of the type's docs): the
+        // level may be anything in [0, 1/7], and must be finite.
+        let f = VisualField::paper();
+        for k in 0..50 {
+            let (yaw, pitch) = (0.13 * k as f64, 0.05 * k as f64 - 1.2);
+            let gaze = DVec3::new(yaw.sin() * pitch.cos(), pitch.sin(), -yaw.cos() * pitch.cos());
+            let g = GazeFrame::new(DVec3::ZERO, gaze, DVec3::Y).unwrap();
+            for d in [g.right(), -g.right()] {
+                let l = f.level(&g, d);
+                assert!(l.is_finite() && (0.0..=1.0 / 7.0 + 1e-12).contains(&l), "{gaze}: {l}");
             }
-            assert_eq!(f.level(&frame, DVec3::new(0.3, -0.2, -1.0)), 1.0, "{name}");
-            let far = FieldAngles { m_alpha: 2.0, m_beta: 0.5 };
-            assert_eq!((f.level_of_angles(far), f.region(far)), (1.0, FieldRegion::Central), "{name}");
-        }
-        // is_valid agrees with validate: the paper model ignores the nose
-        // extent's range (not its finiteness).
-        let mut p = VisualField::paper();
-        p.nose = 0.1;
-        assert!(p.is_valid() && p.validate().is_ok());
-        p.nose = f64::NAN;
-        assert!(!p.is_valid() && p.validate().is_err());
-        for eye in [EyeModel::Paper, EyeModel::LeftEye, EyeModel::RightEye] {
-            let f = VisualField::with_options(eye, BoundaryShape::TrueEllipse);
-            assert!(f.is_valid() && f.validate().is_ok());
         }
     }
 

@@ -9,29 +9,47 @@
 use std::f64::consts::{PI, TAU};
 
 use glam::DVec3;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use super::bvh::{Aabb, Bvh};
 use super::error::FoveatedError;
+use crate::input::{self, Expected, InvalidInput};
 use crate::ray::Ray;
 
-/// Hits closer than this (in scene units) are ignored, so that a ray leaving
-/// a surface does not hit the same surface through rounding.
-pub const T_MIN: f64 = 1e-9;
+/// Hits closer than this (m) are ignored. The tracer already starts
+/// secondary rays off the surface (`tracer::SECONDARY_RAY_OFFSET_REL`); this
+/// only drops a hit at the ray's own origin that rounding puts a hair in
+/// front of it. 1 nm is far above the rounding of the test scenes'
+/// coordinates (about 1e-15 m at 10 m) and far below any of their features.
+const T_MIN: f64 = 1e-9;
+
+/// The Möller–Trumbore determinant (the sine of the angle between the ray
+/// and the triangle's plane, times the edge lengths) below which, relative to
+/// |e1|·|e2|, a ray counts as lying in the plane: there is no unique hit, and
+/// the determinant's own rounding error (a few ulps of |e1|·|e2|, 2.2e-16
+/// each) would decide its sign. 1e-14 is about 45 ulps.
+const PARALLEL_DET_REL: f64 = 1e-14;
 
 /// A ray–triangle hit.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MeshHit {
+pub(crate) struct MeshHit {
     /// Distance along the ray.
-    pub t: f64,
+    pub(crate) t: f64,
     /// Index of the triangle hit.
-    pub triangle: usize,
+    pub(crate) triangle: usize,
     /// Barycentric coordinates (u, v) of the hit on that triangle.
-    pub uv: (f64, f64),
+    pub(crate) uv: (f64, f64),
 }
 
-/// An indexed triangle mesh with per-vertex normals and a BVH over its triangles.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// An indexed triangle mesh (m) with per-vertex normals and a BVH over its
+/// triangles: one entry of an object's LOD chain in the reference tracer.
+///
+/// The paper uses progressive meshes of a 5,804-triangle cow (§3.2.1,
+/// §4.2); a chain of the same shape generated at several tessellations
+/// ([`TriangleMesh::uv_sphere`], [`TriangleMesh::torus`]) stands in for them:
+/// the triangle counts are known exactly and the shapes converge to a smooth
+/// limit, so coarse levels have a measurable geometric error.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TriangleMesh {
     positions: Vec<DVec3>,
     normals: Vec<DVec3>,
@@ -43,8 +61,10 @@ impl TriangleMesh {
     /// A mesh from positions, triangles and optional per-vertex normals
     /// (area-weighted face normals when `None`). Builds the BVH.
     ///
-    /// Errors: no triangle, a non-finite position or normal, an index out of
-    /// range, or a normal count that differs from the position count.
+    /// Errors: [`FoveatedError::Input`] for a non-finite position or normal;
+    /// [`FoveatedError::InvalidScene`] for no triangle or an index out of
+    /// range; [`FoveatedError::LengthMismatch`] for a normal count that
+    /// differs from the position count.
     pub fn new(
         positions: Vec<DVec3>,
         normals: Option<Vec<DVec3>>,
@@ -53,8 +73,8 @@ impl TriangleMesh {
         if triangles.is_empty() {
             return Err(FoveatedError::InvalidScene("mesh has no triangles".into()));
         }
-        if positions.iter().any(|p| !p.is_finite()) {
-            return Err(FoveatedError::NonFinite("mesh position"));
+        for &p in &positions {
+            input::finite_vec3("mesh position (m)", p)?;
         }
         let n = positions.len();
         if let Some(bad) = triangles.iter().flatten().find(|&&i| i as usize >= n) {
@@ -63,13 +83,10 @@ impl TriangleMesh {
         let normals = match normals {
             Some(v) => {
                 if v.len() != n {
-                    return Err(FoveatedError::InvalidScene(format!(
-                        "{} normals for {n} vertices",
-                        v.len()
-                    )));
+                    return Err(FoveatedError::LengthMismatch { what: "mesh normals", expected: n, got: v.len() });
                 }
-                if v.iter().any(|p| !p.is_finite()) {
-                    return Err(FoveatedError::NonFinite("mesh normal"));
+                for &p in &v {
+                    input::finite_vec3("mesh normal", p)?;
                 }
                 v.into_iter().map(|v| v.normalize_or_zero()).collect()
             }
@@ -99,14 +116,15 @@ impl TriangleMesh {
         })
     }
 
-    /// A UV sphere of `rings` latitude bands (≥ 2) and `segments` longitude
-    /// segments (≥ 3): 2·segments·(rings − 1) triangles, exact normals.
+    /// A UV sphere of `radius` (m), `rings` latitude bands (≥ 2) and
+    /// `segments` longitude segments (≥ 3): 2·segments·(rings − 1)
+    /// triangles, exact normals. Errors: [`FoveatedError::Input`] naming the
+    /// number out of range.
     pub fn uv_sphere(center: DVec3, radius: f64, rings: u32, segments: u32) -> Result<Self, FoveatedError> {
-        if rings < 2 || segments < 3 || !(radius > 0.0 && radius.is_finite()) {
-            return Err(FoveatedError::InvalidParameter(format!(
-                "sphere needs rings ≥ 2, segments ≥ 3, radius > 0 (got {rings}, {segments}, {radius})"
-            )));
-        }
+        input::finite_vec3("sphere centre (m)", center)?;
+        input::positive("sphere radius (m)", radius)?;
+        at_least("sphere rings", rings, 2)?;
+        at_least("sphere segments", segments, 3)?;
         let (r, s) = (rings as usize, segments as usize);
         let mut dirs = vec![DVec3::Y];
         for i in 1..r {
@@ -140,8 +158,10 @@ impl TriangleMesh {
         Self::new(positions, Some(dirs), tris)
     }
 
-    /// A torus around `axis` through `center`: ring radius `major`, tube radius
-    /// `minor` (< major), `major_segments`·`minor_segments`·2 triangles, exact normals.
+    /// A torus around `axis` (any length) through `center`: ring radius
+    /// `major` (m), tube radius `minor` (m, 0 < minor ≤ major),
+    /// 2·`major_segments`·`minor_segments` triangles (each ≥ 3), exact
+    /// normals. Errors: [`FoveatedError::Input`] naming the number out of range.
     pub fn torus(
         center: DVec3,
         axis: DVec3,
@@ -150,14 +170,13 @@ impl TriangleMesh {
         major_segments: u32,
         minor_segments: u32,
     ) -> Result<Self, FoveatedError> {
-        let axis = axis
-            .try_normalize()
-            .ok_or(FoveatedError::DegenerateDirection("torus axis"))?;
-        if major_segments < 3 || minor_segments < 3 || !(minor > 0.0 && major > minor && major.is_finite()) {
-            return Err(FoveatedError::InvalidParameter(format!(
-                "torus needs segments ≥ 3 and 0 < minor < major (got {major_segments}, {minor_segments}, {major}, {minor})"
-            )));
-        }
+        input::finite_vec3("torus centre (m)", center)?;
+        let axis = input::direction("torus axis", axis)?;
+        let major = input::positive("torus ring radius (m)", major)?;
+        input::positive("torus tube radius (m)", minor)?;
+        input::in_range("torus tube radius (m)", minor, 0.0, major)?;
+        at_least("torus ring segments", major_segments, 3)?;
+        at_least("torus tube segments", minor_segments, 3)?;
         let (u, w) = axis.any_orthonormal_pair();
         let (big, small) = (major_segments as usize, minor_segments as usize);
         let mut positions = Vec::with_capacity(big * small);
@@ -184,12 +203,16 @@ impl TriangleMesh {
         Self::new(positions, Some(normals), tris)
     }
 
-    /// A parallelogram `corner + s·edge_u + t·edge_v`, s, t ∈ [0, 1], as two
-    /// triangles with normal edge_u × edge_v.
+    /// A parallelogram `corner + s·edge_u + t·edge_v` (m), s, t ∈ [0, 1], as
+    /// two triangles with normal edge_u × edge_v. Errors:
+    /// [`FoveatedError::Input`] for a non-finite corner or edge;
+    /// [`FoveatedError::DegenerateDirection`] for parallel or zero edges.
     pub fn quad(corner: DVec3, edge_u: DVec3, edge_v: DVec3) -> Result<Self, FoveatedError> {
+        input::finite_vec3("quad corner (m)", corner)?;
+        input::finite_vec3("quad edge (m)", edge_u)?;
+        input::finite_vec3("quad edge (m)", edge_v)?;
         let n = edge_u.cross(edge_v);
-        let len = n.length();
-        if len.is_nan() || len == 0.0 {
+        if !(n.length() > 0.0) {
             return Err(FoveatedError::DegenerateDirection("quad edges parallel or zero"));
         }
         let p = vec![corner, corner + edge_u, corner + edge_u + edge_v, corner + edge_v];
@@ -202,13 +225,13 @@ impl TriangleMesh {
     }
 
     /// Bounds of the mesh.
-    pub fn bounds(&self) -> Aabb {
+    pub(crate) fn bounds(&self) -> Aabb {
         self.bvh.bounds()
     }
 
     /// Möller–Trumbore for triangle `i`: (t, u, v) with T_MIN < t < t_max.
     #[inline]
-    pub fn intersect_triangle(&self, i: usize, ray: &Ray, t_max: f64) -> Option<(f64, f64, f64)> {
+    pub(crate) fn intersect_triangle(&self, i: usize, ray: &Ray, t_max: f64) -> Option<(f64, f64, f64)> {
         let [a, b, c] = self.triangles[i].map(|k| self.positions[k as usize]);
         let e1 = b - a;
         let e2 = c - a;
@@ -216,7 +239,7 @@ impl TriangleMesh {
         let det = e1.dot(p);
         // Relative test: a ray in the triangle's plane (or a zero-area
         // triangle) has no unique hit.
-        if det.abs() <= 1e-14 * e1.length() * e2.length() {
+        if det.abs() <= PARALLEL_DET_REL * e1.length() * e2.length() {
             return None;
         }
         let inv = 1.0 / det;
@@ -236,7 +259,7 @@ impl TriangleMesh {
 
     /// The closest hit below `t_max` via the BVH; adds the number of triangle
     /// tests to `tests`.
-    pub fn intersect(&self, ray: &Ray, t_max: f64, tests: &mut u64) -> Option<MeshHit> {
+    pub(crate) fn intersect(&self, ray: &Ray, t_max: f64, tests: &mut u64) -> Option<MeshHit> {
         let mut uv = (0.0, 0.0);
         let hit = self.bvh.closest(ray, t_max, |i, tm| {
             *tests += 1;
@@ -251,7 +274,8 @@ impl TriangleMesh {
     }
 
     /// The closest hit by testing every triangle (the BVH's test oracle).
-    pub fn intersect_brute_force(&self, ray: &Ray, t_max: f64) -> Option<MeshHit> {
+    #[cfg(test)]
+    pub(crate) fn intersect_brute_force(&self, ray: &Ray, t_max: f64) -> Option<MeshHit> {
         let mut best: Option<MeshHit> = None;
         let mut tm = t_max;
         for i in 0..self.triangles.len() {
@@ -268,7 +292,7 @@ impl TriangleMesh {
     }
 
     /// True when any triangle blocks the ray before `t_max` (shadow rays).
-    pub fn occluded(&self, ray: &Ray, t_max: f64, tests: &mut u64) -> bool {
+    pub(crate) fn occluded(&self, ray: &Ray, t_max: f64, tests: &mut u64) -> bool {
         self.bvh.any(ray, t_max, |i| {
             *tests += 1;
             self.intersect_triangle(i, ray, t_max).is_some()
@@ -276,19 +300,28 @@ impl TriangleMesh {
     }
 
     /// Geometric (face) normal of triangle `i`, unit, by the winding.
-    pub fn face_normal(&self, i: usize) -> DVec3 {
+    pub(crate) fn face_normal(&self, i: usize) -> DVec3 {
         let [a, b, c] = self.triangles[i].map(|k| self.positions[k as usize]);
         (b - a).cross(c - a).normalize_or_zero()
     }
 
     /// Interpolated shading normal at a hit (the face normal where the vertex
     /// normals cancel).
-    pub fn shading_normal(&self, hit: &MeshHit) -> DVec3 {
+    pub(crate) fn shading_normal(&self, hit: &MeshHit) -> DVec3 {
         let [a, b, c] = self.triangles[hit.triangle].map(|k| self.normals[k as usize]);
         let (u, v) = hit.uv;
         (a * (1.0 - u - v) + b * u + c * v)
             .try_normalize()
             .unwrap_or_else(|| self.face_normal(hit.triangle))
+    }
+}
+
+/// `n` if it is at least `min` (a tessellation count).
+fn at_least(what: &'static str, n: u32, min: u32) -> Result<u32, InvalidInput> {
+    if n >= min {
+        Ok(n)
+    } else {
+        Err(InvalidInput::new(what, n as f64, Expected::Range { min: min as f64, max: u32::MAX as f64 }))
     }
 }
 
@@ -318,10 +351,36 @@ mod tests {
                 .triangle_count(),
             576
         );
-        assert!(TriangleMesh::uv_sphere(DVec3::ZERO, 1.0, 1, 24).is_err());
-        assert!(TriangleMesh::torus(DVec3::ZERO, DVec3::Y, 0.3, 1.0, 24, 12).is_err());
-        assert!(TriangleMesh::new(vec![DVec3::NAN; 3], None, vec![[0, 1, 2]]).is_err());
-        assert!(TriangleMesh::new(vec![DVec3::ZERO; 3], None, vec![[0, 1, 3]]).is_err());
+    }
+
+    #[test]
+    fn bad_meshes_are_rejected_naming_the_input() {
+        let what = |r: Result<TriangleMesh, FoveatedError>| match r {
+            Err(FoveatedError::Input(e)) => e.what,
+            other => panic!("expected an input error, got {other:?}"),
+        };
+        assert_eq!(what(TriangleMesh::uv_sphere(DVec3::ZERO, 1.0, 1, 24)), "sphere rings");
+        assert_eq!(what(TriangleMesh::uv_sphere(DVec3::ZERO, 1.0, 12, 2)), "sphere segments");
+        assert_eq!(what(TriangleMesh::uv_sphere(DVec3::ZERO, f64::NAN, 12, 24)), "sphere radius (m)");
+        // A tube wider than its ring.
+        let e = TriangleMesh::torus(DVec3::ZERO, DVec3::Y, 0.3, 1.0, 24, 12).unwrap_err();
+        assert_eq!(e, FoveatedError::Input(InvalidInput::new("torus tube radius (m)", 1.0, Expected::Range { min: 0.0, max: 0.3 })));
+        assert_eq!(what(TriangleMesh::torus(DVec3::ZERO, DVec3::ZERO, 1.0, 0.3, 24, 12)), "torus axis");
+        assert_eq!(what(TriangleMesh::torus(DVec3::ZERO, DVec3::Y, 1.0, 0.3, 24, 2)), "torus tube segments");
+        assert_eq!(what(TriangleMesh::new(vec![DVec3::NAN; 3], None, vec![[0, 1, 2]])), "mesh position (m)");
+        assert!(matches!(
+            TriangleMesh::new(vec![DVec3::ZERO; 3], None, vec![[0, 1, 3]]),
+            Err(FoveatedError::InvalidScene(m)) if m == "index 3 out of 3 vertices"
+        ));
+        assert!(matches!(TriangleMesh::new(vec![DVec3::ZERO; 3], None, vec![]), Err(FoveatedError::InvalidScene(_))));
+        assert_eq!(
+            TriangleMesh::new(vec![DVec3::ZERO; 3], Some(vec![DVec3::Y; 2]), vec![[0, 1, 2]]),
+            Err(FoveatedError::LengthMismatch { what: "mesh normals", expected: 3, got: 2 })
+        );
+        assert_eq!(
+            TriangleMesh::quad(DVec3::ZERO, DVec3::X, DVec3::X * 2.0),
+            Err(FoveatedError::DegenerateDirection("quad edges parallel or zero"))
+        );
     }
 
     #[test]

@@ -4,15 +4,17 @@
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use super::budget::{choose_lod, polygon_budget};
+use super::budget::lod_for_level;
 use super::bvh::{Aabb, Bvh};
 use super::error::FoveatedError;
 use super::mesh::{MeshHit, TriangleMesh};
+use crate::input;
 use crate::ray::Ray;
 
-/// Surface appearance for the Whitted shading model.
+/// Surface appearance for the reference tracer's Whitted shading: plain
+/// data, checked by [`LodObject::new`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Material {
+pub struct TracerMaterial {
     /// Albedo (linear RGB).
     pub color: DVec3,
     /// Diffuse (Lambert) weight.
@@ -21,15 +23,16 @@ pub struct Material {
     pub specular: f64,
     /// Phong exponent.
     pub shininess: f64,
-    /// The paper's 鏡面物体 (specular object) flag: reflective objects spawn
+    /// The paper's "specular object" flag: reflective objects spawn
     /// reflection rays, up to eq. 9's limit.
     pub reflective: bool,
     /// Fraction of light reflected when `reflective` (0..=1).
     pub reflectance: f64,
 }
 
-impl Material {
-    /// A diffuse (拡散) object of this colour.
+impl TracerMaterial {
+    /// A diffuse object of this colour (the paper's scene B): Lambert 0.9,
+    /// a faint Phong highlight (0.2, exponent 20), not reflective.
     pub fn diffuse(color: DVec3) -> Self {
         Self {
             color,
@@ -41,7 +44,9 @@ impl Material {
         }
     }
 
-    /// A reflective object: this colour locally, `reflectance` mirrored.
+    /// A reflective object (the paper's scene A): this colour locally with
+    /// Lambert 0.6 and a sharper Phong highlight (0.6, exponent 60), and
+    /// `reflectance` mirrored.
     pub fn mirror(color: DVec3, reflectance: f64) -> Self {
         Self {
             color,
@@ -54,10 +59,11 @@ impl Material {
     }
 }
 
-/// A point light (the paper's scenes have one, §4.2).
+/// A point light of the reference tracer (the paper's scenes have one,
+/// §4.2): plain data, checked by [`TracerScene::new`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct PointLight {
-    /// Position.
+pub struct TracerLight {
+    /// Position (m).
     pub position: DVec3,
     /// Radiant intensity (linear RGB); irradiance falls as 1/d².
     pub intensity: DVec3,
@@ -65,31 +71,28 @@ pub struct PointLight {
 
 /// One object O_j: meshes of the same shape sorted by ascending triangle
 /// count (N_j,min = the first, N_j,max = the last) and a material.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LodObject {
     lods: Vec<TriangleMesh>,
     counts: Vec<usize>,
-    material: Material,
+    material: TracerMaterial,
     bounds: Aabb,
 }
 
 impl LodObject {
-    /// An object from its LOD meshes (any order; sorted here). Errors: no
-    /// mesh, a non-finite material number, or a reflectance outside [0, 1].
-    pub fn new(mut lods: Vec<TriangleMesh>, material: Material) -> Result<Self, FoveatedError> {
+    /// An object from its LOD meshes (any order; sorted here). Errors:
+    /// [`FoveatedError::InvalidScene`] for no mesh; [`FoveatedError::Input`]
+    /// for a non-finite material number or a reflectance outside [0, 1].
+    pub fn new(mut lods: Vec<TriangleMesh>, material: TracerMaterial) -> Result<Self, FoveatedError> {
         if lods.is_empty() {
             return Err(FoveatedError::InvalidScene("object without meshes".into()));
         }
         let m = material;
-        if !(m.color.is_finite() && m.diffuse.is_finite() && m.specular.is_finite() && m.shininess.is_finite()) {
-            return Err(FoveatedError::NonFinite("material"));
-        }
-        if !(0.0..=1.0).contains(&m.reflectance) {
-            return Err(FoveatedError::InvalidScene(format!(
-                "reflectance {} outside [0, 1]",
-                m.reflectance
-            )));
-        }
+        input::finite_vec3("material colour", m.color)?;
+        input::finite("material diffuse weight", m.diffuse)?;
+        input::finite("material specular weight", m.specular)?;
+        input::finite("material shininess", m.shininess)?;
+        input::in_range("material reflectance", m.reflectance, 0.0, 1.0)?;
         lods.sort_by_key(|l| l.triangle_count());
         let counts = lods.iter().map(|l| l.triangle_count()).collect();
         let bounds = lods.iter().fold(Aabb::EMPTY, |b, l| b.union(l.bounds()));
@@ -107,68 +110,68 @@ impl LodObject {
     }
 
     /// The material.
-    pub fn material(&self) -> &Material {
+    pub fn material(&self) -> &TracerMaterial {
         &self.material
     }
 
     /// The mesh of chain index `lod`.
-    pub fn mesh(&self, lod: usize) -> &TriangleMesh {
+    pub(crate) fn mesh(&self, lod: usize) -> &TriangleMesh {
         &self.lods[lod.min(self.lods.len() - 1)]
     }
 
-    /// Eq. 10 then [`choose_lod`]: the chain index a ray of this level uses.
+    /// [`lod_for_level`](super::lod_for_level) (eq. 10 over the chain): the
+    /// chain index a ray of this level uses.
     pub fn lod_for_level(&self, level: f64) -> usize {
-        let (lo, hi) = (self.counts[0], self.counts[self.counts.len() - 1]);
-        choose_lod(&self.counts, polygon_budget(level, lo, hi))
+        lod_for_level(&self.counts, level)
     }
 
     /// Bounds over all LODs.
-    pub fn bounds(&self) -> Aabb {
+    pub(crate) fn bounds(&self) -> Aabb {
         self.bounds
     }
 }
 
 /// A hit in the scene.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SceneHit {
+pub(crate) struct SceneHit {
     /// Object index.
-    pub object: usize,
+    pub(crate) object: usize,
     /// Chain index of the mesh that was hit.
-    pub lod: usize,
+    pub(crate) lod: usize,
     /// The mesh hit.
-    pub hit: MeshHit,
+    pub(crate) hit: MeshHit,
 }
 
-/// Objects, lights, ambient light and the background colour.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Scene {
+/// The reference tracer's scene: objects, lights, ambient light and the
+/// background colour.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TracerScene {
     objects: Vec<LodObject>,
-    lights: Vec<PointLight>,
-    /// Ambient light (linear RGB), added as ambient × albedo.
-    pub ambient: DVec3,
-    /// Colour of rays that hit nothing and of level-0 pixels (§3.3.2).
-    pub background: DVec3,
+    lights: Vec<TracerLight>,
+    ambient: DVec3,
+    background: DVec3,
     top: Bvh,
 }
 
-impl Scene {
-    /// A scene; builds the BVH over the objects. Errors: non-finite lights,
-    /// ambient or background.
+impl TracerScene {
+    /// A scene; builds the BVH over the objects. `ambient` (linear RGB) is
+    /// added as ambient × albedo; `background` (linear RGB) is the colour of
+    /// rays that hit nothing and of level-0 pixels (the paper's §3.3.2).
+    ///
+    /// Errors: [`FoveatedError::Input`] for a non-finite light, ambient or
+    /// background.
     pub fn new(
         objects: Vec<LodObject>,
-        lights: Vec<PointLight>,
+        lights: Vec<TracerLight>,
         ambient: DVec3,
         background: DVec3,
     ) -> Result<Self, FoveatedError> {
-        if lights
-            .iter()
-            .any(|l| !(l.position.is_finite() && l.intensity.is_finite()))
-        {
-            return Err(FoveatedError::NonFinite("light"));
+        for l in &lights {
+            input::finite_vec3("light position (m)", l.position)?;
+            input::finite_vec3("light intensity", l.intensity)?;
         }
-        if !(ambient.is_finite() && background.is_finite()) {
-            return Err(FoveatedError::NonFinite("ambient or background"));
-        }
+        input::finite_vec3("ambient light", ambient)?;
+        input::finite_vec3("background colour", background)?;
         let boxes: Vec<Aabb> = objects.iter().map(|o| o.bounds()).collect();
         let top = Bvh::build(&boxes);
         Ok(Self {
@@ -186,14 +189,24 @@ impl Scene {
     }
 
     /// The lights.
-    pub fn lights(&self) -> &[PointLight] {
+    pub fn lights(&self) -> &[TracerLight] {
         &self.lights
+    }
+
+    /// Ambient light (linear RGB).
+    pub fn ambient(&self) -> DVec3 {
+        self.ambient
+    }
+
+    /// The background colour (linear RGB).
+    pub fn background(&self) -> DVec3 {
+        self.background
     }
 
     /// The closest hit below `t_max` for a ray of this `level`: every object
     /// is tested at the mesh eq. 10 gives for the level. Adds triangle tests
     /// to `tests`.
-    pub fn intersect(&self, ray: &Ray, level: f64, t_max: f64, tests: &mut u64) -> Option<SceneHit> {
+    pub(crate) fn intersect(&self, ray: &Ray, level: f64, t_max: f64, tests: &mut u64) -> Option<SceneHit> {
         let mut found: Option<SceneHit> = None;
         self.top.closest(ray, t_max, |oi, tm| {
             let o = &self.objects[oi];
@@ -208,7 +221,7 @@ impl Scene {
     }
 
     /// True when something blocks the ray before `t_max`, at this level's LODs.
-    pub fn occluded(&self, ray: &Ray, level: f64, t_max: f64, tests: &mut u64) -> bool {
+    pub(crate) fn occluded(&self, ray: &Ray, level: f64, t_max: f64, tests: &mut u64) -> bool {
         self.top.any(ray, t_max, |oi| {
             let o = &self.objects[oi];
             o.mesh(o.lod_for_level(level)).occluded(ray, t_max, tests)
@@ -244,14 +257,19 @@ impl DemoDetail {
 /// The demo scene used by the tests and the report: like the paper's (§4.2)
 /// eight objects, half of them reflective, one point light, around a CAVE of
 /// side 3 m centred at the origin with its floor at y = 0 (see
-/// [`super::cave::front_right_floor`]); a ground plane at y = 0.
-pub fn demo_scene(detail: &DemoDetail) -> Result<Scene, FoveatedError> {
-    if detail.rings.is_empty() || detail.rings.iter().any(|&r| r < 3) {
-        return Err(FoveatedError::InvalidParameter(
-            "demo rings must be ≥ 3 and non-empty".into(),
-        ));
+/// [`front_right_floor`](super::front_right_floor)); a ground plane at y = 0.
+///
+/// Errors: [`FoveatedError::InvalidScene`] for no LOD;
+/// [`FoveatedError::Input`] for a ring count below 3.
+pub fn demo_scene(detail: &DemoDetail) -> Result<TracerScene, FoveatedError> {
+    if detail.rings.is_empty() {
+        return Err(FoveatedError::InvalidScene("demo scene without LODs".into()));
     }
-    let sphere = |c: DVec3, r: f64, m: Material| -> Result<LodObject, FoveatedError> {
+    // A torus of r tube segments needs r ≥ 3; the sphere's 2 would do.
+    for &r in &detail.rings {
+        input::in_range("demo tessellation rings", r as f64, 3.0, u32::MAX as f64)?;
+    }
+    let sphere = |c: DVec3, r: f64, m: TracerMaterial| -> Result<LodObject, FoveatedError> {
         let lods = detail
             .rings
             .iter()
@@ -259,7 +277,7 @@ pub fn demo_scene(detail: &DemoDetail) -> Result<Scene, FoveatedError> {
             .collect::<Result<Vec<_>, _>>()?;
         LodObject::new(lods, m)
     };
-    let torus = |c: DVec3, axis: DVec3, m: Material| -> Result<LodObject, FoveatedError> {
+    let torus = |c: DVec3, axis: DVec3, m: TracerMaterial| -> Result<LodObject, FoveatedError> {
         let lods = detail
             .rings
             .iter()
@@ -269,26 +287,26 @@ pub fn demo_scene(detail: &DemoDetail) -> Result<Scene, FoveatedError> {
     };
     let v = DVec3::new;
     let objects = vec![
-        sphere(v(0.0, 0.7, -3.5), 0.7, Material::mirror(v(0.9, 0.9, 0.95), 0.7))?,
+        sphere(v(0.0, 0.7, -3.5), 0.7, TracerMaterial::mirror(v(0.9, 0.9, 0.95), 0.7))?,
         torus(
             v(-1.4, 0.75, -3.0),
             v(0.0, 0.3, 1.0),
-            Material::diffuse(v(0.9, 0.3, 0.2)),
+            TracerMaterial::diffuse(v(0.9, 0.3, 0.2)),
         )?,
         torus(
             v(1.4, 0.75, -3.2),
             v(0.3, 1.0, 0.2),
-            Material::mirror(v(0.95, 0.8, 0.3), 0.6),
+            TracerMaterial::mirror(v(0.95, 0.8, 0.3), 0.6),
         )?,
-        sphere(v(2.6, 0.5, -1.6), 0.5, Material::diffuse(v(0.2, 0.7, 0.3)))?,
-        sphere(v(3.2, 0.8, 0.6), 0.8, Material::mirror(v(0.8, 0.85, 0.9), 0.7))?,
-        sphere(v(-2.6, 0.5, -2.2), 0.5, Material::diffuse(v(0.3, 0.4, 0.9)))?,
+        sphere(v(2.6, 0.5, -1.6), 0.5, TracerMaterial::diffuse(v(0.2, 0.7, 0.3)))?,
+        sphere(v(3.2, 0.8, 0.6), 0.8, TracerMaterial::mirror(v(0.8, 0.85, 0.9), 0.7))?,
+        sphere(v(-2.6, 0.5, -2.2), 0.5, TracerMaterial::diffuse(v(0.3, 0.4, 0.9)))?,
         torus(
             v(0.9, 0.6, -5.2),
             v(-0.5, 1.0, 0.3),
-            Material::diffuse(v(0.8, 0.8, 0.2)),
+            TracerMaterial::diffuse(v(0.8, 0.8, 0.2)),
         )?,
-        sphere(v(-0.9, 0.9, -5.6), 0.9, Material::mirror(v(0.9, 0.6, 0.7), 0.5))?,
+        sphere(v(-0.9, 0.9, -5.6), 0.9, TracerMaterial::mirror(v(0.9, 0.6, 0.7), 0.5))?,
         // Ground: one LOD (a quad is exact at any budget).
         LodObject::new(
             vec![TriangleMesh::quad(
@@ -296,19 +314,20 @@ pub fn demo_scene(detail: &DemoDetail) -> Result<Scene, FoveatedError> {
                 v(40.0, 0.0, 0.0),
                 v(0.0, 0.0, -40.0),
             )?],
-            Material::diffuse(v(0.55, 0.55, 0.5)),
+            TracerMaterial::diffuse(v(0.55, 0.55, 0.5)),
         )?,
     ];
-    let lights = vec![PointLight {
+    let lights = vec![TracerLight {
         position: v(1.0, 4.0, 1.0),
         intensity: DVec3::splat(22.0),
     }];
-    Scene::new(objects, lights, DVec3::splat(0.08), v(0.05, 0.06, 0.1))
+    TracerScene::new(objects, lights, DVec3::splat(0.08), v(0.05, 0.06, 0.1))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::{Expected, InvalidInput};
 
     #[test]
     fn lod_follows_eq10() {
@@ -352,15 +371,27 @@ mod tests {
 
     #[test]
     fn bad_objects_are_rejected() {
-        assert!(LodObject::new(vec![], Material::diffuse(DVec3::ONE)).is_err());
+        assert!(matches!(
+            LodObject::new(vec![], TracerMaterial::diffuse(DVec3::ONE)),
+            Err(FoveatedError::InvalidScene(_))
+        ));
         let q = TriangleMesh::quad(DVec3::ZERO, DVec3::X, DVec3::Y).unwrap();
-        assert!(LodObject::new(vec![q.clone()], Material::mirror(DVec3::ONE, 1.5)).is_err());
-        let light = PointLight {
-            position: DVec3::NAN,
-            intensity: DVec3::ONE,
-        };
-        let o = LodObject::new(vec![q], Material::diffuse(DVec3::ONE)).unwrap();
-        assert!(Scene::new(vec![o], vec![light], DVec3::ZERO, DVec3::ZERO).is_err());
-        assert!(demo_scene(&DemoDetail { rings: vec![] }).is_err());
+        assert_eq!(
+            LodObject::new(vec![q.clone()], TracerMaterial::mirror(DVec3::ONE, 1.5)),
+            Err(FoveatedError::Input(InvalidInput::new("material reflectance", 1.5, Expected::Range { min: 0.0, max: 1.0 })))
+        );
+        let light = TracerLight { position: DVec3::NAN, intensity: DVec3::ONE };
+        let o = LodObject::new(vec![q], TracerMaterial::diffuse(DVec3::ONE)).unwrap();
+        let e = TracerScene::new(vec![o], vec![light], DVec3::ZERO, DVec3::ZERO).unwrap_err();
+        assert!(matches!(e, FoveatedError::Input(i) if i.what == "light position (m)"));
+        assert!(matches!(demo_scene(&DemoDetail { rings: vec![] }), Err(FoveatedError::InvalidScene(_))));
+        assert_eq!(
+            demo_scene(&DemoDetail { rings: vec![4, 2] }).unwrap_err(),
+            FoveatedError::Input(InvalidInput::new(
+                "demo tessellation rings",
+                2.0,
+                Expected::Range { min: 3.0, max: u32::MAX as f64 }
+            ))
+        );
     }
 }

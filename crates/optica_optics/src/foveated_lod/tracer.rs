@@ -1,18 +1,4 @@
-//! A small Whitted ray tracer with a level per ray (§3.3.3, Steps 2–6).
-//!
-//! For each pixel: its level (eq. 1–8, optionally quantised and held by the
-//! hysteresis) decides everything. Level 0 → background colour, no ray
-//! (Step 2). Otherwise the primary ray is traced with the reflection limit of
-//! eq. 9 and every object is intersected at the mesh of eq. 10 (Steps 3–4);
-//! shadow and reflection rays inherit the level (§3.3.1: rays spawned by
-//! reflection get the same level as their primary ray).
-//!
-//! Shading: ambient + per light (shadow ray, 1/d² falloff) Lambert + Phong;
-//! a reflective object mixes (1 − k_r)·local + k_r·reflected. When eq. 9's
-//! limit stops the recursion the reflected term is dropped (black), as in
-//! Whitted's cut-off, so that every extra bounce only adds light and a deeper
-//! limit is never further from the full-quality image in that term.
-//! Refraction is not modelled: the demo scenes have no transparent objects.
+//! A small Whitted tracer with a level per ray (documented on [`trace_ray`]).
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -23,35 +9,74 @@ use super::cave::CaveWall;
 use super::error::FoveatedError;
 use super::hysteresis::LevelQuantization;
 use super::level::VisualField;
+use super::scene::TracerScene;
 use super::tracker::GazeEstimate;
+use crate::input::{self, Expected, InvalidInput};
 use crate::ray::Ray;
 use crate::surface::reflect;
 
-/// Image size and the global reflection limit.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+/// Offset of secondary ray origins (shadow and reflection rays) along the
+/// surface normal, relative to the hit point's largest coordinate (plus 1 m,
+/// so that it does not vanish near the origin). The hit point's rounding
+/// error grows with its coordinates: a few ulps, 2.2e-16 each, relative.
+/// 1e-7 is some 10⁸ ulps, so a secondary ray never re-hits its own surface
+/// through rounding, and 0.1 µm at 1 m, far below the thinnest feature of
+/// the test scenes (a 0.2 m torus tube).
+const SECONDARY_RAY_OFFSET_REL: f64 = 1e-7;
+
+/// Image size and the global reflection limit, checked by
+/// [`TraceSettings::new`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct TraceSettings {
-    /// Width in pixels.
-    pub width: usize,
-    /// Height in pixels.
-    pub height: usize,
-    /// Reflect_max of eq. 9 (the paper uses 3).
-    pub reflect_max: u32,
+    width: usize,
+    height: usize,
+    reflect_max: u32,
 }
 
 impl TraceSettings {
-    /// `width × height`, or [`FoveatedError::InvalidParameter`] when the
-    /// product overflows `usize` or the image (one colour and one set of work
-    /// counters per pixel) could not be allocated at all. A zero side gives 0.
-    pub fn pixel_count(&self) -> Result<usize, FoveatedError> {
-        let too_big = || {
-            FoveatedError::InvalidParameter(format!("image of {}×{} pixels is too large", self.width, self.height))
-        };
-        let n = self.width.checked_mul(self.height).ok_or_else(too_big)?;
-        let per_pixel = std::mem::size_of::<(DVec3, TraceStats)>();
-        if n > isize::MAX as usize / per_pixel {
-            return Err(too_big());
+    /// `width × height` pixels (each at least 1) and Reflect_max of eq. 9
+    /// (the paper uses 3).
+    ///
+    /// Errors: [`FoveatedError::Input`] for a zero side, or for a pixel count
+    /// that overflows `usize` or that no allocation could hold (one colour
+    /// and one set of work counters per pixel).
+    pub fn new(width: usize, height: usize, reflect_max: u32) -> Result<Self, FoveatedError> {
+        for (what, n) in [("image width (pixels)", width), ("image height (pixels)", height)] {
+            if n == 0 {
+                return Err(InvalidInput::new(what, 0.0, Expected::Positive).into());
+            }
         }
-        Ok(n)
+        let per_pixel = std::mem::size_of::<(DVec3, TraceStats)>();
+        let max = isize::MAX as usize / per_pixel;
+        match width.checked_mul(height) {
+            Some(n) if n <= max => Ok(Self { width, height, reflect_max }),
+            _ => Err(InvalidInput::new(
+                "image pixel count",
+                width as f64 * height as f64,
+                Expected::Range { min: 1.0, max: max as f64 },
+            )
+            .into()),
+        }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Reflect_max of eq. 9.
+    pub fn reflect_max(&self) -> u32 {
+        self.reflect_max
+    }
+
+    /// `width × height`.
+    pub fn pixel_count(&self) -> usize {
+        self.width * self.height
     }
 }
 
@@ -99,102 +124,93 @@ pub struct RenderedImage {
     pub stats: TraceStats,
 }
 
-/// Where primary rays come from.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub enum Camera {
-    /// A symmetric pinhole camera.
-    Pinhole {
-        /// Eye.
-        eye: DVec3,
-        /// Unit view direction.
-        forward: DVec3,
-        /// Unit up, perpendicular to `forward`.
-        up: DVec3,
-        /// Vertical field of view in radians (0, π).
-        fov_y: f64,
-    },
-    /// A CAVE wall seen from a tracked eye: pixel (x, y) is the ray from the
-    /// eye through the wall point at that pixel's centre (the ray-traced twin
-    /// of [`CaveWall::off_axis`]).
-    Wall {
-        /// The wall (the image covers it exactly).
-        wall: CaveWall,
-        /// Eye, in front of the wall.
-        eye: DVec3,
-    },
+/// Where the reference tracer's primary rays come from. Built by
+/// [`TracerCamera::pinhole`] or [`TracerCamera::cave`], so every pixel has a
+/// ray.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TracerCamera(CameraKind);
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+enum CameraKind {
+    /// A symmetric pinhole camera: unit forward, unit up ⟂ forward, fov_y ∈ (0, π).
+    Pinhole { eye: DVec3, forward: DVec3, up: DVec3, fov_y: f64 },
+    /// A CAVE wall seen from an eye in front of it.
+    Wall { wall: CaveWall, eye: DVec3 },
 }
 
-impl Camera {
-    /// A pinhole camera. Errors: non-finite input, `forward` ∥ `up`, fov_y ∉ (0, π).
+impl TracerCamera {
+    /// A symmetric pinhole camera at `eye` (m) looking along `forward`, with
+    /// `up` (neither need be unit) and a vertical field of view `fov_y` in
+    /// radians, strictly between 0 and π.
+    ///
+    /// Errors: [`FoveatedError::Input`] for a non-finite eye, a zero or
+    /// non-finite direction, or a field of view outside (0, π);
+    /// [`FoveatedError::DegenerateDirection`] for `up` parallel to `forward`.
     pub fn pinhole(eye: DVec3, forward: DVec3, up: DVec3, fov_y: f64) -> Result<Self, FoveatedError> {
-        if !(eye.is_finite() && forward.is_finite() && up.is_finite()) {
-            return Err(FoveatedError::NonFinite("camera"));
-        }
-        let f = forward
-            .try_normalize()
-            .ok_or(FoveatedError::DegenerateDirection("camera forward"))?;
+        let eye = input::finite_vec3("camera position (m)", eye)?;
+        let f = input::direction("camera forward", forward)?;
+        let up = input::direction("camera up", up)?;
         let r = f
             .cross(up)
             .try_normalize()
-            .ok_or(FoveatedError::DegenerateDirection("camera up ∥ forward"))?;
+            .ok_or(FoveatedError::DegenerateDirection("camera up parallel to forward"))?;
         if !(fov_y > 0.0 && fov_y < std::f64::consts::PI) {
-            return Err(FoveatedError::InvalidParameter(format!("fov_y {fov_y} outside (0, π)")));
+            // `Expected::Range` is inclusive; both ends are refused here.
+            let range = Expected::Range { min: 0.0, max: std::f64::consts::PI };
+            return Err(InvalidInput::new("camera vertical field of view (rad)", fov_y, range).into());
         }
-        Ok(Self::Pinhole {
-            eye,
-            forward: f,
-            up: r.cross(f),
-            fov_y,
-        })
+        Ok(Self(CameraKind::Pinhole { eye, forward: f, up: r.cross(f), fov_y }))
     }
 
-    /// A wall camera; the eye must be in front of the wall (typed error otherwise).
+    /// A CAVE wall seen from a tracked eye: pixel (x, y) is the ray from the
+    /// eye through the wall point at that pixel's centre (the ray-traced twin
+    /// of [`CaveWall::off_axis`]). Errors: those of [`CaveWall::check_eye`].
     pub fn cave(wall: CaveWall, eye: DVec3) -> Result<Self, FoveatedError> {
         wall.check_eye(eye)?;
-        Ok(Self::Wall { wall, eye })
+        Ok(Self(CameraKind::Wall { wall, eye }))
     }
 
-    /// The eye.
+    /// The eye (m).
     pub fn eye(&self) -> DVec3 {
-        match *self {
-            Self::Pinhole { eye, .. } | Self::Wall { eye, .. } => eye,
+        match self.0 {
+            CameraKind::Pinhole { eye, .. } | CameraKind::Wall { eye, .. } => eye,
         }
     }
 
-    /// The primary ray through the centre of pixel (x, y) of a w × h image
-    /// (row 0 at the top); `None` where the camera cannot form a ray (a
-    /// non-finite eye or frame), which the renderer draws as background.
-    pub fn primary_ray(&self, x: usize, y: usize, w: usize, h: usize) -> Option<Ray> {
-        let s = (x as f64 + 0.5) / w as f64;
-        let t = 1.0 - (y as f64 + 0.5) / h as f64;
-        match *self {
-            Self::Pinhole {
-                eye,
-                forward,
-                up,
-                fov_y,
-            } => {
+    /// The primary ray through the centre of pixel (x, y) of an image of
+    /// `settings`' size (row 0 at the top). A pixel outside the image gives
+    /// the ray through the same place extended beyond the image's edge.
+    pub fn primary_ray(&self, x: usize, y: usize, settings: &TraceSettings) -> Ray {
+        // The sides are at least 1 (checked by `TraceSettings::new`), so s
+        // and t are finite.
+        let (w, h) = (settings.width as f64, settings.height as f64);
+        let s = (x as f64 + 0.5) / w;
+        let t = 1.0 - (y as f64 + 0.5) / h;
+        match self.0 {
+            CameraKind::Pinhole { eye, forward, up, fov_y } => {
                 let right = forward.cross(up);
                 let half_h = (fov_y / 2.0).tan();
-                let half_w = half_h * w as f64 / h as f64;
-                Ray::new(eye, forward + right * ((2.0 * s - 1.0) * half_w) + up * ((2.0 * t - 1.0) * half_h)).ok()
+                let half_w = half_h * w / h;
+                // The forward component is 1, so the sum is never zero.
+                let d = forward + right * ((2.0 * s - 1.0) * half_w) + up * ((2.0 * t - 1.0) * half_h);
+                Ray::from_unit(eye, d.normalize())
             }
-            Self::Wall { wall, eye } => wall.ray_through(eye, s, t),
+            CameraKind::Wall { wall, eye } => wall.ray_from_checked_eye(eye, s, t),
         }
     }
 }
 
-/// Offset for secondary ray origins, relative to the hit's distance from the
-/// origin: big enough to leave the surface, small against the scene.
+/// Offset for secondary ray origins: [`SECONDARY_RAY_OFFSET_REL`] scaled by
+/// the hit's largest coordinate.
 fn offset(p: DVec3) -> f64 {
-    1e-7 * (1.0 + p.abs().max_element())
+    SECONDARY_RAY_OFFSET_REL * (1.0 + p.abs().max_element())
 }
 
 /// Traces one ray of `level` with at most `limit` further reflections (eq. 9
 /// already applied); `depth` reflections have been made so far.
-fn trace(scene: &super::scene::Scene, ray: &Ray, level: f64, depth: u32, limit: u32, st: &mut TraceStats) -> DVec3 {
+fn trace(scene: &TracerScene, ray: &Ray, level: f64, depth: u32, limit: u32, st: &mut TraceStats) -> DVec3 {
     let Some(h) = scene.intersect(ray, level, f64::INFINITY, &mut st.triangle_tests) else {
-        return scene.background;
+        return scene.background();
     };
     let obj = &scene.objects()[h.object];
     let mesh = obj.mesh(h.lod);
@@ -211,11 +227,11 @@ fn trace(scene: &super::scene::Scene, ray: &Ray, level: f64, depth: u32, limit: 
     }
     let origin = p + geo * offset(p);
     let view = -ray.dir();
-    let mut local = scene.ambient * m.color;
+    let mut local = scene.ambient() * m.color;
     for light in scene.lights() {
         let to_l = light.position - origin;
         let dist = to_l.length();
-        if dist.is_nan() || dist <= 0.0 {
+        if !(dist > 0.0) {
             continue;
         }
         let l = to_l / dist;
@@ -245,110 +261,98 @@ fn trace(scene: &super::scene::Scene, ray: &Ray, level: f64, depth: u32, limit: 
     color
 }
 
-/// Traces one primary ray at `level` (Steps 2–6): background for level 0,
-/// else the Whitted colour with eq. 9's reflection limit and eq. 10's meshes.
-pub fn trace_ray(
-    scene: &super::scene::Scene,
-    ray: &Ray,
-    level: f64,
-    reflect_max: u32,
-    stats: &mut TraceStats,
-) -> DVec3 {
+/// Traces one primary ray at `level`, Steps 2–6 of the paper's §3.3.3, in
+/// linear RGB.
+///
+/// The level (eq. 1–8, optionally quantised and held by the hysteresis)
+/// decides everything. Level 0 → background colour, no ray (Step 2).
+/// Otherwise the ray is traced with the reflection limit of eq. 9 and every
+/// object is intersected at the mesh of eq. 10 (Steps 3–4); shadow and
+/// reflection rays inherit the level (§3.3.1: rays spawned by reflection get
+/// the same level as their primary ray). A level outside [0, 1] is clamped;
+/// NaN counts as 1 (full quality).
+///
+/// Shading (after T. Whitted, "An Improved Illumination Model for Shaded
+/// Display", *Communications of the ACM* 23(6), 1980, the paper's tracer):
+/// ambient + per light (shadow ray, 1/d² falloff) Lambert + Phong; a
+/// reflective object mixes (1 − k_r)·local + k_r·reflected. When eq. 9's
+/// limit stops the recursion the reflected term is dropped (black), as in
+/// Whitted's cut-off, so that every extra bounce only adds light and a deeper
+/// limit is never further from the full-quality image in that term.
+/// Refraction is not modelled: the demo scenes have no transparent objects.
+pub fn trace_ray(scene: &TracerScene, ray: &Ray, level: f64, reflect_max: u32, stats: &mut TraceStats) -> DVec3 {
     let level = sanitize_level(level);
     if level <= 0.0 {
         stats.background_pixels += 1;
-        return scene.background;
+        return scene.background();
     }
     stats.primary_rays += 1;
     trace(scene, ray, level, 0, reflect_limit(level, reflect_max), stats)
 }
 
-/// Per-pixel levels of the primary rays: eq. 1–8 for the estimated gaze (1
-/// everywhere under [`GazeEstimate::FullQuality`]), quantised by `quant`.
+/// Per-pixel levels of the primary rays, row-major: eq. 1–8 for the
+/// estimated gaze (1 everywhere under [`GazeEstimate::FullQuality`]),
+/// quantised by `quant`.
 ///
 /// The level of a pixel is taken along its primary ray from the camera's
-/// eye, which is where the gaze frame sits in a tracked CAVE. An invalid
-/// `field` gives 1 everywhere ([`VisualField::level_of_angles`]).
-///
-/// Errors: [`FoveatedError::InvalidParameter`] when `width × height`
-/// overflows ([`TraceSettings::pixel_count`]). A zero side gives no levels.
+/// eye, which is where the gaze frame sits in a tracked CAVE.
 pub fn pixel_levels(
-    camera: &Camera,
+    camera: &TracerCamera,
     settings: &TraceSettings,
     field: &VisualField,
     gaze: &GazeEstimate,
     quant: LevelQuantization,
-) -> Result<Vec<f64>, FoveatedError> {
-    let (w, h) = (settings.width, settings.height);
-    let n = settings.pixel_count()?;
-    Ok((0..n)
+) -> Vec<f64> {
+    let w = settings.width;
+    (0..settings.pixel_count())
         .into_par_iter()
-        .map(|i| {
-            match camera.primary_ray(i % w, i / w, w, h) {
-                Some(ray) => quant.apply(gaze.level(field, ray.dir())),
-                None => 0.0,
-            }
-        })
-        .collect())
+        .map(|i| quant.apply(gaze.level(field, camera.primary_ray(i % w, i / w, settings).dir())))
+        .collect()
 }
 
-/// Renders with one level per pixel (`levels.len()` must be width × height).
+/// Renders with one level per pixel, row-major: [`trace_ray`] for each
+/// pixel's primary ray, in parallel.
 ///
-/// Errors: [`FoveatedError::InvalidParameter`] for an empty image, a
-/// `width × height` that overflows, or a level count that differs from it.
+/// Errors: [`FoveatedError::LengthMismatch`] when `levels` does not hold
+/// one level per pixel.
 pub fn render(
-    scene: &super::scene::Scene,
-    camera: &Camera,
+    scene: &TracerScene,
+    camera: &TracerCamera,
     settings: &TraceSettings,
     levels: &[f64],
 ) -> Result<RenderedImage, FoveatedError> {
-    let (w, h) = (settings.width, settings.height);
-    if w == 0 || h == 0 {
-        return Err(FoveatedError::InvalidParameter("empty image".into()));
-    }
-    let n = settings.pixel_count()?;
+    let n = settings.pixel_count();
     if levels.len() != n {
-        return Err(FoveatedError::InvalidParameter(format!(
-            "{} levels for {}×{} pixels",
-            levels.len(),
-            w,
-            h
-        )));
+        return Err(FoveatedError::LengthMismatch { what: "levels for the image's pixels", expected: n, got: levels.len() });
     }
-    let out: Vec<(DVec3, TraceStats)> = (0..n)
+    Ok(render_with(scene, camera, settings, |i| levels[i]))
+}
+
+/// The full-quality render (level 1 for every ray): the reference the report
+/// compares foveated renders with.
+pub fn render_full_quality(scene: &TracerScene, camera: &TracerCamera, settings: &TraceSettings) -> RenderedImage {
+    render_with(scene, camera, settings, |_| 1.0)
+}
+
+/// Renders pixel `i` at `level(i)`.
+fn render_with(
+    scene: &TracerScene,
+    camera: &TracerCamera,
+    settings: &TraceSettings,
+    level: impl Fn(usize) -> f64 + Sync,
+) -> RenderedImage {
+    let w = settings.width;
+    let out: Vec<(DVec3, TraceStats)> = (0..settings.pixel_count())
         .into_par_iter()
         .map(|i| {
             let mut st = TraceStats::default();
-            let c = match camera.primary_ray(i % w, i / w, w, h) {
-                Some(ray) => trace_ray(scene, &ray, levels[i], settings.reflect_max, &mut st),
-                None => {
-                    st.background_pixels += 1;
-                    scene.background
-                }
-            };
+            let ray = camera.primary_ray(i % w, i / w, settings);
+            let c = trace_ray(scene, &ray, level(i), settings.reflect_max, &mut st);
             (c, st)
         })
         .collect();
     let stats = out.iter().fold(TraceStats::default(), |a, (_, s)| a.add(*s));
-    Ok(RenderedImage {
-        width: w,
-        height: h,
-        pixels: out.into_iter().map(|(c, _)| c).collect(),
-        stats,
-    })
-}
-
-/// The full-quality render (level 1 for every ray): the reference of the
-/// report. Errors as [`render`].
-pub fn render_full_quality(
-    scene: &super::scene::Scene,
-    camera: &Camera,
-    settings: &TraceSettings,
-) -> Result<RenderedImage, FoveatedError> {
-    if settings.width == 0 || settings.height == 0 {
-        return Err(FoveatedError::InvalidParameter("empty image".into()));
-    }
-    render(scene, camera, settings, &vec![1.0; settings.pixel_count()?])
+    RenderedImage { width: w, height: settings.height, pixels: out.into_iter().map(|(c, _)| c).collect(), stats }
 }
 
 #[cfg(test)]
@@ -358,27 +362,25 @@ mod tests {
     use super::super::scene::{DemoDetail, demo_scene};
     use super::*;
 
-    fn setup(n: usize) -> (super::super::scene::Scene, Camera, TraceSettings) {
+    fn setup(n: usize) -> (TracerScene, TracerCamera, TraceSettings) {
         let scene = demo_scene(&DemoDetail::small()).unwrap();
         let wall = front_right_floor(3.0).unwrap()[0];
-        let cam = Camera::cave(wall, DVec3::new(0.0, 1.5, 0.0)).unwrap();
-        (
-            scene,
-            cam,
-            TraceSettings {
-                width: n,
-                height: n,
-                reflect_max: 3,
-            },
-        )
+        let cam = TracerCamera::cave(wall, DVec3::new(0.0, 1.5, 0.0)).unwrap();
+        (scene, cam, TraceSettings::new(n, n, 3).unwrap())
+    }
+
+    /// Pixel (8, 9) of a 16 × 16 wall image: it looks at the mirror sphere
+    /// 0.26 m from its centre.
+    fn mirror_ray(cam: &TracerCamera) -> Ray {
+        cam.primary_ray(8, 9, &TraceSettings::new(16, 16, 3).unwrap())
     }
 
     #[test]
     fn level_zero_ray_gives_background_and_no_work() {
         let (scene, cam, _) = setup(8);
         let mut st = TraceStats::default();
-        let ray = cam.primary_ray(8, 9, 16, 16).unwrap();
-        assert_eq!(trace_ray(&scene, &ray, 0.0, 3, &mut st), scene.background);
+        let ray = mirror_ray(&cam);
+        assert_eq!(trace_ray(&scene, &ray, 0.0, 3, &mut st), scene.background());
         assert_eq!(
             st,
             TraceStats {
@@ -388,7 +390,7 @@ mod tests {
         );
         // The same ray at level 1 hits the mirror sphere in front of the eye.
         let c = trace_ray(&scene, &ray, 1.0, 3, &mut st);
-        assert_ne!(c, scene.background);
+        assert_ne!(c, scene.background());
         assert!(st.triangle_tests > 0 && st.primary_rays == 1);
     }
 
@@ -396,10 +398,10 @@ mod tests {
     fn gaze_behind_the_head_renders_background_only() {
         let (scene, cam, s) = setup(16);
         let behind = GazeEstimate::Tracked(GazeFrame::new(cam.eye(), DVec3::Z, DVec3::Y).unwrap());
-        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &behind, LevelQuantization::Continuous).unwrap();
+        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &behind, LevelQuantization::Continuous);
         assert!(lv.iter().all(|&l| l == 0.0));
         let img = render(&scene, &cam, &s, &lv).unwrap();
-        assert!(img.pixels.iter().all(|&p| p == scene.background));
+        assert!(img.pixels.iter().all(|&p| p == scene.background()));
         assert_eq!(img.stats.rays(), 0);
     }
 
@@ -407,9 +409,9 @@ mod tests {
     fn full_quality_fallback_equals_the_reference() {
         let (scene, cam, s) = setup(12);
         let lost = GazeEstimate::FullQuality { last: None };
-        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &lost, LevelQuantization::Steps(4)).unwrap();
+        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &lost, LevelQuantization::Steps(4));
         let a = render(&scene, &cam, &s, &lv).unwrap();
-        let b = render_full_quality(&scene, &cam, &s).unwrap();
+        let b = render_full_quality(&scene, &cam, &s);
         assert_eq!(a, b);
         assert!(a.pixels.iter().all(|p| p.is_finite()));
     }
@@ -418,9 +420,8 @@ mod tests {
     fn reflection_depth_follows_eq9() {
         // One pixel on the mirror sphere: level 1/3 → 1 reflection at most,
         // level 1 → up to 3 (Reflect_max = 3).
-        // Pixel (8, 9) of 16 looks at the mirror sphere 0.26 m from its centre.
         let (scene, cam, _) = setup(8);
-        let ray = cam.primary_ray(8, 9, 16, 16).unwrap();
+        let ray = mirror_ray(&cam);
         let mut a = TraceStats::default();
         trace_ray(&scene, &ray, 1.0 / 3.0, 3, &mut a);
         assert_eq!(a.reflection_rays, 1);
@@ -433,69 +434,87 @@ mod tests {
     fn foveation_saves_work_and_stays_finite() {
         let (scene, cam, s) = setup(16);
         let gaze = GazeEstimate::Tracked(GazeFrame::new(cam.eye(), DVec3::new(1.0, -0.2, -1.0), DVec3::Y).unwrap());
-        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &gaze, LevelQuantization::Continuous).unwrap();
+        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &gaze, LevelQuantization::Continuous);
         let fov = render(&scene, &cam, &s, &lv).unwrap();
-        let full = render_full_quality(&scene, &cam, &s).unwrap();
+        let full = render_full_quality(&scene, &cam, &s);
         assert!(fov.pixels.iter().all(|p| p.is_finite()));
         assert!(fov.stats.triangle_tests < full.stats.triangle_tests);
         assert!(fov.stats.rays() <= full.stats.rays());
         assert!(fov.stats.background_pixels > 0);
-        assert!(render(&scene, &cam, &s, &lv[1..]).is_err());
+        assert_eq!(
+            render(&scene, &cam, &s, &lv[1..]),
+            Err(FoveatedError::LengthMismatch { what: "levels for the image's pixels", expected: 256, got: 255 })
+        );
     }
 
     #[test]
-    fn oversized_image_is_a_typed_error_not_an_overflow() {
-        // width × height overflows usize: debug builds used to panic, release
-        // builds to wrap (here to 0, i.e. an image of no pixels).
-        let (scene, cam, _) = setup(4);
-        let field = VisualField::paper();
-        let gaze = GazeEstimate::FullQuality { last: None };
-        let invalid = |r: Result<(), FoveatedError>| matches!(r, Err(FoveatedError::InvalidParameter(_)));
-        for (w, h) in [(usize::MAX, 2), (1 << (usize::BITS / 2), 1 << (usize::BITS / 2)), (usize::MAX / 3, 5)] {
-            let s = TraceSettings { width: w, height: h, reflect_max: 3 };
-            assert!(s.width.checked_mul(s.height).is_none());
-            assert!(invalid(s.pixel_count().map(|_| ())));
-            assert!(invalid(render(&scene, &cam, &s, &[]).map(|_| ())));
-            assert!(invalid(render_full_quality(&scene, &cam, &s).map(|_| ())));
-            assert!(invalid(pixel_levels(&cam, &s, &field, &gaze, LevelQuantization::Continuous).map(|_| ())));
+    fn image_sizes_are_checked_once() {
+        // width × height overflows usize, or no allocation could hold it:
+        // a typed error from the constructor, before any allocation.
+        let count = |w: usize, h: usize| match TraceSettings::new(w, h, 3) {
+            Err(FoveatedError::Input(e)) => (e.what, e.expected),
+            other => panic!("expected an input error, got {other:?}"),
+        };
+        let per_pixel = std::mem::size_of::<(DVec3, TraceStats)>();
+        let too_many = ("image pixel count", Expected::Range { min: 1.0, max: (isize::MAX as usize / per_pixel) as f64 });
+        for (w, h) in [(usize::MAX, 2), (1 << (usize::BITS / 2), 1 << (usize::BITS / 2)), (usize::MAX / 8, 1)] {
+            assert_eq!(count(w, h), too_many, "{w} × {h}");
         }
-        // No overflow, but no allocation could hold it: typed too, before any allocation.
-        let huge = TraceSettings { width: usize::MAX / 8, height: 1, reflect_max: 3 };
-        assert!(invalid(huge.pixel_count().map(|_| ())));
-        assert!(invalid(render_full_quality(&scene, &cam, &huge).map(|_| ())));
+        assert_eq!(count(0, 5), ("image width (pixels)", Expected::Positive));
+        assert_eq!(count(5, 0), ("image height (pixels)", Expected::Positive));
         // Ordinary sizes are unaffected.
-        let ok = TraceSettings { width: 3, height: 2, reflect_max: 3 };
-        assert_eq!(ok.pixel_count(), Ok(6));
-        assert_eq!(pixel_levels(&cam, &ok, &field, &gaze, LevelQuantization::Continuous).unwrap(), vec![1.0; 6]);
+        let ok = TraceSettings::new(3, 2, 4).unwrap();
+        assert_eq!((ok.width(), ok.height(), ok.reflect_max(), ok.pixel_count()), (3, 2, 4, 6));
+        let (_, cam, _) = setup(4);
+        let gaze = GazeEstimate::FullQuality { last: None };
+        assert_eq!(pixel_levels(&cam, &ok, &VisualField::paper(), &gaze, LevelQuantization::Continuous), vec![1.0; 6]);
     }
 
     #[test]
-    fn invalid_field_renders_full_quality() {
-        // A visual field with a NaN central radius (public fields, deserialisable)
-        // used to give level 0, i.e. background, for every pixel.
-        let (scene, cam, s) = setup(8);
-        let mut field = VisualField::paper();
-        field.central = f64::NAN;
-        let gaze = GazeEstimate::Tracked(GazeFrame::new(cam.eye(), DVec3::new(1.0, -0.2, -1.0), DVec3::Y).unwrap());
-        let lv = pixel_levels(&cam, &s, &field, &gaze, LevelQuantization::Steps(4)).unwrap();
-        assert!(lv.iter().all(|&l| l == 1.0));
-        assert_eq!(render(&scene, &cam, &s, &lv).unwrap(), render_full_quality(&scene, &cam, &s).unwrap());
-    }
-
-    #[test]
-    fn wall_camera_needs_the_eye_in_front() {
+    fn cameras_are_checked_once() {
         let wall = front_right_floor(3.0).unwrap()[0];
         assert!(matches!(
-            Camera::cave(wall, DVec3::new(0.0, 1.5, -1.5)),
+            TracerCamera::cave(wall, DVec3::new(0.0, 1.5, -1.5)),
             Err(FoveatedError::EyeNotInFront { .. })
         ));
-        assert!(Camera::pinhole(DVec3::ZERO, DVec3::Y, DVec3::Y, 1.0).is_err());
+        assert_eq!(
+            TracerCamera::pinhole(DVec3::ZERO, DVec3::Y, DVec3::Y * 2.0, 1.0),
+            Err(FoveatedError::DegenerateDirection("camera up parallel to forward"))
+        );
+        let fov = |f: f64| match TracerCamera::pinhole(DVec3::ZERO, DVec3::NEG_Z, DVec3::Y, f) {
+            Err(FoveatedError::Input(e)) => e.what,
+            other => panic!("{other:?}"),
+        };
+        for bad in [0.0, std::f64::consts::PI, f64::NAN, -1.0] {
+            assert_eq!(fov(bad), "camera vertical field of view (rad)");
+        }
+        let zero = TracerCamera::pinhole(DVec3::ZERO, DVec3::ZERO, DVec3::Y, 1.0).unwrap_err();
+        assert_eq!(zero, FoveatedError::Input(InvalidInput::new("camera forward", 0.0, Expected::Direction)));
     }
 
     #[test]
-    fn pinhole_centre_ray_is_forward() {
-        let c = Camera::pinhole(DVec3::ZERO, DVec3::NEG_Z, DVec3::Y, 1.0).unwrap();
-        let r = c.primary_ray(1, 1, 3, 3).unwrap();
-        assert!((r.dir() - DVec3::NEG_Z).length() < 1e-15);
+    fn pinhole_rays_are_unit_and_centred() {
+        // A forward of any length is normalised; the centre pixel looks along it.
+        let c = TracerCamera::pinhole(DVec3::ZERO, DVec3::NEG_Z * 4.0, DVec3::Y, 1.0).unwrap();
+        let s = TraceSettings::new(3, 3, 3).unwrap();
+        assert!((c.primary_ray(1, 1, &s).dir() - DVec3::NEG_Z).length() < 1e-15);
+        // The top-left pixel centre: tan of the half-angles is (2/3)·tan(0.5).
+        let r = c.primary_ray(0, 0, &s);
+        let k = 2.0 / 3.0 * 0.5f64.tan();
+        assert!((r.dir() - DVec3::new(-k, k, -1.0).normalize()).length() < 1e-15);
+        assert!((r.dir().length() - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn wall_camera_rays_hit_the_pixel_centres() {
+        let wall = front_right_floor(3.0).unwrap()[0];
+        let eye = DVec3::new(0.3, 1.2, 0.4);
+        let cam = TracerCamera::cave(wall, eye).unwrap();
+        let s = TraceSettings::new(4, 2, 3).unwrap();
+        // Pixel (3, 1): s = 3.5/4, t = 1 − 1.5/2 (row 0 at the top).
+        let r = cam.primary_ray(3, 1, &s);
+        let p = wall.point_at(3.5 / 4.0, 0.25);
+        assert!((r.dir() - (p - eye).normalize()).length() < 1e-15);
+        assert_eq!(r, wall.ray_through(eye, 3.5 / 4.0, 0.25).unwrap());
     }
 }

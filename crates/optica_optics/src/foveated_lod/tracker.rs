@@ -1,25 +1,14 @@
-//! Head/eye tracker input with dropout handling (Step 1 of §3.3.3).
-//!
-//! Trackers drop out (occlusion, out of range) and some report NaN. Policy:
-//!
-//! 1. A valid sample (finite, non-degenerate) is used as is: [`GazeEstimate::Tracked`].
-//! 2. An invalid or missing sample keeps the last valid pose while it is at
-//!    most `timeout_s` old: [`GazeEstimate::Held`]. A short dropout should not
-//!    make the whole view flash to full quality and back.
-//! 3. After the timeout, or before any valid sample, the estimate is
-//!    [`GazeEstimate::FullQuality`]: every ray gets level 1, i.e. the
-//!    unfoveated image. Where the gaze is unknown, no region may be degraded.
-//!
-//! A NaN timestamp is treated like a missing sample and does not advance the
-//! clock.
+//! Head/eye tracker input with dropout handling (documented on [`GazeTracker`]).
 
 use glam::{DQuat, DVec3};
 use serde::{Deserialize, Serialize};
 
 use super::error::FoveatedError;
 use super::level::{GazeFrame, VisualField};
+use crate::input;
 
-/// One tracker reading.
+/// One tracker reading, as the tracker reported it (unchecked: see
+/// [`TrackerSample::frame`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum TrackerSample {
     /// Eye position, gaze direction and an up hint (see [`GazeFrame::new`]).
@@ -43,18 +32,20 @@ pub enum TrackerSample {
 }
 
 impl TrackerSample {
-    /// The gaze frame of this sample, or why it is unusable.
+    /// The gaze frame of this sample, or why it is unusable: the errors of
+    /// [`GazeFrame::new`] and [`GazeFrame::from_rotation`], and
+    /// [`FoveatedError::MissingSample`] for [`TrackerSample::Missing`].
     pub fn frame(&self) -> Result<GazeFrame, FoveatedError> {
         match *self {
             Self::Gaze { eye, gaze, up } => GazeFrame::new(eye, gaze, up),
             Self::Pose { eye, rotation } => GazeFrame::from_rotation(eye, rotation),
-            Self::Missing => Err(FoveatedError::NonFinite("tracker sample missing")),
+            Self::Missing => Err(FoveatedError::MissingSample),
         }
     }
 }
 
 /// What the renderer should use this frame.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub enum GazeEstimate {
     /// A fresh valid sample.
     Tracked(GazeFrame),
@@ -85,8 +76,8 @@ impl GazeEstimate {
     /// The eye position to project from: the current or last valid one.
     pub fn eye(&self) -> Option<DVec3> {
         match self {
-            Self::Tracked(f) | Self::Held { frame: f, .. } => Some(f.eye),
-            Self::FullQuality { last } => last.map(|f| f.eye),
+            Self::Tracked(f) | Self::Held { frame: f, .. } => Some(f.eye()),
+            Self::FullQuality { last } => last.map(|f| f.eye()),
         }
     }
 
@@ -100,8 +91,23 @@ impl GazeEstimate {
     }
 }
 
-/// Filters tracker samples by the policy of the module docs.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// Filters head/eye tracker samples (Step 1 of the paper's §3.3.3, "get the
+/// operator's eye position and gaze direction") against dropouts.
+///
+/// Trackers drop out (occlusion, out of range) and some report NaN. Policy
+/// (an addition; the paper does not discuss dropouts):
+///
+/// 1. A valid sample (finite, non-degenerate) is used as is: [`GazeEstimate::Tracked`].
+/// 2. An invalid or missing sample keeps the last valid pose while it is at
+///    most `timeout_s` old: [`GazeEstimate::Held`]. A short dropout should not
+///    make the whole view flash to full quality and back.
+/// 3. After the timeout, or before any valid sample, the estimate is
+///    [`GazeEstimate::FullQuality`]: every ray gets level 1, i.e. the
+///    unfoveated image. Where the gaze is unknown, no region may be degraded.
+///
+/// A NaN timestamp is treated like a missing sample and does not advance the
+/// clock.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct GazeTracker {
     timeout_s: f64,
     last: Option<(GazeFrame, f64)>,
@@ -109,12 +115,9 @@ pub struct GazeTracker {
 
 impl GazeTracker {
     /// A filter that holds the last valid pose for at most `timeout_s` seconds.
+    /// Errors: [`FoveatedError::Input`] for a negative or non-finite timeout.
     pub fn new(timeout_s: f64) -> Result<Self, FoveatedError> {
-        if !(timeout_s >= 0.0 && timeout_s.is_finite()) {
-            return Err(FoveatedError::InvalidParameter(format!(
-                "tracker timeout {timeout_s} s must be finite and ≥ 0"
-            )));
-        }
+        let timeout_s = input::non_negative("tracker hold timeout (s)", timeout_s)?;
         Ok(Self { timeout_s, last: None })
     }
 
@@ -145,6 +148,7 @@ impl GazeTracker {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::Expected;
 
     fn good() -> TrackerSample {
         TrackerSample::Gaze {
@@ -203,8 +207,11 @@ mod tests {
         let mut t = GazeTracker::new(0.2).unwrap();
         t.update(good(), 0.0);
         assert!(matches!(t.update(good(), f64::NAN), GazeEstimate::Held { .. }));
-        assert!(GazeTracker::new(f64::NAN).is_err());
-        assert!(GazeTracker::new(-1.0).is_err());
+        for bad in [f64::NAN, -1.0, f64::INFINITY] {
+            assert!(matches!(GazeTracker::new(bad),
+                Err(FoveatedError::Input(e)) if e.what == "tracker hold timeout (s)" && e.expected == Expected::NonNegative));
+        }
+        assert_eq!(TrackerSample::Missing.frame(), Err(FoveatedError::MissingSample));
     }
 
     #[test]

@@ -1,15 +1,5 @@
 //! The exact lattice tracer: the reference the shading path is measured
 //! against.
-//!
-//! The view ray is walked cell by cell across the lens layer (depths
-//! `0..2r`) with a 2-D Amanatides–Woo walk in texture space, and at each cell
-//! it is tested against the lenses of the whole 3×3 neighbourhood; the
-//! nearest entry wins. Because a lens lies inside its own cell's column,
-//! every lens the ray can reach is tested before the walk passes it, and the
-//! walk stops as soon as the nearest hit lies within the cell being left.
-//! The ray is refracted in and out (eq. 6.28 for both normals) and goes on to
-//! the pigment plane (6.29). With `max_lenses > 1` it is followed into further
-//! lenses on its way — the repeated refraction the thesis leaves as TODO.
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -34,7 +24,22 @@ pub const THESIS_MAX_LENSES: u32 = 1;
 /// Traces `ray` exactly through the lattice: the first lens it really meets
 /// (searched over every reachable lens), both refractions, then on through at
 /// most `max_lenses` lenses in all (`1` = the thesis's model; `0` = no lens,
-/// a straight line to the pigment plane), then the pigment plane.
+/// a straight line to the pigment plane), then the pigment plane. The
+/// reference [`shade`](super::shade) is measured against (cargo feature
+/// `reference`).
+///
+/// The view ray is walked cell by cell across the lens layer (depths
+/// `0..2r`) with a 2-D Amanatides–Woo walk in texture space (J. Amanatides
+/// and A. Woo, "A fast voxel traversal algorithm for ray tracing",
+/// Eurographics 1987), and at each cell
+/// it is tested against the lenses of the whole 3×3 neighbourhood; the
+/// nearest entry wins. Because a lens lies inside its own cell's column,
+/// every lens the ray can reach is tested before the walk passes it, and the
+/// walk stops as soon as the nearest hit lies within the cell being left.
+/// The ray is refracted in and out (eq. 6.28 for both normals) and goes on to
+/// the pigment plane (6.29). With `max_lenses > 1` it is followed into further
+/// lenses on its way — the repeated refraction the thesis leaves for future
+/// work (§6.5).
 pub fn trace_exact(lattice: &Lattice, ray: &Ray, max_lenses: u32) -> Shade {
     let mut path = match polygon_entry(lattice, ray) {
         Ok(fragment) => fragment,

@@ -29,7 +29,7 @@ const BOUND_REL_TOL: f64 = 1e-12;
 /// Length tolerance of the lattice, relative to the lens radius: a point this
 /// close to a lens's surface or the polygon is on it. The round-off of an
 /// `f64` sphere intersection is ~1e-15 relative; `1e-9` leaves six orders of
-/// margin and is still far below a visible distance (a nanometre on a
+/// margin and is still far below a visible distance (a picometre on a
 /// millimetre lens).
 const LENGTH_REL_EPS: f64 = 1e-9;
 
@@ -134,7 +134,7 @@ pub fn cell_centre_uv(uv: DVec2) -> DVec2 {
 /// Integer index `[i, j]` of the cell whose centre is `centre_uv` (saturating
 /// for coordinates beyond `i64`).
 #[inline]
-pub fn cell_index(centre_uv: DVec2) -> [i64; 2] {
+pub(crate) fn cell_index(centre_uv: DVec2) -> [i64; 2] {
     [(centre_uv.x - 0.5).round() as i64, (centre_uv.y - 0.5).round() as i64]
 }
 

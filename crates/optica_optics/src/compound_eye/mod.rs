@@ -28,6 +28,13 @@
 //! [`Ray`] normalises its own). Everything is `f64`; the plugin's shader
 //! twin is `f32`.
 //!
+//! Input: constructors check what they are given ([`CompoundEyeError`]) and
+//! the per-ray functions take a [`Ray`], so tracing never fails: it returns a
+//! [`Shade`], a finite pigment hit or a [`ShadeFallback`], never NaN. The
+//! coordinate maps of the steps ([`TextureAxes::uv_of`],
+//! [`Lattice::lens_centre`], ...) are plain linear maps: finite in, finite
+//! out (short of overflow at ~1e300).
+//!
 //! ## Equations
 //!
 //! Texture resolution (§6.3), [`scale_uv`]:
@@ -91,13 +98,14 @@
 //!
 //! | items | what |
 //! |---|---|
-//! | [`scale_uv`], [`TextureAxes`] | `U_p`, `V_p`, `P_c` per triangle (6.1–6.15), UV ↔ point (6.2, 6.26–6.27) |
-//! | [`LensParams`], [`Lattice`], [`cell_centre_uv`], [`cell_index`] | lens parameters, the lattice of one triangle: cells, lens centres, slices, pigment plane (6.16–6.25, 6.29) |
-//! | [`refract_through_ball`], [`ball_focal_length`] | refraction into and out of one sphere (6.28), ball-lens focus |
+//! | [`scale_uv`], [`TextureAxes`] (thresholds [`UV_DET_REL_EPS`], [`AREA_REL_EPS`], [`NORMAL_COS_EPS`]) | `U_p`, `V_p`, `P_c` per triangle (6.1–6.15), UV ↔ point (6.2, 6.26–6.27) |
+//! | [`LensParams`], [`Lattice`], [`PigmentPlaneHit`], [`cell_centre_uv`], [`MAX_SLICES`], [`MIN_COS`] | lens parameters, the lattice of one triangle: cells, lens centres, slices, pigment plane (6.16–6.25, 6.29) |
+//! | [`refract_through_ball`], [`BallExit`], [`BallFailure`], [`ball_focal_length`] | refraction into and out of one sphere (6.28), ball-lens focus |
 //! | [`shade`], [`shade_fragment`] | the thesis's per-fragment path: the CPU twin of the shader |
 //! | [`Shade`], [`PigmentHit`], [`ShadeFallback`] | what a traced view ray returns |
 //! | [`facet_lattice`], [`ray_to_facet`], [`shows_dark_centre`] | facet frames on a curved eye and the pseudopupil test |
-//! | `trace_exact`, `trace_exact_batch`, `shade_batch` | (feature `reference`) the exact lattice tracer, the report's reference, and batches |
+//! | [`CompoundEyeError`], [`InvalidInput`] | why a constructor refused its input |
+//! | `trace_exact`, `trace_exact_batch`, `shade_batch`, `MAX_CELLS`, `THESIS_MAX_LENSES` | (feature `reference`) the exact lattice tracer, the report's reference, and batches |
 //!
 //! ```
 //! use optica_optics::compound_eye::{Lattice, LensParams, Ray, TextureAxes, shade};
@@ -131,7 +139,7 @@ pub use ball_lens::{BallExit, BallFailure, ball_focal_length, refract_through_ba
 pub use error::CompoundEyeError;
 #[cfg(feature = "reference")]
 pub use exact_tracer::{MAX_CELLS, THESIS_MAX_LENSES, trace_exact, trace_exact_batch};
-pub use lattice::{Lattice, LensParams, MAX_SLICES, MIN_COS, PigmentPlaneHit, cell_centre_uv, cell_index};
+pub use lattice::{Lattice, LensParams, MAX_SLICES, MIN_COS, PigmentPlaneHit, cell_centre_uv};
 pub use outcome::{PigmentHit, Shade, ShadeFallback};
 pub use pseudopupil::{facet_lattice, ray_to_facet, shows_dark_centre};
 #[cfg(feature = "reference")]

@@ -1,45 +1,5 @@
 //! The thesis's shading path for one view ray (§6.4–6.6): the CPU twin of
-//! the compound-eye fragment shader.
-//!
-//! Written the way the shader is: one loop with a uniform bound
-//! ([`MAX_SLICES`]), no allocation, no recursion, every branch a defined
-//! value. Steps, with the thesis's equation numbers:
-//!
-//! 1. The fragment: the view ray's hit `P` on the polygon and its texture
-//!    coordinate `(a, b)` (eq. 6.16).
-//! 2. For slice `s = 0..=K` at depth `h = s·r/K` (`s = 0`: the polygon
-//!    itself; the last slice at `h = r`, §6.4): the view ray's point `P_s` on
-//!    the slice plane, projected back onto the polygon (6.23) and its texture
-//!    coordinate by least squares (6.24–6.27); the cell centre (6.17–6.20),
-//!    its point on the polygon (6.21) and the lens centre `S = P' − r·N`
-//!    (6.22); the first lens the view ray intersects ends the search.
-//! 3. Refraction into and out of that lens (6.28).
-//! 4. The pigment-plane hit and its texture coordinate (6.29).
-//!
-//! No lens found: the unrefracted ray goes on to the pigment plane (§6.4).
-//!
-//! Why the search is exact in the limit: each lens lies inside its own cell's
-//! column (`r ≤` half the cell height, checked by [`Lattice::new`]), and a
-//! straight ray crosses each column once, in order. So a lens picked at a
-//! slice that the ray intersects at all is the *first* lens it meets unless
-//! the first lens's column lay wholly between two slices; with `K → ∞` the
-//! path therefore finds the exact first lens for every ray that is inside
-//! that lens's column somewhere between the polygon and the last slice
-//! (`0 ≤ h ≤ r`, the lenses' equator plane). Rays that reach their first
-//! lens's column only below depth `r` (grazing rays that slip through the
-//! gaps between lenses, at cell corners, and cross into the column deep
-//! down) stay unresolved at any `K` — that is the method's error floor. Where
-//! the ray meets the sphere does not matter: a ray that is in the column
-//! above depth `r` is found even when it enters the sphere below its
-//! equator.
-//!
-//! Measured (report sweep `compound_eye`: unit facets, touching lenses
-//! `r = ½`, `n = 1.5`, `d = 2r`, rays from 0° to 89°): the wrong-lens
-//! fraction falls from 42 % at `K = 0` to 4.3 % at `K = 8` and to its floor
-//! of 0.05 % from `K = 32` on; a single extra slice at `h = r` (`K = 1`) is
-//! *worse* than none in mean texel error at grazing angles, because it jumps
-//! past the ray's first lens to a later one. Near-normal rays (≤ 10°) need
-//! only `K ≥ 1`.
+//! the compound-eye fragment shader. See [`shade`].
 
 use glam::DVec2;
 
@@ -68,7 +28,49 @@ pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<Ray, ShadeFa
 
 /// Traces `ray` by the thesis's shading path with `slices` slice planes
 /// below the polygon (clamped to [`MAX_SLICES`]; 0 = the polygon alone):
-/// where it meets the polygon (eq. 6.16), then [`shade_fragment`].
+/// where it meets the polygon (eq. 6.16), then [`shade_fragment`]. A ray that
+/// does not reach the polygon from the front is a
+/// [`ShadeFallback::PolygonMiss`].
+///
+/// Written the way the shader is: one loop with a uniform bound
+/// ([`MAX_SLICES`]), no allocation, no recursion, every branch a defined
+/// value. Steps, with the thesis's equation numbers:
+///
+/// 1. The fragment: the view ray's hit `P` on the polygon and its texture
+///    coordinate `(a, b)` (eq. 6.16).
+/// 2. For slice `s = 0..=K` at depth `h = s·r/K` (`s = 0`: the polygon
+///    itself; the last slice at `h = r`, §6.4): the view ray's point `P_s` on
+///    the slice plane, projected back onto the polygon (6.23) and its texture
+///    coordinate by least squares (6.24–6.27); the cell centre (6.17–6.20),
+///    its point on the polygon (6.21) and the lens centre `S = P' − r·N`
+///    (6.22); the first lens the view ray intersects ends the search.
+/// 3. Refraction into and out of that lens (6.28).
+/// 4. The pigment-plane hit and its texture coordinate (6.29).
+///
+/// No lens found: the unrefracted ray goes on to the pigment plane (§6.4).
+///
+/// Why the search is exact in the limit: each lens lies inside its own cell's
+/// column (`r ≤` half the cell height, checked by [`Lattice::new`]), and a
+/// straight ray crosses each column once, in order. So a lens picked at a
+/// slice that the ray intersects at all is the *first* lens it meets unless
+/// the first lens's column lay wholly between two slices; with `K → ∞` the
+/// path therefore finds the exact first lens for every ray that is inside
+/// that lens's column somewhere between the polygon and the last slice
+/// (`0 ≤ h ≤ r`, the lenses' equator plane). Rays that reach their first
+/// lens's column only below depth `r` (grazing rays that slip through the
+/// gaps between lenses, at cell corners, and cross into the column deep
+/// down) stay unresolved at any `K` — that is the method's error floor. Where
+/// the ray meets the sphere does not matter: a ray that is in the column
+/// above depth `r` is found even when it enters the sphere below its
+/// equator.
+///
+/// Measured (report sweep `compound_eye`: unit facets, touching lenses
+/// `r = ½`, `n = 1.5`, `d = 2r`, rays from 0° to 89°): the wrong-lens
+/// fraction falls from 42 % at `K = 0` to 4.3 % at `K = 8` and to its floor
+/// of 0.05 % from `K = 32` on; a single extra slice at `h = r` (`K = 1`) is
+/// *worse* than none in mean texel error at grazing angles, because it jumps
+/// past the ray's first lens to a later one. Near-normal rays (≤ 10°) need
+/// only `K ≥ 1`.
 pub fn shade(lattice: &Lattice, ray: &Ray, slices: u32) -> Shade {
     match polygon_entry(lattice, ray) {
         Ok(fragment) => shade_fragment(lattice, &fragment, slices),

@@ -1,14 +1,6 @@
 //! Texture-axis vectors `U_p`, `V_p` and the origin `P_c` of one triangle
 //! (thesis §6.3.1, eq. 6.1–6.15), and the maps between polygon points and
 //! texture coordinates (eq. 6.2, 6.25–6.27).
-//!
-//! Handedness: eq. 6.8–6.15 give `U_p × V_p = (P_10 × P_20) / det A`, so a
-//! mirrored UV triangle (`det A < 0`) has `U_p × V_p` pointing *into* the
-//! surface. The thesis never forms that cross product, and neither do we: the
-//! normal `N` comes from the winding (`P_10 × P_20`), so the lenses stay
-//! under the surface (eq. 6.22) on mirrored triangles too, and the sign is
-//! kept in [`TextureAxes::handedness`] for code that builds a tangent frame
-//! (Bevy's `Mesh::ATTRIBUTE_TANGENT` `w`, see [`TextureAxes::tangent_vec4`]).
 
 use glam::{DVec2, DVec3, DVec4};
 
@@ -25,8 +17,8 @@ use crate::input::{self, InvalidInput};
 pub const UV_DET_REL_EPS: f64 = 1e-6;
 
 /// A position triangle is degenerate when `|P_10 × P_20| ≤ AREA_REL_EPS ·
-/// |P_10|·|P_20|` (the sine of its angle at `P_0`). `1e-12` is about 4000
-/// `f64` ulps: the cross product of two collinear edges is round-off of that
+/// |P_10|·|P_20|` (the sine of its angle at `P_0`). `1e-12` is about 4500
+/// `f64` ulps of 1: the cross product of two collinear edges is round-off of that
 /// order, so below it the normal's direction is noise.
 pub const AREA_REL_EPS: f64 = 1e-12;
 
@@ -53,6 +45,14 @@ pub fn scale_uv(t_obj: DVec2, texture_resolution: f64) -> Result<DVec2, InvalidI
 const DEFAULT_FALLBACK_CELL: f64 = 1.0;
 
 /// The texture frame of one triangle: `P = P_c + a·U_p + b·V_p` (eq. 6.2).
+///
+/// Handedness: eq. 6.8–6.15 give `U_p × V_p = (P_10 × P_20) / det A`, so a
+/// mirrored UV triangle (`det A < 0`) has `U_p × V_p` pointing *into* the
+/// surface. The thesis never forms that cross product, and neither do we: the
+/// normal `N` comes from the winding (`P_10 × P_20`), so the lenses stay
+/// under the surface (eq. 6.22) on mirrored triangles too, and the sign is
+/// kept in [`TextureAxes::handedness`] for code that builds a tangent frame
+/// (Bevy's `Mesh::ATTRIBUTE_TANGENT` `w`, see [`TextureAxes::tangent_vec4`]).
 ///
 /// Invariants every constructor establishes and the rest of the module relies
 /// on: `U_p`, `V_p` finite and not parallel, `N` a unit vector exactly along

@@ -214,7 +214,8 @@ impl Lattice {
     /// The distance along `view` at which it enters the lens centred at
     /// `centre`, or `None` when it misses it (or only touches it behind its
     /// origin). The origin may lie on the lens's surface (the polygon touches
-    /// every lens at its apex), so a root a hair behind it counts as 0.
+    /// every lens at its apex), so a root behind it by less than the lattice's
+    /// length tolerance (`1e-9 r`, round-off of the intersection) counts as 0.
     #[inline]
     pub fn lens_entry(&self, view: &Ray, centre: DVec3) -> Option<f64> {
         let eps = self.eps();

@@ -1,15 +1,5 @@
 //! The exact lattice tracer: the reference the shading path is measured
 //! against.
-//!
-//! The view ray is walked cell by cell across the lens layer (depths
-//! `0..2r`) with a 2-D Amanatides–Woo walk in texture space, and at each cell
-//! it is tested against the lenses of the whole 3×3 neighbourhood; the
-//! nearest entry wins. Because a lens lies inside its own cell's column,
-//! every lens the ray can reach is tested before the walk passes it, and the
-//! walk stops as soon as the nearest hit lies within the cell being left.
-//! The ray is refracted in and out (eq. 6.28 for both normals) and goes on to
-//! the pigment plane (6.29). With `max_lenses > 1` it is followed into further
-//! lenses on its way — the repeated refraction the thesis leaves as TODO.
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -17,12 +7,15 @@ use rayon::prelude::*;
 use super::ball_lens::refract_through_ball;
 use super::lattice::Lattice;
 use super::outcome::{Shade, ShadeFallback};
-use super::shading_path::{finish, polygon_entry};
+use super::shading_path::{ball_fallback, finish, polygon_entry};
 use crate::ray::Ray;
 
 /// Most cells one walk visits before giving up with
-/// [`ShadeFallback::TraversalLimit`]. A ray at 89.9° from the normal crosses
-/// the lens layer (`2r`, one facet for touching lenses) in ~600 cells.
+/// [`ShadeFallback::TraversalLimit`]. A ray with `−dir·N = δ` crosses the
+/// lens layer (`2r`, one facet for touching lenses) over about `1/δ` facets
+/// and `√2/δ` cells: ~600 at 89.9° from the normal. `2^16` binds only below
+/// `δ ≈ 2e-5` (89.9987°), far beyond the sweep's 89.5°, and bounds the walk
+/// of a ray that skims the surface between the lenses.
 pub const MAX_CELLS: u32 = 1 << 16;
 
 /// The thesis's model: the first lens only, then the pigment plane.
@@ -31,36 +24,46 @@ pub const THESIS_MAX_LENSES: u32 = 1;
 /// Traces `ray` exactly through the lattice: the first lens it really meets
 /// (searched over every reachable lens), both refractions, then on through at
 /// most `max_lenses` lenses in all (`1` = the thesis's model; `0` = no lens,
-/// a straight line to the pigment plane), then the pigment plane.
+/// a straight line to the pigment plane), then the pigment plane. The
+/// reference [`shade`](super::shade) is measured against (cargo feature
+/// `reference`).
+///
+/// The view ray is walked cell by cell across the lens layer (depths
+/// `0..2r`) with a 2-D Amanatides–Woo walk in texture space (J. Amanatides
+/// and A. Woo, "A fast voxel traversal algorithm for ray tracing",
+/// Eurographics 1987), and at each cell
+/// it is tested against the lenses of the whole 3×3 neighbourhood; the
+/// nearest entry wins. Because a lens lies inside its own cell's column,
+/// every lens the ray can reach is tested before the walk passes it, and the
+/// walk stops as soon as the nearest hit lies within the cell being left.
+/// The ray is refracted in and out (eq. 6.28 for both normals) and goes on to
+/// the pigment plane (6.29). With `max_lenses > 1` it is followed into further
+/// lenses on its way — the repeated refraction the thesis leaves for future
+/// work (§6.5).
 pub fn trace_exact(lattice: &Lattice, ray: &Ray, max_lenses: u32) -> Shade {
-    let p = match polygon_entry(lattice, ray) {
-        Ok(p) => p,
+    let mut path = match polygon_entry(lattice, ray) {
+        Ok(fragment) => fragment,
         Err(f) => return Shade::Fallback(f),
     };
-    let lens = lattice.lens();
-    let mut origin = p;
-    let mut dir = ray.dir();
     let mut first = None;
     let mut last = None;
     let mut count = 0;
     while count < max_lenses {
-        let (cell, centre, t) = match first_lens(lattice, origin, dir, last) {
+        let (cell, centre, t) = match first_lens(lattice, &path, last) {
             Ok(Some(hit)) => hit,
             Ok(None) => break,
             Err(f) => return Shade::Fallback(f),
         };
-        match refract_through_ball(origin + t * dir, dir, centre, lens.radius, lens.index) {
-            Ok(out) => {
-                origin = out.exit;
-                dir = out.dir;
-            }
-            Err(_) => return Shade::Fallback(ShadeFallback::TotalInternalReflection { lens: cell }),
+        let entry = Ray::from_unit(path.at(t), path.dir());
+        match refract_through_ball(&entry, centre, lattice.lens()) {
+            Ok(out) => path = out.ray(),
+            Err(e) => return Shade::Fallback(ball_fallback(e, cell)),
         }
         first = first.or(Some(cell));
         last = Some(cell);
         count += 1;
     }
-    finish(lattice, origin, dir, first, last, count)
+    finish(lattice, &path, first, last, count)
 }
 
 /// [`trace_exact`] over many rays, in parallel.
@@ -68,18 +71,17 @@ pub fn trace_exact_batch(lattice: &Lattice, rays: &[Ray], max_lenses: u32) -> Ve
     rays.par_iter().map(|r| trace_exact(lattice, r, max_lenses)).collect()
 }
 
-/// The nearest lens the ray from `origin` along unit `dir` enters while in
-/// the lens layer, skipping the lens `exclude` (the one it just left):
-/// `(cell, centre, t_entry)`.
+/// The nearest lens `view` enters while in the lens layer, skipping the lens
+/// `exclude` (the one it just left): `(cell, centre, t_entry)`.
 pub(crate) fn first_lens(
     lattice: &Lattice,
-    origin: DVec3,
-    dir: DVec3,
+    view: &Ray,
     exclude: Option<[i64; 2]>,
 ) -> Result<Option<([i64; 2], DVec3, f64)>, ShadeFallback> {
+    let (origin, dir) = (view.origin(), view.dir());
     let axes = lattice.axes();
     let eps = lattice.eps();
-    let r = lattice.lens().radius;
+    let r = lattice.lens().radius();
     // The t-range in which the ray is inside the layer −eps ≤ depth ≤ 2r + eps.
     let h0 = axes.depth(origin);
     let down = -dir.dot(axes.normal());
@@ -100,7 +102,7 @@ pub(crate) fn first_lens(
     let uv0 = axes.uv_of(origin + t_start * dir);
     let duv = axes.uv_rate(dir);
     if !uv0.is_finite() || !duv.is_finite() {
-        return Err(ShadeFallback::NonFinite);
+        return Err(ShadeFallback::Overflow);
     }
     let mut cell = uv0.floor();
     let step = DVec2::new(sign(duv.x), sign(duv.y));
@@ -115,7 +117,6 @@ pub(crate) fn first_lens(
     };
     let mut t_max = DVec2::new(next(cell.x, uv0.x, duv.x), next(cell.y, uv0.y, duv.y));
     let t_delta = DVec2::new(inv_abs(duv.x), inv_abs(duv.y));
-    let view = Ray::from_unit(origin, dir);
     let mut best: Option<([i64; 2], DVec3, f64)> = None;
     for _ in 0..MAX_CELLS {
         for di in -1..=1 {
@@ -126,7 +127,7 @@ pub(crate) fn first_lens(
                     continue;
                 }
                 let centre = lattice.lens_centre(c + DVec2::splat(0.5));
-                if let Some(t) = lattice.lens_entry(&view, centre)
+                if let Some(t) = lattice.lens_entry(view, centre)
                     && best.is_none_or(|b| t < b.2)
                 {
                     best = Some((index, centre, t));
@@ -278,8 +279,7 @@ mod tests {
 
     /// Brute force: the nearest lens entry over a 61 × 61 block of lenses.
     fn brute_first_lens(l: &Lattice, ray: &Ray) -> Option<([i64; 2], f64)> {
-        let p = polygon_entry(l, ray).ok()?;
-        let view = Ray::from_unit(p, ray.dir());
+        let view = polygon_entry(l, ray).ok()?;
         let mut best: Option<([i64; 2], f64)> = None;
         for i in -30..=30 {
             for j in -30..=30 {
@@ -308,8 +308,8 @@ mod tests {
             let r = r_frac * 0.5 * hu.min(hv);
             let l = Lattice::new(axes, LensParams::thesis(r, 1.5).unwrap()).unwrap();
             let ray = ray_at(x, y, polar, azimuth);
-            let p = polygon_entry(&l, &ray).unwrap();
-            let walk = first_lens(&l, p, ray.dir(), None).unwrap();
+            let fragment = polygon_entry(&l, &ray).unwrap();
+            let walk = first_lens(&l, &fragment, None).unwrap();
             let brute = brute_first_lens(&l, &ray);
             prop_assert_eq!(walk.map(|w| w.0), brute.map(|b| b.0));
             if let (Some(w), Some(b)) = (walk, brute) {

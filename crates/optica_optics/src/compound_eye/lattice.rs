@@ -6,44 +6,70 @@
 //! two differ only in *which* lens they pick.
 
 use glam::{DVec2, DVec3};
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
+use super::ball_lens::ball_focal_length;
 use super::error::CompoundEyeError;
+use super::texture_axes::TextureAxes;
+use crate::input;
 use crate::ray::Ray;
 use crate::surface::intersect_sphere;
-use super::texture_axes::TextureAxes;
 
-/// Most slice planes the shading path takes (the WGSL loop's bound). Larger
-/// slice counts are clamped to it.
+/// Most slice planes the shading path takes: the bound of the WGSL loop,
+/// which must be a constant. Larger slice counts are clamped to it. The
+/// report sweep `compound_eye` finds the wrong-lens fraction at its floor
+/// from `K = 32` on (see [`super::shade`]); 64 is twice that.
 pub const MAX_SLICES: u32 = 64;
+
+/// Relative slack of the `d ≥ 2r` and `r ≤ ½·cell height` checks, so that a
+/// bound computed elsewhere in `f64` (`2.0 * r`, a cell height from the
+/// same axes) passes: about 4500 ulps, far below any visible difference.
+const BOUND_REL_TOL: f64 = 1e-12;
+
+/// Length tolerance of the lattice, relative to the lens radius: a point this
+/// close to a lens's surface or the polygon is on it. The round-off of an
+/// `f64` sphere intersection is ~1e-15 relative; `1e-9` leaves six orders of
+/// margin and is still far below a visible distance (a picometre on a
+/// millimetre lens).
+const LENGTH_REL_EPS: f64 = 1e-9;
+
+/// Rays closer than this to parallel with the polygon (`−dir·N`, the cosine
+/// of the angle to the inward normal) do not go deeper: they miss the
+/// polygon ([`super::ShadeFallback::PolygonMiss`]) or, after a lens, never
+/// reach the pigment plane ([`super::ShadeFallback::Escaped`]). At `1e-12`
+/// the distance to the pigment plane, `d / cos`, is still finite for any
+/// `d` below ~1e296; the WGSL twin uses the `f32` equivalent.
+pub const MIN_COS: f64 = 1e-12;
 
 /// The optics of one facet: lens radius, lens index and pigment-plane depth.
 ///
 /// The thesis ties the pigment plane to the lens (`d = 2r`, eq. 6.29) and
 /// gives no index; we keep all three separate because a ball lens focuses at
-/// `n·r / (2(n−1))` from its centre (REFERENCE.md), which is `2r` below the
-/// polygon only for `n = 2`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// `n·r / (2(n−1))` from its centre ([`ball_focal_length`]), which is `2r`
+/// below the polygon only for `n = 2`.
+///
+/// The fields are private and checked once, by the constructors: `r > 0`,
+/// `n > 0`, `d ≥ 2r`, all finite.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct LensParams {
-    /// Lens (sphere) radius `r`, in world units.
-    pub radius: f64,
-    /// Refractive index of the lens relative to the outside medium.
-    pub index: f64,
-    /// Depth `d` of the pigment plane below the polygon, in world units (`≥ 2r`).
-    pub pigment_depth: f64,
+    radius: f64,
+    index: f64,
+    pigment_depth: f64,
 }
 
 impl LensParams {
-    /// Checked parameters: `r > 0`, `n > 0`, `d ≥ 2r`, all finite.
+    /// Checked parameters: lens radius `r > 0` and pigment-plane depth
+    /// `d ≥ 2r` below the polygon, in mesh units, and the lens's refractive
+    /// index `n > 0` relative to the outside medium, all finite.
+    ///
+    /// Errors: [`CompoundEyeError::Input`] for a radius or index that is not
+    /// finite and positive or a depth that is not finite,
+    /// [`CompoundEyeError::PigmentInsideLens`] for `d < 2r`.
     pub fn new(radius: f64, index: f64, pigment_depth: f64) -> Result<Self, CompoundEyeError> {
-        if !(radius.is_finite() && radius > 0.0) {
-            return Err(CompoundEyeError::BadRadius(radius));
-        }
-        if !(index.is_finite() && index > 0.0) {
-            return Err(CompoundEyeError::BadIndex(index));
-        }
-        // A relative tolerance lets `2.0 * r` computed elsewhere pass.
-        if !(pigment_depth.is_finite() && pigment_depth >= 2.0 * radius * (1.0 - 1e-12)) {
+        let radius = input::positive("lens radius r (mesh units)", radius)?;
+        let index = input::positive("lens refractive index n", index)?;
+        let pigment_depth = input::finite("pigment-plane depth d (mesh units)", pigment_depth)?;
+        if !(pigment_depth >= 2.0 * radius * (1.0 - BOUND_REL_TOL)) {
             return Err(CompoundEyeError::PigmentInsideLens { depth: pigment_depth, min: 2.0 * radius });
         }
         Ok(Self { radius, index, pigment_depth: pigment_depth.max(2.0 * radius) })
@@ -55,18 +81,35 @@ impl LensParams {
     }
 
     /// Pigment plane at the paraxial focus of the ball lens:
-    /// `d = r + n·r / (2(n−1))`. Needs `1 < n ≤ 2` (for `n > 2` the focus is
-    /// inside the lens: [`CompoundEyeError::PigmentInsideLens`]).
+    /// `d = r + n·r / (2(n−1))` ([`ball_focal_length`] from the lens centre,
+    /// which is `r` below the polygon). Needs `1 < n ≤ 2`: for `n ≤ 1` there
+    /// is no real focus ([`CompoundEyeError::NoFocus`]), for `n > 2` it is
+    /// inside the lens ([`CompoundEyeError::PigmentInsideLens`]).
     pub fn focused(radius: f64, index: f64) -> Result<Self, CompoundEyeError> {
-        if !(index.is_finite() && index > 1.0) {
-            return Err(if index.is_finite() && index > 0.0 {
-                CompoundEyeError::NoFocus(index)
-            } else {
-                CompoundEyeError::BadIndex(index)
-            });
+        let radius = input::positive("lens radius r (mesh units)", radius)?;
+        let index = input::positive("lens refractive index n", index)?;
+        if !(index > 1.0) {
+            return Err(CompoundEyeError::NoFocus(index));
         }
-        let f = super::ball_lens::ball_focal_length(radius, index);
-        Self::new(radius, index, radius + f)
+        Self::new(radius, index, radius + ball_focal_length(radius, index))
+    }
+
+    /// Lens (sphere) radius `r`, in mesh units.
+    #[inline]
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// Refractive index `n` of the lens relative to the outside medium.
+    #[inline]
+    pub fn index(&self) -> f64 {
+        self.index
+    }
+
+    /// Depth `d` of the pigment plane below the polygon, in mesh units (`≥ 2r`).
+    #[inline]
+    pub fn pigment_depth(&self) -> f64 {
+        self.pigment_depth
     }
 }
 
@@ -74,11 +117,15 @@ impl LensParams {
 /// holds `x` — `⌊x⌋ + 0.5` for `x ≥ 0`, `⌈x⌉ − 0.5` for `x < 0` (ties on a
 /// cell edge go away from zero, which keeps the rule mirror-symmetric).
 #[inline]
-pub fn cell_centre_coord(x: f64) -> f64 {
+fn cell_centre_coord(x: f64) -> f64 {
     if x >= 0.0 { x.floor() + 0.5 } else { x.ceil() - 0.5 }
 }
 
-/// Eq. 6.17–6.20 on both coordinates.
+/// Thesis eq. 6.17–6.20 on both coordinates: the texture coordinate (in
+/// facets) of the centre of the cell that holds `uv` — `⌊x⌋ + 0.5` for
+/// `x ≥ 0`, `⌈x⌉ − 0.5` for `x < 0`. The two differ from `⌊x⌋ + 0.5` only
+/// on a cell edge, where they break the tie away from zero, which keeps the
+/// rule mirror-symmetric.
 #[inline]
 pub fn cell_centre_uv(uv: DVec2) -> DVec2 {
     DVec2::new(cell_centre_coord(uv.x), cell_centre_coord(uv.y))
@@ -87,7 +134,7 @@ pub fn cell_centre_uv(uv: DVec2) -> DVec2 {
 /// Integer index `[i, j]` of the cell whose centre is `centre_uv` (saturating
 /// for coordinates beyond `i64`).
 #[inline]
-pub fn cell_index(centre_uv: DVec2) -> [i64; 2] {
+pub(crate) fn cell_index(centre_uv: DVec2) -> [i64; 2] {
     [(centre_uv.x - 0.5).round() as i64, (centre_uv.y - 0.5).round() as i64]
 }
 
@@ -105,11 +152,9 @@ impl Lattice {
     /// cell height: the slice search and the 3×3 neighbourhood of the exact
     /// tracer both rely on each lens staying inside its own cell's column.
     pub fn new(axes: TextureAxes, lens: LensParams) -> Result<Self, CompoundEyeError> {
-        // The fields are public: check them again.
-        let lens = LensParams::new(lens.radius, lens.index, lens.pigment_depth)?;
         let (hu, hv) = axes.cell_heights();
         let half_cell = 0.5 * hu.min(hv);
-        if !(lens.radius <= half_cell * (1.0 + 1e-12)) {
+        if !(lens.radius <= half_cell * (1.0 + BOUND_REL_TOL)) {
             return Err(CompoundEyeError::LensesOverlap { radius: lens.radius, half_cell });
         }
         Ok(Self { axes, lens })
@@ -149,23 +194,28 @@ impl Lattice {
         self.slice_uv(p_t, self.lens.pigment_depth)
     }
 
-    /// Where the ray from `origin` along unit `dir` meets the pigment plane,
-    /// or `None` when it does not go deeper (`−dir·N ≤ 1e-12`): it escapes.
+    /// Where `ray` meets the pigment plane (step 4 of the shading path, before
+    /// eq. 6.29), or why it does not.
+    ///
+    /// A ray that starts below the plane meets it at its origin's projection
+    /// (`t` is clamped to 0), so a lens that reaches the plane (`d = 2r`)
+    /// still gives a hit.
     #[inline]
-    pub fn to_pigment_plane(&self, origin: DVec3, dir: DVec3) -> Option<DVec3> {
-        let down = -dir.dot(self.axes.normal());
-        if !(down > 1e-12) {
-            return None;
+    pub fn to_pigment_plane(&self, ray: &Ray) -> PigmentPlaneHit {
+        let down = -ray.dir().dot(self.axes.normal());
+        if !(down > MIN_COS) {
+            return PigmentPlaneHit::Escapes;
         }
-        let t = (self.lens.pigment_depth - self.axes.depth(origin)) / down;
-        let p = origin + t.max(0.0) * dir;
-        p.is_finite().then_some(p)
+        let t = (self.lens.pigment_depth - self.axes.depth(ray.origin())) / down;
+        let p = ray.at(t.max(0.0));
+        if p.is_finite() { PigmentPlaneHit::At(p) } else { PigmentPlaneHit::Overflow }
     }
 
     /// The distance along `view` at which it enters the lens centred at
     /// `centre`, or `None` when it misses it (or only touches it behind its
     /// origin). The origin may lie on the lens's surface (the polygon touches
-    /// every lens at its apex), so a root a hair behind it counts as 0.
+    /// every lens at its apex), so a root behind it by less than the lattice's
+    /// length tolerance (`1e-9 r`, round-off of the intersection) counts as 0.
     #[inline]
     pub fn lens_entry(&self, view: &Ray, centre: DVec3) -> Option<f64> {
         let eps = self.eps();
@@ -173,16 +223,31 @@ impl Lattice {
         (hits.t_far > eps && hits.t_near > -eps).then(|| hits.t_near.max(0.0))
     }
 
-    /// A length scale for tolerances: `1e-9 r`.
+    /// The lattice's length tolerance, [`LENGTH_REL_EPS`]` · r`.
     #[inline]
     pub(crate) fn eps(&self) -> f64 {
-        1e-9 * self.lens.radius
+        LENGTH_REL_EPS * self.lens.radius
     }
+}
+
+/// Where a ray meets the pigment plane: [`Lattice::to_pigment_plane`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PigmentPlaneHit {
+    /// The hit point, finite.
+    At(DVec3),
+    /// The ray does not go deeper (`−dir·N ≤` [`MIN_COS`]): it never reaches
+    /// the plane.
+    Escapes,
+    /// The hit lies beyond the range of `f64` (the ray or the lattice is
+    /// ~1e300 from the origin, or the ray is nearly parallel to a plane far
+    /// away).
+    Overflow,
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::{Expected, InvalidInput};
 
     fn unit_lattice(r: f64, n: f64) -> Lattice {
         let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z).unwrap();
@@ -221,22 +286,52 @@ mod tests {
         // A point on the slice plane at depth h projects back to its own (x, y).
         let uv = l.slice_uv(DVec3::new(0.2, 0.7, -0.3), 0.3);
         assert!((uv - DVec2::new(0.2, 0.7)).length() < 1e-15);
-        let p = l.to_pigment_plane(DVec3::new(0.0, 0.0, 0.0), DVec3::new(0.6, 0.0, -0.8)).unwrap();
+        let down = Ray::new(DVec3::ZERO, DVec3::new(0.6, 0.0, -0.8)).unwrap();
         // d = 1, down = 0.8 → t = 1.25 → x = 0.75.
-        assert!((p - DVec3::new(0.75, 0.0, -1.0)).length() < 1e-15);
-        assert!(l.to_pigment_plane(DVec3::ZERO, DVec3::X).is_none());
+        match l.to_pigment_plane(&down) {
+            PigmentPlaneHit::At(p) => assert!((p - DVec3::new(0.75, 0.0, -1.0)).length() < 1e-15),
+            other => panic!("{other:?}"),
+        }
+        // Below the plane already: its projection.
+        let deep = Ray::new(DVec3::new(0.2, 0.3, -1.5), DVec3::new(0.6, 0.0, -0.8)).unwrap();
+        assert_eq!(l.to_pigment_plane(&deep), PigmentPlaneHit::At(DVec3::new(0.2, 0.3, -1.5)));
+        let level = Ray::new(DVec3::ZERO, DVec3::X).unwrap();
+        assert_eq!(l.to_pigment_plane(&level), PigmentPlaneHit::Escapes);
+        let up = Ray::new(DVec3::new(0.0, 0.0, -0.5), DVec3::new(0.0, 0.1, 1.0)).unwrap();
+        assert_eq!(l.to_pigment_plane(&up), PigmentPlaneHit::Escapes);
+        // Finite but extreme: 1.5e308 up, at 45°, overflows.
+        let far = Ray::new(DVec3::new(0.0, 0.0, 1.5e308), DVec3::new(1.0, 0.0, -1.0)).unwrap();
+        assert_eq!(l.to_pigment_plane(&far), PigmentPlaneHit::Overflow);
+    }
+
+    /// The `InvalidInput` inside a `CompoundEyeError::Input`, or a panic.
+    fn input_error<T: std::fmt::Debug>(r: Result<T, CompoundEyeError>) -> InvalidInput {
+        match r {
+            Err(CompoundEyeError::Input(e)) => e,
+            other => panic!("expected an input error, got {other:?}"),
+        }
     }
 
     #[test]
     fn parameters_are_checked() {
-        assert_eq!(LensParams::new(0.0, 1.5, 1.0), Err(CompoundEyeError::BadRadius(0.0)));
-        assert!(matches!(LensParams::new(0.5, f64::NAN, 1.0), Err(CompoundEyeError::BadIndex(_))));
-        assert!(matches!(LensParams::new(0.5, 1.5, 0.9), Err(CompoundEyeError::PigmentInsideLens { .. })));
+        let e = input_error(LensParams::new(0.0, 1.5, 1.0));
+        assert_eq!((e.what, e.value, e.expected), ("lens radius r (mesh units)", 0.0, Expected::Positive));
+        let e = input_error(LensParams::new(0.5, f64::NAN, 1.0));
+        assert_eq!((e.what, e.expected), ("lens refractive index n", Expected::Positive));
+        let e = input_error(LensParams::new(0.5, 1.5, f64::INFINITY));
+        assert_eq!((e.what, e.expected), ("pigment-plane depth d (mesh units)", Expected::Finite));
+        assert_eq!(LensParams::new(0.5, 1.5, 0.9), Err(CompoundEyeError::PigmentInsideLens { depth: 0.9, min: 1.0 }));
         assert_eq!(LensParams::focused(0.5, 1.0), Err(CompoundEyeError::NoFocus(1.0)));
+        assert_eq!(input_error(LensParams::focused(0.5, -1.0)).what, "lens refractive index n");
+        assert_eq!(input_error(LensParams::focused(f64::NAN, 1.5)).what, "lens radius r (mesh units)");
         assert!(matches!(LensParams::focused(0.5, 2.5), Err(CompoundEyeError::PigmentInsideLens { .. })));
-        // n = 1.5, r = 0.5: f = 0.75 from the centre → d = 1.25 = 2.5 r (REFERENCE.md).
+        // n = 1.5, r = 0.5: f = n r / (2(n − 1)) = 0.75 from the centre → d = 1.25 = 2.5 r.
         let f = LensParams::focused(0.5, 1.5).unwrap();
-        assert!((f.pigment_depth - 1.25).abs() < 1e-15);
+        assert!((f.pigment_depth() - 1.25).abs() < 1e-15);
+        assert_eq!((f.radius(), f.index()), (0.5, 1.5));
+        // A depth a few ulps short of 2r is taken as 2r.
+        let t = LensParams::new(0.5, 1.5, 1.0 - 1e-15).unwrap();
+        assert_eq!(t.pigment_depth(), 1.0);
         let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, 0.8 * DVec3::Y, DVec3::Z).unwrap();
         assert!(matches!(
             Lattice::new(axes, LensParams::thesis(0.45, 1.5).unwrap()),

@@ -1,29 +1,43 @@
 //! # Compound eye — the CPU reference of Sagawa's compound-eye shading
 //!
-//! Source: 佐川和輝, 「表面構造を考慮した複眼のリアルタイムレンダリング」, master's
-//! thesis, University of Tokyo, 平成26年度 (academic year 2014) (`papers/sagawa-compound-eye-thesis.txt`),
-//! chapter 6. Equation numbers below are the thesis's.
+//! Source: 佐川和輝 (Kazuki Sagawa), 「表面構造を考慮した複眼のリアルタイムレンダリング」
+//! ("Real-time rendering of compound eyes considering their surface
+//! structure"), master's thesis, Graduate School of Interdisciplinary
+//! Information Studies, The University of Tokyo, academic year 2014 (平成26年度),
+//! chapter 6. Equation and section numbers below are the thesis's.
 //!
 //! ## The model (thesis §6.1–6.2, Fig. 6.1, 6.3, 6.4)
 //!
 //! Every triangle of the eye mesh carries an infinite square lattice in its
 //! texture coordinates: one texture unit is one facet (ommatidium). Under each
 //! cell, a sphere of radius `r` (the facet lens) touches the polygon from
-//! below at the cell centre; the *pigment plane* (テクスチャ平面, the pigment
-//! cells) lies parallel to the polygon at a depth `d` below it. The thesis
-//! puts it at `d = 2r` (eq. 6.29); we keep `d` and the index `n` separate
-//! parameters (a ball lens focuses at `n·r / (2(n−1))` from its centre, i.e.
-//! at `2.5r` below the polygon for `n = 1.5`, REFERENCE.md). A view ray
-//! refracts into and out of one sphere and the texel it reaches on the pigment
-//! plane darkens the surface colour (eq. 6.30): ommatidia whose axes point at
-//! the viewer show their dark centre — the moving *pseudopupil*.
+//! below at the cell centre; the *pigment plane* (the thesis's "texture
+//! plane", which carries the pigment texture) lies parallel to the polygon at
+//! a depth `d` below it. The thesis puts it at `d = 2r` (eq. 6.29); we keep
+//! `d` and the index `n` separate parameters, because a ball lens focuses at
+//! `n·r / (2(n−1))` from its centre ([`ball_focal_length`], derived there
+//! from the thick-lens equation), i.e. at `2.5r` below the polygon for
+//! `n = 1.5`. A view ray refracts into and out of one sphere and the texel it
+//! reaches on the pigment plane darkens the surface colour (eq. 6.30):
+//! ommatidia whose axes point at the viewer show their dark centre — the
+//! moving *pseudopupil* ([`shows_dark_centre`]).
 //!
-//! Units: world lengths for `r` and `d`; texture coordinates (after eq. 6.1)
-//! are in **facets** — that is the unit every `uv` in this module is in.
+//! Units: lengths (`r`, `d`, positions) are in the mesh's own units; texture
+//! coordinates after eq. 6.1 are in **facets** — that is the unit every `uv`
+//! in this module is in. Directions need not be unit where they enter (a
+//! [`Ray`] normalises its own). Everything is `f64`; the plugin's shader
+//! twin is `f32`.
+//!
+//! Input: constructors check what they are given ([`CompoundEyeError`]) and
+//! the per-ray functions take a [`Ray`], so tracing never fails: it returns a
+//! [`Shade`], a finite pigment hit or a [`ShadeFallback`], never NaN. The
+//! coordinate maps of the steps ([`TextureAxes::uv_of`],
+//! [`Lattice::lens_centre`], ...) are plain linear maps: finite in, finite
+//! out (short of overflow at ~1e300).
 //!
 //! ## Equations
 //!
-//! Texture resolution (§6.3), [`texture_axes::scale_uv`]:
+//! Texture resolution (§6.3), [`scale_uv`]:
 //! - (6.1) `T_vert = R_t · T_obj`
 //!
 //! Texture-axis vectors (§6.3.1), [`TextureAxes`]:
@@ -45,7 +59,7 @@
 //! `U_p`, `V_p` are the texture-space unit axes expressed in 3-D (`∂P/∂a`,
 //! `∂P/∂b`); their world length is the facet size, not 1.
 //!
-//! Entry-sphere search (§6.4), [`lattice`] and [`shading_path`]:
+//! Entry-sphere search (§6.4), [`Lattice`] and [`shade`]:
 //! - (6.16) `P = P_c + a·U_p + b·V_p` — the view ray's polygon hit and its texture coordinate
 //! - (6.17) `a' = ⌊a⌋ + 0.5` (a ≥ 0)
 //! - (6.18) `b' = ⌊b⌋ + 0.5` (b ≥ 0)
@@ -65,48 +79,70 @@
 //! knob. Eq. 6.17–6.20 differ from `⌊a⌋ + 0.5` only on cell edges, where they
 //! break ties away from zero — which keeps the rule mirror-symmetric.
 //!
-//! Refraction and pigment plane (§6.5–6.6), [`ball_lens`], [`lattice`]:
+//! Refraction and pigment plane (§6.5–6.6), [`refract_through_ball`], [`Lattice`]:
 //! - (6.28) `N_D = (D − C) / ‖D − C‖` — the sphere normal at the entry (and, likewise, exit) point
 //! - (6.29) `P_T' = P_T + 2r·N` — the pigment-plane hit projected onto the polygon; we use `P_T + d·N`
-//! - (6.30) `c = c_t·(a + d) + s` — shading, left to the plugin
+//! - (6.30) `c = c_t·(a + d) + s` — shading (texture colour times ambient plus diffuse, plus specular), left to the plugin
 //!
 //! ## What the thesis leaves open, and what we chose
 //!
-//! - Refraction into neighbouring spheres after the exit is a TODO in the
-//!   thesis (§6.5); the shading path follows the thesis (one lens), the exact
-//!   tracer can follow any number ([`exact_tracer::trace_exact`]'s `max_lenses`).
+//! - Refraction into neighbouring spheres after the exit is left for future
+//!   work in the thesis (§6.5); the shading path follows the thesis (one
+//!   lens), the exact tracer (feature `reference`) can follow any number.
 //! - Misses, total internal reflection and escaping rays have no rule in the
 //!   thesis: see [`ShadeFallback`]. A missed lens is the thesis's rule: the
 //!   unrefracted ray goes on to the pigment plane (§6.4, last paragraph).
 //! - Degenerate and mirrored UV triangles: see [`TextureAxes`].
 //!
-//! ## Modules
+//! ## API
 //!
-//! | module | what |
+//! | items | what |
 //! |---|---|
-//! | [`texture_axes`] | `U_p`, `V_p`, `P_c` per triangle (6.1–6.15), UV ↔ point (6.2, 6.26–6.27) |
-//! | [`lattice`] | lens parameters, the lattice of one triangle: cells, lens centres, slices, pigment plane (6.16–6.25, 6.29) |
-//! | [`ball_lens`] | refraction into and out of one sphere (6.28), ball-lens focus |
-//! | [`outcome`] | what a traced view ray returns, and the fallbacks |
-//! | [`shading_path`] | the thesis's per-fragment path: the CPU twin of the shader |
-//! | [`exact_tracer`] | the reference: every lens the ray can reach |
-//! | [`pseudopupil`] | facet frames on a curved eye and the dark-centre test |
+//! | [`scale_uv`], [`TextureAxes`] (thresholds [`UV_DET_REL_EPS`], [`AREA_REL_EPS`], [`NORMAL_COS_EPS`]) | `U_p`, `V_p`, `P_c` per triangle (6.1–6.15), UV ↔ point (6.2, 6.26–6.27) |
+//! | [`LensParams`], [`Lattice`], [`PigmentPlaneHit`], [`cell_centre_uv`], [`MAX_SLICES`], [`MIN_COS`] | lens parameters, the lattice of one triangle: cells, lens centres, slices, pigment plane (6.16–6.25, 6.29) |
+//! | [`refract_through_ball`], [`BallExit`], [`BallFailure`], [`ball_focal_length`] | refraction into and out of one sphere (6.28), ball-lens focus |
+//! | [`shade`], [`shade_fragment`] | the thesis's per-fragment path: the CPU twin of the shader |
+//! | [`Shade`], [`PigmentHit`], [`ShadeFallback`] | what a traced view ray returns |
+//! | [`facet_lattice`], [`ray_to_facet`], [`shows_dark_centre`] | facet frames on a curved eye and the pseudopupil test |
+//! | [`CompoundEyeError`], [`InvalidInput`] | why a constructor refused its input |
+//! | `trace_exact`, `trace_exact_batch`, `shade_batch`, `MAX_CELLS`, `THESIS_MAX_LENSES` | (feature `reference`) the exact lattice tracer, the report's reference, and batches |
+//!
+//! ```
+//! use optica_optics::compound_eye::{Lattice, LensParams, Ray, TextureAxes, shade};
+//! use optica_optics::glam::DVec3;
+//!
+//! // Unit facets on z = 0, touching lenses (r = ½), n = 1.5, the thesis's d = 2r.
+//! let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z)?;
+//! let lattice = Lattice::new(axes, LensParams::thesis(0.5, 1.5)?)?;
+//! // A view ray straight down through the centre of cell (2, 3) is undeviated.
+//! let ray = Ray::new(DVec3::new(2.5, 3.5, 1.0), -DVec3::Z)?;
+//! let hit = *shade(&lattice, &ray, 8).hit().expect("reaches the pigment");
+//! assert_eq!(hit.lens, Some([2, 3]));
+//! assert!(hit.on_own_centre(0.1));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
-// `!(x > y)` is how this module rejects NaN along with out-of-range values.
+mod ball_lens;
+mod error;
+#[cfg(feature = "reference")]
+mod exact_tracer;
+mod lattice;
+mod outcome;
+mod pseudopupil;
+mod shading_path;
+mod texture_axes;
 
-pub mod ball_lens;
-pub mod error;
-pub mod exact_tracer;
-pub mod lattice;
-pub mod outcome;
-pub mod pseudopupil;
-pub mod shading_path;
-pub mod texture_axes;
+pub use crate::input::InvalidInput;
+pub use crate::ray::Ray;
 
-pub use ball_lens::{BallExit, ball_focal_length, refract_through_ball};
+pub use ball_lens::{BallExit, BallFailure, ball_focal_length, refract_through_ball};
 pub use error::CompoundEyeError;
-pub use exact_tracer::{trace_exact, trace_exact_batch};
-pub use lattice::{Lattice, LensParams, MAX_SLICES};
+#[cfg(feature = "reference")]
+pub use exact_tracer::{MAX_CELLS, THESIS_MAX_LENSES, trace_exact, trace_exact_batch};
+pub use lattice::{Lattice, LensParams, MAX_SLICES, MIN_COS, PigmentPlaneHit, cell_centre_uv};
 pub use outcome::{PigmentHit, Shade, ShadeFallback};
-pub use shading_path::{shade, shade_batch, shade_fragment};
-pub use texture_axes::TextureAxes;
+pub use pseudopupil::{facet_lattice, ray_to_facet, shows_dark_centre};
+#[cfg(feature = "reference")]
+pub use shading_path::shade_batch;
+pub use shading_path::{shade, shade_fragment};
+pub use texture_axes::{AREA_REL_EPS, NORMAL_COS_EPS, TextureAxes, UV_DET_REL_EPS, scale_uv};

@@ -2,12 +2,13 @@
 
 use glam::{DVec2, DVec3};
 
-/// Where a view ray reached the pigment plane.
+/// Where a view ray reached the pigment plane. Every number in a hit returned
+/// by this module is finite.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PigmentHit {
     /// Texture coordinate of the hit (eq. 6.29), in facets.
     pub uv: DVec2,
-    /// The hit point on the pigment plane.
+    /// The hit point on the pigment plane, in mesh units.
     pub point: DVec3,
     /// The first lens the ray went through (cell index), or `None` when it
     /// missed every lens and reached the plane unrefracted (thesis §6.4, last
@@ -26,7 +27,9 @@ impl PigmentHit {
 
     /// `true` when the ray went through a lens and landed within
     /// `dark_radius` facets of that ommatidium's centre: the principal
-    /// pseudopupil. (A texture tiled per cell, as in the thesis, also darkens
+    /// pseudopupil, the dark patch of ommatidia whose axes point at the
+    /// viewer (D. G. Stavenga, "Pseudopupils of compound eyes", in *Handbook
+    /// of Sensory Physiology* VII/6A, Springer, 1979). (A texture tiled per cell, as in the thesis, also darkens
     /// hits near a *neighbour's* centre: the secondary pseudopupils.)
     pub fn on_own_centre(&self, dark_radius: f64) -> bool {
         self.offset_from_lens().is_some_and(|o| o.length() < dark_radius)
@@ -39,15 +42,19 @@ impl PigmentHit {
     }
 }
 
-/// Why no pigment hit exists. The material shades a fallback as unabsorbed
-/// (`c_t = 1` in eq. 6.30), so none of them darkens or NaNs a pixel.
+/// Why no pigment hit exists. The thesis has no rule for these; the CPU
+/// reference treats a fallback as unabsorbed (`c_t = 1` in eq. 6.30), so none
+/// of them darkens or NaNs a pixel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ShadeFallback {
     /// The ray does not reach the polygon from the front: parallel to it,
     /// leaving it, or starting below it. (A rasterised fragment never is.)
     PolygonMiss,
-    /// The ray or the lattice has a NaN or infinite component.
-    NonFinite,
+    /// A point on the ray's path lies beyond the range of `f64`: the ray
+    /// starts, or the lattice lies, ~1e300 from the origin. NaN cannot reach
+    /// here (a [`super::Ray`] and the lattice's constructors refuse it); this
+    /// is what finite but extreme input gives instead of a NaN.
+    Overflow,
     /// Total internal reflection in the lens `lens` (only for `n < 1`, or
     /// round-off at a tangent exit).
     TotalInternalReflection {
@@ -61,7 +68,9 @@ pub enum ShadeFallback {
         lens: [i64; 2],
     },
     /// The exact tracer's cell walk exceeded its cap (a ray almost parallel
-    /// to the surface inside the lens layer).
+    /// to the surface inside the lens layer). Only the exact tracer (cargo
+    /// feature `reference`) returns it; the variant exists in every build so
+    /// that a `match` does not depend on features.
     TraversalLimit,
 }
 
@@ -88,8 +97,10 @@ impl Shade {
         self.hit().map(|h| h.uv)
     }
 
-    /// `true` when every number in the result is finite.
-    pub fn is_finite(&self) -> bool {
+    /// `true` when every number in the result is finite (always, for results
+    /// of this module: what the tests check).
+    #[cfg(test)]
+    pub(crate) fn is_finite(&self) -> bool {
         self.hit().is_none_or(|h| h.uv.is_finite() && h.point.is_finite())
     }
 }

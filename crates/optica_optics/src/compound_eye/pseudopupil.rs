@@ -1,38 +1,29 @@
 //! The pseudopupil on a curved eye: facet frames and the dark-centre test.
-//!
-//! On one flat triangle every lens has the same axis `N`, so the pseudopupil
-//! only appears across a curved eye, where each facet has its own axis. A
-//! facet here is the lattice of a tangent plane with its own cell `(0, 0)`
-//! centred on the facet; a viewer sees the facet's dark centre (its rhabdom)
-//! when the view ray through the facet's lens apex lands within the dark
-//! radius of that lens's centre on the pigment plane. The biology: the dark
-//! patch of ommatidia whose axes point at the viewer, moving with the
-//! viewpoint (REFERENCE.md).
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 use super::error::CompoundEyeError;
-use super::exact_tracer::{THESIS_MAX_LENSES, trace_exact};
 use super::lattice::{Lattice, LensParams};
+use super::shading_path::shade;
 use super::texture_axes::TextureAxes;
+use crate::input;
 use crate::ray::Ray;
 
 /// The lattice of one facet of a curved eye: the tangent plane at `centre`
-/// with outward unit `axis`, facets `facet` world units square, cell `(0, 0)`
-/// centred on `centre` (so its lens's apex is `centre`).
+/// with outward `axis` (any length), facets `facet` mesh units square, cell
+/// `(0, 0)` centred on `centre` (so its lens's apex is `centre`).
 ///
-/// Errors: [`CompoundEyeError::NonFinite`] for a non-finite `centre` or
-/// `axis`, [`CompoundEyeError::DegenerateTriangle`] for a zero `axis` (no
-/// plane), [`CompoundEyeError::BadFacet`] for a `facet` that is not finite
-/// and positive, and [`Lattice::new`]'s errors for the lens.
+/// On one flat triangle every lens has the same axis `N`, so the pseudopupil
+/// only appears across a curved eye, where each facet has its own axis; this
+/// builds one facet's lattice of such an eye.
+///
+/// Errors: [`CompoundEyeError::Input`] for a non-finite `centre`, a zero or
+/// non-finite `axis`, or a `facet` that is not finite and positive, and
+/// [`Lattice::new`]'s errors for the lens.
 pub fn facet_lattice(centre: DVec3, axis: DVec3, facet: f64, lens: LensParams) -> Result<Lattice, CompoundEyeError> {
-    if !(centre.is_finite() && axis.is_finite()) {
-        return Err(CompoundEyeError::NonFinite);
-    }
-    if !(facet.is_finite() && facet > 0.0) {
-        return Err(CompoundEyeError::BadFacet(facet));
-    }
-    let axis = axis.try_normalize().ok_or(CompoundEyeError::DegenerateTriangle)?;
+    let centre = input::finite_vec3("facet centre (mesh units)", centre)?;
+    let axis = input::direction("facet axis", axis)?;
+    let facet = input::positive("facet size (mesh units)", facet)?;
     let (u_hat, _) = axis.any_orthonormal_pair();
     // Right-handed (U, V, N) regardless of the helper's choice.
     let v_hat = axis.cross(u_hat);
@@ -43,29 +34,37 @@ pub fn facet_lattice(centre: DVec3, axis: DVec3, facet: f64, lens: LensParams) -
 }
 
 /// The view ray from `viewer` to the apex of the facet's own lens (the
-/// centre of cell `(0, 0)` on the polygon), or `None` when the viewer is on
-/// or behind the facet's plane.
+/// centre of cell `(0, 0)` on the polygon), or `None` when the viewer is at
+/// the apex, on or behind the facet's plane.
 pub fn ray_to_facet(lattice: &Lattice, viewer: DVec3) -> Option<Ray> {
-    let apex = lattice.axes().point_of(glam::DVec2::splat(0.5));
+    let apex = lattice.axes().point_of(DVec2::splat(0.5));
     let ray = Ray::new(viewer, apex - viewer).ok()?;
     (ray.dir().dot(lattice.axes().normal()) < 0.0).then_some(ray)
 }
 
-/// `true` when `viewer` sees this facet's dark centre: the exact tracer's
-/// (thesis-model) pigment hit for [`ray_to_facet`] lies within `dark_radius`
-/// facets of the lens's own cell centre.
+/// `true` when `viewer` sees this facet's dark centre: the thesis-model
+/// pigment hit for [`ray_to_facet`] lies within `dark_radius` facets of the
+/// lens's own cell centre ([`super::PigmentHit::on_own_centre`]). That is
+/// the principal pseudopupil: the dark patch of ommatidia whose axes point
+/// at the viewer, which moves with the viewpoint (D. G. Stavenga,
+/// "Pseudopupils of compound eyes", in *Handbook of Sensory Physiology*
+/// VII/6A, Springer, 1979).
+///
+/// The ray meets the polygon at the apex, where it touches the facet's own
+/// lens, so the slice search's first candidate (the polygon, `K = 0`) is
+/// already the first lens the ray really meets: for any viewer not within
+/// ~1e-9 rad of the facet's plane, the shading path here gives what the
+/// exact lattice tracer gives.
 pub fn shows_dark_centre(lattice: &Lattice, viewer: DVec3, dark_radius: f64) -> bool {
-    ray_to_facet(lattice, viewer).is_some_and(|ray| {
-        trace_exact(lattice, &ray, THESIS_MAX_LENSES)
-            .hit()
-            .is_some_and(|h| h.on_own_centre(dark_radius))
-    })
+    ray_to_facet(lattice, viewer)
+        .is_some_and(|ray| shade(lattice, &ray, 0).hit().is_some_and(|h| h.on_own_centre(dark_radius)))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::compound_eye::shading_path::shade;
+    use crate::compound_eye::exact_tracer::trace_exact;
+    use crate::input::Expected;
 
     /// A hemispherical eye of radius 20 facets: facet axes on a grid of
     /// tilts, every 2.5° up to 40° about x and y.
@@ -94,10 +93,15 @@ mod tests {
         for (axis, lattice) in eye {
             let angle = axis.angle_between(w).to_degrees();
             let ray = ray_to_facet(lattice, viewer).unwrap();
-            // The shading path agrees with the exact tracer on these apex rays:
-            // an apex ray always enters its own lens first.
-            let (e, s) = (trace_exact(lattice, &ray, 1), shade(lattice, &ray, 4));
-            assert!((e.uv().unwrap() - s.uv().unwrap()).length() < 1e-9);
+            // The shading path at K = 0 (what shows_dark_centre uses) agrees
+            // with the exact tracer on these apex rays: an apex ray always
+            // enters its own lens first.
+            let e = trace_exact(lattice, &ray, 1);
+            for k in [0, 4] {
+                let s = shade(lattice, &ray, k);
+                assert_eq!(e.hit().unwrap().lens, Some([0, 0]));
+                assert!((e.uv().unwrap() - s.uv().unwrap()).length() < 1e-9);
+            }
             if shows_dark_centre(lattice, viewer, rho) {
                 dark.push(*axis);
                 max_dark = max_dark.max(angle);
@@ -139,27 +143,36 @@ mod tests {
         let lens = LensParams::thesis(0.5, 1.5).unwrap();
         let axis = DVec3::new(0.2, -0.3, 1.0).normalize();
         let l = facet_lattice(5.0 * axis, axis, 1.0, lens).unwrap();
-        let s = l.lens_centre(glam::DVec2::splat(0.5));
+        let s = l.lens_centre(DVec2::splat(0.5));
         assert!((s - (5.0 * axis - 0.5 * axis)).length() < 1e-14);
         assert_eq!(l.axes().handedness(), 1.0);
         assert!(ray_to_facet(&l, -10.0 * axis).is_none());
+    }
+
+    /// `(what, expected)` of the input error `r` holds, or a panic.
+    fn input_error(r: Result<Lattice, CompoundEyeError>) -> (&'static str, Expected) {
+        match r {
+            Err(CompoundEyeError::Input(e)) => (e.what, e.expected),
+            other => panic!("expected an input error, got {other:?}"),
+        }
     }
 
     #[test]
     fn facet_lattice_reports_the_right_error() {
         let lens = LensParams::thesis(0.5, 1.5).unwrap();
         let (c, a) = (DVec3::new(0.0, 0.0, 5.0), DVec3::Z);
-        // A NaN or infinite axis or centre is non-finite input, not a degenerate plane.
-        for axis in [DVec3::new(f64::NAN, 0.0, 1.0), DVec3::new(0.0, f64::INFINITY, 1.0)] {
-            assert_eq!(facet_lattice(c, axis, 1.0, lens), Err(CompoundEyeError::NonFinite));
+        // A NaN, infinite or zero axis has no direction.
+        for axis in [DVec3::new(f64::NAN, 0.0, 1.0), DVec3::new(0.0, f64::INFINITY, 1.0), DVec3::ZERO] {
+            assert_eq!(input_error(facet_lattice(c, axis, 1.0, lens)), ("facet axis", Expected::Direction));
         }
-        assert_eq!(facet_lattice(DVec3::splat(f64::NAN), a, 1.0, lens), Err(CompoundEyeError::NonFinite));
-        // A finite zero axis has no plane.
-        assert_eq!(facet_lattice(c, DVec3::ZERO, 1.0, lens), Err(CompoundEyeError::DegenerateTriangle));
-        // A finite facet size ≤ 0 is a bad facet, not a non-finite input.
-        assert_eq!(facet_lattice(c, a, 0.0, lens), Err(CompoundEyeError::BadFacet(0.0)));
-        assert_eq!(facet_lattice(c, a, -1.0, lens), Err(CompoundEyeError::BadFacet(-1.0)));
-        assert!(matches!(facet_lattice(c, a, f64::NAN, lens), Err(CompoundEyeError::BadFacet(f)) if f.is_nan()));
+        let centre = ("facet centre (mesh units)", Expected::FiniteVector);
+        assert_eq!(input_error(facet_lattice(DVec3::splat(f64::NAN), a, 1.0, lens)), centre);
+        let facet = ("facet size (mesh units)", Expected::Positive);
+        for size in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(input_error(facet_lattice(c, a, size, lens)), facet, "facet {size}");
+        }
+        // Facets too small for the lenses.
+        assert!(matches!(facet_lattice(c, a, 0.9, lens), Err(CompoundEyeError::LensesOverlap { .. })));
         assert!(facet_lattice(c, a, 1.0, lens).is_ok());
     }
 }

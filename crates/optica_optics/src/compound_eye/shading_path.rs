@@ -1,65 +1,18 @@
 //! The thesis's shading path for one view ray (§6.4–6.6): the CPU twin of
-//! the compound-eye fragment shader.
-//!
-//! Written the way the shader is: one loop with a uniform bound
-//! ([`MAX_SLICES`]), no allocation, no recursion, every branch a defined
-//! value. Steps, with the thesis's equation numbers:
-//!
-//! 1. The fragment: the view ray's hit `P` on the polygon and its texture
-//!    coordinate `(a, b)` (eq. 6.16).
-//! 2. For slice `s = 0..=K` at depth `h = s·r/K` (`s = 0`: the polygon
-//!    itself; the last slice at `h = r`, §6.4): the view ray's point `P_s` on
-//!    the slice plane, projected back onto the polygon (6.23) and its texture
-//!    coordinate by least squares (6.24–6.27); the cell centre (6.17–6.20),
-//!    its point on the polygon (6.21) and the lens centre `S = P' − r·N`
-//!    (6.22); the first lens the view ray intersects ends the search.
-//! 3. Refraction into and out of that lens (6.28).
-//! 4. The pigment-plane hit and its texture coordinate (6.29).
-//!
-//! No lens found: the unrefracted ray goes on to the pigment plane (§6.4).
-//!
-//! Why the search is exact in the limit: each lens lies inside its own cell's
-//! column (`r ≤` half the cell height, checked by [`Lattice::new`]), and a
-//! straight ray crosses each column once, in order. So a lens picked at a
-//! slice that the ray intersects at all is the *first* lens it meets unless
-//! the first lens's column lay wholly between two slices; with `K → ∞` the
-//! path therefore finds the exact first lens for every ray that is inside
-//! that lens's column somewhere between the polygon and the last slice
-//! (`0 ≤ h ≤ r`, the lenses' equator plane). Rays that reach their first
-//! lens's column only below depth `r` (grazing rays that slip through the
-//! gaps between lenses, at cell corners, and cross into the column deep
-//! down) stay unresolved at any `K` — that is the method's error floor. Where
-//! the ray meets the sphere does not matter: a ray that is in the column
-//! above depth `r` is found even when it enters the sphere below its
-//! equator.
-//!
-//! Measured (report sweep `compound_eye`: unit facets, touching lenses
-//! `r = ½`, `n = 1.5`, `d = 2r`, rays from 0° to 89°): the wrong-lens
-//! fraction falls from 42 % at `K = 0` to 4.3 % at `K = 8` and to its floor
-//! of 0.05 % from `K = 32` on; a single extra slice at `h = r` (`K = 1`) is
-//! *worse* than none in mean texel error at grazing angles, because it jumps
-//! past the ray's first lens to a later one. Near-normal rays (≤ 10°) need
-//! only `K ≥ 1`.
+//! the compound-eye fragment shader. See [`shade`].
 
-use glam::DVec3;
-use rayon::prelude::*;
+use glam::DVec2;
 
-use super::ball_lens::refract_through_ball;
-use super::lattice::{Lattice, MAX_SLICES, cell_centre_uv, cell_index};
+use super::ball_lens::{BallFailure, refract_through_ball};
+use super::lattice::{Lattice, MAX_SLICES, MIN_COS, PigmentPlaneHit, cell_centre_uv, cell_index};
 use super::outcome::{PigmentHit, Shade, ShadeFallback};
 use crate::ray::Ray;
 
-/// View rays closer than this to parallel with the polygon (`−dir·N`) do not
-/// reach it ([`ShadeFallback::PolygonMiss`]).
-pub const MIN_COS: f64 = 1e-12;
-
-/// Where `ray` meets the polygon from the front, or why it does not.
-/// Shared with the exact tracer so both start from the same fragment.
-pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<DVec3, ShadeFallback> {
+/// Where `ray` meets the polygon from the front, as the fragment ray (origin
+/// on the polygon, same direction), or why it does not. Shared with the
+/// exact tracer so both start from the same fragment.
+pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<Ray, ShadeFallback> {
     let axes = lattice.axes();
-    if !ray.origin().is_finite() || !ray.dir().is_finite() || !(ray.dir().length_squared() > 0.0) {
-        return Err(ShadeFallback::NonFinite);
-    }
     let cos = -ray.dir().dot(axes.normal());
     if !(cos > MIN_COS) {
         return Err(ShadeFallback::PolygonMiss);
@@ -70,85 +23,126 @@ pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<DVec3, Shade
         return Err(ShadeFallback::PolygonMiss);
     }
     let p = ray.at((-h0 / cos).max(0.0));
-    if p.is_finite() { Ok(p) } else { Err(ShadeFallback::NonFinite) }
+    if p.is_finite() { Ok(Ray::from_unit(p, ray.dir())) } else { Err(ShadeFallback::Overflow) }
 }
 
 /// Traces `ray` by the thesis's shading path with `slices` slice planes
-/// below the polygon (clamped to [`MAX_SLICES`]; 0 = the polygon alone).
+/// below the polygon (clamped to [`MAX_SLICES`]; 0 = the polygon alone):
+/// where it meets the polygon (eq. 6.16), then [`shade_fragment`]. A ray that
+/// does not reach the polygon from the front is a
+/// [`ShadeFallback::PolygonMiss`].
+///
+/// Written the way the shader is: one loop with a uniform bound
+/// ([`MAX_SLICES`]), no allocation, no recursion, every branch a defined
+/// value. Steps, with the thesis's equation numbers:
+///
+/// 1. The fragment: the view ray's hit `P` on the polygon and its texture
+///    coordinate `(a, b)` (eq. 6.16).
+/// 2. For slice `s = 0..=K` at depth `h = s·r/K` (`s = 0`: the polygon
+///    itself; the last slice at `h = r`, §6.4): the view ray's point `P_s` on
+///    the slice plane, projected back onto the polygon (6.23) and its texture
+///    coordinate by least squares (6.24–6.27); the cell centre (6.17–6.20),
+///    its point on the polygon (6.21) and the lens centre `S = P' − r·N`
+///    (6.22); the first lens the view ray intersects ends the search.
+/// 3. Refraction into and out of that lens (6.28).
+/// 4. The pigment-plane hit and its texture coordinate (6.29).
+///
+/// No lens found: the unrefracted ray goes on to the pigment plane (§6.4).
+///
+/// Why the search is exact in the limit: each lens lies inside its own cell's
+/// column (`r ≤` half the cell height, checked by [`Lattice::new`]), and a
+/// straight ray crosses each column once, in order. So a lens picked at a
+/// slice that the ray intersects at all is the *first* lens it meets unless
+/// the first lens's column lay wholly between two slices; with `K → ∞` the
+/// path therefore finds the exact first lens for every ray that is inside
+/// that lens's column somewhere between the polygon and the last slice
+/// (`0 ≤ h ≤ r`, the lenses' equator plane). Rays that reach their first
+/// lens's column only below depth `r` (grazing rays that slip through the
+/// gaps between lenses, at cell corners, and cross into the column deep
+/// down) stay unresolved at any `K` — that is the method's error floor. Where
+/// the ray meets the sphere does not matter: a ray that is in the column
+/// above depth `r` is found even when it enters the sphere below its
+/// equator.
+///
+/// Measured (report sweep `compound_eye`: unit facets, touching lenses
+/// `r = ½`, `n = 1.5`, `d = 2r`, rays from 0° to 89°): the wrong-lens
+/// fraction falls from 42 % at `K = 0` to 4.3 % at `K = 8` and to its floor
+/// of 0.05 % from `K = 32` on; a single extra slice at `h = r` (`K = 1`) is
+/// *worse* than none in mean texel error at grazing angles, because it jumps
+/// past the ray's first lens to a later one. Near-normal rays (≤ 10°) need
+/// only `K ≥ 1`.
 pub fn shade(lattice: &Lattice, ray: &Ray, slices: u32) -> Shade {
     match polygon_entry(lattice, ray) {
-        Ok(p) => shade_fragment(lattice, p, ray.dir(), slices),
+        Ok(fragment) => shade_fragment(lattice, &fragment, slices),
         Err(f) => Shade::Fallback(f),
     }
 }
 
-/// The fragment shader's body: `p` is the fragment's position on the
-/// polygon, `dir` the unit view direction (camera → fragment).
-pub fn shade_fragment(lattice: &Lattice, p: DVec3, dir: DVec3, slices: u32) -> Shade {
+/// The fragment shader's body: `fragment` starts at the fragment's position
+/// on the polygon and runs along the view direction (camera → fragment).
+/// Steps 2–4 of the module's list; a fragment ray that does not point into
+/// the surface is a [`ShadeFallback::PolygonMiss`].
+pub fn shade_fragment(lattice: &Lattice, fragment: &Ray, slices: u32) -> Shade {
     let axes = lattice.axes();
     let lens = lattice.lens();
-    let r = lens.radius;
-    if !p.is_finite() || !dir.is_finite() {
-        return Shade::Fallback(ShadeFallback::NonFinite);
-    }
+    let r = lens.radius();
+    let (p, dir) = (fragment.origin(), fragment.dir());
     let cos = -dir.dot(axes.normal());
     if !(cos > MIN_COS) {
         return Shade::Fallback(ShadeFallback::PolygonMiss);
     }
-    let view = Ray::from_unit(p, dir);
     let k = slices.min(MAX_SLICES);
     // Step 2: slice-plane search (6.16–6.27).
-    let mut found = false;
-    let mut centre_uv = glam::DVec2::ZERO;
-    let mut centre = DVec3::ZERO;
-    let mut t_entry = 0.0;
+    let mut found = None;
     for s in 0..=k {
         let h = if k == 0 { 0.0 } else { r * f64::from(s) / f64::from(k) };
         let p_s = p + (h / cos) * dir; // the view ray on the slice plane at depth h
         let uv_s = lattice.slice_uv(p_s, h); // (6.23)–(6.27); s = 0 is (6.16)
         let c_uv = cell_centre_uv(uv_s); // (6.17)–(6.20)
         let c = lattice.lens_centre(c_uv); // (6.21)–(6.22)
-        if let Some(t) = lattice.lens_entry(&view, c) {
-            found = true;
-            centre_uv = c_uv;
-            centre = c;
-            t_entry = t;
+        if let Some(t) = lattice.lens_entry(fragment, c) {
+            found = Some((c_uv, c, t));
             break;
         }
     }
-    if !found {
+    let Some((centre_uv, centre, t_entry)) = found else {
         // No lens: straight on to the pigment plane (§6.4, last paragraph).
-        return finish(lattice, p, dir, None, None, 0);
-    }
+        return finish(lattice, fragment, None, None, 0);
+    };
     // Step 3: refraction in and out (6.28).
     let cell = cell_index(centre_uv);
-    match refract_through_ball(view.at(t_entry), dir, centre, r, lens.index) {
-        Ok(out) => finish(lattice, out.exit, out.dir, Some(cell), Some(cell), 1),
-        Err(_) => Shade::Fallback(ShadeFallback::TotalInternalReflection { lens: cell }),
+    let entry = Ray::from_unit(fragment.at(t_entry), dir);
+    match refract_through_ball(&entry, centre, lens) {
+        Ok(out) => finish(lattice, &out.ray(), Some(cell), Some(cell), 1),
+        Err(e) => Shade::Fallback(ball_fallback(e, cell)),
     }
 }
 
-/// Step 4: from `origin` along `dir` to the pigment plane (6.29). `first`
-/// and `last` are the first and the last lens passed (for the hit and for
+/// The shading fallback for a ray that has no exit from the lens `cell`.
+pub(crate) fn ball_fallback(e: BallFailure, cell: [i64; 2]) -> ShadeFallback {
+    match e {
+        BallFailure::ReflectedAtEntry | BallFailure::ReflectedAtExit => {
+            ShadeFallback::TotalInternalReflection { lens: cell }
+        }
+        BallFailure::Overflow => ShadeFallback::Overflow,
+    }
+}
+
+/// Step 4: along `ray` to the pigment plane (6.29). `first` and `last` are
+/// the first and the last lens passed (for the hit and for
 /// [`ShadeFallback::Escaped`]).
-pub(crate) fn finish(
-    lattice: &Lattice,
-    origin: DVec3,
-    dir: DVec3,
-    first: Option<[i64; 2]>,
-    last: Option<[i64; 2]>,
-    lenses: u32,
-) -> Shade {
-    match lattice.to_pigment_plane(origin, dir) {
-        Some(point) => {
-            let uv = lattice.pigment_uv(point); // (6.29)
+pub(crate) fn finish(lattice: &Lattice, ray: &Ray, first: Option<[i64; 2]>, last: Option<[i64; 2]>, lenses: u32) -> Shade {
+    match lattice.to_pigment_plane(ray) {
+        PigmentPlaneHit::At(point) => {
+            let uv: DVec2 = lattice.pigment_uv(point); // (6.29)
             if uv.is_finite() {
                 Shade::Pigment(PigmentHit { uv, point, lens: first, lenses })
             } else {
-                Shade::Fallback(ShadeFallback::NonFinite)
+                Shade::Fallback(ShadeFallback::Overflow)
             }
         }
-        None => match last {
+        PigmentPlaneHit::Overflow => Shade::Fallback(ShadeFallback::Overflow),
+        PigmentPlaneHit::Escapes => match last {
             Some(cell) => Shade::Fallback(ShadeFallback::Escaped { lens: cell }),
             // Unreachable for a ray that reached the polygon from the front.
             None => Shade::Fallback(ShadeFallback::PolygonMiss),
@@ -156,8 +150,10 @@ pub(crate) fn finish(
     }
 }
 
-/// [`shade`] over many rays, in parallel.
+/// [`shade`] over many rays, in parallel (for the report runner).
+#[cfg(feature = "reference")]
 pub fn shade_batch(lattice: &Lattice, rays: &[Ray], slices: u32) -> Vec<Shade> {
+    use rayon::prelude::*;
     rays.par_iter().map(|r| shade(lattice, r, slices)).collect()
 }
 
@@ -167,7 +163,7 @@ mod tests {
     use crate::compound_eye::exact_tracer::trace_exact;
     use crate::compound_eye::lattice::LensParams;
     use crate::compound_eye::texture_axes::TextureAxes;
-    use glam::DVec2;
+    use glam::DVec3;
     use proptest::prelude::*;
 
     /// Facets 1×1 on z = 0, outward +z, lenses of radius r.
@@ -226,9 +222,9 @@ mod tests {
         let l = unit_lattice(0.5, 1.5, 1.0);
         let dir = DVec3::new(1.0, 1.0, -4.0).normalize();
         let ray = ray_at(0.02, 0.02, dir);
-        let p = polygon_entry(&l, &ray).unwrap();
-        let t = l.lens_entry(&Ray::from_unit(p, dir), l.lens_centre(DVec2::splat(0.5))).unwrap();
-        let entry_depth = l.axes().depth(p + t * dir);
+        let fragment = polygon_entry(&l, &ray).unwrap();
+        let t = l.lens_entry(&fragment, l.lens_centre(DVec2::splat(0.5))).unwrap();
+        let entry_depth = l.axes().depth(fragment.at(t));
         assert!(entry_depth > 0.5 && entry_depth < 0.6, "enters at depth {entry_depth}");
         let exact = *trace_exact(&l, &ray, 1).hit().unwrap();
         assert_eq!(exact.lens, Some([0, 0]));
@@ -280,6 +276,33 @@ mod tests {
             assert_eq!(shade(&l, &ray, 4), Shade::Fallback(want));
             assert_eq!(trace_exact(&l, &ray, 4), Shade::Fallback(want));
         }
+    }
+
+    #[test]
+    fn extreme_but_finite_rays_overflow_instead_of_giving_nan() {
+        // 1.5e308 above the polygon at 45°: the distance to it overflows f64.
+        let l = unit_lattice(0.5, 1.5, 1.0);
+        let far = Ray::new(DVec3::new(0.0, 0.0, 1.5e308), DVec3::new(1.0, 0.0, -1.0)).unwrap();
+        let want = Shade::Fallback(ShadeFallback::Overflow);
+        assert_eq!(shade(&l, &far, 8), want);
+        assert_eq!(trace_exact(&l, &far, 2), want);
+        // Straight down from as far: no overflow, the ordinary hit.
+        let down = Ray::new(DVec3::new(0.5, 0.5, 1.5e308), -DVec3::Z).unwrap();
+        assert_eq!(shade(&l, &down, 8).hit().unwrap().lens, Some([0, 0]));
+    }
+
+    #[test]
+    fn a_fragment_ray_leaving_the_surface_is_a_polygon_miss() {
+        let l = unit_lattice(0.5, 1.5, 1.0);
+        let out = Ray::new(DVec3::new(0.5, 0.5, 0.0), DVec3::new(0.0, 0.3, 1.0)).unwrap();
+        assert_eq!(shade_fragment(&l, &out, 4), Shade::Fallback(ShadeFallback::PolygonMiss));
+        // A fragment ray pointing in gives what shade gives for the view ray through it.
+        let view = ray_at(0.3, 0.6, DVec3::new(0.2, -0.1, -1.0));
+        let fragment = Ray::new(DVec3::new(0.3, 0.6, 0.0), view.dir()).unwrap();
+        let (a, b) = (shade_fragment(&l, &fragment, 4), shade(&l, &view, 4));
+        let (a, b) = (a.hit().unwrap(), b.hit().unwrap());
+        assert_eq!((a.lens, a.lenses), (b.lens, b.lenses));
+        assert!((a.uv - b.uv).length() < 1e-14, "{a:?} vs {b:?}");
     }
 
     #[test]
@@ -345,7 +368,7 @@ mod tests {
                 prop_assert!(got.is_finite(), "{:?}", got);
                 if let Shade::Pigment(h) = got {
                     let depth = lattice.axes().depth(h.point);
-                    prop_assert!((depth - lattice.lens().pigment_depth).abs() < 1e-6 * (1.0 + h.point.length()));
+                    prop_assert!((depth - lattice.lens().pigment_depth()).abs() < 1e-6 * (1.0 + h.point.length()));
                 }
             }
         }

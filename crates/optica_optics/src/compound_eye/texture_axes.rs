@@ -1,40 +1,58 @@
 //! Texture-axis vectors `U_p`, `V_p` and the origin `P_c` of one triangle
 //! (thesis §6.3.1, eq. 6.1–6.15), and the maps between polygon points and
 //! texture coordinates (eq. 6.2, 6.25–6.27).
-//!
-//! Handedness: eq. 6.8–6.15 give `U_p × V_p = (P_10 × P_20) / det A`, so a
-//! mirrored UV triangle (`det A < 0`) has `U_p × V_p` pointing *into* the
-//! surface. The thesis never forms that cross product, and neither do we: the
-//! normal `N` comes from the winding (`P_10 × P_20`), so the lenses stay
-//! under the surface (eq. 6.22) on mirrored triangles too, and the sign is
-//! kept in [`TextureAxes::handedness`] for code that builds a tangent frame
-//! (Bevy's `Mesh::ATTRIBUTE_TANGENT` `w`, see [`TextureAxes::tangent_vec4`]).
 
 use glam::{DVec2, DVec3, DVec4};
 
 use super::error::CompoundEyeError;
+use crate::input::{self, InvalidInput};
 
-/// A UV triangle is degenerate when `|det A| ≤ UV_DET_REL_EPS · |T_10|·|T_20|`
-/// (the sine of the angle between its UV edges): beyond that the axes grow
-/// like `1/sin` and are useless in `f32` on the GPU long before `f64` fails.
+/// A UV triangle is degenerate when `|det A| ≤ UV_DET_REL_EPS · |T_10|·|T_20|`,
+/// i.e. when the sine of the angle between its UV edges is at most `1e-6`.
+/// The axes of eq. 6.15 grow like `1/sin`: at `1e-6` they are a million
+/// facets long per UV unit of error, and `f32` on the GPU (7 significant
+/// digits) has no digit of the texture coordinate left, long before `f64`
+/// fails. [`TextureAxes::from_triangle_or_fallback`] uses its fallback frame
+/// below this.
 pub const UV_DET_REL_EPS: f64 = 1e-6;
 
-/// A position triangle is degenerate when `|P_10 × P_20| ≤ AREA_REL_EPS · |P_10|·|P_20|`.
+/// A position triangle is degenerate when `|P_10 × P_20| ≤ AREA_REL_EPS ·
+/// |P_10|·|P_20|` (the sine of its angle at `P_0`). `1e-12` is about 4500
+/// `f64` ulps of 1: the cross product of two collinear edges is round-off of that
+/// order, so below it the normal's direction is noise.
 pub const AREA_REL_EPS: f64 = 1e-12;
+
+/// Relative tolerance of [`TextureAxes::from_axes`]'s perpendicularity check:
+/// a given normal `N` is accepted when `|N̂·(U_p × V_p)| / |U_p × V_p| ≥ 1 −
+/// NORMAL_COS_EPS`, i.e. within `√(2·1e-9) ≈ 4.5e-5` rad of the lattice
+/// plane's normal. That admits a normal computed in `f32` or taken from a
+/// mesh (errors ~1e-7 rad) and refuses one that is visibly tilted; the
+/// stored normal is then exactly `±(U_p × V_p)/|U_p × V_p|`.
+pub const NORMAL_COS_EPS: f64 = 1e-9;
 
 /// Eq. 6.1: texture coordinates sent to the shader are the mesh's scaled by
 /// the texture resolution `R_t` (facets per UV unit), so `R_t` sets how many
-/// facets cover the surface.
-pub fn scale_uv(t_obj: DVec2, texture_resolution: f64) -> DVec2 {
-    texture_resolution * t_obj
+/// facets cover the surface. `R_t` must be finite and positive and `t_obj`
+/// finite.
+pub fn scale_uv(t_obj: DVec2, texture_resolution: f64) -> Result<DVec2, InvalidInput> {
+    let r_t = input::positive("texture resolution R_t (facets per UV unit)", texture_resolution)?;
+    let t = input::finite_vec2("mesh texture coordinate (UV units)", t_obj)?;
+    Ok(r_t * t)
 }
 
-/// Relative tolerance of [`TextureAxes::from_axes`]'s perpendicularity check:
-/// a given normal `N` is accepted when `|N̂·(U_p × V_p)| / |U_p × V_p| ≥ 1 − NORMAL_COS_EPS`
-/// (within about 4.5e-5 rad of the lattice plane's normal).
-pub const NORMAL_COS_EPS: f64 = 1e-9;
+/// The side of the fallback frame's facets when the caller's is not finite
+/// and positive: one mesh unit.
+const DEFAULT_FALLBACK_CELL: f64 = 1.0;
 
 /// The texture frame of one triangle: `P = P_c + a·U_p + b·V_p` (eq. 6.2).
+///
+/// Handedness: eq. 6.8–6.15 give `U_p × V_p = (P_10 × P_20) / det A`, so a
+/// mirrored UV triangle (`det A < 0`) has `U_p × V_p` pointing *into* the
+/// surface. The thesis never forms that cross product, and neither do we: the
+/// normal `N` comes from the winding (`P_10 × P_20`), so the lenses stay
+/// under the surface (eq. 6.22) on mirrored triangles too, and the sign is
+/// kept in [`TextureAxes::handedness`] for code that builds a tangent frame
+/// (Bevy's `Mesh::ATTRIBUTE_TANGENT` `w`, see [`TextureAxes::tangent_vec4`]).
 ///
 /// Invariants every constructor establishes and the rest of the module relies
 /// on: `U_p`, `V_p` finite and not parallel, `N` a unit vector exactly along
@@ -83,9 +101,17 @@ impl TextureAxes {
     /// The axes of a triangle with positions `p` and (already scaled, eq. 6.1)
     /// texture coordinates `t`, by eq. 6.4–6.15, with `P_c` from eq. 6.3 at
     /// `P_e = P_0`.
+    ///
+    /// Errors: [`CompoundEyeError::Input`] for a non-finite position or
+    /// texture coordinate, [`CompoundEyeError::DegenerateTriangle`] (see
+    /// [`AREA_REL_EPS`]) and [`CompoundEyeError::DegenerateUv`] (see
+    /// [`UV_DET_REL_EPS`]).
     pub fn from_triangle(p: [DVec3; 3], t: [DVec2; 3]) -> Result<Self, CompoundEyeError> {
-        if !p.iter().all(|x| x.is_finite()) || !t.iter().all(|x| x.is_finite()) {
-            return Err(CompoundEyeError::NonFinite);
+        for x in p {
+            input::finite_vec3("triangle vertex position (mesh units)", x)?;
+        }
+        for x in t {
+            input::finite_vec2("triangle texture coordinate (facets)", x)?;
         }
         let p10 = p[1] - p[0]; // (6.4)
         let p20 = p[2] - p[0]; // (6.5)
@@ -122,8 +148,8 @@ impl TextureAxes {
     /// [`TextureAxes::from_triangle`], or a defined fallback frame when it fails.
     ///
     /// Fallback (`fallback` holds the reason): an orthogonal frame in the
-    /// triangle's plane with both axes `fallback_cell` long (one facet; a
-    /// non-finite or non-positive value means 1), `U_p` along the longer of
+    /// triangle's plane with both axes `fallback_cell` long (one facet, in
+    /// mesh units; a non-finite or non-positive value means 1), `U_p` along the longer of
     /// `P_10`, `P_20`, right-handed, and `P_0 ↦ T_0` (eq. 6.3). A triangle
     /// with no plane (zero area) or with non-finite input gets the world
     /// frame (`N = +z`) through `P_0` (or the origin if `P_0` is not finite).
@@ -134,7 +160,7 @@ impl TextureAxes {
             Ok(axes) => return axes,
             Err(e) => e,
         };
-        let s = if fallback_cell.is_finite() && fallback_cell > 0.0 { fallback_cell } else { 1.0 };
+        let s = input::positive("fallback facet size (mesh units)", fallback_cell).unwrap_or(DEFAULT_FALLBACK_CELL);
         let t0 = if t[0].is_finite() { t[0] } else { DVec2::ZERO };
         let p0 = if p[0].is_finite() { p[0] } else { DVec3::ZERO };
         let (u_hat, v_hat, normal) = match reason {
@@ -170,19 +196,22 @@ impl TextureAxes {
     /// lenses off their cells' columns and mix depth into the texture
     /// coordinates) rather than silently projected.
     ///
-    /// Errors: [`CompoundEyeError::NonFinite`] for non-finite input,
-    /// [`CompoundEyeError::DegenerateTriangle`] for a zero `normal`,
+    /// Errors: [`CompoundEyeError::Input`] for a non-finite `origin`, `u`,
+    /// `v` or `normal`, or a zero `normal`;
     /// [`CompoundEyeError::DegenerateUv`] when `u`, `v` are (nearly) parallel
-    /// and [`CompoundEyeError::NormalNotPerpendicular`] for a tilted `normal`.
+    /// (see [`UV_DET_REL_EPS`]) and
+    /// [`CompoundEyeError::NormalNotPerpendicular`] for a tilted `normal`.
     pub fn from_axes(origin: DVec3, u: DVec3, v: DVec3, normal: DVec3) -> Result<Self, CompoundEyeError> {
-        if !origin.is_finite() || !u.is_finite() || !v.is_finite() || !normal.is_finite() {
-            return Err(CompoundEyeError::NonFinite);
-        }
-        let given = normal.try_normalize().ok_or(CompoundEyeError::DegenerateTriangle)?;
+        let origin = input::finite_vec3("lattice origin P_c (mesh units)", origin)?;
+        let u = input::finite_vec3("lattice axis U_p (mesh units per facet)", u)?;
+        let v = input::finite_vec3("lattice axis V_p (mesh units per facet)", v)?;
+        let given = input::direction("lattice normal", normal)?;
         let cross = u.cross(v);
         let sin_len = cross.length();
-        if !(sin_len > UV_DET_REL_EPS * u.length() * v.length()) || !sin_len.is_finite() {
-            return Err(CompoundEyeError::DegenerateUv { det: 0.0 });
+        let lengths = u.length() * v.length();
+        if !(sin_len > UV_DET_REL_EPS * lengths) || !sin_len.is_finite() {
+            let sin = if lengths > 0.0 && (sin_len / lengths).is_finite() { sin_len / lengths } else { 0.0 };
+            return Err(CompoundEyeError::DegenerateUv { det: sin });
         }
         let plane_normal = cross / sin_len;
         let cos = given.dot(plane_normal);
@@ -195,7 +224,7 @@ impl TextureAxes {
             Ok(axes)
         } else {
             // Only reachable with extreme magnitudes (overflow or underflow of U·U, V·V).
-            Err(CompoundEyeError::DegenerateUv { det: 0.0 })
+            Err(CompoundEyeError::DegenerateUv { det: sin_len / lengths })
         }
     }
 
@@ -293,6 +322,7 @@ impl TextureAxes {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::Expected;
     use proptest::prelude::*;
 
     fn close(a: DVec3, b: DVec3, tol: f64) -> bool {
@@ -358,9 +388,21 @@ mod tests {
         assert_eq!(a.fallback, Some(CompoundEyeError::DegenerateTriangle));
         assert_eq!(a.normal, DVec3::Z);
         let nan = [DVec3::ZERO, DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Y];
-        assert_eq!(TextureAxes::from_triangle(nan, t), Err(CompoundEyeError::NonFinite));
+        match TextureAxes::from_triangle(nan, t) {
+            Err(CompoundEyeError::Input(e)) => {
+                assert_eq!((e.what, e.expected), ("triangle vertex position (mesh units)", Expected::FiniteVector));
+                assert!(e.value.is_nan());
+            }
+            other => panic!("{other:?}"),
+        }
+        let inf_uv = [DVec2::ZERO, DVec2::new(0.0, f64::INFINITY), DVec2::Y];
+        match TextureAxes::from_triangle(line, inf_uv) {
+            Err(CompoundEyeError::Input(e)) => assert_eq!((e.what, e.value), ("triangle texture coordinate (facets)", f64::INFINITY)),
+            other => panic!("{other:?}"),
+        }
         let a = TextureAxes::from_triangle_or_fallback(nan, t, f64::NAN);
-        assert!(a.origin.is_finite() && a.u.is_finite() && (a.u.length() - 1.0).abs() < 1e-15);
+        assert!(matches!(a.fallback, Some(CompoundEyeError::Input(_))));
+        assert!(a.origin.is_finite() && a.u.is_finite() && (a.u.length() - DEFAULT_FALLBACK_CELL).abs() < 1e-15);
     }
 
     #[test]
@@ -412,9 +454,22 @@ mod tests {
         let q = DVec3::new(0.3, 0.7, -0.4);
         assert_eq!(a.uv_of(q), DVec2::new(0.3, 0.7));
         assert_eq!(a.depth(q), 0.4);
+        match TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ZERO) {
+            Err(CompoundEyeError::Input(e)) => assert_eq!((e.what, e.expected), ("lattice normal", Expected::Direction)),
+            other => panic!("{other:?}"),
+        }
+        match TextureAxes::from_axes(DVec3::ZERO, DVec3::new(0.0, f64::NAN, 0.0), DVec3::Y, DVec3::Z) {
+            Err(CompoundEyeError::Input(e)) => assert_eq!(e.what, "lattice axis U_p (mesh units per facet)"),
+            other => panic!("{other:?}"),
+        }
+        // Parallel axes: the error carries the sine of their angle.
+        match TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1e-7, 0.0), DVec3::Z) {
+            Err(CompoundEyeError::DegenerateUv { det }) => assert!((det - 1e-7).abs() < 1e-12, "{det}"),
+            other => panic!("{other:?}"),
+        }
         assert_eq!(
-            TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ZERO),
-            Err(CompoundEyeError::DegenerateTriangle)
+            TextureAxes::from_axes(DVec3::ZERO, DVec3::ZERO, DVec3::Y, DVec3::Z),
+            Err(CompoundEyeError::DegenerateUv { det: 0.0 })
         );
     }
 
@@ -434,7 +489,12 @@ mod tests {
 
     #[test]
     fn scale_uv_is_eq_6_1() {
-        assert_eq!(scale_uv(DVec2::new(0.25, 0.5), 40.0), DVec2::new(10.0, 20.0));
+        assert_eq!(scale_uv(DVec2::new(0.25, 0.5), 40.0), Ok(DVec2::new(10.0, 20.0)));
+        for bad in [0.0, -3.0, f64::NAN, f64::INFINITY] {
+            let e = scale_uv(DVec2::ONE, bad).unwrap_err();
+            assert_eq!((e.what, e.expected), ("texture resolution R_t (facets per UV unit)", Expected::Positive));
+        }
+        assert_eq!(scale_uv(DVec2::new(f64::NAN, 0.0), 40.0).unwrap_err().expected, Expected::FiniteVector);
     }
 
     proptest! {

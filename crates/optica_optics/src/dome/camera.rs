@@ -12,8 +12,9 @@
 //! * `tilt_deg` leans the dome forward (towards the audience front, view −Y)
 //!   by τ: dome axis `a = (0, −sin τ, −cos τ)`, image up `u = (0, cos τ, −sin τ)`,
 //!   image right `e = (1, 0, 0)`. At τ = 90° the axis is the horizontal front.
-//! * Domemaster frame: a square of `size_px`, the image circle inscribed, centre
-//!   at (size/2, size/2). Pixel coordinates are continuous, origin at the
+//! * Domemaster frame (the common domemaster convention, as in Paul Bourke's
+//!   notes on fisheye domemaster images): a square of `size_px`, the image
+//!   circle inscribed, centre at (size/2, size/2). Pixel coordinates are continuous, origin at the
 //!   top-left corner, +u right, +v down (pixel (i, j) covers [i, i+1)×[j, j+1)).
 //! * Equidistant: r = f·θ with f = (size/2)/(FOV/2) px per radian, θ the angle
 //!   from the dome axis (D1, D3 in the module docs).

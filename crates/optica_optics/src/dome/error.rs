@@ -30,7 +30,9 @@ pub enum DomeError {
     #[error("the segment passes through the viewer")]
     ThroughViewer,
     /// The great-circle arc passes (within [`ANTIPODE_EPS_RAD`](super::ANTIPODE_EPS_RAD))
-    /// through the antipode of the dome axis, where its image tears.
+    /// through the antipode of the dome axis, where its image tears and no
+    /// chord can stand for it (from the exact error measure, feature
+    /// `reference`; the refiners clip or cull there instead).
     #[error("the arc passes through the antipode of the dome axis")]
     Antipode,
     /// A triangle refers to a vertex that does not exist.

@@ -84,7 +84,8 @@ impl Projected {
 
 impl DomeProjection {
     /// Polar angle θ ∈ [0, π] of a view-space point from the dome axis
-    /// (atan2 form, D2). The origin gives 0.
+    /// (atan2 form, D2). The origin gives 0; a non-finite point gives NaN
+    /// (classify untrusted points with [`Self::project`]).
     pub fn theta(&self, p: DVec3) -> f64 {
         let q = self.to_dome(p);
         q.x.hypot(q.y).atan2(q.z)

@@ -12,16 +12,24 @@ use std::f64::consts::{PI, TAU};
 use glam::DVec3;
 
 use super::error::DomeError;
+use crate::input::{self, InvalidInput};
 
-/// Relative size of |a × b| below which the segment is taken to be collinear
-/// with the viewer (radial towards it, or through it).
+/// Relative size of |a × b| (against |a|·|b|, i.e. the sine of the subtended
+/// angle) below which the segment is taken to be collinear with the viewer
+/// (radial towards it, or through it). The cross product of f64 vectors is
+/// accurate to a few 1e-16 relative; 1e-12 leaves four digits of margin over
+/// that noise, and a 1e-12 rad arc is 1e-8 px even at 8K, so nothing visible
+/// is lost by treating it as a point.
 const COLLINEAR_REL: f64 = 1e-12;
 
-/// The paper's "視野角" of a segment (§3.2 step 1, D4): the angle it
-/// subtends at the viewer, `atan2(|a × b|, a·b)` ∈ [0, π]. Accurate for tiny
+/// What a non-finite segment endpoint is reported as.
+const VERTEX: &str = "vertex (view space)";
+
+/// The paper's "visual angle" (視野角) of a segment (§3.2 step 1, D4): the
+/// angle it subtends at the viewer, `atan2(|a × b|, a·b)` ∈ [0, π]. Accurate for tiny
 /// and for nearly 180° angles, unlike `acos` of the normalised dot product.
-/// Zero when an endpoint is at the origin.
-pub fn subtended_angle(a: DVec3, b: DVec3) -> f64 {
+/// Zero when an endpoint is at the origin (callers pass finite points).
+pub(crate) fn subtended_angle(a: DVec3, b: DVec3) -> f64 {
     a.cross(b).length().atan2(a.dot(b))
 }
 
@@ -37,6 +45,29 @@ pub(crate) struct ThetaRange {
     pub min: f64,
     /// Largest polar angle on the arc.
     pub max: f64,
+}
+
+/// Why a segment has no arc: the failures of [`Arc::new`], one per cause, so
+/// that the batch refiners can count each (see
+/// [`RefineStats`](super::RefineStats)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum ArcError {
+    /// An endpoint is not finite.
+    NonFinite(InvalidInput),
+    /// An endpoint is at the origin.
+    AtOrigin,
+    /// The segment passes through the viewer.
+    ThroughViewer,
+}
+
+impl From<ArcError> for DomeError {
+    fn from(e: ArcError) -> Self {
+        match e {
+            ArcError::NonFinite(e) => DomeError::Input(e),
+            ArcError::AtOrigin => DomeError::AtOrigin,
+            ArcError::ThroughViewer => DomeError::ThroughViewer,
+        }
+    }
 }
 
 /// A segment a→b seen from the origin: the arc from â towards b̂.
@@ -55,15 +86,15 @@ pub(crate) struct Arc {
 }
 
 impl Arc {
-    /// The arc of segment a→b. Errors: non-finite or origin endpoints, and
-    /// segments through the viewer (endpoints in opposite directions).
-    pub fn new(a: DVec3, b: DVec3) -> Result<Self, DomeError> {
-        if !a.is_finite() || !b.is_finite() {
-            return Err(DomeError::NonFiniteVertex);
-        }
+    /// The arc of segment a→b. Errors: non-finite endpoints
+    /// ([`DomeError::Input`]), an endpoint at the origin, and segments
+    /// through the viewer (endpoints in opposite directions).
+    pub fn new(a: DVec3, b: DVec3) -> Result<Self, ArcError> {
+        input::finite_vec3(VERTEX, a).map_err(ArcError::NonFinite)?;
+        input::finite_vec3(VERTEX, b).map_err(ArcError::NonFinite)?;
         let (len_a, len_b) = (a.length(), b.length());
         if len_a == 0.0 || len_b == 0.0 {
-            return Err(DomeError::AtOrigin);
+            return Err(ArcError::AtOrigin);
         }
         let a_hat = a / len_a;
         let n = a.cross(b);
@@ -71,7 +102,7 @@ impl Arc {
         let dot = a.dot(b);
         if n_len <= COLLINEAR_REL * len_a * len_b {
             if dot < 0.0 {
-                return Err(DomeError::ThroughViewer);
+                return Err(ArcError::ThroughViewer);
             }
             // Radial towards the viewer (or zero length): the image is a point.
             return Ok(Self { a, b, a_hat, w_hat: DVec3::ZERO, alpha: 0.0, len_a, len_b });
@@ -141,8 +172,16 @@ impl Arc {
 
 /// Splits segment a→b into `n` pieces of equal subtended angle (D7) and
 /// returns the `n + 1` points from `a` to `b` (endpoints copied exactly).
-/// Bit-identical for (a, b) and (b, a), reversed. `n = 0` is taken as 1.
+/// Bit-identical for (a, b) and (b, a), reversed. `n` is clamped to
+/// 1 ..= [`MAX_PIECES`](super::MAX_PIECES). Errors: a non-finite endpoint
+/// ([`DomeError::Input`]), an endpoint at the origin, a segment through the
+/// viewer.
 pub fn split_segment(a: DVec3, b: DVec3, n: u32) -> Result<Vec<DVec3>, DomeError> {
+    Ok(split_points(a, b, n.clamp(1, super::MAX_PIECES))?)
+}
+
+/// [`split_segment`] with the failure's cause, for any `n ≥ 1`.
+pub(crate) fn split_points(a: DVec3, b: DVec3, n: u32) -> Result<Vec<DVec3>, ArcError> {
     let n = n.max(1);
     let swap = canonical_less(b, a);
     let (p, q) = if swap { (b, a) } else { (a, b) };
@@ -198,7 +237,16 @@ mod tests {
         assert_eq!(split_segment(a, a, 3).unwrap(), vec![a, a, a, a]);
         assert_eq!(split_segment(a, -2.0 * a, 2), Err(DomeError::ThroughViewer));
         assert_eq!(split_segment(a, DVec3::ZERO, 2), Err(DomeError::AtOrigin));
-        assert_eq!(split_segment(a, DVec3::splat(f64::NAN), 2), Err(DomeError::NonFiniteVertex));
+        match split_segment(a, DVec3::new(0.0, f64::INFINITY, 0.0), 2) {
+            Err(DomeError::Input(e)) => {
+                assert_eq!((e.what, e.value, e.expected), (VERTEX, f64::INFINITY, input::Expected::FiniteVector))
+            }
+            other => panic!("{other:?}"),
+        }
+        // The piece count is clamped to 1 ..= MAX_PIECES.
+        let b = DVec3::new(-2.0, 1.0, -3.0);
+        assert_eq!(split_segment(a, b, 0).unwrap(), vec![a, b]);
+        assert_eq!(split_segment(a, b, u32::MAX).unwrap().len(), super::super::MAX_PIECES as usize + 1);
         // Radial towards the viewer: a point arc, split linearly, finite.
         let pts = split_segment(a, 0.25 * a, 4).unwrap();
         assert!(pts.iter().all(|p| p.is_finite()));

@@ -12,8 +12,9 @@
 //! * `tilt_deg` leans the dome forward (towards the audience front, view −Y)
 //!   by τ: dome axis `a = (0, −sin τ, −cos τ)`, image up `u = (0, cos τ, −sin τ)`,
 //!   image right `e = (1, 0, 0)`. At τ = 90° the axis is the horizontal front.
-//! * Domemaster frame: a square of `size_px`, the image circle inscribed, centre
-//!   at (size/2, size/2). Pixel coordinates are continuous, origin at the
+//! * Domemaster frame (the common domemaster convention, as in Paul Bourke's
+//!   notes on fisheye domemaster images): a square of `size_px`, the image
+//!   circle inscribed, centre at (size/2, size/2). Pixel coordinates are continuous, origin at the
 //!   top-left corner, +u right, +v down (pixel (i, j) covers [i, i+1)×[j, j+1)).
 //! * Equidistant: r = f·θ with f = (size/2)/(FOV/2) px per radian, θ the angle
 //!   from the dome axis (D1, D3 in the module docs).
@@ -24,6 +25,7 @@ use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
 use super::error::DomeError;
+use crate::input;
 
 /// Smallest field of view accepted, in degrees. Below it the scale
 /// f = (size/2)/(FOV/2) is so large that it says nothing useful (at 1e-320°
@@ -31,16 +33,26 @@ use super::error::DomeError;
 /// ~5·10¹⁷ px/rad, finite, and so is every projected pixel (≤ f·π).
 pub const MIN_FOV_DEG: f64 = 1e-6;
 
+/// Fields of view must be below this, in degrees: at 360° the antipode of the
+/// dome axis, where the projection is singular, would lie on the rim.
+const FOV_LIMIT_DEG: f64 = 360.0;
+
 /// User-facing settings of a fisheye dome camera (domemaster output).
+///
+/// A plain settings struct (a Bevy component can mirror it field by field);
+/// it is checked once by [`DomeProjection::new`], the only way to get a frame
+/// the projection and refinement functions accept.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DomeCamera {
-    /// Full field of view of the fisheye in degrees, in
-    /// [[`MIN_FOV_DEG`], 360): 180 is the standard dome, 210–250 are wide
-    /// fisheyes.
+    /// Full field of view of the fisheye in degrees, at least
+    /// [`MIN_FOV_DEG`] and below 360: 180 is the standard dome, 210–250 are
+    /// wide fisheyes.
     pub fov_deg: f64,
     /// Forward tilt of the dome in degrees (typical tilted domes: 10–30).
+    /// Any finite value.
     pub tilt_deg: f64,
-    /// Width and height of the square domemaster in pixels (2048, 4096, 8192).
+    /// Width and height of the square domemaster in pixels (2048, 4096,
+    /// 8192), at least 1.
     pub size_px: u32,
 }
 
@@ -48,41 +60,6 @@ impl Default for DomeCamera {
     /// A 4K, 180°, untilted dome: the common domemaster.
     fn default() -> Self {
         Self { fov_deg: 180.0, tilt_deg: 0.0, size_px: 4096 }
-    }
-}
-
-impl DomeCamera {
-    /// Validated settings.
-    pub fn new(fov_deg: f64, tilt_deg: f64, size_px: u32) -> Result<Self, DomeError> {
-        let cam = Self { fov_deg, tilt_deg, size_px };
-        cam.validate()?;
-        Ok(cam)
-    }
-
-    /// Checks the settings: FOV in [[`MIN_FOV_DEG`], 360°) with a finite
-    /// positive scale f, finite tilt, size ≥ 1.
-    pub fn validate(&self) -> Result<(), DomeError> {
-        if !(self.fov_deg >= MIN_FOV_DEG && self.fov_deg < 360.0) {
-            return Err(DomeError::InvalidFov(self.fov_deg));
-        }
-        // Implied by the bound; checked so that the frame's "never NaN"
-        // does not rest on arithmetic elsewhere.
-        let f = focal_px(self.fov_deg, self.size_px);
-        if !(f.is_finite() && f > 0.0) {
-            return Err(DomeError::InvalidFov(self.fov_deg));
-        }
-        if !self.tilt_deg.is_finite() {
-            return Err(DomeError::InvalidTilt(self.tilt_deg));
-        }
-        if self.size_px == 0 {
-            return Err(DomeError::InvalidSize);
-        }
-        Ok(())
-    }
-
-    /// The projection these settings define (validates first).
-    pub fn projection(&self) -> Result<DomeProjection, DomeError> {
-        DomeProjection::new(*self)
     }
 }
 
@@ -116,9 +93,18 @@ pub struct DomeProjection {
 }
 
 impl DomeProjection {
-    /// Builds the frame of `camera` (validates it first).
-    pub fn new(camera: DomeCamera) -> Result<Self, DomeError> {
-        camera.validate()?;
+    /// Checks `camera` and builds its frame. Errors ([`DomeError::Input`]):
+    /// a field of view that is not finite, below [`MIN_FOV_DEG`] or not below
+    /// 360°; a tilt that is not finite; a size of 0 px.
+    pub fn new(camera: &DomeCamera) -> Result<Self, DomeError> {
+        const FOV: &str = "dome field of view (deg)";
+        input::in_range(FOV, camera.fov_deg, MIN_FOV_DEG, FOV_LIMIT_DEG.next_down())?;
+        input::finite("dome tilt (deg)", camera.tilt_deg)?;
+        input::positive("domemaster size (px)", f64::from(camera.size_px))?;
+        // The FOV bound keeps f finite (≤ ~5·10¹⁷ px/rad at 2³² px, see
+        // MIN_FOV_DEG), hence every pixel finite.
+        debug_assert!(focal_px(camera.fov_deg, camera.size_px).is_finite());
+        let camera = *camera;
         let tau = camera.tilt_deg.to_radians();
         let (s, c) = tau.sin_cos();
         Ok(Self {
@@ -220,18 +206,46 @@ impl DomeProjection {
 mod tests {
     use super::*;
     use crate::dome::Projected;
+    use crate::input::Expected;
+
+    fn frame(fov_deg: f64, tilt_deg: f64, size_px: u32) -> Result<DomeProjection, DomeError> {
+        DomeProjection::new(&DomeCamera { fov_deg, tilt_deg, size_px })
+    }
 
     #[test]
-    fn dome_camera_rejects_fovs_with_no_finite_scale() {
+    fn bad_settings_are_refused_with_the_quantity_named() {
         // 1e-320° (subnormal): θ_max underflows, f = ∞, projection NaN.
         for fov in [1e-320, f64::MIN_POSITIVE, 1e-300, 1e-7, 0.0, -1.0, 360.0, f64::NAN, f64::INFINITY] {
-            assert!(matches!(DomeCamera::new(fov, 0.0, 4096), Err(DomeError::InvalidFov(_))), "{fov}");
-            let cam = DomeCamera { fov_deg: fov, tilt_deg: 0.0, size_px: 4096 };
-            assert!(matches!(cam.projection(), Err(DomeError::InvalidFov(_))), "{fov}");
+            match frame(fov, 0.0, 4096) {
+                Err(DomeError::Input(e)) => {
+                    assert_eq!(e.what, "dome field of view (deg)");
+                    assert_eq!(e.expected, Expected::Range { min: MIN_FOV_DEG, max: 360f64.next_down() });
+                    assert!(e.value == fov || (fov.is_nan() && e.value.is_nan()), "{fov}");
+                }
+                other => panic!("{fov}: {other:?}"),
+            }
         }
+        match frame(180.0, f64::NAN, 4096) {
+            Err(DomeError::Input(e)) => assert_eq!((e.what, e.expected), ("dome tilt (deg)", Expected::Finite)),
+            other => panic!("{other:?}"),
+        }
+        match frame(180.0, 0.0, 0) {
+            Err(DomeError::Input(e)) => {
+                assert_eq!((e.what, e.value, e.expected), ("domemaster size (px)", 0.0, Expected::Positive))
+            }
+            other => panic!("{other:?}"),
+        }
+        // Just below 360° is accepted; the default is the 4K/180° dome.
+        assert!(frame(360f64.next_down(), 0.0, 4096).is_ok());
+        let d = DomeProjection::new(&DomeCamera::default()).unwrap();
+        assert_eq!(d.camera(), DomeCamera { fov_deg: 180.0, tilt_deg: 0.0, size_px: 4096 });
+    }
+
+    #[test]
+    fn smallest_fov_and_largest_size_give_finite_pixels() {
         // At the bound and the largest size, f and every pixel are finite.
         for size in [1, 4096, u32::MAX] {
-            let p = DomeCamera::new(MIN_FOV_DEG, 10.0, size).unwrap().projection().unwrap();
+            let p = frame(MIN_FOV_DEG, 10.0, size).unwrap();
             assert!(p.focal_px().is_finite() && p.focal_px() > 0.0);
             for q in [DVec3::new(0.0, 0.0, -1.0), DVec3::new(1e-12, 0.0, -1.0), DVec3::new(1.0, 2.0, 3.0), DVec3::new(0.3, -1.0, 0.0)] {
                 match p.project(q) {

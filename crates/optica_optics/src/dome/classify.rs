@@ -11,25 +11,27 @@
 //! Why the last class can be split once: its subtended angles do not change
 //! (the objects keep their distance from the viewer and only the view turns),
 //! and the paper's rule (D4) depends on the subtended angle alone, so one
-//! subdivision with the worst-case step ([`SplitRule::visual_angle_for_tolerance`])
+//! subdivision with the worst-case step
+//! ([`SplitRule::visual_angle_for_tolerance`](super::SplitRule::visual_angle_for_tolerance))
 //! serves every view direction. [`pre_subdivide`] does that.
 
-use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::arc::Arc;
-use super::error::DomeError;
 use super::refine::RefineStats;
-use super::rule::{Pieces, SplitRule};
-use super::triangle::{RefinedMesh, TriMesh, subdivide_triangle};
+use super::rule::count_pieces;
+use super::triangle::{RefinedMesh, TriMesh, Welder, subdivide_triangle};
+use crate::input::{self, InvalidInput};
 
 /// Kind of primitive (paper §3.1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum PrimitiveKind {
-    /// A line or polyline ("直線で表されるフラグメント").
+    /// A line or polyline (the paper's "fragments represented by straight
+    /// lines", 直線で表されるフラグメント).
     Line,
-    /// A triangle ("三角形で表されるフラグメント").
+    /// A triangle (the paper's "fragments represented by triangles",
+    /// 三角形で表されるフラグメント).
     Triangle,
 }
 
@@ -66,44 +68,30 @@ pub fn classify(kind: PrimitiveKind, size: ApparentSize) -> Treatment {
 /// mesh is in viewer-centred coordinates, any orientation). No clipping: the
 /// result is meant to be drawn from every view direction, and is crack-free
 /// like [`refine_mesh`](super::refine_mesh). Triangles with a non-finite
-/// vertex or an edge through the viewer are left out and counted.
-pub fn pre_subdivide(mesh: &TriMesh, max_piece_rad: f64) -> Result<RefinedMesh, DomeError> {
-    let rule = SplitRule::VisualAngle { max_piece_rad };
-    rule.validate()?;
-    mesh.validate()?;
-    let pieces = |arc: &Arc| {
-        let want = (arc.alpha / max_piece_rad).ceil();
-        let cap = f64::from(super::MAX_PIECES);
-        if want > cap {
-            Pieces { n: super::MAX_PIECES, capped: true }
-        } else {
-            Pieces { n: (want as u32).max(1), capped: false }
-        }
-    };
+/// vertex, a vertex at the origin or an edge through the viewer are left out
+/// and counted per cause. Errors: `max_piece_rad` not finite and positive.
+pub fn pre_subdivide(mesh: &TriMesh, max_piece_rad: f64) -> Result<RefinedMesh, InvalidInput> {
+    let max_piece_rad = input::positive("maximum piece angle (rad)", max_piece_rad)?;
+    let pieces = |arc: &Arc| count_pieces(arc.alpha / max_piece_rad);
     let parts: Vec<(TriMesh, RefineStats)> = mesh
         .triangles
         .par_iter()
-        .map(|t| {
-            let tri: [DVec3; 3] = t.map(|i| mesh.positions[i as usize]);
+        .map(|&t| {
             let mut st = RefineStats { input: 1, ..Default::default() };
-            match subdivide_triangle(tri, &pieces) {
+            match subdivide_triangle(mesh.corners(t), &pieces) {
                 Ok((m, capped)) => {
                     st.capped_edges = usize::from(capped);
                     (m, st)
                 }
-                Err(DomeError::NonFiniteVertex) => {
-                    st.dropped_nonfinite = 1;
-                    (TriMesh::default(), st)
-                }
-                Err(_) => {
-                    st.dropped_through_viewer = 1;
+                Err(cause) => {
+                    st.drop_for(cause);
                     (TriMesh::default(), st)
                 }
             }
         })
         .collect();
     let mut out = RefinedMesh::default();
-    let mut welder = super::triangle::Welder::default();
+    let mut welder = Welder::default();
     for (m, st) in &parts {
         welder.add(m);
         out.stats = out.stats.merge(*st);
@@ -116,8 +104,8 @@ pub fn pre_subdivide(mesh: &TriMesh, max_piece_rad: f64) -> Result<RefinedMesh, 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dome::{DomeCamera, EdgeErrors};
-    use glam::DQuat;
+    use crate::dome::{EdgeErrors, SplitRule};
+    use glam::{DQuat, DVec3};
     use proptest::prelude::*;
 
     #[test]
@@ -136,10 +124,8 @@ mod tests {
             let (az, el) = (az.to_radians(), el.to_radians());
             DVec3::new(el.cos() * az.sin(), el.sin(), -el.cos() * az.cos()) * 100.0
         };
-        TriMesh {
-            positions: vec![d(-20.0, -15.0), d(20.0, -15.0), d(20.0, 15.0), d(-20.0, 15.0)],
-            triangles: vec![[0, 1, 2], [0, 2, 3]],
-        }
+        let positions = vec![d(-20.0, -15.0), d(20.0, -15.0), d(20.0, 15.0), d(-20.0, 15.0)];
+        TriMesh::new(positions, vec![[0, 1, 2], [0, 2, 3]]).unwrap()
     }
 
     proptest! {
@@ -151,14 +137,13 @@ mod tests {
             // Subdivide once with the worst-case step for 1 px at 4K/180°,
             // then turn the view arbitrarily: every edge kept in front of the
             // view plane is within 1 px.
-            let proj = DomeCamera::new(180.0, 0.0, 4096).unwrap().projection().unwrap();
+            let proj = crate::dome::test_dome(180.0, 0.0, 4096);
             let rule = SplitRule::visual_angle_for_tolerance(&proj, 1.0).unwrap();
-            let SplitRule::VisualAngle { max_piece_rad } = rule else { unreachable!() };
-            let once = pre_subdivide(&sky_quad(), max_piece_rad).unwrap();
+            let once = pre_subdivide(&sky_quad(), rule.max_piece_rad().unwrap()).unwrap();
             prop_assume!(DVec3::new(ax, ay, az).length() > 0.1);
             let q = DQuat::from_axis_angle(DVec3::new(ax, ay, az).normalize(), angle);
             let edges: Vec<[DVec3; 2]> = once.mesh.edges().iter()
-                .map(|e| e.map(|i| q * once.mesh.positions[i as usize]))
+                .map(|e| e.map(|i| q * once.mesh.positions()[i as usize]))
                 .filter(|e| e.iter().all(|v| v.z <= 0.0))
                 .collect();
             let err = EdgeErrors::of_edges(&proj, &edges);
@@ -167,15 +152,31 @@ mod tests {
     }
 
     #[test]
-    fn pre_subdivision_is_crack_free_and_counts_bad_input() {
+    fn pre_subdivision_is_crack_free_and_counts_bad_input_per_cause() {
         let m = TriMesh::cuboid(DVec3::splat(-1.0), DVec3::splat(1.0), true);
         let r = pre_subdivide(&m, 5f64.to_radians()).unwrap();
         assert!(r.mesh.boundary_edges().is_empty());
-        assert!(r.mesh.triangles.len() > 12 * 50);
-        let mut bad = m.clone();
-        bad.positions[3] = DVec3::splat(f64::NAN);
+        assert!(r.mesh.triangles().len() > 12 * 50);
+        assert_eq!(r.stats.input, 12);
+        // Vertex 3 of the cube is NaN: every triangle using it is dropped as
+        // non-finite. Then one triangle with a corner at the origin and one
+        // with an edge through the viewer.
+        let (mut positions, mut triangles) = m.clone().into_parts();
+        let uses_3 = triangles.iter().filter(|t| t.contains(&3)).count();
+        positions[3] = DVec3::splat(f64::NAN);
+        let n = positions.len() as u32;
+        positions.extend([DVec3::ZERO, DVec3::new(1.0, 0.0, -3.0), DVec3::new(0.0, 1.0, -3.0)]);
+        triangles.push([n, n + 1, n + 2]);
+        positions.extend([DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 0.0, 1.0), DVec3::new(0.0, 1.0, -1.0)]);
+        triangles.push([n + 3, n + 4, n + 5]);
+        let bad = TriMesh::new(positions, triangles).unwrap();
         let r = pre_subdivide(&bad, 0.1).unwrap();
-        assert!(r.stats.dropped_nonfinite > 0);
-        assert!(pre_subdivide(&m, 0.0).is_err());
+        assert_eq!(r.stats.input, 14);
+        assert_eq!(r.stats.dropped_nonfinite, uses_3);
+        assert_eq!(r.stats.dropped_at_origin, 1);
+        assert_eq!(r.stats.dropped_through_viewer, 1);
+        assert!(r.mesh.positions().iter().all(|v| v.is_finite()));
+        let e = pre_subdivide(&m, 0.0).unwrap_err();
+        assert_eq!((e.what, e.value), ("maximum piece angle (rad)", 0.0));
     }
 }

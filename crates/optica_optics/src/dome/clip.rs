@@ -4,9 +4,10 @@
 //!   dome frame (`p·axis ≥ 0`, z = 0 in dome coordinates), a convex half-space,
 //!   so segments and triangles are clipped against that plane in 3D before
 //!   projection. Without it a floor under a zenith camera has vertices behind
-//!   the viewer and at the antipode, and its triangles cover the whole disk
-//!   (REFERENCE.md, lavapipe note). What lies between the rim and the plane
-//!   projects outside the image circle and is discarded per fragment.
+//!   the viewer and near the antipode, and its projected triangles cover the
+//!   whole disk (seen on a software rasteriser, lavapipe, with a camera
+//!   inside a room). What lies between the rim and the plane projects outside
+//!   the image circle and is discarded per fragment.
 //! * FOV > 180°: the visible set θ ≤ FOV/2 is not convex (its complement is a
 //!   cone around the antipode). Segments are clipped exactly to the cone
 //!   θ ≤ θ_guard = (θ_max + π)/2 along their great-circle arc (at most two
@@ -23,7 +24,7 @@ use std::f64::consts::{PI, TAU};
 
 use glam::DVec3;
 
-use super::arc::{Arc, canonical_less};
+use super::arc::{Arc, ArcError, canonical_less};
 use super::camera::DomeProjection;
 use super::error::DomeError;
 
@@ -39,6 +40,11 @@ fn plane_cut(p: DVec3, q: DVec3, dp: f64, dq: f64) -> DVec3 {
 /// docs): zero, one or two sub-segments, each oriented like a→b.
 /// Errors as [`split_segment`](super::split_segment).
 pub fn clip_segment(proj: &DomeProjection, a: DVec3, b: DVec3) -> Result<Vec<[DVec3; 2]>, DomeError> {
+    Ok(clip_parts(proj, a, b)?)
+}
+
+/// [`clip_segment`] with the failure's cause.
+pub(crate) fn clip_parts(proj: &DomeProjection, a: DVec3, b: DVec3) -> Result<Vec<[DVec3; 2]>, ArcError> {
     let swap = canonical_less(b, a);
     let (p, q) = if swap { (b, a) } else { (a, b) };
     // Validates and rejects through-the-viewer segments for both branches.
@@ -147,10 +153,9 @@ pub(crate) fn clip_triangle_plane(axis: DVec3, tri: [DVec3; 3]) -> Vec<[DVec3; 3
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dome::DomeCamera;
 
     fn dome(fov: f64) -> DomeProjection {
-        DomeCamera::new(fov, 0.0, 4096).unwrap().projection().unwrap()
+        crate::dome::test_dome(fov, 0.0, 4096)
     }
 
     #[test]

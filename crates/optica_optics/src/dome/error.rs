@@ -2,35 +2,26 @@
 
 use thiserror::Error;
 
-/// Why a dome camera, a split rule or a primitive could not be used.
+use crate::input::InvalidInput;
+
+/// Why a dome camera, a split rule, a mesh or a primitive could not be used.
 ///
-/// Bad parameters are rejected when a [`DomeProjection`](super::DomeProjection)
-/// or a [`SplitRule`](super::SplitRule) is built; bad geometry is rejected per
-/// primitive by the single-primitive functions and counted (not fatal) by the
-/// batch functions (see [`RefineStats`](super::RefineStats)).
+/// Bad numbers (a field of view out of range, a NaN vertex, a tolerance of
+/// zero) are [`DomeError::Input`]; they are refused where they enter: when a
+/// [`DomeProjection`](super::DomeProjection) or a
+/// [`SplitRule`](super::SplitRule) is built, and per primitive by the
+/// single-primitive functions. The other variants are the places where the
+/// projection itself is singular, and a malformed mesh. The batch functions
+/// ([`refine_mesh`](super::refine_mesh), [`refine_segments`](super::refine_segments),
+/// [`refine_polyline`](super::refine_polyline)) do not fail: they leave bad
+/// primitives out and count them per cause in
+/// [`RefineStats`](super::RefineStats).
 #[derive(Debug, Clone, Copy, PartialEq, Error)]
 pub enum DomeError {
-    /// The field of view must lie in [1e-6°, 360°)
-    /// ([`MIN_FOV_DEG`](super::MIN_FOV_DEG)): 360° would put the
-    /// antipode, where the projection is singular, on the rim; below 1e-6°
-    /// the scale f = (size/2)/(FOV/2) grows without use to ∞ (NaN pixels).
-    #[error("field of view {0}° is outside [1e-6°, 360°)")]
-    InvalidFov(f64),
-    /// The tilt must be finite.
-    #[error("dome tilt {0}° is not finite")]
-    InvalidTilt(f64),
-    /// The domemaster must be at least one pixel wide.
-    #[error("domemaster size must be at least 1 px")]
-    InvalidSize,
-    /// A pixel tolerance must be finite and positive.
-    #[error("pixel tolerance {0} must be finite and positive")]
-    InvalidTolerance(f64),
-    /// A maximum piece angle must be finite and positive.
-    #[error("maximum piece angle {0} rad must be finite and positive")]
-    InvalidPieceAngle(f64),
-    /// A vertex has a NaN or infinite coordinate.
-    #[error("a vertex is not finite")]
-    NonFiniteVertex,
+    /// A number that is not finite or out of range: a camera setting, a
+    /// split rule's parameter or a vertex coordinate.
+    #[error(transparent)]
+    Input(#[from] InvalidInput),
     /// A vertex is at the camera origin, where no direction is defined.
     #[error("a vertex is at the camera origin")]
     AtOrigin,
@@ -39,7 +30,9 @@ pub enum DomeError {
     #[error("the segment passes through the viewer")]
     ThroughViewer,
     /// The great-circle arc passes (within [`ANTIPODE_EPS_RAD`](super::ANTIPODE_EPS_RAD))
-    /// through the antipode of the dome axis, where its image tears.
+    /// through the antipode of the dome axis, where its image tears and no
+    /// chord can stand for it (from the exact error measure, feature
+    /// `reference`; the refiners clip or cull there instead).
     #[error("the arc passes through the antipode of the dome axis")]
     Antipode,
     /// A triangle refers to a vertex that does not exist.

@@ -6,8 +6,9 @@
 //! inside of a triangle is nearer the viewer than its sides (a ceiling seen
 //! from below: the middle is near the zenith, the sides far away), rungs are
 //! wider apart in angle than the sides' pieces, and the stitched diagonals
-//! between them subtend several times the allowed angle (13° diagonals at a
-//! 0.5 px tolerance on REFERENCE.md's room, 4.5× the tolerance).
+//! between them subtend several times the allowed angle (we measured 13°
+//! diagonals, 4.5× the tolerance, at 0.5 px on the ceiling of an inside-out
+//! room, 8 × 9 × 4.7 m, seen by a zenith camera 1.7 m above its floor).
 //!
 //! Fix: while an interior edge needs more than one piece under the rule,
 //! bisect it at its angular midpoint (D7) and split both triangles sharing it
@@ -23,6 +24,7 @@ use glam::DVec3;
 use super::arc::{split_segment, subtended_angle};
 use super::triangle::TriMesh;
 
+/// "No triangle" in an edge's pair of users (a boundary edge has one).
 const NONE: u32 = u32::MAX;
 
 fn key(a: u32, b: u32) -> [u32; 2] {

@@ -1,10 +1,12 @@
 //! # Dome — equidistant fisheye projection with adaptive refinement
 //!
-//! The CPU reference of the dome plugin, after 城島由奈・藤村真生
-//! 「リアルタイム等距離射影変換のためのフラグメント精緻化」
-//! (Johjima & Fujimura, *Enhancing the exquisite fragment to equidistant
-//! projection technique in real-time*, `papers/johjima-equidistant-dome-projection.txt`),
-//! with the numbers of REFERENCE.md's Dome section.
+//! The CPU reference of the dome plugin, after Yuna Johjima and Masao
+//! Fujimura (城島由奈・藤村真生), *Fragment refinement for real-time
+//! equidistant projection* (「リアルタイム等距離射影変換のためのフラグメント精緻化」;
+//! the paper's own English title: *Enhancing the exquisite fragment to
+//! equidistant projection technique in real-time*), Graduate School of
+//! Engineering, Osaka Institute of Technology. The paper's text names
+//! neither its venue nor its year; its newest reference is from 2008.
 //!
 //! The paper projects every vertex of a planetarium scene equidistantly in
 //! the vertex shader (its earlier work \[1\]) and observes that the straight
@@ -15,6 +17,23 @@
 //! and leaves small primitives of constant apparent size to a subdivision done
 //! once in advance (§3.1).
 //!
+//! ```
+//! use optica_optics::dome::{DomeCamera, DomeProjection, SplitRule, refine_segment};
+//! use optica_optics::glam::DVec3;
+//!
+//! // A 4K, 180° dome; the camera looks along −Z (the zenith).
+//! let dome = DomeProjection::new(&DomeCamera::default())?;
+//! let rule = SplitRule::chord_gap(0.5)?; // at most 0.5 px off the true arc
+//! // A 10° edge along the horizon in front of the audience (view −Y).
+//! let h = 5f64.to_radians();
+//! let (a, b) = (DVec3::new(h.sin(), -h.cos(), -0.01), DVec3::new(-h.sin(), -h.cos(), -0.01));
+//! let refined = refine_segment(&dome, a, b, rule)?;
+//! assert_eq!(refined.segment_count(), 4);
+//! let pixel = dome.project(a).visible_pixel().unwrap();
+//! assert!((pixel.y - 4096.0).abs() < 30.0); // near the bottom of the frame
+//! # Ok::<(), optica_optics::dome::DomeError>(())
+//! ```
+//!
 //! ## Equations
 //!
 //! The paper has no numbered equations: it states the method as numbered
@@ -22,41 +41,48 @@
 //! its reference \[1\]. The formulas used here are numbered D1–D8; each says
 //! where it comes from.
 //!
-//! * **D1** (paper §2 via \[1\], REFERENCE.md) — equidistant projection: a
-//!   direction at polar angle θ from the dome axis and azimuth φ lands at
-//!   radius `r = f·θ` from the image centre, at angle φ.
+//! * **D1** (the equidistant, or f-θ, fisheye model, which the paper takes
+//!   from \[1\], §2) — a direction at polar angle θ from the dome axis and
+//!   azimuth φ lands at radius `r = f·θ` from the image centre, at angle φ.
 //! * **D2** (ours, numerics) — polar angle of a view-space point p in dome
 //!   coordinates (x, y, z) = (p·right, p·up, p·axis):
 //!   `θ = atan2(√(x² + y²), z)` — never `acos(z/|p|)`, which loses half the
 //!   digits near θ = 0 and θ = π. Pixel = `centre + f·θ·(x, −y)/√(x² + y²)`.
-//! * **D3** (domemaster convention, REFERENCE.md) — square frame of side S,
-//!   inscribed image circle: `f = (S/2)/(FOV/2)` px/rad (4K, 180°: f = 1303.8).
-//! * **D4** (paper §3.2 step 1, §3.3 step 1: "視野角 θ を算出する") — the angle
-//!   an edge a–b subtends at the viewer, `α = atan2(|a × b|, a·b)`; the paper's
-//!   split "according to the visual angle" is `n = ⌈α/Δ⌉` pieces
-//!   ([`SplitRule::VisualAngle`]).
-//! * **D5** (REFERENCE.md) — chord gap of a tangential piece subtending α at
-//!   polar angle θ: `s ≈ f·α²·(θ/sin θ − cos θ)/(8·sin θ)`, ≈ `f·α²·θ/12` near
-//!   the centre, `(π/16)·f·α²` on the 180° rim. At 4K/180° a 10° rim edge is
-//!   off by ~8 px and 0.5 px needs ≤ ~2.5° pieces there.
+//! * **D3** (the common domemaster convention, as in Paul Bourke's notes on
+//!   fisheye domemaster images) — square frame of side S, inscribed image
+//!   circle, zenith at the centre, audience front at the bottom:
+//!   `f = (S/2)/(FOV/2)` px/rad (4K, 180°: f = 1303.8).
+//! * **D4** (paper §3.2 step 1, §3.3 step 1: "compute the visual angle θ",
+//!   視野角 θ を算出する) — the angle an edge a–b subtends at the viewer,
+//!   `α = atan2(|a × b|, a·b)`; the paper's split "according to the visual
+//!   angle" is `n = ⌈α/Δ⌉` pieces ([`SplitRule::visual_angle`]).
+//! * **D5** (ours, from the curvature of the projected great circle; derived
+//!   in the docs of [`SplitRule`]) — chord gap of a tangential piece
+//!   subtending α at polar angle θ: `s ≈ f·α²·(θ/sin θ − cos θ)/(8·sin θ)`,
+//!   ≈ `f·α²·θ/12` near the centre, `(π/16)·f·α²` on the 180° rim. So at
+//!   4K/180° a 10° rim edge is off by ~8 px (7.8; the exact rim sagitta is
+//!   2048·(1 − cos 5°) = 7.79 px) and 0.5 px needs ≤ ~2.5° pieces there. A
+//!   test holds D5 to the exact error D8 within 1% for 1° pieces.
 //! * **D6** (ours, generalising D5 to any orientation) — normal acceleration
 //!   of the image of a great circle crossing the meridian at angle ψ:
 //!   `N(θ, ψ) = f·sin ψ·[T sin²ψ + K cos²ψ]/√(cos²ψ + (θ/sin θ)² sin²ψ)`,
 //!   `T = θ(θ − sin θ cos θ)/sin³θ`, `K = 2(sin θ − θ cos θ)/sin²θ`,
 //!   `s ≈ α²·N/8`; with Clairaut's `sin θ·sin ψ = sin θ₀` along the circle.
-//!   ψ = 90° gives D5, ψ = 0 (radial) gives 0. [`SplitRule::ChordGap`] uses
+//!   ψ = 90° gives D5, ψ = 0 (radial) gives 0. [`SplitRule::chord_gap`] uses
 //!   `n = ⌈α·√(N_max/(8·tol))⌉`, N_max at the arc's largest θ.
-//! * **D7** (ours, paper §3.2 step 2 "新しく頂点を生成する") — new vertices at equal
-//!   angles along the arc, placed on the 3D segment: the point seen at angle
+//! * **D7** (ours, for paper §3.2 step 2, "generate new vertices", 新しく頂点を生成する)
+//!   — new vertices at equal angles along the arc, placed on the 3D segment
+//!   (so they keep the segment's depth): the point seen at angle
 //!   β from a is `a + t·(b − a)` with
 //!   `t = |a| sin β / (|a| sin β + |b| sin(α − β))`.
 //! * **D8** (ours) — exact error of a chord: the largest pixel distance from
 //!   the projected great-circle arc to the chord between the projected
-//!   endpoints ([`chord_error_px`]).
+//!   endpoints (`chord_error_px`, feature `reference`).
 //!
 //! ## Conventions
 //!
-//! Bevy view space (camera looks along −Z, +Y up). At tilt 0 the dome axis is
+//! Bevy view space (camera looks along −Z, +Y up), in metres, though only
+//! directions matter to the image. At tilt 0 the dome axis is
 //! view −Z and the image's up is view +Y, so the audience front (bottom centre
 //! of the domemaster) is view −Y: mount the camera like a fisheye pointing at
 //! the zenith, up vector towards the back of the theatre. `tilt_deg` leans the
@@ -68,7 +94,9 @@
 //!   [`DomeError::ThroughViewer`]; triangles touching the origin are left out.
 //! * The antipode (θ → π): [`Projected::Antipode`] within [`ANTIPODE_EPS_RAD`].
 //! * Behind the viewer, FOV ≤ 180°: clip against the view plane z = 0 before
-//!   projecting (segments and triangles; REFERENCE.md's lavapipe note).
+//!   projecting (segments and triangles). Unclipped, a floor under a zenith
+//!   camera has vertices near the antipode and its triangles cover the whole
+//!   disk.
 //! * FOV > 180°: the visible set is not convex. Segments are clipped exactly to
 //!   the guard cone θ ≤ θ_clip = (θ_max + π)/2 along their arc; triangles are
 //!   refined whole (edges leaving the guard cone get pieces of at most
@@ -81,8 +109,9 @@
 //!
 //! §3.3 as written spaces the interior by the split points of the two
 //! shorter sides; where the inside of a triangle is nearer the viewer than
-//! its sides this leaves interior edges several times too long (4.5× the
-//! tolerance on REFERENCE.md's room). We add a conforming bisection of such
+//! its sides this leaves interior edges several times too long (we measured
+//! 4.5× the tolerance at 0.5 px on an inside-out room, 8 × 9 × 4.7 m, seen
+//! from 1.7 m above its floor). We add a conforming bisection of such
 //! interior edges that never touches the triangle's boundary, so shared
 //! edges still split identically from both sides (`interior.rs`).
 //!
@@ -99,11 +128,15 @@
 //! | `triangle.rs` | §3.3: triangles and meshes, crack-free |
 //! | `interior.rs` | conforming bisection of interior edges (our addition) |
 //! | `classify.rs` | §3.1: dynamic vs pre-subdivided primitives |
-//! | `measure.rs` | D8: exact chord error |
 //! | `error.rs` | [`DomeError`] |
+//! | `measure.rs` | D8: exact chord error (feature `reference`) |
+//! | `scenes.rs` | test scenes: a box mesh, seeded random edges (feature `reference`) |
 //!
-//! \[1\] 城島・高野・藤村・東: シェーダを用いたリアルタイム3次元CGのための等距離射影変換,
-//! 映像情報メディア学会年次大会 17-6 (2008).
+//! \[1\] Yuna Johjima, Masao Fujimura et al. (城島由奈, 高野敦史, 藤村真生,
+//! 東利香), *Equidistant projection for real-time
+//! 3D CG using shaders* (シェーダを用いたリアルタイム3次元CGのための等距離射影変換),
+//! Proceedings of the ITE (Institute of Image Information and Television
+//! Engineers) Annual Convention (映像情報メディア学会年次大会講演予稿集), 17-6, 2008.
 
 mod arc;
 mod camera;
@@ -111,22 +144,36 @@ mod classify;
 mod clip;
 mod error;
 mod interior;
+#[cfg(feature = "reference")]
 mod measure;
 mod projection;
 mod refine;
 mod rule;
+#[cfg(feature = "reference")]
+mod scenes;
 mod triangle;
 
-pub use arc::{split_segment, subtended_angle};
+pub use arc::split_segment;
 pub use camera::{DomeCamera, DomeProjection, MIN_FOV_DEG};
 pub use classify::{ApparentSize, PrimitiveKind, Treatment, classify, pre_subdivide};
 pub use clip::clip_segment;
 pub use error::DomeError;
+#[cfg(feature = "reference")]
 pub use measure::{EdgeErrors, SAMPLES, chord_error_px, polyline_error_px};
 pub use projection::{ANTIPODE_EPS_RAD, ImagePoint, Projected};
 pub use refine::{RefineStats, RefinedLines, RefinedSegment, refine_polyline, refine_segment, refine_segments};
-pub use rule::{
-    MAX_PIECES, Pieces, SplitRule, max_tangential_piece_rad, normal_acceleration_px, tangential_chord_gap_px,
-    tangential_factor,
-};
+pub use rule::{MAX_PIECES, Pieces, SplitRule};
+#[cfg(feature = "reference")]
+pub use scenes::{RANDOM_EDGE_DISTANCE_M, random_edges};
 pub use triangle::{RefinedMesh, TriMesh, refine_mesh, refine_triangle};
+
+/// The types in this module's signatures that come from the crate's core:
+/// [`InvalidInput`] (inside [`DomeError::Input`] and returned by the
+/// [`SplitRule`] constructors) and what it expects.
+pub use crate::input::{Expected, InvalidInput};
+
+/// The projection of a test: `fov` degrees, `tilt` degrees, `size` px.
+#[cfg(test)]
+pub(crate) fn test_dome(fov: f64, tilt: f64, size: u32) -> DomeProjection {
+    DomeProjection::new(&DomeCamera { fov_deg: fov, tilt_deg: tilt, size_px: size }).expect("valid test dome")
+}

@@ -21,7 +21,19 @@ use super::camera::DomeProjection;
 /// are reported as [`Projected::Antipode`]: their azimuth, hence their pixel,
 /// is not determined by the data (a 1e-9 rad perturbation moves them by up to
 /// 2·f·π px around the circle r = f·π).
+///
+/// Why 1e-9: the polar angle of a direction given in f64 is known to about
+/// 1e-16 rad, but the azimuth of a point at angular distance ε from the
+/// antipode is known only to ~1e-16/ε rad; at ε = 1e-9 that is 1e-7 rad, a
+/// 1e-3 px wobble on the r = f·π circle of an 8K frame. Closer to the
+/// antipode the pixel is noise.
 pub const ANTIPODE_EPS_RAD: f64 = 1e-9;
+
+/// Relative slack on the rim radius in [`DomeProjection::unproject`]: a pixel
+/// computed on the rim by [`DomeProjection::project`] may land a few ulps
+/// (~1e-16 relative) outside it; 1e-12 accepts those and nothing a user could
+/// tell from the rim (1e-12 of 4096 px is 4e-9 px).
+const RIM_SLACK_REL: f64 = 1e-12;
 
 /// A projected point that has a pixel position.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,7 +84,8 @@ impl Projected {
 
 impl DomeProjection {
     /// Polar angle θ ∈ [0, π] of a view-space point from the dome axis
-    /// (atan2 form, D2). The origin gives 0.
+    /// (atan2 form, D2). The origin gives 0; a non-finite point gives NaN
+    /// (classify untrusted points with [`Self::project`]).
     pub fn theta(&self, p: DVec3) -> f64 {
         let q = self.to_dome(p);
         q.x.hypot(q.y).atan2(q.z)
@@ -130,7 +143,7 @@ impl DomeProjection {
         let (du, dv) = (d.x, -d.y);
         let r = du.hypot(dv);
         // A relative slack so that pixels computed on the rim round-trip.
-        if r > self.rim_radius_px() * (1.0 + 1e-12) {
+        if r > self.rim_radius_px() * (1.0 + RIM_SLACK_REL) {
             return None;
         }
         let theta = r / self.focal_px();
@@ -143,16 +156,15 @@ impl DomeProjection {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dome::DomeCamera;
     use proptest::prelude::*;
 
     fn dome(fov: f64, tilt: f64, size: u32) -> DomeProjection {
-        DomeCamera::new(fov, tilt, size).unwrap().projection().unwrap()
+        crate::dome::test_dome(fov, tilt, size)
     }
 
     #[test]
     fn focal_length_4k_180() {
-        // REFERENCE.md: 4K/180° gives f ≈ 1304 px/rad; exactly 2048/(π/2).
+        // D3: 4K/180° gives f = 2048/(π/2) ≈ 1303.8 px/rad.
         let p = dome(180.0, 0.0, 4096);
         assert!((p.focal_px() - 4096.0 / PI).abs() < 1e-9);
         assert!((p.focal_px() - 1303.8).abs() < 0.1);

@@ -12,23 +12,32 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::arc::{Arc, canonical_less, split_segment};
+use super::arc::{Arc, ArcError, canonical_less, split_points};
 use super::camera::DomeProjection;
-use super::clip::clip_segment;
+use super::clip::clip_parts;
 use super::error::DomeError;
 use super::rule::SplitRule;
 
-/// What a batch refinement did. Bad primitives are counted here instead of
-/// failing the batch (the documented fallback: they are left out).
+/// What a batch refinement did. Bad primitives are counted here, one counter
+/// per cause, instead of failing the batch (the documented fallback: they
+/// are left out). Nothing is dropped for the antipode: segments are clipped
+/// before it ([`clipped_away`](Self::clipped_away)) and sub-triangles
+/// covering it are culled ([`culled`](Self::culled)).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct RefineStats {
     /// Input primitives (segments or triangles).
     pub input: usize,
     /// Output primitives (segments or triangles).
     pub emitted: usize,
-    /// Inputs left out for a NaN or infinite vertex.
+    /// Inputs left out for a NaN or infinite vertex coordinate.
     pub dropped_nonfinite: usize,
-    /// Inputs left out for passing through the viewer or touching the origin.
+    /// Inputs left out (for triangles: wholly or in part) because a vertex,
+    /// or a vertex made by clipping, is at the camera origin, where no
+    /// direction is defined.
+    pub dropped_at_origin: usize,
+    /// Inputs left out (for triangles: wholly or in part) because a segment
+    /// or an edge passes through the viewer (its ends are seen in opposite
+    /// directions).
     pub dropped_through_viewer: usize,
     /// Inputs removed entirely by clipping (behind the view plane or inside
     /// the antipode guard cone).
@@ -46,10 +55,20 @@ impl RefineStats {
             input: self.input + o.input,
             emitted: self.emitted + o.emitted,
             dropped_nonfinite: self.dropped_nonfinite + o.dropped_nonfinite,
+            dropped_at_origin: self.dropped_at_origin + o.dropped_at_origin,
             dropped_through_viewer: self.dropped_through_viewer + o.dropped_through_viewer,
             clipped_away: self.clipped_away + o.clipped_away,
             culled: self.culled + o.culled,
             capped_edges: self.capped_edges + o.capped_edges,
+        }
+    }
+
+    /// Counts one input left out for `cause`.
+    pub(crate) fn drop_for(&mut self, cause: ArcError) {
+        match cause {
+            ArcError::NonFinite(_) => self.dropped_nonfinite += 1,
+            ArcError::AtOrigin => self.dropped_at_origin += 1,
+            ArcError::ThroughViewer => self.dropped_through_viewer += 1,
         }
     }
 }
@@ -71,17 +90,22 @@ impl RefinedSegment {
     }
 }
 
-/// Clips and refines segment a→b. Errors: an invalid rule, a non-finite
-/// vertex, an endpoint at the origin, a segment through the viewer.
+/// Clips and refines segment a→b. Errors: a non-finite vertex
+/// ([`DomeError::Input`]), an endpoint at the origin, a segment through the
+/// viewer.
 pub fn refine_segment(proj: &DomeProjection, a: DVec3, b: DVec3, rule: SplitRule) -> Result<RefinedSegment, DomeError> {
-    rule.validate()?;
+    Ok(refine_one(proj, a, b, rule)?)
+}
+
+/// [`refine_segment`] with the failure's cause.
+fn refine_one(proj: &DomeProjection, a: DVec3, b: DVec3, rule: SplitRule) -> Result<RefinedSegment, ArcError> {
     let mut capped = false;
     let mut strips = Vec::new();
-    for [p, q] in clip_segment(proj, a, b)? {
+    for [p, q] in clip_parts(proj, a, b)? {
         let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
         let pieces = rule.pieces_of_arc(proj, &Arc::new(c0, c1)?);
         capped |= pieces.capped;
-        strips.push(split_segment(p, q, pieces.n)?);
+        strips.push(split_points(p, q, pieces.n)?);
     }
     Ok(RefinedSegment { strips, capped })
 }
@@ -95,23 +119,15 @@ pub struct RefinedLines {
     pub stats: RefineStats,
 }
 
-fn account(stats: &mut RefineStats, e: DomeError) {
-    match e {
-        DomeError::NonFiniteVertex => stats.dropped_nonfinite += 1,
-        _ => stats.dropped_through_viewer += 1,
-    }
-}
-
 /// Refines a polyline (consecutive points joined). Segments that fail
-/// (non-finite vertex, through the viewer) are left out and counted; the
-/// polyline continues as a new strip after them. Errs only on a bad rule.
-pub fn refine_polyline(proj: &DomeProjection, points: &[DVec3], rule: SplitRule) -> Result<RefinedLines, DomeError> {
-    rule.validate()?;
+/// (non-finite vertex, at the origin, through the viewer) are left out and
+/// counted per cause; the polyline continues as a new strip after them.
+pub fn refine_polyline(proj: &DomeProjection, points: &[DVec3], rule: SplitRule) -> RefinedLines {
     let mut out = RefinedLines::default();
     for w in points.windows(2) {
         out.stats.input += 1;
-        match refine_segment(proj, w[0], w[1], rule) {
-            Err(e) => account(&mut out.stats, e),
+        match refine_one(proj, w[0], w[1], rule) {
+            Err(cause) => out.stats.drop_for(cause),
             Ok(seg) => {
                 out.stats.capped_edges += usize::from(seg.capped);
                 if seg.strips.is_empty() {
@@ -128,24 +144,20 @@ pub fn refine_polyline(proj: &DomeProjection, points: &[DVec3], rule: SplitRule)
             }
         }
     }
-    Ok(out)
+    out
 }
 
 /// Refines independent segments in parallel; one or two strips per kept
-/// segment, in input order. Bad segments are counted, not fatal.
-pub fn refine_segments(
-    proj: &DomeProjection,
-    segments: &[[DVec3; 2]],
-    rule: SplitRule,
-) -> Result<RefinedLines, DomeError> {
-    rule.validate()?;
+/// segment, in input order. Bad segments are left out and counted per
+/// cause, not fatal.
+pub fn refine_segments(proj: &DomeProjection, segments: &[[DVec3; 2]], rule: SplitRule) -> RefinedLines {
     let parts: Vec<(Vec<Vec<DVec3>>, RefineStats)> = segments
         .par_iter()
         .map(|&[a, b]| {
             let mut st = RefineStats { input: 1, ..Default::default() };
-            match refine_segment(proj, a, b, rule) {
-                Err(e) => {
-                    account(&mut st, e);
+            match refine_one(proj, a, b, rule) {
+                Err(cause) => {
+                    st.drop_for(cause);
                     (Vec::new(), st)
                 }
                 Ok(seg) => {
@@ -162,22 +174,26 @@ pub fn refine_segments(
         out.strips.extend(strips);
         out.stats = out.stats.merge(st);
     }
-    Ok(out)
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dome::DomeCamera;
+    use crate::input::Expected;
 
     fn dome(fov: f64) -> DomeProjection {
-        DomeCamera::new(fov, 0.0, 4096).unwrap().projection().unwrap()
+        crate::dome::test_dome(fov, 0.0, 4096)
+    }
+
+    fn chord_gap(tolerance_px: f64) -> SplitRule {
+        SplitRule::chord_gap(tolerance_px).unwrap()
     }
 
     #[test]
     fn polyline_across_the_view_plane_is_cut_and_joined() {
         let p = dome(180.0);
-        let rule = SplitRule::ChordGap { tolerance_px: 1.0 };
+        let rule = chord_gap(1.0);
         // Square loop around the viewer at z = -1 then dipping behind it.
         let pts = [
             DVec3::new(-2.0, -2.0, -1.0),
@@ -186,7 +202,7 @@ mod tests {
             DVec3::new(-2.0, 2.0, 1.0),
             DVec3::new(-2.0, -2.0, -1.0),
         ];
-        let out = refine_polyline(&p, &pts, rule).unwrap();
+        let out = refine_polyline(&p, &pts, rule);
         assert_eq!(out.stats.input, 4);
         // The first two segments join into one strip; the third is cut at
         // z = 0 and ends there; the fourth starts on z = 0: two strips.
@@ -197,29 +213,61 @@ mod tests {
     }
 
     #[test]
-    fn bad_segments_are_counted_not_fatal() {
+    fn bad_segments_are_counted_per_cause() {
         let p = dome(180.0);
-        let rule = SplitRule::ChordGap { tolerance_px: 1.0 };
+        let rule = chord_gap(1.0);
         let segs = [
             [DVec3::new(1.0, 0.0, -1.0), DVec3::new(f64::NAN, 0.0, -1.0)],
             [DVec3::new(1.0, 0.0, -1.0), DVec3::new(-1.0, 0.0, 1.0)],
+            [DVec3::new(1.0, 0.0, -1.0), DVec3::ZERO],
             [DVec3::new(1.0, 0.0, -1.0), DVec3::new(-1.0, 0.0, -1.0)],
             [DVec3::new(1.0, 0.0, 1.0), DVec3::new(-1.0, 0.0, 1.0)],
         ];
-        let out = refine_segments(&p, &segs, rule).unwrap();
-        assert_eq!(out.stats.dropped_nonfinite, 1);
-        assert_eq!(out.stats.dropped_through_viewer, 1);
-        assert_eq!(out.stats.clipped_away, 1);
+        let out = refine_segments(&p, &segs, rule);
+        let want = RefineStats {
+            input: 5,
+            emitted: out.strips[0].len() - 1,
+            dropped_nonfinite: 1,
+            dropped_at_origin: 1,
+            dropped_through_viewer: 1,
+            clipped_away: 1,
+            culled: 0,
+            capped_edges: 0,
+        };
+        assert_eq!(out.stats, want);
         assert_eq!(out.strips.len(), 1);
-        assert!(refine_segments(&p, &segs, SplitRule::ChordGap { tolerance_px: -1.0 }).is_err());
-        assert_eq!(refine_segment(&p, segs[0][0], segs[0][1], rule), Err(DomeError::NonFiniteVertex));
+        // The same causes, typed, for one segment.
+        match refine_segment(&p, segs[0][0], segs[0][1], rule) {
+            Err(DomeError::Input(e)) => assert_eq!(e.expected, Expected::FiniteVector),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(refine_segment(&p, segs[1][0], segs[1][1], rule), Err(DomeError::ThroughViewer));
+        assert_eq!(refine_segment(&p, segs[2][0], segs[2][1], rule), Err(DomeError::AtOrigin));
+        // And in a polyline, which restarts after each bad segment.
+        let line = [segs[3][0], segs[3][1], DVec3::ZERO, DVec3::new(0.0, 1.0, -1.0), DVec3::new(1.0, 1.0, -1.0)];
+        let out = refine_polyline(&p, &line, rule);
+        assert_eq!((out.stats.input, out.stats.dropped_at_origin), (4, 2));
+        assert_eq!(out.strips.len(), 2);
     }
 
     #[test]
     fn zero_length_segment_is_one_piece() {
         let p = dome(180.0);
         let a = DVec3::new(0.3, 0.2, -1.0);
-        let r = refine_segment(&p, a, a, SplitRule::ChordGap { tolerance_px: 0.1 }).unwrap();
+        let r = refine_segment(&p, a, a, chord_gap(0.1)).unwrap();
         assert_eq!(r.strips, vec![vec![a, a]]);
+    }
+
+    #[test]
+    fn sub_micro_pixel_tolerance_hits_the_cap_with_finite_output() {
+        // A 90° edge near the rim at 1e-9 px: MAX_PIECES pieces, capped, finite.
+        let p = dome(180.0);
+        let (a, b) = (DVec3::new(1.0, 0.0, -0.02), DVec3::new(0.0, 1.0, -0.02));
+        let r = refine_segment(&p, a, b, chord_gap(1e-9)).unwrap();
+        assert!(r.capped);
+        assert_eq!(r.segment_count(), crate::dome::MAX_PIECES as usize);
+        assert!(r.strips.iter().flatten().all(|v| v.is_finite()));
+        let lines = refine_segments(&p, &[[a, b]], chord_gap(1e-9));
+        assert_eq!(lines.stats.capped_edges, 1);
     }
 }

@@ -1,17 +1,26 @@
 //! How many pieces a segment needs: the paper's visual-angle rule and the
 //! chord-gap estimate.
 //!
-//! * [`SplitRule::VisualAngle`] is the paper's rule (§3.2 steps 1–2, D4): the
-//!   number of pieces depends on the subtended angle only,
+//! * [`SplitRule::visual_angle`] is the paper's rule (§3.2 steps 1–2, D4):
+//!   the number of pieces depends on the subtended angle only,
 //!   `n = ⌈α / Δ⌉`. It is invariant under camera rotation, which is what lets
 //!   primitives fixed around the viewer be pre-subdivided once (§3.1).
 //!   [`SplitRule::visual_angle_for_tolerance`] picks Δ so that a tangential
 //!   piece at the worst polar angle kept ([`DomeProjection::theta_reach`])
 //!   meets a pixel tolerance — everywhere else it over-splits.
-//! * [`SplitRule::ChordGap`] uses the image curvature where it is largest on
-//!   the arc. REFERENCE.md gives the chord gap of a *tangential* piece
-//!   subtending α at polar angle θ (D5):
+//! * [`SplitRule::chord_gap`] uses the image curvature where it is largest on
+//!   the arc. The chord gap of a *tangential* piece subtending α at polar
+//!   angle θ is (D5)
 //!   `s ≈ f·α²·(θ/sin θ − cos θ)/(8 sin θ) = α²·f·g(θ)/8`.
+//!   It follows from the curvature of the projected great circle: at its
+//!   closest approach θ to the dome axis a great circle, parametrised by its
+//!   arc angle β, has `cos θ(β) = cos θ·cos β`, so θ'' = cot θ, and azimuth
+//!   speed φ' = 1/sin θ; in the image (r = f·θ, polar coordinates) its
+//!   centripetal acceleration is `|r'' − r·φ'²| = f·(θ − sin θ cos θ)/sin²θ
+//!   = f·g(θ)`. A curve with normal acceleration N deviates from its chord by
+//!   N·β(α − β)/2 to second order, at most N·α²/8. The test
+//!   `estimate_matches_exact_measure_for_tangential_pieces` holds D5 to the
+//!   exact error (D8) within 1% for 1° pieces from θ = 10° to 85°.
 //!   We generalise it to any orientation (D6): for a piece crossing the
 //!   meridian at angle ψ the normal acceleration of the image per unit arc
 //!   angle is
@@ -22,7 +31,8 @@
 //!   `sin θ · sin ψ = sin θ₀` (θ₀ the circle's closest approach to the axis,
 //!   `sin θ₀ = |axis · pole|`) fixes ψ, and N grows monotonically with θ
 //!   (checked numerically against finite differences of the projection while
-//!   deriving this), so its maximum on an arc is at the arc's largest θ. Then
+//!   deriving this, and by the test `normal_acceleration_limits`), so its
+//!   maximum on an arc is at the arc's largest θ. Then
 //!   `n = ⌈α·√(N_max/(8·tol))⌉`.
 //!
 //! For FOV > 180° an arc that leaves the guard cone also gets pieces of at
@@ -32,34 +42,49 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
-use serde::{Deserialize, Serialize};
 
 use super::arc::{Arc, canonical_less};
 use super::camera::DomeProjection;
 use super::error::DomeError;
+use crate::input::{self, InvalidInput};
 
 /// Largest number of pieces one edge is split into. Reached only for
 /// sub-pixel tolerances on huge edges or for edges near the antipode guard
 /// of FOVs close to 360°; the error bound may then not hold.
+///
+/// Why 1024: a 180° edge (the longest there is) in 1024 pieces has pieces of
+/// 0.18°, which by D5 meet 0.01 px at the rim of an 8K 180° frame
+/// (f = 2608 px/rad): every tolerance a renderer asks for is reached well
+/// below the cap. It bounds the output of one bad edge (a huge tolerance
+/// mistake, an FOV next to 360°) to a few thousand vertices.
 pub const MAX_PIECES: u32 = 1024;
 
 /// Below this polar angle the curvature factors use their series
-/// (T, K, g → 2θ/3), avoiding the 0/0 of the closed forms.
+/// (T, K, g → 2θ/3), avoiding the 0/0 of the closed forms. The series'
+/// relative error is O(θ²), 1e-8 here, while the closed forms lose
+/// ~1e-16/θ² of their digits to cancellation (1e-8 here too): the crossover.
 const SMALL_THETA: f64 = 1e-4;
 
-/// A rule giving the number of pieces of an edge.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub enum SplitRule {
-    /// The paper's rule: pieces of at most `max_piece_rad` subtended angle.
-    VisualAngle {
-        /// Largest subtended angle of one piece, radians.
-        max_piece_rad: f64,
-    },
-    /// Pieces whose estimated chord gap is at most `tolerance_px` (D5, D6).
-    ChordGap {
-        /// Largest distance between chord and true image, pixels.
-        tolerance_px: f64,
-    },
+/// The curvature N (D6) is evaluated no closer than this to the antipode,
+/// where sin θ → 0 and T, K diverge. Arcs that reach further are caught by
+/// the guard cone (FOV > 180°) or the view plane (FOV ≤ 180°), so this only
+/// keeps N finite for FOVs within ~1e-6 rad of 360°, where
+/// [`MAX_PIECES`] caps the pieces anyway.
+const CURVATURE_ANTIPODE_GAP_RAD: f64 = 1e-6;
+
+/// A rule giving the number of pieces of an edge, checked when built:
+/// [`SplitRule::visual_angle`] (the paper's), [`SplitRule::chord_gap`] (a
+/// pixel tolerance) or [`SplitRule::visual_angle_for_tolerance`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SplitRule(Rule);
+
+/// The two rules, with parameters known to be finite and positive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Rule {
+    /// Pieces of at most `max_piece_rad` subtended angle, radians.
+    VisualAngle { max_piece_rad: f64 },
+    /// Pieces whose estimated chord gap (D5, D6) is at most `tolerance_px`.
+    ChordGap { tolerance_px: f64 },
 }
 
 /// Number of pieces of one edge.
@@ -74,7 +99,7 @@ pub struct Pieces {
 /// g(θ) = (θ/sin θ − cos θ)/sin θ = (θ − sin θ cos θ)/sin²θ, the tangential
 /// curvature factor of D5 (2θ/3 near the zenith, π/2 on the 180° rim,
 /// unbounded towards the antipode).
-pub fn tangential_factor(theta: f64) -> f64 {
+pub(crate) fn tangential_factor(theta: f64) -> f64 {
     if theta < SMALL_THETA {
         return 2.0 * theta / 3.0;
     }
@@ -82,15 +107,16 @@ pub fn tangential_factor(theta: f64) -> f64 {
     (theta - s * c) / (s * s)
 }
 
-/// REFERENCE.md's chord gap (D5) of a tangential piece subtending `alpha`
-/// radians at polar angle `theta`, in px for `focal_px` px/rad.
-pub fn tangential_chord_gap_px(focal_px: f64, alpha: f64, theta: f64) -> f64 {
+/// The chord gap (D5) of a tangential piece subtending `alpha` radians at
+/// polar angle `theta`, in px for `focal_px` px/rad.
+#[cfg(test)]
+pub(crate) fn tangential_chord_gap_px(focal_px: f64, alpha: f64, theta: f64) -> f64 {
     focal_px * alpha * alpha * tangential_factor(theta) / 8.0
 }
 
 /// Largest subtended angle of a tangential piece at polar angle `theta`
 /// whose chord gap (D5) is `tolerance_px`: `√(8·tol/(f·g(θ)))`.
-pub fn max_tangential_piece_rad(focal_px: f64, theta: f64, tolerance_px: f64) -> f64 {
+pub(crate) fn max_tangential_piece_rad(focal_px: f64, theta: f64, tolerance_px: f64) -> f64 {
     (8.0 * tolerance_px / (focal_px * tangential_factor(theta))).sqrt()
 }
 
@@ -98,7 +124,7 @@ pub fn max_tangential_piece_rad(focal_px: f64, theta: f64, tolerance_px: f64) ->
 /// great circle crossing polar angle `theta` at angle ψ to the meridian
 /// (`sin_psi` = 1 tangential, 0 radial). The chord gap of a piece subtending
 /// α is about α²·N/8.
-pub fn normal_acceleration_px(focal_px: f64, theta: f64, sin_psi: f64) -> f64 {
+pub(crate) fn normal_acceleration_px(focal_px: f64, theta: f64, sin_psi: f64) -> f64 {
     let sp = sin_psi.clamp(0.0, 1.0);
     if theta < SMALL_THETA {
         return focal_px * sp * 2.0 * theta / 3.0;
@@ -111,7 +137,8 @@ pub fn normal_acceleration_px(focal_px: f64, theta: f64, sin_psi: f64) -> f64 {
     focal_px * sp * (t * sp * sp + k * cos2) / (cos2 + q * q * sp * sp).sqrt()
 }
 
-fn count(steps: f64) -> Pieces {
+/// Pieces for `steps` = α/Δ: ⌈steps⌉, at least 1, at most [`MAX_PIECES`].
+pub(crate) fn count_pieces(steps: f64) -> Pieces {
     let want = steps.ceil();
     if want.is_nan() || want > f64::from(MAX_PIECES) {
         // The cap is the documented fallback (NaN cannot occur for valid arcs).
@@ -121,28 +148,48 @@ fn count(steps: f64) -> Pieces {
 }
 
 impl SplitRule {
-    /// The paper's rule calibrated for a pixel tolerance: Δ such that a
-    /// tangential piece at the largest polar angle a kept piece reaches
-    /// ([`DomeProjection::theta_reach`]) has chord gap `tolerance_px` (D5).
-    /// 4K/180° and 0.5 px give Δ ≈ 2.53° (REFERENCE.md: "≤ ~2.5°").
-    pub fn visual_angle_for_tolerance(proj: &DomeProjection, tolerance_px: f64) -> Result<Self, DomeError> {
-        if !(tolerance_px > 0.0 && tolerance_px.is_finite()) {
-            return Err(DomeError::InvalidTolerance(tolerance_px));
-        }
-        let max_piece_rad = max_tangential_piece_rad(proj.focal_px(), proj.theta_reach(), tolerance_px);
-        Ok(SplitRule::VisualAngle { max_piece_rad })
+    /// The paper's rule: pieces of at most `max_piece_rad` subtended angle
+    /// (D4). Errors: `max_piece_rad` not finite and positive.
+    pub fn visual_angle(max_piece_rad: f64) -> Result<Self, InvalidInput> {
+        let max_piece_rad = input::positive("maximum piece angle (rad)", max_piece_rad)?;
+        Ok(Self(Rule::VisualAngle { max_piece_rad }))
     }
 
-    /// Checks the rule's parameter.
-    pub fn validate(&self) -> Result<(), DomeError> {
-        match *self {
-            SplitRule::VisualAngle { max_piece_rad: d } if !(d > 0.0 && d.is_finite()) => {
-                Err(DomeError::InvalidPieceAngle(d))
-            }
-            SplitRule::ChordGap { tolerance_px: t } if !(t > 0.0 && t.is_finite()) => {
-                Err(DomeError::InvalidTolerance(t))
-            }
-            _ => Ok(()),
+    /// Pieces whose estimated chord gap (D5, D6) is at most `tolerance_px`.
+    /// Errors: `tolerance_px` not finite and positive.
+    pub fn chord_gap(tolerance_px: f64) -> Result<Self, InvalidInput> {
+        let tolerance_px = input::positive("pixel tolerance (px)", tolerance_px)?;
+        Ok(Self(Rule::ChordGap { tolerance_px }))
+    }
+
+    /// The paper's rule calibrated for a pixel tolerance: Δ such that a
+    /// tangential piece at the largest polar angle a kept piece reaches
+    /// ([`DomeProjection::theta_reach`]) has chord gap `tolerance_px` (D5),
+    /// at most π (no split). 4K/180° and 0.5 px give Δ ≈ 2.53°.
+    /// Errors: `tolerance_px` not finite and positive.
+    pub fn visual_angle_for_tolerance(proj: &DomeProjection, tolerance_px: f64) -> Result<Self, InvalidInput> {
+        let tolerance_px = input::positive("pixel tolerance (px)", tolerance_px)?;
+        let max_piece_rad = max_tangential_piece_rad(proj.focal_px(), proj.theta_reach(), tolerance_px).min(PI);
+        // A tolerance so small that Δ underflows to 0 gives n = ∞ pieces,
+        // which the cap turns into MAX_PIECES: the documented fallback.
+        Ok(Self(Rule::VisualAngle { max_piece_rad }))
+    }
+
+    /// The largest subtended angle of a piece (radians), for the
+    /// visual-angle rule; `None` for the chord-gap rule.
+    pub fn max_piece_rad(&self) -> Option<f64> {
+        match self.0 {
+            Rule::VisualAngle { max_piece_rad } => Some(max_piece_rad),
+            Rule::ChordGap { .. } => None,
+        }
+    }
+
+    /// The pixel tolerance, for the chord-gap rule; `None` for the
+    /// visual-angle rule.
+    pub fn tolerance_px(&self) -> Option<f64> {
+        match self.0 {
+            Rule::ChordGap { tolerance_px } => Some(tolerance_px),
+            Rule::VisualAngle { .. } => None,
         }
     }
 
@@ -150,13 +197,12 @@ impl SplitRule {
     /// in a and b bit for bit (the endpoints are ordered canonically first).
     /// Errors as [`split_segment`](super::split_segment).
     pub fn pieces(&self, proj: &DomeProjection, a: DVec3, b: DVec3) -> Result<Pieces, DomeError> {
-        self.validate()?;
         let (p, q) = if canonical_less(b, a) { (b, a) } else { (a, b) };
         let arc = Arc::new(p, q)?;
         Ok(self.pieces_of_arc(proj, &arc))
     }
 
-    /// Pieces of an arc built in canonical order (no validation).
+    /// Pieces of an arc built in canonical order.
     pub(crate) fn pieces_of_arc(&self, proj: &DomeProjection, arc: &Arc) -> Pieces {
         if arc.is_point() {
             return Pieces { n: 1, capped: false };
@@ -169,9 +215,9 @@ impl SplitRule {
         // its chord jumps across the image.
         let leaves = !proj.clips_at_view_plane() && range.max > proj.theta_clip();
         let guard = if leaves { arc.alpha / (PI - proj.theta_clip()) } else { 0.0 };
-        let steps = match *self {
-            SplitRule::VisualAngle { max_piece_rad } => arc.alpha / max_piece_rad,
-            SplitRule::ChordGap { tolerance_px } => {
+        let steps = match self.0 {
+            Rule::VisualAngle { max_piece_rad } => arc.alpha / max_piece_rad,
+            Rule::ChordGap { tolerance_px } => {
                 let at = |theta: f64| {
                     arc.alpha * (arc_normal_acceleration_px(proj, arc, theta) / (8.0 * tolerance_px)).sqrt()
                 };
@@ -187,14 +233,14 @@ impl SplitRule {
                 }
             }
         };
-        count(steps.max(guard))
+        count_pieces(steps.max(guard))
     }
 }
 
 /// Largest N (D6) on an arc whose largest polar angle is `theta_max`,
 /// limited to [`DomeProjection::theta_reach`] (no kept piece goes further).
 pub(crate) fn arc_normal_acceleration_px(proj: &DomeProjection, arc: &Arc, theta_max: f64) -> f64 {
-    let theta = theta_max.min(proj.theta_reach()).min(PI - 1e-6);
+    let theta = theta_max.min(proj.theta_reach()).min(PI - CURVATURE_ANTIPODE_GAP_RAD);
     let sin_theta0 = arc.pole().dot(proj.axis()).abs();
     let s = theta.sin();
     let sin_psi = if s > 0.0 { (sin_theta0 / s).min(1.0) } else { 1.0 };
@@ -204,16 +250,21 @@ pub(crate) fn arc_normal_acceleration_px(proj: &DomeProjection, arc: &Arc, theta
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dome::DomeCamera;
+    use crate::input::Expected;
 
     fn dome(fov: f64) -> DomeProjection {
-        DomeCamera::new(fov, 0.0, 4096).unwrap().projection().unwrap()
+        crate::dome::test_dome(fov, 0.0, 4096)
+    }
+
+    fn chord_gap(tolerance_px: f64) -> SplitRule {
+        SplitRule::chord_gap(tolerance_px).unwrap()
     }
 
     #[test]
-    fn reference_chord_gap_numbers() {
-        // REFERENCE.md: at 4K/180° a 10° tangential edge at the rim is off by
-        // ~8 px, and 0.5 px needs ≤ ~2.5° there.
+    fn chord_gap_numbers_at_the_4k_rim() {
+        // D5 at 4K/180°: a 10° tangential edge at the rim is off by ~8 px
+        // (7.8; the exact rim sagitta 2048·(1 − cos 5°) is 7.79), and 0.5 px
+        // needs ≤ ~2.5° pieces there.
         let f = dome(180.0).focal_px();
         let s = tangential_chord_gap_px(f, 10f64.to_radians(), PI / 2.0);
         assert!((s - 7.8).abs() < 0.1, "s = {s}");
@@ -257,18 +308,21 @@ mod tests {
         let h = 5f64.to_radians();
         let a = DVec3::new(h.sin(), -h.cos(), 0.0) * 3.0;
         let b = DVec3::new(-h.sin(), -h.cos(), 0.0) * 7.0;
-        let rule = SplitRule::ChordGap { tolerance_px: 0.5 };
+        let rule = chord_gap(0.5);
         assert_eq!(rule.pieces(&p, a, b).unwrap(), Pieces { n: 4, capped: false });
         let paper = SplitRule::visual_angle_for_tolerance(&p, 0.5).unwrap();
+        assert!((paper.max_piece_rad().unwrap().to_degrees() - 2.53).abs() < 0.01);
         assert_eq!(paper.pieces(&p, a, b).unwrap().n, 4);
+        assert_eq!(SplitRule::visual_angle(0.1).unwrap().pieces(&p, a, b).unwrap().n, 2);
     }
 
     #[test]
     fn radial_segments_need_no_split() {
         // Any segment in a plane through the dome axis projects to a straight
-        // line through the centre (REFERENCE.md): one piece at any tolerance.
+        // line through the centre (D1: its azimuth is constant): one piece at
+        // any tolerance.
         let p = dome(180.0);
-        let rule = SplitRule::ChordGap { tolerance_px: 0.01 };
+        let rule = chord_gap(0.01);
         for phi in [0.0, 0.7, 2.0, 4.0] {
             let (s, c) = f64::sin_cos(phi);
             let a = DVec3::new(c * 0.1, s * 0.1, -1.0);
@@ -280,12 +334,25 @@ mod tests {
     #[test]
     fn bad_parameters_and_caps() {
         let p = dome(180.0);
-        assert_eq!(SplitRule::ChordGap { tolerance_px: 0.0 }.validate(), Err(DomeError::InvalidTolerance(0.0)));
-        assert!(SplitRule::ChordGap { tolerance_px: f64::NAN }.validate().is_err());
-        assert!(SplitRule::VisualAngle { max_piece_rad: -1.0 }.validate().is_err());
-        assert!(SplitRule::visual_angle_for_tolerance(&p, f64::INFINITY).is_err());
-        let tiny = SplitRule::ChordGap { tolerance_px: 1e-12 };
+        let err = SplitRule::chord_gap(0.0).unwrap_err();
+        assert_eq!((err.what, err.value, err.expected), ("pixel tolerance (px)", 0.0, Expected::Positive));
+        assert_eq!(SplitRule::chord_gap(f64::NAN).unwrap_err().what, "pixel tolerance (px)");
+        let err = SplitRule::visual_angle(-1.0).unwrap_err();
+        assert_eq!((err.what, err.value), ("maximum piece angle (rad)", -1.0));
+        assert_eq!(SplitRule::visual_angle_for_tolerance(&p, f64::INFINITY).unwrap_err().value, f64::INFINITY);
+        // Accessors say which rule it is.
+        assert_eq!((chord_gap(2.0).tolerance_px(), chord_gap(2.0).max_piece_rad()), (Some(2.0), None));
+        let paper = SplitRule::visual_angle(0.25).unwrap();
+        assert_eq!((paper.max_piece_rad(), paper.tolerance_px()), (Some(0.25), None));
+        // A tolerance so large that Δ would exceed π: no split, Δ = π.
+        let lax = SplitRule::visual_angle_for_tolerance(&p, f64::MAX).unwrap();
+        assert_eq!(lax.max_piece_rad(), Some(PI));
+        let tiny = chord_gap(1e-12);
         let pc = tiny.pieces(&p, DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)).unwrap();
+        assert_eq!(pc, Pieces { n: MAX_PIECES, capped: true });
+        // Δ underflowing to 0 is capped too, not NaN.
+        let zero = SplitRule::visual_angle_for_tolerance(&p, f64::from_bits(1)).unwrap();
+        let pc = zero.pieces(&p, DVec3::new(1.0, 0.0, -1.0), DVec3::new(0.0, 1.0, -1.0)).unwrap();
         assert_eq!(pc, Pieces { n: MAX_PIECES, capped: true });
     }
 }

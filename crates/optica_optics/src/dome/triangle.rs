@@ -34,90 +34,85 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
-use super::arc::{Arc, canonical_less, split_segment, subtended_angle};
+use super::arc::{Arc, ArcError, canonical_less, split_points, subtended_angle};
 use super::camera::DomeProjection;
 use super::clip::clip_triangle_plane;
 use super::error::DomeError;
 use super::interior::bisect_interior;
 use super::refine::RefineStats;
 use super::rule::{Pieces, SplitRule};
+use crate::input;
 
-/// The interior bisection of a patch stops at this many times the
-/// triangles of the paper's triangulation (plus 4096); reported as capped.
+/// The interior bisection of a patch (our addition, `interior.rs`) may grow
+/// it to this many times the triangles of the paper's triangulation, plus
+/// [`INTERIOR_BUDGET_EXTRA`]; reaching the budget is reported as a capped
+/// edge. In this module's tests (rooms at 0.3–4 px, random triangles at
+/// 0.5–8 px, FOV 90°–250°) the bisection grew a patch by at most ~5×
+/// (1412 → 6972 triangles); 16× leaves room above that and stops only a
+/// runaway (a rule that can never be met, as with a sub-micro-pixel
+/// tolerance).
 const INTERIOR_BUDGET_FACTOR: usize = 16;
 
-/// An indexed triangle mesh in view space (or viewer-centred space).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// Fixed part of the interior budget, so that a triangle the paper's steps
+/// leave as one piece can still get its interior bisected (a triangle with
+/// short sides seen nearly edge-on): 4096 triangles, four times what
+/// [`MAX_PIECES`](super::MAX_PIECES) allows along one edge.
+const INTERIOR_BUDGET_EXTRA: usize = 4096;
+
+/// A vertex of a clipped part closer to the origin than this fraction of the
+/// triangle's largest vertex distance is taken to be at the origin (its
+/// direction is noise): the view plane passes through the origin, so a
+/// clip cut there comes out at ~1e-16 relative, never exactly 0. 1e-12 is
+/// four orders of magnitude above that rounding.
+const AT_ORIGIN_REL: f64 = 1e-12;
+
+/// An indexed triangle mesh in view space (or viewer-centred space), metres.
+/// Built by [`TriMesh::new`], which checks that every index refers to a
+/// vertex, so the refiners never re-check it. Vertex coordinates are not
+/// checked here: a refiner leaves a triangle with a non-finite vertex out
+/// and counts it ([`RefineStats::dropped_nonfinite`]).
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct TriMesh {
-    /// Vertex positions.
-    pub positions: Vec<DVec3>,
-    /// Triangles as indices into `positions`.
-    pub triangles: Vec<[u32; 3]>,
+    pub(super) positions: Vec<DVec3>,
+    pub(super) triangles: Vec<[u32; 3]>,
 }
 
 impl TriMesh {
-    /// An axis-aligned box as 8 shared vertices and 12 triangles (two per
-    /// face), wound outwards, or inwards when `inside_out` (a room seen from
-    /// inside). A test scene and a closed mesh for crack checks.
-    pub fn cuboid(min: DVec3, max: DVec3, inside_out: bool) -> Self {
-        let corner = |i: u32| {
-            DVec3::new(
-                if i & 1 == 0 { min.x } else { max.x },
-                if i & 2 == 0 { min.y } else { max.y },
-                if i & 4 == 0 { min.z } else { max.z },
-            )
-        };
-        let positions = (0..8).map(corner).collect();
-        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-        let mut triangles = Vec::with_capacity(12);
-        for q in quads {
-            for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
-                triangles.push(if inside_out { [t[0], t[2], t[1]] } else { t });
-            }
+    /// A mesh of `triangles` (indices into `positions`, counter-clockwise or
+    /// not: the winding is kept). Errors: [`DomeError::IndexOutOfRange`]
+    /// for the first index that refers to no vertex.
+    pub fn new(positions: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Result<Self, DomeError> {
+        let len = positions.len();
+        if let Some(&index) = triangles.iter().flatten().find(|&&i| i as usize >= len) {
+            return Err(DomeError::IndexOutOfRange { index, len });
         }
-        Self { positions, triangles }
+        Ok(Self { positions, triangles })
     }
 
-    /// Checks that every index refers to a vertex.
-    pub fn validate(&self) -> Result<(), DomeError> {
-        let len = self.positions.len();
-        for t in &self.triangles {
-            for &index in t {
-                if index as usize >= len {
-                    return Err(DomeError::IndexOutOfRange { index, len });
-                }
-            }
-        }
-        Ok(())
+    /// Vertex positions.
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
     }
 
-    /// Every undirected edge once, as sorted index pairs.
-    pub fn edges(&self) -> Vec<[u32; 2]> {
-        let mut e: Vec<[u32; 2]> = self
-            .triangles
-            .iter()
-            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
-            .map(|[a, b]| if a < b { [a, b] } else { [b, a] })
-            .collect();
-        e.sort_unstable();
-        e.dedup();
-        e
+    /// Triangles as indices into [`positions`](Self::positions).
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
     }
 
-    /// Undirected edges used by exactly one triangle (the mesh boundary;
-    /// empty for a closed mesh).
-    pub fn boundary_edges(&self) -> Vec<[u32; 2]> {
-        let mut count: HashMap<[u32; 2], u32> = HashMap::new();
-        for t in &self.triangles {
-            for [a, b] in [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]] {
-                *count.entry(if a < b { [a, b] } else { [b, a] }).or_default() += 1;
-            }
-        }
-        let mut e: Vec<[u32; 2]> = count.into_iter().filter(|&(_, c)| c == 1).map(|(e, _)| e).collect();
-        e.sort_unstable();
-        e
+    /// The positions and triangles, to build a GPU mesh without copying.
+    pub fn into_parts(self) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+        (self.positions, self.triangles)
+    }
+
+    /// The three corners of triangle `t` (an index triple of this mesh).
+    pub(crate) fn corners(&self, t: [u32; 3]) -> [DVec3; 3] {
+        t.map(|i| self.corner(i))
+    }
+
+    /// The position of vertex `i` (an index of this mesh).
+    pub(crate) fn corner(&self, i: u32) -> DVec3 {
+        self.positions[i as usize]
     }
 }
 
@@ -176,7 +171,7 @@ impl Welder {
 pub(crate) fn subdivide_triangle(
     tri: [DVec3; 3],
     pieces: &(impl Fn(&Arc) -> Pieces + ?Sized),
-) -> Result<(TriMesh, bool), DomeError> {
+) -> Result<(TriMesh, bool), ArcError> {
     let alphas = [0, 1, 2].map(|i| subtended_angle(tri[i], tri[(i + 1) % 3]));
     let mut e = 0;
     for i in 1..3 {
@@ -188,12 +183,12 @@ pub(crate) fn subdivide_triangle(
     let (a, b, c) = (tri[e], tri[(e + 1) % 3], tri[(e + 2) % 3]);
     let mut verts = vec![a, b, c];
     let mut capped = false;
-    let mut split = |verts: &mut Vec<DVec3>, i0: u32, i1: u32| -> Result<Vec<u32>, DomeError> {
+    let mut split = |verts: &mut Vec<DVec3>, i0: u32, i1: u32| -> Result<Vec<u32>, ArcError> {
         let (p, q) = (verts[i0 as usize], verts[i1 as usize]);
         let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
         let pc = pieces(&Arc::new(c0, c1)?);
         capped |= pc.capped;
-        let pts = split_segment(p, q, pc.n)?;
+        let pts = split_points(p, q, pc.n)?;
         let mut idx = Vec::with_capacity(pts.len());
         idx.push(i0);
         for &x in &pts[1..pts.len() - 1] {
@@ -226,7 +221,7 @@ pub(crate) fn subdivide_triangle(
         let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
         Arc::new(c0, c1).is_ok_and(|arc| pieces(&arc).n > 1)
     };
-    let budget = INTERIOR_BUDGET_FACTOR * mesh.triangles.len() + 4096;
+    let budget = INTERIOR_BUDGET_FACTOR * mesh.triangles.len() + INTERIOR_BUDGET_EXTRA;
     capped |= bisect_interior(&mut mesh, &needs_split, budget);
     Ok((mesh, capped))
 }
@@ -238,7 +233,8 @@ fn push_tri(tris: &mut Vec<[u32; 3]>, t: [u32; 3]) {
 }
 
 /// Zigzag between two polylines running from the A side to the B side,
-/// `upper` nearer C (paper §3.3 steps 5–6, "交互にたどり結合する"). The paper
+/// `upper` nearer C (paper §3.3 steps 5–6: "trace [the vertices] alternately
+/// and connect them", 交互にたどり結合する). The paper
 /// alternates; with unequal vertex counts we advance on the side whose new
 /// diagonal subtends the smaller angle (greedy shortest diagonal), which
 /// equals alternation on a regular strip and keeps diagonals short when the
@@ -294,14 +290,18 @@ fn covers_direction(t: &[DVec3; 3], d: DVec3) -> bool {
 }
 
 /// Clips (FOV ≤ 180°), refines (paper §3.3) and, for FOV > 180°, culls at the
-/// antipode guard one triangle (see [`clip`](super::clip_segment) docs).
-/// Errors: a bad rule or a non-finite vertex. Parts touching the origin or
-/// with an edge through the viewer are left out and counted.
+/// antipode guard one triangle (see [`clip_segment`](super::clip_segment)
+/// docs). Errors: a non-finite vertex ([`DomeError::Input`]). Parts touching
+/// the origin or with an edge through the viewer are left out and counted.
 pub fn refine_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) -> Result<RefinedMesh, DomeError> {
-    rule.validate()?;
-    if !tri.iter().all(|v| v.is_finite()) {
-        return Err(DomeError::NonFiniteVertex);
+    for v in tri {
+        input::finite_vec3("vertex (view space)", v)?;
     }
+    Ok(refine_finite_triangle(proj, tri, rule))
+}
+
+/// [`refine_triangle`] for a triangle with finite vertices.
+fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) -> RefinedMesh {
     let mut stats = RefineStats { input: 1, ..Default::default() };
     let parts = if proj.clips_at_view_plane() { clip_triangle_plane(proj.axis(), tri) } else { vec![tri] };
     if parts.is_empty() {
@@ -310,19 +310,22 @@ pub fn refine_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) 
     let scale = tri.iter().map(|v| v.length()).fold(0.0, f64::max);
     let pieces = |arc: &Arc| rule.pieces_of_arc(proj, arc);
     let mut welder = Welder::default();
-    let mut through = false;
+    // One count per input triangle and cause, however many parts it hits.
+    let mut dropped = RefineStats::default();
     for part in parts {
-        if part.iter().any(|v| v.length() <= 1e-12 * scale) {
-            through = true;
-            continue;
-        }
-        let (mut local, capped) = match subdivide_triangle(part, &pieces) {
+        let subdivided = if part.iter().any(|v| v.length() <= AT_ORIGIN_REL * scale) {
+            Err(ArcError::AtOrigin)
+        } else {
+            // Errors: an edge through the viewer; or, for huge finite
+            // coordinates, a product that overflows (counted as non-finite).
+            subdivide_triangle(part, &pieces)
+        };
+        let (mut local, capped) = match subdivided {
             Ok(r) => r,
-            Err(DomeError::ThroughViewer | DomeError::AtOrigin) => {
-                through = true;
+            Err(cause) => {
+                dropped.drop_for(cause);
                 continue;
             }
-            Err(e) => return Err(e),
         };
         stats.capped_edges += usize::from(capped);
         if !proj.clips_at_view_plane() {
@@ -338,26 +341,28 @@ pub fn refine_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) 
         }
         welder.add(&local);
     }
-    stats.dropped_through_viewer = usize::from(through);
+    stats.dropped_nonfinite = dropped.dropped_nonfinite.min(1);
+    stats.dropped_at_origin = dropped.dropped_at_origin.min(1);
+    stats.dropped_through_viewer = dropped.dropped_through_viewer.min(1);
     stats.emitted = welder.mesh.triangles.len();
-    Ok(RefinedMesh { mesh: welder.mesh, stats })
+    RefinedMesh { mesh: welder.mesh, stats }
 }
 
 /// Refines every triangle of a mesh in parallel and welds the result by exact
-/// position. Triangles with a non-finite vertex are left out and counted.
-/// Errors: a bad rule or an index out of range.
-pub fn refine_mesh(proj: &DomeProjection, mesh: &TriMesh, rule: SplitRule) -> Result<RefinedMesh, DomeError> {
-    rule.validate()?;
-    mesh.validate()?;
+/// position. Triangles with a non-finite vertex, a vertex at the origin or an
+/// edge through the viewer are left out and counted per cause in the stats.
+pub fn refine_mesh(proj: &DomeProjection, mesh: &TriMesh, rule: SplitRule) -> RefinedMesh {
     let patches: Vec<RefinedMesh> = mesh
         .triangles
         .par_iter()
-        .map(|t| {
-            let tri = t.map(|i| mesh.positions[i as usize]);
-            refine_triangle(proj, tri, rule).unwrap_or_else(|_| RefinedMesh {
-                mesh: TriMesh::default(),
-                stats: RefineStats { input: 1, dropped_nonfinite: 1, ..Default::default() },
-            })
+        .map(|&t| {
+            let tri = mesh.corners(t);
+            if tri.iter().all(|v| v.is_finite()) {
+                refine_finite_triangle(proj, tri, rule)
+            } else {
+                let stats = RefineStats { input: 1, dropped_nonfinite: 1, ..Default::default() };
+                RefinedMesh { mesh: TriMesh::default(), stats }
+            }
         })
         .collect();
     let mut welder = Welder::default();
@@ -367,17 +372,21 @@ pub fn refine_mesh(proj: &DomeProjection, mesh: &TriMesh, rule: SplitRule) -> Re
         stats = stats.merge(p.stats);
     }
     stats.emitted = welder.mesh.triangles.len();
-    Ok(RefinedMesh { mesh: welder.mesh, stats })
+    RefinedMesh { mesh: welder.mesh, stats }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dome::DomeCamera;
+    use crate::input::Expected;
     use proptest::prelude::*;
 
     fn dome(fov: f64) -> DomeProjection {
-        DomeCamera::new(fov, 0.0, 4096).unwrap().projection().unwrap()
+        crate::dome::test_dome(fov, 0.0, 4096)
+    }
+
+    fn chord_gap(tolerance_px: f64) -> SplitRule {
+        SplitRule::chord_gap(tolerance_px).unwrap()
     }
 
     fn box_mesh(min: DVec3, max: DVec3, inside_out: bool) -> TriMesh {
@@ -385,7 +394,7 @@ mod tests {
     }
 
     fn area_normal(m: &TriMesh, t: [u32; 3]) -> DVec3 {
-        let p = t.map(|i| m.positions[i as usize]);
+        let p = t.map(|i| m.positions()[i as usize]);
         (p[1] - p[0]).cross(p[2] - p[0])
     }
 
@@ -397,7 +406,7 @@ mod tests {
         let p = dome(180.0);
         let m = box_mesh(DVec3::new(-3.0, -2.0, -6.0), DVec3::new(2.0, 3.0, -1.5), false);
         for tol in [4.0, 1.0, 0.3] {
-            let r = refine_mesh(&p, &m, SplitRule::ChordGap { tolerance_px: tol }).unwrap();
+            let r = refine_mesh(&p, &m, chord_gap(tol));
             assert!(r.mesh.triangles.len() > 12);
             assert!(r.mesh.boundary_edges().is_empty(), "tol {tol}");
         }
@@ -408,7 +417,7 @@ mod tests {
         // Two triangles sharing edge (a, b) with very different opposite
         // corners: the split points on the edge are the same bits.
         let p = dome(180.0);
-        let rule = SplitRule::ChordGap { tolerance_px: 0.5 };
+        let rule = chord_gap(0.5);
         let (a, b) = (DVec3::new(-3.0, -1.0, -1.0), DVec3::new(3.0, -0.5, -0.6));
         let r1 = refine_triangle(&p, [a, b, DVec3::new(0.0, 4.0, -1.0)], rule).unwrap();
         let r2 = refine_triangle(&p, [b, a, DVec3::new(0.1, -3.0, -0.2)], rule).unwrap();
@@ -432,7 +441,7 @@ mod tests {
         let p = dome(180.0);
         let tri = [DVec3::new(-2.0, -1.0, -1.0), DVec3::new(3.0, -0.5, -0.6), DVec3::new(0.5, 4.0, -0.8)];
         let n0 = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
-        let r = refine_triangle(&p, tri, SplitRule::ChordGap { tolerance_px: 0.5 }).unwrap();
+        let r = refine_triangle(&p, tri, chord_gap(0.5)).unwrap();
         let mut area = 0.0;
         for &t in &r.mesh.triangles {
             let n = area_normal(&r.mesh, t);
@@ -447,7 +456,7 @@ mod tests {
         // A long thin triangle (sides with very different piece counts) and
         // a triangle too small to split: valid fans, area conserved.
         let p = dome(180.0);
-        let rule = SplitRule::ChordGap { tolerance_px: 0.5 };
+        let rule = chord_gap(0.5);
         for tri in [
             [DVec3::new(-4.0, 0.0, -1.0), DVec3::new(4.0, 0.1, -1.0), DVec3::new(4.0, 0.6, -1.2)],
             [DVec3::new(0.0, 0.0, -10.0), DVec3::new(0.01, 0.0, -10.0), DVec3::new(0.0, 0.01, -10.0)],
@@ -468,13 +477,13 @@ mod tests {
         // the only open boundary lies on the view plane.
         let p = dome(180.0);
         let m = box_mesh(DVec3::new(-4.0, -6.0, -3.0), DVec3::new(4.0, 3.0, 1.7), true);
-        let r = refine_mesh(&p, &m, SplitRule::ChordGap { tolerance_px: 2.0 }).unwrap();
+        let r = refine_mesh(&p, &m, chord_gap(2.0));
         assert_eq!(r.stats.clipped_away, 2);
         assert!(r.mesh.positions.iter().all(|v| v.z <= 0.0));
         let b = r.mesh.boundary_edges();
         assert!(!b.is_empty());
         for [i, j] in b {
-            assert!(r.mesh.positions[i as usize].z.abs() < 1e-12 && r.mesh.positions[j as usize].z.abs() < 1e-12);
+            assert!(r.mesh.positions()[i as usize].z.abs() < 1e-12 && r.mesh.positions[j as usize].z.abs() < 1e-12);
         }
     }
 
@@ -487,19 +496,19 @@ mod tests {
         // covered by sub-triangles (checked on a grid of floor points).
         let p = dome(250.0);
         let m = box_mesh(DVec3::new(-4.0, -6.0, -3.0), DVec3::new(4.0, 3.0, 1.7), true);
-        let r = refine_mesh(&p, &m, SplitRule::ChordGap { tolerance_px: 2.0 }).unwrap();
+        let r = refine_mesh(&p, &m, chord_gap(2.0));
         assert!(r.stats.culled > 0);
         assert!(r.mesh.positions.iter().all(|v| v.is_finite()));
         for t in &r.mesh.triangles {
             for &i in t {
-                assert!(p.theta(r.mesh.positions[i as usize]) <= p.theta_clip() + 1e-12);
+                assert!(p.theta(r.mesh.positions()[i as usize]) <= p.theta_clip() + 1e-12);
             }
         }
         let floor: Vec<[DVec3; 3]> = r
             .mesh
             .triangles
             .iter()
-            .map(|t| t.map(|i| r.mesh.positions[i as usize]))
+            .map(|t| t.map(|i| r.mesh.positions()[i as usize]))
             .filter(|v| v.iter().all(|q| (q.z - 1.7).abs() < 1e-9))
             .collect();
         for i in 0..16 {
@@ -515,21 +524,61 @@ mod tests {
     }
 
     #[test]
-    fn bad_input() {
+    fn out_of_range_index_is_refused_when_the_mesh_is_built() {
+        let pos = vec![DVec3::X, DVec3::Y, DVec3::Z];
+        assert_eq!(TriMesh::new(pos.clone(), vec![[0, 1, 2], [0, 1, 3]]), Err(DomeError::IndexOutOfRange { index: 3, len: 3 }));
+        assert_eq!(TriMesh::new(vec![], vec![[0, 0, 0]]), Err(DomeError::IndexOutOfRange { index: 0, len: 0 }));
+        let m = TriMesh::new(pos.clone(), vec![[2, 1, 0]]).unwrap();
+        assert_eq!((m.positions(), m.triangles()), (&pos[..], &[[2, 1, 0]][..]));
+        assert_eq!(m.into_parts(), (pos, vec![[2, 1, 0]]));
+    }
+
+    #[test]
+    fn bad_triangles_are_counted_per_cause() {
         let p = dome(180.0);
-        let rule = SplitRule::ChordGap { tolerance_px: 1.0 };
-        let mut m = box_mesh(DVec3::splat(-1.0) - DVec3::Z * 3.0, DVec3::splat(1.0) - DVec3::Z * 3.0, false);
-        m.positions[0] = DVec3::new(f64::NAN, 0.0, 0.0);
-        let r = refine_mesh(&p, &m, rule).unwrap();
-        assert!(r.stats.dropped_nonfinite > 0);
-        assert!(r.mesh.positions.iter().all(|v| v.is_finite()));
-        m.triangles.push([0, 1, 99]);
-        assert_eq!(refine_mesh(&p, &m, rule), Err(DomeError::IndexOutOfRange { index: 99, len: 8 }));
-        // A triangle through the viewer (an edge passes the origin).
-        let t = [DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 0.0, 1.0), DVec3::new(0.0, 1.0, -1.0)];
-        let r = refine_triangle(&p, t, rule).unwrap();
+        let rule = chord_gap(1.0);
+        // A box in front of the viewer with vertex 0 NaN: the triangles using
+        // it are dropped as non-finite, the others refined.
+        let (mut positions, mut triangles) =
+            box_mesh(DVec3::splat(-1.0) - DVec3::Z * 3.0, DVec3::splat(1.0) - DVec3::Z * 3.0, false).into_parts();
+        let uses_0 = triangles.iter().filter(|t| t.contains(&0)).count();
+        positions[0] = DVec3::new(f64::NAN, 0.0, 0.0);
+        // A triangle with a corner at the origin, and one with an edge
+        // through the viewer, (−1, 0, 0) … (1, 0, 0), in the view plane.
+        let n = positions.len() as u32;
+        positions.extend([DVec3::ZERO, DVec3::new(1.0, 0.0, -3.0), DVec3::new(0.0, 1.0, -3.0)]);
+        positions.extend([DVec3::NEG_X, DVec3::X, DVec3::new(0.0, 1.0, -1.0)]);
+        triangles.extend([[n, n + 1, n + 2], [n + 3, n + 4, n + 5]]);
+        let r = refine_mesh(&p, &TriMesh::new(positions, triangles).unwrap(), rule);
+        assert_eq!(r.stats.input, 14);
+        assert_eq!(r.stats.dropped_nonfinite, uses_0);
+        assert_eq!(r.stats.dropped_at_origin, 1);
         assert_eq!(r.stats.dropped_through_viewer, 1);
-        assert!(r.mesh.positions.iter().all(|v| v.is_finite()));
+        assert!(r.stats.emitted > 12 - uses_0);
+        assert!(r.mesh.positions().iter().all(|v| v.is_finite()));
+
+        // One triangle: a non-finite vertex is an error naming it ...
+        let nan = [DVec3::new(f64::NAN, 0.0, -1.0), DVec3::NEG_Z, DVec3::X - DVec3::Z];
+        match refine_triangle(&p, nan, rule) {
+            Err(DomeError::Input(e)) => assert_eq!((e.what, e.expected), ("vertex (view space)", Expected::FiniteVector)),
+            other => panic!("{other:?}"),
+        }
+        // ... while the singular places are counted. An edge through the
+        // viewer: unclipped at 250°; at 180° the view plane cuts it at the
+        // viewer, so its part in front has a corner at the origin.
+        let t = [DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 0.0, 1.0), DVec3::new(0.0, 1.0, -1.0)];
+        let r = refine_triangle(&dome(250.0), t, rule).unwrap();
+        assert_eq!((r.stats.dropped_through_viewer, r.stats.dropped_at_origin), (1, 0));
+        let r = refine_triangle(&p, t, rule).unwrap();
+        assert_eq!((r.stats.dropped_through_viewer, r.stats.dropped_at_origin), (0, 1));
+        assert!(r.mesh.positions().iter().all(|v| v.is_finite()));
+        let t = [DVec3::ZERO, DVec3::new(1.0, 0.0, -3.0), DVec3::new(0.0, 1.0, -3.0)];
+        let r = refine_triangle(&p, t, rule).unwrap();
+        assert_eq!((r.stats.dropped_through_viewer, r.stats.dropped_at_origin, r.stats.emitted), (0, 1, 0));
+        // Behind the viewer: clipped away, not dropped.
+        let t = [DVec3::new(0.0, 0.0, 1.0), DVec3::new(1.0, 0.0, 3.0), DVec3::new(0.0, 1.0, 3.0)];
+        let r = refine_triangle(&p, t, rule).unwrap();
+        assert_eq!((r.stats.clipped_away, r.stats.emitted), (1, 0));
     }
 
     fn v3() -> impl Strategy<Value = DVec3> {
@@ -543,8 +592,8 @@ mod tests {
             fov in 90.0f64..250.0, tilt in -30.0f64..30.0, tol in 0.5f64..8.0,
             a in v3(), b in v3(), c in v3(),
         ) {
-            let p = DomeCamera::new(fov, tilt, 4096).unwrap().projection().unwrap();
-            let r = refine_triangle(&p, [a, b, c], SplitRule::ChordGap { tolerance_px: tol }).unwrap();
+            let p = crate::dome::test_dome(fov, tilt, 4096);
+            let r = refine_triangle(&p, [a, b, c], chord_gap(tol)).unwrap();
             prop_assert!(r.mesh.positions.iter().all(|v| v.is_finite()));
             // Every sub-triangle keeps the input's winding and has area: no
             // collinear triples (they would hide T-junctions).
@@ -573,22 +622,22 @@ mod tests {
             // so the pieces must be identical and the welded pair has no open
             // piece on a–b at all. (With FOV > 180° each side may cull
             // different sub-triangles beyond the rim.)
-            let p = DomeCamera::new(fov, tilt, 4096).unwrap().projection().unwrap();
-            let rule = SplitRule::ChordGap { tolerance_px: tol };
+            let p = crate::dome::test_dome(fov, tilt, 4096);
+            let rule = chord_gap(tol);
             let ab = b - a;
             prop_assume!(ab.length() > 1e-3);
             let param = |v: DVec3| (v - a).dot(ab) / ab.length_squared();
             let open_on_ab = |m: &TriMesh| {
                 let mut s: Vec<[f64; 2]> = m.boundary_edges().into_iter()
-                    .map(|e| e.map(|i| m.positions[i as usize]))
+                    .map(|e| e.map(|i| m.positions()[i as usize]))
                     .filter(|e| e.iter().all(|&v| (v - a).cross(ab).length() <= 1e-9 * ab.length() * (1.0 + a.length())))
                     .map(|e| { let (s0, s1) = (param(e[0]), param(e[1])); [s0.min(s1), s0.max(s1)] })
                     .collect();
                 s.sort_by(|x, y| x[0].total_cmp(&y[0]));
                 s
             };
-            let one = refine_mesh(&p, &TriMesh { positions: vec![a, b, c], triangles: vec![[0, 1, 2]] }, rule).unwrap();
-            let other = refine_mesh(&p, &TriMesh { positions: vec![a, b, d], triangles: vec![[1, 0, 2]] }, rule).unwrap();
+            let one = refine_mesh(&p, &TriMesh { positions: vec![a, b, c], triangles: vec![[0, 1, 2]] }, rule);
+            let other = refine_mesh(&p, &TriMesh { positions: vec![a, b, d], triangles: vec![[1, 0, 2]] }, rule);
             let (s1, s2) = (open_on_ab(&one.mesh), open_on_ab(&other.mesh));
             for (x, y) in [(&s1, &s2), (&s2, &s1)] {
                 for piece in x {
@@ -601,7 +650,7 @@ mod tests {
             }
             if p.clips_at_view_plane() {
                 prop_assert_eq!(&s1, &s2);
-                let both = refine_mesh(&p, &TriMesh { positions: vec![a, b, c, d], triangles: vec![[0, 1, 2], [1, 0, 3]] }, rule).unwrap();
+                let both = refine_mesh(&p, &TriMesh { positions: vec![a, b, c, d], triangles: vec![[0, 1, 2], [1, 0, 3]] }, rule);
                 prop_assert!(open_on_ab(&both.mesh).is_empty());
             }
         }

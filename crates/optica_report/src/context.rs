@@ -1,22 +1,38 @@
-//! What a sweep gets from the runner: the quick flag, progress, timing.
+//! What a sweep gets from the runner: the quick flag, the adapter, progress, timing.
 
 use std::io::Write;
 use std::time::Instant;
+
+use optica_harness::{Adapter, Headless};
 
 /// Passed to every sweep.
 pub struct SweepContext {
     /// Run a reduced sweep (used by the test suite): fewer knob values, smaller
     /// references. The full sweep is the default of the command line.
     pub quick: bool,
+    /// The adapter that rendering sweeps draw on (`--adapter`).
+    pub adapter: Adapter,
     label: String,
     started: Instant,
     quiet: bool,
 }
 
 impl SweepContext {
-    /// A context for the sweep named `label`.
+    /// A context for the sweep named `label`, rendering on lavapipe.
     pub fn new(label: &str, quick: bool, quiet: bool) -> Self {
-        Self { quick, label: label.into(), started: Instant::now(), quiet }
+        Self { quick, adapter: Adapter::Software, label: label.into(), started: Instant::now(), quiet }
+    }
+
+    /// Renders on `adapter` instead.
+    pub fn with_adapter(mut self, adapter: Adapter) -> Self {
+        self.adapter = adapter;
+        self
+    }
+
+    /// A headless run of `width`×`height` on the chosen adapter: what every
+    /// rendering sweep starts from, so `--adapter` reaches all of them.
+    pub fn headless(&self, width: u32, height: u32) -> Headless {
+        Headless::new(width, height).adapter(self.adapter.clone())
     }
 
     /// Reports progress on stderr: `step` of `total`, with a short note.
@@ -54,4 +70,20 @@ pub fn time_ms<R>(min_runs: usize, budget_ms: f64, mut f: impl FnMut() -> R) -> 
     }
     times.sort_by(|a, b| a.total_cmp(b));
     (times[times.len() / 2], last)
+}
+
+/// The CPU in words: its model name (from `/proc/cpuinfo` on Linux) and the
+/// number of threads this process may use.
+pub fn cpu_description() -> String {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|info| {
+            info.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_string());
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    format!("{model} ({threads} threads)")
 }

@@ -1,17 +1,26 @@
 //! # optica_report — error against run time, for every plugin
 //!
 //! ```text
-//! cargo run -p optica_report -- <sweep>|all [--out DIR] [--quick]
+//! cargo run --release -p optica_report -- <sweep>|all [--out DIR] [--quick] [--adapter software|auto|<name>]
 //! ```
 //!
 //! writes `DIR/<sweep>.json`, `DIR/<sweep>.md` and `DIR/<sweep>.png` (default
 //! `DIR` = `report/`). Each sweep turns one quality knob of a plugin over its
 //! range, measures the error against the plugin's reference and the run time
 //! against a baseline timed in the same run, and runs the plugin's stiff and
-//! extreme cases. The JSON shape is the same for every sweep ([`Report`]).
+//! extreme cases. The JSON shape is the same for every sweep ([`Report`]),
+//! and every report records the CPU and the GPU adapter it ran on.
 //!
-//! To add a sweep: a module in `sweeps/` with `pub fn run(&SweepContext) -> Report`
-//! and a line in [`sweeps::SWEEPS`].
+//! Rendering sweeps draw through `optica_harness` on the adapter
+//! `--adapter` names: `software` (lavapipe, the default: ratios comparable
+//! across CI machines), `auto` (the GPU wgpu picks first) or any part of an
+//! adapter's name (`--adapter H200`). A run on a missing adapter fails
+//! rather than fall back to another one. GPU times come from timestamp
+//! queries around each pass where the adapter has them
+//! ([`optica_harness::Headless::time_frames`]).
+//!
+//! To add a sweep: a module in `sweeps/` with `pub fn run(&SweepContext) ->
+//! Result<Report, SweepError>` and a line in [`sweeps::SWEEPS`].
 
 #![warn(missing_docs)]
 
@@ -20,13 +29,26 @@ mod report;
 pub mod sweeps;
 mod write;
 
-pub use context::{SweepContext, time_ms};
+pub use context::{SweepContext, cpu_description, time_ms};
 pub use report::{Report, Row, StabilityCase};
 pub use write::{WriteError, markdown, write_all};
 
+/// How a run of the report runner is set up.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Where the files go.
+    pub out: std::path::PathBuf,
+    /// Reduced sweeps (the test suite's).
+    pub quick: bool,
+    /// No progress on stderr.
+    pub quiet: bool,
+    /// The adapter rendering sweeps draw on.
+    pub adapter: optica_harness::Adapter,
+}
+
 /// Runs the sweep called `name` (or every sweep for `all`) and writes its
-/// files into `out`. Returns the reports.
-pub fn run(name: &str, out: &std::path::Path, quick: bool, quiet: bool) -> Result<Vec<Report>, String> {
+/// files into `options.out`. Returns the reports.
+pub fn run(name: &str, options: &RunOptions) -> Result<Vec<Report>, String> {
     let chosen: Vec<_> = sweeps::SWEEPS.iter().filter(|(n, _)| name == "all" || *n == name).collect();
     if chosen.is_empty() {
         let known: Vec<_> = sweeps::SWEEPS.iter().map(|(n, _)| *n).collect();
@@ -34,9 +56,9 @@ pub fn run(name: &str, out: &std::path::Path, quick: bool, quiet: bool) -> Resul
     }
     let mut reports = Vec::new();
     for (n, f) in chosen {
-        let ctx = SweepContext::new(n, quick, quiet);
-        let report = f(&ctx);
-        write_all(&report, out).map_err(|e| e.to_string())?;
+        let ctx = SweepContext::new(n, options.quick, options.quiet).with_adapter(options.adapter.clone());
+        let report = f(&ctx).map_err(|e| format!("sweep `{n}`: {e}"))?;
+        write_all(&report, &options.out).map_err(|e| e.to_string())?;
         reports.push(report);
     }
     Ok(reports)

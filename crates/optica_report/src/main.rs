@@ -1,35 +1,47 @@
-//! `cargo run -p optica_report -- <sweep>|all [--out DIR] [--quick]`
+//! `cargo run --release -p optica_report -- <sweep>|all [--out DIR] [--quick] [--adapter software|auto|<name>]`
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use optica_harness::Adapter;
+use optica_report::RunOptions;
+
 fn main() -> ExitCode {
     let mut args = std::env::args().skip(1);
-    let (mut name, mut out, mut quick) = (None, PathBuf::from("report"), false);
+    let mut name = None;
+    let mut options = RunOptions { out: PathBuf::from("report"), quick: false, quiet: false, adapter: Adapter::Software };
     while let Some(a) = args.next() {
         match a.as_str() {
             "--out" => match args.next() {
-                Some(d) => out = d.into(),
+                Some(d) => options.out = d.into(),
                 None => return usage("--out needs a directory"),
             },
-            "--quick" => quick = true,
+            "--adapter" => match args.next() {
+                Some(choice) if choice.eq_ignore_ascii_case("noop") => {
+                    return usage("--adapter noop draws nothing: use software, auto or an adapter name");
+                }
+                Some(choice) => options.adapter = Adapter::parse(&choice),
+                None => return usage("--adapter needs software, auto or part of an adapter name"),
+            },
+            "--quick" => options.quick = true,
             "-h" | "--help" => return usage(""),
             _ if name.is_none() && !a.starts_with('-') => name = Some(a),
             _ => return usage(&format!("unexpected argument `{a}`")),
         }
     }
     let Some(name) = name else { return usage("name a sweep or `all`") };
-    match optica_report::run(&name, &out, quick, false) {
+    match optica_report::run(&name, &options) {
         Ok(reports) => {
             for r in reports {
                 let bad = r.stability.iter().filter(|c| !c.ok).count();
                 println!(
-                    "{}: {} rows, {} stability cases ({} not ok) -> {}/{}.{{json,md,png}}",
+                    "{}: {} rows, {} stability cases ({} not ok), adapter {} -> {}/{}.{{json,md,png}}",
                     r.plugin,
                     r.rows.len(),
                     r.stability.len(),
                     bad,
-                    out.display(),
+                    r.adapter_summary(),
+                    options.out.display(),
                     r.plugin
                 );
             }
@@ -47,6 +59,9 @@ fn usage(problem: &str) -> ExitCode {
         eprintln!("error: {problem}");
     }
     let names: Vec<_> = optica_report::sweeps::SWEEPS.iter().map(|(n, _)| *n).collect();
-    eprintln!("usage: optica_report <{}|all> [--out DIR] [--quick]", names.join("|"));
+    eprintln!(
+        "usage: optica_report <{}|all> [--out DIR] [--quick] [--adapter software|auto|<name>]",
+        names.join("|")
+    );
     if problem.is_empty() { ExitCode::SUCCESS } else { ExitCode::FAILURE }
 }

@@ -1,18 +1,24 @@
 //! The report data: one shape for every plugin.
 //!
 //! ```json
-//! {"plugin": "dome", "adapter": "cpu", "knob": "tolerance_px",
+//! {"plugin": "dome", "cpu": "AMD EPYC 7B13 (2 threads)",
+//!  "adapter": {"name": "llvmpipe (LLVM 15.0.6, 256 bits)", "backend": "Vulkan",
+//!              "device_type": "Cpu", "driver": "llvmpipe", "driver_info": "Mesa 22.3.6 (LLVM 15.0.6)"},
+//!  "knob": "tolerance_px",
 //!  "rows": [{"knob": 0.5, "error": {"max_px": 0.41}, "time_ms": 1.2,
-//!            "baseline_time_ms": 0.3, "work": {"segments": 1234}}],
+//!            "baseline_time_ms": 0.3, "timings": {"pass_gpu_ms": 0.2}, "work": {"segments": 1234}}],
 //!  "stability": [{"case": "antipode", "ok": true, "detail": "..."}]}
 //! ```
 //!
-//! `work` is an addition to the issue's shape: cost counters that are not
-//! times (segments emitted, rays traced, voxels visited). It is omitted when
-//! empty, so a reader of the base shape never sees it.
+//! `adapter` is the GPU adapter a rendering sweep ran on, `null` for a sweep
+//! that only runs CPU code; `cpu` is always there. `timings` (named times in
+//! ms besides `time_ms`: GPU time per pass, spreads) and `work` (cost
+//! counters that are not times: segments emitted, rays traced) are omitted
+//! when empty.
 
 use std::collections::BTreeMap;
 
+use optica_harness::AdapterInfo;
 use serde::{Deserialize, Serialize};
 
 /// A plugin's error-against-run-time sweep and its stability cases.
@@ -20,8 +26,10 @@ use serde::{Deserialize, Serialize};
 pub struct Report {
     /// Plugin name as given on the command line (`optics`, `dome`, ...).
     pub plugin: String,
-    /// What ran the measurement: `"cpu"` for CPU sweeps, else the wgpu adapter name.
-    pub adapter: String,
+    /// The machine's CPU, which ran the CPU parts of the sweep.
+    pub cpu: String,
+    /// The GPU adapter the sweep rendered on; `None` for a CPU-only sweep.
+    pub adapter: Option<AdapterInfo>,
     /// Name of the quality knob, with its unit (`"rays_per_side"`, `"tolerance_px"`).
     pub knob: String,
     /// What `baseline_time_ms` measures, in words (shown in the Markdown).
@@ -47,6 +55,9 @@ pub struct Row {
     pub time_ms: f64,
     /// Time of the baseline measured in the same run, in milliseconds.
     pub baseline_time_ms: f64,
+    /// Named times in milliseconds besides `time_ms` (optional addition to the shape).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub timings: BTreeMap<String, f64>,
     /// Cost counters that are not times (optional addition to the shape).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub work: BTreeMap<String, f64>,
@@ -65,16 +76,30 @@ pub struct StabilityCase {
 }
 
 impl Report {
-    /// An empty CPU report for `plugin`, sweeping `knob`.
+    /// An empty report of a CPU-only sweep for `plugin`, sweeping `knob`.
     pub fn cpu(plugin: &str, knob: &str) -> Self {
         Self {
             plugin: plugin.into(),
-            adapter: "cpu".into(),
+            cpu: crate::context::cpu_description(),
+            adapter: None,
             knob: knob.into(),
             baseline: String::new(),
             reference: String::new(),
             rows: Vec::new(),
             stability: Vec::new(),
+        }
+    }
+
+    /// An empty report of a sweep that rendered on `adapter`.
+    pub fn rendered(plugin: &str, knob: &str, adapter: AdapterInfo) -> Self {
+        Self { adapter: Some(adapter), ..Self::cpu(plugin, knob) }
+    }
+
+    /// The adapter in words: its summary, or that the sweep ran on the CPU only.
+    pub fn adapter_summary(&self) -> String {
+        match &self.adapter {
+            Some(a) => a.summary(),
+            None => "none (CPU-only sweep)".into(),
         }
     }
 
@@ -90,7 +115,7 @@ impl Report {
         let mut out = Vec::new();
         for row in &self.rows {
             let numbers = [("time_ms", &row.time_ms), ("baseline_time_ms", &row.baseline_time_ms)];
-            let named = row.error.iter().chain(row.work.iter()).map(|(k, v)| (k.as_str(), v));
+            let named = row.error.iter().chain(row.work.iter()).chain(row.timings.iter()).map(|(k, v)| (k.as_str(), v));
             for (name, v) in numbers.into_iter().chain(named) {
                 if !v.is_finite() {
                     out.push(format!("{} = {}: {name} is {v}", self.knob, row.knob));
@@ -107,12 +132,18 @@ impl Report {
 impl Row {
     /// A row with the given knob and times; add errors with [`Row::err`].
     pub fn new(knob: f64, time_ms: f64, baseline_time_ms: f64) -> Self {
-        Self { knob, error: BTreeMap::new(), time_ms, baseline_time_ms, work: BTreeMap::new() }
+        Self { knob, error: BTreeMap::new(), time_ms, baseline_time_ms, timings: BTreeMap::new(), work: BTreeMap::new() }
     }
 
     /// Adds a named error.
     pub fn err(mut self, name: &str, value: f64) -> Self {
         self.error.insert(name.into(), value);
+        self
+    }
+
+    /// Adds a named time in milliseconds.
+    pub fn timing(mut self, name: &str, ms: f64) -> Self {
+        self.timings.insert(name.into(), ms);
         self
     }
 

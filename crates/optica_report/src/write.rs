@@ -45,7 +45,8 @@ pub fn write_all(report: &Report, dir: &Path) -> Result<[PathBuf; 3], WriteError
 pub fn markdown(report: &Report) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "# {} — error against run time\n", report.plugin);
-    let _ = writeln!(s, "- adapter: `{}`", report.adapter);
+    let _ = writeln!(s, "- adapter: {}", report.adapter_summary());
+    let _ = writeln!(s, "- cpu: {}", report.cpu);
     let _ = writeln!(s, "- knob: `{}`", report.knob);
     if !report.reference.is_empty() {
         let _ = writeln!(s, "- reference: {}", report.reference);
@@ -54,17 +55,21 @@ pub fn markdown(report: &Report) -> String {
         let _ = writeln!(s, "- baseline: {}", report.baseline);
     }
     let errors = names(report.rows.iter().flat_map(|r| r.error.keys()));
+    let timings = names(report.rows.iter().flat_map(|r| r.timings.keys()));
     let work = names(report.rows.iter().flat_map(|r| r.work.keys()));
     let _ = write!(s, "\n| {} |", report.knob);
     for e in &errors {
         let _ = write!(s, " {e} |");
     }
     let _ = write!(s, " time ms | baseline ms | ratio |");
+    for t in &timings {
+        let _ = write!(s, " {t} |");
+    }
     for w in &work {
         let _ = write!(s, " {w} |");
     }
     let _ = write!(s, "\n|---|");
-    for _ in 0..errors.len() + work.len() + 3 {
+    for _ in 0..errors.len() + timings.len() + work.len() + 3 {
         let _ = write!(s, "---|");
     }
     s.push('\n');
@@ -75,6 +80,9 @@ pub fn markdown(report: &Report) -> String {
         }
         let ratio = if row.baseline_time_ms > 0.0 { row.time_ms / row.baseline_time_ms } else { f64::NAN };
         let _ = write!(s, " {} | {} | {} |", num(row.time_ms), num(row.baseline_time_ms), num(ratio));
+        for t in &timings {
+            let _ = write!(s, " {} |", row.timings.get(t).map_or("–".into(), |v| num(*v)));
+        }
         for w in &work {
             let _ = write!(s, " {} |", row.work.get(w).map_or("–".into(), |v| num(*v)));
         }
@@ -131,7 +139,11 @@ fn plot(report: &Report, path: &Path) -> Result<(), String> {
         .collect();
     let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let title = format!("{}: error vs time ({})", report.plugin, report.adapter);
+    let device = match &report.adapter {
+        Some(a) => a.name.clone(),
+        None => "CPU".into(),
+    };
+    let title = format!("{}: error vs time ({device})", report.plugin);
     if pts.is_empty() {
         root.titled(&title, ("sans-serif", 22)).map_err(|e| e.to_string())?;
         return root.present().map_err(|e| e.to_string());
@@ -215,7 +227,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("optica-report-{}", std::process::id()));
         let [json, md, png] = write_all(&r, &dir).unwrap();
         let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
-        for key in ["plugin", "adapter", "knob", "rows", "stability"] {
+        for key in ["plugin", "cpu", "adapter", "knob", "rows", "stability"] {
             assert!(v.get(key).is_some(), "missing {key}");
         }
         let row = &v["rows"][0];

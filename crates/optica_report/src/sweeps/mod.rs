@@ -1,5 +1,7 @@
-//! One module per sweep. Each exposes `pub fn run(ctx: &SweepContext) -> Report`
-//! and is listed in [`SWEEPS`] under the name the command line takes.
+//! One module per sweep, listed in [`SWEEPS`] under the name the command
+//! line takes. A CPU-only sweep exposes `pub fn run(ctx: &SweepContext) ->
+//! Report`; a rendering sweep returns `Result<Report, SweepError>`, since the
+//! adapter can be missing or fail.
 
 use crate::{Report, SweepContext};
 
@@ -8,17 +10,27 @@ pub mod dome;
 pub mod foveated_lod;
 pub mod lens_flare;
 pub mod optics;
+pub mod render;
 pub mod spectacles;
 
+/// Why a sweep could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    /// A headless run failed (no adapter, the wrong adapter, a wgpu error).
+    #[error(transparent)]
+    Harness(#[from] optica_harness::HarnessError),
+}
+
 /// A named sweep.
-pub type SweepFn = fn(&SweepContext) -> Report;
+pub type SweepFn = fn(&SweepContext) -> Result<Report, SweepError>;
 
 /// Every sweep the runner knows, in the order `all` runs them.
 pub const SWEEPS: &[(&str, SweepFn)] = &[
-    ("optics", optics::run),
-    ("foveated_lod", foveated_lod::run),
-    ("compound_eye", compound_eye::run),
-    ("lens_flare", lens_flare::run),
-    ("spectacles", spectacles::run),
-    ("dome", dome::run),
+    ("optics", |ctx| Ok(optics::run(ctx))),
+    ("render", render::run),
+    ("foveated_lod", |ctx| Ok(foveated_lod::run(ctx))),
+    ("compound_eye", |ctx| Ok(compound_eye::run(ctx))),
+    ("lens_flare", |ctx| Ok(lens_flare::run(ctx))),
+    ("spectacles", |ctx| Ok(spectacles::run(ctx))),
+    ("dome", |ctx| Ok(dome::run(ctx))),
 ];

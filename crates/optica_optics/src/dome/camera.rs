@@ -43,7 +43,7 @@ const FOV_LIMIT_DEG: f64 = 360.0;
 /// it is checked once by [`DomeProjection::new`], the only way to get a frame
 /// the projection and refinement functions accept.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct DomeCamera {
+pub struct DomeSettings {
     /// Full field of view of the fisheye in degrees, at least
     /// [`MIN_FOV_DEG`] and below 360: 180 is the standard dome, 210–250 are
     /// wide fisheyes.
@@ -56,7 +56,7 @@ pub struct DomeCamera {
     pub size_px: u32,
 }
 
-impl Default for DomeCamera {
+impl Default for DomeSettings {
     /// A 4K, 180°, untilted dome: the common domemaster.
     fn default() -> Self {
         Self { fov_deg: 180.0, tilt_deg: 0.0, size_px: 4096 }
@@ -77,7 +77,7 @@ fn focal_px(fov_deg: f64, size_px: u32) -> f64 {
 /// projection, clipping and refinement functions take this.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DomeProjection {
-    camera: DomeCamera,
+    camera: DomeSettings,
     /// Dome axis (zenith, image centre) in view space, unit.
     axis: DVec3,
     /// Image up in view space, unit, ⟂ axis.
@@ -96,7 +96,7 @@ impl DomeProjection {
     /// Checks `camera` and builds its frame. Errors ([`DomeError::Input`]):
     /// a field of view that is not finite, below [`MIN_FOV_DEG`] or not below
     /// 360°; a tilt that is not finite; a size of 0 px.
-    pub fn new(camera: &DomeCamera) -> Result<Self, DomeError> {
+    pub fn new(camera: &DomeSettings) -> Result<Self, DomeError> {
         const FOV: &str = "dome field of view (deg)";
         input::in_range(FOV, camera.fov_deg, MIN_FOV_DEG, FOV_LIMIT_DEG.next_down())?;
         input::finite("dome tilt (deg)", camera.tilt_deg)?;
@@ -119,7 +119,7 @@ impl DomeProjection {
     }
 
     /// The settings this projection was built from.
-    pub fn camera(&self) -> DomeCamera {
+    pub fn settings(&self) -> DomeSettings {
         self.camera
     }
 
@@ -209,7 +209,7 @@ mod tests {
     use crate::input::Expected;
 
     fn frame(fov_deg: f64, tilt_deg: f64, size_px: u32) -> Result<DomeProjection, DomeError> {
-        DomeProjection::new(&DomeCamera { fov_deg, tilt_deg, size_px })
+        DomeProjection::new(&DomeSettings { fov_deg, tilt_deg, size_px })
     }
 
     #[test]
@@ -237,8 +237,8 @@ mod tests {
         }
         // Just below 360° is accepted; the default is the 4K/180° dome.
         assert!(frame(360f64.next_down(), 0.0, 4096).is_ok());
-        let d = DomeProjection::new(&DomeCamera::default()).unwrap();
-        assert_eq!(d.camera(), DomeCamera { fov_deg: 180.0, tilt_deg: 0.0, size_px: 4096 });
+        let d = DomeProjection::new(&DomeSettings::default()).unwrap();
+        assert_eq!(d.settings(), DomeSettings { fov_deg: 180.0, tilt_deg: 0.0, size_px: 4096 });
     }
 
     #[test]

@@ -18,11 +18,11 @@
 //! once in advance (§3.1).
 //!
 //! ```
-//! use optica_optics::dome::{DomeCamera, DomeProjection, SplitRule, refine_segment};
+//! use optica_optics::dome::{DomeSettings, DomeProjection, SplitRule, refine_segment};
 //! use optica_optics::glam::DVec3;
 //!
 //! // A 4K, 180° dome; the camera looks along −Z (the zenith).
-//! let dome = DomeProjection::new(&DomeCamera::default())?;
+//! let dome = DomeProjection::new(&DomeSettings::default())?;
 //! let rule = SplitRule::chord_gap(0.5)?; // at most 0.5 px off the true arc
 //! // A 10° edge along the horizon in front of the audience (view −Y).
 //! let h = 5f64.to_radians();
@@ -86,7 +86,7 @@
 //! view −Z and the image's up is view +Y, so the audience front (bottom centre
 //! of the domemaster) is view −Y: mount the camera like a fisheye pointing at
 //! the zenith, up vector towards the back of the theatre. `tilt_deg` leans the
-//! dome forward: axis `(0, −sin τ, −cos τ)`. See [`DomeCamera`].
+//! dome forward: axis `(0, −sin τ, −cos τ)`. See [`DomeSettings`].
 //!
 //! ## Where the projection is singular
 //!
@@ -119,7 +119,7 @@
 //!
 //! | file | what |
 //! |---|---|
-//! | `camera.rs` | [`DomeCamera`] settings, [`DomeProjection`] frame |
+//! | `camera.rs` | [`DomeSettings`] settings, [`DomeProjection`] frame |
 //! | `projection.rs` | D1–D3 forward and inverse, [`Projected`] |
 //! | `arc.rs` | D4, D7: subtended angles, split points |
 //! | `rule.rs` | D4–D6: [`SplitRule`] |
@@ -154,7 +154,7 @@ mod scenes;
 mod triangle;
 
 pub use arc::split_segment;
-pub use camera::{DomeCamera, DomeProjection, MIN_FOV_DEG};
+pub use camera::{DomeSettings, DomeProjection, MIN_FOV_DEG};
 pub use classify::{ApparentSize, PrimitiveKind, Treatment, classify, pre_subdivide};
 pub use clip::clip_segment;
 pub use error::DomeError;
@@ -175,5 +175,5 @@ pub use crate::input::{Expected, InvalidInput};
 /// The projection of a test: `fov` degrees, `tilt` degrees, `size` px.
 #[cfg(test)]
 pub(crate) fn test_dome(fov: f64, tilt: f64, size: u32) -> DomeProjection {
-    DomeProjection::new(&DomeCamera { fov_deg: fov, tilt_deg: tilt, size_px: size }).expect("valid test dome")
+    DomeProjection::new(&DomeSettings { fov_deg: fov, tilt_deg: tilt, size_px: size }).expect("valid test dome")
 }

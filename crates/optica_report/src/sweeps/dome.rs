@@ -25,7 +25,7 @@
 use std::f64::consts::PI;
 
 use optica_optics::dome::{
-    DomeCamera, DomeError, DomeProjection, EdgeErrors, Projected, RefinedSegment, SplitRule, TriMesh, chord_error_px,
+    DomeSettings, DomeError, DomeProjection, EdgeErrors, Projected, RefinedSegment, SplitRule, TriMesh, chord_error_px,
     clip_segment, polyline_error_px, random_edges, refine_mesh, refine_segment, refine_segments,
 };
 use optica_optics::glam::DVec3;
@@ -39,7 +39,7 @@ fn room() -> TriMesh {
 
 /// A 4K dome of `fov_deg`, untilted.
 fn dome(fov_deg: f64) -> DomeProjection {
-    DomeProjection::new(&DomeCamera { fov_deg, tilt_deg: 0.0, size_px: 4096 }).expect("valid dome")
+    DomeProjection::new(&DomeSettings { fov_deg, tilt_deg: 0.0, size_px: 4096 }).expect("valid dome")
 }
 
 /// The chord-gap rule at `tolerance_px`.

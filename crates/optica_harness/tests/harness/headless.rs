@@ -4,35 +4,11 @@
 use bevy::prelude::*;
 use optica_harness::{Adapter, HarnessError, Headless, Pixels};
 
-#[derive(Component)]
-struct Spin;
+use crate::user_scene::{scene, spin};
 
-/// A cube turning at 1 rad per second of Bevy time, lit, no shadows.
+/// The golden test's scene: a cube turning at 1 rad per second of Bevy time.
 fn spinning_cube(app: &mut App) {
-    app.add_systems(
-        Startup,
-        |mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>| {
-            commands.spawn((
-                Spin,
-                Mesh3d(meshes.add(Cuboid::new(1.0, 1.0, 1.0))),
-                MeshMaterial3d(materials.add(Color::srgb(0.8, 0.45, 0.2))),
-            ));
-            commands.spawn((
-                DirectionalLight { illuminance: 8_000.0, shadow_maps_enabled: false, ..default() },
-                Transform::from_xyz(2.0, 4.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
-            ));
-            commands.spawn((
-                Camera3d::default(),
-                Camera { clear_color: ClearColorConfig::Custom(Color::srgb(0.1, 0.12, 0.16)), ..default() },
-                Transform::from_xyz(1.8, 1.5, 2.4).looking_at(Vec3::ZERO, Vec3::Y),
-            ));
-        },
-    )
-    .add_systems(Update, |time: Res<Time>, mut q: Query<&mut Transform, With<Spin>>| {
-        for mut t in &mut q {
-            t.rotation = Quat::from_rotation_y(time.elapsed_secs());
-        }
-    });
+    app.add_systems(Startup, scene).add_systems(Update, spin);
 }
 
 #[test]

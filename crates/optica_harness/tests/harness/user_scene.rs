@@ -6,11 +6,11 @@ use optica_harness::{Headless, assert_golden};
 
 /// Marks what turns.
 #[derive(Component)]
-struct Spin;
+pub struct Spin;
 
 /// The scene: an orange cube lit by a directional light, seen from above a
 /// corner. No shadows: they cost most of a lavapipe frame.
-fn scene(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>) {
+pub fn scene(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>) {
     commands.spawn((
         Spin,
         Mesh3d(meshes.add(Cuboid::new(1.0, 1.0, 1.0))),
@@ -32,7 +32,7 @@ fn scene(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials
 }
 
 /// Turns the cube at 1 rad per second of Bevy time.
-fn spin(time: Res<Time>, mut cubes: Query<&mut Transform, With<Spin>>) {
+pub fn spin(time: Res<Time>, mut cubes: Query<&mut Transform, With<Spin>>) {
     for mut transform in &mut cubes {
         transform.rotation = Quat::from_rotation_y(time.elapsed_secs());
     }

@@ -98,9 +98,10 @@ pub enum SpectaclesError {
     /// and the lens.
     #[error("the point is not seen through the lens ({0})")]
     NotThroughLens(&'static str),
-    /// No ray to fit a virtual viewpoint to: an empty set, or no trace that
-    /// got through the lens.
-    #[error("no usable rays for the virtual viewpoint")]
+    /// No ray to work with: an empty set or no trace through the lens for
+    /// the virtual viewpoint, or a field precompute in which no aim's
+    /// bundles got through the lens.
+    #[error("no usable rays through the lens")]
     NoRays,
     /// The voxel grid could not be built.
     #[error(transparent)]

@@ -57,7 +57,8 @@ pub enum LensTrace {
 
 impl LensTrace {
     /// The exit ray (point on the front surface, unit direction), if the ray
-    /// got through.
+    /// got through. (The direction of an `Exit` made by
+    /// [`SpectacleLens::trace_from_eye`] is unit; one made by hand must be.)
     pub fn exit_ray(&self) -> Option<Ray> {
         match *self {
             LensTrace::Exit { front, dir, .. } => Some(Ray::from_unit(front, dir)),

@@ -478,7 +478,9 @@ fn trace_pair(
 /// an aim window not in front of the centre of rotation, and a centre of
 /// rotation on the lens's back surface ([`SpectaclesError::Input`]). Aims
 /// whose bundles do not get through the lens (TIR, rim) are skipped and
-/// counted in [`FieldStats::aims_failed`].
+/// counted in [`FieldStats::aims_failed`]; if no aim gets through (an eye
+/// placed where it does not look through the lens),
+/// [`SpectaclesError::NoRays`].
 pub fn precompute_field(
     eye: &Eye,
     placement: &EyePlacement,
@@ -494,6 +496,11 @@ pub fn precompute_field(
     // Step 2: bundles, in parallel, counting the rays actually traced.
     let (bundles, traced): (Vec<_>, Vec<usize>) = aim_dirs.par_iter().map(|&a| trace_pair(lens, placement, eye, a, &samples)).unzip();
     let bundles: Vec<Option<(TracedBundle, TracedBundle)>> = bundles.into_iter().collect::<Result<_, _>>()?;
+    // Some aims fail at the rim; if all do, the eye does not look through
+    // the lens at all, and an all-sharp field would hide that.
+    if bundles.iter().all(Option::is_none) {
+        return Err(SpectaclesError::NoRays);
+    }
 
     // Step 3: walk the grid along each refracted reference ray, in parallel.
     let mut crossings: Vec<Crossing> = bundles
@@ -787,6 +794,10 @@ mod tests {
             Err(SpectaclesError::Input(e)) => assert_eq!(e.what, "naked-eye window z in front of the centre of rotation (m)"),
             other => panic!("{other:?}"),
         }
+        // An eye in front of the lens looks through it with no aim.
+        let lens = design_lens(&Prescription::sphere(-2.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let beyond = EyePlacement::new(DVec3::new(0.0, 0.0, 0.05), 0.0).unwrap();
+        assert_eq!(precompute_field(&eye, &beyond, Some(&lens), &small()), Err(SpectaclesError::NoRays));
         // Deserialised settings are checked the same way.
         let mut v = serde_json::to_value(small()).unwrap();
         assert_eq!(serde_json::from_value::<FieldSettings>(v.clone()).unwrap(), small());
@@ -836,22 +847,23 @@ mod tests {
             edit(&mut v);
             serde_json::from_value::<DisplacementField>(v)
         };
+        let refusal = |edit: &dyn Fn(&mut Value)| parse(edit).unwrap_err().to_string();
         // Short storage: `displacements` would slice out of range.
-        assert!(parse(&|v| {
+        let short = refusal(&|v| {
             v["vectors"].as_array_mut().unwrap().pop();
-        })
-        .is_err());
+        });
+        assert!(short.starts_with("field vectors (voxels × clones) = 95"), "{short}");
         // Zero clones, and more clones than the vectors hold.
-        assert!(parse(&|v| v["clones"] = json!(0)).is_err());
-        assert!(parse(&|v| v["clones"] = json!(5)).is_err());
+        assert!(refusal(&|v| v["clones"] = json!(0)).starts_with("field clones = 0"));
+        assert!(refusal(&|v| v["clones"] = json!(5)).starts_with("field vectors (voxels × clones) = 96"));
         // A grid with a zero dimension (underflow in `trilinear`) or whose
-        // counts do not match its dims (panic in `get`).
-        assert!(parse(&|v| v["counts"]["dims"] = json!([0, 2, 4])).is_err());
-        assert!(parse(&|v| v["counts"]["dims"] = json!([4, 2, 4])).is_err());
-        assert!(parse(&|v| {
+        // counts do not match its dims (panic in `get`): the grid's own errors.
+        assert!(refusal(&|v| v["counts"]["dims"] = json!([0, 2, 4])).contains("grid dimensions [0, 2, 4]"));
+        assert!(refusal(&|v| v["counts"]["dims"] = json!([4, 2, 4])).contains("needs 32 cells, got 24"));
+        let cells = refusal(&|v| {
             v["counts"]["cells"].as_array_mut().unwrap().pop();
-        })
-        .is_err());
+        });
+        assert!(cells.contains("needs 24 cells, got 23"), "{cells}");
         // Old files without the newer stats counter still load.
         assert!(parse(&|v| {
             v["stats"].as_object_mut().unwrap().remove("sets_recorded");

@@ -1,83 +1,92 @@
-//! Ray bundles from the pupil through the lens (paper §4.3, Fig. 7): the
-//! building block of the voxel field and of its direct reference.
-//!
-//! A bundle belongs to one *aim*: the reference ray (基準光線) from the eye's
-//! centre of rotation through a point of the lens. Its other rays start on the
-//! pupil, a disc of diameter `A` centred on the reference ray and
-//! perpendicular to it, and converge (before the lens) on the reference ray
-//! at the near point (`V = P_near`) or the far point (`V = P_far`): pupil
-//! offset `r` gets direction `a − V·r` (slope `−V r`), so a point at infinity
-//! (`V = 0`) and a virtual point behind the eye (`V < 0`) need no special case.
-//! Every ray is traced through both lens surfaces.
-//!
-//! After the lens, each ray `i` is described against the refracted reference
-//! ray (origin `O′`, unit direction `a′`) by its height `rᵢ` in the plane
-//! through `O′` perpendicular to `a′` and its slope `uᵢ = dᵢ/(dᵢ·a′) − a′`, so
-//! that it meets the plane at distance `s` at `rᵢ + s·uᵢ` — the displacement
-//! vector of clone `i` at that distance (Fig. 7(c)). The point where the
-//! refracted bundle converges best (the corrected near/far point) is found in
-//! vergence form, by least squares on `uᵢ ≈ −W rᵢ`:
-//!
-//! ```text
-//! W = −Σ rᵢ·uᵢ / Σ |rᵢ|²        (corrected point at s = 1/W; W ≤ 0: at or beyond infinity)
-//! ```
-//!
-//! For a stigmatic bundle this is exactly the point of convergence; it stays
-//! defined for parallel and diverging bundles, where `1/W` does not.
-//! Pupil points follow a sunflower (Vogel) spiral with radii
-//! `√((k + ½)/S)`: nearly uniform over the disc for any `S`, with the disc's
-//! exact second moment (`mean r² = ρ²/2`).
+//! Ray bundles from the pupil through the lens (documented on [`trace_bundle`]).
 
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
+use super::error::{BlockedRay, SpectaclesError};
 use super::lens_design::SpectacleLens;
+use crate::input::{self, InvalidInput};
 use crate::ray::Ray;
 
 /// Where the eye sits and how it turns.
 ///
 /// The reference ray of every bundle starts at the centre of rotation; the
 /// pupil centre is `pupil_offset_m` along it (the eye turns to look through
-/// each lens point, paper §6.2: each voxel gets its own best accommodation).
-/// `pupil_offset_m = 0` is the paper's model (pupil disc centred on the
-/// viewpoint).
+/// each lens point, so that each voxel gets its own best accommodation, as
+/// the paper's §6.2 suggests). `pupil_offset_m = 0` is the paper's model
+/// (pupil disc centred on the viewpoint). Built by [`EyePlacement::new`];
+/// deserialisation runs the same checks.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RawEyePlacement")]
 pub struct EyePlacement {
-    /// Centre of rotation of the eye (m), in the lens frame (cornea at z = 0).
-    pub centre_of_rotation: DVec3,
-    /// Distance from the centre of rotation to the entrance pupil (m).
-    pub pupil_offset_m: f64,
+    centre_of_rotation: DVec3,
+    pupil_offset_m: f64,
+}
+
+/// The serialised form of an [`EyePlacement`], unchecked.
+#[derive(Deserialize)]
+struct RawEyePlacement {
+    centre_of_rotation: DVec3,
+    pupil_offset_m: f64,
+}
+
+impl TryFrom<RawEyePlacement> for EyePlacement {
+    type Error = InvalidInput;
+
+    fn try_from(r: RawEyePlacement) -> Result<Self, InvalidInput> {
+        EyePlacement::new(r.centre_of_rotation, r.pupil_offset_m)
+    }
 }
 
 impl Default for EyePlacement {
     /// Centre of rotation 13.5 mm behind the cornea, entrance pupil 3 mm
     /// behind it (10.5 mm in front of the centre of rotation): the usual
-    /// optometric figures (lens back vertex to centre of rotation ≈ 25.5 mm
-    /// at a 12 mm vertex distance).
+    /// figures of ophthalmic optics (lens back vertex to centre of rotation
+    /// ≈ 25.5 mm at a 12 mm vertex distance).
     fn default() -> Self {
         Self { centre_of_rotation: DVec3::new(0.0, 0.0, -0.0135), pupil_offset_m: 0.0105 }
     }
 }
 
 impl EyePlacement {
-    /// The paper's model: the viewpoint is the pupil centre, 3 mm behind the
-    /// cornea, and the pupil disc is centred on it.
+    /// An eye turning about `centre_of_rotation` (m, in the eye's frame:
+    /// cornea at z = 0, +z into the scene) with its entrance pupil
+    /// `pupil_offset_m` (m) in front of that centre along the line of sight.
+    ///
+    /// Errors: a non-finite centre, a negative or non-finite offset.
+    pub fn new(centre_of_rotation: DVec3, pupil_offset_m: f64) -> Result<Self, InvalidInput> {
+        Ok(Self {
+            centre_of_rotation: input::finite_vec3("centre of rotation (m)", centre_of_rotation)?,
+            pupil_offset_m: input::non_negative("pupil offset from the centre of rotation (m)", pupil_offset_m)?,
+        })
+    }
+
+    /// The paper's model: the pupil disc is centred on the viewpoint, which
+    /// does not move; here it is placed 3 mm behind the cornea, at the
+    /// entrance pupil of [`EyePlacement::default`].
     pub fn paper() -> Self {
         Self { centre_of_rotation: DVec3::new(0.0, 0.0, -0.003), pupil_offset_m: 0.0 }
+    }
+
+    /// Centre of rotation of the eye (m), in the eye's frame.
+    pub fn centre_of_rotation(&self) -> DVec3 {
+        self.centre_of_rotation
+    }
+
+    /// Distance from the centre of rotation to the entrance pupil (m).
+    pub fn pupil_offset_m(&self) -> f64 {
+        self.pupil_offset_m
     }
 
     /// Pupil centre when looking along the unit direction `aim`.
     pub fn pupil_centre(&self, aim: DVec3) -> DVec3 {
         self.centre_of_rotation + aim * self.pupil_offset_m
     }
-
-    /// True when the numbers are finite and the offset is >= 0.
-    pub fn is_valid(&self) -> bool {
-        self.centre_of_rotation.is_finite() && self.pupil_offset_m.is_finite() && self.pupil_offset_m >= 0.0
-    }
 }
 
-/// `count` points on the unit disc, sunflower spiral, radii `√((k + ½)/count)`.
+/// `count` points on the unit disc, sunflower spiral, radii `√((k + ½)/count)`:
+/// the pupil points of a bundle, and so the directions of the `S` clone
+/// displacements (scaled by the blur disc's radius for the naked eye).
 pub fn pupil_samples(count: usize) -> Vec<DVec2> {
     let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
     (0..count)
@@ -92,47 +101,99 @@ pub fn pupil_samples(count: usize) -> Vec<DVec2> {
 /// the same way for every bundle (`e1 = ŷ × a`, `e2 = a × e1`; `x̂` stands in
 /// for `ŷ` when `a` is nearly vertical), so that clone `i` of neighbouring
 /// bundles points the same way and averaging per voxel keeps the set's shape.
-pub fn perpendicular_frame(a: DVec3) -> (DVec3, DVec3) {
+pub(crate) fn perpendicular_frame(a: DVec3) -> (DVec3, DVec3) {
     let e1 = DVec3::Y.cross(a).try_normalize().unwrap_or_else(|| DVec3::X.cross(a).normalize_or(DVec3::X));
     (e1, a.cross(e1))
 }
 
-/// A bundle after the lens.
+/// Smallest cosine between a pupil ray leaving the lens and the refracted
+/// reference ray: a ray at or beyond 90° to it never crosses the plane
+/// through the reference ray's exit point, and its slope
+/// `uᵢ = dᵢ/(dᵢ·a′) − a′` is infinite. 1e-9 refuses only rays within
+/// ~6e-8 degrees of perpendicular, where `uᵢ` would exceed 1e9.
+const MIN_EXIT_COSINE: f64 = 1e-9;
+
+/// A bundle after the lens, made by [`trace_bundle`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TracedBundle {
-    /// The refracted reference ray: exit point on the front surface (or the
-    /// pupil centre without a lens) and unit direction.
-    pub chief: Ray,
-    /// `rᵢ`: ray i's offset from the chief in the plane ⟂ `chief.dir` through `chief.origin`.
-    pub heights: Vec<DVec3>,
-    /// `uᵢ`: how that offset changes per metre along `chief.dir`.
-    pub slopes: Vec<DVec3>,
-    /// Fitted vergence `W` (D) of the refracted bundle at `chief.origin`.
-    pub vergence_d: f64,
+    chief: Ray,
+    heights: Vec<DVec3>,
+    slopes: Vec<DVec3>,
+    vergence_d: f64,
 }
 
 impl TracedBundle {
-    /// Displacement of clone `i` in the plane ⟂ the chief at distance `s`.
-    pub fn displacement(&self, i: usize, s: f64) -> DVec3 {
-        self.heights[i] + self.slopes[i] * s
+    /// The refracted reference ray: exit point on the front surface (or the
+    /// pupil centre without a lens) and unit direction.
+    pub fn chief(&self) -> &Ray {
+        &self.chief
+    }
+
+    /// `rᵢ`: ray i's offset from the chief in the plane ⟂ the chief through
+    /// its origin (m), one per pupil sample.
+    pub fn heights(&self) -> &[DVec3] {
+        &self.heights
+    }
+
+    /// `uᵢ`: how that offset changes per metre along the chief.
+    pub fn slopes(&self) -> &[DVec3] {
+        &self.slopes
+    }
+
+    /// Fitted vergence `W` (D) of the refracted bundle at the chief's origin.
+    pub fn vergence_d(&self) -> f64 {
+        self.vergence_d
+    }
+
+    /// Displacements `rᵢ + s·uᵢ` of the clones in the plane ⟂ the chief at
+    /// distance `s` (m) along it, one per pupil sample.
+    pub fn displacements(&self, s: f64) -> impl ExactSizeIterator<Item = DVec3> + '_ {
+        self.heights.iter().zip(&self.slopes).map(move |(r, u)| *r + *u * s)
     }
 }
 
-/// Why a bundle could not be traced.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum BundleFailure {
-    /// The reference ray missed the lens, left through the rim or was
-    /// totally reflected.
-    Chief,
-    /// One of the pupil rays did.
-    PupilRay,
-    /// Degenerate input (zero aim, non-finite numbers).
-    Degenerate,
-}
-
-/// Traces the bundle of aim `aim` (unit, from the centre of rotation) that
-/// converges before the lens at vergence `vergence_d` from the pupil, with
-/// pupil radius `pupil_radius_m` and pupil points `samples` (unit disc).
+/// Traces the bundle of aim `aim` (any length, normalised; from the centre
+/// of rotation) that converges before the lens at vergence `vergence_d` (D)
+/// from the pupil, with pupil radius `pupil_radius_m` (m) and pupil points
+/// `samples` (on the unit disc, e.g. [`pupil_samples`]). `lens = None` is
+/// the naked eye (straight rays).
+///
+/// Ray bundles from the pupil through the lens (paper §4.3, Fig. 7) are the
+/// building block of the voxel field and of its direct reference.
+///
+/// A bundle belongs to one *aim*: the reference ray (the paper's 基準光線)
+/// from the eye's centre of rotation through a point of the lens. Its other
+/// rays start on the pupil, a disc of diameter `A` centred on the reference
+/// ray and perpendicular to it, and converge (before the lens) on the
+/// reference ray at the near point (`V = P_near`) or the far point
+/// (`V = P_far`): pupil offset `r` gets direction `a − V·r` (slope `−V r`),
+/// so a point at infinity (`V = 0`) and a virtual point behind the eye
+/// (`V < 0`) need no special case. Every ray is traced through both lens
+/// surfaces.
+///
+/// After the lens, each ray `i` is described against the refracted reference
+/// ray (origin `O′`, unit direction `a′`) by its height `rᵢ` in the plane
+/// through `O′` perpendicular to `a′` and its slope `uᵢ = dᵢ/(dᵢ·a′) − a′`, so
+/// that it meets the plane at distance `s` at `rᵢ + s·uᵢ` — the displacement
+/// vector of clone `i` at that distance (Fig. 7(c)). The point where the
+/// refracted bundle converges best (the corrected near/far point) is found in
+/// vergence form, by least squares on `uᵢ ≈ −W rᵢ`:
+///
+/// ```text
+/// W = −Σ rᵢ·uᵢ / Σ |rᵢ|²        (corrected point at s = 1/W; W ≤ 0: at or beyond infinity)
+/// ```
+///
+/// For a stigmatic bundle this is exactly the point of convergence; it stays
+/// defined for parallel and diverging bundles, where `1/W` does not.
+/// Pupil points follow a sunflower (Vogel) spiral with radii
+/// `√((k + ½)/S)`: nearly uniform over the disc for any `S`, with the disc's
+/// exact second moment (`mean r² = ρ²/2`).
+///
+/// Errors: a zero or non-finite aim, a negative or non-finite radius, a
+/// non-finite vergence or sample ([`SpectaclesError::Input`]);
+/// [`SpectaclesError::BundleBlocked`] when the reference ray or a pupil ray
+/// does not get through the lens; [`SpectaclesError::Degenerate`] if the
+/// fit overflows.
 pub fn trace_bundle(
     lens: Option<&SpectacleLens>,
     placement: &EyePlacement,
@@ -140,13 +201,20 @@ pub fn trace_bundle(
     pupil_radius_m: f64,
     vergence_d: f64,
     samples: &[DVec2],
-) -> Result<TracedBundle, BundleFailure> {
-    trace_bundle_counted(lens, placement, aim, pupil_radius_m, vergence_d, samples, &mut 0)
+) -> Result<TracedBundle, SpectaclesError> {
+    let aim = input::direction("bundle aim", aim)?;
+    let rho = input::non_negative("pupil radius (m)", pupil_radius_m)?;
+    let vergence_d = input::finite("bundle vergence (D)", vergence_d)?;
+    for s in samples {
+        input::finite_vec2("pupil sample", *s)?;
+    }
+    trace_bundle_counted(lens, placement, aim, rho, vergence_d, samples, &mut 0)
 }
 
-/// [`trace_bundle`], adding to `traced` the number of rays actually traced
-/// through the lens: the reference ray and the pupil rays up to the first
-/// that fails (none without a lens: the naked eye's rays are straight lines).
+/// [`trace_bundle`] for checked input (unit `aim`, finite values), adding to
+/// `traced` the number of rays actually traced through the lens: the
+/// reference ray and the pupil rays up to the first that fails (none
+/// without a lens: the naked eye's rays are straight lines).
 pub(crate) fn trace_bundle_counted(
     lens: Option<&SpectacleLens>,
     placement: &EyePlacement,
@@ -155,11 +223,7 @@ pub(crate) fn trace_bundle_counted(
     vergence_d: f64,
     samples: &[DVec2],
     traced: &mut usize,
-) -> Result<TracedBundle, BundleFailure> {
-    let Some(aim) = aim.try_normalize() else { return Err(BundleFailure::Degenerate) };
-    if !(placement.is_valid() && pupil_radius_m.is_finite() && vergence_d.is_finite()) {
-        return Err(BundleFailure::Degenerate);
-    }
+) -> Result<TracedBundle, SpectaclesError> {
     let pupil = placement.pupil_centre(aim);
     // A pinhole pupil: every ray is the chief, no defocus at all; exact zeros
     // rather than round-off from tracing the same ray S times.
@@ -174,21 +238,23 @@ pub(crate) fn trace_bundle_counted(
             }
         }
     };
-    let chief_in = Ray::from_unit(placement.centre_of_rotation, aim);
     let chief = match lens {
         None => Ray::from_unit(pupil, aim),
-        Some(_) => exit(chief_in).ok_or(BundleFailure::Chief)?,
+        Some(_) => exit(Ray::from_unit(placement.centre_of_rotation, aim)).ok_or(SpectaclesError::BundleBlocked(BlockedRay::Reference))?,
     };
     let a = chief.dir();
+    let blocked = SpectaclesError::BundleBlocked(BlockedRay::Pupil);
     let mut heights = Vec::with_capacity(samples.len());
     let mut slopes = Vec::with_capacity(samples.len());
     for s in samples {
         let r = (e1 * s.x + e2 * s.y) * pupil_radius_m;
-        let ray = Ray::new(pupil + r, aim - r * vergence_d).map_err(|_| BundleFailure::PupilRay)?;
-        let out = exit(ray).ok_or(BundleFailure::PupilRay)?;
+        // `aim − r·V` has component 1 along the unit aim (r ⟂ aim): never
+        // zero, and finite unless r·V overflows.
+        let ray = Ray::new(pupil + r, aim - r * vergence_d)?;
+        let out = exit(ray).ok_or(blocked.clone())?;
         let da = out.dir().dot(a);
-        if !(da > 1e-9) {
-            return Err(BundleFailure::PupilRay);
+        if !(da > MIN_EXIT_COSINE) {
+            return Err(blocked);
         }
         let t = (chief.origin() - out.origin()).dot(a) / da;
         if pinhole {
@@ -204,7 +270,7 @@ pub(crate) fn trace_bundle_counted(
     // A zero pupil has no heights: no defocus at all, any W will do.
     let vergence_d = if den > 0.0 { -num / den } else { 0.0 };
     if !vergence_d.is_finite() || heights.iter().chain(&slopes).any(|v| !v.is_finite()) {
-        return Err(BundleFailure::Degenerate);
+        return Err(SpectaclesError::Degenerate("bundle fit overflowed"));
     }
     Ok(TracedBundle { chief, heights, slopes, vergence_d })
 }
@@ -224,7 +290,7 @@ pub enum Region {
 /// corrected vergences: near when `s·W_near < 1` (i.e. `1/s > W_near`), far
 /// when `s·W_far > 1`, written without dividing so that `W <= 0` (corrected
 /// point at or beyond infinity) needs no special case.
-pub fn region(s: f64, w_near: f64, w_far: f64) -> Region {
+pub(crate) fn region(s: f64, w_near: f64, w_far: f64) -> Region {
     if s * w_near < 1.0 {
         Region::Near
     } else if s * w_far > 1.0 {
@@ -238,10 +304,11 @@ pub fn region(s: f64, w_near: f64, w_far: f64) -> Region {
 /// bundle. Far sets are point-mirrored (`−(rᵢ + s uᵢ)`), so that clone `i`
 /// always lies on the side of pupil point `i`: the set is still the same disc,
 /// and averaging across the focal plane never cancels.
-pub fn displacement_set(near: &TracedBundle, far: &TracedBundle, s: f64) -> (Region, Vec<DVec3>) {
+#[cfg(feature = "reference")]
+pub(crate) fn displacement_set(near: &TracedBundle, far: &TracedBundle, s: f64) -> (Region, Vec<DVec3>) {
     match region(s, near.vergence_d, far.vergence_d) {
-        Region::Near => (Region::Near, (0..near.heights.len()).map(|i| near.displacement(i, s)).collect()),
-        Region::Far => (Region::Far, (0..far.heights.len()).map(|i| -far.displacement(i, s)).collect()),
+        Region::Near => (Region::Near, near.displacements(s).collect()),
+        Region::Far => (Region::Far, far.displacements(s).map(|v| -v).collect()),
         Region::InFocus => (Region::InFocus, vec![DVec3::ZERO; near.heights.len()]),
     }
 }
@@ -309,7 +376,7 @@ mod tests {
         let pl = EyePlacement::paper();
         let samples = pupil_samples(64);
         let aim = DVec3::new(0.1, -0.05, 1.0).normalize();
-        let a2 = 0.5 * eye.pupil_diameter_m;
+        let a2 = 0.5 * eye.pupil_diameter_m();
         let near = trace_bundle(None, &pl, aim, a2, eye.near_point_vergence_d(), &samples).unwrap();
         let far = trace_bundle(None, &pl, aim, a2, eye.far_point_vergence_d(), &samples).unwrap();
         assert!((near.vergence_d - 2.0).abs() < 1e-12 && (far.vergence_d - 1.0 / 1.3).abs() < 1e-12);
@@ -325,8 +392,8 @@ mod tests {
     fn bundle_correcting_lens_moves_far_point_to_infinity() {
         // A −2 D myope, far point 0.5 m from the pupil. The spectacle plane is
         // d = 15 mm in front of the paper-model pupil (12 mm + 3 mm), so the
-        // full correction is F = −1/(0.5 − 0.015) = −2.0619 D (effectivity,
-        // REFERENCE.md: F/(1 − dF)). Through that lens the far bundle leaves
+        // full correction is F = −1/(0.5 − 0.015) = −2.0619 D (the lens's
+        // focal point must sit on the far point). Through that lens the far bundle leaves
         // parallel (W ≈ 0), through a −2 D lens still slightly converging.
         let eye = Eye::new(-2.0, 1.0, 0.004).unwrap();
         let pl = EyePlacement::paper();
@@ -343,7 +410,50 @@ mod tests {
         // Zero pupil: no heights, W = 0, no blur.
         let b = trace_bundle(None, &pl, DVec3::Z, 0.0, 3.0, &samples).unwrap();
         assert_eq!(b.vergence_d, 0.0);
-        assert_eq!(Spread::of((0..16).map(|i| b.displacement(i, 1.0))).rms_radius_m, 0.0);
-        assert_eq!(trace_bundle(None, &pl, DVec3::ZERO, 0.002, 1.0, &samples), Err(BundleFailure::Degenerate));
+        assert_eq!(b.displacements(1.0).len(), 16);
+        assert_eq!(Spread::of(b.displacements(1.0)).rms_radius_m, 0.0);
+    }
+
+    #[test]
+    fn bundle_bad_input_and_blocked_rays_are_typed() {
+        let pl = EyePlacement::default();
+        let samples = pupil_samples(16);
+        let input_error = |r: Result<TracedBundle, SpectaclesError>| match r {
+            Err(SpectaclesError::Input(e)) => e.what,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(input_error(trace_bundle(None, &pl, DVec3::ZERO, 0.002, 1.0, &samples)), "bundle aim");
+        assert_eq!(input_error(trace_bundle(None, &pl, DVec3::Z, -0.002, 1.0, &samples)), "pupil radius (m)");
+        assert_eq!(input_error(trace_bundle(None, &pl, DVec3::Z, 0.002, f64::NAN, &samples)), "bundle vergence (D)");
+        assert_eq!(input_error(trace_bundle(None, &pl, DVec3::Z, 0.002, 1.0, &[DVec2::NAN])), "pupil sample");
+        // A non-unit aim is normalised, not refused.
+        let b = trace_bundle(None, &pl, DVec3::new(0.0, 0.0, 5.0), 0.002, 1.0, &samples).unwrap();
+        assert_eq!(b.chief().dir(), DVec3::Z);
+        // Through a lens: a reference ray 60° off axis misses the blank; one
+        // through the back surface 21 mm off axis gets through, but pupil
+        // rays 4 mm off it pass outside the 25 mm blank.
+        let lens = design_lens(&Prescription::sphere(-2.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let steep = DVec3::new(60f64.to_radians().sin(), 0.0, 60f64.to_radians().cos());
+        assert_eq!(
+            trace_bundle(Some(&lens), &pl, steep, 0.002, 1.0, &samples),
+            Err(SpectaclesError::BundleBlocked(BlockedRay::Reference))
+        );
+        let rim = lens.back().point(0.021, 0.0).unwrap() - pl.centre_of_rotation();
+        assert_eq!(trace_bundle(Some(&lens), &pl, rim, 0.004, 1.0, &samples), Err(SpectaclesError::BundleBlocked(BlockedRay::Pupil)));
+        assert!(trace_bundle(Some(&lens), &pl, rim, 0.0, 1.0, &samples).is_ok());
+    }
+
+    #[test]
+    fn eye_placement_is_checked() {
+        let e = EyePlacement::new(DVec3::new(0.0, f64::NAN, 0.0), 0.01).unwrap_err();
+        assert_eq!(e.what, "centre of rotation (m)");
+        assert_eq!(EyePlacement::new(DVec3::ZERO, -0.01).unwrap_err().what, "pupil offset from the centre of rotation (m)");
+        let pl = EyePlacement::new(DVec3::new(0.0, 0.0, -0.0135), 0.0105).unwrap();
+        assert_eq!(pl, EyePlacement::default());
+        assert!((pl.pupil_centre(DVec3::Z) - DVec3::new(0.0, 0.0, -0.003)).length() < 1e-15);
+        let mut v = serde_json::to_value(pl).unwrap();
+        assert_eq!(serde_json::from_value::<EyePlacement>(v.clone()).unwrap(), pl);
+        v["pupil_offset_m"] = serde_json::json!(-1.0);
+        assert!(serde_json::from_value::<EyePlacement>(v).is_err());
     }
 }

@@ -1,7 +1,8 @@
-//! The one error type of the spectacles reference.
+//! The one error type of the spectacles module.
 
 use thiserror::Error;
 
+use crate::input::InvalidInput;
 use crate::voxel::VoxelError;
 
 /// Which surface of a spectacle lens an error is about.
@@ -22,28 +23,39 @@ impl std::fmt::Display for LensSide {
     }
 }
 
+/// Which ray of a bundle did not get through the lens.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BlockedRay {
+    /// The reference ray from the eye's centre of rotation: it missed the
+    /// lens, left through the rim or was totally reflected.
+    Reference,
+    /// A pupil ray: as [`BlockedRay::Reference`], or it leaves the lens
+    /// travelling across or against the refracted reference ray.
+    Pupil,
+}
+
+impl std::fmt::Display for BlockedRay {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            BlockedRay::Reference => "reference",
+            BlockedRay::Pupil => "pupil",
+        })
+    }
+}
+
 /// Why a spectacles computation was rejected.
 ///
-/// Every function that takes user numbers (a prescription, an eye, a pupil
-/// formula's inputs, field settings) checks them and returns one of these
-/// instead of panicking or letting a NaN through.
+/// Numbers from users are checked where they enter (the checked
+/// constructors of [`Eye`](super::Eye), [`Prescription`](super::Prescription),
+/// [`LensDesignParams`](super::LensDesignParams),
+/// [`EyePlacement`](super::EyePlacement), [`FieldSettings`](super::FieldSettings))
+/// and refused as [`SpectaclesError::Input`]; the other variants are failures
+/// of the optics itself.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum SpectaclesError {
-    /// An input was NaN or infinite; the string names it.
-    #[error("non-finite input: {0}")]
-    NonFinite(&'static str),
-    /// A number outside the range the model accepts.
-    #[error("{what} = {value} is outside the accepted range {min} ..= {max}")]
-    OutOfRange {
-        /// What the number is.
-        what: &'static str,
-        /// The value given.
-        value: f64,
-        /// Smallest accepted value.
-        min: f64,
-        /// Largest accepted value.
-        max: f64,
-    },
+    /// A number that is not finite or outside the range the model accepts.
+    #[error(transparent)]
+    Input(#[from] InvalidInput),
     /// A material name the glass catalog does not know.
     #[error("unknown lens material `{0}`")]
     UnknownMaterial(String),
@@ -70,24 +82,35 @@ pub enum SpectaclesError {
         /// Front surface power in dioptres.
         front_power_d: f64,
     },
-    /// The two surfaces cross inside the blank (negative edge or centre thickness).
-    #[error("the lens surfaces cross: thickness {thickness_m} m at {where_}")]
+    /// The two surfaces meet or cross inside the blank: the edge thickness
+    /// needed for the prescription is zero or negative.
+    #[error("the lens surfaces cross: edge thickness {edge_thickness_m} m")]
     SurfacesCross {
-        /// The (negative or zero) thickness found.
-        thickness_m: f64,
-        /// `"centre"` or `"edge"`.
-        where_: &'static str,
+        /// The (negative or zero) edge thickness found, in metres.
+        edge_thickness_m: f64,
     },
-    /// A direction that is zero, or a geometry with no defined ray.
-    #[error("degenerate geometry: {0}")]
-    Degenerate(&'static str),
-    /// A set of rays for the virtual viewpoint that is empty or has no finite ray.
-    #[error("no usable rays for the virtual viewpoint")]
+    /// A ray of a bundle ([`trace_bundle`](super::trace_bundle)) did not get
+    /// through the lens.
+    #[error("the {0} ray of the bundle does not get through the lens")]
+    BundleBlocked(BlockedRay),
+    /// The direct reference found no reference ray through the lens to the
+    /// point: the point is outside what the lens shows, or between the eye
+    /// and the lens.
+    #[error("the point is not seen through the lens ({0})")]
+    NotThroughLens(&'static str),
+    /// No ray to work with: an empty set or no trace through the lens for
+    /// the virtual viewpoint, or a field precompute in which no aim's
+    /// bundles got through the lens.
+    #[error("no usable rays through the lens")]
     NoRays,
     /// The voxel grid could not be built.
     #[error(transparent)]
     Voxel(#[from] VoxelError),
-    /// The direct reference found no chief ray through the lens to the point.
-    #[error("no chief ray through the lens reaches the point ({0})")]
-    NotThroughLens(&'static str),
+    /// A numerical procedure found no answer where the geometry has none to
+    /// give: the lens design's thickness iteration did not settle, the
+    /// paraxial probe of a lens did not get through it, the direct
+    /// reference's aim Jacobian is singular (a caustic of the lens), or a
+    /// solve overflowed `f64`. The string says which.
+    #[error("degenerate geometry: {0}")]
+    Degenerate(&'static str),
 }

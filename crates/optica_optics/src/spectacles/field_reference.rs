@@ -1,18 +1,4 @@
-//! The direct reference for the voxel field: the displacement set at one
-//! point, computed by tracing a dense bundle through that point.
-//!
-//! For a point `P`:
-//! 1. find the aim whose refracted reference ray passes through `P` (Newton's
-//!    method on the two aim slopes, finite-difference Jacobian, from the
-//!    straight line eye → `P`; without a lens the straight line itself);
-//! 2. trace the near and far bundles of that aim with many pupil rays;
-//! 3. at `s` = distance of `P` along the refracted reference ray, take the
-//!    set the field would store (the same region rule, [`displacement_set`]).
-//!
-//! It differs from the field only by what the field approximates: the voxel
-//! (the field's set is the average of bundles crossing the voxel at other
-//! points, evaluated at their segment midpoints), the aim sampling, and the
-//! `S` pupil rays. So `field − reference` measures exactly the field's error.
+//! The direct reference for the voxel field (documented on [`reference_at`]).
 
 use glam::{DVec2, DVec3};
 use serde::Serialize;
@@ -21,6 +7,7 @@ use super::bundle::{EyePlacement, Region, Spread, displacement_set, pupil_sample
 use super::error::SpectaclesError;
 use super::eye::Eye;
 use super::lens_design::SpectacleLens;
+use crate::input::{self, Expected, InvalidInput};
 use crate::ray::Ray;
 
 /// The reference at one point.
@@ -42,13 +29,46 @@ pub struct PointReference {
     pub spread: Spread,
 }
 
-/// Pupil rays of the dense bundle by default.
+/// Pupil rays of the dense bundle by default: 256, 25 times the paper's
+/// `S = 10`, so that the reference's own sampling of the pupil is small
+/// beside the field's.
 pub const DEFAULT_DENSE_SAMPLES: usize = 256;
 
 /// Most pupil rays [`reference_at`] accepts per bundle: 65,536, 256 times the
 /// default (the reference's sampling error is already far below the field's
 /// at the default; more would only allocate and trace without limit).
 pub const MAX_DENSE_SAMPLES: usize = 1 << 16;
+
+/// Most Newton steps of the aim solve. From the straight line eye → point
+/// the solve converges quadratically in a handful of steps through any
+/// spectacle lens; 60 only bounds the loop.
+const AIM_MAX_STEPS: usize = 60;
+
+/// The aim solve stops once the reference ray passes within this of the
+/// point (m): 1 pm, the round-off of metre-scale coordinates.
+const AIM_STOP_MISS_M: f64 = 1e-12;
+
+/// The aim solve succeeds if the reference ray passes within this of the
+/// point (m): 1 nm, a millionth of a millimetre-sized blur disc, so the
+/// solve's residual never shows in the error the reference measures.
+const AIM_ACCEPT_MISS_M: f64 = 1e-9;
+
+/// Finite-difference step of the aim Jacobian (in aim slope, i.e. rad near
+/// the axis): about the square root of f64's epsilon times the slopes' scale
+/// (≤ 1), the step that balances truncation against round-off in a central
+/// difference.
+const AIM_JACOBIAN_STEP: f64 = 1e-7;
+
+/// A Jacobian determinant (m², miss per unit of aim slope, squared) below
+/// this is singular: only an exact caustic (a neighbourhood of aims mapped
+/// onto a line) comes this close to zero. For a point at distance `z` the
+/// determinant is about `z²` (1e-2 m² at 10 cm); dividing by anything
+/// smaller than this would overflow.
+const AIM_SINGULAR_DETERMINANT: f64 = 1e-300;
+
+/// Backtracking halvings of a Newton step before the solve gives up:
+/// 2⁻³⁰ ≈ 1e-9 of a step.
+const AIM_BACKTRACK_HALVINGS: usize = 30;
 
 fn aim_of(slopes: DVec2) -> DVec3 {
     DVec3::new(slopes.x, slopes.y, 1.0).normalize()
@@ -58,7 +78,7 @@ fn aim_of(slopes: DVec2) -> DVec3 {
 fn exit_chief(lens: Option<&SpectacleLens>, placement: &EyePlacement, aim: DVec3) -> Option<Ray> {
     match lens {
         None => Some(Ray::from_unit(placement.pupil_centre(aim), aim)),
-        Some(l) => l.trace_from_eye(&Ray::from_unit(placement.centre_of_rotation, aim)).exit_ray(),
+        Some(l) => l.trace_from_eye(&Ray::from_unit(placement.centre_of_rotation(), aim)).exit_ray(),
     }
 }
 
@@ -70,34 +90,35 @@ fn miss(ray: &Ray, p: DVec3) -> DVec2 {
 
 /// Solves for the aim whose refracted reference ray passes through `p`.
 fn solve_aim(lens: Option<&SpectacleLens>, placement: &EyePlacement, p: DVec3) -> Result<(DVec3, Ray), SpectaclesError> {
-    let straight = p - placement.centre_of_rotation;
+    let straight = p - placement.centre_of_rotation();
     if !(straight.z > 0.0) {
-        return Err(SpectaclesError::Degenerate("point not in front of the eye"));
+        let what = "point depth in front of the centre of rotation (m)";
+        return Err(InvalidInput::new(what, straight.z, Expected::Positive).into());
     }
     let mut x = DVec2::new(straight.x / straight.z, straight.y / straight.z);
+    let blocked = SpectaclesError::NotThroughLens("the reference ray towards it is blocked by the rim, total reflection or the blank's edge");
     if lens.is_none() {
         let aim = aim_of(x);
-        return Ok((aim, exit_chief(lens, placement, aim).ok_or(SpectaclesError::Degenerate("aim"))?));
+        return Ok((aim, exit_chief(lens, placement, aim).ok_or(blocked)?));
     }
-    let blocked = SpectaclesError::NotThroughLens("reference ray blocked by TIR, the rim or the blank");
     let resid = |x: DVec2| exit_chief(lens, placement, aim_of(x)).map(|r| (miss(&r, p), r));
     let (mut e, mut chief) = resid(x).ok_or(blocked.clone())?;
-    for _ in 0..60 {
-        if e.length() < 1e-12 {
+    for _ in 0..AIM_MAX_STEPS {
+        if e.length() < AIM_STOP_MISS_M {
             break;
         }
-        let h = 1e-7;
+        let h = AIM_JACOBIAN_STEP;
         let col = |d: DVec2| -> Option<DVec2> { Some((resid(x + d)?.0 - resid(x - d)?.0) / (2.0 * h)) };
         let (Some(jx), Some(jy)) = (col(DVec2::new(h, 0.0)), col(DVec2::new(0.0, h))) else { return Err(blocked) };
         let det = jx.x * jy.y - jy.x * jx.y;
-        if !(det.abs() > 1e-300) || !det.is_finite() {
-            return Err(SpectaclesError::Degenerate("singular aim Jacobian"));
+        if !(det.abs() > AIM_SINGULAR_DETERMINANT) || !det.is_finite() {
+            return Err(SpectaclesError::Degenerate("singular aim Jacobian (a caustic of the lens)"));
         }
         let step = DVec2::new(e.x * jy.y - jy.x * e.y, jx.x * e.y - e.x * jx.y) / det;
         // Backtrack until the residual shrinks (and the ray still gets through).
         let mut lambda = 1.0;
         let mut moved = false;
-        for _ in 0..30 {
+        for _ in 0..AIM_BACKTRACK_HALVINGS {
             let xn = x - step * lambda;
             if let Some((en, cn)) = resid(xn)
                 && en.length() < e.length()
@@ -112,19 +133,40 @@ fn solve_aim(lens: Option<&SpectacleLens>, placement: &EyePlacement, p: DVec3) -
             break;
         }
     }
-    if !(e.length() < 1e-9) {
-        return Err(SpectaclesError::NotThroughLens("the aim iteration did not reach the point"));
+    if !(e.length() < AIM_ACCEPT_MISS_M) {
+        return Err(SpectaclesError::NotThroughLens("no reference ray through the lens reaches it"));
     }
     Ok((aim_of(x), chief))
 }
 
-/// The reference displacement spread at `point` for `eye` at `placement`
-/// through `lens` (`None`: naked eye), with `dense_samples` pupil rays.
+/// The reference displacement spread at `point` (m, eye frame) for `eye`
+/// at `placement` through `lens` (`None`: naked eye), with `dense_samples`
+/// pupil rays per bundle ([`DEFAULT_DENSE_SAMPLES`]).
 ///
-/// Errors: a bad eye, placement or point; `dense_samples` outside
-/// `1..=`[`MAX_DENSE_SAMPLES`] (checked before anything is allocated);
-/// [`SpectaclesError::NotThroughLens`] when no reference ray through the lens
-/// reaches the point or a pupil ray is blocked; a point behind the lens exit.
+/// The direct reference for the voxel field: the displacement set at one
+/// point, computed by tracing a dense bundle through that point.
+///
+/// For a point `P`:
+/// 1. find the aim whose refracted reference ray passes through `P` (Newton's
+///    method on the two aim slopes, finite-difference Jacobian, from the
+///    straight line eye → `P`; without a lens the straight line itself);
+/// 2. trace the near and far bundles of that aim with many pupil rays;
+/// 3. at `s` = distance of `P` along the refracted reference ray, take the
+///    set the field would store (the same region rule).
+///
+/// It differs from the field only by what the field approximates: the voxel
+/// (the field's set is the average of bundles crossing the voxel at other
+/// points, evaluated at their segment midpoints), the aim sampling, and the
+/// `S` pupil rays. So `field − reference` measures exactly the field's error.
+///
+/// Errors: a non-finite point, or one not in front of the centre of
+/// rotation, and `dense_samples` outside `1..=`[`MAX_DENSE_SAMPLES`]
+/// (checked before anything is allocated) are [`SpectaclesError::Input`];
+/// [`SpectaclesError::NotThroughLens`] when no reference ray through the
+/// lens reaches the point or the point lies between the eye and the lens
+/// exit; [`SpectaclesError::BundleBlocked`] when a pupil ray of the dense
+/// bundle does not get through; [`SpectaclesError::Degenerate`] at a
+/// caustic.
 pub fn reference_at(
     eye: &Eye,
     placement: &EyePlacement,
@@ -132,31 +174,20 @@ pub fn reference_at(
     point: DVec3,
     dense_samples: usize,
 ) -> Result<PointReference, SpectaclesError> {
-    Eye::new(eye.refractive_error_d, eye.accommodation_d, eye.pupil_diameter_m)?;
-    if !point.is_finite() {
-        return Err(SpectaclesError::NonFinite("point"));
-    }
-    if !placement.is_valid() {
-        return Err(SpectaclesError::NonFinite("eye placement"));
-    }
+    let point = input::finite_vec3("reference point (m)", point)?;
     if !(1..=MAX_DENSE_SAMPLES).contains(&dense_samples) {
-        return Err(SpectaclesError::OutOfRange {
-            what: "dense samples",
-            value: dense_samples as f64,
-            min: 1.0,
-            max: MAX_DENSE_SAMPLES as f64,
-        });
+        let range = Expected::Range { min: 1.0, max: MAX_DENSE_SAMPLES as f64 };
+        return Err(InvalidInput::new("dense samples", dense_samples as f64, range).into());
     }
     let (aim, chief) = solve_aim(lens, placement, point)?;
-    let samples = pupil_samples(dense_samples);
-    let rho = 0.5 * eye.pupil_diameter_m;
-    let blocked = |_| SpectaclesError::NotThroughLens("a pupil ray is blocked by TIR or the rim");
-    let near = trace_bundle(lens, placement, aim, rho, eye.near_point_vergence_d(), &samples).map_err(blocked)?;
-    let far = trace_bundle(lens, placement, aim, rho, eye.far_point_vergence_d(), &samples).map_err(blocked)?;
     let s = (point - chief.origin()).dot(chief.dir());
     if !(s > 0.0) {
-        return Err(SpectaclesError::Degenerate("point behind the lens exit"));
+        return Err(SpectaclesError::NotThroughLens("it lies between the eye and the lens exit"));
     }
+    let samples = pupil_samples(dense_samples);
+    let rho = 0.5 * eye.pupil_diameter_m();
+    let near = trace_bundle(lens, placement, aim, rho, eye.near_point_vergence_d(), &samples)?;
+    let far = trace_bundle(lens, placement, aim, rho, eye.far_point_vergence_d(), &samples)?;
     let (region, set) = displacement_set(&near, &far, s);
     Ok(PointReference {
         aim,
@@ -164,7 +195,7 @@ pub fn reference_at(
         distance_m: s,
         miss_m: miss(&chief, point).length(),
         region,
-        vergences_d: [near.vergence_d, far.vergence_d],
+        vergences_d: [near.vergence_d(), far.vergence_d()],
         spread: Spread::of(set),
     })
 }
@@ -210,9 +241,19 @@ mod tests {
             reference_at(&eye, &pl, Some(&lens), DVec3::new(3.0, 0.0, 0.5), 16),
             Err(SpectaclesError::NotThroughLens(_))
         ));
-        assert!(reference_at(&eye, &pl, None, DVec3::new(0.0, 0.0, -1.0), 16).is_err());
-        assert!(reference_at(&eye, &pl, None, DVec3::NAN, 16).is_err());
-        assert!(reference_at(&eye, &pl, None, DVec3::Z, 0).is_err());
+        let input_error = |r: Result<PointReference, SpectaclesError>| match r {
+            Err(SpectaclesError::Input(e)) => e.what,
+            other => panic!("{other:?}"),
+        };
+        let behind = reference_at(&eye, &pl, None, DVec3::new(0.0, 0.0, -1.0), 16);
+        assert_eq!(input_error(behind), "point depth in front of the centre of rotation (m)");
+        assert_eq!(input_error(reference_at(&eye, &pl, None, DVec3::NAN, 16)), "reference point (m)");
+        assert_eq!(input_error(reference_at(&eye, &pl, None, DVec3::Z, 0)), "dense samples");
+        // In front of the eye but inside the lens (z = 13 mm, lens 12–14 mm).
+        assert!(matches!(
+            reference_at(&eye, &pl, Some(&lens), DVec3::new(0.0, 0.0, 0.013), 16),
+            Err(SpectaclesError::NotThroughLens(_))
+        ));
     }
 
     #[test]
@@ -223,7 +264,7 @@ mod tests {
         let pl = EyePlacement::default();
         for n in [usize::MAX, 1 << 40, MAX_DENSE_SAMPLES + 1] {
             assert!(
-                matches!(reference_at(&eye, &pl, None, DVec3::Z, n), Err(SpectaclesError::OutOfRange { what: "dense samples", .. })),
+                matches!(reference_at(&eye, &pl, None, DVec3::Z, n), Err(SpectaclesError::Input(e)) if e.what == "dense samples"),
                 "{n}"
             );
         }
@@ -244,7 +285,18 @@ mod tests {
                     prop_assert!(p.spread.rms_radius_m.is_finite() && p.spread.centroid.is_finite());
                     prop_assert!(p.distance_m > 0.0 && p.miss_m < 1e-9);
                 }
-                Err(e) => prop_assert!(matches!(e, SpectaclesError::NotThroughLens(_) | SpectaclesError::Degenerate(_)), "{:?}", e),
+                // Points behind the eye are input errors; the rest are not
+                // seen through the lens, or a pupil ray of the bundle misses
+                // it (the reference ray got through in the solve).
+                Err(e) => prop_assert!(
+                    matches!(
+                        e,
+                        SpectaclesError::NotThroughLens(_)
+                            | SpectaclesError::BundleBlocked(crate::spectacles::BlockedRay::Pupil)
+                            | SpectaclesError::Degenerate(_)
+                    ) || matches!(e, SpectaclesError::Input(i) if i.what == "point depth in front of the centre of rotation (m)"),
+                    "{:?}", e
+                ),
             }
         }
     }

@@ -1,41 +1,74 @@
-//! The two kinds of spectacle-lens surface: spherical (from `surface.rs`) and
-//! toric (for a cylinder in the prescription), behind one type.
-//!
-//! A toric surface has curvature `c_axis` in the meridian along the cylinder
-//! axis (direction `ξ = (cos a, sin a)` in the x–y plane) and `c_cross` in the
-//! meridian across it (`η`). It is the circle of curvature `c_cross` in the
-//! η–z plane, swept round an axis parallel to η at `z = 1/c_axis` — the
-//! surface a toric lap grinds. With `s(η) = c_cross η²/(1 + √(1 − c_cross² η²))`
-//! (the circle's sag) and `u = 1 − c_axis s`, the sag is
-//!
-//! ```text
-//! z − z_v = (1 − √(u² − c_axis² ξ²)) / c_axis
-//!         = [s (2 − c_axis s) + c_axis ξ²] / (1 + √(u² − c_axis² ξ²))
-//! ```
-//!
-//! written in the second form so that it stays exact as `c_axis → 0` (a
-//! cylinder) and for a flat surface. Equal curvatures give the sphere.
-//! Conventions as `surface.rs`: +z optical axis, normal towards −z at the
-//! vertex.
+//! The two kinds of spectacle-lens surface, spherical and toric.
 
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
+use crate::input::{self, InvalidInput};
 use crate::ray::Ray;
 use crate::surface::{Hit, SphericalSurface, T_EPSILON};
 
-/// A toric surface (see the module docs), vertex on the z axis.
+/// A toric surface (for a cylinder in the prescription), vertex on the z
+/// axis.
+///
+/// A toric surface has curvature `c_axis` in the meridian along the cylinder
+/// axis (direction `ξ = (cos a, sin a)` in the x–y plane) and `c_cross` in the
+/// meridian across it (`η`). It is the circle of curvature `c_cross` in the
+/// η–z plane, swept round an axis parallel to η at `z = 1/c_axis` — the
+/// surface a toric lap grinds. With `s(η) = c_cross η²/(1 + √(1 − c_cross² η²))`
+/// (the circle's sag) and `u = 1 − c_axis s`, the sag is
+///
+/// ```text
+/// z − z_v = (1 − √(u² − c_axis² ξ²)) / c_axis
+///         = [s (2 − c_axis s) + c_axis ξ²] / (1 + √(u² − c_axis² ξ²))
+/// ```
+///
+/// written in the second form so that it stays exact as `c_axis → 0` (a
+/// cylinder) and for a flat surface. Equal curvatures give the sphere.
+/// Conventions as [`SphericalSurface`]: +z optical axis, normal towards −z
+/// at the vertex.
+///
+/// Built by [`ToricSurface::new`] from finite numbers; deserialisation runs
+/// the same check.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RawToricSurface")]
 pub struct ToricSurface {
-    /// z of the vertex.
-    pub vertex_z: f64,
-    /// Curvature (1/m) in the meridian along the axis.
-    pub c_axis: f64,
-    /// Curvature (1/m) in the meridian perpendicular to the axis.
-    pub c_cross: f64,
-    /// Axis angle in radians, from +x towards +y.
-    pub axis_rad: f64,
+    vertex_z: f64,
+    c_axis: f64,
+    c_cross: f64,
+    axis_rad: f64,
 }
+
+/// The serialised form of a [`ToricSurface`], unchecked.
+#[derive(Deserialize)]
+struct RawToricSurface {
+    vertex_z: f64,
+    c_axis: f64,
+    c_cross: f64,
+    axis_rad: f64,
+}
+
+impl TryFrom<RawToricSurface> for ToricSurface {
+    type Error = InvalidInput;
+
+    fn try_from(r: RawToricSurface) -> Result<Self, InvalidInput> {
+        ToricSurface::new(r.vertex_z, r.c_axis, r.c_cross, r.axis_rad)
+    }
+}
+
+/// Most Newton steps [`ToricSurface::intersect`] takes. From the mean
+/// sphere's hit the iteration converges quadratically in 3–5 steps for any
+/// spectacle lens; 50 leaves room for grazing rays before giving up.
+const TORIC_NEWTON_MAX_STEPS: usize = 50;
+
+/// Newton's iteration stops when a step is below this, relative to
+/// `1 + |ray origin|` (m): a few ulps of the coordinates.
+const TORIC_NEWTON_STEP_TOLERANCE: f64 = 1e-15;
+
+/// A converged point is a hit only when its distance from the surface
+/// (along z) is below this, relative to `1 + |ray origin|` (m): 1 pm on a
+/// lens metres from the origin, far below any rendering scale, and well
+/// above the round-off of the sag (~1e-16).
+const TORIC_HIT_TOLERANCE: f64 = 1e-12;
 
 /// Sag, its gradient, in local (ξ, η) coordinates; `None` off the surface.
 fn toric_local(c_axis: f64, c_cross: f64, xi: f64, eta: f64) -> Option<(f64, DVec2)> {
@@ -61,6 +94,40 @@ fn toric_local(c_axis: f64, c_cross: f64, xi: f64, eta: f64) -> Option<(f64, DVe
 }
 
 impl ToricSurface {
+    /// A torus with vertex at `z = vertex_z` (m), curvature `c_axis` (1/m)
+    /// in the meridian along the axis, `c_cross` (1/m) across it, and the
+    /// axis at `axis_rad` from +x towards +y.
+    ///
+    /// Errors: a non-finite number.
+    pub fn new(vertex_z: f64, c_axis: f64, c_cross: f64, axis_rad: f64) -> Result<Self, InvalidInput> {
+        Ok(Self {
+            vertex_z: input::finite("toric vertex z (m)", vertex_z)?,
+            c_axis: input::finite("toric curvature along the axis (1/m)", c_axis)?,
+            c_cross: input::finite("toric curvature across the axis (1/m)", c_cross)?,
+            axis_rad: input::finite("toric axis (rad)", axis_rad)?,
+        })
+    }
+
+    /// z of the vertex (m).
+    pub fn vertex_z(&self) -> f64 {
+        self.vertex_z
+    }
+
+    /// Curvature (1/m) in the meridian along the axis.
+    pub fn c_axis(&self) -> f64 {
+        self.c_axis
+    }
+
+    /// Curvature (1/m) in the meridian perpendicular to the axis.
+    pub fn c_cross(&self) -> f64 {
+        self.c_cross
+    }
+
+    /// Axis angle (rad), from +x towards +y.
+    pub fn axis_rad(&self) -> f64 {
+        self.axis_rad
+    }
+
     fn rotate_in(&self, x: f64, y: f64) -> (f64, f64) {
         let (s, c) = self.axis_rad.sin_cos();
         (x * c + y * s, -x * s + y * c)
@@ -75,7 +142,11 @@ impl ToricSurface {
         Some((z, DVec2::new(g.x * c - g.y * s, g.x * s + g.y * c)))
     }
 
-    /// Unit normal at `(x, y)` on the surface, towards −z (`(∇z, −1)` normalised).
+    /// Unit normal at `(x, y)` on the surface, towards −z (`(∇z, −1)`
+    /// normalised). Documented fallback: beyond the surface's equator, where
+    /// it has no normal, `−ẑ` (as `SphericalSurface::normal_at` for a
+    /// degenerate point); the meshes and traces of this module only ask for
+    /// points on the surface.
     pub fn normal_at(&self, p: DVec3) -> DVec3 {
         match self.sag_and_gradient(p.x, p.y) {
             Some((_, g)) => DVec3::new(g.x, g.y, -1.0).normalize(),
@@ -87,11 +158,9 @@ impl ToricSurface {
     /// `f(t) = z(t) − z_v − sag(x(t), y(t))` from the hit on the sphere of
     /// mean curvature (a good start: the two differ by the astigmatic part of
     /// the sag only). `None` when the ray misses, the iteration leaves the
-    /// surface or does not converge in 50 steps, or the hit is behind.
+    /// surface or does not converge in 50 steps,
+    /// or the hit is behind the origin (`t <= T_EPSILON`).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if !ray.origin().is_finite() || !ray.dir().is_finite() || ray.dir() == DVec3::ZERO {
-            return None;
-        }
         let mean = SphericalSurface::new(self.vertex_z, 0.5 * (self.c_axis + self.c_cross));
         let mut t = match mean.intersect(ray) {
             Some(h) => h.t,
@@ -102,7 +171,7 @@ impl ToricSurface {
             return None;
         }
         let scale = 1.0 + ray.origin().length();
-        for _ in 0..50 {
+        for _ in 0..TORIC_NEWTON_MAX_STEPS {
             let p = ray.at(t);
             let (sag, g) = self.sag_and_gradient(p.x, p.y)?;
             let f = p.z - self.vertex_z - sag;
@@ -115,13 +184,13 @@ impl ToricSurface {
             if !t.is_finite() {
                 return None;
             }
-            if step.abs() <= 1e-15 * scale {
+            if step.abs() <= TORIC_NEWTON_STEP_TOLERANCE * scale {
                 break;
             }
         }
         let point = ray.at(t);
         let (sag, g) = self.sag_and_gradient(point.x, point.y)?;
-        if (point.z - self.vertex_z - sag).abs() > 1e-12 * scale || t <= T_EPSILON {
+        if (point.z - self.vertex_z - sag).abs() > TORIC_HIT_TOLERANCE * scale || t <= T_EPSILON {
             return None;
         }
         Some(Hit { t, point, normal: DVec3::new(g.x, g.y, -1.0).normalize() })
@@ -131,7 +200,7 @@ impl ToricSurface {
 /// A spectacle-lens surface: spherical or toric.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum LensSurface {
-    /// A sphere (or plane) in the curvature form of `surface.rs`.
+    /// A sphere (or plane) in curvature form.
     Spherical(SphericalSurface),
     /// A torus for an astigmatic correction.
     Toric(ToricSurface),
@@ -166,7 +235,8 @@ impl LensSurface {
         self.sag(x, y).map(|s| DVec3::new(x, y, self.vertex_z() + s))
     }
 
-    /// Unit normal at a surface point, towards −z.
+    /// Unit normal at a surface point, towards −z (fallbacks as
+    /// [`ToricSurface::normal_at`] and `SphericalSurface::normal_at`).
     pub fn normal_at(&self, p: DVec3) -> DVec3 {
         match self {
             LensSurface::Spherical(s) => s.normal_at(p),
@@ -201,7 +271,7 @@ mod tests {
         // A torus whose two radii are equal is the sphere: same sag, normal
         // and hit as surface.rs.
         let c = -1.0 / 0.06;
-        let t = ToricSurface { vertex_z: 0.012, c_axis: c, c_cross: c, axis_rad: 0.7 };
+        let t = ToricSurface::new(0.012, c, c, 0.7).unwrap();
         let s = SphericalSurface::new(0.012, c);
         for (x, y) in [(0.0f64, 0.0f64), (0.01, 0.0), (0.007, -0.013), (0.02, 0.015)] {
             let r = (x * x + y * y).sqrt();
@@ -221,7 +291,7 @@ mod tests {
         // it the circle of c_cross (hand: sag of R = 0.1 at 0.02 is
         // 0.1 − √(0.01 − 0.0004) = 0.00202062).
         let a = 30f64.to_radians();
-        let t = ToricSurface { vertex_z: 0.0, c_axis: 10.0, c_cross: -1.0 / 0.05, axis_rad: a };
+        let t = ToricSurface::new(0.0, 10.0, -1.0 / 0.05, a).unwrap();
         let along = DVec2::new(a.cos(), a.sin()) * 0.02;
         let across = DVec2::new(-a.sin(), a.cos()) * 0.02;
         let (z1, _) = t.sag_and_gradient(along.x, along.y).unwrap();
@@ -229,8 +299,18 @@ mod tests {
         let (z2, _) = t.sag_and_gradient(across.x, across.y).unwrap();
         assert!((z2 + (0.05 - (0.0025f64 - 0.0004).sqrt())).abs() < 1e-15);
         // A cylinder (c_axis = 0): no sag along the axis.
-        let cyl = ToricSurface { c_axis: 0.0, ..t };
+        let cyl = ToricSurface::new(0.0, 0.0, t.c_cross(), a).unwrap();
         assert!(cyl.sag_and_gradient(along.x, along.y).unwrap().0.abs() < 1e-20);
+    }
+
+    #[test]
+    fn toric_new_refuses_non_finite() {
+        let e = ToricSurface::new(0.0, f64::NAN, 1.0, 0.0).unwrap_err();
+        assert_eq!((e.what, e.expected), ("toric curvature along the axis (1/m)", crate::input::Expected::Finite));
+        assert_eq!(ToricSurface::new(0.0, 1.0, 1.0, f64::INFINITY).unwrap_err().what, "toric axis (rad)");
+        let t = ToricSurface::new(0.012, -20.0, -25.0, 0.3).unwrap();
+        let v = serde_json::to_value(t).unwrap();
+        assert_eq!(serde_json::from_value::<ToricSurface>(v).unwrap(), t);
     }
 
     proptest! {
@@ -240,7 +320,7 @@ mod tests {
             ox in -0.01f64..0.01, oy in -0.01f64..0.01,
             dx in -0.8f64..0.8, dy in -0.8f64..0.8,
         ) {
-            let t = ToricSurface { vertex_z: 0.012, c_axis: ca, c_cross: cc, axis_rad: a };
+            let t = ToricSurface::new(0.012, ca, cc, a).unwrap();
             let ray = Ray::new(DVec3::new(ox, oy, -0.01), DVec3::new(dx, dy, 1.0)).unwrap();
             if let Some(h) = t.intersect(&ray) {
                 prop_assert!(h.point.is_finite() && h.t > 0.0);

@@ -1,33 +1,20 @@
-//! The virtual viewpoint of a set of refracted rays (paper §3.1 step (2)):
-//! the point closest to all of their lines, from which the environment map is
-//! rendered.
-//!
-//! Least squares: with unit directions `dᵢ` and points `pᵢ`, the squared
-//! distance of `x` from line i is `|(I − dᵢdᵢᵀ)(x − pᵢ)|²`. For nearly parallel
-//! rays (a weak lens, or a lens that puts the far point at infinity) the sum
-//! is singular along the common direction, so it is regularised towards a
-//! prior point `x₀` (the eye):
-//!
-//! ```text
-//! minimise  Σᵢ |(I − dᵢdᵢᵀ)(x − pᵢ)|² + λ·N·|x − x₀|²
-//! ⇒ (Σᵢ (I − dᵢdᵢᵀ) + λN·I)(x − x₀) = Σᵢ (I − dᵢdᵢᵀ)(pᵢ − x₀)
-//! ```
-//!
-//! solved in `f64`, relative to `x₀` so that the numbers stay small. Nothing
-//! constrains `x` to lie in front: a plus lens puts the virtual viewpoint
-//! behind the eye, and that is the right answer. The matrix is symmetric
-//! positive definite (eigenvalues >= λN), so the solve always exists.
+//! The virtual viewpoint of a set of refracted rays (documented on [`virtual_viewpoint`]).
 
 use glam::{DMat3, DVec3};
 use serde::{Deserialize, Serialize};
 
 use super::error::SpectaclesError;
 use super::per_vertex::LensTrace;
+use crate::input;
 use crate::ray::Ray;
 
 /// Default `λ`: pulls the solution towards the prior only along directions
-/// the rays do not constrain (angular spread below ~1e-4 rad).
-pub const DEFAULT_REGULARISATION: f64 = 1e-8;
+/// the rays do not constrain. Per ray, `I − dᵢdᵢᵀ` constrains a direction
+/// about as strongly as the square of the rays' angular spread across it,
+/// so `λ = 1e-8 = (1e-4)²` leaves any spread above ~1e-4 rad (a lens of
+/// more than ~0.01 D seen through its whole aperture) to the rays and holds
+/// only nearly parallel bundles at the prior's depth.
+pub const DEFAULT_VIEWPOINT_REGULARISATION: f64 = 1e-8;
 
 /// A fitted virtual viewpoint.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -36,29 +23,48 @@ pub struct ViewpointFit {
     pub point: DVec3,
     /// Root-mean-square distance of the point from the rays' lines (m).
     pub rms_distance_m: f64,
-    /// Rays used (finite ones).
+    /// Rays used: all given, or, for [`virtual_viewpoint_of_traces`], the
+    /// traces that got through the lens.
     pub rays_used: usize,
 }
 
-/// The regularised closest point to `rays` (see the module docs).
+/// The virtual viewpoint of `rays` (paper §3.1 step (2)): the point
+/// closest to all of their lines, from which the environment map is
+/// rendered.
 ///
-/// Rays with a non-finite origin or a non-unit direction are skipped.
-/// Errors: no usable ray, a non-finite prior, or `λ` not finite and > 0.
+/// Least squares: with unit directions `dᵢ` and points `pᵢ`, the squared
+/// distance of `x` from line i is `|(I − dᵢdᵢᵀ)(x − pᵢ)|²`. For nearly parallel
+/// rays (a weak lens, or a lens that puts the far point at infinity) the sum
+/// is singular along the common direction, so it is regularised towards a
+/// prior point `x₀` (the eye):
+///
+/// ```text
+/// minimise  Σᵢ |(I − dᵢdᵢᵀ)(x − pᵢ)|² + λ·N·|x − x₀|²
+/// ⇒ (Σᵢ (I − dᵢdᵢᵀ) + λN·I)(x − x₀) = Σᵢ (I − dᵢdᵢᵀ)(pᵢ − x₀)
+/// ```
+///
+/// solved in `f64`, relative to `x₀` so that the numbers stay small. Nothing
+/// constrains `x` to lie in front: a plus lens puts the virtual viewpoint
+/// behind the eye, and that is the right answer. The matrix is symmetric
+/// positive definite (eigenvalues >= λN), so the solve always exists.
+///
+/// `prior` is where the solution goes along directions the rays leave
+/// free (the eye); `regularisation` is `λ` ([`DEFAULT_VIEWPOINT_REGULARISATION`]).
+///
+/// Errors: [`SpectaclesError::NoRays`] for an empty set; a non-finite
+/// prior or a `λ` that is not finite and positive
+/// ([`SpectaclesError::Input`]); [`SpectaclesError::Degenerate`] if the
+/// solve overflows (rays millions of kilometres away).
 pub fn virtual_viewpoint(rays: &[Ray], prior: DVec3, regularisation: f64) -> Result<ViewpointFit, SpectaclesError> {
-    if !prior.is_finite() {
-        return Err(SpectaclesError::NonFinite("viewpoint prior"));
-    }
-    if !(regularisation.is_finite() && regularisation > 0.0) {
-        return Err(SpectaclesError::OutOfRange { what: "regularisation λ", value: regularisation, min: f64::MIN_POSITIVE, max: f64::INFINITY });
-    }
-    let usable: Vec<&Ray> = rays.iter().collect();
-    if usable.is_empty() {
+    let prior = input::finite_vec3("viewpoint prior (m)", prior)?;
+    let regularisation = input::positive("viewpoint regularisation λ", regularisation)?;
+    if rays.is_empty() {
         return Err(SpectaclesError::NoRays);
     }
-    let n = usable.len() as f64;
+    let n = rays.len() as f64;
     let mut m = DMat3::IDENTITY * (regularisation * n);
     let mut b = DVec3::ZERO;
-    for r in &usable {
+    for r in rays {
         let d = r.dir();
         let proj = DMat3::IDENTITY - DMat3::from_cols(d * d.x, d * d.y, d * d.z);
         m += proj;
@@ -66,21 +72,25 @@ pub fn virtual_viewpoint(rays: &[Ray], prior: DVec3, regularisation: f64) -> Res
     }
     let x = prior + m.inverse() * b;
     if !x.is_finite() {
-        return Err(SpectaclesError::Degenerate("viewpoint solve"));
+        return Err(SpectaclesError::Degenerate("virtual viewpoint solve overflowed"));
     }
-    let ss: f64 = usable
+    let ss: f64 = rays
         .iter()
         .map(|r| {
             let v = x - r.origin();
             (v - r.dir() * v.dot(r.dir())).length_squared()
         })
         .sum();
-    Ok(ViewpointFit { point: x, rms_distance_m: (ss / n).sqrt(), rays_used: usable.len() })
+    Ok(ViewpointFit { point: x, rms_distance_m: (ss / n).sqrt(), rays_used: rays.len() })
 }
 
-/// The virtual viewpoint of the rays that got through the lens (the paper's
-/// "a few refraction vectors"; any subset works). The exit rays point into
-/// the scene; the viewpoint is where their backward extensions meet.
+/// The virtual viewpoint of the rays that got through the lens (the paper,
+/// §3.1: "the point nearest to the extensions of a few chosen reflection or
+/// refraction vectors"; any subset works). The exit rays point into the scene; the
+/// viewpoint is where their backward extensions meet.
+///
+/// Errors: as [`virtual_viewpoint`]; [`SpectaclesError::NoRays`] when no
+/// trace got through.
 pub fn virtual_viewpoint_of_traces(traces: &[LensTrace], prior: DVec3, regularisation: f64) -> Result<ViewpointFit, SpectaclesError> {
     let rays: Vec<Ray> = traces.iter().filter_map(|t| t.exit_ray()).collect();
     virtual_viewpoint(&rays, prior, regularisation)
@@ -103,7 +113,7 @@ mod tests {
                 Ray::new(c + d * 0.35, d).unwrap()
             })
             .collect();
-        let fit = virtual_viewpoint(&rays, DVec3::ZERO, DEFAULT_REGULARISATION).unwrap();
+        let fit = virtual_viewpoint(&rays, DVec3::ZERO, DEFAULT_VIEWPOINT_REGULARISATION).unwrap();
         assert!((fit.point - c).length() < 1e-7, "{:?}", fit.point);
         assert!(fit.rms_distance_m < 1e-7);
         // Behind the eye is allowed (z = −0.3 with a prior at 0).
@@ -116,14 +126,14 @@ mod tests {
         // prior's z is kept; across it, the rays' centroid (here x = 0.01).
         let prior = DVec3::new(0.0, 0.0, -0.0135);
         let rays: Vec<Ray> = (0..5).map(|k| Ray::new(DVec3::new(0.01 + 0.0 * k as f64, 0.0, 0.02 + 0.001 * k as f64), DVec3::Z).unwrap()).collect();
-        let fit = virtual_viewpoint(&rays, prior, DEFAULT_REGULARISATION).unwrap();
+        let fit = virtual_viewpoint(&rays, prior, DEFAULT_VIEWPOINT_REGULARISATION).unwrap();
         assert!(fit.point.is_finite());
         assert!((fit.point.z - prior.z).abs() < 1e-12);
         assert!((fit.point.x - 0.01).abs() < 1e-9);
         // Nearly parallel rays (1e-6 rad) converging 1 km away are not
         // resolvable against λ: the answer stays finite and near the prior's depth.
         let rays: Vec<Ray> = [-1.0, 1.0].iter().map(|&s| Ray::new(DVec3::new(s * 1e-3, 0.0, 0.0), DVec3::new(-s * 1e-6, 0.0, 1.0)).unwrap()).collect();
-        let fit = virtual_viewpoint(&rays, prior, DEFAULT_REGULARISATION).unwrap();
+        let fit = virtual_viewpoint(&rays, prior, DEFAULT_VIEWPOINT_REGULARISATION).unwrap();
         assert!(fit.point.is_finite() && fit.point.z.abs() < 1.0);
     }
 
@@ -133,17 +143,17 @@ mod tests {
         use crate::spectacles::per_vertex::refract_vertices;
         let eye = DVec3::new(0.0, 0.0, -0.003);
         let fit = |s: f64, base: Option<f64>| {
-            let p = LensDesignParams { base_curve_d: base, ..LensDesignParams::default() };
+            let p = LensDesignParams::default().with_base_curve_d(base).unwrap();
             let lens = design_lens(&Prescription::sphere(s).unwrap(), &p).unwrap();
             // Paraxial zone: back-surface vertices within 2 mm of the axis.
             let verts: Vec<DVec3> = lens.mesh(40, 16).unwrap().back_positions().iter().copied().filter(|v| v.truncate().length() < 0.002).collect();
-            let traces = refract_vertices(&lens, eye, &verts);
-            (lens, virtual_viewpoint_of_traces(&traces, eye, DEFAULT_REGULARISATION).unwrap())
+            let traces = refract_vertices(&lens, eye, &verts).unwrap();
+            (lens, virtual_viewpoint_of_traces(&traces, eye, DEFAULT_VIEWPOINT_REGULARISATION).unwrap())
         };
         // A flat plate of thickness t = 2 mm, n = 1.498 shows the eye moved
         // towards it by t(1 − 1/n) = 0.6649 mm (hand: 0.002·0.498/1.498).
         let (plate, v) = fit(0.0, Some(0.0));
-        let shift = plate.centre_thickness_m * (1.0 - 1.0 / plate.index);
+        let shift = plate.centre_thickness_m() * (1.0 - 1.0 / plate.index());
         assert!((shift - 0.000_664_9).abs() < 1e-7);
         // (Rays up to 7.6° off-axis: the plate's own aberration moves the
         // best point by a few µm; 10 µm bounds it, against a 665 µm shift.)
@@ -164,9 +174,15 @@ mod tests {
     fn viewpoint_bad_input_is_typed() {
         assert_eq!(virtual_viewpoint(&[], DVec3::ZERO, 1e-8), Err(SpectaclesError::NoRays));
         let ok = Ray::new(DVec3::ZERO, DVec3::Z).unwrap();
-        assert!(virtual_viewpoint(&[ok], DVec3::NAN, 1e-8).is_err());
-        assert!(virtual_viewpoint(&[ok], DVec3::ZERO, 0.0).is_err());
-        assert!(virtual_viewpoint(&[ok], DVec3::ZERO, f64::NAN).is_err());
+        let input_error = |r: Result<ViewpointFit, SpectaclesError>| match r {
+            Err(SpectaclesError::Input(e)) => e.what,
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(input_error(virtual_viewpoint(&[ok], DVec3::NAN, 1e-8)), "viewpoint prior (m)");
+        assert_eq!(input_error(virtual_viewpoint(&[ok], DVec3::ZERO, 0.0)), "viewpoint regularisation λ");
+        assert_eq!(input_error(virtual_viewpoint(&[ok], DVec3::ZERO, f64::NAN)), "viewpoint regularisation λ");
+        // Traces none of which got through: no rays.
+        assert_eq!(virtual_viewpoint_of_traces(&[LensTrace::Missed], DVec3::ZERO, 1e-8), Err(SpectaclesError::NoRays));
     }
 
     proptest! {

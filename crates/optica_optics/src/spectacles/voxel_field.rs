@@ -1,47 +1,15 @@
-//! The voxel field of displacement-vector sets (paper §4.3, Figs. 6–7): a
-//! precomputed map from a point in front of the eye to the `S` clone
-//! displacements that blur it, valid while the eye and lens stay fixed.
-//!
-//! Precompute:
-//! 1. Aims: the reference rays from the centre of rotation through the lens's
-//!    back-surface points (the mesh vertex layout, "通常は頂点でよい"; ~1,500
-//!    at the paper's setting). Without a lens, through the same layout on a
-//!    window at the vertex plane.
-//! 2. Per aim, the near bundle (`V = P_near`) and the far bundle
-//!    (`V = P_far`) of `S` pupil rays ([`super::bundle`]), traced through the
-//!    lens; their fitted vergences `W_near`, `W_far` place the corrected near
-//!    and far points. In parallel (rayon).
-//! 3. Walk the voxels the refracted reference ray crosses (Amanatides–Woo,
-//!    `voxel.rs`, ref. 10 of the paper). In each, at the midpoint `s` of the
-//!    ray's segment in the voxel, the set is the near bundle's displacements
-//!    if nearer than the corrected near point, the far bundle's (mirrored) if
-//!    beyond the corrected far point, else all zero (§4.2: in focus).
-//! 4. Average the sets per voxel, clone by clone. Default, not in the paper
-//!    ([`VoxelAverage::AllCrossings`]): every crossing counts, in-focus ones
-//!    as zero sets. The paper (§4.3) averages only the sets recorded, the
-//!    near and far crossings ([`VoxelAverage::RecordedSets`], an option of
-//!    [`FieldSettings::average`]); the two differ only in voxels straddling
-//!    the corrected near or far point, and the default measures slightly
-//!    closer to the direct reference (see [`VoxelAverage`]). Either way a
-//!    voxel crossed only in focus is zero (sharp) and counts as crossed.
-//! 5. Optional, not in the paper: voxels no reference ray crossed take the
-//!    mean of their filled face neighbours, repeated until every voxel is
-//!    filled ([`FieldSettings::fill_empty`]). The paper leaves them at zero
-//!    (sharp), which with ~1,500 aims leaves most far voxels uncovered.
-//!
-//! Lookup (run time): the voxel containing the vertex, one transform; clone
-//! `i` takes vector `i` of the set.
+//! The voxel field of displacement-vector sets (documented on [`precompute_field`]).
 
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::bundle::{EyePlacement, Region, Spread, TracedBundle, pupil_samples, region, trace_bundle_counted};
-use super::error::SpectaclesError;
+use super::error::{LensSide, SpectaclesError};
 use super::eye::Eye;
 use super::lens_design::SpectacleLens;
-use super::lens_mesh::{MAX_POLAR_POINTS, polar_point_count, polar_points};
-use crate::ray::Ray;
+use super::lens_mesh::{MAX_POLAR_POINTS, polar_point_count, polar_points, too_many_points};
+use crate::input::{self, Expected, InvalidInput};
 use crate::voxel::VoxelGrid;
 
 /// Most clones (`S`) a field accepts: 1,024, a hundred times the paper's 10.
@@ -85,39 +53,80 @@ pub enum VoxelAverage {
     RecordedSets,
 }
 
-/// How to build a field.
+/// How to build a field: the voxel box and resolution, `S`, the aim layout.
+///
+/// Start from [`FieldSettings::paper`] and change what differs with the
+/// checked `with_*` methods (or [`FieldSettings::scaled`]); every size is
+/// checked against the caps ([`MAX_CLONES`], [`MAX_AIMS`],
+/// [`MAX_FIELD_VECTORS`], [`MAX_WALK_CROSSINGS`]) before anything is
+/// allocated, so a [`FieldSettings`] always describes a field that can be
+/// built. Deserialisation runs the same checks.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RawFieldSettings")]
 pub struct FieldSettings {
-    /// Min corner of the voxel box (m, eye frame).
-    pub min: DVec3,
-    /// Max corner of the voxel box.
-    pub max: DVec3,
-    /// Voxels per axis.
-    pub dims: [usize; 3],
-    /// `S`: clones = pupil rays per bundle = vectors per voxel.
-    pub clones: usize,
-    /// Rings of the aim layout on the lens (see [`polar_points`]).
-    pub aim_rings: usize,
-    /// Segments of the aim layout.
-    pub aim_segments: usize,
-    /// Without a lens: radius (m) of the window the aims go through.
-    pub window_radius_m: f64,
-    /// Without a lens: z (m) of that window.
-    pub window_z_m: f64,
-    /// Fill voxels no reference ray crossed from their neighbours.
-    pub fill_empty: bool,
-    /// How each voxel's crossings are averaged (default:
-    /// [`VoxelAverage::AllCrossings`], not the paper's; see there).
-    #[serde(default)]
-    pub average: VoxelAverage,
+    min: DVec3,
+    max: DVec3,
+    dims: [usize; 3],
+    clones: usize,
+    aim_rings: usize,
+    aim_segments: usize,
+    window_radius_m: f64,
+    window_z_m: f64,
+    fill_empty: bool,
+    average: VoxelAverage,
 }
+
+/// The serialised form of [`FieldSettings`], unchecked.
+#[derive(Deserialize)]
+struct RawFieldSettings {
+    min: DVec3,
+    max: DVec3,
+    dims: [usize; 3],
+    clones: usize,
+    aim_rings: usize,
+    aim_segments: usize,
+    window_radius_m: f64,
+    window_z_m: f64,
+    fill_empty: bool,
+    #[serde(default)]
+    average: VoxelAverage,
+}
+
+impl TryFrom<RawFieldSettings> for FieldSettings {
+    type Error = InvalidInput;
+
+    fn try_from(r: RawFieldSettings) -> Result<Self, InvalidInput> {
+        Self {
+            min: r.min,
+            max: r.max,
+            dims: r.dims,
+            clones: r.clones,
+            aim_rings: r.aim_rings,
+            aim_segments: r.aim_segments,
+            window_radius_m: r.window_radius_m,
+            window_z_m: r.window_z_m,
+            fill_empty: r.fill_empty,
+            average: r.average,
+        }
+        .checked()
+    }
+}
+
+/// Fewest segments of the aim layout: a triangle is the smallest ring.
+const MIN_AIM_SEGMENTS: usize = 3;
+
+/// The outermost ring of aims sits this fraction inside the lens's rim, so
+/// that round-off never puts it just outside the blank, where the trace
+/// reports a miss (25 pm on a 50 mm blank).
+const RIM_AIM_INSET: f64 = 1e-9;
 
 impl FieldSettings {
     /// The paper's setting: 110×77×42 cubic voxels (5 cm; the box spans
     /// x ±2.75 m, y ±1.925 m, z 0.03–2.13 m in front of the eye), `S = 10`,
-    /// 24×64 + 1 = 1,537 aims (the paper: ~1,500 bundles of 10 rays);
-    /// this crate's additions: hole filling on, every crossing averaged
-    /// ([`VoxelAverage::AllCrossings`]; the paper's is
+    /// 24×64 + 1 = 1,537 aims (the paper: ~1,500 bundles of 10 rays), a
+    /// naked-eye aim window of the default blank (25 mm radius at the 12 mm
+    /// vertex plane); this crate's additions: hole filling on, every
+    /// crossing averaged ([`VoxelAverage::AllCrossings`]; the paper's is
     /// [`VoxelAverage::RecordedSets`]).
     pub fn paper() -> Self {
         let h = 0.05;
@@ -135,24 +144,167 @@ impl FieldSettings {
         }
     }
 
+    /// These settings with the voxel box from corner `min` to corner `max`
+    /// (m, eye frame). Errors: non-finite corners, or a box that is not
+    /// longer than zero (and finite) along every axis.
+    pub fn with_box(self, min: DVec3, max: DVec3) -> Result<Self, InvalidInput> {
+        Self { min, max, ..self }.checked()
+    }
+
+    /// These settings with `dims` voxels per axis. Errors: a zero, or a
+    /// size beyond the caps.
+    pub fn with_dims(self, dims: [usize; 3]) -> Result<Self, InvalidInput> {
+        Self { dims, ..self }.checked()
+    }
+
+    /// These settings with `S = clones` (pupil rays per bundle = vectors
+    /// per voxel = clones drawn). Errors: 0, more than [`MAX_CLONES`], or
+    /// more vectors than [`MAX_FIELD_VECTORS`].
+    pub fn with_clones(self, clones: usize) -> Result<Self, InvalidInput> {
+        Self { clones, ..self }.checked()
+    }
+
+    /// These settings with aims through `1 + rings × segments` points of
+    /// the lens (the polar layout of [`SpectacleLens::mesh`]). Errors:
+    /// `rings < 1`, `segments < 3`, more aims than [`MAX_AIMS`] or a walk
+    /// bound beyond [`MAX_WALK_CROSSINGS`].
+    pub fn with_aims(self, rings: usize, segments: usize) -> Result<Self, InvalidInput> {
+        Self { aim_rings: rings, aim_segments: segments, ..self }.checked()
+    }
+
+    /// These settings with, for the naked eye (no lens), the aims through a
+    /// window of `radius_m` (m) at `z = z_m` (m). Errors: a radius that is
+    /// not finite and positive, a non-finite z. (The window must also lie
+    /// in front of the eye's centre of rotation, which
+    /// [`precompute_field`] checks.)
+    pub fn with_naked_eye_window(self, radius_m: f64, z_m: f64) -> Result<Self, InvalidInput> {
+        Self { window_radius_m: radius_m, window_z_m: z_m, ..self }.checked()
+    }
+
+    /// These settings with hole filling on or off (step 5 of the module
+    /// docs).
+    pub fn with_fill_empty(self, fill_empty: bool) -> Self {
+        Self { fill_empty, ..self }
+    }
+
+    /// These settings with the per-voxel average `average` (step 4).
+    pub fn with_average(self, average: VoxelAverage) -> Self {
+        Self { average, ..self }
+    }
+
     /// The same box with `k` times the voxels per axis and `k` times the aim
-    /// rings and segments (so that the aims keep up with the voxels), each at
-    /// least 1 (segments at least 3).
-    pub fn scaled(&self, k: f64) -> Self {
+    /// rings and segments (so that the aims keep up with the voxels), each
+    /// rounded and at least 1 (segments at least 3).
+    ///
+    /// Errors: `k` not finite and positive, or sizes beyond the caps.
+    pub fn scaled(&self, k: f64) -> Result<Self, InvalidInput> {
+        let k = input::positive("field resolution scale", k)?;
+        // `as usize` saturates: a huge k gives usize::MAX, which the caps refuse.
         let sc = |n: usize, lo: usize| ((n as f64 * k).round() as usize).max(lo);
         Self {
             dims: [sc(self.dims[0], 1), sc(self.dims[1], 1), sc(self.dims[2], 1)],
             aim_rings: sc(self.aim_rings, 1),
-            aim_segments: sc(self.aim_segments, 3),
+            aim_segments: sc(self.aim_segments, MIN_AIM_SEGMENTS),
             ..*self
         }
+        .checked()
     }
 
-    /// Number of aims (bundle pairs) of the layout, `1 + rings × segments`,
-    /// or `None` when that overflows or exceeds [`MAX_AIMS`] (the precompute
-    /// rejects such settings).
-    pub fn aims(&self) -> Option<usize> {
-        polar_point_count(self.aim_rings, self.aim_segments).filter(|&n| n <= MAX_AIMS)
+    /// Min corner of the voxel box (m, eye frame).
+    pub fn min(&self) -> DVec3 {
+        self.min
+    }
+
+    /// Max corner of the voxel box (m, eye frame).
+    pub fn max(&self) -> DVec3 {
+        self.max
+    }
+
+    /// Voxels per axis.
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// `S`: clones = pupil rays per bundle = vectors per voxel.
+    pub fn clones(&self) -> usize {
+        self.clones
+    }
+
+    /// Rings of the aim layout.
+    pub fn aim_rings(&self) -> usize {
+        self.aim_rings
+    }
+
+    /// Segments of the aim layout.
+    pub fn aim_segments(&self) -> usize {
+        self.aim_segments
+    }
+
+    /// Radius (m) of the naked eye's aim window.
+    pub fn window_radius_m(&self) -> f64 {
+        self.window_radius_m
+    }
+
+    /// z (m) of the naked eye's aim window.
+    pub fn window_z_m(&self) -> f64 {
+        self.window_z_m
+    }
+
+    /// Whether voxels no reference ray crossed are filled from neighbours.
+    pub fn fill_empty(&self) -> bool {
+        self.fill_empty
+    }
+
+    /// How each voxel's crossings are averaged.
+    pub fn average(&self) -> VoxelAverage {
+        self.average
+    }
+
+    /// Number of aims (bundle pairs), `1 + rings × segments`.
+    pub fn aims(&self) -> usize {
+        1 + self.aim_rings * self.aim_segments
+    }
+
+    /// `self` if every number is usable and every size within the caps.
+    /// Every size is checked (checked_mul, caps) before anything is
+    /// multiplied or allocated; the values reported are f64 products, which
+    /// cannot overflow.
+    fn checked(self) -> Result<Self, InvalidInput> {
+        let min = input::finite_vec3("field box min corner (m)", self.min)?;
+        let max = input::finite_vec3("field box max corner (m)", self.max)?;
+        for e in (max - min).to_array() {
+            input::positive("field box size (m)", e)?;
+        }
+        input::positive("naked-eye window radius (m)", self.window_radius_m)?;
+        input::finite("naked-eye window z (m)", self.window_z_m)?;
+        let at_least = |what, n: usize, min: usize| {
+            if n < min { Err(InvalidInput::new(what, n as f64, Expected::Range { min: min as f64, max: f64::INFINITY })) } else { Ok(()) }
+        };
+        for n in self.dims {
+            at_least("voxels per axis", n, 1)?;
+        }
+        at_least("aim rings", self.aim_rings, 1)?;
+        at_least("aim segments", self.aim_segments, MIN_AIM_SEGMENTS)?;
+        let capped = |what, value: f64, max: usize| InvalidInput::new(what, value, Expected::Range { min: 1.0, max: max as f64 });
+        if !(1..=MAX_CLONES).contains(&self.clones) {
+            return Err(capped("clones", self.clones as f64, MAX_CLONES));
+        }
+        let aims = polar_point_count(self.aim_rings, self.aim_segments)
+            .filter(|&n| n <= MAX_AIMS)
+            .ok_or_else(|| too_many_points("aims 1 + aim rings × aim segments", self.aim_rings, self.aim_segments))?;
+        let dims_f = self.dims.iter().map(|&n| n as f64).product::<f64>();
+        // Cells index as u32 in the walk.
+        let cells = self.dims.iter().try_fold(1usize, |a, &n| a.checked_mul(n)).filter(|&c| c <= u32::MAX as usize);
+        let vectors = cells.and_then(|c| c.checked_mul(self.clones)).filter(|&n| n <= MAX_FIELD_VECTORS);
+        if vectors.is_none() {
+            return Err(capped("voxels × clones", dims_f * self.clones as f64, MAX_FIELD_VECTORS));
+        }
+        let walk = self.dims.iter().try_fold(3usize, |a, &n| a.checked_add(n)).and_then(|w| w.checked_mul(aims));
+        if walk.is_none_or(|w| w > MAX_WALK_CROSSINGS) {
+            let w = self.dims.iter().map(|&n| n as f64).sum::<f64>() + 3.0;
+            return Err(capped("aims × (nx + ny + nz + 3) (bound on voxel crossings)", w * aims as f64, MAX_WALK_CROSSINGS));
+        }
+        Ok(self)
     }
 }
 
@@ -211,22 +363,19 @@ struct RawDisplacementField {
 }
 
 impl TryFrom<RawDisplacementField> for DisplacementField {
-    type Error = SpectaclesError;
+    type Error = InvalidInput;
 
-    fn try_from(r: RawDisplacementField) -> Result<Self, SpectaclesError> {
+    fn try_from(r: RawDisplacementField) -> Result<Self, InvalidInput> {
+        let clones = Expected::Range { min: 1.0, max: MAX_CLONES as f64 };
         if !(1..=MAX_CLONES).contains(&r.clones) {
-            return Err(SpectaclesError::OutOfRange { what: "field clones", value: r.clones as f64, min: 1.0, max: MAX_CLONES as f64 });
+            return Err(InvalidInput::new("field clones", r.clones as f64, clones));
         }
         if r.counts.len().checked_mul(r.clones) != Some(r.vectors.len()) {
-            return Err(SpectaclesError::OutOfRange {
-                what: "field vectors (must be voxels × clones)",
-                value: r.vectors.len() as f64,
-                min: r.counts.len() as f64 * r.clones as f64,
-                max: r.counts.len() as f64 * r.clones as f64,
-            });
+            let n = r.counts.len() as f64 * r.clones as f64;
+            return Err(InvalidInput::new("field vectors (voxels × clones)", r.vectors.len() as f64, Expected::Range { min: n, max: n }));
         }
-        if !r.vectors.iter().all(|v| v.is_finite()) {
-            return Err(SpectaclesError::NonFinite("field vector"));
+        for v in &r.vectors {
+            input::finite_vec3("field vector (m)", v.as_dvec3())?;
         }
         Ok(Self { counts: r.counts, vectors: r.vectors, clones: r.clones, stats: r.stats })
     }
@@ -243,90 +392,115 @@ struct Crossing {
 
 /// The aims (unit directions from the centre of rotation).
 fn aims(lens: Option<&SpectacleLens>, placement: &EyePlacement, st: &FieldSettings) -> Result<Vec<DVec3>, SpectaclesError> {
-    let (radius, z_window) = match lens {
-        // Just inside the rim so that the outermost ring is on the lens.
-        Some(l) => (l.rim_radius_m * (1.0 - 1e-9), None),
-        None => (st.window_radius_m, Some(st.window_z_m)),
+    let centre = placement.centre_of_rotation();
+    let radius = match lens {
+        Some(l) => l.rim_radius_m() * (1.0 - RIM_AIM_INSET),
+        None => {
+            let ahead = st.window_z_m - centre.z;
+            input::positive("naked-eye window z in front of the centre of rotation (m)", ahead)?;
+            st.window_radius_m
+        }
     };
-    Ok(polar_points(radius, st.aim_rings, st.aim_segments)?
+    polar_points(radius, st.aim_rings, st.aim_segments)?
         .into_iter()
-        .filter_map(|(x, y)| {
-            let p = match (lens, z_window) {
-                (Some(l), _) => l.back.point(x, y)?,
-                (None, Some(z)) => DVec3::new(x, y, z),
-                (None, None) => return None,
+        .map(|(x, y)| {
+            let p = match lens {
+                Some(l) => l.back().point(x, y).ok_or_else(|| l.not_to_rim(LensSide::Back))?,
+                None => DVec3::new(x, y, st.window_z_m),
             };
-            (p - placement.centre_of_rotation).try_normalize()
+            Ok(input::direction("aim from the centre of rotation", p - centre)?)
         })
-        .collect())
+        .collect()
 }
 
-fn check(eye: &Eye, placement: &EyePlacement, st: &FieldSettings) -> Result<(), SpectaclesError> {
-    Eye::new(eye.refractive_error_d, eye.accommodation_d, eye.pupil_diameter_m)?;
-    if !placement.is_valid() {
-        return Err(SpectaclesError::NonFinite("eye placement"));
-    }
-    if !(st.min.is_finite() && st.max.is_finite() && st.window_radius_m.is_finite() && st.window_z_m.is_finite()) {
-        return Err(SpectaclesError::NonFinite("field box"));
-    }
-    if st.clones == 0 || st.aim_rings == 0 || st.aim_segments < 3 {
-        return Err(SpectaclesError::OutOfRange { what: "clones (>= 1), aim rings (>= 1), aim segments (>= 3)", value: 0.0, min: 1.0, max: f64::INFINITY });
-    }
-    // Every size is checked (checked_mul, caps) before anything is
-    // multiplied or allocated; the values reported are f64 products, which
-    // cannot overflow.
-    let out_of_range = |what, value: f64, max: usize| SpectaclesError::OutOfRange { what, value, min: 1.0, max: max as f64 };
-    if st.clones > MAX_CLONES {
-        return Err(out_of_range("clones", st.clones as f64, MAX_CLONES));
-    }
-    let aims = st
-        .aims()
-        .ok_or_else(|| out_of_range("aims 1 + aim rings × aim segments", 1.0 + st.aim_rings as f64 * st.aim_segments as f64, MAX_AIMS))?;
-    let dims_f = st.dims.iter().map(|&n| n as f64).product::<f64>();
-    // Cells index as u32 in the walk.
-    let cells = st.dims.iter().try_fold(1usize, |a, &n| a.checked_mul(n)).filter(|&c| c <= u32::MAX as usize);
-    let vectors = cells.and_then(|c| c.checked_mul(st.clones)).filter(|&n| n <= MAX_FIELD_VECTORS);
-    if vectors.is_none() {
-        return Err(out_of_range("voxels × clones", dims_f * st.clones as f64, MAX_FIELD_VECTORS));
-    }
-    let walk = st.dims.iter().try_fold(3usize, |a, &n| a.checked_add(n)).and_then(|w| w.checked_mul(aims));
-    if walk.is_none_or(|w| w > MAX_WALK_CROSSINGS) {
-        let w = st.dims.iter().map(|&n| n as f64).sum::<f64>() + 3.0;
-        return Err(out_of_range("aims × (nx + ny + nz + 3) (bound on voxel crossings)", w * aims as f64, MAX_WALK_CROSSINGS));
-    }
-    Ok(())
+/// The near and far bundles of one aim (`None` when a ray of either does
+/// not get through the lens: the aim is skipped), and the rays traced.
+fn trace_pair(
+    lens: Option<&SpectacleLens>,
+    placement: &EyePlacement,
+    eye: &Eye,
+    aim: DVec3,
+    samples: &[DVec2],
+) -> (Result<Option<(TracedBundle, TracedBundle)>, SpectaclesError>, usize) {
+    let rho = 0.5 * eye.pupil_diameter_m();
+    let mut traced = 0;
+    let mut trace = |v: f64| match trace_bundle_counted(lens, placement, aim, rho, v, samples, &mut traced) {
+        Ok(b) => Ok(Some(b)),
+        Err(SpectaclesError::BundleBlocked(_)) => Ok(None),
+        Err(e) => Err(e),
+    };
+    let pair = match trace(eye.near_point_vergence_d()) {
+        Ok(Some(near)) => trace(eye.far_point_vergence_d()).map(|far| far.map(|far| (near, far))),
+        other => other.map(|_| None),
+    };
+    (pair, traced)
 }
 
 /// Precomputes the field for `eye` at `placement` looking through `lens`
-/// (`None`: the naked eye). See the module docs for the steps.
+/// (`None`: the naked eye) with settings `st`: the voxel field of
+/// displacement-vector sets (paper §4.3, Figs. 6–7), a map from a point in
+/// front of the eye to the `S` clone displacements that blur it, valid
+/// while the eye and lens stay fixed.
 ///
-/// Errors: a bad eye, placement or settings (typed), a bad grid box
-/// ([`SpectaclesError::Voxel`]). Aims that fail (TIR, rim) are skipped and
-/// counted in [`FieldStats::aims_failed`].
+/// Precompute:
+/// 1. Aims: the reference rays from the centre of rotation through the lens's
+///    back-surface points (the mesh vertex layout; the paper: "usually the
+///    vertices will do", 通常は頂点でよい; ~1,500 at the paper's setting).
+///    Without a lens, through the same layout on a window at the vertex
+///    plane.
+/// 2. Per aim, the near bundle (`V = P_near`) and the far bundle
+///    (`V = P_far`) of `S` pupil rays ([`trace_bundle`](super::trace_bundle)), traced through the
+///    lens; their fitted vergences `W_near`, `W_far` place the corrected near
+///    and far points. In parallel (rayon).
+/// 3. Walk the voxels the refracted reference ray crosses (J. Amanatides and
+///    A. Woo, "A fast voxel traversal algorithm for ray tracing",
+///    Eurographics 1987; the paper's ref. 10). In each, at the midpoint `s` of the
+///    ray's segment in the voxel, the set is the near bundle's displacements
+///    if nearer than the corrected near point, the far bundle's (mirrored) if
+///    beyond the corrected far point, else all zero (§4.2: in focus).
+/// 4. Average the sets per voxel, clone by clone. Default, not in the paper
+///    ([`VoxelAverage::AllCrossings`]): every crossing counts, in-focus ones
+///    as zero sets. The paper (§4.3) averages only the sets recorded, the
+///    near and far crossings ([`VoxelAverage::RecordedSets`], an option of
+///    [`FieldSettings::with_average`]); the two differ only in voxels straddling
+///    the corrected near or far point, and the default measures slightly
+///    closer to the direct reference (see [`VoxelAverage`]). Either way a
+///    voxel crossed only in focus is zero (sharp) and counts as crossed.
+/// 5. Optional, not in the paper: voxels no reference ray crossed take the
+///    mean of their filled face neighbours, repeated until every voxel is
+///    filled ([`FieldSettings::with_fill_empty`]). The paper leaves them at zero
+///    (sharp), which with ~1,500 aims leaves most far voxels uncovered.
+///
+/// Lookup (run time): the voxel containing the vertex, one transform; clone
+/// `i` takes vector `i` of the set.
+///
+/// Errors: a bad grid box ([`SpectaclesError::Voxel`]); for the naked eye,
+/// an aim window not in front of the centre of rotation, and a centre of
+/// rotation on the lens's back surface ([`SpectaclesError::Input`]). Aims
+/// whose bundles do not get through the lens (TIR, rim) are skipped and
+/// counted in [`FieldStats::aims_failed`]; if no aim gets through (an eye
+/// placed where it does not look through the lens),
+/// [`SpectaclesError::NoRays`].
 pub fn precompute_field(
     eye: &Eye,
     placement: &EyePlacement,
     lens: Option<&SpectacleLens>,
     st: &FieldSettings,
 ) -> Result<DisplacementField, SpectaclesError> {
-    check(eye, placement, st)?;
     let counts = VoxelGrid::from_bounds(st.min, st.max, st.dims, 0u32)?;
     let n_cells = counts.len();
     let s_clones = st.clones;
     let samples: Vec<DVec2> = pupil_samples(s_clones);
-    let rho = 0.5 * eye.pupil_diameter_m;
     let aim_dirs = aims(lens, placement, st)?;
 
     // Step 2: bundles, in parallel, counting the rays actually traced.
-    let (bundles, traced): (Vec<Option<(TracedBundle, TracedBundle)>>, Vec<usize>) = aim_dirs
-        .par_iter()
-        .map(|&a| {
-            let mut traced = 0;
-            let mut trace = |v: f64| trace_bundle_counted(lens, placement, a, rho, v, &samples, &mut traced).ok();
-            let pair = trace(eye.near_point_vergence_d()).and_then(|near| Some((near, trace(eye.far_point_vergence_d())?)));
-            (pair, traced)
-        })
-        .unzip();
+    let (bundles, traced): (Vec<_>, Vec<usize>) = aim_dirs.par_iter().map(|&a| trace_pair(lens, placement, eye, a, &samples)).unzip();
+    let bundles: Vec<Option<(TracedBundle, TracedBundle)>> = bundles.into_iter().collect::<Result<_, _>>()?;
+    // Some aims fail at the rim; if all do, the eye does not look through
+    // the lens at all, and an all-sharp field would hide that.
+    if bundles.iter().all(Option::is_none) {
+        return Err(SpectaclesError::NoRays);
+    }
 
     // Step 3: walk the grid along each refracted reference ray, in parallel.
     let mut crossings: Vec<Crossing> = bundles
@@ -334,8 +508,8 @@ pub fn precompute_field(
         .enumerate()
         .flat_map_iter(|(k, b)| {
             let walk = b.as_ref().map(|(near, far)| {
-                let chief = Ray::from_unit(near.chief.origin(), near.chief.dir());
-                let (wn, wf) = (near.vergence_d, far.vergence_d);
+                let chief = *near.chief();
+                let (wn, wf) = (near.vergence_d(), far.vergence_d());
                 counts.traverse(&chief).filter_map(move |(cell, t0, t1)| {
                     let s = 0.5 * (t0 + t1);
                     let idx = cell[0] + st.dims[0] * (cell[1] + st.dims[1] * cell[2]);
@@ -361,8 +535,8 @@ pub fn precompute_field(
         for c in &crossings[lo..hi] {
             let Some((near, far)) = &bundles[c.aim as usize] else { continue };
             match c.region {
-                Region::Near => sum.iter_mut().enumerate().for_each(|(i, v)| *v += near.displacement(i, c.s)),
-                Region::Far => sum.iter_mut().enumerate().for_each(|(i, v)| *v -= far.displacement(i, c.s)),
+                Region::Near => sum.iter_mut().zip(near.displacements(c.s)).for_each(|(v, d)| *v += d),
+                Region::Far => sum.iter_mut().zip(far.displacements(c.s)).for_each(|(v, d)| *v -= d),
                 Region::InFocus => continue,
             }
             recorded += 1;
@@ -517,7 +691,7 @@ mod tests {
     use crate::spectacles::lens_design::{LensDesignParams, Prescription, design_lens};
 
     fn small() -> FieldSettings {
-        FieldSettings::paper().scaled(0.25)
+        FieldSettings::paper().scaled(0.25).unwrap()
     }
 
     #[test]
@@ -531,7 +705,7 @@ mod tests {
         let (a, n, far) = (0.012, 0.5, 1.3);
         let eye = Eye::from_near_far(n, far, a).unwrap();
         let pl = EyePlacement::paper();
-        let st = FieldSettings { fill_empty: false, ..FieldSettings::paper().scaled(0.5) };
+        let st = FieldSettings::paper().scaled(0.5).unwrap().with_fill_empty(false);
         let f = precompute_field(&eye, &pl, None, &st).unwrap();
         assert_eq!(f.stats().aims_failed, 0);
         let h = f.counts().cell_size().z;
@@ -539,7 +713,7 @@ mod tests {
             let p = DVec3::new(0.001, 0.001, z);
             let cell = f.counts().cell_of(p).unwrap();
             assert!(*f.counts().get(cell).unwrap() > 0);
-            let zc = f.counts().cell_center(cell).z - pl.centre_of_rotation.z;
+            let zc = f.counts().cell_center(cell).z - pl.centre_of_rotation().z;
             let got = f.spread_at(p).unwrap().disc_diameter_m();
             let want = eye.blur_disc_diameter_m(zc).unwrap();
             let tol = (a / n).max(a / far) * h / 2.0;
@@ -580,7 +754,7 @@ mod tests {
         // columns, the one `cell_of` names (the half-open rule).
         let eye = Eye::new(-2.0, 1.0, 0.004).unwrap();
         let pl = EyePlacement::paper();
-        let st = FieldSettings { fill_empty: false, dims: [110, 77, 42], aim_rings: 2, aim_segments: 4, ..FieldSettings::paper() };
+        let st = FieldSettings::paper().with_fill_empty(false).with_aims(2, 4).unwrap();
         let f = precompute_field(&eye, &pl, None, &st).unwrap();
         let cx = f.counts().cell_of(DVec3::new(0.0, 0.0, 1.0)).unwrap()[0];
         assert!(cx == 54 || cx == 55);
@@ -598,49 +772,73 @@ mod tests {
     }
 
     #[test]
-    fn voxel_field_bad_settings_are_typed() {
+    fn voxel_field_bad_settings_are_refused_where_they_enter() {
+        let what = |r: Result<FieldSettings, InvalidInput>| r.unwrap_err().what;
+        assert_eq!(what(small().with_clones(0)), "clones");
+        assert_eq!(what(small().with_dims([0, 1, 1])), "voxels per axis");
+        assert_eq!(what(small().with_box(DVec3::NAN, DVec3::ONE)), "field box min corner (m)");
+        assert_eq!(what(small().with_box(DVec3::ZERO, DVec3::new(1.0, f64::INFINITY, 1.0))), "field box max corner (m)");
+        let inverted = small().with_box(DVec3::new(-2.75, -1.0, 0.0), DVec3::new(-10.0, 1.0, 1.0)).unwrap_err();
+        assert_eq!((inverted.what, inverted.value), ("field box size (m)", -7.25));
+        assert_eq!(what(small().with_aims(0, 8)), "aim rings");
+        assert_eq!(what(small().with_aims(2, 2)), "aim segments");
+        assert_eq!(what(small().with_naked_eye_window(0.0, 0.012)), "naked-eye window radius (m)");
+        assert_eq!(what(small().with_naked_eye_window(0.02, f64::NAN)), "naked-eye window z (m)");
+        assert_eq!(what(small().scaled(0.0)), "field resolution scale");
+        assert_eq!(what(small().scaled(f64::NAN)), "field resolution scale");
+        // Where the eye is only known at precompute: a naked-eye window
+        // behind the centre of rotation (13.5 mm behind the cornea).
         let eye = Eye::new(-2.0, 1.0, 0.004).unwrap();
-        let pl = EyePlacement::default();
-        let bad = |st: FieldSettings| precompute_field(&eye, &pl, None, &st).is_err();
-        assert!(bad(FieldSettings { clones: 0, ..small() }));
-        assert!(bad(FieldSettings { dims: [0, 1, 1], ..small() }));
-        assert!(bad(FieldSettings { min: DVec3::NAN, ..small() }));
-        assert!(bad(FieldSettings { max: DVec3::new(-10.0, 1.0, 1.0), ..small() }));
-        let nan_eye = Eye { refractive_error_d: f64::NAN, ..eye };
-        assert!(precompute_field(&nan_eye, &pl, None, &small()).is_err());
-        let bad_pl = EyePlacement { pupil_offset_m: -1.0, ..pl };
-        assert!(precompute_field(&eye, &bad_pl, None, &small()).is_err());
+        let behind = small().with_naked_eye_window(0.02, -0.02).unwrap();
+        match precompute_field(&eye, &EyePlacement::default(), None, &behind) {
+            Err(SpectaclesError::Input(e)) => assert_eq!(e.what, "naked-eye window z in front of the centre of rotation (m)"),
+            other => panic!("{other:?}"),
+        }
+        // An eye in front of the lens looks through it with no aim.
+        let lens = design_lens(&Prescription::sphere(-2.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let beyond = EyePlacement::new(DVec3::new(0.0, 0.0, 0.05), 0.0).unwrap();
+        assert_eq!(precompute_field(&eye, &beyond, Some(&lens), &small()), Err(SpectaclesError::NoRays));
+        // Deserialised settings are checked the same way.
+        let mut v = serde_json::to_value(small()).unwrap();
+        assert_eq!(serde_json::from_value::<FieldSettings>(v.clone()).unwrap(), small());
+        v["clones"] = serde_json::json!(0);
+        assert!(serde_json::from_value::<FieldSettings>(v).unwrap_err().to_string().contains("clones"));
     }
 
     #[test]
     fn voxel_field_huge_settings_are_typed() {
         // Sizes that overflow or are merely huge are rejected before any
         // arithmetic or allocation: no overflow panic, no hang.
-        let eye = Eye::new(-2.0, 1.0, 0.004).unwrap();
-        let pl = EyePlacement::default();
-        let too_big = |st: FieldSettings| matches!(precompute_field(&eye, &pl, None, &st), Err(SpectaclesError::OutOfRange { .. }));
+        let capped = |r: Result<FieldSettings, InvalidInput>, what: &str| match r {
+            Err(e) => e.what == what && matches!(e.expected, Expected::Range { .. }),
+            Ok(_) => false,
+        };
         // aim rings × segments overflows usize, or is 67 million aims.
-        assert!(too_big(FieldSettings { aim_rings: usize::MAX, aim_segments: 3, ..small() }));
-        assert!(too_big(FieldSettings { aim_rings: 3, aim_segments: usize::MAX, ..small() }));
-        assert!(too_big(FieldSettings { aim_rings: usize::MAX, aim_segments: usize::MAX, ..small() }));
-        assert!(too_big(FieldSettings { aim_rings: 1 << 20, aim_segments: 64, ..small() }));
+        let aims = "aims 1 + aim rings × aim segments";
+        assert!(capped(small().with_aims(usize::MAX, 3), aims));
+        assert!(capped(small().with_aims(3, usize::MAX), aims));
+        assert!(capped(small().with_aims(usize::MAX, usize::MAX), aims));
+        assert!(capped(small().with_aims(1 << 20, 64), aims));
         // A million clones on one voxel (old cap: voxels × clones <= u32::MAX).
-        assert!(too_big(FieldSettings { dims: [1, 1, 1], clones: 1 << 20, ..small() }));
-        assert!(too_big(FieldSettings { clones: usize::MAX, ..small() }));
+        assert!(capped(small().with_dims([1, 1, 1]).unwrap().with_clones(1 << 20), "clones"));
+        assert!(capped(small().with_clones(usize::MAX), "clones"));
         // Voxel counts that overflow, or whose walk would be 10^11 crossings.
-        assert!(too_big(FieldSettings { dims: [usize::MAX, 2, 1], ..small() }));
-        assert!(too_big(FieldSettings { dims: [1 << 40, 1 << 40, 1], ..small() }));
-        assert!(too_big(FieldSettings { dims: [1 << 26, 1, 1], clones: 1, ..small() }));
-        assert_eq!(FieldSettings { aim_rings: usize::MAX, aim_segments: 3, ..small() }.aims(), None);
-        assert_eq!(FieldSettings { aim_rings: 1 << 20, aim_segments: 64, ..small() }.aims(), None);
-        assert_eq!(FieldSettings::paper().aims(), Some(1537));
+        assert!(capped(small().with_dims([usize::MAX, 2, 1]), "voxels × clones"));
+        assert!(capped(small().with_dims([1 << 40, 1 << 40, 1]), "voxels × clones"));
+        let walk = "aims × (nx + ny + nz + 3) (bound on voxel crossings)";
+        assert!(capped(small().with_clones(1).unwrap().with_dims([1 << 26, 1, 1]), walk));
+        // A scale whose sizes saturate.
+        assert!(capped(small().scaled(1e30), aims));
+        assert_eq!(FieldSettings::paper().aims(), 1537);
+        // The caps' largest sizes are accepted (settings only; nothing is built).
+        assert_eq!(small().with_dims([1, 1, 1]).unwrap().with_clones(MAX_CLONES).unwrap().clones(), MAX_CLONES);
     }
 
     #[test]
     fn voxel_field_deserialisation_is_validated() {
         use serde_json::{Value, json};
         let eye = Eye::new(-2.0, 1.0, 0.004).unwrap();
-        let st = FieldSettings { dims: [3, 2, 4], clones: 4, ..small() };
+        let st = small().with_dims([3, 2, 4]).unwrap().with_clones(4).unwrap();
         let f = precompute_field(&eye, &EyePlacement::default(), None, &st).unwrap();
         let good = serde_json::to_value(&f).unwrap();
         assert_eq!(serde_json::from_value::<DisplacementField>(good.clone()).unwrap(), f);
@@ -649,22 +847,23 @@ mod tests {
             edit(&mut v);
             serde_json::from_value::<DisplacementField>(v)
         };
+        let refusal = |edit: &dyn Fn(&mut Value)| parse(edit).unwrap_err().to_string();
         // Short storage: `displacements` would slice out of range.
-        assert!(parse(&|v| {
+        let short = refusal(&|v| {
             v["vectors"].as_array_mut().unwrap().pop();
-        })
-        .is_err());
+        });
+        assert!(short.starts_with("field vectors (voxels × clones) = 95"), "{short}");
         // Zero clones, and more clones than the vectors hold.
-        assert!(parse(&|v| v["clones"] = json!(0)).is_err());
-        assert!(parse(&|v| v["clones"] = json!(5)).is_err());
+        assert!(refusal(&|v| v["clones"] = json!(0)).starts_with("field clones = 0"));
+        assert!(refusal(&|v| v["clones"] = json!(5)).starts_with("field vectors (voxels × clones) = 96"));
         // A grid with a zero dimension (underflow in `trilinear`) or whose
-        // counts do not match its dims (panic in `get`).
-        assert!(parse(&|v| v["counts"]["dims"] = json!([0, 2, 4])).is_err());
-        assert!(parse(&|v| v["counts"]["dims"] = json!([4, 2, 4])).is_err());
-        assert!(parse(&|v| {
+        // counts do not match its dims (panic in `get`): the grid's own errors.
+        assert!(refusal(&|v| v["counts"]["dims"] = json!([0, 2, 4])).contains("grid dimensions [0, 2, 4]"));
+        assert!(refusal(&|v| v["counts"]["dims"] = json!([4, 2, 4])).contains("needs 32 cells, got 24"));
+        let cells = refusal(&|v| {
             v["counts"]["cells"].as_array_mut().unwrap().pop();
-        })
-        .is_err());
+        });
+        assert!(cells.contains("needs 24 cells, got 23"), "{cells}");
         // Old files without the newer stats counter still load.
         assert!(parse(&|v| {
             v["stats"].as_object_mut().unwrap().remove("sets_recorded");
@@ -681,32 +880,29 @@ mod tests {
         // voxel's set is the mean of the sets recorded, the near ones only.
         let eye = Eye::from_near_far(0.5, 1.3, 0.012).unwrap();
         let pl = EyePlacement::paper();
-        let st = FieldSettings {
-            min: DVec3::new(-1.0, -1.0, 0.3),
-            max: DVec3::new(1.0, 1.0, 0.6),
-            dims: [1, 1, 1],
-            clones: 6,
-            aim_rings: 4,
-            aim_segments: 6,
-            window_radius_m: 0.015 * 40f64.to_radians().tan(),
-            window_z_m: 0.012,
-            fill_empty: false,
-            average: VoxelAverage::RecordedSets,
-        };
+        let st = FieldSettings::paper()
+            .with_box(DVec3::new(-1.0, -1.0, 0.3), DVec3::new(1.0, 1.0, 0.6))
+            .and_then(|st| st.with_dims([1, 1, 1]))
+            .and_then(|st| st.with_clones(6))
+            .and_then(|st| st.with_aims(4, 6))
+            .and_then(|st| st.with_naked_eye_window(0.015 * 40f64.to_radians().tan(), 0.012))
+            .unwrap()
+            .with_fill_empty(false)
+            .with_average(VoxelAverage::RecordedSets);
         let f = precompute_field(&eye, &pl, None, &st).unwrap();
         // The expected set, from the bundles and the box's z faces directly.
-        let samples = pupil_samples(st.clones);
-        let rho = 0.5 * eye.pupil_diameter_m;
-        let mut want = vec![DVec3::ZERO; st.clones];
+        let samples = pupil_samples(st.clones());
+        let rho = 0.5 * eye.pupil_diameter_m();
+        let mut want = vec![DVec3::ZERO; st.clones()];
         let (mut near_n, mut total) = (0usize, 0usize);
         for a in aims(None, &pl, &st).unwrap() {
             let b = trace_bundle_counted(None, &pl, a, rho, eye.near_point_vergence_d(), &samples, &mut 0).unwrap();
-            let z0 = b.chief.origin().z;
+            let z0 = b.chief().origin().z;
             let s = 0.5 * ((0.3 - z0) + (0.6 - z0)) / a.z;
             total += 1;
             if s < 0.5 {
                 near_n += 1;
-                want.iter_mut().enumerate().for_each(|(i, w)| *w += b.displacement(i, s));
+                want.iter_mut().zip(b.displacements(s)).for_each(|(w, d)| *w += d);
             } else {
                 assert!(s <= 1.3, "{s}: no far crossings in this set-up");
             }
@@ -720,12 +916,12 @@ mod tests {
         assert_eq!((f.stats().crossings, f.stats().sets_recorded), (total, near_n));
         assert_eq!(*f.counts().get([0, 0, 0]).unwrap() as usize, total);
         // The option: every crossing counts, the in-focus ones as zeros.
-        let all = precompute_field(&eye, &pl, None, &FieldSettings { average: VoxelAverage::AllCrossings, ..st }).unwrap();
+        let all = precompute_field(&eye, &pl, None, &st.with_average(VoxelAverage::AllCrossings)).unwrap();
         for (g, p) in all.displacements([0, 0, 0]).unwrap().iter().zip(got) {
             assert!((g.as_dvec3() - p.as_dvec3() * (near_n as f64 / total as f64)).length() < 1e-8);
         }
         // A voxel crossed only in focus is zero, not filled.
-        let in_focus = FieldSettings { min: DVec3::new(-1.0, -1.0, 0.7), max: DVec3::new(1.0, 1.0, 1.0), fill_empty: true, ..st };
+        let in_focus = st.with_box(DVec3::new(-1.0, -1.0, 0.7), DVec3::new(1.0, 1.0, 1.0)).unwrap().with_fill_empty(true);
         let f = precompute_field(&eye, &pl, None, &in_focus).unwrap();
         assert_eq!((f.stats().sets_recorded, f.stats().voxels_filled), (0, 0));
         assert!(f.stats().crossings > 0 && f.vectors().iter().all(|v| *v == Vec3::ZERO));

@@ -98,8 +98,8 @@
 //! not ray optics.
 //!
 //! With the `reference` feature: a brute-force image of a ghost
-//! ([`reference_image`]), the exact-coverage rasteriser of a grid
-//! ([`rasterise`]) and image errors ([`compare`]), which the tests and the
+//! (`reference_image`), the exact-coverage rasteriser of a grid
+//! (`rasterise`) and image errors (`compare`), which the tests and the
 //! report runner hold the grid method to.
 //!
 //! # Example

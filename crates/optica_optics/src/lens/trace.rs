@@ -380,8 +380,12 @@ impl PreparedLens {
         if let Some(h) = geometry.intersect(ray) {
             return Ok(h);
         }
-        // Back the origin off a little and accept a hit at most that far behind:
-        // the surface may pass through the ray's origin (touching surfaces).
+        // Back the origin off by the tolerance and accept a hit at most that
+        // far behind the real origin: the surface may pass through it
+        // (touching surfaces). Seen from the backed-off origin such a hit is
+        // at t in [T_EPSILON, 2·tol + T_EPSILON] — `intersect` drops hits
+        // closer than T_EPSILON — i.e. between tol behind the real origin and
+        // just ahead of it, where the first `intersect` could not see it.
         let back = Ray::from_unit(ray.origin() - ray.dir() * COINCIDENT_TOLERANCE_MM, ray.dir());
         match geometry.intersect(&back) {
             Some(h) if h.t <= 2.0 * COINCIDENT_TOLERANCE_MM + T_EPSILON => {

@@ -116,23 +116,17 @@ pub fn estimate_ghost(
     let grid = trace_grid(lens, path, beam, k + 1, &grid_options)?;
     let passes = |r: &GridRay| r.passes(aperture);
     let (mut w, mut m, mut passed) = (0.0, DVec2::ZERO, 0usize);
-    for r in grid.rays.iter().filter(|r| passes(r)) {
+    for r in grid.rays().iter().filter(|r| passes(r)) {
         w += r.throughput;
         m += r.throughput * r.sensor;
         passed += 1;
     }
     let (mut power, mut area) = (0.0, 0.0);
-    for j in 0..k {
-        for i in 0..k {
-            let cell = grid.cell(i, j);
-            if cell.kind == CellKind::Dead {
-                continue;
-            }
-            let f = grid.cell_corners(i, j).iter().filter(|r| passes(r)).count() as f64 / 4.0;
-            // The cell's bounded power I_c · A_s (= A_p · T̄ unless clamped).
-            power += f * cell.power();
-            area += f * cell.sensor_area_mm2;
-        }
+    for (cell, corners) in grid.cells_with_corners().filter(|(c, _)| c.kind != CellKind::Dead) {
+        let f = corners.iter().filter(|r| passes(r)).count() as f64 / 4.0;
+        // The cell's bounded power I_c · A_s (= A_p · T̄ unless clamped).
+        power += f * cell.power();
+        area += f * cell.sensor_area_mm2;
     }
     let spread = area.max(floor);
     let centroid = if w > 0.0 { m / w } else { DVec2::ZERO };
@@ -291,7 +285,7 @@ mod tests {
             let path = TracePath::ghost(i, j);
             let beam = Beam::for_path(&p, path, DVec3::Z, 550.0).unwrap();
             let grid = trace_grid(&lens, path, &beam, k + 1, &GridOptions::default()).unwrap();
-            let t_max = grid.rays.iter().filter(|r| r.alive).map(|r| r.throughput).fold(0.0, f64::max);
+            let t_max = grid.rays().iter().filter(|r| r.alive).map(|r| r.throughput).fold(0.0, f64::max);
             let free = estimate_ghost(&lens, path, &beam, &ap, &EstimateOptions::default()).unwrap();
             let one = EstimateOptions { max_gain: 1.0, ..Default::default() };
             let bound = estimate_ghost(&lens, path, &beam, &ap, &one).unwrap();

@@ -34,21 +34,16 @@ impl Default for GridOptions {
 }
 
 /// A traced grid: `n × n` rays and `(n−1) × (n−1)` cells, row-major
-/// (`u` = column along +x of the pupil, `v` = row along +y).
+/// (`u` = column along +x of the pupil, `v` = row along +y). Made by
+/// [`trace_grid`]; read-only, so its rays and cells always match its size.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RayGrid {
-    /// Rays per side.
-    pub n: usize,
-    /// The path traced.
-    pub path: TracePath,
-    /// Wavelength, nm.
-    pub wavelength_nm: f64,
-    /// Beam cross-section of one cell (pupil cell area × d_z), mm².
-    pub cell_pupil_mm2: f64,
-    /// `n²` rays.
-    pub rays: Vec<GridRay>,
-    /// `(n−1)²` cells.
-    pub cells: Vec<GridCell>,
+    n: usize,
+    path: TracePath,
+    wavelength_nm: f64,
+    cell_pupil_mm2: f64,
+    rays: Vec<GridRay>,
+    cells: Vec<GridCell>,
 }
 
 /// Counts and sums over a grid.
@@ -72,19 +67,80 @@ pub struct GridStats {
 }
 
 impl RayGrid {
-    /// Ray at column `i`, row `j`.
-    pub fn ray(&self, i: usize, j: usize) -> &GridRay {
-        &self.rays[j * self.n + i]
+    /// A grid of `n` rays per side from its `n²` rays, computing its cells
+    /// (for the crate's own tests of the rasteriser and the estimates).
+    #[cfg(test)]
+    pub(crate) fn from_rays(n: usize, path: TracePath, cell_pupil_mm2: f64, rays: Vec<GridRay>) -> Self {
+        assert_eq!(rays.len(), n * n);
+        let m = n - 1;
+        let cells = (0..m * m)
+            .map(|k| {
+                let (i, j) = (k % m, k / m);
+                let at = |a: usize, b: usize| &rays[b * n + a];
+                cell_intensity([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)], cell_pupil_mm2, DEFAULT_MAX_GAIN)
+            })
+            .collect();
+        Self { n, path, wavelength_nm: 550.0, cell_pupil_mm2, rays, cells }
     }
 
-    /// Corners `[00, 10, 11, 01]` of cell `(i, j)`, counter-clockwise on the pupil.
-    pub fn cell_corners(&self, i: usize, j: usize) -> [&GridRay; 4] {
-        [self.ray(i, j), self.ray(i + 1, j), self.ray(i + 1, j + 1), self.ray(i, j + 1)]
+    /// Rays per side.
+    pub fn n(&self) -> usize {
+        self.n
     }
 
-    /// Cell at column `i`, row `j`.
-    pub fn cell(&self, i: usize, j: usize) -> &GridCell {
-        &self.cells[j * (self.n - 1) + i]
+    /// The path traced.
+    pub fn path(&self) -> TracePath {
+        self.path
+    }
+
+    /// Wavelength, nm.
+    pub fn wavelength_nm(&self) -> f64 {
+        self.wavelength_nm
+    }
+
+    /// Beam cross-section of one cell (pupil cell area × d_z), mm².
+    pub fn cell_pupil_mm2(&self) -> f64 {
+        self.cell_pupil_mm2
+    }
+
+    /// The `n²` rays, row-major.
+    pub fn rays(&self) -> &[GridRay] {
+        &self.rays
+    }
+
+    /// The `(n−1)²` cells, row-major.
+    pub fn cells(&self) -> &[GridCell] {
+        &self.cells
+    }
+
+    /// Ray at column `i`, row `j`; `None` outside the grid.
+    pub fn ray(&self, i: usize, j: usize) -> Option<&GridRay> {
+        (i < self.n && j < self.n).then(|| &self.rays[j * self.n + i])
+    }
+
+    /// Cell at column `i`, row `j`; `None` outside the grid.
+    pub fn cell(&self, i: usize, j: usize) -> Option<&GridCell> {
+        let m = self.n - 1;
+        (i < m && j < m).then(|| &self.cells[j * m + i])
+    }
+
+    /// Corners `[00, 10, 11, 01]` of cell `(i, j)`, counter-clockwise on the
+    /// pupil; `None` outside the grid.
+    pub fn cell_corners(&self, i: usize, j: usize) -> Option<[&GridRay; 4]> {
+        let m = self.n - 1;
+        (i < m && j < m).then(|| self.corners(i, j))
+    }
+
+    /// Every cell with its corners `[00, 10, 11, 01]`, row-major.
+    pub fn cells_with_corners(&self) -> impl Iterator<Item = (&GridCell, [&GridRay; 4])> {
+        let m = self.n - 1;
+        self.cells.iter().enumerate().map(move |(k, c)| (c, self.corners(k % m, k / m)))
+    }
+
+    /// Corners of cell `(i, j)`, which must be in the grid.
+    fn corners(&self, i: usize, j: usize) -> [&GridRay; 4] {
+        let at = |a: usize, b: usize| &self.rays[b * self.n + a];
+        [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]
     }
 
     /// Counts and power sums.
@@ -249,7 +305,7 @@ mod tests {
         let beam = Beam::new(&p, DVec3::Z, bounds).unwrap();
         let g = trace_grid(&lens, TracePath::ghost(2, 1), &beam, 9, &GridOptions::default()).unwrap();
         let t = 0.96f64.powi(2) * 0.04f64.powi(2);
-        for c in &g.cells {
+        for c in g.cells() {
             assert_eq!(c.kind, CellKind::Regular);
             assert!((c.intensity - t).abs() < 1e-15, "{}", c.intensity);
         }
@@ -258,7 +314,7 @@ mod tests {
         let d = light_from_field(30.0, 0.0);
         let beam = Beam::new(&p, d, bounds).unwrap();
         let g = trace_grid(&lens, TracePath::ghost(2, 1), &beam, 5, &GridOptions::default()).unwrap();
-        for c in &g.cells {
+        for c in g.cells() {
             assert!((c.intensity - c.mean_throughput * d.z).abs() < 1e-12);
         }
     }
@@ -281,9 +337,9 @@ mod tests {
             if s.folded_cells > 0 || s.flipped_cells > 0 || s.clamped_cells > 0 || s.alive_cells == 0 {
                 continue;
             }
-            let mean_t = g.cells.iter().filter(|c| c.kind != CellKind::Dead).map(|c| c.mean_throughput).sum::<f64>()
+            let mean_t = g.cells().iter().filter(|c| c.kind != CellKind::Dead).map(|c| c.mean_throughput).sum::<f64>()
                 / s.alive_cells as f64;
-            let want = s.alive_cells as f64 * g.cell_pupil_mm2 * mean_t;
+            let want = s.alive_cells as f64 * g.cell_pupil_mm2() * mean_t;
             assert!((s.power / want - 1.0).abs() < 1e-9, "ghost ({i},{j}): {} vs {want}", s.power);
             checked += 1;
         }
@@ -312,7 +368,7 @@ mod tests {
             })
             .unwrap();
         let grids = trace_grid_spectral(&flat, path, &beam, 17, &opts, &[450.0, 650.0]).unwrap();
-        for (r, s) in grids[0].rays.iter().zip(&grids[1].rays) {
+        for (r, s) in grids[0].rays().iter().zip(grids[1].rays()) {
             assert_eq!(r.alive, s.alive);
             assert!((r.sensor - s.sensor).length() < 1e-12);
         }
@@ -347,6 +403,24 @@ mod tests {
     }
 
     #[test]
+    fn grid_lookups_are_total() {
+        let p = builtin::tessar();
+        let lens = PreparedLens::new(&p, 550.0).unwrap();
+        let beam = Beam::for_path(&p, TracePath::ghost(5, 4), DVec3::Z, 550.0).unwrap();
+        let g = trace_grid(&lens, TracePath::ghost(5, 4), &beam, 5, &GridOptions::default()).unwrap();
+        assert_eq!((g.n(), g.rays().len(), g.cells().len(), g.path()), (5, 25, 16, TracePath::ghost(5, 4)));
+        assert_eq!(g.ray(4, 4), Some(&g.rays()[24]));
+        assert_eq!((g.ray(5, 0), g.ray(0, 5), g.cell(4, 0), g.cell(0, 4)), (None, None, None, None));
+        assert!(g.cell_corners(4, 3).is_none() && g.cell_corners(usize::MAX, 0).is_none());
+        // Cell (2, 1) is the 7th, row-major; its corners run 00, 10, 11, 01.
+        let (cell, corners) = g.cells_with_corners().nth(4 + 2).unwrap(); // row 1 of 4 cells, column 2
+        assert_eq!(Some(cell), g.cell(2, 1));
+        let want = [(2, 1), (3, 1), (3, 2), (2, 2)].map(|(i, j)| g.ray(i, j).unwrap());
+        assert_eq!(Some(corners), g.cell_corners(2, 1));
+        assert_eq!(corners, want);
+    }
+
+    #[test]
     fn light_outside_the_field_gives_dead_cells_not_nan() {
         // 80° off axis: the Tessar's front sphere (R = 42.97) turns most rays
         // away; whatever survives is finite.
@@ -355,8 +429,8 @@ mod tests {
         let path = TracePath::ghost(2, 0);
         let beam = Beam::for_path(&p, path, light_from_field(80.0, 0.0), 550.0).unwrap();
         let g = trace_grid(&lens, path, &beam, 9, &GridOptions::default()).unwrap();
-        assert!(g.rays.iter().any(|r| !r.alive));
-        assert!(g.cells.iter().all(|c| c.intensity.is_finite() && c.sensor_area_mm2.is_finite()));
+        assert!(g.rays().iter().any(|r| !r.alive));
+        assert!(g.cells().iter().all(|c| c.intensity.is_finite() && c.sensor_area_mm2.is_finite()));
     }
 
     proptest! {
@@ -381,12 +455,12 @@ mod tests {
                 Err(e) => prop_assert!(false, "light {light}: {e:?}"),
                 Ok(beam) => {
                     let grid = trace_grid(&lens, path, &beam, n, &GridOptions { sensor_z: None, max_gain: gain }).unwrap();
-                    for c in &grid.cells {
+                    for c in grid.cells() {
                         prop_assert!(c.intensity.is_finite() && c.intensity >= 0.0);
                         prop_assert!(c.intensity <= gain * c.mean_throughput * (1.0 + 1e-12));
-                        prop_assert!(c.power() <= grid.cell_pupil_mm2 * c.mean_throughput * (1.0 + 1e-12));
+                        prop_assert!(c.power() <= grid.cell_pupil_mm2() * c.mean_throughput * (1.0 + 1e-12));
                     }
-                    for r in &grid.rays {
+                    for r in grid.rays() {
                         prop_assert!(r.sensor.is_finite() && r.stop_xy.iter().all(|p| p.is_finite()) && r.r_rel.is_finite());
                     }
                 }

@@ -290,7 +290,7 @@ mod tests {
                 let ep = PupilBounds::entrance_pupil(&p, 550.0).unwrap();
                 for (i, j) in ghosts(&p).into_iter().filter(|&(i, _)| i > stop) {
                     let g = trace_grid(&lens, TracePath::ghost(i, j), &front, 33, &GridOptions::default()).unwrap();
-                    for (k, r) in g.rays.iter().enumerate() {
+                    for (k, r) in g.rays().iter().enumerate() {
                         if !(r.alive && r.r_rel <= 1.0) {
                             continue;
                         }

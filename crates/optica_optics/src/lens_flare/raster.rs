@@ -98,7 +98,8 @@ impl SensorWindow {
     }
 }
 
-/// Power per pixel over a [`SensorWindow`], row-major (`iy * width + ix`).
+/// Power per pixel over a [`SensorWindow`], row-major (`iy * width + ix`);
+/// read-only, so the pixels always match the window.
 ///
 /// Power, not irradiance: mm² of unit-irradiance beam that lands in the
 /// pixel, so that a brute-force histogram of rays and a rasterised grid are
@@ -106,16 +107,36 @@ impl SensorWindow {
 /// sensor window.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SensorImage {
-    /// The window.
-    pub window: SensorWindow,
-    /// Power per pixel.
-    pub power: Vec<f64>,
+    window: SensorWindow,
+    power: Vec<f64>,
 }
 
 impl SensorImage {
     /// A black image.
     pub fn new(window: SensorWindow) -> Self {
         Self { power: vec![0.0; window.width * window.height], window }
+    }
+
+    /// An image of `power` per pixel, which must have one value per pixel
+    /// of `window` (the crate's own reference and tests build these).
+    pub(crate) fn from_power(window: SensorWindow, power: Vec<f64>) -> Self {
+        debug_assert_eq!(power.len(), window.width * window.height);
+        Self { window, power }
+    }
+
+    /// The window.
+    pub fn window(&self) -> SensorWindow {
+        self.window
+    }
+
+    /// Power per pixel, row-major (`iy * width + ix`), mm².
+    pub fn power(&self) -> &[f64] {
+        &self.power
+    }
+
+    /// Power per pixel, mutable (the crate's own reference bins into it).
+    pub(crate) fn power_mut(&mut self) -> &mut [f64] {
+        &mut self.power
     }
 
     /// Total power in the window.
@@ -160,17 +181,12 @@ pub fn rasterise(grid: &RayGrid, aperture: &Aperture, window: SensorWindow) -> S
 
 /// [`rasterise`] adding into `image` (to sum ghosts or wavelengths).
 pub fn rasterise_into(grid: &RayGrid, aperture: &Aperture, image: &mut SensorImage) {
-    let m = grid.n.saturating_sub(1);
-    for j in 0..m {
-        for i in 0..m {
-            let cell = grid.cell(i, j);
-            if cell.kind == CellKind::Dead || !(cell.intensity > 0.0) {
-                continue;
-            }
-            let [a, b, c, d] = grid.cell_corners(i, j);
-            triangle(image, [a, b, c], cell.intensity, aperture);
-            triangle(image, [a, c, d], cell.intensity, aperture);
+    for (cell, [a, b, c, d]) in grid.cells_with_corners() {
+        if cell.kind == CellKind::Dead || !(cell.intensity > 0.0) {
+            continue;
         }
+        triangle(image, [a, b, c], cell.intensity, aperture);
+        triangle(image, [a, c, d], cell.intensity, aperture);
     }
 }
 
@@ -271,24 +287,15 @@ fn triangle(image: &mut SensorImage, v: [&GridRay; 3], intensity: f64, aperture:
 mod tests {
     use super::*;
     use crate::lens::TracePath;
-    use crate::lens_flare::intensity::{DEFAULT_MAX_GAIN, cell_intensity};
 
     fn ray(x: f64, y: f64, r_rel: f64) -> GridRay {
         GridRay { alive: true, sensor: DVec2::new(x, y), r_rel, stop_xy: [DVec2::ZERO; 3], throughput: 1.0 }
     }
 
+    /// One cell with corners `[00, 10, 11, 01]` and a unit pupil area.
     fn one_cell(rays: [GridRay; 4]) -> RayGrid {
         let [a, b, c, d] = rays;
-        let all = vec![a, b, d, c]; // row-major: (0,0) (1,0) (0,1) (1,1)
-        let cell = cell_intensity([&a, &b, &c, &d], 1.0, DEFAULT_MAX_GAIN);
-        RayGrid {
-            n: 2,
-            path: TracePath::Primary,
-            wavelength_nm: 550.0,
-            cell_pupil_mm2: 1.0,
-            rays: all,
-            cells: vec![cell],
-        }
+        RayGrid::from_rays(2, TracePath::Primary, 1.0, vec![a, b, d, c]) // row-major: (0,0) (1,0) (0,1) (1,1)
     }
 
     #[test]
@@ -302,7 +309,7 @@ mod tests {
         // A sub-pixel cell inside one pixel puts everything there.
         let g = one_cell([ray(1.01, 1.01, 0.0), ray(1.02, 1.01, 0.0), ray(1.02, 1.02, 0.0), ray(1.01, 1.02, 0.0)]);
         let img = rasterise(&g, &Aperture::circle(1.0).unwrap(), w);
-        assert!((img.power[2 * 10 + 2] - 1.0).abs() < 1e-9);
+        assert!((img.power()[2 * 10 + 2] - 1.0).abs() < 1e-9);
     }
 
     #[test]

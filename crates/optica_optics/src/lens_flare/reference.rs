@@ -106,7 +106,7 @@ pub fn reference_image(
                 (a, pa + pb, ta + tb)
             },
         );
-    Ok(ReferenceImage { image: SensorImage { window, power }, rays: k * k, passed, power: total })
+    Ok(ReferenceImage { image: SensorImage::from_power(window, power), rays: k * k, passed, power: total })
 }
 
 /// Errors of an image against a reference over the same window.
@@ -123,11 +123,11 @@ pub struct ImageError {
 /// Compares `test` with `reference`; `None` when the windows differ or the
 /// reference holds no power (nothing to be relative to).
 pub fn compare(test: &SensorImage, reference: &SensorImage) -> Option<ImageError> {
-    if test.window != reference.window {
+    if test.window() != reference.window() {
         return None;
     }
     let (mut l1, mut l2, mut r1, mut r2, mut t1) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for (t, r) in test.power.iter().zip(&reference.power) {
+    for (t, r) in test.power().iter().zip(reference.power()) {
         l1 += (t - r).abs();
         l2 += (t - r) * (t - r);
         r1 += r.abs();
@@ -144,7 +144,7 @@ pub fn compare(test: &SensorImage, reference: &SensorImage) -> Option<ImageError
 /// (`factor` must divide both sides; else `None`). Comparing at a coarser
 /// scale separates the grid's error from the reference's per-pixel noise.
 pub fn downsample(image: &SensorImage, factor: usize) -> Option<SensorImage> {
-    let w = image.window;
+    let w = image.window();
     let (width, height) = (w.width(), w.height());
     if factor == 0 || !width.is_multiple_of(factor) || !height.is_multiple_of(factor) {
         return None;
@@ -153,7 +153,7 @@ pub fn downsample(image: &SensorImage, factor: usize) -> Option<SensorImage> {
     let mut out = SensorImage::new(win);
     for iy in 0..height {
         for ix in 0..width {
-            out.power[(iy / factor) * win.width() + ix / factor] += image.power[iy * width + ix];
+            out.power_mut()[(iy / factor) * win.width() + ix / factor] += image.power()[iy * width + ix];
         }
     }
     Some(out)
@@ -199,8 +199,8 @@ mod tests {
     #[test]
     fn compare_by_hand() {
         let w = SensorWindow::new(glam::DVec2::ZERO, 1.0, 2, 1).unwrap();
-        let r = SensorImage { window: w, power: vec![1.0, 3.0] };
-        let t = SensorImage { window: w, power: vec![2.0, 3.0] };
+        let r = SensorImage::from_power(w, vec![1.0, 3.0]);
+        let t = SensorImage::from_power(w, vec![2.0, 3.0]);
         let e = compare(&t, &r).unwrap();
         assert!((e.rel_l1 - 0.25).abs() < 1e-15);
         assert!((e.rel_l2 - (1.0f64 / 10.0).sqrt()).abs() < 1e-15);
@@ -224,7 +224,7 @@ mod tests {
         let ap = Aperture::of_stop(&p);
         let fine = trace_grid(&lens, path, &beam, 65, &opts).unwrap();
         let window =
-            SensorWindow::around(fine.rays.iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
+            SensorWindow::around(fine.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
                 .unwrap();
         let reference = reference_image(&lens, path, &beam, &ap, window, 400, 1, &opts).unwrap();
         let errs: Vec<ImageError> = [5, 9, 17, 33]
@@ -270,7 +270,7 @@ mod tests {
         assert!(all < 0.9 * first, "later crossings cut little here: {all} vs {first}");
         let g = trace_grid(&lens, path, &beam, 65, &opts).unwrap();
         let window =
-            SensorWindow::around(g.rays.iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
+            SensorWindow::around(g.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
                 .unwrap();
         let reference = reference_image(&lens, path, &beam, &ap, window, 300, 9, &opts).unwrap();
         assert!((reference.power / all - 1.0).abs() < 0.02, "reference {} vs every-crossing {all} (first only {first})", reference.power);
@@ -295,11 +295,11 @@ mod tests {
         let ap = Aperture::polygon(6, 0.3, stop_r).unwrap();
         let g = trace_grid(&lens, path, &beam, 33, &opts).unwrap();
         let window =
-            SensorWindow::around(g.rays.iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
+            SensorWindow::around(g.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
                 .unwrap();
         let reference = reference_image(&lens, path, &beam, &ap, window, 300, 5, &opts).unwrap();
         let img = rasterise(&g, &ap, window);
-        assert!(img.power.iter().all(|p| p.is_finite() && *p >= 0.0));
+        assert!(img.power().iter().all(|p| p.is_finite() && *p >= 0.0));
         let e = compare(&img, &reference.image).unwrap();
         assert!(e.rel_l1 < 0.2 && e.rel_energy.abs() < 0.03, "{e:?}");
         // The bladed stop passes less than the round one it is inscribed in.

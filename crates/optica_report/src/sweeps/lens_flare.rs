@@ -79,7 +79,7 @@ const WINDOW_MARGIN: f64 = 0.05;
 /// A square window around the unclipped rays of a fine grid of the ghost.
 fn window_for(lens: &PreparedLens, path: TracePath, beam: &Beam, pixels: usize) -> Result<SensorWindow, FlareError> {
     let fine = trace_grid(lens, path, beam, WINDOW_GRID, &GridOptions::default())?;
-    let unclipped = fine.rays.iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor);
+    let unclipped = fine.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor);
     SensorWindow::around(unclipped, WINDOW_MARGIN, pixels)
 }
 
@@ -175,7 +175,7 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
         let g = trace_grid(&lens, path, &beam, 64, &opts)?;
         let s = g.stats();
         let bounded = g
-            .cells
+            .cells()
             .iter()
             .all(|c| c.intensity.is_finite() && c.intensity <= opts.max_gain * c.mean_throughput * (1.0 + 1e-12));
         let ap = Aperture::of_stop(&p);
@@ -279,18 +279,18 @@ fn grid_case(p: &LensPrescription, path: TracePath, light: DVec3, alive: Alive) 
     let w = SensorWindow::new(DVec2::new(-50.0, -50.0), 1.0, 100, 100)?;
     let img = rasterise(&g, &Aperture::of_stop(&p), w);
     let s = g.stats();
-    let finite = img.power.iter().all(|v| v.is_finite() && *v >= 0.0)
-        && g.cells.iter().all(|c| c.intensity.is_finite() || c.kind == CellKind::Dead);
+    let finite = img.power().iter().all(|v| v.is_finite() && *v >= 0.0)
+        && g.cells().iter().all(|c| c.intensity.is_finite() || c.kind == CellKind::Dead);
     let as_expected = match alive {
         Alive::Any => true,
-        Alive::Partly => s.alive_rays > 0 && s.alive_rays < g.rays.len(),
+        Alive::Partly => s.alive_rays > 0 && s.alive_rays < g.rays().len(),
         Alive::None => s.alive_rays == 0 && img.total() == 0.0,
     };
     Ok(format!(
         "{}{} of {} rays reach the sensor (expected: {alive:?}), {} live cells, image total {:.3e} (finite, no NaN)",
         if finite && as_expected { "" } else { "FAILED: " },
         s.alive_rays,
-        g.rays.len(),
+        g.rays().len(),
         s.alive_cells,
         img.total()
     ))

@@ -8,9 +8,9 @@
 //! AngularSpectrumMTD, "Physically-Based Real-Time Lens Flare Rendering
 //! (Matthias B. Hullin et al., Max Planck Institute for Informatics, ACM,
 //! 2011)", Qiita, 25 August 2021 (in Japanese),
-//! <https://qiita.com/AngularSpectrumMTD/items/aeea1046c0ec5d4dd1d5>. The
-//! article numbers no equations, so it is cited by its section headings,
-//! translated ("the blog's *Ray-bundle tracing*").
+//! <https://qiita.com/AngularSpectrumMTD/items/aeea1046c0ec5d4dd1d5> — "the
+//! blog" below. The blog numbers no equations, so it is cited by its section
+//! headings, translated ("the blog's *Ray-bundle tracing*").
 //!
 //! ```
 //! use optica_optics::lens::{self, Ray, TracePath};
@@ -42,7 +42,8 @@
 //! # The lens file
 //!
 //! A human-readable prescription, one file per lens
-//! ([`LensPrescription::parse`], [`LensPrescription::load`]):
+//! ([`LensPrescription::parse`], [`LensPrescription::parse_bytes`] for an
+//! asset loader's bytes, [`LensPrescription::load`]):
 //!
 //! ```text
 //! # comments start with `#`, anywhere on a line

@@ -75,6 +75,12 @@ pub enum ParseError {
         /// What is wrong.
         source: PrescriptionError,
     },
+    /// The bytes are not UTF-8 text (a binary or corrupted file).
+    #[error("line {line}: not UTF-8 text")]
+    NotText {
+        /// 1-based line of the first byte that is not UTF-8.
+        line: usize,
+    },
     /// The file could not be read.
     #[error("reading {}: {source}", path.display())]
     Io {
@@ -93,7 +99,8 @@ impl ParseError {
             | ParseError::FieldCount { line, .. }
             | ParseError::UnknownKey { line, .. }
             | ParseError::DuplicateKey { line, .. }
-            | ParseError::HeaderAfterTable { line, .. } => Some(*line),
+            | ParseError::HeaderAfterTable { line, .. }
+            | ParseError::NotText { line } => Some(*line),
             ParseError::Invalid { line, .. } => *line,
             ParseError::MissingKey { .. } | ParseError::Io { .. } => None,
         }
@@ -101,19 +108,33 @@ impl ParseError {
 }
 
 impl LensPrescription {
-    /// Parses a lens file's text and validates it.
+    /// Parses a lens file's text (the format is documented on the `lens`
+    /// module) and validates it.
     pub fn parse(text: &str) -> Result<Self, ParseError> {
         parse_lens_file(text)
+    }
+
+    /// [`Self::parse`] for the raw bytes of a file, as an asset loader gets
+    /// them: bytes that are not UTF-8 are [`ParseError::NotText`], naming
+    /// the line they are on.
+    pub fn parse_bytes(bytes: &[u8]) -> Result<Self, ParseError> {
+        match std::str::from_utf8(bytes) {
+            Ok(text) => Self::parse(text),
+            Err(e) => {
+                let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
+                Err(ParseError::NotText { line })
+            }
+        }
     }
 
     /// Reads and parses the lens file at `path`.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, ParseError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| ParseError::Io { path: path.to_owned(), source })?;
-        Self::parse(&text)
+        let bytes = std::fs::read(path).map_err(|source| ParseError::Io { path: path.to_owned(), source })?;
+        Self::parse_bytes(&bytes)
     }
 
-    /// The prescription as a lens file (see the module docs for the format).
+    /// The prescription as a lens file (the format of [`Self::parse`]).
     pub fn to_lens_file(&self) -> String {
         let mut out = String::new();
         out.push_str("# optica lens file: radius thickness medium semi_aperture [coating]; thickness and medium follow the surface\n");
@@ -572,6 +593,41 @@ stop   2.0   air          5.0
             "{e}"
         );
         assert!(e.to_string().starts_with("line 8: surface 1: refractive index"), "{e}");
+    }
+
+    #[test]
+    fn bytes_that_are_not_text_name_their_line() {
+        let mut bytes = SMALL.as_bytes().to_vec();
+        assert_eq!(LensPrescription::parse_bytes(&bytes).unwrap(), LensPrescription::parse(SMALL).unwrap());
+        // A byte 0xFF (never UTF-8) in the middle of line 8.
+        let at = SMALL.lines().take(7).map(|l| l.len() + 1).sum::<usize>() + 3;
+        bytes[at] = 0xFF;
+        let e = LensPrescription::parse_bytes(&bytes).unwrap_err();
+        assert!(matches!(e, ParseError::NotText { line: 8 }), "{e}");
+        assert_eq!(e.to_string(), "line 8: not UTF-8 text");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(512))]
+        /// Random bytes, and the test lens with random lines spliced in,
+        /// give a lens or an error naming a line or a missing key, never a
+        /// panic.
+        #[test]
+        fn random_input_is_a_lens_or_a_typed_error(
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..400),
+            junk in "[ -~]{0,60}",
+            at in 0usize..12,
+        ) {
+            let located = |e: &ParseError| e.line().is_some() || matches!(e, ParseError::MissingKey { .. } | ParseError::Invalid { .. });
+            if let Err(e) = LensPrescription::parse_bytes(&bytes) {
+                proptest::prop_assert!(located(&e), "{e:?}");
+            }
+            let mut lines: Vec<&str> = SMALL.lines().collect();
+            lines.insert(at.min(lines.len()), &junk);
+            if let Err(e) = LensPrescription::parse(&lines.join("\n")) {
+                proptest::prop_assert!(located(&e), "{e:?}");
+            }
+        }
     }
 
     #[test]

@@ -13,8 +13,8 @@ use crate::input;
 use crate::lens::{LensPrescription, PreparedLens, TracePath, ghosts};
 
 /// Default `k` of a `k × k`-cell estimate: the grid the blog finds the best
-/// value for its cost when drawing ghosts (*Grid resolution*: "about 16×16
-/// is the best value for the cost"). At this size the estimate of a ghost's
+/// value for its cost when drawing ghosts (*On the number of grid
+/// divisions*: "about 16×16 is the best value for the cost"). At this size the estimate of a ghost's
 /// power is within 10 % of a 300²-ray reference (test
 /// `estimate_power_matches_the_reference`).
 pub const DEFAULT_ESTIMATE_SIDE: usize = 16;

@@ -40,6 +40,12 @@ pub struct ReferenceImage {
     pub power: f64,
 }
 
+/// Rows of a reference are traced in this many blocks, in parallel: enough
+/// to keep 16 cores busy, and few enough that the blocks' partial images
+/// (one per block, added in order so that the result is deterministic) stay
+/// small next to the rays traced.
+const ROW_BLOCKS: usize = 16;
+
 /// The generator of row `row` of a reference seeded with `seed`: SplitMix64
 /// (Steele, Lea and Flood, "Fast splittable pseudorandom number generators",
 /// OOPSLA 2014), a small, well-mixed generator, enough for jitter. Each row
@@ -58,7 +64,8 @@ fn row_rng(seed: u64, row: usize) -> SplitMix64 {
 /// The brute-force image of `path` for `beam`: `rays_per_side²` (1 to
 /// [`MAX_REFERENCE_SIDE`] per side) jittered rays, clipped by `r_rel <= 1`
 /// and `aperture`, binned over `window`. `options.sensor_z` places the
-/// sensor (`max_gain` is checked but unused here).
+/// sensor (`max_gain` is checked but unused here). The same arguments give
+/// the same image bit for bit, whatever the number of threads.
 #[allow(clippy::too_many_arguments)]
 pub fn reference_image(
     lens: &PreparedLens,
@@ -75,11 +82,15 @@ pub fn reference_image(
     let w = beam.cross_section_mm2() / (k * k) as f64;
     let npix = window.width() * window.height();
     let inv = 1.0 / k as f64;
-    let (power, passed, total) = (0..k)
+    // Rows go in ROW_BLOCKS contiguous blocks, each summed in row order and
+    // the blocks then added in block order: the floating-point sums, and so
+    // the image, do not depend on how rayon schedules the work.
+    let blocks = ROW_BLOCKS.min(k);
+    let per_block: Vec<(Vec<f64>, usize, f64)> = (0..blocks)
         .into_par_iter()
-        .fold(
-            || (vec![0.0; npix], 0usize, 0.0f64),
-            |(mut img, mut passed, mut total), j| {
+        .map(|b| {
+            let (mut img, mut passed, mut total) = (vec![0.0; npix], 0usize, 0.0f64);
+            for j in b * k / blocks..(b + 1) * k / blocks {
                 let mut rng = row_rng(seed, j);
                 for i in 0..k {
                     let u = (i as f64 + rng.random::<f64>()) * inv;
@@ -94,18 +105,18 @@ pub fn reference_image(
                         img[iy * window.width() + ix] += w * r.throughput;
                     }
                 }
-                (img, passed, total)
-            },
-        )
-        .reduce(
-            || (vec![0.0; npix], 0usize, 0.0f64),
-            |(mut a, pa, ta), (b, pb, tb)| {
-                for (x, y) in a.iter_mut().zip(&b) {
-                    *x += y;
-                }
-                (a, pa + pb, ta + tb)
-            },
-        );
+            }
+            (img, passed, total)
+        })
+        .collect();
+    let (mut power, mut passed, mut total) = (vec![0.0; npix], 0usize, 0.0f64);
+    for (img, p, t) in per_block {
+        for (x, y) in power.iter_mut().zip(&img) {
+            *x += y;
+        }
+        passed += p;
+        total += t;
+    }
     Ok(ReferenceImage { image: SensorImage::from_power(window, power), rays: k * k, passed, power: total })
 }
 

@@ -1,12 +1,20 @@
 //! Sequential lens systems: prescriptions as patent tables give them, the
 //! lens file format, paraxial optics and real-ray tracing of the primary path
-//! and of two-reflection ghost paths (Hullin et al. 2011, blog
-//! `hullin-lens-flare-blog.txt`).
+//! and of the two-reflection ghost paths that lens flare is made of.
+//!
+//! The method is that of Hullin, Eisemann, Seidel and Lee, "Physically-Based
+//! Real-Time Lens Flare Rendering", *ACM Transactions on Graphics* 30(4)
+//! (SIGGRAPH 2011), article 108, as explained in the web article by
+//! AngularSpectrumMTD, "Physically-Based Real-Time Lens Flare Rendering
+//! (Matthias B. Hullin et al., Max Planck Institute for Informatics, ACM,
+//! 2011)", Qiita, 25 August 2021 (in Japanese),
+//! <https://qiita.com/AngularSpectrumMTD/items/aeea1046c0ec5d4dd1d5> — "the
+//! blog" below. The blog numbers no equations, so it is cited by its section
+//! headings, translated ("the blog's *Ray-bundle tracing*").
 //!
 //! ```
-//! use optica_optics::lens::{self, TracePath};
+//! use optica_optics::lens::{self, Ray, TracePath};
 //! use optica_optics::glass::LAMBDA_D_NM;
-//! use optica_optics::ray::Ray;
 //! use optica_optics::glam::DVec3;
 //!
 //! let tessar = lens::builtin::tessar();
@@ -20,30 +28,135 @@
 //! assert!(hit.throughput < 0.01);
 //! ```
 //!
-//! | file | what |
-//! |---|---|
-//! | [`prescription`] | [`LensPrescription`], [`LensSurface`], validation |
-//! | [`parse`] | the `.lens` text format: parse, write, load |
-//! | [`paraxial`] | y–nu trace, ABCD, EFL/BFL, image plane, entrance pupil |
-//! | [`mod@trace`] | real rays: primary and ghost paths, r_rel, stop position, Fresnel throughput |
-//! | [`builtin`] | the lenses shipped in `assets/lenses/` |
+//! # Conventions
+//!
+//! Lengths are in mm, wavelengths in nm. The optical axis is +z, from object
+//! to image; the first vertex is at z = 0 and light travels towards +z.
+//! Surfaces store their curvature `c = 1/R`, so a flat surface is exactly
+//! `c = 0`. Surface `k` is followed by its thickness and medium, as in a
+//! patent table; the medium in front of surface 0 is air. A
+//! [`LensPrescription`] is checked once, when it is built or parsed, and
+//! cannot be changed into an invalid one; [`PreparedLens`] evaluates its
+//! indices at one wavelength for tracing many rays.
+//!
+//! # The lens file
+//!
+//! A human-readable prescription, one file per lens
+//! ([`LensPrescription::parse`], [`LensPrescription::parse_bytes`] for an
+//! asset loader's bytes, [`LensPrescription::load`]):
+//!
+//! ```text
+//! # comments start with `#`, anywhere on a line
+//! name = Brendel Tessar
+//! source = US 2,854,889 (Brendel), example table
+//! focal_length = 100        # optional, mm
+//! f_number = 2.8            # optional
+//! units = mm                # optional; only mm
+//!
+//! # radius  thickness  medium       semi_aperture  [coating]
+//!   42.97     9.80     1.6910/54.8  19.2
+//!   stop      4.00     air          15.0
+//!   inf       1.87     N-BK7        17.3           qw:1.38@550
+//! ```
+//!
+//! Each row is one surface with the thickness and medium that FOLLOW it (the
+//! patent-table convention). Fields:
+//! - `radius`: mm, `inf` (flat), or `stop` (the flat aperture stop);
+//! - `thickness`: mm, >= 0;
+//! - `medium`: `air`, a name [`Glass::catalog`] knows (`N-BK7`, `crown`,
+//!   `CR-39`, `index-1.67`, ...), `nd/vd` like `1.6910/54.8`
+//!   ([`Glass::Abbe`]), `n/inf` or a bare number like `1.5` for a constant
+//!   index (no dispersion), or `sellmeier:B1,B2,B3,C1,C2,C3` (C in µm², all
+//!   six finite and >= 0). A bare number is *always* a constant index —
+//!   `1.67` and `1.670` alike; the dispersive spectacle material of index
+//!   1.67 is `index-1.67` (or `1.67/32`). The glass must have an index in
+//!   [1, 3] over 380–780 nm, not only at the d line (see
+//!   [`PrescriptionError::IndexOverVisible`]);
+//! - `semi_aperture`: clear radius in mm, > 0;
+//! - `coating` (optional): `none`, `index/thickness_nm` like `1.38/99.6`, or
+//!   `qw:index@wavelength_nm` for a quarter-wave layer.
+//!
+//! Every error names its line and, for a bad value, its field
+//! ([`ParseError::line`], [`ParseError::Field`]); a table that parses but is
+//! not a valid lens names the row of the surface at fault.
+//! [`LensPrescription::to_lens_file`] writes the same format with every
+//! number in the shortest form that reads back to the same `f64`, so a
+//! written file parses to an equal prescription (catalog names come back as
+//! their Sellmeier or Abbe data, which is the same glass).
+//!
+//! # Real-ray tracing and ghost paths
+//!
+//! A ghost path `(i, j)`, `i > j`, runs forward through surfaces `0..i`,
+//! reflects at `i`, runs backward through `i-1 .. j+1`, reflects at `j`, then
+//! forward through `j+1 ..` to the sensor. Only even numbers of reflections
+//! reach the sensor, and those of more than two are too faint to draw, so
+//! `n` Fresnel interfaces give `n(n−1)/2` ghosts ([`ghosts`]; the blog's
+//! *Ghost enumeration*: "there are n(n−1)/2 ghosts"); the stop reflects
+//! nothing and is not one. The sequence of surfaces is known, so no
+//! acceleration structure is needed (the blog's *Ray-bundle tracing*).
+//! Along the way:
+//! - every hit updates `r_rel = max(r_rel, r / semi_aperture)` (the blog's
+//!   `r_rel(new) = max(r_rel(old), r / r_surface)`); rays outside a
+//!   semi-aperture keep going on the continued sphere so that a ray grid
+//!   stays continuous — clipping is per pixel, later, on `r_rel > 1`;
+//! - a ray that misses a sphere (no real intersection on the cap through the
+//!   vertex) or meets total internal reflection where it must refract stops
+//!   with a typed [`TraceError`] naming the surface;
+//! - the throughput is the product of `T = 1 − R` at every refraction and `R`
+//!   at the two reflections, unpolarised Fresnel (the blog's *Reflection and
+//!   transmission of light (the Fresnel equations)*, cosine form) or the
+//!   surface's single-layer coating ([`Coating`]), at the trace wavelength;
+//! - the stop records where the ray crosses its plane, at every crossing.
+//!
+//! **Polarisation (the blog's approximation).** Each factor above is already
+//! averaged over s and p (`R = (R_s + R_p)/2`), and the averages are
+//! multiplied. Unpolarised light is an equal mix of s and p; for a meridional
+//! ray every surface has the same plane of incidence, so s stays s and p
+//! stays p, and the exact unpolarised throughput is the *mean of the
+//! products*, `½(∏ T_s·R_s… + ∏ T_p·R_p…)`, not the product of the means
+//! (for skew rays the planes of incidence turn and the exact value needs
+//! Jones matrices). The two agree at normal incidence and differ off it: at
+//! 30° on n = 1.5 (R_s = 5.78 %, R_p = 2.52 %) the two reflections of a
+//! ghost give `R̄² = 1.72e-3` against `½(R_s² + R_p²) = 1.99e-3` (13 % low),
+//! and a slab ghost with its two transmissions 1.58e-3 against 1.79e-3. We
+//! keep the blog's product of means, so a ghost reflecting at such angles is
+//! drawn about that much too dim.
+//!
+//! **Stop crossings.** A ghost `(i, j)` with `j < stop < i` crosses the stop
+//! plane three times (forward, backward between the reflections, forward
+//! again); any other path once. [`TraceResult::stop_xy_all`] records every
+//! crossing, so an aperture shape (blades) can be tested at each one;
+//! `r_rel` tests the stop's round semi-aperture at each crossing as at every
+//! surface.
+//!
+//! # Shipped lenses
+//!
+//! [`builtin`] holds three expired patents' example tables, compiled in from
+//! the crate's `lenses/` folder ([`LENS_FILES`]): Brendel's Tessar
+//! (US 2,854,889), Angenieux's double Gauss (US 2,701,982) and Tronnier's
+//! Heliar (US 2,645,156).
 
-pub mod paraxial;
-pub mod parse;
-pub mod prescription;
-pub mod trace;
+mod paraxial;
+mod parse;
+mod prescription;
+mod trace;
 
 pub use paraxial::{Abcd, ParaxialError, ParaxialProperties, ParaxialRay};
 pub use parse::ParseError;
-pub use prescription::{LensPrescription, LensSurface, PrescriptionError};
+pub use prescription::{INDEX_RANGE, LensPrescription, LensSurface, MAX_SURFACES, PrescriptionError};
 pub use trace::{
     MAX_STOP_CROSSINGS, Pass, PreparedLens, TraceError, TracePath, TraceResult, ghosts, trace, trace_to,
 };
 
-/// The lens files shipped in `assets/lenses/`, compiled in: `(file name, text)`.
-///
-/// They live in the workspace's `assets/` so that examples and users read the
-/// same files; compiling them in keeps the built-ins available without a path.
+// The types this module's signatures use, so that `lens::*` is enough to call it.
+pub use crate::fresnel::Coating;
+pub use crate::glass::Glass;
+pub use crate::input::InvalidInput;
+pub use crate::ray::Ray;
+
+/// The lens files shipped in the crate's `lenses/` folder, compiled in:
+/// `(file name, text)`. [`builtin`] parses them; a plugin can write them out
+/// as assets, or parse them itself.
 pub const LENS_FILES: &[(&str, &str)] = &[
     ("tessar-us2854889.lens", include_str!("../../lenses/tessar-us2854889.lens")),
     ("double-gauss-us2701982.lens", include_str!("../../lenses/double-gauss-us2701982.lens")),
@@ -77,7 +190,8 @@ pub mod builtin {
 
     /// Tronnier Heliar (Color-Heliar), US 2,645,156 Example 1 scaled to
     /// f = 100 mm, f/3.5, 8 interfaces with one plano glass surface (28 ghosts).
-    /// Semi-apertures are ours (the patent gives none); see the file.
+    /// The patent gives no clear apertures: the semi-apertures are chosen for
+    /// f/3.5 and a 20° field (the file says how).
     pub fn heliar() -> LensPrescription {
         shipped(2)
     }
@@ -99,51 +213,55 @@ mod tests {
             let number = name.0.rsplit_once("-us").unwrap().1.trim_end_matches(".lens");
             // "2854889" must appear as "2,854,889" in the source citation.
             let cited = format!("{},{},{}", &number[..1], &number[1..4], &number[4..]);
-            assert!(p.source.contains(&cited), "{}: source `{}` does not cite {cited}", name.0, p.source);
-            assert!(p.design_focal_length_mm == Some(100.0));
+            assert!(p.source().contains(&cited), "{}: source `{}` does not cite {cited}", name.0, p.source());
+            assert_eq!(p.design_focal_length_mm(), Some(100.0));
+            // The file's comment header cites the same patent.
+            assert!(name.1.lines().take_while(|l| l.starts_with('#')).any(|l| l.contains(&cited)), "{}", name.0);
         }
     }
 
     #[test]
     fn tessar_table_is_entered_exactly() {
-        // REFERENCE.md, US 2,854,889: first and last rows.
+        // US 2,854,889's example table: first and last rows.
         let p = builtin::tessar();
-        assert_eq!(p.surfaces.len(), 8);
-        assert_eq!(p.surfaces[0].curvature, 1.0 / 42.97);
-        assert_eq!(p.surfaces[0].thickness_after_mm, 9.80);
-        assert_eq!(p.surfaces[3].semi_aperture_mm, 15.0);
-        assert!(p.surfaces[3].is_stop);
-        assert_eq!(p.surfaces[7].curvature, 1.0 / -48.91);
-        assert_eq!(p.surfaces[7].thickness_after_mm, 79.831);
+        let s = p.surfaces();
+        assert_eq!(s.len(), 8);
+        assert_eq!(s[0].curvature, 1.0 / 42.97);
+        assert_eq!(s[0].thickness_after_mm, 9.80);
+        assert_eq!(s[3].semi_aperture_mm, 15.0);
+        assert!(s[3].is_stop && p.stop_index() == 3);
+        assert_eq!(s[7].curvature, 1.0 / -48.91);
+        assert_eq!(s[7].thickness_after_mm, 79.831);
         let d = builtin::double_gauss();
-        assert_eq!(d.surfaces.len(), 15);
-        assert_eq!(d.surfaces[14].thickness_after_mm, 55.742);
+        assert_eq!(d.surfaces().len(), 15);
+        assert_eq!(d.surfaces()[14].thickness_after_mm, 55.742);
     }
 
-    /// One row of a REFERENCE.md table: R (`None` = the stop), t, n_d/V_d
+    /// One row of a patent's table: R (`None` = the stop), t, n_d/V_d
     /// (`None` = air), semi-aperture, all in mm.
     type Row = (Option<f64>, f64, Option<(f64, f64)>, f64);
 
     fn assert_table(p: &LensPrescription, rows: &[Row]) {
-        assert_eq!(p.surfaces.len(), rows.len(), "{}", p.name);
-        for (k, (s, &(r, t, glass, semi))) in p.surfaces.iter().zip(rows).enumerate() {
+        let name = p.name();
+        assert_eq!(p.surfaces().len(), rows.len(), "{name}");
+        for (k, (s, &(r, t, glass, semi))) in p.surfaces().iter().zip(rows).enumerate() {
             match r {
-                None => assert!(s.is_stop && s.curvature == 0.0, "{} row {k}: the stop", p.name),
-                Some(r) => assert!(!s.is_stop && s.curvature == 1.0 / r, "{} row {k}: R {} vs {r}", p.name, s.radius_mm()),
+                None => assert!(s.is_stop && s.curvature == 0.0, "{name} row {k}: the stop"),
+                Some(r) => assert!(!s.is_stop && s.curvature == 1.0 / r, "{name} row {k}: R {} vs {r}", s.radius_mm()),
             }
-            assert_eq!(s.thickness_after_mm, t, "{} row {k}: thickness", p.name);
+            assert_eq!(s.thickness_after_mm, t, "{name} row {k}: thickness");
             let want = glass.map_or(Glass::Air, |(nd, vd)| Glass::Abbe { nd, vd });
-            assert_eq!(s.glass_after, want, "{} row {k}: medium", p.name);
-            assert_eq!(s.semi_aperture_mm, semi, "{} row {k}: semi-aperture", p.name);
+            assert_eq!(s.glass_after, want, "{name} row {k}: medium");
+            assert_eq!(s.semi_aperture_mm, semi, "{name} row {k}: semi-aperture");
             assert_eq!(s.coating, None);
         }
     }
 
     #[test]
-    fn shipped_tables_equal_the_reference_tables() {
-        // Copied from /work/shared/REFERENCE.md ("Lens flare", "Lens
-        // prescriptions"): R, t, n_d, V_d, semi-aperture (mm) per row.
-        // Brendel Tessar, US 2,854,889:
+    fn shipped_tables_equal_the_patent_tables() {
+        // The patents' example tables, entered here a second time,
+        // independently of the files: R, t, n_d, V_d, semi-aperture (mm)
+        // per row. Brendel Tessar, US 2,854,889:
         let tessar: [Row; 8] = [
             (Some(42.97), 9.80, Some((1.6910, 54.8)), 19.2),
             (Some(-115.33), 2.10, Some((1.5486, 45.4)), 19.2),

@@ -1,40 +1,4 @@
-//! The lens file: a human-readable prescription, one file per lens.
-//!
-//! ```text
-//! # comments start with `#`, anywhere on a line
-//! name = Brendel Tessar
-//! source = US 2,854,889 (Brendel), example table
-//! focal_length = 100        # optional, mm
-//! f_number = 2.8            # optional
-//! units = mm                # optional; only mm
-//!
-//! # radius  thickness  medium       semi_aperture  [coating]
-//!   42.97     9.80     1.6910/54.8  19.2
-//!   stop      4.00     air          15.0
-//!   inf       1.87     N-BK7        17.3           qw:1.38@550
-//! ```
-//!
-//! Each row is one surface with the thickness and medium that FOLLOW it (the
-//! patent-table convention). Fields:
-//! - `radius`: mm, `inf` (flat), or `stop` (the flat aperture stop);
-//! - `thickness`: mm, >= 0;
-//! - `medium`: `air`, a name [`Glass::catalog`] knows (`N-BK7`, `crown`,
-//!   `CR-39`, `index-1.67`, ...), `nd/vd` like `1.6910/54.8`
-//!   ([`Glass::Abbe`]), `n/inf` or a bare number like `1.5` for a constant
-//!   index (no dispersion), or `sellmeier:B1,B2,B3,C1,C2,C3` (C in µm², all
-//!   six finite and >= 0). A bare number is *always* a constant index —
-//!   `1.67` and `1.670` alike; the dispersive spectacle material of index
-//!   1.67 is `index-1.67` (or `1.67/32`). The glass must have an index in
-//!   [1, 3] over 380–780 nm, not only at the d line (see
-//!   [`PrescriptionError::IndexOverVisible`]);
-//! - `semi_aperture`: clear radius in mm, > 0;
-//! - `coating` (optional): `none`, `index/thickness_nm` like `1.38/99.6`, or
-//!   `qw:index@wavelength_nm` for a quarter-wave layer.
-//!
-//! [`LensPrescription::to_lens_file`] writes the same format with every number
-//! in the shortest form that reads back to the same `f64`, so a written file
-//! parses to an equal prescription (catalog names come back as their
-//! Sellmeier or Abbe data, which is the same glass).
+//! The lens file format (documented on the `lens` module): parse, write, load.
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
@@ -111,6 +75,12 @@ pub enum ParseError {
         /// What is wrong.
         source: PrescriptionError,
     },
+    /// The bytes are not UTF-8 text (a binary or corrupted file).
+    #[error("line {line}: not UTF-8 text")]
+    NotText {
+        /// 1-based line of the first byte that is not UTF-8.
+        line: usize,
+    },
     /// The file could not be read.
     #[error("reading {}: {source}", path.display())]
     Io {
@@ -129,7 +99,8 @@ impl ParseError {
             | ParseError::FieldCount { line, .. }
             | ParseError::UnknownKey { line, .. }
             | ParseError::DuplicateKey { line, .. }
-            | ParseError::HeaderAfterTable { line, .. } => Some(*line),
+            | ParseError::HeaderAfterTable { line, .. }
+            | ParseError::NotText { line } => Some(*line),
             ParseError::Invalid { line, .. } => *line,
             ParseError::MissingKey { .. } | ParseError::Io { .. } => None,
         }
@@ -137,34 +108,48 @@ impl ParseError {
 }
 
 impl LensPrescription {
-    /// Parses a lens file's text and validates it.
+    /// Parses a lens file's text (the format is documented on the `lens`
+    /// module) and validates it.
     pub fn parse(text: &str) -> Result<Self, ParseError> {
         parse_lens_file(text)
+    }
+
+    /// [`Self::parse`] for the raw bytes of a file, as an asset loader gets
+    /// them: bytes that are not UTF-8 are [`ParseError::NotText`], naming
+    /// the line they are on.
+    pub fn parse_bytes(bytes: &[u8]) -> Result<Self, ParseError> {
+        match std::str::from_utf8(bytes) {
+            Ok(text) => Self::parse(text),
+            Err(e) => {
+                let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
+                Err(ParseError::NotText { line })
+            }
+        }
     }
 
     /// Reads and parses the lens file at `path`.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, ParseError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| ParseError::Io { path: path.to_owned(), source })?;
-        Self::parse(&text)
+        let bytes = std::fs::read(path).map_err(|source| ParseError::Io { path: path.to_owned(), source })?;
+        Self::parse_bytes(&bytes)
     }
 
-    /// The prescription as a lens file (see the module docs for the format).
+    /// The prescription as a lens file (the format of [`Self::parse`]).
     pub fn to_lens_file(&self) -> String {
         let mut out = String::new();
         out.push_str("# optica lens file: radius thickness medium semi_aperture [coating]; thickness and medium follow the surface\n");
-        out.push_str(&format!("name = {}\n", self.name.trim()));
-        if !self.source.trim().is_empty() {
-            out.push_str(&format!("source = {}\n", self.source.trim()));
+        out.push_str(&format!("name = {}\n", self.name().trim()));
+        if !self.source().trim().is_empty() {
+            out.push_str(&format!("source = {}\n", self.source().trim()));
         }
-        if let Some(f) = self.design_focal_length_mm {
+        if let Some(f) = self.design_focal_length_mm() {
             out.push_str(&format!("focal_length = {f}\n"));
         }
-        if let Some(n) = self.design_f_number {
+        if let Some(n) = self.design_f_number() {
             out.push_str(&format!("f_number = {n}\n"));
         }
         out.push_str("units = mm\n\n");
-        for s in &self.surfaces {
+        for s in self.surfaces() {
             // Radii are written as 1/c: for a finite c this round-trips c
             // exactly only if 1/(1/c) == c, so when it does not, the file
             // holds the radius that does (checked below).
@@ -198,13 +183,18 @@ impl FromStr for LensPrescription {
     }
 }
 
+/// How many one-ulp steps [`radius_text`] tries around `1/c`. Correctly
+/// rounded division makes `1/(1/c)` miss `c` by at most an ulp or two, so a
+/// radius within a few ulps of `1/c` gives `c` back when any does.
+const RADIUS_ULP_STEPS: usize = 4;
+
 /// A radius whose reciprocal gives back `c` exactly, if a nearby one does.
 fn radius_text(c: f64) -> String {
     let r = 1.0 / c;
     // 1/(1/c) can miss c by an ulp; a neighbour of r usually hits it. 1/r
     // falls as r rises (either sign), so step r up when 1/r is too large.
     let mut candidate = r;
-    for _ in 0..4 {
+    for _ in 0..RADIUS_ULP_STEPS {
         let back = 1.0 / candidate;
         if back == c {
             return format!("{candidate}");
@@ -257,18 +247,9 @@ fn parse_lens_file(text: &str) -> Result<LensPrescription, ParseError> {
         rows.push(line);
     }
     let name = header.name.ok_or(ParseError::MissingKey { key: "name" })?;
-    let p = LensPrescription {
-        name,
-        source: header.source.unwrap_or_default(),
-        surfaces,
-        design_focal_length_mm: header.focal_length,
-        design_f_number: header.f_number,
-    };
-    p.validate().map_err(|source| ParseError::Invalid {
-        line: source.surface().and_then(|k| rows.get(k).copied()),
-        source,
-    })?;
-    Ok(p)
+    LensPrescription::new(name, header.source.unwrap_or_default(), surfaces)
+        .and_then(|p| p.with_design(header.focal_length, header.f_number))
+        .map_err(|source| ParseError::Invalid { line: source.surface().and_then(|k| rows.get(k).copied()), source })
 }
 
 fn header_line(h: &mut Header, line: usize, key: &str, value: &str) -> Result<(), ParseError> {
@@ -468,31 +449,39 @@ stop   2.0   air          5.0
     #[test]
     fn parses_header_and_rows() {
         let p = LensPrescription::parse(SMALL).unwrap();
-        assert_eq!(p.name, "Test singlet");
-        assert_eq!(p.source, "made up for the tests");
-        assert_eq!(p.design_focal_length_mm, Some(100.0));
-        assert_eq!(p.design_f_number, Some(4.0));
-        assert_eq!(p.surfaces.len(), 3);
-        assert!(p.surfaces[0].is_stop);
-        assert_eq!(p.surfaces[1].curvature, 1.0 / 50.0);
-        assert_eq!(p.surfaces[1].glass_after, Glass::Abbe { nd: 1.5168, vd: 64.17 });
-        assert_eq!(p.surfaces[2].thickness_after_mm, 45.0);
+        assert_eq!(p.name(), "Test singlet");
+        assert_eq!(p.source(), "made up for the tests");
+        assert_eq!(p.design_focal_length_mm(), Some(100.0));
+        assert_eq!(p.design_f_number(), Some(4.0));
+        assert_eq!(p.surfaces().len(), 3);
+        assert!(p.surfaces()[0].is_stop);
+        assert_eq!(p.surfaces()[1].curvature, 1.0 / 50.0);
+        assert_eq!(p.surfaces()[1].glass_after, Glass::Abbe { nd: 1.5168, vd: 64.17 });
+        assert_eq!(p.surfaces()[2].thickness_after_mm, 45.0);
         let q: LensPrescription = SMALL.parse().unwrap();
         assert_eq!(p, q);
     }
 
     #[test]
     fn round_trip_write_then_parse() {
-        let mut p = LensPrescription::parse(SMALL).unwrap();
         // Exercise every medium and coating form, and an awkward curvature.
-        p.surfaces[1].coating = Some(Coating::quarter_wave(1.38, 550.0));
-        p.surfaces[1].curvature = 1.0 / 37.3;
-        p.surfaces[2].glass_after = Glass::Constant(1.0003);
-        p.surfaces.insert(
-            2,
-            LensSurface::new(f64::INFINITY, 1.0, Glass::Sellmeier { b: [1.03961212, 0.231792344, 1.01046945], c: [0.00600069867, 0.0200179144, 103.560653] }, 10.0),
-        );
-        p.validate().unwrap();
+        let p = LensPrescription::parse(SMALL)
+            .unwrap()
+            .edited(|s| {
+                s[1].coating = Some(Coating::quarter_wave(1.38, 550.0));
+                s[1].curvature = 1.0 / 37.3;
+                s[2].glass_after = Glass::Constant(1.0003);
+                s.insert(
+                    2,
+                    LensSurface::new(
+                        f64::INFINITY,
+                        1.0,
+                        Glass::Sellmeier { b: [1.03961212, 0.231792344, 1.01046945], c: [0.00600069867, 0.0200179144, 103.560653] },
+                        10.0,
+                    ),
+                );
+            })
+            .unwrap();
         let text = p.to_lens_file();
         let q = LensPrescription::parse(&text).unwrap_or_else(|e| panic!("{e}\n{text}"));
         assert_eq!(p, q, "{text}");
@@ -554,7 +543,12 @@ stop   2.0   air          5.0
         );
         assert!(e.to_string().starts_with("line 8: surface 1: |R| = 5 mm"), "{e}");
         let e = err(&with_line(8, "50 4.0 3.2 10"));
-        assert!(matches!(e, ParseError::Invalid { line: Some(8), source: PrescriptionError::Index { .. } }), "{e}");
+        assert!(
+            matches!(&e, ParseError::Invalid { line: Some(8), source: PrescriptionError::Surface { surface: 1, input } }
+                if input.what == "refractive index after the surface at the d line" && input.value == 3.2),
+            "{e}"
+        );
+        assert_eq!(e.line(), Some(8));
         let e = err(&with_line(7, "stop 2.0 1.5 5.0"));
         assert!(matches!(e, ParseError::Invalid { line: Some(7), source: PrescriptionError::StopChangesMedium { .. } }));
         let e = err("name = empty\n");
@@ -577,7 +571,7 @@ stop   2.0   air          5.0
             ("n-bk7", Glass::n_bk7()),
         ] {
             let p = LensPrescription::parse(&with_line(8, &format!("50 4.0 {text} 10"))).unwrap();
-            assert_eq!(p.surfaces[1].glass_after, want, "{text}");
+            assert_eq!(p.surfaces()[1].glass_after, want, "{text}");
         }
         // Numbers Rust parses but the format does not take are errors, not lookups.
         for text in ["inf", "NaN", "0.9"] {
@@ -602,6 +596,41 @@ stop   2.0   air          5.0
     }
 
     #[test]
+    fn bytes_that_are_not_text_name_their_line() {
+        let mut bytes = SMALL.as_bytes().to_vec();
+        assert_eq!(LensPrescription::parse_bytes(&bytes).unwrap(), LensPrescription::parse(SMALL).unwrap());
+        // A byte 0xFF (never UTF-8) in the middle of line 8.
+        let at = SMALL.lines().take(7).map(|l| l.len() + 1).sum::<usize>() + 3;
+        bytes[at] = 0xFF;
+        let e = LensPrescription::parse_bytes(&bytes).unwrap_err();
+        assert!(matches!(e, ParseError::NotText { line: 8 }), "{e}");
+        assert_eq!(e.to_string(), "line 8: not UTF-8 text");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(512))]
+        /// Random bytes, and the test lens with random lines spliced in,
+        /// give a lens or an error naming a line or a missing key, never a
+        /// panic.
+        #[test]
+        fn random_input_is_a_lens_or_a_typed_error(
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..400),
+            junk in "[ -~]{0,60}",
+            at in 0usize..12,
+        ) {
+            let located = |e: &ParseError| e.line().is_some() || matches!(e, ParseError::MissingKey { .. } | ParseError::Invalid { .. });
+            if let Err(e) = LensPrescription::parse_bytes(&bytes) {
+                proptest::prop_assert!(located(&e), "{e:?}");
+            }
+            let mut lines: Vec<&str> = SMALL.lines().collect();
+            lines.insert(at.min(lines.len()), &junk);
+            if let Err(e) = LensPrescription::parse(&lines.join("\n")) {
+                proptest::prop_assert!(located(&e), "{e:?}");
+            }
+        }
+    }
+
+    #[test]
     fn load_reports_missing_file() {
         let e = LensPrescription::load("/nonexistent/optica/lens.lens").unwrap_err();
         assert!(matches!(e, ParseError::Io { .. }));
@@ -612,6 +641,6 @@ stop   2.0   air          5.0
     fn load_reads_a_shipped_file() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("lenses/tessar-us2854889.lens");
         let p = LensPrescription::load(path).unwrap();
-        assert_eq!(p.surfaces.len(), 8);
+        assert_eq!(p.surfaces().len(), 8);
     }
 }

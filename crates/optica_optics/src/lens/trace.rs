@@ -1,54 +1,15 @@
 //! Real-ray (exact, sequential) tracing through a prescription: the primary
-//! path and two-reflection ghost paths, as in Hullin et al. 2011 (blog:
-//! "光束追跡" and "ゴーストの列挙").
-//!
-//! A ghost path `(i, j)`, `i > j`, runs forward through surfaces `0..i`,
-//! reflects at `i`, runs backward through `i-1 .. j+1`, reflects at `j`, then
-//! forward through `j+1 ..` to the sensor. Along the way:
-//! - every hit updates `r_rel = max(r_rel, r / semi_aperture)` (blog:
-//!   `r_rel(new) = max(r_rel(old), r / r_surface)`); rays outside a
-//!   semi-aperture keep going so the ray grid stays continuous — clipping is
-//!   per pixel, later, on `r_rel > 1`;
-//! - a ray that misses a sphere (no real intersection on the cap through the
-//!   vertex) or meets total internal reflection where it must refract stops
-//!   with a typed [`TraceError`] naming the surface;
-//! - the throughput is the product of `T = 1 − R` at every refraction and `R`
-//!   at the two reflections, unpolarised Fresnel (blog: フレネルの式, cos
-//!   form) or the surface's single-layer coating, at the trace wavelength;
-//! - the stop records where the ray crosses its plane, at every crossing.
-//!
-//! **Polarisation (the blog's approximation).** Each factor above is already
-//! averaged over s and p (`R = (R_s + R_p)/2`), and the averages are
-//! multiplied. Unpolarised light is an equal mix of s and p; for a meridional
-//! ray every surface has the same plane of incidence, so s stays s and p
-//! stays p, and the exact unpolarised throughput is the *mean of the
-//! products*, `½(∏ T_s·R_s… + ∏ T_p·R_p…)`, not the product of the means
-//! (for skew rays the planes of incidence turn and the exact value needs
-//! Jones matrices). The two agree at normal incidence and differ off it: at
-//! 30° on n = 1.5 (R_s = 5.78 %, R_p = 2.52 %) the two reflections of a
-//! ghost give `R̄² = 1.72e-3` against `½(R_s² + R_p²) = 1.99e-3` (13 % low),
-//! and a slab ghost with its two transmissions 1.58e-3 against 1.79e-3 (test
-//! `unpolarised_product_is_the_blogs_approximation`). We keep the blog's
-//! product of means, so a ghost reflecting at such angles is drawn about
-//! that much too dim.
-//!
-//! **Stop crossings.** A ghost `(i, j)` with `j < stop < i` crosses the stop
-//! plane three times (forward, backward between the reflections, forward
-//! again); any other path once. [`TraceResult::stop_xy_all`] records every
-//! crossing, so an aperture shape (blades) is tested at each one by the
-//! lens-flare reference and rasteriser; `r_rel` tests the stop's round
-//! semi-aperture at each crossing as at every surface.
-//!
-//! The ghost count is `n(n−1)/2` for `n` Fresnel interfaces (blog:
-//! "ゴーストの数は n(n−1)/2 個"); the stop reflects nothing and is not one.
+//! path and two-reflection ghost paths. The method, the polarisation
+//! approximation and the stop crossings are documented on the `lens` module.
 
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 use thiserror::Error;
 
-use super::paraxial::{ParaxialError, indices};
-use super::prescription::{LensPrescription, PrescriptionError};
+use super::paraxial::indices;
+use super::prescription::LensPrescription;
 use crate::fresnel::{Coating, fresnel_unpolarized};
+use crate::input::{self, InvalidInput};
 use crate::ray::Ray;
 use crate::surface::{Hit, Refraction, SphericalSurface, T_EPSILON, refract, reflect};
 
@@ -84,17 +45,16 @@ pub enum Pass {
 }
 
 /// Why a ray could not be traced.
+///
+/// [`TraceError::Input`], [`TraceError::InvalidPath`] and
+/// [`TraceError::Index`] are about the call (the same for every ray); the
+/// others are what happens to one ray in the lens.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum TraceError {
-    /// Origin or direction not finite, or a zero direction.
-    #[error("the input ray is not finite or has no direction")]
-    InvalidRay,
-    /// Wavelength not finite and positive.
-    #[error("wavelength must be a positive finite number of nm, got {0}")]
-    InvalidWavelength(f64),
-    /// The sensor z is not finite.
-    #[error("sensor z must be finite, got {0}")]
-    InvalidSensor(f64),
+    /// A wavelength that is not a finite number > 0, or a sensor z that is
+    /// not finite.
+    #[error(transparent)]
+    Input(#[from] InvalidInput),
     /// A ghost path that does not exist in this lens.
     #[error("no ghost path ({first}, {second}): {reason}")]
     InvalidPath {
@@ -105,12 +65,16 @@ pub enum TraceError {
         /// What is wrong with it.
         reason: &'static str,
     },
-    /// The prescription is invalid.
-    #[error(transparent)]
-    Prescription(#[from] PrescriptionError),
-    /// A glass gives no usable index at this wavelength.
-    #[error(transparent)]
-    Index(#[from] ParaxialError),
+    /// A glass gives no index >= 1 at this wavelength
+    /// ([`crate::glass::Glass::try_index`]; every prescription has one over
+    /// the visible band, so this happens only outside 380–780 nm).
+    #[error("surface {surface}: the glass has no index >= 1 at {wavelength_nm} nm")]
+    Index {
+        /// Index of the surface.
+        surface: usize,
+        /// The wavelength, nm.
+        wavelength_nm: f64,
+    },
     /// The ray's line does not meet the sphere's cap (the ray dies here).
     #[error("the ray misses surface {surface} ({pass:?} pass)")]
     Missed {
@@ -180,13 +144,23 @@ struct PreparedSurface {
 }
 
 /// Most crossings of the stop plane a path can have: a ghost reflecting
-/// behind the stop and then in front of it crosses it three times.
+/// behind the stop and then in front of it crosses it three times (forward,
+/// backward between the reflections, forward again).
 pub const MAX_STOP_CROSSINGS: usize = 3;
 
-/// Rays starting behind a coincident surface (zero air gap) are accepted when
-/// the next surface lies at most this far behind them along the ray, in mm:
-/// touching surfaces at a zero thickness are common in patent tables.
+/// How far behind a ray's origin, in mm, the next surface may lie and still
+/// be hit. Surfaces that touch (a zero thickness, common in patent tables)
+/// meet where the ray leaves the first one, and round-off can put the second
+/// a hair behind the origin. 1e-7 mm is far below the 0.01 mm to which
+/// tables give thicknesses, yet about 10⁵ times the round-off of a position
+/// of 100 mm in f64 (~1e-14 relative, 1e-12 mm).
 const COINCIDENT_TOLERANCE_MM: f64 = 1e-7;
+
+/// Smallest `d_z` of a ray leaving the last surface that still reaches the
+/// sensor plane. Below it the distance to the sensor exceeds 10¹² times the
+/// axial gap (the ray is parallel to the sensor within round-off) and the
+/// result is [`TraceError::MissedSensor`].
+const MIN_EXIT_DIR_Z: f64 = 1e-12;
 
 /// Ghost paths of a prescription: every pair `(i, j)`, `i > j`, of Fresnel
 /// interfaces (the stop excluded), ordered by `i` then `j`.
@@ -242,16 +216,15 @@ enum Event {
 }
 
 impl PreparedLens {
-    /// Validates `prescription` and evaluates its indices at `wavelength_nm`.
+    /// Places the surfaces of `prescription` on the axis and evaluates its
+    /// indices at `wavelength_nm` (a finite number > 0).
     pub fn new(prescription: &LensPrescription, wavelength_nm: f64) -> Result<Self, TraceError> {
-        if !(wavelength_nm.is_finite() && wavelength_nm > 0.0) {
-            return Err(TraceError::InvalidWavelength(wavelength_nm));
-        }
-        prescription.validate()?;
-        let (before, after) = indices(prescription, wavelength_nm)?;
+        let wavelength_nm = input::positive("wavelength (nm)", wavelength_nm)?;
+        let (before, after) =
+            indices(prescription, wavelength_nm).map_err(|surface| TraceError::Index { surface, wavelength_nm })?;
         let z = prescription.vertex_z();
         let surfaces = prescription
-            .surfaces
+            .surfaces()
             .iter()
             .enumerate()
             .map(|(k, s)| PreparedSurface {
@@ -265,7 +238,7 @@ impl PreparedLens {
             .collect();
         Ok(Self {
             surfaces,
-            stop: prescription.stop_index().expect("validated: exactly one stop"),
+            stop: prescription.stop_index(),
             wavelength_nm,
             table_sensor_z: prescription.table_image_z(),
         })
@@ -347,9 +320,7 @@ impl PreparedLens {
         sensor_z: f64,
         points: Option<&mut Vec<DVec3>>,
     ) -> Result<TraceResult, TraceError> {
-        if !sensor_z.is_finite() {
-            return Err(TraceError::InvalidSensor(sensor_z));
-        }
+        let sensor_z = input::finite("sensor z (mm)", sensor_z)?;
         self.check_path(path)?;
         let mut st =
             State { ray, r_rel: 0.0, throughput: 1.0, stop_xy: [DVec2::ZERO; MAX_STOP_CROSSINGS], stop_crossings: 0, points };
@@ -375,7 +346,7 @@ impl PreparedLens {
             }
         }
         let d = st.ray.dir();
-        if d.z.is_nan() || d.z <= 1e-12 {
+        if !(d.z >= MIN_EXIT_DIR_Z) {
             return Err(TraceError::MissedSensor { dir_z: d.z });
         }
         let t = (sensor_z - st.ray.origin().z) / d.z;
@@ -409,8 +380,12 @@ impl PreparedLens {
         if let Some(h) = geometry.intersect(ray) {
             return Ok(h);
         }
-        // Back the origin off a little and accept a hit at most that far behind:
-        // the surface may pass through the ray's origin (touching surfaces).
+        // Back the origin off by the tolerance and accept a hit at most that
+        // far behind the real origin: the surface may pass through it
+        // (touching surfaces). Seen from the backed-off origin such a hit is
+        // at t in [T_EPSILON, 2·tol + T_EPSILON] — `intersect` drops hits
+        // closer than T_EPSILON — i.e. between tol behind the real origin and
+        // just ahead of it, where the first `intersect` could not see it.
         let back = Ray::from_unit(ray.origin() - ray.dir() * COINCIDENT_TOLERANCE_MM, ray.dir());
         match geometry.intersect(&back) {
             Some(h) if h.t <= 2.0 * COINCIDENT_TOLERANCE_MM + T_EPSILON => {
@@ -472,6 +447,7 @@ mod tests {
     use super::super::builtin;
     use super::*;
     use crate::glass::{Glass, LAMBDA_D_NM};
+    use crate::input::Expected;
     use crate::lens::LensSurface;
     use proptest::prelude::*;
 
@@ -484,7 +460,7 @@ mod tests {
         let (points, result) = prepared.trace_polyline(ray, TracePath::Primary, sensor);
         let result = result.unwrap();
         // origin, one hit per surface (8 with the stop), the sensor point
-        assert_eq!(points.len(), lens.surfaces.len() + 2);
+        assert_eq!(points.len(), lens.surfaces().len() + 2);
         assert_eq!(*points.last().unwrap(), result.position);
         assert_eq!(prepared.trace_to(ray, TracePath::Primary, sensor).unwrap(), result);
         // z increases along a primary path
@@ -496,8 +472,8 @@ mod tests {
 
     #[test]
     fn ghost_counts_match_reference() {
-        // REFERENCE.md / blog: n(n−1)/2 ghosts; Tessar 7 interfaces → 21,
-        // double Gauss 14 → 91; the Heliar has 8 → 28.
+        // n(n−1)/2 ghosts for n interfaces (the blog's "Ghost enumeration"):
+        // Tessar 7 interfaces → 21, double Gauss 14 → 91, Heliar 8 → 28.
         assert_eq!(ghosts(&builtin::tessar()).len(), 21);
         assert_eq!(ghosts(&builtin::double_gauss()).len(), 91);
         assert_eq!(ghosts(&builtin::heliar()).len(), 28);
@@ -520,9 +496,9 @@ mod tests {
             // Where the exit ray meets the axis.
             let z_cross = r.position.z - r.position.y * r.direction.z / r.direction.y;
             let bfl_real = z_cross - last_z;
-            assert!((bfl_real / q.bfl_mm - 1.0).abs() < 1e-6, "{}: {bfl_real} vs {}", p.name, q.bfl_mm);
+            assert!((bfl_real / q.bfl_mm - 1.0).abs() < 1e-6, "{}: {bfl_real} vs {}", p.name(), q.bfl_mm);
             let efl_real = -h / r.direction.y;
-            assert!((efl_real / q.efl_mm - 1.0).abs() < 1e-6, "{}: {efl_real} vs {}", p.name, q.efl_mm);
+            assert!((efl_real / q.efl_mm - 1.0).abs() < 1e-6, "{}: {efl_real} vs {}", p.name(), q.efl_mm);
             assert!(r.position.y.abs() < 1e-6 * h * 1e3);
             assert_eq!(r.stop_crossings, 1);
         }
@@ -622,23 +598,17 @@ mod tests {
         // 1.5/1.2 is valid over 380–780 nm, but its Cauchy curve falls to
         // 0.965 at 1500 nm: `Glass::index` would have traced a lens of index
         // 0.965; try_index makes it an index error naming the surface.
-        let mut s = slab(1.5).surfaces;
-        s[1].glass_after = Glass::Abbe { nd: 1.5, vd: 1.2 };
-        let p = LensPrescription::new("low", "hand", s.clone()).unwrap();
+        let p = slab(1.5).edited(|s| s[1].glass_after = Glass::Abbe { nd: 1.5, vd: 1.2 }).unwrap();
         let ray = Ray::new(DVec3::new(0.0, 1.0, -1.0), DVec3::Z).unwrap();
         assert!(trace(&p, ray, 780.0, TracePath::Primary).is_ok());
         assert_eq!(
             trace(&p, ray, 1500.0, TracePath::Primary),
-            Err(TraceError::Index(ParaxialError::Index { surface: 1, wavelength_nm: 1500.0 }))
+            Err(TraceError::Index { surface: 1, wavelength_nm: 1500.0 })
         );
-        // 1.5/0.05 (n(700 nm) = −2.98, formerly traced as air) is refused
-        // when the lens is prepared, at any wavelength.
-        s[1].glass_after = Glass::Abbe { nd: 1.5, vd: 0.05 };
-        let raw = LensPrescription { surfaces: s, ..p };
-        assert!(matches!(
-            PreparedLens::new(&raw, LAMBDA_D_NM),
-            Err(TraceError::Prescription(PrescriptionError::IndexOverVisible { surface: 1, .. }))
-        ));
+        assert_eq!(
+            PreparedLens::new(&p, 1500.0).unwrap_err(),
+            TraceError::Index { surface: 1, wavelength_nm: 1500.0 }
+        );
     }
 
     #[test]
@@ -670,7 +640,7 @@ mod tests {
         // incidence: R = ((n0 n2 − n_c²)/(n0 n2 + n_c²))² (Hecht, Optics §9.7).
         let (n, nc, wl) = (1.5, 1.38, 550.0);
         let coat = Coating::quarter_wave(nc, wl);
-        let p = slab(n).with_coating_everywhere(coat);
+        let p = slab(n).with_coating_everywhere(coat).unwrap();
         let rr = ((n - nc * nc) / (n + nc * nc)).powi(2);
         let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::Z).unwrap(), wl, TracePath::ghost(2, 1)).unwrap();
         let want = (1.0 - rr) * rr * rr * (1.0 - rr);
@@ -713,11 +683,19 @@ mod tests {
     fn bad_inputs_are_typed() {
         let p = builtin::tessar();
         let ok = Ray::new(DVec3::new(0.0, 1.0, -1.0), DVec3::Z).unwrap();
-        assert!(matches!(trace(&p, ok, f64::NAN, TracePath::Primary), Err(TraceError::InvalidWavelength(_))));
-        assert!(matches!(trace(&p, ok, 550.0, TracePath::ghost(4, 3)), Err(TraceError::InvalidPath { .. })));
-        assert!(matches!(trace(&p, ok, 550.0, TracePath::ghost(2, 2)), Err(TraceError::InvalidPath { .. })));
-        assert!(matches!(trace(&p, ok, 550.0, TracePath::ghost(8, 2)), Err(TraceError::InvalidPath { .. })));
-        assert!(matches!(trace_to(&p, ok, 550.0, TracePath::Primary, f64::INFINITY), Err(TraceError::InvalidSensor(_))));
+        for bad in [f64::NAN, 0.0, -550.0, f64::INFINITY] {
+            let e = trace(&p, ok, bad, TracePath::Primary).unwrap_err();
+            assert!(matches!(&e, TraceError::Input(i) if i.what == "wavelength (nm)" && i.expected == Expected::Positive), "{e}");
+        }
+        // (4, 3): the Tessar's stop is surface 3; (2, 2): not in front; (8, 2): past the last surface.
+        for (i, j) in [(4, 3), (2, 2), (8, 2)] {
+            let e = trace(&p, ok, 550.0, TracePath::ghost(i, j)).unwrap_err();
+            assert!(matches!(e, TraceError::InvalidPath { first, second, .. } if (first, second) == (i, j)), "{e}");
+        }
+        let e = trace_to(&p, ok, 550.0, TracePath::Primary, f64::INFINITY).unwrap_err();
+        assert!(matches!(&e, TraceError::Input(i) if i.what == "sensor z (mm)" && i.value == f64::INFINITY), "{e}");
+        // A ray with no direction cannot be built, so no tracer sees one.
+        assert_eq!(Ray::new(DVec3::ZERO, DVec3::ZERO).unwrap_err().expected, Expected::Direction);
     }
 
     #[test]
@@ -744,7 +722,7 @@ mod tests {
     fn flat_surface_heliar_traces() {
         // The Heliar's plano surface (c = 0, not the stop) in the middle of a path.
         let p = builtin::heliar();
-        assert!(p.surfaces[6].is_flat() && !p.surfaces[6].is_stop);
+        assert!(p.surfaces()[6].is_flat() && !p.surfaces()[6].is_stop);
         let r = trace(&p, Ray::new(DVec3::new(0.0, 5.0, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::Primary).unwrap();
         assert!(r.position.y.abs() < 0.5, "f/3.5 Heliar focuses a 5 mm ray near the axis: {}", r.position.y);
         assert_eq!(r.position.z, p.table_image_z());
@@ -761,7 +739,9 @@ mod tests {
             let p = match which { 0 => builtin::tessar(), 1 => builtin::double_gauss(), 2 => builtin::heliar(), _ => slab(1.7) };
             let gh = ghosts(&p);
             let path = if g % 5 == 0 { TracePath::Primary } else { let (i, j) = gh[g % gh.len()]; TracePath::ghost(i, j) };
+            prop_assume!(DVec3::new(dx, dy, dz).length() > 1e-6);
             let ray = Ray::new(DVec3::new(x, y, z), DVec3::new(dx, dy, dz)).unwrap();
+            let count = p.surfaces().len();
             match trace(&p, ray, wl, path) {
                 Ok(r) => {
                     prop_assert!(r.position.is_finite() && r.direction.is_finite());
@@ -769,8 +749,25 @@ mod tests {
                     prop_assert!(r.stop_xy.is_finite());
                     prop_assert!(r.throughput.is_finite() && (0.0..=1.0).contains(&r.throughput));
                     prop_assert!((r.direction.length() - 1.0).abs() < 1e-9);
+                    prop_assert!(r.stop_crossings == 1 || r.stop_crossings == 3, "{}", r.stop_crossings);
                 }
-                Err(e) => prop_assert!(!e.to_string().is_empty()),
+                // The call is valid (finite ray, wavelength in 300–1000 nm
+                // where every shipped glass has an index, a path of this
+                // lens), so only what happens to the ray in the lens may fail:
+                // it misses a surface or meets TIR on a surface the path
+                // visits in that direction, or leaves away from the sensor.
+                Err(TraceError::Missed { surface, pass } | TraceError::TotalInternalReflection { surface, pass }) => {
+                    prop_assert!(surface < count);
+                    if pass == Pass::Backward {
+                        // Only a ghost (i, j) runs backward, over j..i.
+                        let TracePath::Ghost { first, second } = path else {
+                            return Err(TestCaseError::fail("a backward pass on the primary path"));
+                        };
+                        prop_assert!(second <= surface && surface < first, "{surface} outside ({first}, {second})");
+                    }
+                }
+                Err(TraceError::MissedSensor { dir_z }) => prop_assert!(!(dir_z >= MIN_EXIT_DIR_Z), "{dir_z}"),
+                Err(e) => prop_assert!(false, "a valid call failed with {e:?}"),
             }
         }
     }

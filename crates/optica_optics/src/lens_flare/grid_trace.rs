@@ -1,12 +1,6 @@
 //! Tracing a regular N×N grid of parallel rays through one ghost at one
-//! wavelength (blog: 光束追跡 and ラスタライズ), on top of [`crate::lens::PreparedLens`].
-//!
-//! Each ray records its sensor position, `r_rel`, stop-plane position and
-//! throughput ([`GridRay`]); each cell of four neighbouring rays gets its
-//! irradiance from its area change ([`super::intensity`]). Rays outside a
-//! semi-aperture are not discarded (blog: "r_rel > 1 ... そのままにしておきます"),
-//! so the grid stays continuous and the clip happens per pixel. Rays that
-//! miss a sphere or meet total internal reflection die: their cells are dead.
+//! wavelength: the CPU twin of the plugin's grid-trace shader, documented on
+//! [`trace_grid`].
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -14,17 +8,22 @@ use rayon::prelude::*;
 use super::FlareError;
 use super::intensity::{CellKind, DEFAULT_MAX_GAIN, GridCell, GridRay, cell_intensity};
 use super::pupil::Beam;
-use crate::lens::{LensPrescription, PreparedLens, TraceError, TracePath};
+use crate::input::{self, Expected, InvalidInput};
+use crate::lens::{LensPrescription, PreparedLens, TracePath};
 
-/// Most rays per side of a grid (1024² ≈ 10⁶ rays).
+/// Most rays per side of a grid: 1024² ≈ 10⁶ rays, about 100 MB of
+/// [`GridRay`]s and [`GridCell`]s. Hullin et al.'s adaptive resolution goes
+/// up to 512² per ghost (the blog's *Adaptive resolution*); 1024 leaves a
+/// factor of two for references and convergence studies.
 pub const MAX_GRID: usize = 1024;
 
-/// Settings of a grid trace.
+/// Settings of a grid trace, checked by the functions that take them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridOptions {
-    /// z of the sensor plane in the lens frame; `None` = the table's image plane.
+    /// z of the sensor plane in the lens frame, mm (finite); `None` = the
+    /// table's image plane.
     pub sensor_z: Option<f64>,
-    /// Bound `G` on a cell's area gain (see [`super::intensity`]).
+    /// Bound `G` on a cell's area gain (finite, >= 1; see [`cell_intensity`]).
     pub max_gain: f64,
 }
 
@@ -35,21 +34,16 @@ impl Default for GridOptions {
 }
 
 /// A traced grid: `n × n` rays and `(n−1) × (n−1)` cells, row-major
-/// (`u` = column along +x of the pupil, `v` = row along +y).
+/// (`u` = column along +x of the pupil, `v` = row along +y). Made by
+/// [`trace_grid`]; read-only, so its rays and cells always match its size.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RayGrid {
-    /// Rays per side.
-    pub n: usize,
-    /// The path traced.
-    pub path: TracePath,
-    /// Wavelength, nm.
-    pub wavelength_nm: f64,
-    /// Beam cross-section of one cell (pupil cell area × d_z), mm².
-    pub cell_pupil_mm2: f64,
-    /// `n²` rays.
-    pub rays: Vec<GridRay>,
-    /// `(n−1)²` cells.
-    pub cells: Vec<GridCell>,
+    n: usize,
+    path: TracePath,
+    wavelength_nm: f64,
+    cell_pupil_mm2: f64,
+    rays: Vec<GridRay>,
+    cells: Vec<GridCell>,
 }
 
 /// Counts and sums over a grid.
@@ -73,19 +67,80 @@ pub struct GridStats {
 }
 
 impl RayGrid {
-    /// Ray at column `i`, row `j`.
-    pub fn ray(&self, i: usize, j: usize) -> &GridRay {
-        &self.rays[j * self.n + i]
+    /// A grid of `n` rays per side from its `n²` rays, computing its cells
+    /// (for the crate's own tests of the rasteriser and the estimates).
+    #[cfg(test)]
+    pub(crate) fn from_rays(n: usize, path: TracePath, cell_pupil_mm2: f64, rays: Vec<GridRay>) -> Self {
+        assert_eq!(rays.len(), n * n);
+        let m = n - 1;
+        let cells = (0..m * m)
+            .map(|k| {
+                let (i, j) = (k % m, k / m);
+                let at = |a: usize, b: usize| &rays[b * n + a];
+                cell_intensity([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)], cell_pupil_mm2, DEFAULT_MAX_GAIN)
+            })
+            .collect();
+        Self { n, path, wavelength_nm: 550.0, cell_pupil_mm2, rays, cells }
     }
 
-    /// Corners `[00, 10, 11, 01]` of cell `(i, j)`, counter-clockwise on the pupil.
-    pub fn cell_corners(&self, i: usize, j: usize) -> [&GridRay; 4] {
-        [self.ray(i, j), self.ray(i + 1, j), self.ray(i + 1, j + 1), self.ray(i, j + 1)]
+    /// Rays per side.
+    pub fn n(&self) -> usize {
+        self.n
     }
 
-    /// Cell at column `i`, row `j`.
-    pub fn cell(&self, i: usize, j: usize) -> &GridCell {
-        &self.cells[j * (self.n - 1) + i]
+    /// The path traced.
+    pub fn path(&self) -> TracePath {
+        self.path
+    }
+
+    /// Wavelength, nm.
+    pub fn wavelength_nm(&self) -> f64 {
+        self.wavelength_nm
+    }
+
+    /// Beam cross-section of one cell (pupil cell area × d_z), mm².
+    pub fn cell_pupil_mm2(&self) -> f64 {
+        self.cell_pupil_mm2
+    }
+
+    /// The `n²` rays, row-major.
+    pub fn rays(&self) -> &[GridRay] {
+        &self.rays
+    }
+
+    /// The `(n−1)²` cells, row-major.
+    pub fn cells(&self) -> &[GridCell] {
+        &self.cells
+    }
+
+    /// Ray at column `i`, row `j`; `None` outside the grid.
+    pub fn ray(&self, i: usize, j: usize) -> Option<&GridRay> {
+        (i < self.n && j < self.n).then(|| &self.rays[j * self.n + i])
+    }
+
+    /// Cell at column `i`, row `j`; `None` outside the grid.
+    pub fn cell(&self, i: usize, j: usize) -> Option<&GridCell> {
+        let m = self.n - 1;
+        (i < m && j < m).then(|| &self.cells[j * m + i])
+    }
+
+    /// Corners `[00, 10, 11, 01]` of cell `(i, j)`, counter-clockwise on the
+    /// pupil; `None` outside the grid.
+    pub fn cell_corners(&self, i: usize, j: usize) -> Option<[&GridRay; 4]> {
+        let m = self.n - 1;
+        (i < m && j < m).then(|| self.corners(i, j))
+    }
+
+    /// Every cell with its corners `[00, 10, 11, 01]`, row-major.
+    pub fn cells_with_corners(&self) -> impl Iterator<Item = (&GridCell, [&GridRay; 4])> {
+        let m = self.n - 1;
+        self.cells.iter().enumerate().map(move |(k, c)| (c, self.corners(k % m, k / m)))
+    }
+
+    /// Corners of cell `(i, j)`, which must be in the grid.
+    fn corners(&self, i: usize, j: usize) -> [&GridRay; 4] {
+        let at = |a: usize, b: usize| &self.rays[b * self.n + a];
+        [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]
     }
 
     /// Counts and power sums.
@@ -123,13 +178,18 @@ impl RayGrid {
     }
 }
 
-fn check_grid_size(n: usize) -> Result<(), FlareError> {
-    if (2..=MAX_GRID).contains(&n) { Ok(()) } else { Err(FlareError::InvalidGridSize { got: n, max: MAX_GRID }) }
+/// `n` if it is in `min..=max`, else an [`InvalidInput`] naming `what`.
+pub(crate) fn count_in(what: &'static str, n: usize, min: usize, max: usize) -> Result<usize, InvalidInput> {
+    if (min..=max).contains(&n) {
+        Ok(n)
+    } else {
+        Err(InvalidInput::new(what, n as f64, Expected::Range { min: min as f64, max: max as f64 }))
+    }
 }
 
 /// Traces one ray of a grid; rays that die in the lens become [`GridRay::DEAD`].
 pub(crate) fn trace_one(lens: &PreparedLens, path: TracePath, beam: &Beam, u: f64, v: f64, sensor_z: f64) -> GridRay {
-    match lens.trace_to(beam.ray_at(u, v), path, sensor_z) {
+    match lens.trace_to(beam.grid_ray(u, v), path, sensor_z) {
         Ok(r) if r.position.is_finite() && r.r_rel.is_finite() && r.throughput.is_finite() => GridRay {
             alive: true,
             sensor: r.position.truncate(),
@@ -141,22 +201,28 @@ pub(crate) fn trace_one(lens: &PreparedLens, path: TracePath, beam: &Beam, u: f6
     }
 }
 
-/// Checks everything a trace needs that does not depend on the ray.
+/// Checks everything a trace needs that does not depend on the ray, once
+/// per grid: the path, the sensor z (finite) and the gain bound (finite,
+/// >= 1). Returns the sensor z.
 pub(crate) fn check_setup(lens: &PreparedLens, path: TracePath, options: &GridOptions) -> Result<f64, FlareError> {
     lens.check_path(path)?;
-    let sensor_z = options.sensor_z.unwrap_or(lens.table_sensor_z());
-    if !sensor_z.is_finite() {
-        return Err(TraceError::InvalidSensor(sensor_z).into());
-    }
-    if !(options.max_gain.is_finite() && options.max_gain >= 1.0) {
-        return Err(FlareError::InvalidGain(options.max_gain));
-    }
+    let sensor_z = input::finite("sensor z (mm)", options.sensor_z.unwrap_or(lens.table_sensor_z()))?;
+    input::in_range("max gain", options.max_gain, 1.0, f64::INFINITY)?;
     Ok(sensor_z)
 }
 
-/// Traces an `n × n` grid of `beam` through `path` of `lens` (at the
-/// lens's wavelength) and computes every cell's irradiance. Rays run in
-/// parallel (rayon).
+/// Traces an `n × n` grid (`n` in 2..=[`MAX_GRID`]) of `beam` through
+/// `path` of `lens` (at the lens's wavelength) and computes every cell's
+/// irradiance. Rays run in parallel (rayon).
+///
+/// Each ray records its sensor position, `r_rel`, stop-plane positions and
+/// throughput ([`GridRay`]); each cell of four neighbouring rays gets its
+/// irradiance from its change of area ([`cell_intensity`]). Rays outside a
+/// semi-aperture are not discarded (the blog's *Ray-bundle tracing*: rays
+/// with `r_rel > 1` are "left as they are", i.e. not discarded in the
+/// shader), so the grid stays continuous and the clip happens per pixel.
+/// Rays that miss a sphere or meet total internal reflection die: their
+/// cells are dead.
 pub fn trace_grid(
     lens: &PreparedLens,
     path: TracePath,
@@ -164,7 +230,7 @@ pub fn trace_grid(
     n: usize,
     options: &GridOptions,
 ) -> Result<RayGrid, FlareError> {
-    check_grid_size(n)?;
+    count_in("grid rays per side", n, 2, MAX_GRID)?;
     let sensor_z = check_setup(lens, path, options)?;
     let step = 1.0 / (n - 1) as f64;
     let rays: Vec<GridRay> = (0..n * n)
@@ -209,7 +275,8 @@ mod tests {
     use crate::fresnel::Coating;
     use crate::glass::{Glass, LAMBDA_D_NM};
     use crate::lens::{LensSurface, builtin, ghosts};
-    use crate::lens_flare::pupil::{PupilBounds, light_from_field};
+    use crate::lens::TraceError;
+    use crate::lens_flare::pupil::{MIN_LIGHT_Z, PupilBounds, light_from_field};
     use glam::DVec3;
     use proptest::prelude::*;
 
@@ -234,11 +301,11 @@ mod tests {
         // incidence, ((1.5−1)/(1.5+1))² = 0.04) exactly.
         let p = slab();
         let lens = PreparedLens::new(&p, 550.0).unwrap();
-        let bounds = PupilBounds { plane_z: -1.0, center: DVec2::ZERO, half_width: 10.0 };
+        let bounds = PupilBounds::new(-1.0, DVec2::ZERO, 10.0).unwrap();
         let beam = Beam::new(&p, DVec3::Z, bounds).unwrap();
         let g = trace_grid(&lens, TracePath::ghost(2, 1), &beam, 9, &GridOptions::default()).unwrap();
         let t = 0.96f64.powi(2) * 0.04f64.powi(2);
-        for c in &g.cells {
+        for c in g.cells() {
             assert_eq!(c.kind, CellKind::Regular);
             assert!((c.intensity - t).abs() < 1e-15, "{}", c.intensity);
         }
@@ -247,7 +314,7 @@ mod tests {
         let d = light_from_field(30.0, 0.0);
         let beam = Beam::new(&p, d, bounds).unwrap();
         let g = trace_grid(&lens, TracePath::ghost(2, 1), &beam, 5, &GridOptions::default()).unwrap();
-        for c in &g.cells {
+        for c in g.cells() {
             assert!((c.intensity - c.mean_throughput * d.z).abs() < 1e-12);
         }
     }
@@ -258,7 +325,7 @@ mod tests {
         // clamps, Σ I·A_s must equal Σ A_p·T̄ (the area factors cancel), and
         // that equals the beam cross-section of the live cells times their
         // mean throughput. Checked to 1e-9 relative.
-        let p = crate::lens_flare::coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0));
+        let p = crate::lens_flare::coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0)).unwrap();
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let d = light_from_field(10.0, 0.0);
         let mut checked = 0;
@@ -270,9 +337,9 @@ mod tests {
             if s.folded_cells > 0 || s.flipped_cells > 0 || s.clamped_cells > 0 || s.alive_cells == 0 {
                 continue;
             }
-            let mean_t = g.cells.iter().filter(|c| c.kind != CellKind::Dead).map(|c| c.mean_throughput).sum::<f64>()
+            let mean_t = g.cells().iter().filter(|c| c.kind != CellKind::Dead).map(|c| c.mean_throughput).sum::<f64>()
                 / s.alive_cells as f64;
-            let want = s.alive_cells as f64 * g.cell_pupil_mm2 * mean_t;
+            let want = s.alive_cells as f64 * g.cell_pupil_mm2() * mean_t;
             assert!((s.power / want - 1.0).abs() < 1e-9, "ghost ({i},{j}): {} vs {want}", s.power);
             checked += 1;
         }
@@ -293,14 +360,15 @@ mod tests {
         let (a, b) = (grids[0].centroid().unwrap(), grids[1].centroid().unwrap());
         assert!((a - b).length() > 1e-3, "dispersive ghost moved only {} mm", (a - b).length());
 
-        let mut flat = p.clone();
-        for s in &mut flat.surfaces {
-            if s.glass_after != Glass::Air {
-                s.glass_after = Glass::Constant(s.glass_after.nd());
-            }
-        }
+        let flat = p
+            .edited(|surfaces| {
+                for s in surfaces.iter_mut().filter(|s| s.glass_after != Glass::Air) {
+                    s.glass_after = Glass::Constant(s.glass_after.nd());
+                }
+            })
+            .unwrap();
         let grids = trace_grid_spectral(&flat, path, &beam, 17, &opts, &[450.0, 650.0]).unwrap();
-        for (r, s) in grids[0].rays.iter().zip(&grids[1].rays) {
+        for (r, s) in grids[0].rays().iter().zip(grids[1].rays()) {
             assert_eq!(r.alive, s.alive);
             assert!((r.sensor - s.sensor).length() < 1e-12);
         }
@@ -312,13 +380,44 @@ mod tests {
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let beam = Beam::for_path(&p, TracePath::Primary, DVec3::Z, 550.0).unwrap();
         let o = GridOptions::default();
-        assert!(matches!(trace_grid(&lens, TracePath::Primary, &beam, 1, &o), Err(FlareError::InvalidGridSize { .. })));
-        assert!(matches!(trace_grid(&lens, TracePath::ghost(3, 1), &beam, 4, &o), Err(FlareError::Trace(_))));
-        let bad = GridOptions { max_gain: f64::NAN, ..o };
-        assert!(matches!(trace_grid(&lens, TracePath::Primary, &beam, 4, &bad), Err(FlareError::InvalidGain(_))));
-        let bad = GridOptions { sensor_z: Some(f64::INFINITY), ..o };
-        assert!(trace_grid(&lens, TracePath::Primary, &beam, 4, &bad).is_err());
-        assert!(Beam::for_path(&p, TracePath::Primary, DVec3::new(f64::NAN, 0.0, 1.0), 550.0).is_err());
+        let input = |r: Result<RayGrid, FlareError>| match r {
+            Err(FlareError::Input(i)) => Some((i.what, i.value)),
+            _ => None,
+        };
+        for n in [0, 1, MAX_GRID + 1] {
+            assert_eq!(input(trace_grid(&lens, TracePath::Primary, &beam, n, &o)), Some(("grid rays per side", n as f64)));
+        }
+        // Surface 3 of the Tessar is the stop: no ghost reflects there.
+        assert!(matches!(
+            trace_grid(&lens, TracePath::ghost(3, 1), &beam, 4, &o),
+            Err(FlareError::Trace(TraceError::InvalidPath { first: 3, second: 1, .. }))
+        ));
+        for g in [0.5, f64::INFINITY] {
+            let bad = GridOptions { max_gain: g, ..o };
+            assert_eq!(input(trace_grid(&lens, TracePath::Primary, &beam, 4, &bad)), Some(("max gain", g)));
+        }
+        let bad = GridOptions { sensor_z: Some(f64::NEG_INFINITY), ..o };
+        assert_eq!(input(trace_grid(&lens, TracePath::Primary, &beam, 4, &bad)), Some(("sensor z (mm)", f64::NEG_INFINITY)));
+        let e = Beam::for_path(&p, TracePath::Primary, DVec3::new(f64::NAN, 0.0, 1.0), 550.0).unwrap_err();
+        assert!(matches!(e, FlareError::Input(i) if i.what == "light direction"), "{e}");
+    }
+
+    #[test]
+    fn grid_lookups_are_total() {
+        let p = builtin::tessar();
+        let lens = PreparedLens::new(&p, 550.0).unwrap();
+        let beam = Beam::for_path(&p, TracePath::ghost(5, 4), DVec3::Z, 550.0).unwrap();
+        let g = trace_grid(&lens, TracePath::ghost(5, 4), &beam, 5, &GridOptions::default()).unwrap();
+        assert_eq!((g.n(), g.rays().len(), g.cells().len(), g.path()), (5, 25, 16, TracePath::ghost(5, 4)));
+        assert_eq!(g.ray(4, 4), Some(&g.rays()[24]));
+        assert_eq!((g.ray(5, 0), g.ray(0, 5), g.cell(4, 0), g.cell(0, 4)), (None, None, None, None));
+        assert!(g.cell_corners(4, 3).is_none() && g.cell_corners(usize::MAX, 0).is_none());
+        // Cell (2, 1) is the 7th, row-major; its corners run 00, 10, 11, 01.
+        let (cell, corners) = g.cells_with_corners().nth(4 + 2).unwrap(); // row 1 of 4 cells, column 2
+        assert_eq!(Some(cell), g.cell(2, 1));
+        let want = [(2, 1), (3, 1), (3, 2), (2, 2)].map(|(i, j)| g.ray(i, j).unwrap());
+        assert_eq!(Some(corners), g.cell_corners(2, 1));
+        assert_eq!(corners, want);
     }
 
     #[test]
@@ -330,8 +429,8 @@ mod tests {
         let path = TracePath::ghost(2, 0);
         let beam = Beam::for_path(&p, path, light_from_field(80.0, 0.0), 550.0).unwrap();
         let g = trace_grid(&lens, path, &beam, 9, &GridOptions::default()).unwrap();
-        assert!(g.rays.iter().any(|r| !r.alive));
-        assert!(g.cells.iter().all(|c| c.intensity.is_finite() && c.sensor_area_mm2.is_finite()));
+        assert!(g.rays().iter().any(|r| !r.alive));
+        assert!(g.cells().iter().all(|c| c.intensity.is_finite() && c.sensor_area_mm2.is_finite()));
     }
 
     proptest! {
@@ -346,16 +445,22 @@ mod tests {
             let gh = ghosts(&p);
             let path = if g % 7 == 0 { TracePath::Primary } else { let (i, j) = gh[g % gh.len()]; TracePath::ghost(i, j) };
             let lens = PreparedLens::new(&p, wl).unwrap();
-            match Beam::for_path(&p, path, DVec3::new(lx, ly, lz), wl) {
-                Err(e) => prop_assert!(matches!(e, FlareError::InvalidLight(..))),
+            let light = DVec3::new(lx, ly, lz);
+            prop_assume!(light.length() > 1e-6);
+            match Beam::for_path(&p, path, light, wl) {
+                // Only a light that does not travel into the lens is refused.
+                Err(FlareError::LightBehindLens { dir_z }) => {
+                    prop_assert!(dir_z <= MIN_LIGHT_Z && (dir_z - light.normalize().z).abs() < 1e-15, "{dir_z}");
+                }
+                Err(e) => prop_assert!(false, "light {light}: {e:?}"),
                 Ok(beam) => {
                     let grid = trace_grid(&lens, path, &beam, n, &GridOptions { sensor_z: None, max_gain: gain }).unwrap();
-                    for c in &grid.cells {
+                    for c in grid.cells() {
                         prop_assert!(c.intensity.is_finite() && c.intensity >= 0.0);
                         prop_assert!(c.intensity <= gain * c.mean_throughput * (1.0 + 1e-12));
-                        prop_assert!(c.power() <= grid.cell_pupil_mm2 * c.mean_throughput * (1.0 + 1e-12));
+                        prop_assert!(c.power() <= grid.cell_pupil_mm2() * c.mean_throughput * (1.0 + 1e-12));
                     }
-                    for r in &grid.rays {
+                    for r in grid.rays() {
                         prop_assert!(r.sensor.is_finite() && r.stop_xy.iter().all(|p| p.is_finite()) && r.r_rel.is_finite());
                     }
                 }

@@ -1,50 +1,21 @@
-//! Irradiance of a grid cell from the change of its area (blog: ゴーストの強度計算).
-//!
-//! A cell of the regular pupil grid carries the power `P = A_p · T̄`, with
-//! `A_p` its beam cross-section (pupil cell area × d_z, unit irradiance normal
-//! to the beam) and `T̄` the mean Fresnel throughput of its four rays. On the
-//! sensor it covers the quad of its four ray hits, of area `A_s`, so its
-//! irradiance is
-//!
-//! ```text
-//! I = A_p / A_s · T̄                      (energy: I · A_s = A_p · T̄)
-//! ```
-//!
-//! — the blog's `I = S_base / Σ S_n` (webgl-water caustics: light squeezed into
-//! a smaller area is brighter).
-//!
-//! The blog measures a quad with Bretschneider's formula
-//! `S = √((s−a)(s−b)(s−c)(s−d) − abcd·C)`, `C = cos((θ1+θ2)/2)`; the formula
-//! itself has `cos²` there, and it is blind to orientation (a folded,
-//! self-crossing quad gives a negative radicand, i.e. NaN). We split the quad
-//! along its 00–11 diagonal into two triangles and take their signed
-//! (shoelace) areas `s1, s2`:
-//! - `s1, s2 > 0`: a regular cell; both `< 0`: a mirrored cell (a ghost image
-//!   that is inverted there) — both are fine, `A_s = |s1 + s2|`;
-//! - `s1 · s2 < 0`: the cell straddles a caustic fold (the map from pupil to
-//!   sensor changes orientation inside it). Its quad crosses itself; we take
-//!   `A_s = |s1| + |s2|`, the area the rasteriser covers with it (the two
-//!   triangles), so the cell's energy is still `A_p · T̄`;
-//! - in all cases `A_s = |s1| + |s2|`, and the **gain is bounded**:
-//!   `I = T̄ · A_p / max(A_s, A_p / G)` with `G = max_gain`, so `I <= G · T̄`.
-//!   A degenerate cell (`A_s -> 0`, a caustic point, or every ray on one
-//!   point) gets `I = G · T̄` and, having no area, deposits at most its own
-//!   energy `A_p · T̄`: the bound never adds energy, it only drops the part
-//!   of a cell squeezed below `A_p / G`. `G` = [`DEFAULT_MAX_GAIN`] = 10⁶
-//!   means the bound acts only on cells squeezed by more than 1000× in each
-//!   direction: a 2.5 mm cell (a 40 mm pupil on a 16² grid) must shrink
-//!   below 2.5 µm, smaller than a sensor pixel, before any of its energy is
-//!   dropped. No cell reached it for any ghost of the three shipped lenses
-//!   at 0°, 10° and 20° with N = 33 (`GridStats::clamped_cells` = 0).
-//! - a cell with a dead ray (missed a sphere, total internal reflection)
-//!   is dead: `I = 0`, not drawn.
+//! Irradiance of a grid cell from the change of its area (the blog's
+//! *Computing ghost intensity*); the method is documented on
+//! [`cell_intensity`].
 
 use glam::DVec2;
 
 use super::aperture::Aperture;
 use crate::lens::MAX_STOP_CROSSINGS;
 
-/// Default bound `G` on a cell's area gain `A_p / A_s` (see the module docs).
+/// Default bound `G` on a cell's area gain `A_p / A_s` (see
+/// [`cell_intensity`]).
+///
+/// 10⁶ means the bound acts only on cells squeezed by more than 1000× in
+/// each direction: a 2.5 mm cell (a 40 mm pupil on a 16² grid) must shrink
+/// below 2.5 µm, smaller than a sensor pixel, before any of its energy is
+/// dropped. No cell reached it for any ghost of the three shipped lenses at
+/// 0°, 10° and 20° with N = 33 ([`super::GridStats::clamped_cells`] = 0),
+/// while a caustic point (area → 0) still gets a finite irradiance.
 pub const DEFAULT_MAX_GAIN: f64 = 1e6;
 
 /// What one traced ray of the grid brings to the sensor.
@@ -128,13 +99,52 @@ impl GridCell {
 }
 
 /// Signed area of the triangle (a, b, c): positive when counter-clockwise.
-pub fn triangle_signed_area(a: DVec2, b: DVec2, c: DVec2) -> f64 {
+fn triangle_signed_area(a: DVec2, b: DVec2, c: DVec2) -> f64 {
     0.5 * (b - a).perp_dot(c - a)
 }
 
 /// The cell with corners `[c00, c10, c11, c01]` (counter-clockwise on the
-/// pupil), beam cross-section `pupil_mm2` and gain bound `max_gain` (>= 1;
-/// anything else is taken as [`DEFAULT_MAX_GAIN`]).
+/// pupil), beam cross-section `pupil_mm2` and gain bound `max_gain`.
+///
+/// A cell of the regular pupil grid carries the power `P = A_p · T̄`, with
+/// `A_p` its beam cross-section (pupil cell area × d_z, unit irradiance
+/// normal to the beam) and `T̄` the mean Fresnel throughput of its four
+/// rays. On the sensor it covers the quad of its four ray hits, of area
+/// `A_s`, so its irradiance is
+///
+/// ```text
+/// I = A_p / A_s · T̄                      (energy: I · A_s = A_p · T̄)
+/// ```
+///
+/// — the blog's `I = S_base / Σ S_n` (light squeezed into a smaller area is
+/// brighter), the brightness rule of the caustics in Evan Wallace's WebGL
+/// Water demo, which the blog cites.
+///
+/// The blog measures a quad with Bretschneider's formula
+/// `S = √((s−a)(s−b)(s−c)(s−d) − abcd·C)`, `C = cos((θ1+θ2)/2)`; the formula
+/// itself has `cos²` there, and it is blind to orientation (a folded,
+/// self-crossing quad gives a negative radicand, i.e. NaN). We split the
+/// quad along its 00–11 diagonal into two triangles and take their signed
+/// (shoelace) areas `s1, s2`:
+/// - `s1, s2 > 0`: a regular cell; both `< 0`: a mirrored cell (a ghost
+///   image that is inverted there) — both are fine, `A_s = |s1 + s2|`;
+/// - `s1 · s2 < 0`: the cell straddles a caustic fold (the map from pupil to
+///   sensor changes orientation inside it). Its quad crosses itself; we take
+///   `A_s = |s1| + |s2|`, the area the rasteriser covers with it (the two
+///   triangles), so the cell's energy is still `A_p · T̄`;
+/// - in all cases `A_s = |s1| + |s2|`, and the **gain is bounded**:
+///   `I = T̄ · A_p / max(A_s, A_p / G)` with `G = max_gain`, so `I <= G · T̄`.
+///   A degenerate cell (`A_s -> 0`, a caustic point, or every ray on one
+///   point) gets `I = G · T̄` and, having no area, deposits at most its own
+///   energy `A_p · T̄`: the bound never adds energy, it only drops the part
+///   of a cell squeezed below `A_p / G` ([`DEFAULT_MAX_GAIN`] says why 10⁶);
+/// - a cell with a dead ray (missed a sphere, total internal reflection), a
+///   non-finite corner or a `pupil_mm2` that is not finite and > 0 is dead:
+///   `I = 0`, not drawn.
+///
+/// `max_gain` is checked where options enter ([`super::trace_grid`]);
+/// called directly with one that is not finite and >= 1, this takes
+/// [`DEFAULT_MAX_GAIN`] instead (documented fallback, never NaN).
 pub fn cell_intensity(corners: [&GridRay; 4], pupil_mm2: f64, max_gain: f64) -> GridCell {
     if corners.iter().any(|r| !r.alive) || !(pupil_mm2 > 0.0 && pupil_mm2.is_finite()) {
         return GridCell::DEAD;
@@ -161,11 +171,12 @@ pub fn cell_intensity(corners: [&GridRay; 4], pupil_mm2: f64, max_gain: f64) -> 
     GridCell { kind, clamped, intensity, sensor_area_mm2: area, signed_area_mm2: s1 + s2, mean_throughput }
 }
 
-/// Smooth-shading value at every grid vertex (blog: スムースシェーディング,
-/// "各頂点に近傍の平均値を格納してグーローシェーディング"): the power of the
-/// alive cells around the vertex over their sensor area, with the same bound,
-/// `I_v = Σ P_c / max(Σ A_c, Σ A_p / G)`; 0 where no alive cell touches.
-/// `cells` is `(n−1)²` row-major for `n` rays per side.
+/// Smooth-shading value at every grid vertex (the blog's *Smooth shading*:
+/// "store the average of the neighbours at each vertex and Gouraud-shade"):
+/// the power of the alive cells around the vertex over their sensor area,
+/// with the same bound, `I_v = Σ P_c / max(Σ A_c, Σ A_p / G)`; 0 where no
+/// alive cell touches. `cells` is `(n−1)²` row-major for `n` rays per side;
+/// any other length gives all zeros. `max_gain` as in [`cell_intensity`].
 pub fn vertex_intensities(cells: &[GridCell], n: usize, pupil_mm2: f64, max_gain: f64) -> Vec<f64> {
     let g = if max_gain.is_finite() && max_gain >= 1.0 { max_gain } else { DEFAULT_MAX_GAIN };
     let m = n.saturating_sub(1);

@@ -1,42 +1,72 @@
 //! The collimated beam from a light at infinity and the square of the pupil
 //! plane the ray grid covers.
-//!
-//! The grid is regular on a plane `z = plane_z` (blog: "ランダム生成された光束
-//! でなく,等間隔に配置された光束を使用します" — regular, not random, so that
-//! grid cells on the sensor correspond to cells on the entrance plane). All
-//! rays are parallel to the light direction `d`; their power is measured as
-//! unit irradiance on a plane perpendicular to `d`, so a cell of area `A` on
-//! the pupil plane carries `A · d_z` (its beam cross-section).
 
 use glam::{DVec2, DVec3};
 
 use super::FlareError;
+use crate::input::{self, InvalidInput};
 use crate::lens::{LensPrescription, TracePath};
 use crate::ray::Ray;
 
 /// Smallest accepted `d_z` of the unit light direction: below it the beam is
-/// parallel to the lens (cos θ < 1e-9, θ > 89.99999994°) and carries no power.
+/// parallel to the lens (cos θ < 1e-9, θ > 89.99999994°) and carries no
+/// power (its cross-section is `area · d_z`).
 pub const MIN_LIGHT_Z: f64 = 1e-9;
 
 /// Entrance-pupil bounds are the paraxial pupil radius times this: real
 /// pupils are larger than paraxial ones off axis (pupil aberration) and the
-/// grid must not cut light off (checked for the shipped lenses up to 30°, see
+/// grid must not cut light off. 1.25 is checked, not derived: for the shipped
+/// lenses up to 30° no passing ray falls outside (see
 /// [`PupilBounds::entrance_pupil`]).
 pub const ENTRANCE_PUPIL_MARGIN: f64 = 1.25;
 
+/// Beam rays start this far (mm) in front of both the pupil plane and the
+/// first surface's cap. Any positive distance works (the rays are traced
+/// from there); 1 mm keeps the origin clear of the cap by far more than
+/// round-off on lenses of any size.
+const BEAM_START_CLEARANCE_MM: f64 = 1.0;
+
 /// The square `center ± half_width` (in x and y) of the plane `z = plane_z`
-/// that the ray grid covers, in the lens frame (first vertex at z = 0).
+/// that the ray grid covers, in the lens frame (first vertex at z = 0), mm.
+///
+/// Restricting the grid to this square is the blog's *Bundle bounding*
+/// ("many rays are blocked and never reach the sensor, so the bundle is
+/// restricted to a limited part of the aperture"): [`PupilBounds::for_path`]
+/// picks the entrance pupil for paths whose light must pass the stop before
+/// it reflects, and the front element otherwise.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PupilBounds {
-    /// z of the plane, mm.
-    pub plane_z: f64,
-    /// Centre of the square, mm.
-    pub center: DVec2,
-    /// Half the side of the square, mm.
-    pub half_width: f64,
+    plane_z: f64,
+    center: DVec2,
+    half_width: f64,
 }
 
 impl PupilBounds {
+    /// The square `center ± half_width` of the plane `z = plane_z`: all
+    /// finite, `half_width > 0`.
+    pub fn new(plane_z: f64, center: DVec2, half_width: f64) -> Result<Self, InvalidInput> {
+        Ok(Self {
+            plane_z: input::finite("pupil plane z (mm)", plane_z)?,
+            center: input::finite_vec2("pupil centre (mm)", center)?,
+            half_width: input::positive("pupil half-width (mm)", half_width)?,
+        })
+    }
+
+    /// z of the plane, mm.
+    pub fn plane_z(&self) -> f64 {
+        self.plane_z
+    }
+
+    /// Centre of the square, mm.
+    pub fn center(&self) -> DVec2 {
+        self.center
+    }
+
+    /// Half the side of the square, mm.
+    pub fn half_width(&self) -> f64 {
+        self.half_width
+    }
+
     /// Everything that can enter the front element: the square around its
     /// clear disc, on the plane halfway down its sag at the rim, widened by
     /// the lateral walk `|sag|/2 · tan θ` of oblique rays over that depth.
@@ -44,14 +74,13 @@ impl PupilBounds {
     /// not limited by the entrance pupil.
     pub fn front_aperture(prescription: &LensPrescription, light: DVec3) -> Result<Self, FlareError> {
         let d = light_direction(light)?;
-        prescription.validate().map_err(crate::lens::TraceError::from)?;
-        let s = &prescription.surfaces[0];
+        let s = &prescription.surfaces()[0];
         let h = s.semi_aperture_mm;
         let c = s.curvature;
-        // Stable sag c h² / (1 + √(1 − c² h²)); validation guarantees |c h| <= 1.
+        // Stable sag c h² / (1 + √(1 − c² h²)); a prescription has |c h| <= 1.
         let sag = c * h * h / (1.0 + (1.0 - (c * h).powi(2)).max(0.0).sqrt());
         let tan = d.truncate().length() / d.z;
-        Ok(Self { plane_z: 0.5 * sag, center: DVec2::ZERO, half_width: h + 0.5 * sag.abs() * tan })
+        Ok(Self::new(0.5 * sag, DVec2::ZERO, h + 0.5 * sag.abs() * tan)?)
     }
 
     /// The paraxial entrance pupil at `wavelength_nm` (its plane and radius)
@@ -62,21 +91,15 @@ impl PupilBounds {
     /// That it cuts no light is checked, not proved, and only for the
     /// shipped Tessar and double Gauss at 550 nm, azimuth 30°: at 0°, 15°
     /// and 30° field no ray of a 33² front-aperture grid that reaches the
-    /// sensor unclipped misses the square (`entrance_pupil_bounds_hold_all_light`;
-    /// in a one-off 201² run up to 35° the farthest such ray was at 0.83 of
-    /// the half-width), and the power of every such ghost matches the
-    /// front-aperture bounds to Monte-Carlo noise, summed to 1 %, at 30°
-    /// (Tessar) and 20° (double Gauss)
-    /// (`entrance_pupil_bounds_keep_the_energy_at_a_wide_field`). For other
-    /// lenses, stronger pupil aberration or wider fields, compare with
+    /// sensor unclipped misses the square (in a one-off 201² run up to 35°
+    /// the farthest such ray was at 0.83 of the half-width), and the power
+    /// of every such ghost matches the front-aperture bounds to Monte-Carlo
+    /// noise, summed to 1 %, at 30° (Tessar) and 20° (double Gauss). For
+    /// other lenses, stronger pupil aberration or wider fields, compare with
     /// [`PupilBounds::front_aperture`] (always safe, coarser).
     pub fn entrance_pupil(prescription: &LensPrescription, wavelength_nm: f64) -> Result<Self, FlareError> {
-        let q = prescription.paraxial(wavelength_nm).map_err(crate::lens::TraceError::from)?;
-        let hw = q.entrance_pupil_radius_mm * ENTRANCE_PUPIL_MARGIN;
-        if !(hw.is_finite() && hw > 0.0 && q.entrance_pupil_z_mm.is_finite()) {
-            return Err(FlareError::InvalidBounds(hw));
-        }
-        Ok(Self { plane_z: q.entrance_pupil_z_mm, center: DVec2::ZERO, half_width: hw })
+        let q = prescription.paraxial(wavelength_nm)?;
+        Ok(Self::new(q.entrance_pupil_z_mm, DVec2::ZERO, q.entrance_pupil_radius_mm * ENTRANCE_PUPIL_MARGIN)?)
     }
 
     /// Bounds for `path`: the entrance pupil when the path crosses the stop
@@ -89,13 +112,17 @@ impl PupilBounds {
         light: DVec3,
         wavelength_nm: f64,
     ) -> Result<Self, FlareError> {
-        let stop = prescription.stop_index().unwrap_or(0);
         let stop_first = match path {
             TracePath::Primary => true,
-            TracePath::Ghost { first, .. } => first > stop,
+            TracePath::Ghost { first, .. } => first > prescription.stop_index(),
         };
-        if stop_first && let Ok(b) = Self::entrance_pupil(prescription, wavelength_nm) {
-            return Ok(b);
+        if stop_first {
+            match Self::entrance_pupil(prescription, wavelength_nm) {
+                Ok(b) => return Ok(b),
+                // A bad wavelength is the caller's; no pupil is the lens's.
+                Err(FlareError::Paraxial(crate::lens::ParaxialError::Input(e))) => return Err(e.into()),
+                Err(_) => {}
+            }
         }
         Self::front_aperture(prescription, light)
     }
@@ -104,34 +131,36 @@ impl PupilBounds {
     pub fn area_mm2(&self) -> f64 {
         4.0 * self.half_width * self.half_width
     }
-
-    fn validate(&self) -> Result<(), FlareError> {
-        if self.plane_z.is_finite() && self.center.is_finite() && self.half_width.is_finite() && self.half_width > 0.0 {
-            Ok(())
-        } else {
-            Err(FlareError::InvalidBounds(self.half_width))
-        }
-    }
 }
 
-/// The unit light direction (direction of travel) from a user vector: finite,
-/// non-zero, with `d_z > MIN_LIGHT_Z` after normalising.
+/// The unit light direction (direction of travel) from a user vector of any
+/// length: finite and non-zero ([`FlareError::Input`]), and travelling into
+/// the lens, `d_z > MIN_LIGHT_Z` after normalising
+/// ([`FlareError::LightBehindLens`] otherwise).
 pub fn light_direction(light: DVec3) -> Result<DVec3, FlareError> {
-    let bad = FlareError::InvalidLight(light.x, light.y, light.z);
-    let d = light.try_normalize().ok_or(bad.clone())?;
-    if d.z > MIN_LIGHT_Z { Ok(d) } else { Err(bad) }
+    let d = input::direction("light direction", light)?;
+    if d.z > MIN_LIGHT_Z { Ok(d) } else { Err(FlareError::LightBehindLens { dir_z: d.z }) }
 }
 
 /// Direction of travel of light arriving `field_deg` off axis, tilted
 /// towards the azimuth `azimuth_deg` (from +x towards +y):
 /// `(sin θ cos φ, sin θ sin φ, cos θ)`. The source itself lies in the
-/// opposite direction.
+/// opposite direction. Non-finite angles give a non-finite vector, which
+/// [`light_direction`] (and so every function taking a light) refuses.
 pub fn light_from_field(field_deg: f64, azimuth_deg: f64) -> DVec3 {
     let (t, a) = (field_deg.to_radians(), azimuth_deg.to_radians());
     DVec3::new(t.sin() * a.cos(), t.sin() * a.sin(), t.cos())
 }
 
 /// A collimated beam: a light direction and the pupil square it fills.
+///
+/// The grid of rays over the square is regular, not random (the blog's
+/// *Rasterisation and shading*: "use regularly spaced bundles, not randomly
+/// generated ones"), so that grid cells on the sensor correspond to cells
+/// on the entrance plane. All rays are parallel to the light direction `d`;
+/// their power is measured as unit irradiance on a plane perpendicular to
+/// `d`, so a cell of area `A` on the pupil plane carries `A · d_z` (its beam
+/// cross-section).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Beam {
     direction: DVec3,
@@ -145,15 +174,13 @@ impl Beam {
     /// surface 0 from the front.
     pub fn new(prescription: &LensPrescription, light: DVec3, bounds: PupilBounds) -> Result<Self, FlareError> {
         let direction = light_direction(light)?;
-        bounds.validate()?;
-        prescription.validate().map_err(crate::lens::TraceError::from)?;
-        let c0 = prescription.surfaces[0].curvature.abs();
-        let widest = prescription.surfaces.iter().map(|s| s.semi_aperture_mm).fold(0.0, f64::max);
+        let c0 = prescription.surfaces()[0].curvature.abs();
+        let widest = prescription.surfaces().iter().map(|s| s.semi_aperture_mm).fold(0.0, f64::max);
         // |sag(r)| <= r on a cap, so backing off by the largest radius a grid
         // ray can have (capped by |R|) clears the cap.
         let reach = bounds.center.length() + std::f64::consts::SQRT_2 * bounds.half_width + widest;
         let depth = if c0 > 0.0 { reach.min(1.0 / c0) } else { 0.0 };
-        let start_z = bounds.plane_z.min(0.0) - depth - 1.0;
+        let start_z = bounds.plane_z.min(0.0) - depth - BEAM_START_CLEARANCE_MM;
         Ok(Self { direction, bounds, start_z })
     }
 
@@ -184,11 +211,22 @@ impl Beam {
         self.bounds.center + self.bounds.half_width * DVec2::new(2.0 * u - 1.0, 2.0 * v - 1.0)
     }
 
-    /// The ray through the pupil point at `(u, v)`, started in front of the lens.
-    pub fn ray_at(&self, u: f64, v: f64) -> Ray {
+    /// The ray through the pupil point at `(u, v)`, started in front of the
+    /// lens. `u`, `v` outside [0, 1] extrapolate the square; a start point
+    /// that is not finite (non-finite or enormous `u`, `v`) is refused.
+    pub fn ray_at(&self, u: f64, v: f64) -> Result<Ray, InvalidInput> {
+        Ray::new(self.start_of(u, v), self.direction)
+    }
+
+    /// [`Beam::ray_at`] for the crate's own grid coordinates in [0, 1]².
+    pub(crate) fn grid_ray(&self, u: f64, v: f64) -> Ray {
+        Ray::from_unit(self.start_of(u, v), self.direction)
+    }
+
+    fn start_of(&self, u: f64, v: f64) -> DVec3 {
         let p = self.pupil_point(u, v);
         let back = (self.bounds.plane_z - self.start_z) / self.direction.z;
-        Ray::from_unit(DVec3::new(p.x, p.y, self.bounds.plane_z) - self.direction * back, self.direction)
+        DVec3::new(p.x, p.y, self.bounds.plane_z) - self.direction * back
     }
 
     /// Power of the whole square at unit irradiance normal to the beam:
@@ -205,10 +243,12 @@ mod tests {
 
     #[test]
     fn light_validation() {
-        assert!(light_direction(DVec3::new(f64::NAN, 0.0, 1.0)).is_err());
-        assert!(light_direction(DVec3::ZERO).is_err());
-        assert!(light_direction(DVec3::new(1.0, 0.0, 0.0)).is_err(), "parallel to the lens");
-        assert!(light_direction(DVec3::new(0.0, 0.0, -1.0)).is_err(), "away from the lens");
+        for bad in [DVec3::new(f64::NAN, 0.0, 1.0), DVec3::ZERO, light_from_field(f64::INFINITY, 0.0)] {
+            let e = light_direction(bad).unwrap_err();
+            assert!(matches!(e, FlareError::Input(i) if i.what == "light direction"), "{bad}: {e}");
+        }
+        assert_eq!(light_direction(DVec3::new(1.0, 0.0, 0.0)), Err(FlareError::LightBehindLens { dir_z: 0.0 }));
+        assert_eq!(light_direction(DVec3::new(0.0, 0.0, -2.0)), Err(FlareError::LightBehindLens { dir_z: -1.0 }));
         let d = light_direction(DVec3::new(0.0, 3.0, 4.0)).unwrap();
         assert!((d - DVec3::new(0.0, 0.6, 0.8)).length() < 1e-15);
         let f = light_from_field(30.0, 90.0);
@@ -222,7 +262,7 @@ mod tests {
         let beam = Beam::for_path(&p, TracePath::Primary, d, 550.0).unwrap();
         let b = beam.bounds();
         for (u, v) in [(0.0, 0.0), (1.0, 0.3), (0.5, 0.5)] {
-            let r = beam.ray_at(u, v);
+            let r = beam.ray_at(u, v).unwrap();
             let t = (b.plane_z - r.origin().z) / r.dir().z;
             let q = r.at(t);
             assert!((q.truncate() - beam.pupil_point(u, v)).length() < 1e-12);
@@ -243,20 +283,20 @@ mod tests {
         use crate::lens_flare::{GridOptions, trace_grid};
         for p in [builtin::tessar(), builtin::double_gauss()] {
             let lens = PreparedLens::new(&p, 550.0).unwrap();
-            let stop = p.stop_index().unwrap();
+            let stop = p.stop_index();
             for field in [0.0, 15.0, 30.0] {
                 let d = light_from_field(field, 30.0);
                 let front = Beam::new(&p, d, PupilBounds::front_aperture(&p, d).unwrap()).unwrap();
                 let ep = PupilBounds::entrance_pupil(&p, 550.0).unwrap();
                 for (i, j) in ghosts(&p).into_iter().filter(|&(i, _)| i > stop) {
                     let g = trace_grid(&lens, TracePath::ghost(i, j), &front, 33, &GridOptions::default()).unwrap();
-                    for (k, r) in g.rays.iter().enumerate() {
+                    for (k, r) in g.rays().iter().enumerate() {
                         if !(r.alive && r.r_rel <= 1.0) {
                             continue;
                         }
-                        let ray = front.ray_at((k % 33) as f64 / 32.0, (k / 33) as f64 / 32.0);
+                        let ray = front.ray_at((k % 33) as f64 / 32.0, (k / 33) as f64 / 32.0).unwrap();
                         let q = ray.at((ep.plane_z - ray.origin().z) / ray.dir().z).truncate() - ep.center;
-                        assert!(q.abs().max_element() <= ep.half_width, "{}: ({i},{j}) at {field}°", p.name);
+                        assert!(q.abs().max_element() <= ep.half_width, "{}: ({i},{j}) at {field}°", p.name());
                     }
                 }
             }
@@ -279,7 +319,7 @@ mod tests {
         let o = GridOptions::default();
         for (p, field) in [(builtin::tessar(), 30.0), (builtin::double_gauss(), 20.0)] {
             let lens = PreparedLens::new(&p, 550.0).unwrap();
-            let stop = p.stop_index().unwrap();
+            let stop = p.stop_index();
             let ap = Aperture::of_stop(&p);
             let d = light_from_field(field, 30.0);
             let front = Beam::new(&p, d, PupilBounds::front_aperture(&p, d).unwrap()).unwrap();
@@ -293,7 +333,7 @@ mod tests {
                 assert!(
                     (b.power - a.power).abs() <= noise * a.power.max(b.power),
                     "{} at {field}°: ({i},{j}) front {} vs pupil {}",
-                    p.name,
+                    p.name(),
                     a.power,
                     b.power
                 );
@@ -301,7 +341,7 @@ mod tests {
                 sum_ep += b.power;
                 lit += (a.passed > 0) as usize;
             }
-            assert!(lit >= 8 && (sum_ep / sum_front - 1.0).abs() < 0.01, "{}: {sum_ep} vs {sum_front}, {lit} lit", p.name);
+            assert!(lit >= 8 && (sum_ep / sum_front - 1.0).abs() < 0.01, "{}: {sum_ep} vs {sum_front}, {lit} lit", p.name());
         }
     }
 
@@ -315,5 +355,23 @@ mod tests {
         assert!((behind.half_width - ENTRANCE_PUPIL_MARGIN * q.entrance_pupil_radius_mm).abs() < 1e-12);
         let front = PupilBounds::for_path(&p, TracePath::ghost(2, 0), DVec3::Z, 550.0).unwrap();
         assert_eq!(front.half_width, 19.2, "on axis: the front semi-aperture of US 2,854,889");
+        // A bad wavelength is refused, not hidden behind the front-aperture fallback.
+        let e = PupilBounds::for_path(&p, TracePath::ghost(5, 4), DVec3::Z, f64::NAN).unwrap_err();
+        assert!(matches!(e, FlareError::Input(i) if i.what == "wavelength (nm)"), "{e}");
+    }
+
+    #[test]
+    fn bounds_and_rays_are_checked() {
+        let what = |e: InvalidInput| e.what;
+        assert_eq!(PupilBounds::new(f64::NAN, DVec2::ZERO, 1.0).map_err(what), Err("pupil plane z (mm)"));
+        assert_eq!(PupilBounds::new(0.0, DVec2::new(0.0, f64::INFINITY), 1.0).map_err(what), Err("pupil centre (mm)"));
+        assert_eq!(PupilBounds::new(0.0, DVec2::ZERO, 0.0).map_err(what), Err("pupil half-width (mm)"));
+        let p = builtin::tessar();
+        let b = PupilBounds::new(-1.0, DVec2::new(1.0, 2.0), 3.0).unwrap();
+        assert_eq!((b.plane_z(), b.center(), b.half_width(), b.area_mm2()), (-1.0, DVec2::new(1.0, 2.0), 3.0, 36.0));
+        let beam = Beam::new(&p, DVec3::Z, b).unwrap();
+        assert_eq!(beam.ray_at(f64::NAN, 0.5).unwrap_err().what, "ray origin");
+        assert_eq!(beam.ray_at(1e308, 0.5).unwrap_err().what, "ray origin");
+        assert_eq!(beam.ray_at(1.0, 0.0).unwrap(), beam.grid_ray(1.0, 0.0));
     }
 }

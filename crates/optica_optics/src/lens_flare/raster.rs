@@ -1,67 +1,53 @@
-//! Sensor histograms and the rasteriser of traced grids.
-//!
-//! A [`SensorImage`] holds **power per pixel** (mm² of unit-irradiance beam
-//! that lands in the pixel), so that a brute-force histogram of rays and a
-//! rasterised grid are directly comparable and the sum of an image is the
-//! power reaching the sensor window.
-//!
-//! The grid rasteriser draws each live cell as its two triangles (00-10-11
-//! and 00-11-01, the split the cell's area was measured with) with the cell's
-//! flat irradiance. Coverage is exact: each triangle is clipped against each
-//! pixel square (Sutherland–Hodgman), so a pixel gets `I × overlap area`
-//! and a cell deposits exactly its power however small it is. The clip is per
-//! fragment (triangle ∩ pixel): `r_rel` and the stop-plane position of every
-//! stop crossing are interpolated (barycentric, linear on the triangle) at
-//! the fragment's centroid and the fragment is dropped when `r_rel > 1` or
-//! the aperture does not contain one of the positions — the CPU twin of a
-//! pixel shader that discards by an aperture texture. A ghost `(i, j)` with
-//! `j < stop < i` crosses the stop three times and the aperture shape is
-//! tested at all three (the first alone would let a bladed stop clip only
-//! the first pass, the later ones only by the round `r_rel`).
+//! Sensor histograms and the exact-coverage rasteriser of traced grids
+//! (reference feature); documented on [`rasterise`] and [`SensorImage`].
 
 use glam::DVec2;
 
 use super::FlareError;
 use super::aperture::Aperture;
+use super::grid_trace::count_in;
+use crate::input;
 use super::grid_trace::RayGrid;
 use super::intensity::{CellKind, GridRay};
 use crate::lens::MAX_STOP_CROSSINGS;
 
-/// Most pixels a window may have (4096²).
+/// Most pixels a window may have: 4096², a 4K frame with room, 134 MB of
+/// `f64` power per image.
 pub const MAX_PIXELS: usize = 4096 * 4096;
+
+/// Smallest side, mm, of a window made by [`SensorWindow::around`]: 1 µm,
+/// below any sensor pixel, so that a ghost focused to a point still gets a
+/// window with a positive pixel size.
+const MIN_AROUND_SIDE_MM: f64 = 1e-3;
 
 /// A rectangle of the sensor plane divided into square pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SensorWindow {
-    /// Lower-left corner (x, y) on the sensor, mm.
-    pub min: DVec2,
-    /// Side of a pixel, mm.
-    pub pixel_mm: f64,
-    /// Pixels along x.
-    pub width: usize,
-    /// Pixels along y.
-    pub height: usize,
+    min: DVec2,
+    pixel_mm: f64,
+    width: usize,
+    height: usize,
 }
 
 impl SensorWindow {
-    /// A window of `width × height` pixels of side `pixel_mm` from `min`.
+    /// A window of `width × height` pixels of side `pixel_mm` (finite, > 0)
+    /// from the lower-left corner `min` (finite), at most [`MAX_PIXELS`].
     pub fn new(min: DVec2, pixel_mm: f64, width: usize, height: usize) -> Result<Self, FlareError> {
-        if !min.is_finite() {
-            return Err(FlareError::InvalidWindow("corner is not finite"));
-        }
-        if !(pixel_mm.is_finite() && pixel_mm > 0.0) {
-            return Err(FlareError::InvalidWindow("pixel size must be finite and > 0"));
-        }
-        if width == 0 || height == 0 || width.saturating_mul(height) > MAX_PIXELS {
-            return Err(FlareError::InvalidWindow("pixel count must be in 1..=4096²"));
-        }
+        let min = input::finite_vec2("window corner (mm)", min)?;
+        let pixel_mm = input::positive("pixel size (mm)", pixel_mm)?;
+        count_in("window width (pixels)", width, 1, MAX_PIXELS)?;
+        count_in("window pixels", width.saturating_mul(height), 1, MAX_PIXELS)?;
         Ok(Self { min, pixel_mm, width, height })
     }
 
     /// A square window of `pixels × pixels` around the points `pts`
-    /// (non-finite ones skipped), widened by `margin` (fraction of the side)
-    /// on each side; a single point or none gets a 1 mm window.
+    /// (non-finite ones skipped), widened by `margin` (a finite fraction of
+    /// the side, >= 0) on each side; the side is at least 1 µm, so a single
+    /// point gets a 1 µm window, and no point at all a 1 µm window at the
+    /// origin.
     pub fn around(pts: impl IntoIterator<Item = DVec2>, margin: f64, pixels: usize) -> Result<Self, FlareError> {
+        let margin = input::non_negative("window margin", margin)?;
+        count_in("window pixels per side", pixels, 1, MAX_PIXELS)?;
         let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
         for p in pts.into_iter().filter(|p| p.is_finite()) {
             lo = lo.min(p);
@@ -71,12 +57,29 @@ impl SensorWindow {
             lo = DVec2::ZERO;
             hi = DVec2::ZERO;
         }
-        let side = (hi - lo).max_element().max(1e-3);
-        let side = if side.is_finite() { side } else { 1.0 };
-        let m = if margin.is_finite() { margin.max(0.0) } else { 0.0 };
-        let full = side * (1.0 + 2.0 * m);
+        let full = (hi - lo).max_element().max(MIN_AROUND_SIDE_MM) * (1.0 + 2.0 * margin);
         let center = 0.5 * (lo + hi);
-        Self::new(center - DVec2::splat(0.5 * full), full / pixels.max(1) as f64, pixels, pixels)
+        Self::new(center - DVec2::splat(0.5 * full), full / pixels as f64, pixels, pixels)
+    }
+
+    /// Lower-left corner (x, y) on the sensor, mm.
+    pub fn min(&self) -> DVec2 {
+        self.min
+    }
+
+    /// Side of a pixel, mm.
+    pub fn pixel_mm(&self) -> f64 {
+        self.pixel_mm
+    }
+
+    /// Pixels along x.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Pixels along y.
+    pub fn height(&self) -> usize {
+        self.height
     }
 
     /// Pixel `(ix, iy)` containing `p`, or `None` outside the window.
@@ -95,19 +98,45 @@ impl SensorWindow {
     }
 }
 
-/// Power per pixel over a [`SensorWindow`], row-major (`iy * width + ix`).
+/// Power per pixel over a [`SensorWindow`], row-major (`iy * width + ix`);
+/// read-only, so the pixels always match the window.
+///
+/// Power, not irradiance: mm² of unit-irradiance beam that lands in the
+/// pixel, so that a brute-force histogram of rays and a rasterised grid are
+/// directly comparable and the sum of an image is the power reaching the
+/// sensor window.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SensorImage {
-    /// The window.
-    pub window: SensorWindow,
-    /// Power per pixel.
-    pub power: Vec<f64>,
+    window: SensorWindow,
+    power: Vec<f64>,
 }
 
 impl SensorImage {
     /// A black image.
     pub fn new(window: SensorWindow) -> Self {
         Self { power: vec![0.0; window.width * window.height], window }
+    }
+
+    /// An image of `power` per pixel, which must have one value per pixel
+    /// of `window` (the crate's own reference and tests build these).
+    pub(crate) fn from_power(window: SensorWindow, power: Vec<f64>) -> Self {
+        debug_assert_eq!(power.len(), window.width * window.height);
+        Self { window, power }
+    }
+
+    /// The window.
+    pub fn window(&self) -> SensorWindow {
+        self.window
+    }
+
+    /// Power per pixel, row-major (`iy * width + ix`), mm².
+    pub fn power(&self) -> &[f64] {
+        &self.power
+    }
+
+    /// Power per pixel, mutable (the crate's own reference bins into it).
+    pub(crate) fn power_mut(&mut self) -> &mut [f64] {
+        &mut self.power
     }
 
     /// Total power in the window.
@@ -129,7 +158,21 @@ impl SensorImage {
 }
 
 /// Rasterises `grid` into a new image over `window`, clipping per fragment by
-/// `r_rel <= 1` and `aperture` (see the module docs).
+/// `r_rel <= 1` and `aperture`.
+///
+/// Each live cell is drawn as its two triangles (00-10-11 and 00-11-01, the
+/// split the cell's area was measured with) with the cell's flat
+/// irradiance. Coverage is exact: each triangle is clipped against each
+/// pixel square (Sutherland–Hodgman), so a pixel gets `I × overlap area` and
+/// a cell deposits exactly its power however small it is. The clip is per
+/// fragment (triangle ∩ pixel): `r_rel` and the stop-plane position of every
+/// stop crossing are interpolated (barycentric, linear on the triangle) at
+/// the fragment's centroid and the fragment is dropped when `r_rel > 1` or
+/// the aperture does not contain one of the positions — the CPU twin of a
+/// pixel shader that discards by an aperture texture. A ghost `(i, j)` with
+/// `j < stop < i` crosses the stop three times and the aperture shape is
+/// tested at all three (the first alone would let a bladed stop clip only
+/// the first pass, the later ones only by the round `r_rel`).
 pub fn rasterise(grid: &RayGrid, aperture: &Aperture, window: SensorWindow) -> SensorImage {
     let mut img = SensorImage::new(window);
     rasterise_into(grid, aperture, &mut img);
@@ -138,17 +181,12 @@ pub fn rasterise(grid: &RayGrid, aperture: &Aperture, window: SensorWindow) -> S
 
 /// [`rasterise`] adding into `image` (to sum ghosts or wavelengths).
 pub fn rasterise_into(grid: &RayGrid, aperture: &Aperture, image: &mut SensorImage) {
-    let m = grid.n.saturating_sub(1);
-    for j in 0..m {
-        for i in 0..m {
-            let cell = grid.cell(i, j);
-            if cell.kind == CellKind::Dead || !(cell.intensity > 0.0) {
-                continue;
-            }
-            let [a, b, c, d] = grid.cell_corners(i, j);
-            triangle(image, [a, b, c], cell.intensity, aperture);
-            triangle(image, [a, c, d], cell.intensity, aperture);
+    for (cell, [a, b, c, d]) in grid.cells_with_corners() {
+        if cell.kind == CellKind::Dead || !(cell.intensity > 0.0) {
+            continue;
         }
+        triangle(image, [a, b, c], cell.intensity, aperture);
+        triangle(image, [a, c, d], cell.intensity, aperture);
     }
 }
 
@@ -168,7 +206,9 @@ impl Poly {
             a2 += cross;
             c += (p + q) * cross;
         }
-        if a2.abs() < 1e-300 {
+        // Zero, subnormal or non-finite: the centroid's division would
+        // overflow or be NaN, and such a fragment carries no power.
+        if !a2.is_normal() {
             return (0.0, DVec2::ZERO);
         }
         (0.5 * a2.abs(), c / (3.0 * a2))
@@ -247,24 +287,15 @@ fn triangle(image: &mut SensorImage, v: [&GridRay; 3], intensity: f64, aperture:
 mod tests {
     use super::*;
     use crate::lens::TracePath;
-    use crate::lens_flare::intensity::{DEFAULT_MAX_GAIN, cell_intensity};
 
     fn ray(x: f64, y: f64, r_rel: f64) -> GridRay {
         GridRay { alive: true, sensor: DVec2::new(x, y), r_rel, stop_xy: [DVec2::ZERO; 3], throughput: 1.0 }
     }
 
+    /// One cell with corners `[00, 10, 11, 01]` and a unit pupil area.
     fn one_cell(rays: [GridRay; 4]) -> RayGrid {
         let [a, b, c, d] = rays;
-        let all = vec![a, b, d, c]; // row-major: (0,0) (1,0) (0,1) (1,1)
-        let cell = cell_intensity([&a, &b, &c, &d], 1.0, DEFAULT_MAX_GAIN);
-        RayGrid {
-            n: 2,
-            path: TracePath::Primary,
-            wavelength_nm: 550.0,
-            cell_pupil_mm2: 1.0,
-            rays: all,
-            cells: vec![cell],
-        }
+        RayGrid::from_rays(2, TracePath::Primary, 1.0, vec![a, b, d, c]) // row-major: (0,0) (1,0) (0,1) (1,1)
     }
 
     #[test]
@@ -273,12 +304,12 @@ mod tests {
         // 0.37 mm pixels: the image total is exactly A_p · T = 1.
         let g = one_cell([ray(0.1, 0.2, 0.0), ray(2.3, 0.5, 0.0), ray(2.0, 2.9, 0.0), ray(0.4, 1.7, 0.0)]);
         let w = SensorWindow::new(DVec2::ZERO, 0.37, 10, 10).unwrap();
-        let img = rasterise(&g, &Aperture::circle(1.0), w);
+        let img = rasterise(&g, &Aperture::circle(1.0).unwrap(), w);
         assert!((img.total() - 1.0).abs() < 1e-12, "{}", img.total());
         // A sub-pixel cell inside one pixel puts everything there.
         let g = one_cell([ray(1.01, 1.01, 0.0), ray(1.02, 1.01, 0.0), ray(1.02, 1.02, 0.0), ray(1.01, 1.02, 0.0)]);
-        let img = rasterise(&g, &Aperture::circle(1.0), w);
-        assert!((img.power[2 * 10 + 2] - 1.0).abs() < 1e-9);
+        let img = rasterise(&g, &Aperture::circle(1.0).unwrap(), w);
+        assert!((img.power()[2 * 10 + 2] - 1.0).abs() < 1e-9);
     }
 
     #[test]
@@ -286,23 +317,34 @@ mod tests {
         // r_rel runs 0 → 2 along x over a 2 mm cell: the half x < 1 passes.
         let g = one_cell([ray(0.0, 0.0, 0.0), ray(2.0, 0.0, 2.0), ray(2.0, 2.0, 2.0), ray(0.0, 2.0, 0.0)]);
         let w = SensorWindow::new(DVec2::ZERO, 0.1, 20, 20).unwrap();
-        let img = rasterise(&g, &Aperture::circle(1.0), w);
+        let img = rasterise(&g, &Aperture::circle(1.0).unwrap(), w);
         assert!((img.total() - 0.5).abs() < 1e-9, "{}", img.total());
         // A closed aperture passes nothing.
-        assert_eq!(rasterise(&g, &Aperture::circle(0.0), w).total(), 0.0);
+        assert_eq!(rasterise(&g, &Aperture::closed(), w).total(), 0.0);
     }
 
     #[test]
     fn window_validation_and_lookup() {
-        assert!(SensorWindow::new(DVec2::ZERO, 0.0, 4, 4).is_err());
-        assert!(SensorWindow::new(DVec2::ZERO, 1.0, 0, 4).is_err());
-        assert!(SensorWindow::new(DVec2::new(f64::NAN, 0.0), 1.0, 4, 4).is_err());
+        let what = |r: Result<SensorWindow, FlareError>| match r {
+            Err(FlareError::Input(i)) => Some(i.what),
+            _ => None,
+        };
+        assert_eq!(what(SensorWindow::new(DVec2::ZERO, 0.0, 4, 4)), Some("pixel size (mm)"));
+        assert_eq!(what(SensorWindow::new(DVec2::ZERO, 1.0, 0, 4)), Some("window width (pixels)"));
+        assert_eq!(what(SensorWindow::new(DVec2::ZERO, 1.0, 4, 0)), Some("window pixels"));
+        assert_eq!(what(SensorWindow::new(DVec2::ZERO, 1.0, 4097, 4096)), Some("window pixels"));
+        assert_eq!(what(SensorWindow::new(DVec2::new(f64::NAN, 0.0), 1.0, 4, 4)), Some("window corner (mm)"));
+        assert_eq!(what(SensorWindow::around([DVec2::ZERO], f64::NAN, 4)), Some("window margin"));
+        assert_eq!(what(SensorWindow::around([DVec2::ZERO], 0.1, 0)), Some("window pixels per side"));
+        // No finite point: a 1 µm window at the origin.
+        let empty = SensorWindow::around([DVec2::NAN], 0.0, 2).unwrap();
+        assert_eq!((empty.min(), empty.pixel_mm(), empty.width(), empty.height()), (DVec2::splat(-5e-4), 5e-4, 2, 2));
         let w = SensorWindow::new(DVec2::new(-2.0, -2.0), 1.0, 4, 4).unwrap();
         assert_eq!(w.pixel_of(DVec2::new(-1.5, 1.5)), Some((0, 3)));
         assert_eq!(w.pixel_of(DVec2::new(2.0, 0.0)), None);
         assert_eq!(w.pixel_of(DVec2::new(f64::NAN, 0.0)), None);
         let a = SensorWindow::around([DVec2::new(0.0, 0.0), DVec2::new(4.0, 2.0), DVec2::new(f64::NAN, 1.0)], 0.25, 8)
             .unwrap();
-        assert!((a.pixel_mm - 6.0 / 8.0).abs() < 1e-15 && a.min == DVec2::new(-1.0, -2.0));
+        assert!((a.pixel_mm() - 6.0 / 8.0).abs() < 1e-15 && a.min() == DVec2::new(-1.0, -2.0));
     }
 }

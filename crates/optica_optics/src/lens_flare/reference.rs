@@ -12,16 +12,19 @@
 //! the grid method approximates; its own error is Monte-Carlo noise, which
 //! falls as 1/K per pixel for a smooth image.
 
+use rand::{RngExt, SeedableRng};
+use rand_xoshiro::SplitMix64;
 use rayon::prelude::*;
 
 use super::FlareError;
 use super::aperture::Aperture;
-use super::grid_trace::{GridOptions, check_setup, trace_one};
+use super::grid_trace::{GridOptions, check_setup, count_in, trace_one};
 use super::pupil::Beam;
 use super::raster::{SensorImage, SensorWindow};
 use crate::lens::{PreparedLens, TracePath};
 
-/// Most strata per side of a reference (4096² ≈ 1.7·10⁷ rays).
+/// Most strata per side of a reference: 4096² ≈ 1.7·10⁷ rays, a few minutes
+/// on a laptop; the plugin's error measure uses 512² rays per ghost.
 pub const MAX_REFERENCE_SIDE: usize = 4096;
 
 /// A brute-force image and its ray counts.
@@ -37,31 +40,32 @@ pub struct ReferenceImage {
     pub power: f64,
 }
 
-/// SplitMix64 (Steele et al. 2014): a tiny, well-mixed generator, enough
-/// for jitter; seeded per row so the reference is the same however rayon
-/// splits the work.
-#[derive(Clone, Copy, Debug)]
-pub struct SplitMix64(pub u64);
+/// Rows of a reference are traced in this many blocks, in parallel: enough
+/// to keep 16 cores busy, and few enough that the blocks' partial images
+/// (one per block, added in order so that the result is deterministic) stay
+/// small next to the rays traced.
+const ROW_BLOCKS: usize = 16;
 
-impl SplitMix64 {
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1) with 53 random bits.
-    pub fn next_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
+/// The generator of row `row` of a reference seeded with `seed`: SplitMix64
+/// (Steele, Lea and Flood, "Fast splittable pseudorandom number generators",
+/// OOPSLA 2014), a small, well-mixed generator, enough for jitter. Each row
+/// gets its own so that the image is the same however rayon splits the rows.
+/// Seeds go through SplitMix64's output mixing twice — `base` = first output
+/// for `seed`, the row's seed = first output for `base + row` — which spreads
+/// neighbouring values over the whole 64-bit state, so neither the rows of
+/// one reference nor those of references with neighbouring seeds share a
+/// stream (a plain `seed + row` would give seed 2's row j to seed 1's row
+/// j + 1).
+fn row_rng(seed: u64, row: usize) -> SplitMix64 {
+    let base: u64 = SplitMix64::seed_from_u64(seed).random();
+    SplitMix64::seed_from_u64(SplitMix64::seed_from_u64(base.wrapping_add(row as u64)).random())
 }
 
-/// The brute-force image of `path` for `beam`: `rays_per_side²` jittered
-/// rays, clipped by `r_rel <= 1` and `aperture`, binned over `window`.
-/// `options.sensor_z` places the sensor (`max_gain` is unused here).
+/// The brute-force image of `path` for `beam`: `rays_per_side²` (1 to
+/// [`MAX_REFERENCE_SIDE`] per side) jittered rays, clipped by `r_rel <= 1`
+/// and `aperture`, binned over `window`. `options.sensor_z` places the
+/// sensor (`max_gain` is checked but unused here). The same arguments give
+/// the same image bit for bit, whatever the number of threads.
 #[allow(clippy::too_many_arguments)]
 pub fn reference_image(
     lens: &PreparedLens,
@@ -73,26 +77,24 @@ pub fn reference_image(
     seed: u64,
     options: &GridOptions,
 ) -> Result<ReferenceImage, FlareError> {
-    if rays_per_side == 0 {
-        return Err(FlareError::NoRays);
-    }
-    if rays_per_side > MAX_REFERENCE_SIDE {
-        return Err(FlareError::InvalidGridSize { got: rays_per_side, max: MAX_REFERENCE_SIDE });
-    }
+    let k = count_in("reference rays per side", rays_per_side, 1, MAX_REFERENCE_SIDE)?;
     let sensor_z = check_setup(lens, path, options)?;
-    let k = rays_per_side;
     let w = beam.cross_section_mm2() / (k * k) as f64;
-    let npix = window.width * window.height;
+    let npix = window.width() * window.height();
     let inv = 1.0 / k as f64;
-    let (power, passed, total) = (0..k)
+    // Rows go in ROW_BLOCKS contiguous blocks, each summed in row order and
+    // the blocks then added in block order: the floating-point sums, and so
+    // the image, do not depend on how rayon schedules the work.
+    let blocks = ROW_BLOCKS.min(k);
+    let per_block: Vec<(Vec<f64>, usize, f64)> = (0..blocks)
         .into_par_iter()
-        .fold(
-            || (vec![0.0; npix], 0usize, 0.0f64),
-            |(mut img, mut passed, mut total), j| {
-                let mut rng = SplitMix64(seed ^ (j as u64).wrapping_mul(0xD134_2543_DE82_EF95));
+        .map(|b| {
+            let (mut img, mut passed, mut total) = (vec![0.0; npix], 0usize, 0.0f64);
+            for j in b * k / blocks..(b + 1) * k / blocks {
+                let mut rng = row_rng(seed, j);
                 for i in 0..k {
-                    let u = (i as f64 + rng.next_f64()) * inv;
-                    let v = (j as f64 + rng.next_f64()) * inv;
+                    let u = (i as f64 + rng.random::<f64>()) * inv;
+                    let v = (j as f64 + rng.random::<f64>()) * inv;
                     let r = trace_one(lens, path, beam, u, v, sensor_z);
                     if !r.passes(aperture) {
                         continue;
@@ -100,22 +102,22 @@ pub fn reference_image(
                     passed += 1;
                     total += w * r.throughput;
                     if let Some((ix, iy)) = window.pixel_of(r.sensor) {
-                        img[iy * window.width + ix] += w * r.throughput;
+                        img[iy * window.width() + ix] += w * r.throughput;
                     }
                 }
-                (img, passed, total)
-            },
-        )
-        .reduce(
-            || (vec![0.0; npix], 0usize, 0.0f64),
-            |(mut a, pa, ta), (b, pb, tb)| {
-                for (x, y) in a.iter_mut().zip(&b) {
-                    *x += y;
-                }
-                (a, pa + pb, ta + tb)
-            },
-        );
-    Ok(ReferenceImage { image: SensorImage { window, power }, rays: k * k, passed, power: total })
+            }
+            (img, passed, total)
+        })
+        .collect();
+    let (mut power, mut passed, mut total) = (vec![0.0; npix], 0usize, 0.0f64);
+    for (img, p, t) in per_block {
+        for (x, y) in power.iter_mut().zip(&img) {
+            *x += y;
+        }
+        passed += p;
+        total += t;
+    }
+    Ok(ReferenceImage { image: SensorImage::from_power(window, power), rays: k * k, passed, power: total })
 }
 
 /// Errors of an image against a reference over the same window.
@@ -132,11 +134,11 @@ pub struct ImageError {
 /// Compares `test` with `reference`; `None` when the windows differ or the
 /// reference holds no power (nothing to be relative to).
 pub fn compare(test: &SensorImage, reference: &SensorImage) -> Option<ImageError> {
-    if test.window != reference.window {
+    if test.window() != reference.window() {
         return None;
     }
     let (mut l1, mut l2, mut r1, mut r2, mut t1) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for (t, r) in test.power.iter().zip(&reference.power) {
+    for (t, r) in test.power().iter().zip(reference.power()) {
         l1 += (t - r).abs();
         l2 += (t - r) * (t - r);
         r1 += r.abs();
@@ -153,15 +155,16 @@ pub fn compare(test: &SensorImage, reference: &SensorImage) -> Option<ImageError
 /// (`factor` must divide both sides; else `None`). Comparing at a coarser
 /// scale separates the grid's error from the reference's per-pixel noise.
 pub fn downsample(image: &SensorImage, factor: usize) -> Option<SensorImage> {
-    let w = image.window;
-    if factor == 0 || !w.width.is_multiple_of(factor) || !w.height.is_multiple_of(factor) {
+    let w = image.window();
+    let (width, height) = (w.width(), w.height());
+    if factor == 0 || !width.is_multiple_of(factor) || !height.is_multiple_of(factor) {
         return None;
     }
-    let win = SensorWindow::new(w.min, w.pixel_mm * factor as f64, w.width / factor, w.height / factor).ok()?;
+    let win = SensorWindow::new(w.min(), w.pixel_mm() * factor as f64, width / factor, height / factor).ok()?;
     let mut out = SensorImage::new(win);
-    for iy in 0..w.height {
-        for ix in 0..w.width {
-            out.power[(iy / factor) * win.width + ix / factor] += image.power[iy * w.width + ix];
+    for iy in 0..height {
+        for ix in 0..width {
+            out.power_mut()[(iy / factor) * win.width() + ix / factor] += image.power()[iy * width + ix];
         }
     }
     Some(out)
@@ -177,22 +180,38 @@ mod tests {
     use crate::lens_flare::raster::rasterise;
 
     fn coated_tessar() -> LensPrescription {
-        crate::lens_flare::coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0))
+        crate::lens_flare::coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0)).unwrap()
     }
 
     #[test]
-    fn splitmix_is_uniform_enough() {
-        // Mean of 10⁴ draws of U[0,1): 0.5 ± 3σ, σ = √(1/12/10⁴) = 0.0029.
-        let mut r = SplitMix64(7);
-        let m: f64 = (0..10_000).map(|_| r.next_f64()).sum::<f64>() / 1e4;
-        assert!((m - 0.5).abs() < 0.009, "{m}");
+    fn rows_draw_different_jitter_and_the_image_depends_only_on_the_seed() {
+        // Neighbouring rows and seeds start far apart: no two of the first
+        // draws of 64 rows × 2 seeds coincide.
+        let mut firsts: Vec<u64> = (0..64).flat_map(|j| [row_rng(1, j), row_rng(2, j)]).map(|mut r| r.random()).collect();
+        firsts.sort_unstable();
+        firsts.dedup();
+        assert_eq!(firsts.len(), 128);
+        // Same seed, same image (whatever rayon did); another seed, another.
+        let p = coated_tessar();
+        let lens = PreparedLens::new(&p, 550.0).unwrap();
+        let path = TracePath::ghost(5, 4);
+        let beam = Beam::for_path(&p, path, light_from_field(8.0, 0.0), 550.0).unwrap();
+        let (ap, o) = (Aperture::of_stop(&p), GridOptions::default());
+        let w = SensorWindow::new(glam::DVec2::splat(-20.0), 2.0, 20, 20).unwrap();
+        let a = reference_image(&lens, path, &beam, &ap, w, 40, 3, &o).unwrap();
+        assert_eq!(a, reference_image(&lens, path, &beam, &ap, w, 40, 3, &o).unwrap());
+        assert_ne!(a.image, reference_image(&lens, path, &beam, &ap, w, 40, 4, &o).unwrap().image);
+        for n in [0, MAX_REFERENCE_SIDE + 1] {
+            let e = reference_image(&lens, path, &beam, &ap, w, n, 3, &o).unwrap_err();
+            assert!(matches!(e, FlareError::Input(i) if i.what == "reference rays per side"), "{n}: {e}");
+        }
     }
 
     #[test]
     fn compare_by_hand() {
         let w = SensorWindow::new(glam::DVec2::ZERO, 1.0, 2, 1).unwrap();
-        let r = SensorImage { window: w, power: vec![1.0, 3.0] };
-        let t = SensorImage { window: w, power: vec![2.0, 3.0] };
+        let r = SensorImage::from_power(w, vec![1.0, 3.0]);
+        let t = SensorImage::from_power(w, vec![2.0, 3.0]);
         let e = compare(&t, &r).unwrap();
         assert!((e.rel_l1 - 0.25).abs() < 1e-15);
         assert!((e.rel_l2 - (1.0f64 / 10.0).sqrt()).abs() < 1e-15);
@@ -216,7 +235,7 @@ mod tests {
         let ap = Aperture::of_stop(&p);
         let fine = trace_grid(&lens, path, &beam, 65, &opts).unwrap();
         let window =
-            SensorWindow::around(fine.rays.iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
+            SensorWindow::around(fine.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
                 .unwrap();
         let reference = reference_image(&lens, path, &beam, &ap, window, 400, 1, &opts).unwrap();
         let errs: Vec<ImageError> = [5, 9, 17, 33]
@@ -245,8 +264,7 @@ mod tests {
         let path = TracePath::ghost(5, 0);
         let beam = Beam::for_path(&p, path, light_from_field(10.0, 0.0), 550.0).unwrap();
         let opts = GridOptions::default();
-        let stop_r = p.surfaces[p.stop_index().unwrap()].semi_aperture_mm;
-        let ap = Aperture::polygon(3, 0.5, stop_r);
+        let ap = Aperture::polygon(3, 0.5, p.stop_semi_aperture_mm()).unwrap();
         // Power on a regular 200² grid, clipped at every crossing and at the first only.
         let (n, sensor_z) = (200, lens.table_sensor_z());
         let w = beam.cross_section_mm2() / (n * n) as f64;
@@ -263,7 +281,7 @@ mod tests {
         assert!(all < 0.9 * first, "later crossings cut little here: {all} vs {first}");
         let g = trace_grid(&lens, path, &beam, 65, &opts).unwrap();
         let window =
-            SensorWindow::around(g.rays.iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
+            SensorWindow::around(g.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
                 .unwrap();
         let reference = reference_image(&lens, path, &beam, &ap, window, 300, 9, &opts).unwrap();
         assert!((reference.power / all - 1.0).abs() < 0.02, "reference {} vs every-crossing {all} (first only {first})", reference.power);
@@ -278,25 +296,25 @@ mod tests {
         // once (where the blade shape is tested). With a 6-blade stop the per-pixel clip
         // by the interpolated stop position must agree with the exact per-ray
         // clip: N = 33 within 20 % L1 and 3 % energy of a 300² reference.
-        let p = crate::lens_flare::coat_air_interfaces(&builtin::heliar(), Coating::quarter_wave(1.38, 550.0));
-        assert!(p.surfaces[6].is_flat() && !p.surfaces[6].is_stop);
+        let p = crate::lens_flare::coat_air_interfaces(&builtin::heliar(), Coating::quarter_wave(1.38, 550.0)).unwrap();
+        assert!(p.surfaces()[6].is_flat() && !p.surfaces()[6].is_stop);
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let path = TracePath::ghost(8, 6);
         let beam = Beam::for_path(&p, path, light_from_field(5.0, 0.0), 550.0).unwrap();
         let opts = GridOptions::default();
-        let stop_r = p.surfaces[p.stop_index().unwrap()].semi_aperture_mm;
-        let ap = Aperture::polygon(6, 0.3, stop_r);
+        let stop_r = p.stop_semi_aperture_mm();
+        let ap = Aperture::polygon(6, 0.3, stop_r).unwrap();
         let g = trace_grid(&lens, path, &beam, 33, &opts).unwrap();
         let window =
-            SensorWindow::around(g.rays.iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
+            SensorWindow::around(g.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
                 .unwrap();
         let reference = reference_image(&lens, path, &beam, &ap, window, 300, 5, &opts).unwrap();
         let img = rasterise(&g, &ap, window);
-        assert!(img.power.iter().all(|p| p.is_finite() && *p >= 0.0));
+        assert!(img.power().iter().all(|p| p.is_finite() && *p >= 0.0));
         let e = compare(&img, &reference.image).unwrap();
         assert!(e.rel_l1 < 0.2 && e.rel_energy.abs() < 0.03, "{e:?}");
         // The bladed stop passes less than the round one it is inscribed in.
-        let round = rasterise(&g, &Aperture::circle(stop_r), window);
+        let round = rasterise(&g, &Aperture::circle(stop_r).unwrap(), window);
         assert!(img.total() < round.total(), "{} vs {} ref {}", img.total(), round.total(), reference.image.total());
     }
 }

@@ -1,5 +1,7 @@
-//! The lens-flare sweep: one ghost drawn by the grid method of Hullin et al.
-//! 2011 against a brute-force reference of the same ghost.
+//! The lens-flare sweep: one ghost drawn by the grid method of Hullin,
+//! Eisemann, Seidel and Lee ("Physically-Based Real-Time Lens Flare
+//! Rendering", ACM Transactions on Graphics 30(4), SIGGRAPH 2011) against a
+//! brute-force reference of the same ghost.
 //!
 //! Setup: the Brendel Tessar (US 2,854,889) with a quarter-wave MgF₂ coating
 //! (n 1.38, 550 nm) on its glass–air surfaces, a light 10° off axis (azimuth
@@ -35,7 +37,7 @@ use optica_optics::glam::{DVec2, DVec3};
 use optica_optics::lens::{LensPrescription, PreparedLens, TracePath, builtin};
 use optica_optics::lens_flare::{
     Aperture, Beam, CellKind, EstimateOptions, FlareError, GridOptions, SensorWindow, coat_air_interfaces, compare,
-    estimate_ghosts, light_from_field, rasterise, reference_image, trace_grid, trace_grid_spectral,
+    estimate_ghosts, light_from_field, rasterise, reference_image, trace_grid,
 };
 
 use crate::{Report, Row, SweepContext, time_ms};
@@ -45,22 +47,40 @@ const FIELD_DEG: f64 = 10.0;
 const AZIMUTH_DEG: f64 = 30.0;
 const GHOST: (usize, usize) = (7, 5);
 /// Largest accepted relative L1 between two references of different seeds
-/// (the noise floor): measured 0.060 quick (200² rays, 24² px) and 0.022
-/// full (1000² rays, 64² px), relative energy −0.0023 and −0.0002; the
+/// (the noise floor): measured 0.055 quick (200² rays, 24² px) and 0.021
+/// full (1000² rays, 64² px), relative energy +0.0011 and −0.0001; the
 /// bounds leave room above both (the seeds are fixed, so this is
 /// deterministic, and a reference twice as noisy as measured fails).
 pub const NOISE_FLOOR_MAX_L1: f64 = 0.1;
 /// Largest accepted |relative energy| between the two references.
 pub const NOISE_FLOOR_MAX_ENERGY: f64 = 0.01;
 
-fn coated(p: &LensPrescription) -> LensPrescription {
-    coat_air_interfaces(p, Coating::quarter_wave(1.38, WAVELENGTH_NM))
+/// `p` with a quarter-wave MgF₂ layer (n 1.38 at 550 nm) on its glass–air surfaces.
+fn coated(p: &LensPrescription) -> Result<LensPrescription, FlareError> {
+    Ok(coat_air_interfaces(p, Coating::quarter_wave(1.38, WAVELENGTH_NM))?)
 }
+
+/// Largest accepted relative L1 of the N = 64 grid of the folding
+/// double-Gauss ghost against its reference: measured 0.068 quick (200²
+/// rays) and 0.025 full (600²); a grid that mishandled the fold (NaN, lost
+/// or doubled energy in the folded cells) lands far above.
+const CAUSTIC_MAX_L1: f64 = 0.3;
+/// Largest accepted relative L1 of the N = 32 grid of the Heliar ghost on
+/// its plano surface against its reference: measured 0.088 quick and 0.050
+/// full.
+const FLAT_SURFACE_MAX_L1: f64 = 0.2;
+/// Rays per side of the fine grid whose unclipped rays decide a ghost's
+/// sensor window: 128² cells, as fine as the full sweep's finest grid.
+const WINDOW_GRID: usize = 129;
+/// Margin added on each side of that window, as a fraction of its side, so
+/// that the reference's rays just outside the grid's hull are still binned.
+const WINDOW_MARGIN: f64 = 0.05;
 
 /// A square window around the unclipped rays of a fine grid of the ghost.
 fn window_for(lens: &PreparedLens, path: TracePath, beam: &Beam, pixels: usize) -> Result<SensorWindow, FlareError> {
-    let fine = trace_grid(lens, path, beam, 129, &GridOptions::default())?;
-    SensorWindow::around(fine.rays.iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, pixels)
+    let fine = trace_grid(lens, path, beam, WINDOW_GRID, &GridOptions::default())?;
+    let unclipped = fine.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor);
+    SensorWindow::around(unclipped, WINDOW_MARGIN, pixels)
 }
 
 /// Runs the sweep.
@@ -74,16 +94,16 @@ pub fn run(ctx: &SweepContext) -> Report {
         "brute-force image of ghost {GHOST:?} of the coated Tessar (US 2,854,889), {FIELD_DEG}° field, \
          {WAVELENGTH_NM} nm: {k}² rays clipped per ray, {pixels}² px histogram"
     );
-    let p = coated(&builtin::tessar());
     let path = TracePath::ghost(GHOST.0, GHOST.1);
     let light = light_from_field(FIELD_DEG, AZIMUTH_DEG);
     let setup = (|| -> Result<_, FlareError> {
+        let p = coated(&builtin::tessar())?;
         let lens = PreparedLens::new(&p, WAVELENGTH_NM)?;
         let beam = Beam::for_path(&p, path, light, WAVELENGTH_NM)?;
         let window = window_for(&lens, path, &beam, pixels)?;
-        Ok((lens, beam, window))
+        Ok((p, lens, beam, window))
     })();
-    let (lens, beam, window) = match setup {
+    let (p, lens, beam, window) = match setup {
         Ok(s) => s,
         Err(e) => {
             report.case("setup", false, e.to_string());
@@ -148,21 +168,23 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     // Caustic folding: the coated double Gauss (US 2,701,982) on axis, ghost
     // (12, 10): a ring caustic folds the grid.
     let r = (|| -> Result<String, FlareError> {
-        let p = coated(&builtin::double_gauss());
+        let p = coated(&builtin::double_gauss())?;
         let lens = PreparedLens::new(&p, WAVELENGTH_NM)?;
         let path = TracePath::ghost(12, 10);
         let beam = Beam::for_path(&p, path, DVec3::Z, WAVELENGTH_NM)?;
         let g = trace_grid(&lens, path, &beam, 64, &opts)?;
         let s = g.stats();
         let bounded = g
-            .cells
+            .cells()
             .iter()
             .all(|c| c.intensity.is_finite() && c.intensity <= opts.max_gain * c.mean_throughput * (1.0 + 1e-12));
         let ap = Aperture::of_stop(&p);
         let window = window_for(&lens, path, &beam, 32)?;
         let reference = reference_image(&lens, path, &beam, &ap, window, k, 1, &opts)?;
-        let e = compare(&rasterise(&g, &ap, window), &reference.image).ok_or(FlareError::NoRays)?;
-        let ok = s.folded_cells > 0 && bounded && s.power <= s.unclamped_power * (1.0 + 1e-12) && e.rel_l1 < 0.3;
+        let Some(e) = compare(&rasterise(&g, &ap, window), &reference.image) else {
+            return Ok("FAILED: the reference image is black".into());
+        };
+        let ok = s.folded_cells > 0 && bounded && s.power <= s.unclamped_power * (1.0 + 1e-12) && e.rel_l1 < CAUSTIC_MAX_L1;
         Ok(format!(
             "{}N = 64: {} folded + {} flipped of {} live cells, all finite and <= G·T̄; rel_l1 {:.3}, rel_energy {:+.4} vs {k}² reference",
             if ok { "" } else { "FAILED: " },
@@ -189,13 +211,13 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
 
     // Zero aperture: a closed iris passes nothing, exactly.
     let r = (|| -> Result<String, FlareError> {
-        let p = coated(&builtin::tessar());
+        let p = coated(&builtin::tessar())?;
         let lens = PreparedLens::new(&p, WAVELENGTH_NM)?;
         let path = TracePath::ghost(4, 2);
         let light = light_from_field(FIELD_DEG, 0.0);
         let beam = Beam::for_path(&p, path, light, WAVELENGTH_NM)?;
         let g = trace_grid(&lens, path, &beam, 32, &opts)?;
-        let closed = Aperture::circle(0.0);
+        let closed = Aperture::closed();
         let w = SensorWindow::new(DVec2::new(-25.0, -25.0), 0.5, 100, 100)?;
         let img = rasterise(&g, &closed, w);
         let est = estimate_ghosts(&p, light, WAVELENGTH_NM, &closed, &EstimateOptions::default())?;
@@ -211,7 +233,7 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
 
     // A ghost reflecting on a flat (c = 0) surface: Heliar (US 2,645,156) surface 6.
     let r = (|| -> Result<String, FlareError> {
-        let p = coated(&builtin::heliar());
+        let p = coated(&builtin::heliar())?;
         let lens = PreparedLens::new(&p, WAVELENGTH_NM)?;
         let path = TracePath::ghost(8, 6);
         let beam = Beam::for_path(&p, path, light_from_field(5.0, 0.0), WAVELENGTH_NM)?;
@@ -219,8 +241,10 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
         let window = window_for(&lens, path, &beam, 32)?;
         let g = trace_grid(&lens, path, &beam, 32, &opts)?;
         let reference = reference_image(&lens, path, &beam, &ap, window, k, 1, &opts)?;
-        let e = compare(&rasterise(&g, &ap, window), &reference.image).ok_or(FlareError::NoRays)?;
-        let ok = p.surfaces[6].curvature == 0.0 && e.rel_l1 < 0.2;
+        let Some(e) = compare(&rasterise(&g, &ap, window), &reference.image) else {
+            return Ok("FAILED: the reference image is black".into());
+        };
+        let ok = p.surfaces()[6].curvature == 0.0 && e.rel_l1 < FLAT_SURFACE_MAX_L1;
         Ok(format!(
             "{}N = 32: rel_l1 {:.3}, rel_energy {:+.4} vs {k}² reference",
             if ok { "" } else { "FAILED: " },
@@ -230,26 +254,8 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     })();
     push(report, "ghost through a flat (c = 0) surface", r);
 
-    // NaN light direction: a typed error, nothing traced.
-    let p = builtin::tessar();
-    let bad = Beam::for_path(&p, TracePath::ghost(7, 5), DVec3::new(f64::NAN, 0.0, 1.0), WAVELENGTH_NM);
-    let ok = matches!(bad, Err(FlareError::InvalidLight(..)));
-    report.case("NaN light direction", ok, format!("{:?}", bad.err()));
-
-    // Dispersion: the ghost moves between 450 and 650 nm (n_d/V_d glasses).
-    let r = (|| -> Result<String, FlareError> {
-        let p = coated(&builtin::tessar());
-        let path = TracePath::ghost(GHOST.0, GHOST.1);
-        let beam = Beam::for_path(&p, path, light_from_field(FIELD_DEG, AZIMUTH_DEG), WAVELENGTH_NM)?;
-        let g = trace_grid_spectral(&p, path, &beam, 33, &opts, &[450.0, 650.0])?;
-        let (a, b) = (g[0].centroid(), g[1].centroid());
-        let shift = match (a, b) {
-            (Some(a), Some(b)) => (a - b).length(),
-            _ => f64::NAN,
-        };
-        Ok(format!("{}centroid shift 450 → 650 nm: {shift:.4} mm", if shift > 1e-3 { "" } else { "FAILED: " }))
-    })();
-    push(report, "dispersion (450 vs 650 nm)", r);
+    // A NaN light and the dispersion of a ghost are pinned down by the
+    // flare module's unit tests and not repeated here.
 }
 
 /// How many rays of a [`grid_case`] must reach the sensor.
@@ -266,25 +272,25 @@ enum Alive {
 /// Trace, rasterise, check for NaN and that the rays reaching the sensor
 /// are as `alive` says.
 fn grid_case(p: &LensPrescription, path: TracePath, light: DVec3, alive: Alive) -> Result<String, FlareError> {
-    let p = coated(p);
+    let p = coated(p)?;
     let lens = PreparedLens::new(&p, WAVELENGTH_NM)?;
     let beam = Beam::for_path(&p, path, light, WAVELENGTH_NM)?;
     let g = trace_grid(&lens, path, &beam, 32, &GridOptions::default())?;
     let w = SensorWindow::new(DVec2::new(-50.0, -50.0), 1.0, 100, 100)?;
     let img = rasterise(&g, &Aperture::of_stop(&p), w);
     let s = g.stats();
-    let finite = img.power.iter().all(|v| v.is_finite() && *v >= 0.0)
-        && g.cells.iter().all(|c| c.intensity.is_finite() || c.kind == CellKind::Dead);
+    let finite = img.power().iter().all(|v| v.is_finite() && *v >= 0.0)
+        && g.cells().iter().all(|c| c.intensity.is_finite() || c.kind == CellKind::Dead);
     let as_expected = match alive {
         Alive::Any => true,
-        Alive::Partly => s.alive_rays > 0 && s.alive_rays < g.rays.len(),
+        Alive::Partly => s.alive_rays > 0 && s.alive_rays < g.rays().len(),
         Alive::None => s.alive_rays == 0 && img.total() == 0.0,
     };
     Ok(format!(
         "{}{} of {} rays reach the sensor (expected: {alive:?}), {} live cells, image total {:.3e} (finite, no NaN)",
         if finite && as_expected { "" } else { "FAILED: " },
         s.alive_rays,
-        g.rays.len(),
+        g.rays().len(),
         s.alive_cells,
         img.total()
     ))

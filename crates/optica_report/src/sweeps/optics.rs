@@ -4,9 +4,11 @@
 //! Knob: rays per side N of the grid (N² rays). For each N the ghost's
 //! energy on the sensor is estimated as Σ throughput · cell area over the
 //! rays that pass every clear aperture (`r_rel <= 1`, the per-pixel clip of
-//! Hullin et al.), together with its throughput-weighted centroid and RMS
-//! radius on the sensor. The reference is the same estimate on a dense grid
-//! (512² in full, 128² in quick). Errors:
+//! Hullin, Eisemann, Seidel and Lee, "Physically-Based Real-Time Lens Flare
+//! Rendering", ACM Transactions on Graphics 30(4), SIGGRAPH 2011), together
+//! with its throughput-weighted centroid and RMS radius on the sensor. The
+//! reference is the same estimate on a dense grid (512² in full, 128² in
+//! quick). Errors:
 //! - `energy_rel`: |E − E_ref| / E_ref;
 //! - `rms_radius_rel`: |ρ − ρ_ref| / ρ_ref (ρ = RMS distance from the centroid);
 //! - `centroid_over_rms`: |c − c_ref| / ρ_ref (the centroid shift in units of
@@ -168,35 +170,9 @@ pub fn run(ctx: &SweepContext) -> Report {
 fn stability(report: &mut Report, tessar: &LensPrescription) {
     let wl = LAMBDA_D_NM;
 
-    // A ray far outside the front element: no intersection with R = 42.97 mm.
-    let r = trace(tessar, Ray::new(DVec3::new(0.0, 60.0, -10.0), DVec3::Z).expect("the sweep's rays are finite"), wl, TracePath::Primary);
-    report.case(
-        "ray misses a surface",
-        r == Err(TraceError::Missed { surface: 0, pass: Pass::Forward }),
-        format!("Tessar, ray at y = 60 mm: {r:?}"),
-    );
-
-    // Outside the semi-aperture but on the sphere: keeps going with r_rel > 1.
-    let r = trace(tessar, Ray::new(DVec3::new(0.0, 21.0, -10.0), DVec3::Z).expect("the sweep's rays are finite"), wl, TracePath::Primary);
-    report.case(
-        "ray outside the semi-aperture keeps going",
-        matches!(r, Ok(ref t) if t.r_rel > 1.0 && t.position.is_finite()),
-        format!("Tessar, ray at y = 21 mm (front semi-aperture 19.2): {:?}", r.map(|t| t.r_rel)),
-    );
-
-    // Total internal reflection inside n = 1.8 at a convex exit of R = -12:
-    // 48.6° incidence against a critical angle of 33.7°.
-    let tir = lens(&[
-        LensSurface::stop(1.0, Glass::Air, 11.0),
-        LensSurface::new(f64::INFINITY, 12.0, Glass::Constant(1.8), 11.0),
-        LensSurface::new(-12.0, 20.0, Glass::Air, 11.0),
-    ]);
-    let r = tir.as_ref().map(|p| trace(p, Ray::new(DVec3::new(0.0, 9.0, -1.0), DVec3::Z).expect("the sweep's rays are finite"), wl, TracePath::Primary));
-    report.case(
-        "total internal reflection",
-        matches!(r, Ok(Err(TraceError::TotalInternalReflection { surface: 2, .. }))),
-        format!("{r:?}"),
-    );
+    // Cases the lens tracer's unit tests already pin down (a ray that
+    // misses, one outside the semi-aperture, TIR, a flat slab's ghost by
+    // hand) are not repeated here.
 
     // Grazing incidence: a full hemisphere (|R| = semi-aperture) met at its
     // rim, into glass that runs on to the sensor (so no exit surface can turn
@@ -216,21 +192,6 @@ fn stability(report: &mut Report, tessar: &LensPrescription) {
         }
     }
     report.case("grazing incidence", ok, detail);
-
-    // A flat surface (c = 0): slab ghost at normal incidence, by hand
-    // T·R·R·T with R = ((1.5−1)/(1.5+1))² = 0.04.
-    let slab = lens(&[
-        LensSurface::stop(5.0, Glass::Air, 20.0),
-        LensSurface::new(f64::INFINITY, 10.0, Glass::Constant(1.5), 20.0),
-        LensSurface::new(f64::INFINITY, 30.0, Glass::Air, 20.0),
-    ]);
-    let r = slab.as_ref().map(|p| trace(p, Ray::new(DVec3::new(1.0, 0.0, -1.0), DVec3::Z).expect("the sweep's rays are finite"), wl, TracePath::ghost(2, 1)));
-    let want = 0.96 * 0.96 * 0.04 * 0.04;
-    report.case(
-        "flat surface (c = 0)",
-        matches!(r, Ok(Ok(ref t)) if (t.throughput - want).abs() < 1e-15 && (t.position.x - 1.0).abs() < 1e-12),
-        format!("slab ghost (2, 1): {:?} (hand: {want})", r.map(|x| x.map(|t| t.throughput))),
-    );
 
     // Zero-thickness elements: surfaces touching at the vertex (zero air gap)
     // and a biconvex lens of zero centre thickness (its edge is negative): a
@@ -264,7 +225,13 @@ fn stability(report: &mut Report, tessar: &LensPrescription) {
     );
 
     // Every ghost of the Tessar on a coated lens: finite or typed, never NaN.
-    let coated = tessar.clone().with_coating_everywhere(Coating::quarter_wave(1.38, 550.0));
+    let coated = match tessar.with_coating_everywhere(Coating::quarter_wave(1.38, 550.0)) {
+        Ok(p) => p,
+        Err(e) => {
+            report.case("all 21 ghosts, coated, 10° off axis", false, format!("coating: {e}"));
+            return;
+        }
+    };
     let all = ghosts(&coated);
     let (rays, _) = pupil_grid(8, 20.0, 0.0, 10.0);
     let mut bad = 0;
@@ -309,7 +276,10 @@ mod tests {
             assert!(last[key] < first[key], "{key}: {} -> {}", first[key], last[key]);
         }
         assert!(last["energy_rel"] < 0.05, "32x32 against 128x128: {}", last["energy_rel"]);
-        assert!(r.stability.len() >= 8);
+        assert_eq!(
+            r.stability.iter().map(|c| c.case.as_str()).collect::<Vec<_>>(),
+            ["grazing incidence", "zero-thickness element", "all 21 ghosts, coated, 10° off axis"]
+        );
         // The zero-centre biconvex's 5 mm ray must die at surface 2 (typed), not reach the sensor.
         let zero = r.stability.iter().find(|c| c.case == "zero-thickness element").unwrap();
         assert!(zero.ok && zero.detail.contains("Missed { surface: 2, pass: Forward }"), "{zero:?}");

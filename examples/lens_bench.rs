@@ -159,7 +159,7 @@ impl LensDrawing {
         prepared.check_path(ghost).map_err(|e| format!("ghost path: {e}"))?;
 
         let mut d = LensDrawing {
-            caption: format!("{} — field {}°, ghost {:?}", lens.name, args.field_deg, ghost),
+            caption: format!("{} — field {}°, ghost {:?}", lens.name(), args.field_deg, ghost),
             glass: Vec::new(),
             axis: Vec::new(),
             primary: Vec::new(),
@@ -170,7 +170,7 @@ impl LensDrawing {
         };
         // Surface profiles, element rims and the stop.
         let profile = |k: usize| -> Vec<Vec2> {
-            let s = &lens.surfaces[k];
+            let s = &lens.surfaces()[k];
             let geometry = SphericalSurface::new(vz[k], s.curvature);
             let a = s.semi_aperture_mm;
             (0..=32)
@@ -180,7 +180,7 @@ impl LensDrawing {
                 })
                 .collect()
         };
-        for (k, s) in lens.surfaces.iter().enumerate() {
+        for (k, s) in lens.surfaces().iter().enumerate() {
             if s.is_stop {
                 let (a, z) = (s.semi_aperture_mm as f32, vz[k] as f32);
                 d.glass.push([Vec2::new(z, a), Vec2::new(z, a * 1.4)]);
@@ -189,7 +189,7 @@ impl LensDrawing {
             }
             let p = profile(k);
             d.glass.extend(p.windows(2).map(|w| [w[0], w[1]]));
-            let inside_glass = !matches!(s.glass_after, Glass::Air) && k + 1 < lens.surfaces.len();
+            let inside_glass = !matches!(s.glass_after, Glass::Air) && k + 1 < lens.surfaces().len();
             if inside_glass {
                 let q = profile(k + 1);
                 if let (Some(p0), Some(q0), Some(p1), Some(q1)) = (p.first(), q.first(), p.last(), q.last()) {
@@ -199,7 +199,7 @@ impl LensDrawing {
             }
         }
         let last = *vz.last().unwrap_or(&0.0) as f32;
-        let rim = lens.surfaces.iter().map(|s| s.semi_aperture_mm).fold(0.0, f64::max) as f32;
+        let rim = lens.surfaces().iter().map(|s| s.semi_aperture_mm).fold(0.0, f64::max) as f32;
         let start_z = -0.35 * (sensor_z as f32).max(rim);
         d.axis.push([Vec2::new(start_z, 0.0), Vec2::new(sensor_z as f32, 0.0)]);
         d.axis.push([Vec2::new(sensor_z as f32, -rim), Vec2::new(sensor_z as f32, rim)]);

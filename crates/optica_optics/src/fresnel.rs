@@ -2,12 +2,12 @@
 //! carrying one thin anti-reflection layer (exact single-layer thin film).
 //!
 //! Everything here is unpolarised (mean of s and p) and lossless (real
-//! indices). A lens path's throughput ([`mod@crate::lens::trace`]) multiplies
+//! indices). A lens path's throughput ([`crate::lens::trace`]) multiplies
 //! these per-interface means, as Hullin et al.'s blog does; that is an
 //! approximation — the exact unpolarised value averages the s and p
 //! *products* — low by 13 % for two reflections at 30° on n = 1.5
-//! (`R̄² = 1.72e-3` against `½(R_s² + R_p²) = 1.99e-3`; see the
-//! `crate::lens::trace` module docs). [`try_fresnel_sp`] gives the separate
+//! (`R̄² = 1.72e-3` against `½(R_s² + R_p²) = 1.99e-3`; see
+//! [`crate::lens`], "Real-ray tracing and ghost paths"). [`try_fresnel_sp`] gives the separate
 //! s and p values for an exact per-polarisation product. Angles enter as the cosine of the angle of incidence in the first
 //! medium; the sign of `cos_i` is ignored, so a dot product with a normal
 //! facing either way can be passed directly.
@@ -39,28 +39,12 @@
 //! coating, `n1 sin θ > n_c`), including at the coating's critical angle where
 //! the `r01, r12` form is 0/0.
 
-use serde::{Deserialize, Serialize};
-use thiserror::Error;
+use serde::Serialize;
 
-/// Why a reflectance could not be computed.
-#[derive(Debug, Clone, Copy, PartialEq, Error)]
-pub enum FresnelError {
-    /// A refractive index that is not finite and positive.
-    #[error("refractive index {0} is not finite and positive")]
-    BadIndex(f64),
-    /// A cosine that is NaN or outside [−1, 1] by more than round-off.
-    #[error("cosine of incidence {0} is not in [-1, 1]")]
-    BadCosine(f64),
-    /// A coating thickness that is negative or not finite.
-    #[error("coating thickness {0} nm is negative or not finite")]
-    BadThickness(f64),
-    /// A wavelength that is not finite and positive.
-    #[error("wavelength {0} nm is not finite and positive")]
-    BadWavelength(f64),
-}
+use crate::input::{self, Expected, InvalidInput};
 
-fn check_index(n: f64) -> Result<f64, FresnelError> {
-    if n.is_finite() && n > 0.0 { Ok(n) } else { Err(FresnelError::BadIndex(n)) }
+fn check_index(n: f64) -> Result<f64, InvalidInput> {
+    input::positive("refractive index", n)
 }
 
 /// `cos²` of the refraction angle from `n1` into `n2`, negative beyond the
@@ -72,10 +56,19 @@ pub fn cos_sq_refracted(cos_i: f64, n1: f64, n2: f64) -> f64 {
     ((n2 - n1) * (n2 + n1) + n1 * n1 * cos_i * cos_i) / (n2 * n2)
 }
 
-fn check_cos(cos_i: f64) -> Result<f64, FresnelError> {
+/// How far past 1 a cosine may be and still count as 1: the dot product of
+/// two unit `f64` vectors can exceed 1 by a few ulps (~1e-16); 1e-9 allows
+/// for vectors normalised a few operations earlier, and is far below any
+/// angle that matters optically (1e-9 in the cosine is ~4.5e-5 rad at 0°).
+const COSINE_ROUNDOFF: f64 = 1e-9;
+
+fn check_cos(cos_i: f64) -> Result<f64, InvalidInput> {
     let c = cos_i.abs();
-    // Cosines from dot products of unit vectors can exceed 1 by round-off.
-    if c <= 1.0 + 1e-9 { Ok(c.min(1.0)) } else { Err(FresnelError::BadCosine(cos_i)) }
+    if c <= 1.0 + COSINE_ROUNDOFF {
+        Ok(c.min(1.0))
+    } else {
+        Err(InvalidInput::new("cosine of incidence", cos_i, Expected::Range { min: -1.0, max: 1.0 }))
+    }
 }
 
 /// Power reflectances `(R_s, R_p)` of a bare interface from `n1` into `n2` at
@@ -83,7 +76,7 @@ fn check_cos(cos_i: f64) -> Result<f64, FresnelError> {
 ///
 /// `r_s = (n1 cos i − n2 cos t)/(n1 cos i + n2 cos t)`,
 /// `r_p = (n2 cos i − n1 cos t)/(n2 cos i + n1 cos t)` (Hecht, *Optics*, eq. 4.42/4.43).
-pub fn try_fresnel_sp(cos_i: f64, n1: f64, n2: f64) -> Result<Option<(f64, f64)>, FresnelError> {
+pub fn try_fresnel_sp(cos_i: f64, n1: f64, n2: f64) -> Result<Option<(f64, f64)>, InvalidInput> {
     let cos_i = check_cos(cos_i)?;
     let n1 = check_index(n1)?;
     let n2 = check_index(n2)?;
@@ -108,7 +101,7 @@ pub fn try_fresnel_sp(cos_i: f64, n1: f64, n2: f64) -> Result<Option<(f64, f64)>
 /// Unpolarised Fresnel reflectance `(R_s + R_p)/2` of a bare interface from
 /// `n1` into `n2` at incidence cosine `cos_i` (sign ignored); 1 on total
 /// internal reflection.
-pub fn try_fresnel_unpolarized(cos_i: f64, n1: f64, n2: f64) -> Result<f64, FresnelError> {
+pub fn try_fresnel_unpolarized(cos_i: f64, n1: f64, n2: f64) -> Result<f64, InvalidInput> {
     Ok(match try_fresnel_sp(cos_i, n1, n2)? {
         Some((rs, rp)) => 0.5 * (rs + rp),
         None => 1.0,
@@ -124,13 +117,12 @@ pub fn fresnel_unpolarized(cos_i: f64, n1: f64, n2: f64) -> f64 {
     try_fresnel_unpolarized(cos_i, n1, n2).unwrap_or(1.0)
 }
 
-/// A single homogeneous thin-film layer on an interface (an anti-reflection coating).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// A single homogeneous thin-film layer on an interface (an anti-reflection
+/// coating): its index and physical thickness, checked when it is built.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Coating {
-    /// Refractive index of the layer (MgF₂ ≈ 1.38).
-    pub index: f64,
-    /// Physical thickness in nm.
-    pub thickness_nm: f64,
+    index: f64,
+    thickness_nm: f64,
 }
 
 /// Above this evanescent decay exponent the tunnelling through the layer is
@@ -181,17 +173,13 @@ pub fn try_single_layer_reflectance(
     d_nm: f64,
     n2: f64,
     wavelength_nm: f64,
-) -> Result<f64, FresnelError> {
+) -> Result<f64, InvalidInput> {
     let cos0 = check_cos(cos_i)?;
     let n1 = check_index(n1)?;
     let n_c = check_index(n_c)?;
     let n2 = check_index(n2)?;
-    if !(d_nm.is_finite() && d_nm >= 0.0) {
-        return Err(FresnelError::BadThickness(d_nm));
-    }
-    if !(wavelength_nm.is_finite() && wavelength_nm > 0.0) {
-        return Err(FresnelError::BadWavelength(wavelength_nm));
-    }
+    input::non_negative("coating thickness (nm)", d_nm)?;
+    input::positive("wavelength (nm)", wavelength_nm)?;
     // Snell invariant n sin θ, carried through all three media.
     let cos2_sq = cos_sq_refracted(cos0, n1, n2);
     if cos2_sq < 0.0 {
@@ -224,8 +212,33 @@ impl Coating {
     /// A layer of optical thickness λ/4 at `design_wavelength_nm`
     /// (physical thickness `λ / (4 n)`), the classic single-layer AR coating;
     /// ideal (R = 0 at normal incidence) when `index = √(n1 n2)`.
-    pub fn quarter_wave(index: f64, design_wavelength_nm: f64) -> Self {
-        Self { index, thickness_nm: design_wavelength_nm / (4.0 * index) }
+    ///
+    /// Errors: an index that is not finite and positive, or a design
+    /// wavelength that is not finite and positive.
+    pub fn quarter_wave(index: f64, design_wavelength_nm: f64) -> Result<Self, InvalidInput> {
+        let index = input::positive("coating index", index)?;
+        let wavelength = input::positive("coating design wavelength (nm)", design_wavelength_nm)?;
+        Ok(Self { index, thickness_nm: wavelength / (4.0 * index) })
+    }
+
+    /// A layer of refractive `index` and physical thickness `thickness_nm`.
+    ///
+    /// Errors: an index that is not finite and positive, or a thickness that
+    /// is negative or not finite (zero thickness is the bare interface).
+    pub fn new(index: f64, thickness_nm: f64) -> Result<Self, InvalidInput> {
+        let index = input::positive("coating index", index)?;
+        let thickness_nm = input::non_negative("coating thickness (nm)", thickness_nm)?;
+        Ok(Self { index, thickness_nm })
+    }
+
+    /// Refractive index of the layer (MgF₂ ≈ 1.38).
+    pub fn index(&self) -> f64 {
+        self.index
+    }
+
+    /// Physical thickness of the layer in nm.
+    pub fn thickness_nm(&self) -> f64 {
+        self.thickness_nm
     }
 
     /// The index `√(n1 n2)` that makes a quarter-wave layer reflect nothing at
@@ -238,25 +251,16 @@ impl Coating {
     /// `n1` (cosine `cos_i`, sign ignored) and leaving into `n2`; the layer is
     /// between them whichever side the light comes from. See
     /// [`try_single_layer_reflectance`].
-    pub fn try_reflectance(&self, cos_i: f64, n1: f64, n2: f64, wavelength_nm: f64) -> Result<f64, FresnelError> {
+    pub fn try_reflectance(&self, cos_i: f64, n1: f64, n2: f64, wavelength_nm: f64) -> Result<f64, InvalidInput> {
         try_single_layer_reflectance(cos_i, n1, self.index, self.thickness_nm, n2, wavelength_nm)
     }
 
-    /// [`Coating::try_reflectance`] with documented fallbacks: an invalid
-    /// layer (bad index or thickness) or wavelength is treated as no layer
-    /// (bare Fresnel); invalid `cos_i`, `n1`, `n2` give 1.0 as in
-    /// [`fresnel_unpolarized`]. Never NaN.
+    /// [`Coating::try_reflectance`] for the tracers' inner loops, whose
+    /// indices and wavelengths were checked when the lens was prepared.
+    /// Documented fallback, as [`fresnel_unpolarized`]: invalid `cos_i`,
+    /// `n1`, `n2` or wavelength give 1.0 (all light reflected). Never NaN.
     pub fn reflectance(&self, cos_i: f64, n1: f64, n2: f64, wavelength_nm: f64) -> f64 {
-        match self.try_reflectance(cos_i, n1, n2, wavelength_nm) {
-            Ok(r) => r,
-            Err(FresnelError::BadThickness(_)) | Err(FresnelError::BadWavelength(_)) => {
-                fresnel_unpolarized(cos_i, n1, n2)
-            }
-            Err(FresnelError::BadIndex(n)) if n.to_bits() == self.index.to_bits() => {
-                fresnel_unpolarized(cos_i, n1, n2)
-            }
-            Err(_) => 1.0,
-        }
+        self.try_reflectance(cos_i, n1, n2, wavelength_nm).unwrap_or(1.0)
     }
 }
 
@@ -321,10 +325,37 @@ mod tests {
     }
 
     #[test]
+    fn coatings_are_checked_when_built() {
+        let c = Coating::quarter_wave(1.38, 550.0).unwrap();
+        assert!((c.thickness_nm() - 550.0 / (4.0 * 1.38)).abs() < 1e-12 && c.index() == 1.38);
+        let e = Coating::quarter_wave(0.0, 550.0).unwrap_err();
+        assert_eq!((e.what, e.expected), ("coating index", Expected::Positive));
+        let e = Coating::quarter_wave(1.38, f64::NAN).unwrap_err();
+        assert_eq!(e.what, "coating design wavelength (nm)");
+        let e = Coating::new(1.38, -1.0).unwrap_err();
+        assert_eq!((e.what, e.expected), ("coating thickness (nm)", Expected::NonNegative));
+        assert_eq!(Coating::new(1.38, 0.0).unwrap().thickness_nm(), 0.0);
+    }
+
+    #[test]
+    fn bad_numbers_name_themselves() {
+        let e = try_fresnel_unpolarized(1.5, 1.0, 1.5).unwrap_err();
+        assert_eq!((e.what, e.expected), ("cosine of incidence", Expected::Range { min: -1.0, max: 1.0 }));
+        let e = try_fresnel_unpolarized(1.0, f64::NAN, 1.5).unwrap_err();
+        assert_eq!(e.what, "refractive index");
+        let e = try_single_layer_reflectance(1.0, 1.0, 1.38, 100.0, 1.5, -550.0).unwrap_err();
+        assert_eq!((e.what, e.expected), ("wavelength (nm)", Expected::Positive));
+        // The inner-loop form falls back to total reflection, never NaN.
+        let c = Coating::quarter_wave(1.38, 550.0).unwrap();
+        assert_eq!(c.reflectance(1.0, 1.0, 1.5, f64::NAN), 1.0);
+        assert_eq!(fresnel_unpolarized(f64::NAN, 1.0, 1.5), 1.0);
+    }
+
+    #[test]
     fn coating_ideal_quarter_wave_is_zero() {
         // n_c = √(1 · 1.52), λ/4 at 550 nm, normal incidence, 550 nm: R = 0.
         let nc = Coating::ideal_index(1.0, 1.52);
-        let c = Coating::quarter_wave(nc, 550.0);
+        let c = Coating::quarter_wave(nc, 550.0).unwrap();
         assert!(c.reflectance(1.0, 1.0, 1.52, 550.0) < 1e-30);
         // And from the glass side.
         assert!(c.reflectance(1.0, 1.52, 1.0, 550.0) < 1e-30);
@@ -335,7 +366,7 @@ mod tests {
         // MgF2 (1.38) quarter-wave at 550 nm on 1.52, normal incidence, 550 nm:
         // R = ((n0 n2 − nc²)/(n0 n2 + nc²))² = ((1.52 − 1.9044)/(1.52 + 1.9044))²
         //   = (−0.3844 / 3.4244)² = 0.112253² = 0.0126008 ≈ 1.26 %.
-        let c = Coating::quarter_wave(1.38, 550.0);
+        let c = Coating::quarter_wave(1.38, 550.0).unwrap();
         let r = c.reflectance(1.0, 1.0, 1.52, 550.0);
         assert!((r - 0.0126008).abs() < 1e-6, "{r}");
         // Uncoated 1.52 is (0.52/2.52)² = 4.26 %: the coating helps.
@@ -347,7 +378,7 @@ mod tests {
 
     #[test]
     fn coating_zero_thickness_is_bare_fresnel() {
-        let c = Coating { index: 1.38, thickness_nm: 0.0 };
+        let c = Coating::new(1.38, 0.0).unwrap();
         for &ci in &[1.0, 0.9, 0.5, 0.1, 0.01] {
             for &(a, b) in &[(1.0, 1.52), (1.7, 1.0), (1.5, 1.9)] {
                 let bare = fresnel_unpolarized(ci, a, b);
@@ -373,13 +404,13 @@ mod tests {
         // With t01 t10 = 1 − r01² the two-beam sum is already close to 0; ours is 0.
         let t01t10 = 1.0 - r01 * r01;
         assert!((r01 - t01t10 * r12).powi(2) < 2e-6);
-        assert!(Coating::quarter_wave(nc, 550.0).reflectance(1.0, 1.0, 1.52, 550.0) < 1e-30);
+        assert!(Coating::quarter_wave(nc, 550.0).unwrap().reflectance(1.0, 1.0, 1.52, 550.0) < 1e-30);
         // MgF2 (1.38): r01 = −0.159664, r12 = −0.048276, t01² = 0.706165:
         // (−0.159664 + 0.034091)² = 0.015769 — 1.58 % against the exact 1.26 %.
         let (r01, r12, t01): (f64, f64, f64) = (-0.38 / 2.38, -0.14 / 2.90, 2.0 / 2.38);
         let supplement = (r01 - t01 * t01 * r12).powi(2);
         assert!((supplement - 0.015769).abs() < 1e-6, "{supplement}");
-        let ours = Coating::quarter_wave(1.38, 550.0).reflectance(1.0, 1.0, 1.52, 550.0);
+        let ours = Coating::quarter_wave(1.38, 550.0).unwrap().reflectance(1.0, 1.0, 1.52, 550.0);
         assert!(supplement > ours + 0.003);
     }
 
@@ -388,7 +419,7 @@ mod tests {
         // Glass 1.7 → MgF2 1.38 → glass 1.65: coating critical angle
         // sin θ = 1.38/1.7 (cos ≈ 0.584); cross it finely: R stays in [0,1]
         // and continuous (no 0/0 at the critical angle itself).
-        let c = Coating::quarter_wave(1.38, 550.0);
+        let c = Coating::quarter_wave(1.38, 550.0).unwrap();
         let crit_cos = (1.0 - (1.38f64 / 1.7).powi(2)).sqrt();
         let mut prev = c.reflectance(crit_cos + 1e-3, 1.7, 1.65, 550.0);
         for i in -1000..=1000 {
@@ -403,7 +434,7 @@ mod tests {
         let exact = c.try_reflectance(crit_cos, 1.7, 1.65, 550.0).unwrap();
         assert!(exact.is_finite());
         // A thick evanescent layer reflects everything.
-        let thick = Coating { index: 1.38, thickness_nm: 1e5 };
+        let thick = Coating::new(1.38, 1e5).unwrap();
         assert!((thick.reflectance(0.3, 1.7, 1.65, 550.0) - 1.0).abs() < 1e-12);
     }
 
@@ -476,8 +507,13 @@ mod tests {
                 Ok(r) => prop_assert!(r.is_finite() && (0.0..=1.0).contains(&r)),
                 Err(_) => prop_assert!(ci.abs() > 1.0 || n0 <= 0.0 || nc <= 0.0 || n2 <= 0.0 || d < 0.0 || lambda <= 0.0),
             }
-            let c = Coating { index: nc, thickness_nm: d };
-            prop_assert!(c.reflectance(ci, n0, n2, lambda).is_finite());
+            match Coating::new(nc, d) {
+                Ok(c) => prop_assert!(c.reflectance(ci, n0, n2, lambda).is_finite()),
+                Err(e) => prop_assert!(
+                    (e.what == "coating index" && nc <= 0.0) || (e.what == "coating thickness (nm)" && d < 0.0),
+                    "{e}"
+                ),
+            }
         }
     }
 }

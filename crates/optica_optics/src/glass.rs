@@ -15,6 +15,8 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::input::{self, InvalidInput};
+
 /// Helium d line (nm), where `n_d` is defined.
 pub const LAMBDA_D_NM: f64 = 587.5618;
 /// Hydrogen F line (nm), blue end of the Abbe number.
@@ -32,19 +34,18 @@ pub const MAX_WAVELENGTH_NM: f64 = 2500.0;
 /// Why a glass or an index could not be built.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum GlassError {
-    /// An index that is NaN, infinite or below 1.
-    #[error("refractive index {0} is not finite and >= 1")]
-    BadIndex(f64),
-    /// An Abbe number that is NaN, infinite or not positive.
-    #[error("Abbe number {0} is not finite and positive")]
-    BadAbbe(f64),
-    /// Sellmeier coefficients that are not finite and non-negative, or give
-    /// an index below 1 at the d line.
-    #[error("Sellmeier coefficients are not finite and non-negative, or give n_d < 1")]
-    BadSellmeier,
-    /// A wavelength that is NaN, infinite or not positive.
-    #[error("wavelength {0} nm is not finite and positive")]
-    BadWavelength(f64),
+    /// A number that is not finite or out of range (index, Abbe number,
+    /// Sellmeier coefficient, wavelength).
+    #[error(transparent)]
+    Input(#[from] InvalidInput),
+    /// The glass model gives no physical index (finite and >= 1) at this wavelength.
+    #[error("the glass model gives index {index} at {wavelength_nm} nm, not a finite number >= 1")]
+    NoIndex {
+        /// The wavelength asked for, nm.
+        wavelength_nm: f64,
+        /// What the model gave.
+        index: f64,
+    },
 }
 
 /// A dispersive (or not) optical medium.
@@ -154,11 +155,9 @@ impl Glass {
     /// non-positive wavelength, or a model giving an index that is not finite
     /// and >= 1. Wavelengths outside the model range are evaluated as given.
     pub fn try_index(&self, wavelength_nm: f64) -> Result<f64, GlassError> {
-        if !(wavelength_nm.is_finite() && wavelength_nm > 0.0) {
-            return Err(GlassError::BadWavelength(wavelength_nm));
-        }
+        input::positive("wavelength (nm)", wavelength_nm)?;
         let n = self.raw_index(wavelength_nm);
-        if n.is_finite() && n >= 1.0 { Ok(n) } else { Err(GlassError::BadIndex(n)) }
+        if n.is_finite() && n >= 1.0 { Ok(n) } else { Err(GlassError::NoIndex { wavelength_nm, index: n }) }
     }
 
     fn raw_index(&self, nm: f64) -> f64 {
@@ -202,31 +201,28 @@ impl Glass {
     /// The n_d/V_d model from user numbers, rejecting a non-finite or < 1
     /// index and a non-finite or non-positive Abbe number.
     pub fn abbe_checked(nd: f64, vd: f64) -> Result<Glass, GlassError> {
-        if !(nd.is_finite() && nd >= 1.0) {
-            return Err(GlassError::BadIndex(nd));
-        }
-        if !(vd.is_finite() && vd > 0.0) {
-            return Err(GlassError::BadAbbe(vd));
-        }
+        let nd = input::at_least("refractive index n_d", nd, 1.0)?;
+        let vd = input::positive("Abbe number V_d", vd)?;
         Ok(Glass::Abbe { nd, vd })
     }
 
     /// A constant index from a user number, rejecting non-finite or < 1.
     pub fn constant_checked(n: f64) -> Result<Glass, GlassError> {
-        if n.is_finite() && n >= 1.0 { Ok(Glass::Constant(n)) } else { Err(GlassError::BadIndex(n)) }
+        Ok(Glass::Constant(input::at_least("refractive index", n, 1.0)?))
     }
 
     /// Sellmeier coefficients from user numbers: all finite and non-negative,
     /// and the index at the d line finite and >= 1.
     pub fn sellmeier_checked(b: [f64; 3], c: [f64; 3]) -> Result<Glass, GlassError> {
-        if b.iter().chain(c.iter()).any(|x| !(x.is_finite() && *x >= 0.0)) {
-            return Err(GlassError::BadSellmeier);
+        for x in b {
+            input::non_negative("Sellmeier B coefficient", x)?;
+        }
+        for x in c {
+            input::non_negative("Sellmeier C coefficient (µm²)", x)?;
         }
         let g = Glass::Sellmeier { b, c };
-        match g.try_index(LAMBDA_D_NM) {
-            Ok(_) => Ok(g),
-            Err(_) => Err(GlassError::BadSellmeier),
-        }
+        g.try_index(LAMBDA_D_NM)?;
+        Ok(g)
     }
 
     /// Schott N-BK7 (Sellmeier).
@@ -372,19 +368,29 @@ mod tests {
 
     #[test]
     fn glass_checked_constructors_reject_bad_numbers() {
-        assert!(Glass::abbe_checked(f64::NAN, 40.0).is_err());
-        assert!(Glass::abbe_checked(0.9, 40.0).is_err());
-        assert!(Glass::abbe_checked(f64::INFINITY, 40.0).is_err());
-        assert!(Glass::abbe_checked(1.5, 0.0).is_err());
-        assert!(Glass::abbe_checked(1.5, f64::NAN).is_err());
+        use crate::input::Expected;
+        let what = |r: Result<Glass, GlassError>| match r {
+            Err(GlassError::Input(e)) => (e.what, e.expected),
+            other => panic!("expected an input error, got {other:?}"),
+        };
+        let nd = ("refractive index n_d", Expected::AtLeast(1.0));
+        assert_eq!(what(Glass::abbe_checked(f64::NAN, 40.0)), nd);
+        assert_eq!(what(Glass::abbe_checked(0.9, 40.0)), nd);
+        assert_eq!(what(Glass::abbe_checked(f64::INFINITY, 40.0)), nd);
+        assert_eq!(what(Glass::abbe_checked(1.5, 0.0)), ("Abbe number V_d", Expected::Positive));
+        assert_eq!(what(Glass::abbe_checked(1.5, f64::NAN)), ("Abbe number V_d", Expected::Positive));
         assert!(Glass::abbe_checked(1.5, 40.0).is_ok());
-        assert!(Glass::constant_checked(0.5).is_err());
-        assert!(Glass::sellmeier_checked([f64::NAN, 0.0, 0.0], [0.0; 3]).is_err());
+        assert_eq!(what(Glass::constant_checked(0.5)), ("refractive index", Expected::AtLeast(1.0)));
+        assert_eq!(what(Glass::sellmeier_checked([f64::NAN, 0.0, 0.0], [0.0; 3])).0, "Sellmeier B coefficient");
+        assert_eq!(what(Glass::sellmeier_checked([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0])).0, "Sellmeier C coefficient (µm²)");
+        // Finite, non-negative coefficients with a pole at the d line: no index there.
+        let pole_c = [(LAMBDA_D_NM * 1e-3).powi(2), 0.0, 0.0];
+        assert!(matches!(Glass::sellmeier_checked([1.0, 0.0, 0.0], pole_c), Err(GlassError::NoIndex { .. })));
         assert!(Glass::sellmeier_checked(N_BK7_B, N_BK7_C).is_ok());
-        assert!(Glass::n_bk7().try_index(-1.0).is_err());
+        assert!(matches!(Glass::n_bk7().try_index(-1.0), Err(GlassError::Input(e)) if e.what == "wavelength (nm)"));
         assert!(Glass::n_bk7().index(f64::NAN).is_finite());
         // A hand-built Sellmeier with a pole at the d line falls back to 1.
-        let pole = Glass::Sellmeier { b: [1.0, 0.0, 0.0], c: [(LAMBDA_D_NM * 1e-3).powi(2), 0.0, 0.0] };
+        let pole = Glass::Sellmeier { b: [1.0, 0.0, 0.0], c: pole_c };
         assert!(pole.index(LAMBDA_D_NM).is_finite());
     }
 

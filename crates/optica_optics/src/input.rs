@@ -31,6 +31,11 @@ pub enum Expected {
     Positive,
     /// A finite number greater than or equal to zero.
     NonNegative,
+    /// A finite number greater than or equal to this bound.
+    AtLeast(f64),
+    /// A number that is not zero and not NaN (±∞ allowed, e.g. a flat
+    /// surface's radius).
+    NonZero,
     /// A finite number in `min..=max`.
     Range {
         /// Smallest accepted value.
@@ -50,6 +55,8 @@ impl std::fmt::Display for Expected {
             Expected::Finite => f.write_str("a finite number"),
             Expected::Positive => f.write_str("a finite number > 0"),
             Expected::NonNegative => f.write_str("a finite number >= 0"),
+            Expected::AtLeast(min) => write!(f, "a finite number >= {min}"),
+            Expected::NonZero => f.write_str("a non-zero number (±∞ allowed)"),
             Expected::Range { min, max } => write!(f, "a finite number in {min} ..= {max}"),
             Expected::FiniteVector => f.write_str("a vector with finite components"),
             Expected::Direction => f.write_str("a finite, non-zero direction"),
@@ -92,6 +99,11 @@ pub fn positive(what: &'static str, x: f64) -> Result<f64, InvalidInput> {
 /// `x` if it is finite and not negative.
 pub fn non_negative(what: &'static str, x: f64) -> Result<f64, InvalidInput> {
     if x.is_finite() && x >= 0.0 { Ok(x) } else { Err(InvalidInput::new(what, x, Expected::NonNegative)) }
+}
+
+/// `x` if it is finite and at least `min`.
+pub fn at_least(what: &'static str, x: f64, min: f64) -> Result<f64, InvalidInput> {
+    if x.is_finite() && x >= min { Ok(x) } else { Err(InvalidInput::new(what, x, Expected::AtLeast(min))) }
 }
 
 /// `x` if it is finite and in `min..=max`.
@@ -140,6 +152,8 @@ mod tests {
         assert_eq!(positive("x", f64::INFINITY).unwrap_err().expected, Expected::Positive);
         assert_eq!(non_negative("x", 0.0), Ok(0.0));
         assert_eq!(non_negative("x", -1e-300).unwrap_err().expected, Expected::NonNegative);
+        assert_eq!(at_least("x", 1.0, 1.0), Ok(1.0));
+        assert_eq!(at_least("x", f64::INFINITY, 1.0).unwrap_err().expected, Expected::AtLeast(1.0));
         assert_eq!(in_range("x", 1.0, 1.0, 3.0), Ok(1.0));
         let e = in_range("x", f64::NAN, 1.0, 3.0).unwrap_err();
         assert_eq!(e.expected, Expected::Range { min: 1.0, max: 3.0 });

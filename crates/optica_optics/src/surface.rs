@@ -13,8 +13,8 @@
 
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
-use thiserror::Error;
 
+use crate::input::{self, Expected, InvalidInput};
 use crate::ray::Ray;
 
 /// Hits closer than this along the ray (in the ray's length unit) are treated
@@ -22,27 +22,29 @@ use crate::ray::Ray;
 /// again through round-off.
 pub const T_EPSILON: f64 = 1e-9;
 
-/// Why a surface or a refraction could not be computed.
-#[derive(Debug, Clone, Copy, PartialEq, Error)]
-pub enum SurfaceError {
-    /// A radius of curvature of zero or NaN (use `f64::INFINITY` for flat).
-    #[error("radius of curvature {0} is zero or NaN (use infinity for a flat surface)")]
-    BadRadius(f64),
-    /// A refractive index that is not finite and positive.
-    #[error("refractive index {0} is not finite and positive")]
-    BadIndex(f64),
-    /// A direction or normal that is zero or not finite.
-    #[error("direction or normal is zero or not finite")]
-    BadVector,
+/// A spherical (or, with `curvature == 0`, flat) surface centred on the z
+/// axis: its vertex `z` and curvature `c = 1/R`, both finite (checked when
+/// it is built).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RawSurface")]
+pub struct SphericalSurface {
+    vertex_z: f64,
+    curvature: f64,
 }
 
-/// A spherical (or, with `curvature == 0`, flat) surface centred on the z axis.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct SphericalSurface {
-    /// z of the vertex (where the surface crosses the axis).
-    pub vertex_z: f64,
-    /// Curvature `c = 1/R`; `0` is flat.
-    pub curvature: f64,
+/// A surface as serialised, checked by [`SphericalSurface::new`] on the way in.
+#[derive(Deserialize)]
+struct RawSurface {
+    vertex_z: f64,
+    curvature: f64,
+}
+
+impl TryFrom<RawSurface> for SphericalSurface {
+    type Error = InvalidInput;
+
+    fn try_from(raw: RawSurface) -> Result<Self, InvalidInput> {
+        Self::new(raw.vertex_z, raw.curvature)
+    }
 }
 
 /// A ray–surface hit.
@@ -102,23 +104,45 @@ impl Refraction {
 
 impl SphericalSurface {
     /// A surface with its vertex at `vertex_z` and curvature `c = 1/R`.
-    pub fn new(vertex_z: f64, curvature: f64) -> Self {
+    ///
+    /// Errors: a vertex or curvature that is not finite.
+    pub fn new(vertex_z: f64, curvature: f64) -> Result<Self, InvalidInput> {
+        let vertex_z = input::finite("surface vertex z", vertex_z)?;
+        let curvature = input::finite("surface curvature (1/length)", curvature)?;
+        Ok(Self { vertex_z, curvature })
+    }
+
+    /// A surface from numbers the crate has already checked (a validated
+    /// prescription or spectacle lens).
+    pub(crate) fn from_checked(vertex_z: f64, curvature: f64) -> Self {
+        debug_assert!(vertex_z.is_finite() && curvature.is_finite(), "surface z {vertex_z}, c {curvature}");
         Self { vertex_z, curvature }
     }
 
-    /// A flat surface `z = vertex_z`.
-    pub fn flat(vertex_z: f64) -> Self {
-        Self { vertex_z, curvature: 0.0 }
+    /// A flat surface `z = vertex_z`. Errors: a vertex that is not finite.
+    pub fn flat(vertex_z: f64) -> Result<Self, InvalidInput> {
+        Self::new(vertex_z, 0.0)
     }
 
     /// A surface from a radius of curvature as printed in patents and lens
-    /// files: `±∞` is flat; zero or NaN is an error.
-    pub fn from_radius(vertex_z: f64, radius: f64) -> Result<Self, SurfaceError> {
+    /// files: `±∞` is flat. Errors: a zero or NaN radius, a vertex that is
+    /// not finite.
+    pub fn from_radius(vertex_z: f64, radius: f64) -> Result<Self, InvalidInput> {
         if radius.is_nan() || radius == 0.0 {
-            return Err(SurfaceError::BadRadius(radius));
+            return Err(InvalidInput::new("radius of curvature", radius, Expected::NonZero));
         }
         // 1/±∞ = 0 exactly, so flat needs no special case.
-        Ok(Self { vertex_z, curvature: 1.0 / radius })
+        Self::new(vertex_z, 1.0 / radius)
+    }
+
+    /// z of the vertex (where the surface crosses the axis).
+    pub fn vertex_z(&self) -> f64 {
+        self.vertex_z
+    }
+
+    /// Curvature `c = 1/R`; `0` is flat.
+    pub fn curvature(&self) -> f64 {
+        self.curvature
     }
 
     /// The radius of curvature `1/c` (`±∞` when flat).
@@ -268,14 +292,11 @@ pub fn refract(dir: DVec3, normal: DVec3, n1: f64, n2: f64) -> Refraction {
 }
 
 /// [`refract`] with a typed error for invalid input.
-pub fn try_refract(dir: DVec3, normal: DVec3, n1: f64, n2: f64) -> Result<Refraction, SurfaceError> {
-    for n in [n1, n2] {
-        if !(n.is_finite() && n > 0.0) {
-            return Err(SurfaceError::BadIndex(n));
-        }
-    }
-    let d = dir.try_normalize().ok_or(SurfaceError::BadVector)?;
-    let mut n = normal.try_normalize().ok_or(SurfaceError::BadVector)?;
+pub fn try_refract(dir: DVec3, normal: DVec3, n1: f64, n2: f64) -> Result<Refraction, InvalidInput> {
+    input::positive("refractive index", n1)?;
+    input::positive("refractive index", n2)?;
+    let d = input::direction("refracted direction", dir)?;
+    let mut n = input::direction("surface normal", normal)?;
     let mut cos_i = -n.dot(d);
     if cos_i < 0.0 {
         n = -n;
@@ -332,14 +353,14 @@ mod tests {
     #[test]
     fn surface_concave_takes_vertex_cap_both_directions() {
         // R = −10 at z = 0: sphere spans z in [−20, 0]; the cap is z in [−10, 0].
-        let s = SphericalSurface::new(0.0, -0.1);
+        let s = SphericalSurface::new(0.0, -0.1).unwrap();
         let from_left = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, -30.0), DVec3::Z).unwrap()).unwrap();
         let sag = -(10.0 - 91f64.sqrt());
         assert!((from_left.point.z - sag).abs() < 1e-12, "{from_left:?}");
         let from_right = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, 5.0), DVec3::NEG_Z).unwrap()).unwrap();
         assert!((from_right.point.z - sag).abs() < 1e-12);
         // Convex surface hit from the right (a reflected flare ray).
-        let s = SphericalSurface::new(0.0, 0.1);
+        let s = SphericalSurface::new(0.0, 0.1).unwrap();
         let h = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, 30.0), DVec3::NEG_Z).unwrap()).unwrap();
         assert!((h.point.z + sag).abs() < 1e-12);
         assert!(h.normal.z < 0.0);
@@ -347,17 +368,20 @@ mod tests {
 
     #[test]
     fn surface_flat_and_misses() {
-        let s = SphericalSurface::flat(2.0);
+        let s = SphericalSurface::flat(2.0).unwrap();
         let h = s.intersect(&Ray::new(DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.6, 0.8)).unwrap()).unwrap();
         assert!((h.t - 2.5).abs() < 1e-15);
         assert_eq!(h.normal, DVec3::NEG_Z);
         // Parallel to the plane, behind the origin, and past the sphere.
         assert!(s.intersect(&Ray::new(DVec3::ZERO, DVec3::X).unwrap()).is_none());
         assert!(s.intersect(&Ray::new(DVec3::new(0.0, 0.0, 3.0), DVec3::Z).unwrap()).is_none());
-        let s = SphericalSurface::new(0.0, 0.1);
+        let s = SphericalSurface::new(0.0, 0.1).unwrap();
         assert!(s.intersect(&Ray::new(DVec3::new(0.0, 10.5, -5.0), DVec3::Z).unwrap()).is_none());
-        assert!(SphericalSurface::new(0.0, f64::NAN).intersect(&Ray::new(DVec3::ZERO, DVec3::Z).unwrap()).is_none());
-        assert!(SphericalSurface::from_radius(0.0, 0.0).is_err());
+        let e = SphericalSurface::new(0.0, f64::NAN).unwrap_err();
+        assert_eq!((e.what, e.expected), ("surface curvature (1/length)", Expected::Finite));
+        let e = SphericalSurface::from_radius(0.0, 0.0).unwrap_err();
+        assert_eq!((e.what, e.value, e.expected), ("radius of curvature", 0.0, Expected::NonZero));
+        assert_eq!(SphericalSurface::flat(f64::INFINITY).unwrap_err().what, "surface vertex z");
         assert_eq!(SphericalSurface::from_radius(1.0, f64::NEG_INFINITY).unwrap().curvature, 0.0);
     }
 
@@ -368,13 +392,13 @@ mod tests {
         // be wrong by ~1e-16, far above the tolerances below.
         // c = 1e-12 (R = 1e12) at height 1: sag = c r²/(1 + √(1 − c²r²)) = 5e-13.
         let ray = Ray::new(DVec3::new(0.0, 1.0, -1e-8), DVec3::Z).unwrap();
-        let h = SphericalSurface::new(0.0, 1e-12).intersect(&ray).unwrap();
+        let h = SphericalSurface::new(0.0, 1e-12).unwrap().intersect(&ray).unwrap();
         assert!((h.t - (1e-8 + 5e-13)).abs() < 1e-22, "{}", h.t);
         // The same ray on c = 0 differs by just the sag: continuous at c = 0.
-        let h0 = SphericalSurface::flat(0.0).intersect(&ray).unwrap();
+        let h0 = SphericalSurface::flat(0.0).unwrap().intersect(&ray).unwrap();
         assert!((h.t - h0.t - 5e-13).abs() < 1e-22);
         // Near-axis ray (height 1e-9) on c = 1: sag = 5e-19.
-        let s = SphericalSurface::new(0.0, 1.0);
+        let s = SphericalSurface::new(0.0, 1.0).unwrap();
         let h = s.intersect(&Ray::new(DVec3::new(1e-9, 0.0, -1e-8), DVec3::Z).unwrap()).unwrap();
         assert!((h.t - (1e-8 + 5e-19)).abs() < 1e-23, "{}", h.t);
         assert!((s.sag(1e-9).unwrap() - 5e-19).abs() < 1e-33);
@@ -384,7 +408,7 @@ mod tests {
     fn surface_far_cap_is_rejected() {
         // Ray starting inside the sphere beyond its centre, travelling +z:
         // the vertex cap is behind it.
-        let s = SphericalSurface::new(0.0, 0.1);
+        let s = SphericalSurface::new(0.0, 0.1).unwrap();
         assert!(s.intersect(&Ray::new(DVec3::new(0.0, 0.0, 15.0), DVec3::Z).unwrap()).is_none());
     }
 
@@ -412,8 +436,9 @@ mod tests {
         assert_eq!(refract(d, DVec3::Z, 1.0, 1.5), Refraction::Transmitted(t));
         // Glass to air beyond the critical angle (41.8°): TIR, not a zero vector.
         assert_eq!(refract(d, DVec3::Z, 1.5, 1.0), Refraction::TotalInternalReflection);
-        assert!(try_refract(d, DVec3::Z, f64::NAN, 1.0).is_err());
-        assert!(try_refract(DVec3::ZERO, DVec3::Z, 1.0, 1.0).is_err());
+        assert_eq!(try_refract(d, DVec3::Z, f64::NAN, 1.0).unwrap_err().what, "refractive index");
+        assert_eq!(try_refract(DVec3::ZERO, DVec3::Z, 1.0, 1.0).unwrap_err().what, "refracted direction");
+        assert_eq!(try_refract(d, DVec3::ZERO, 1.0, 1.5).unwrap_err().what, "surface normal");
         assert_eq!(reflect(d, DVec3::Z), DVec3::new(d.x, 0.0, -d.z));
     }
 
@@ -430,7 +455,7 @@ mod tests {
             o in prop::array::uniform3(-20f64..20.0),
             d in unit(),
         ) {
-            let s = SphericalSurface::new(vz, c);
+            let s = SphericalSurface::new(vz, c).unwrap();
             let ray = Ray::new(DVec3::from(o), d).unwrap();
             if let Some(h) = s.intersect(&ray) {
                 prop_assert!(h.t.is_finite() && h.t > 0.0);

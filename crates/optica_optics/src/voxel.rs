@@ -19,17 +19,16 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::input::{self, InvalidInput};
 use crate::ray::Ray;
 
 /// Why a voxel grid could not be built.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum VoxelError {
-    /// The origin has a NaN or infinite component.
-    #[error("grid origin is not finite")]
-    BadOrigin,
-    /// A cell size that is not finite and positive.
-    #[error("cell size {0:?} is not finite and positive on every axis")]
-    BadCellSize([f64; 3]),
+    /// An origin that is not finite, or a cell size that is not finite and
+    /// positive on every axis.
+    #[error(transparent)]
+    Input(#[from] InvalidInput),
     /// A zero dimension, or a cell count that overflows `usize`.
     #[error("grid dimensions {0:?} are zero or too large")]
     BadDims([usize; 3]),
@@ -79,11 +78,9 @@ impl<T> TryFrom<RawVoxelGrid<T>> for VoxelGrid<T> {
 }
 
 fn check_geometry(origin: DVec3, cell_size: DVec3, dims: [usize; 3]) -> Result<usize, VoxelError> {
-    if !origin.is_finite() {
-        return Err(VoxelError::BadOrigin);
-    }
-    if !(cell_size.is_finite() && cell_size.min_element() > 0.0) {
-        return Err(VoxelError::BadCellSize(cell_size.to_array()));
+    input::finite_vec3("voxel grid origin", origin)?;
+    for c in cell_size.to_array() {
+        input::positive("voxel cell size", c)?;
     }
     dims.iter()
         .try_fold(1usize, |acc, &n| if n == 0 { None } else { acc.checked_mul(n) })
@@ -514,10 +511,18 @@ mod tests {
         assert_eq!(g.cell_of(DVec3::new(0.5, 1.0, 3.0)), None);
         assert_eq!(g.cell_of(DVec3::new(f64::NAN, 1.0, 3.0)), None);
         assert_eq!(g.cell_center([1, 0, 0]), DVec3::new(-0.25, 0.5, 3.0));
-        assert!(VoxelGrid::new(DVec3::ZERO, DVec3::new(1.0, 0.0, 1.0), [1, 1, 1], 0).is_err());
-        assert!(VoxelGrid::new(DVec3::ZERO, DVec3::ONE, [1, 0, 1], 0).is_err());
-        assert!(VoxelGrid::new(DVec3::ZERO, DVec3::ONE, [usize::MAX, 2, 1], 0).is_err());
-        assert!(VoxelGrid::from_vec(DVec3::ZERO, DVec3::ONE, [2, 1, 1], vec![0]).is_err());
+        let input = |e: VoxelError| match e {
+            VoxelError::Input(i) => (i.what, i.value),
+            other => panic!("expected an input error, got {other:?}"),
+        };
+        assert_eq!(input(VoxelGrid::new(DVec3::ZERO, DVec3::new(1.0, 0.0, 1.0), [1, 1, 1], 0).unwrap_err()), ("voxel cell size", 0.0));
+        assert_eq!(input(VoxelGrid::new(DVec3::new(0.0, f64::NAN, 0.0), DVec3::ONE, [1, 1, 1], 0).unwrap_err()).0, "voxel grid origin");
+        assert_eq!(VoxelGrid::new(DVec3::ZERO, DVec3::ONE, [1, 0, 1], 0).unwrap_err(), VoxelError::BadDims([1, 0, 1]));
+        assert_eq!(VoxelGrid::new(DVec3::ZERO, DVec3::ONE, [usize::MAX, 2, 1], 0).unwrap_err(), VoxelError::BadDims([usize::MAX, 2, 1]));
+        assert_eq!(
+            VoxelGrid::from_vec(DVec3::ZERO, DVec3::ONE, [2, 1, 1], vec![0]).unwrap_err(),
+            VoxelError::WrongLength { dims: [2, 1, 1], expected: 2, got: 1 }
+        );
         let mut g = grid441();
         *g.get_mut([3, 3, 0]).unwrap() = 7;
         assert_eq!(g.cells()[15], 7);

@@ -167,7 +167,7 @@ impl LensPrescription {
                 s.semi_aperture_mm
             ));
             if let Some(c) = &s.coating {
-                out.push_str(&format!(" {}/{}", c.index, c.thickness_nm));
+                out.push_str(&format!(" {}/{}", c.index(), c.thickness_nm()));
             }
             out.push('\n');
         }
@@ -403,14 +403,14 @@ fn coating(line: usize, text: &str) -> Result<Option<Coating>, ParseError> {
     if let Some(rest) = text.strip_prefix("qw:") {
         let (n, wl) = rest.split_once('@').ok_or_else(bad)?;
         return match (number(n), number(wl)) {
-            (Some(n), Some(wl)) if n >= 1.0 && wl > 0.0 => Ok(Some(Coating::quarter_wave(n, wl))),
+            (Some(n), Some(wl)) if n >= 1.0 => Coating::quarter_wave(n, wl).map(Some).map_err(|_| bad()),
             _ => Err(bad()),
         };
     }
     let (n, t) = text.split_once('/').ok_or_else(bad)?;
     match (number(n), number(t)) {
-        (Some(index), Some(thickness_nm)) if index >= 1.0 && thickness_nm >= 0.0 => {
-            Ok(Some(Coating { index, thickness_nm }))
+        (Some(index), Some(thickness_nm)) if index >= 1.0 => {
+            Coating::new(index, thickness_nm).map(Some).map_err(|_| bad())
         }
         _ => Err(bad()),
     }
@@ -468,7 +468,7 @@ stop   2.0   air          5.0
         let p = LensPrescription::parse(SMALL)
             .unwrap()
             .edited(|s| {
-                s[1].coating = Some(Coating::quarter_wave(1.38, 550.0));
+                s[1].coating = Some(Coating::quarter_wave(1.38, 550.0).unwrap());
                 s[1].curvature = 1.0 / 37.3;
                 s[2].glass_after = Glass::Constant(1.0003);
                 s.insert(

@@ -228,7 +228,7 @@ impl PreparedLens {
             .iter()
             .enumerate()
             .map(|(k, s)| PreparedSurface {
-                geometry: SphericalSurface::new(z[k], s.curvature),
+                geometry: SphericalSurface::from_checked(z[k], s.curvature),
                 n_before: before[k],
                 n_after: after[k],
                 semi_aperture: s.semi_aperture_mm,
@@ -639,7 +639,7 @@ mod tests {
         // Quarter-wave layer of index n_c at its design wavelength, normal
         // incidence: R = ((n0 n2 − n_c²)/(n0 n2 + n_c²))² (Hecht, Optics §9.7).
         let (n, nc, wl) = (1.5, 1.38, 550.0);
-        let coat = Coating::quarter_wave(nc, wl);
+        let coat = Coating::quarter_wave(nc, wl).unwrap();
         let p = slab(n).with_coating_everywhere(coat).unwrap();
         let rr = ((n - nc * nc) / (n + nc * nc)).powi(2);
         let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::Z).unwrap(), wl, TracePath::ghost(2, 1)).unwrap();

@@ -51,10 +51,10 @@ mod tests {
     fn cemented_surfaces_stay_bare() {
         // US 2,854,889: surface 1 is cemented (n 1.691 | 1.5486), 3 is the
         // stop; 0, 2, 4, 5, 6, 7 touch air.
-        let p = coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0)).unwrap();
+        let p = coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap();
         let coated: Vec<usize> = (0..8).filter(|&k| p.surfaces()[k].coating.is_some()).collect();
         assert_eq!(coated, vec![0, 2, 4, 5, 6, 7]);
-        let e = coat_air_interfaces(&builtin::tessar(), Coating { index: 1.38, thickness_nm: f64::NAN }).unwrap_err();
-        assert!(matches!(e, PrescriptionError::Surface { surface: 0, ref input } if input.what == "coating thickness (nm)"), "{e}");
+        let e = coat_air_interfaces(&builtin::tessar(), Coating::new(0.5, 100.0).unwrap()).unwrap_err();
+        assert!(matches!(e, PrescriptionError::Surface { surface: 0, ref input } if input.what == "coating index"), "{e}");
     }
 }

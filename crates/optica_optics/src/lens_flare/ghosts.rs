@@ -206,7 +206,7 @@ mod tests {
         let d = light_from_field(5.0, 0.0);
         let bare = estimate_ghosts(&p, d, 550.0, &ap, &o).unwrap();
         let coated =
-            estimate_ghosts(&coat_air_interfaces(&p, Coating::quarter_wave(1.38, 550.0)).unwrap(), d, 550.0, &ap, &o).unwrap();
+            estimate_ghosts(&coat_air_interfaces(&p, Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap(), d, 550.0, &ap, &o).unwrap();
         // A quarter-wave MgF2 layer cuts each glass-air reflectance (~4–6 %
         // → ~1 %), so every ghost's power (two reflections, at least one on
         // a coated surface) drops by far more than 2×.
@@ -230,7 +230,7 @@ mod tests {
         // against the power of a 300²-ray brute-force reference: within 10 %.
         use crate::lens::PreparedLens;
         use crate::lens_flare::{GridOptions, SensorWindow, reference_image};
-        let p = coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0)).unwrap();
+        let p = coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap();
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let path = TracePath::ghost(4, 2);
         let beam = Beam::for_path(&p, path, DVec3::Z, 550.0).unwrap();

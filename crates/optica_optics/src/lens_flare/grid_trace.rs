@@ -325,7 +325,7 @@ mod tests {
         // clamps, Σ I·A_s must equal Σ A_p·T̄ (the area factors cancel), and
         // that equals the beam cross-section of the live cells times their
         // mean throughput. Checked to 1e-9 relative.
-        let p = crate::lens_flare::coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0)).unwrap();
+        let p = crate::lens_flare::coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap();
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let d = light_from_field(10.0, 0.0);
         let mut checked = 0;

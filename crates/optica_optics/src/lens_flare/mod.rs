@@ -108,7 +108,7 @@
 //! use optica_optics::lens::builtin;
 //! use optica_optics::lens_flare::*;
 //!
-//! let lens = coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0)).unwrap();
+//! let lens = coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap();
 //! let light = light_from_field(10.0, 0.0);
 //! let aperture = Aperture::blades(6, 0.0, 0.3, lens.stop_semi_aperture_mm()).unwrap();
 //! // The brightest ghosts first; keep those above 1 % of the brightest.
@@ -180,7 +180,7 @@ mod tests {
             let q = ray.origin() - DVec3::new(0.0, 0.0, vertex_z + r);
             let (b, c) = (q.dot(d), q.length_squared() - r * r);
             let root = |sign: f64| (b * b - c).sqrt() * sign - b;
-            let hit = SphericalSurface::new(vertex_z, 1.0 / r).intersect(&ray).unwrap();
+            let hit = SphericalSurface::new(vertex_z, 1.0 / r).unwrap().intersect(&ray).unwrap();
             let ours = root((-r * d.z).signum());
             assert!((ours - hit.t).abs() < 1e-9, "R = {r}, d_z = {}: {ours} vs {}", d.z, hit.t);
             let blogs = root((r * d.z).signum());

@@ -180,7 +180,7 @@ mod tests {
     use crate::lens_flare::raster::rasterise;
 
     fn coated_tessar() -> LensPrescription {
-        crate::lens_flare::coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0)).unwrap()
+        crate::lens_flare::coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap()
     }
 
     #[test]
@@ -296,7 +296,7 @@ mod tests {
         // once (where the blade shape is tested). With a 6-blade stop the per-pixel clip
         // by the interpolated stop position must agree with the exact per-ray
         // clip: N = 33 within 20 % L1 and 3 % energy of a 300² reference.
-        let p = crate::lens_flare::coat_air_interfaces(&builtin::heliar(), Coating::quarter_wave(1.38, 550.0)).unwrap();
+        let p = crate::lens_flare::coat_air_interfaces(&builtin::heliar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap();
         assert!(p.surfaces()[6].is_flat() && !p.surfaces()[6].is_stop);
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let path = TracePath::ghost(8, 6);

@@ -398,9 +398,9 @@ pub fn design_lens(rx: &Prescription, params: &LensDesignParams) -> Result<Spect
     }
     let d = params.vertex_distance_m;
     // Mirror into the eye's frame: curvatures change sign.
-    let front = SphericalSurface::new(d + t, -c1);
+    let front = SphericalSurface::new(d + t, -c1)?;
     let back = if rx.cylinder_d == 0.0 {
-        LensSurface::Spherical(SphericalSurface::new(d, -c2[0]))
+        LensSurface::Spherical(SphericalSurface::new(d, -c2[0])?)
     } else {
         LensSurface::Toric(ToricSurface::new(d, -c2[0], -c2[1], axis)?)
     };
@@ -475,7 +475,7 @@ impl SpectacleLens {
     pub fn edge_thickness_m(&self, phi: f64) -> Result<f64, SpectaclesError> {
         let phi = input::finite("rim angle (rad)", phi)?;
         let (x, y) = (self.rim_radius_m * phi.cos(), self.rim_radius_m * phi.sin());
-        let zf = self.front.vertex_z + self.front.sag(self.rim_radius_m).ok_or(self.not_to_rim(LensSide::Front))?;
+        let zf = self.front.vertex_z() + self.front.sag(self.rim_radius_m).ok_or(self.not_to_rim(LensSide::Front))?;
         let zb = self.back.vertex_z() + self.back.sag(x, y).ok_or(self.not_to_rim(LensSide::Back))?;
         Ok(zf - zb)
     }
@@ -484,7 +484,7 @@ impl SpectacleLens {
     /// rules out).
     pub(crate) fn not_to_rim(&self, side: LensSide) -> SpectaclesError {
         let c = match side {
-            LensSide::Front => self.front.curvature.abs(),
+            LensSide::Front => self.front.curvature().abs(),
             LensSide::Back => {
                 let (lo, hi) = self.back.curvature_range();
                 lo.abs().max(hi.abs())
@@ -507,7 +507,7 @@ impl SpectacleLens {
         let theta = input::finite("meridian (deg)", theta_deg)?;
         let h = PARAXIAL_PROBE_HEIGHT_M;
         let m = DVec2::from_angle(theta.to_radians());
-        let start = DVec3::new(h * m.x, h * m.y, self.front.vertex_z + PARAXIAL_PROBE_START_M);
+        let start = DVec3::new(h * m.x, h * m.y, self.front.vertex_z() + PARAXIAL_PROBE_START_M);
         let ray = Ray::from_unit(start, DVec3::NEG_Z);
         let fail = SpectaclesError::Degenerate("paraxial probe ray did not get through the lens");
         let h1 = self.front.intersect(&ray).ok_or(fail.clone())?;
@@ -554,13 +554,13 @@ mod tests {
         assert!((lens.centre_thickness_m() - 0.002).abs() < 1e-15);
         assert!((lens.back_power_d()[0] + 11.001_206).abs() < 1e-5, "{:?}", lens.back_power_d());
         let LensSurface::Spherical(b) = *lens.back() else { panic!() };
-        assert!((-1.0 / b.curvature - 0.059_993).abs() < 1e-5, "{}", 1.0 / b.curvature);
+        assert!((-1.0 / b.curvature() - 0.059_993).abs() < 1e-5, "{}", 1.0 / b.curvature());
         // Eye frame: back vertex at the vertex distance, front t further out;
         // a minus lens's back surface is concave to the eye: its centre of
         // curvature lies 60 mm towards −z, behind the eye (negative curvature).
         assert_eq!(lens.back().vertex_z(), 0.012);
-        assert!((lens.front().vertex_z - 0.014).abs() < 1e-15);
-        assert!(b.curvature < 0.0);
+        assert!((lens.front().vertex_z() - 0.014).abs() < 1e-15);
+        assert!(b.curvature() < 0.0);
         // Minus lenses are thick at the edge: 2 mm + sag2 − sag1 at 25 mm.
         let e = lens.edge_thickness_m(0.0).unwrap();
         let s2 = 0.059_993 - (0.059_993f64.powi(2) - 0.025f64.powi(2)).sqrt();

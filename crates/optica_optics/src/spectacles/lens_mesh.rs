@@ -151,7 +151,7 @@ impl SpectacleLens {
         }
         // Front: outward is into the scene (+z), minus the surface normal.
         for &(x, y) in &pts {
-            let z = front.vertex_z + front.sag((x * x + y * y).sqrt()).ok_or_else(|| self.not_to_rim(LensSide::Front))?;
+            let z = front.vertex_z() + front.sag((x * x + y * y).sqrt()).ok_or_else(|| self.not_to_rim(LensSide::Front))?;
             let p = DVec3::new(x, y, z);
             positions.push(p);
             normals.push(-front.normal_at(p));

@@ -161,7 +161,7 @@ impl ToricSurface {
     /// surface or does not converge in 50 steps,
     /// or the hit is behind the origin (`t <= T_EPSILON`).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let mean = SphericalSurface::new(self.vertex_z, 0.5 * (self.c_axis + self.c_cross));
+        let mean = SphericalSurface::from_checked(self.vertex_z, 0.5 * (self.c_axis + self.c_cross));
         let mut t = match mean.intersect(ray) {
             Some(h) => h.t,
             None if ray.dir().z != 0.0 => (self.vertex_z - ray.origin().z) / ray.dir().z,
@@ -210,7 +210,7 @@ impl LensSurface {
     /// z of the vertex.
     pub fn vertex_z(&self) -> f64 {
         match self {
-            LensSurface::Spherical(s) => s.vertex_z,
+            LensSurface::Spherical(s) => s.vertex_z(),
             LensSurface::Toric(t) => t.vertex_z,
         }
     }
@@ -221,7 +221,7 @@ impl LensSurface {
             LensSurface::Spherical(s) => {
                 let r = (x * x + y * y).sqrt();
                 // Exactly at the equator the normal is undefined: treat as off.
-                if (s.curvature * r).abs() >= 1.0 {
+                if (s.curvature() * r).abs() >= 1.0 {
                     return None;
                 }
                 s.sag(r)
@@ -255,7 +255,7 @@ impl LensSurface {
     /// Largest and smallest curvature (1/m) over the meridians.
     pub fn curvature_range(&self) -> (f64, f64) {
         match self {
-            LensSurface::Spherical(s) => (s.curvature, s.curvature),
+            LensSurface::Spherical(s) => (s.curvature(), s.curvature()),
             LensSurface::Toric(t) => (t.c_axis.min(t.c_cross), t.c_axis.max(t.c_cross)),
         }
     }
@@ -272,7 +272,7 @@ mod tests {
         // and hit as surface.rs.
         let c = -1.0 / 0.06;
         let t = ToricSurface::new(0.012, c, c, 0.7).unwrap();
-        let s = SphericalSurface::new(0.012, c);
+        let s = SphericalSurface::new(0.012, c).unwrap();
         for (x, y) in [(0.0f64, 0.0f64), (0.01, 0.0), (0.007, -0.013), (0.02, 0.015)] {
             let r = (x * x + y * y).sqrt();
             let (z, _) = t.sag_and_gradient(x, y).unwrap();

@@ -170,7 +170,7 @@ mod tests {
         let t = l.trace_from_eye(&Ray::new(CR, DVec3::Z).unwrap());
         let LensTrace::Exit { back, front, dir } = t else { panic!("{t:?}") };
         assert!((back - DVec3::new(0.0, 0.0, 0.012)).length() < 1e-15);
-        assert!((front.z - l.front().vertex_z).abs() < 1e-15);
+        assert!((front.z - l.front().vertex_z()).abs() < 1e-15);
         assert!((dir - DVec3::Z).length() < 1e-15);
     }
 
@@ -217,10 +217,10 @@ mod tests {
         // v: centre (0, 0, v + 1/c). c·(p − centre) = (c x, c y, c(z − v) − 1)
         // is its unit normal at p up to sign (no division; |·| = 1 exactly
         // on the sphere, which checks that `at` is on it).
-        let c = l.front().curvature;
+        let c = l.front().curvature();
         assert!(c != 0.0);
         let incidence = |back: DVec3, at: DVec3| {
-            let g = DVec3::new(c * at.x, c * at.y, c * (at.z - l.front().vertex_z) - 1.0);
+            let g = DVec3::new(c * at.x, c * at.y, c * (at.z - l.front().vertex_z()) - 1.0);
             assert!((g.length() - 1.0).abs() < 1e-9, "{at} not on the front surface");
             let d = (at - back).normalize();
             d.dot(g.normalize()).abs().min(1.0).acos()

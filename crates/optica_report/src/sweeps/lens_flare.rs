@@ -57,7 +57,7 @@ pub const NOISE_FLOOR_MAX_ENERGY: f64 = 0.01;
 
 /// `p` with a quarter-wave MgF₂ layer (n 1.38 at 550 nm) on its glass–air surfaces.
 fn coated(p: &LensPrescription) -> Result<LensPrescription, FlareError> {
-    Ok(coat_air_interfaces(p, Coating::quarter_wave(1.38, WAVELENGTH_NM))?)
+    Ok(coat_air_interfaces(p, Coating::quarter_wave(1.38, WAVELENGTH_NM).expect("a valid coating"))?)
 }
 
 /// Largest accepted relative L1 of the N = 64 grid of the folding

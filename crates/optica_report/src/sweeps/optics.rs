@@ -225,7 +225,7 @@ fn stability(report: &mut Report, tessar: &LensPrescription) {
     );
 
     // Every ghost of the Tessar on a coated lens: finite or typed, never NaN.
-    let coated = match tessar.with_coating_everywhere(Coating::quarter_wave(1.38, 550.0)) {
+    let coated = match tessar.with_coating_everywhere(Coating::quarter_wave(1.38, 550.0).expect("a valid coating")) {
         Ok(p) => p,
         Err(e) => {
             report.case("all 21 ghosts, coated, 10° off axis", false, format!("coating: {e}"));

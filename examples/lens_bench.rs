@@ -171,7 +171,8 @@ impl LensDrawing {
         // Surface profiles, element rims and the stop.
         let profile = |k: usize| -> Vec<Vec2> {
             let s = &lens.surfaces()[k];
-            let geometry = SphericalSurface::new(vz[k], s.curvature);
+            // A validated prescription has finite vertices and curvatures.
+            let Ok(geometry) = SphericalSurface::new(vz[k], s.curvature) else { return Vec::new() };
             let a = s.semi_aperture_mm;
             (0..=32)
                 .filter_map(|i| {

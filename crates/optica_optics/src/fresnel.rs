@@ -270,7 +270,7 @@ mod tests {
     use proptest::prelude::*;
     use std::f64::consts::PI;
 
-    /// The brief's per-polarisation Airy formula in the `r01, r12` form, for
+    /// The textbook per-polarisation Airy formula in the `r01, r12` form (Macleod ch. 2), for
     /// a propagating layer; used to check the matrix form against it.
     fn airy_r01_r12(cos0: f64, n0: f64, n1: f64, d: f64, n2: f64, lambda: f64) -> f64 {
         let inv = n0 * (1.0 - cos0 * cos0).sqrt();

@@ -472,7 +472,7 @@ mod tests {
 
     #[test]
     fn inside_out_room_clipped_at_view_plane() {
-        // REFERENCE.md's lavapipe case: a zenith camera inside a box. The
+        // The case that broke an unclipped lavapipe render: a zenith camera inside a box. The
         // floor (behind the viewer) is clipped away, walls are cut at z = 0;
         // the only open boundary lies on the view plane.
         let p = dome(180.0);

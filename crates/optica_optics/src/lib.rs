@@ -27,9 +27,13 @@
 //!   compound eye are in metres (or, for the compound eye, in the mesh's own
 //!   units), with dioptres (1/m) for optical power. Wavelengths are in
 //!   nanometres. Angles are radians unless a name ends in `_deg`.
-//! - **Axes.** Bevy's: right-handed, +Y up, a camera looks along −Z. Lens
-//!   systems have their own optical axis, +Z from object to image, as
-//!   optical design programs use.
+//! - **Axes.** Bevy's: right-handed, +Y up, a camera looks along −Z (the
+//!   dome and the foveated LOD work in it; the compound eye works in each
+//!   triangle's own texture axes, whatever the frame). Two modules
+//!   keep the frame of their field, each documenting its map to Bevy's: lens
+//!   systems have an optical axis +Z from object to image, as optical design
+//!   programs use; the spectacles' eye frame has +z along the line of sight
+//!   (Bevy `(X, Y, Z) = (−x, y, −z)` relative to the eye).
 //! - **Precision.** Everything here is `f64`; the GPU twins in the plugin
 //!   crates are `f32`, and their tests state the tolerance between the two.
 //! - **Input.** Numbers from users are checked where they enter and refused

@@ -122,19 +122,25 @@ fn num(v: f64) -> String {
 
 static FONT: &[u8] = include_bytes!("../fonts/DejaVuSans.ttf");
 
-/// Error (log) against time in ms (log), one series per error name, each
-/// point labelled with its knob value.
+/// Whether an error is plotted: every error is lower-is-better except the
+/// ones in decibels (PSNR), which the table shows and the plot leaves out.
+fn plotted(name: &str) -> bool {
+    !name.ends_with("_db")
+}
+
+/// Error (log) against time in ms (log), one series per error name (but
+/// PSNR-like `_db` ones), each point labelled with its knob value.
 fn plot(report: &Report, path: &Path) -> Result<(), String> {
     static REGISTER: std::sync::Once = std::sync::Once::new();
     REGISTER.call_once(|| {
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
     });
-    let errors = names(report.rows.iter().flat_map(|r| r.error.keys()));
+    let errors: Vec<String> = names(report.rows.iter().flat_map(|r| r.error.keys())).into_iter().filter(|n| plotted(n)).collect();
     let positive = |v: f64| v.is_finite() && v > 0.0;
     let pts: Vec<(f64, f64)> = report
         .rows
         .iter()
-        .flat_map(|r| r.error.values().map(move |e| (r.time_ms, *e)))
+        .flat_map(|r| r.error.iter().filter(|(n, _)| plotted(n)).map(move |(_, e)| (r.time_ms, *e)))
         .filter(|(t, e)| positive(*t) && positive(*e))
         .collect();
     let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();

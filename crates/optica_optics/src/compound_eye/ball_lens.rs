@@ -8,6 +8,7 @@ use glam::DVec3;
 
 use super::lattice::LensParams;
 use crate::ray::Ray;
+use crate::fresnel::fresnel_unpolarized;
 use crate::surface::{Refraction, refract};
 
 /// Effective focal length of a ball lens of radius `r` and relative index
@@ -33,6 +34,11 @@ pub struct BallExit {
     pub exit: DVec3,
     /// Unit direction after the exit refraction.
     pub dir: DVec3,
+    /// The unpolarised power transmitted by both surfaces,
+    /// `(1 − R_entry)(1 − R_exit)` (Fresnel, cos form,
+    /// [`crate::fresnel::fresnel_unpolarized`]): what is left for the
+    /// pigment when the lens's reflections are counted.
+    pub transmittance: f64,
 }
 
 impl BallExit {
@@ -83,7 +89,9 @@ pub fn refract_through_ball(incoming: &Ray, centre: DVec3, lens: &LensParams) ->
     let n_x = (exit - centre).try_normalize().unwrap_or(inside); // (6.28) at the exit
     match refract(inside, n_x, index, 1.0) {
         Refraction::Transmitted(out) if d.is_finite() && exit.is_finite() && out.is_finite() => {
-            Ok(BallExit { entry: d, exit, dir: out })
+            let r_in = fresnel_unpolarized(dir.dot(n_d), 1.0, index);
+            let r_out = fresnel_unpolarized(inside.dot(n_x), index, 1.0);
+            Ok(BallExit { entry: d, exit, dir: out, transmittance: (1.0 - r_in) * (1.0 - r_out) })
         }
         Refraction::Transmitted(_) => Err(BallFailure::Overflow),
         Refraction::TotalInternalReflection => Err(BallFailure::ReflectedAtExit),

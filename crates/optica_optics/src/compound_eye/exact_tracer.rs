@@ -29,13 +29,16 @@ pub const THESIS_MAX_LENSES: u32 = 1;
 /// `reference`).
 ///
 /// The view ray is walked cell by cell across the lens layer (depths
-/// `0..2r`) with a 2-D Amanatides–Woo walk in texture space (J. Amanatides
-/// and A. Woo, "A fast voxel traversal algorithm for ray tracing",
-/// Eurographics 1987), and at each cell
-/// it is tested against the lenses of the whole 3×3 neighbourhood; the
-/// nearest entry wins. Because a lens lies inside its own cell's column,
-/// every lens the ray can reach is tested before the walk passes it, and the
-/// walk stops as soon as the nearest hit lies within the cell being left.
+/// `0..2r`) with a 2-D Amanatides–Woo walk (J. Amanatides and A. Woo, "A
+/// fast voxel traversal algorithm for ray tracing", Eurographics 1987) over
+/// the unit cells of the lattice coordinates ([`super::LatticeKind::to_lattice`]:
+/// the square cells themselves, or the parallelograms of the hexagonal
+/// lattice's axial coordinates), and at each cell it is tested against every
+/// lens whose cell can hold a point of it (the 3×3 block; the parallelogram's
+/// corners and their neighbours); the nearest entry wins. Because a lens lies
+/// inside its own cell's column, every lens the ray can reach is tested
+/// before the walk passes it, and the walk stops as soon as the nearest hit
+/// lies within the cell being left.
 /// The ray is refracted in and out (eq. 6.28 for both normals) and goes on to
 /// the pigment plane (6.29). With `max_lenses > 1` it is followed into further
 /// lenses on its way — the repeated refraction the thesis leaves for future
@@ -48,6 +51,7 @@ pub fn trace_exact(lattice: &Lattice, ray: &Ray, max_lenses: u32) -> Shade {
     let mut first = None;
     let mut last = None;
     let mut count = 0;
+    let mut transmittance = 1.0;
     while count < max_lenses {
         let (cell, centre, t) = match first_lens(lattice, &path, last) {
             Ok(Some(hit)) => hit,
@@ -56,14 +60,17 @@ pub fn trace_exact(lattice: &Lattice, ray: &Ray, max_lenses: u32) -> Shade {
         };
         let entry = Ray::from_unit(path.at(t), path.dir());
         match refract_through_ball(&entry, centre, lattice.lens()) {
-            Ok(out) => path = out.ray(),
+            Ok(out) => {
+                path = out.ray();
+                transmittance *= out.transmittance;
+            }
             Err(e) => return Shade::Fallback(ball_fallback(e, cell)),
         }
         first = first.or(Some(cell));
         last = Some(cell);
         count += 1;
     }
-    finish(lattice, &path, first, last, count)
+    finish(lattice, &path, first, last, count, transmittance)
 }
 
 /// [`trace_exact`] over many rays, in parallel.
@@ -98,9 +105,10 @@ pub(crate) fn first_lens(
     if !(t_end >= t_start) {
         return Ok(None);
     }
-    // 2-D Amanatides–Woo in texture space (facets), from the layer entry.
-    let uv0 = axes.uv_of(origin + t_start * dir);
-    let duv = axes.uv_rate(dir);
+    // 2-D Amanatides–Woo in lattice coordinates, from the layer entry.
+    let kind = lattice.kind();
+    let uv0 = kind.to_lattice(axes.uv_of(origin + t_start * dir));
+    let duv = kind.lattice_rate(axes.uv_rate(dir));
     if !uv0.is_finite() || !duv.is_finite() {
         return Err(ShadeFallback::Overflow);
     }
@@ -119,19 +127,16 @@ pub(crate) fn first_lens(
     let t_delta = DVec2::new(inv_abs(duv.x), inv_abs(duv.y));
     let mut best: Option<([i64; 2], DVec3, f64)> = None;
     for _ in 0..MAX_CELLS {
-        for di in -1..=1 {
-            for dj in -1..=1 {
-                let c = cell + DVec2::new(f64::from(di), f64::from(dj));
-                let index = [c.x as i64, c.y as i64];
-                if Some(index) == exclude {
-                    continue;
-                }
-                let centre = lattice.lens_centre(c + DVec2::splat(0.5));
-                if let Some(t) = lattice.lens_entry(view, centre)
-                    && best.is_none_or(|b| t < b.2)
-                {
-                    best = Some((index, centre, t));
-                }
+        for [di, dj] in kind.walk_neighbourhood() {
+            let index = [cell.x as i64 + di, cell.y as i64 + dj];
+            if Some(index) == exclude {
+                continue;
+            }
+            let centre = lattice.lens_centre(kind.centre_of_index(index));
+            if let Some(t) = lattice.lens_entry(view, centre)
+                && best.is_none_or(|b| t < b.2)
+            {
+                best = Some((index, centre, t));
             }
         }
         let t_exit = t_max.x.min(t_max.y);
@@ -174,7 +179,8 @@ fn inv_abs(x: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::compound_eye::lattice::LensParams;
-    use crate::compound_eye::shading_path::shade;
+    use crate::compound_eye::lattice_kind::LatticeKind;
+    use crate::compound_eye::shading_path::{MAX_LENSES, ShadeOptions, shade, shade_with};
     use crate::compound_eye::texture_axes::TextureAxes;
     use proptest::prelude::*;
 
@@ -283,7 +289,7 @@ mod tests {
         let mut best: Option<([i64; 2], f64)> = None;
         for i in -30..=30 {
             for j in -30..=30 {
-                let c = l.lens_centre(DVec2::new(i as f64 + 0.5, j as f64 + 0.5));
+                let c = l.lens_centre(l.kind().centre_of_index([i, j]));
                 if let Some(t) = l.lens_entry(&view, c)
                     && best.is_none_or(|b| t < b.1)
                 {
@@ -304,16 +310,88 @@ mod tests {
         ) {
             // A skewed lattice: cells are parallelograms.
             let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::new(skew, 1.0, 0.0), DVec3::Z).unwrap();
-            let (hu, hv) = axes.cell_heights();
-            let r = r_frac * 0.5 * hu.min(hv);
-            let l = Lattice::new(axes, LensParams::thesis(r, 1.5).unwrap()).unwrap();
-            let ray = ray_at(x, y, polar, azimuth);
-            let fragment = polygon_entry(&l, &ray).unwrap();
-            let walk = first_lens(&l, &fragment, None).unwrap();
-            let brute = brute_first_lens(&l, &ray);
-            prop_assert_eq!(walk.map(|w| w.0), brute.map(|b| b.0));
-            if let (Some(w), Some(b)) = (walk, brute) {
-                prop_assert!((w.2 - b.1).abs() < 1e-12);
+            for kind in [LatticeKind::Square, LatticeKind::Hexagonal] {
+                let r = r_frac * kind.cell_inradius(axes.u(), axes.v());
+                let l = Lattice::with_kind(axes, LensParams::thesis(r, 1.5).unwrap(), kind).unwrap();
+                let ray = ray_at(x, y, polar, azimuth);
+                let fragment = polygon_entry(&l, &ray).unwrap();
+                let walk = first_lens(&l, &fragment, None).unwrap();
+                let brute = brute_first_lens(&l, &ray);
+                prop_assert_eq!(walk.map(|w| w.0), brute.map(|b| b.0), "{:?}", kind);
+                if let (Some(w), Some(b)) = (walk, brute) {
+                    prop_assert!((w.2 - b.1).abs() < 1e-12);
+                }
+            }
+        }
+    }
+
+    /// (mean |Δuv|, fraction of rays whose lens differs) of the shading path
+    /// with `options` against the exact tracer through `max_lenses` lenses.
+    fn compare_with(l: &Lattice, rays: &[Ray], options: &ShadeOptions, max_lenses: u32) -> (f64, f64) {
+        let (mut sum, mut wrong, mut n) = (0.0, 0usize, 0usize);
+        for ray in rays {
+            match (shade_with(l, ray, options), trace_exact(l, ray, max_lenses)) {
+                (Shade::Pigment(s), Shade::Pigment(e)) => {
+                    sum += (s.uv - e.uv).length();
+                    wrong += usize::from(s.lens != e.lens || s.lenses != e.lenses);
+                    n += 1;
+                }
+                (a, b) => wrong += usize::from(a.hit().is_some() != b.hit().is_some()),
+            }
+        }
+        (sum / n.max(1) as f64, wrong as f64 / rays.len() as f64)
+    }
+
+    #[test]
+    fn hexagonal_slice_search_converges_to_the_exact_tracer() {
+        let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z).unwrap();
+        let l = Lattice::with_kind(axes, LensParams::thesis(0.5, 1.5).unwrap(), LatticeKind::Hexagonal).unwrap();
+        let rays: Vec<Ray> = [0.0, 40.0, 70.0].iter().flat_map(|&p| rays(p, 8)).collect();
+        let (m0, w0) = compare_with(&l, &rays, &ShadeOptions::thesis(0), 1);
+        let (m32, w32) = compare_with(&l, &rays, &ShadeOptions::thesis(32), 1);
+        assert!(w32 < 0.02 && w32 < w0, "wrong-lens fraction {w0} at K = 0, {w32} at K = 32");
+        assert!(m32 < 0.2 * m0, "mean texel error {m0} at K = 0, {m32} at K = 32");
+        // Normal incidence through a lens axis lands on it, in both lattices.
+        let c = l.kind().centre_of_index([3, -2]);
+        let ray = Ray::new(DVec3::new(c.x, c.y, 1.0), -DVec3::Z).unwrap();
+        let hit = *trace_exact(&l, &ray, 1).hit().unwrap();
+        assert_eq!(hit.lens, Some([3, -2]));
+        assert!((hit.uv - c).length() < 1e-12);
+    }
+
+    #[test]
+    fn following_neighbours_approaches_the_exact_multi_lens_trace() {
+        let l = unit_lattice(0.5, 1.5, 1.0);
+        let rays: Vec<Ray> = [50.0, 70.0, 80.0].iter().flat_map(|&p| rays(p, 10)).collect();
+        let (_, thesis) = compare_with(&l, &rays, &ShadeOptions::thesis(32), MAX_LENSES);
+        let (_, follow) = compare_with(&l, &rays, &ShadeOptions::neighbours(32), MAX_LENSES);
+        // The thesis's one-lens path misses the second lens of many grazing
+        // rays; following the exit ray finds most of them.
+        assert!(thesis > 0.05, "one-lens path against {MAX_LENSES}-lens trace: {thesis}");
+        assert!(follow < 0.5 * thesis, "followed: {follow}, thesis: {thesis}");
+        let passed_two = rays.iter().filter(|r| shade_with(&l, r, &ShadeOptions::neighbours(32)).hit().is_some_and(|h| h.lenses >= 2)).count();
+        assert!(passed_two > 0);
+    }
+
+    #[test]
+    fn lens_surfaces_transmit_the_fresnel_remainder() {
+        // Through the axis at normal incidence: R = ((n−1)/(n+1))² = 0.04 at
+        // each surface for n = 1.5, so T = 0.96² = 0.9216.
+        let l = unit_lattice(0.5, 1.5, 1.0);
+        let ray = ray_at(0.5, 0.5, 0.0, 0.0);
+        for got in [shade(&l, &ray, 4), trace_exact(&l, &ray, 3)] {
+            let h = got.hit().unwrap();
+            assert!((h.transmittance - 0.9216).abs() < 1e-12, "{}", h.transmittance);
+        }
+        // n = 1: nothing reflected; no lens: nothing either.
+        let one = unit_lattice(0.5, 1.0, 1.0);
+        assert!((trace_exact(&one, &ray, 2).hit().unwrap().transmittance - 1.0).abs() < 1e-15);
+        let between = ray_at(0.95, 1.02, 0.0, 0.0);
+        assert_eq!(shade(&l, &between, 4).hit().unwrap().transmittance, 1.0);
+        // Off axis the loss grows; it stays in (0, 1].
+        for got in rays(70.0, 6).iter().map(|r| trace_exact(&l, r, MAX_LENSES)) {
+            if let Some(h) = got.hit() {
+                assert!(h.transmittance > 0.0 && h.transmittance <= 1.0, "{h:?}");
             }
         }
     }

@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use super::ball_lens::ball_focal_length;
 use super::error::CompoundEyeError;
+use super::lattice_kind::{LatticeKind, LensCell};
 use super::texture_axes::TextureAxes;
 use crate::input;
 use crate::ray::Ray;
@@ -113,51 +114,45 @@ impl LensParams {
     }
 }
 
-/// Thesis eq. 6.17–6.20: the texture coordinate of the centre of the cell that
-/// holds `x` — `⌊x⌋ + 0.5` for `x ≥ 0`, `⌈x⌉ − 0.5` for `x < 0` (ties on a
-/// cell edge go away from zero, which keeps the rule mirror-symmetric).
-#[inline]
-fn cell_centre_coord(x: f64) -> f64 {
-    if x >= 0.0 { x.floor() + 0.5 } else { x.ceil() - 0.5 }
-}
-
-/// Thesis eq. 6.17–6.20 on both coordinates: the texture coordinate (in
-/// facets) of the centre of the cell that holds `uv` — `⌊x⌋ + 0.5` for
-/// `x ≥ 0`, `⌈x⌉ − 0.5` for `x < 0`. The two differ from `⌊x⌋ + 0.5` only
-/// on a cell edge, where they break the tie away from zero, which keeps the
-/// rule mirror-symmetric.
-#[inline]
-pub fn cell_centre_uv(uv: DVec2) -> DVec2 {
-    DVec2::new(cell_centre_coord(uv.x), cell_centre_coord(uv.y))
-}
-
-/// Integer index `[i, j]` of the cell whose centre is `centre_uv` (saturating
-/// for coordinates beyond `i64`).
-#[inline]
-pub(crate) fn cell_index(centre_uv: DVec2) -> [i64; 2] {
-    [(centre_uv.x - 0.5).round() as i64, (centre_uv.y - 0.5).round() as i64]
-}
-
-/// The lens lattice of one triangle: its texture axes and checked lens
-/// parameters, with lenses that do not overlap (`r ≤` half the cell height).
+/// The lens lattice of one triangle: its texture axes, the arrangement of
+/// its lenses and checked lens parameters, with lenses that do not overlap
+/// (`r ≤` the cell's inradius).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Lattice {
     axes: TextureAxes,
     lens: LensParams,
+    kind: LatticeKind,
 }
 
 impl Lattice {
-    /// A lattice of `lens` on `axes`. Fails with
-    /// [`CompoundEyeError::LensesOverlap`] when `r` exceeds half the smaller
-    /// cell height: the slice search and the 3×3 neighbourhood of the exact
-    /// tracer both rely on each lens staying inside its own cell's column.
+    /// The thesis's square lattice of `lens` on `axes`. See [`Lattice::with_kind`].
     pub fn new(axes: TextureAxes, lens: LensParams) -> Result<Self, CompoundEyeError> {
-        let (hu, hv) = axes.cell_heights();
-        let half_cell = 0.5 * hu.min(hv);
+        Self::with_kind(axes, lens, LatticeKind::Square)
+    }
+
+    /// A lattice of `kind` of `lens` on `axes`. Fails with
+    /// [`CompoundEyeError::LensesOverlap`] when `r` exceeds the cell's
+    /// inradius ([`LatticeKind::cell_inradius`]; half the smaller cell height
+    /// of the square lattice): the slice search and the exact tracer both
+    /// rely on each lens staying inside its own cell's column.
+    pub fn with_kind(axes: TextureAxes, lens: LensParams, kind: LatticeKind) -> Result<Self, CompoundEyeError> {
+        let half_cell = kind.cell_inradius(axes.u(), axes.v());
         if !(lens.radius <= half_cell * (1.0 + BOUND_REL_TOL)) {
             return Err(CompoundEyeError::LensesOverlap { radius: lens.radius, half_cell });
         }
-        Ok(Self { axes, lens })
+        Ok(Self { axes, lens, kind })
+    }
+
+    /// The arrangement of the lenses.
+    pub fn kind(&self) -> LatticeKind {
+        self.kind
+    }
+
+    /// The lens whose cell holds the texture coordinate `uv` (eq. 6.17–6.20
+    /// for the square lattice; [`LatticeKind::cell_of`]).
+    #[inline]
+    pub fn cell_of(&self, uv: DVec2) -> LensCell {
+        self.kind.cell_of(uv)
     }
 
     /// The texture axes.
@@ -252,30 +247,6 @@ mod tests {
     fn unit_lattice(r: f64, n: f64) -> Lattice {
         let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z).unwrap();
         Lattice::new(axes, LensParams::thesis(r, n).unwrap()).unwrap()
-    }
-
-    #[test]
-    fn cell_centre_rule_is_eq_6_17_to_6_20() {
-        // Hand values: inside cells, on edges (ties away from zero), at zero.
-        let cases = [
-            (0.3, 0.5),
-            (0.0, 0.5),
-            (-0.0, 0.5),
-            (1.0, 1.5),
-            (2.7, 2.5),
-            (-0.3, -0.5),
-            (-1.0, -1.5),
-            (-2.7, -2.5),
-        ];
-        for (x, want) in cases {
-            assert_eq!(cell_centre_coord(x), want, "x = {x}");
-        }
-        // Mirror symmetry of the rule (except at 0, which belongs to the + side).
-        for k in 1..200 {
-            let x = k as f64 * 0.0137;
-            assert_eq!(cell_centre_coord(-x), -cell_centre_coord(x));
-        }
-        assert_eq!(cell_index(DVec2::new(-0.5, 2.5)), [-1, 2]);
     }
 
     #[test]

@@ -88,10 +88,20 @@
 //!
 //! - Refraction into neighbouring spheres after the exit is left for future
 //!   work in the thesis (§6.5); the shading path follows the thesis (one
-//!   lens), the exact tracer (feature `reference`) can follow any number.
+//!   lens, [`ShadeOptions::thesis`]) or the exit ray into up to
+//!   [`MAX_LENSES`] neighbours ([`ShadeOptions::neighbours`]); the exact
+//!   tracer (feature `reference`) can follow any number.
+//! - Fresnel at the lens surfaces is left for future work too (§6.7's last
+//!   line); every traced hit carries the power the lens surfaces transmit,
+//!   and [`facet_response`] multiplies it into `c_t` on request.
+//! - A hexagonal lattice, as real ommatidia are packed, beside the thesis's
+//!   square one ([`LatticeKind`]).
 //! - Misses, total internal reflection and escaping rays have no rule in the
 //!   thesis: see [`ShadeFallback`]. A missed lens is the thesis's rule: the
-//!   unrefracted ray goes on to the pigment plane (§6.4, last paragraph).
+//!   unrefracted ray goes on to the pigment plane (§6.4, last paragraph); an
+//!   escaping ray reports its direction, so a renderer shows what lies that
+//!   way.
+//! - Facets smaller than a pixel: [`facet_response_prefiltered`].
 //! - Degenerate and mirrored UV triangles: see [`TextureAxes`].
 //!
 //! ## API
@@ -99,9 +109,10 @@
 //! | items | what |
 //! |---|---|
 //! | [`scale_uv`], [`TextureAxes`] (thresholds [`UV_DET_REL_EPS`], [`AREA_REL_EPS`], [`NORMAL_COS_EPS`]) | `U_p`, `V_p`, `P_c` per triangle (6.1–6.15), UV ↔ point (6.2, 6.26–6.27) |
-//! | [`LensParams`], [`Lattice`], [`PigmentPlaneHit`], [`cell_centre_uv`], [`MAX_SLICES`], [`MIN_COS`] | lens parameters, the lattice of one triangle: cells, lens centres, slices, pigment plane (6.16–6.25, 6.29) |
+//! | [`LensParams`], [`Lattice`], [`PigmentPlaneHit`], [`LatticeKind`], [`LensCell`], [`MAX_SLICES`], [`MIN_COS`] | lens parameters, the lattice of one triangle: cells, lens centres, slices, pigment plane (6.16–6.25, 6.29) |
 //! | [`refract_through_ball`], [`BallExit`], [`BallFailure`], [`ball_focal_length`] | refraction into and out of one sphere (6.28), ball-lens focus |
-//! | [`shade`], [`shade_fragment`] | the thesis's per-fragment path: the CPU twin of the shader |
+//! | [`shade`], [`shade_with`], [`shade_fragment_with`], [`ShadeOptions`], [`MAX_LENSES`] | the per-fragment path (the thesis's, and followed into neighbouring lenses): the CPU twin of the shader |
+//! | [`DarkCentre`], [`facet_response`], [`facet_response_prefiltered`], [`FacetResponse`] | pigment absorption (6.30), Fresnel loss, escape direction, prefilter: the shader's last steps |
 //! | [`Shade`], [`PigmentHit`], [`ShadeFallback`] | what a traced view ray returns |
 //! | [`facet_lattice`], [`ray_to_facet`], [`shows_dark_centre`] | facet frames on a curved eye and the pseudopupil test |
 //! | [`CompoundEyeError`], [`InvalidInput`] | why a constructor refused its input |
@@ -127,7 +138,9 @@ mod error;
 #[cfg(feature = "reference")]
 mod exact_tracer;
 mod lattice;
+mod lattice_kind;
 mod outcome;
+mod pigment;
 mod pseudopupil;
 mod shading_path;
 mod texture_axes;
@@ -139,10 +152,17 @@ pub use ball_lens::{BallExit, BallFailure, ball_focal_length, refract_through_ba
 pub use error::CompoundEyeError;
 #[cfg(feature = "reference")]
 pub use exact_tracer::{MAX_CELLS, THESIS_MAX_LENSES, trace_exact, trace_exact_batch};
-pub use lattice::{Lattice, LensParams, MAX_SLICES, MIN_COS, PigmentPlaneHit, cell_centre_uv};
+pub use lattice::{Lattice, LensParams, MAX_SLICES, MIN_COS, PigmentPlaneHit};
+pub use lattice_kind::{LatticeKind, LensCell};
 pub use outcome::{PigmentHit, Shade, ShadeFallback};
 pub use pseudopupil::{facet_lattice, ray_to_facet, shows_dark_centre};
 #[cfg(feature = "reference")]
 pub use shading_path::shade_batch;
-pub use shading_path::{shade, shade_fragment};
+pub use pigment::{
+    DarkCentre, FacetResponse, PREFILTER_FULL, PREFILTER_OFFSETS, PREFILTER_START, facet_response,
+    facet_response_prefiltered,
+};
+pub use shading_path::{
+    MAX_LENSES, NEIGHBOUR_SPAN_CELLS, ShadeOptions, shade, shade_fragment, shade_fragment_with, shade_with,
+};
 pub use texture_axes::{AREA_REL_EPS, NORMAL_COS_EPS, TextureAxes, UV_DET_REL_EPS, scale_uv};

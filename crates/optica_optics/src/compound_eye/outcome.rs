@@ -14,8 +14,13 @@ pub struct PigmentHit {
     /// missed every lens and reached the plane unrefracted (thesis §6.4, last
     /// paragraph).
     pub lens: Option<[i64; 2]>,
-    /// How many lenses the ray passed through (the shading path: 0 or 1).
+    /// How many lenses the ray passed through (0, 1 in the thesis's model,
+    /// more when the path follows the ray into neighbouring lenses).
     pub lenses: u32,
+    /// The power the lens surfaces let through, the product of
+    /// [`super::BallExit::transmittance`] over the lenses passed (1 when no
+    /// lens was passed).
+    pub transmittance: f64,
 }
 
 impl PigmentHit {
@@ -45,7 +50,7 @@ impl PigmentHit {
 /// Why no pigment hit exists. The thesis has no rule for these; the CPU
 /// reference treats a fallback as unabsorbed (`c_t = 1` in eq. 6.30), so none
 /// of them darkens or NaNs a pixel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ShadeFallback {
     /// The ray does not reach the polygon from the front: parallel to it,
     /// leaving it, or starting below it. (A rasterised fragment never is.)
@@ -62,10 +67,14 @@ pub enum ShadeFallback {
         lens: [i64; 2],
     },
     /// After the lens `lens` the ray heads back out (upwards or parallel to
-    /// the pigment plane), so it never reaches the pigment.
+    /// the pigment plane), so it never reaches the pigment: the facet shows
+    /// what lies in direction `dir` (a renderer looks it up in the
+    /// environment).
     Escaped {
         /// The last lens's cell.
         lens: [i64; 2],
+        /// The unit direction the ray leaves in.
+        dir: DVec3,
     },
     /// The exact tracer's cell walk exceeded its cap (a ray almost parallel
     /// to the surface inside the lens layer). Only the exact tracer (cargo

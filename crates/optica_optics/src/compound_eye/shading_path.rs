@@ -1,10 +1,12 @@
 //! The thesis's shading path for one view ray (§6.4–6.6): the CPU twin of
 //! the compound-eye fragment shader. See [`shade`].
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
+use serde::{Deserialize, Serialize};
 
 use super::ball_lens::{BallFailure, refract_through_ball};
-use super::lattice::{Lattice, MAX_SLICES, MIN_COS, PigmentPlaneHit, cell_centre_uv, cell_index};
+use super::lattice::{Lattice, MAX_SLICES, MIN_COS, PigmentPlaneHit};
+use super::lattice_kind::LensCell;
 use super::outcome::{PigmentHit, Shade, ShadeFallback};
 use crate::ray::Ray;
 
@@ -26,14 +28,59 @@ pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<Ray, ShadeFa
     if p.is_finite() { Ok(Ray::from_unit(p, ray.dir())) } else { Err(ShadeFallback::Overflow) }
 }
 
-/// Traces `ray` by the thesis's shading path with `slices` slice planes
-/// below the polygon (clamped to [`MAX_SLICES`]; 0 = the polygon alone):
-/// where it meets the polygon (eq. 6.16), then [`shade_fragment`]. A ray that
-/// does not reach the polygon from the front is a
-/// [`ShadeFallback::PolygonMiss`].
+/// Most lenses the shading path follows one view ray through: the bound of
+/// the WGSL loop. Beyond the first lens, each further one is a neighbour the
+/// exit ray enters on its way to the pigment plane; with touching lenses of
+/// `n = 1.5` the sweep `compound_eye` finds no ray that passes more than
+/// three lenses before the pigment at any angle up to 89°.
+pub const MAX_LENSES: u32 = 4;
+
+/// How far along an exit ray the neighbour search looks when the ray runs
+/// almost parallel to the lens layer, in cell widths (twice the cell
+/// inradius): a ray that has not met a lens within four cells of nearly
+/// horizontal travel is one that skims the gaps, which the exact tracer
+/// resolves and the shader leaves to the pigment plane.
+pub const NEIGHBOUR_SPAN_CELLS: f64 = 4.0;
+
+/// The knobs of the shading path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ShadeOptions {
+    /// Slice planes of the entry search below the polygon, `K` (clamped to
+    /// [`MAX_SLICES`]; 0 = the polygon alone, §6.4). The neighbour search
+    /// samples each exit ray at as many points.
+    pub slices: u32,
+    /// Most lenses a ray is followed through (clamped to `1..=`[`MAX_LENSES`]):
+    /// 1 is the thesis's model (one lens, then the pigment plane); more
+    /// follows the exit ray into neighbouring lenses, the repeated refraction
+    /// the thesis leaves for future work (§6.5).
+    pub max_lenses: u32,
+}
+
+impl ShadeOptions {
+    /// The thesis's model with `slices` slice planes: one lens per ray.
+    pub fn thesis(slices: u32) -> Self {
+        Self { slices, max_lenses: 1 }
+    }
+
+    /// The physical default: `slices` slice planes, rays followed through up
+    /// to [`MAX_LENSES`] lenses.
+    pub fn neighbours(slices: u32) -> Self {
+        Self { slices, max_lenses: MAX_LENSES }
+    }
+}
+
+/// Traces `ray` by the thesis's shading path (one lens) with `slices` slice
+/// planes below the polygon: [`shade_with`] and [`ShadeOptions::thesis`].
+pub fn shade(lattice: &Lattice, ray: &Ray, slices: u32) -> Shade {
+    shade_with(lattice, ray, &ShadeOptions::thesis(slices))
+}
+
+/// Traces `ray` by the shading path: where it meets the polygon (eq. 6.16),
+/// then [`shade_fragment_with`]. A ray that does not reach the polygon from
+/// the front is a [`ShadeFallback::PolygonMiss`].
 ///
-/// Written the way the shader is: one loop with a uniform bound
-/// ([`MAX_SLICES`]), no allocation, no recursion, every branch a defined
+/// Written the way the shader is: loops with uniform bounds ([`MAX_SLICES`],
+/// [`MAX_LENSES`]), no allocation, no recursion, every branch a defined
 /// value. Steps, with the thesis's equation numbers:
 ///
 /// 1. The fragment: the view ray's hit `P` on the polygon and its texture
@@ -41,16 +88,22 @@ pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<Ray, ShadeFa
 /// 2. For slice `s = 0..=K` at depth `h = s·r/K` (`s = 0`: the polygon
 ///    itself; the last slice at `h = r`, §6.4): the view ray's point `P_s` on
 ///    the slice plane, projected back onto the polygon (6.23) and its texture
-///    coordinate by least squares (6.24–6.27); the cell centre (6.17–6.20),
-///    its point on the polygon (6.21) and the lens centre `S = P' − r·N`
+///    coordinate by least squares (6.24–6.27); the cell holding it
+///    (6.17–6.20 for the square lattice, [`super::LatticeKind::cell_of`]),
+///    its centre on the polygon (6.21) and the lens centre `S = P' − r·N`
 ///    (6.22); the first lens the view ray intersects ends the search.
-/// 3. Refraction into and out of that lens (6.28).
+/// 3. Refraction into and out of that lens (6.28). With
+///    `max_lenses > 1`, the exit ray is sampled at `max(K, 1)` points through
+///    the lens layer (to depth `2r`, or up to the polygon, or at most
+///    [`NEIGHBOUR_SPAN_CELLS`] cells); the first point whose cell's lens
+///    (not the one just left) the exit ray enters gives the next lens, and so
+///    on up to `max_lenses`.
 /// 4. The pigment-plane hit and its texture coordinate (6.29).
 ///
 /// No lens found: the unrefracted ray goes on to the pigment plane (§6.4).
 ///
 /// Why the search is exact in the limit: each lens lies inside its own cell's
-/// column (`r ≤` half the cell height, checked by [`Lattice::new`]), and a
+/// column (`r ≤` the cell's inradius, checked by [`Lattice::with_kind`]), and a
 /// straight ray crosses each column once, in order. So a lens picked at a
 /// slice that the ray intersects at all is the *first* lens it meets unless
 /// the first lens's column lay wholly between two slices; with `K → ∞` the
@@ -64,25 +117,30 @@ pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<Ray, ShadeFa
 /// above depth `r` is found even when it enters the sphere below its
 /// equator.
 ///
-/// Measured (report sweep `compound_eye`: unit facets, touching lenses
-/// `r = ½`, `n = 1.5`, `d = 2r`, rays from 0° to 89°): the wrong-lens
-/// fraction falls from 42 % at `K = 0` to 4.3 % at `K = 8` and to its floor
-/// of 0.05 % from `K = 32` on; a single extra slice at `h = r` (`K = 1`) is
-/// *worse* than none in mean texel error at grazing angles, because it jumps
-/// past the ray's first lens to a later one. Near-normal rays (≤ 10°) need
-/// only `K ≥ 1`.
-pub fn shade(lattice: &Lattice, ray: &Ray, slices: u32) -> Shade {
+/// Measured (report sweep `compound_eye`, square lattice: unit facets,
+/// touching lenses `r = ½`, `n = 1.5`, `d = 2r`, rays from 0° to 89°): the
+/// wrong-lens fraction falls from 42 % at `K = 0` to 4.3 % at `K = 8` and to
+/// its floor of 0.05 % from `K = 32` on; a single extra slice at `h = r`
+/// (`K = 1`) is *worse* than none in mean texel error at grazing angles,
+/// because it jumps past the ray's first lens to a later one. Near-normal
+/// rays (≤ 10°) need only `K ≥ 1`.
+pub fn shade_with(lattice: &Lattice, ray: &Ray, options: &ShadeOptions) -> Shade {
     match polygon_entry(lattice, ray) {
-        Ok(fragment) => shade_fragment(lattice, &fragment, slices),
+        Ok(fragment) => shade_fragment_with(lattice, &fragment, options),
         Err(f) => Shade::Fallback(f),
     }
 }
 
+/// [`shade_fragment_with`] with [`ShadeOptions::thesis`]`(slices)`.
+pub fn shade_fragment(lattice: &Lattice, fragment: &Ray, slices: u32) -> Shade {
+    shade_fragment_with(lattice, fragment, &ShadeOptions::thesis(slices))
+}
+
 /// The fragment shader's body: `fragment` starts at the fragment's position
 /// on the polygon and runs along the view direction (camera → fragment).
-/// Steps 2–4 of the module's list; a fragment ray that does not point into
-/// the surface is a [`ShadeFallback::PolygonMiss`].
-pub fn shade_fragment(lattice: &Lattice, fragment: &Ray, slices: u32) -> Shade {
+/// Steps 2–4 of [`shade_with`]; a fragment ray that does not point into the
+/// surface is a [`ShadeFallback::PolygonMiss`].
+pub fn shade_fragment_with(lattice: &Lattice, fragment: &Ray, options: &ShadeOptions) -> Shade {
     let axes = lattice.axes();
     let lens = lattice.lens();
     let r = lens.radius();
@@ -91,31 +149,84 @@ pub fn shade_fragment(lattice: &Lattice, fragment: &Ray, slices: u32) -> Shade {
     if !(cos > MIN_COS) {
         return Shade::Fallback(ShadeFallback::PolygonMiss);
     }
-    let k = slices.min(MAX_SLICES);
+    let k = options.slices.min(MAX_SLICES);
     // Step 2: slice-plane search (6.16–6.27).
     let mut found = None;
     for s in 0..=k {
         let h = if k == 0 { 0.0 } else { r * f64::from(s) / f64::from(k) };
         let p_s = p + (h / cos) * dir; // the view ray on the slice plane at depth h
         let uv_s = lattice.slice_uv(p_s, h); // (6.23)–(6.27); s = 0 is (6.16)
-        let c_uv = cell_centre_uv(uv_s); // (6.17)–(6.20)
-        let c = lattice.lens_centre(c_uv); // (6.21)–(6.22)
+        let cell = lattice.cell_of(uv_s); // (6.17)–(6.20)
+        let c = lattice.lens_centre(cell.centre_uv); // (6.21)–(6.22)
         if let Some(t) = lattice.lens_entry(fragment, c) {
-            found = Some((c_uv, c, t));
+            found = Some((cell, c, t));
             break;
         }
     }
-    let Some((centre_uv, centre, t_entry)) = found else {
+    let Some((mut cell, mut centre, mut t_entry)) = found else {
         // No lens: straight on to the pigment plane (§6.4, last paragraph).
-        return finish(lattice, fragment, None, None, 0);
+        return finish(lattice, fragment, None, None, 0, 1.0);
     };
-    // Step 3: refraction in and out (6.28).
-    let cell = cell_index(centre_uv);
-    let entry = Ray::from_unit(fragment.at(t_entry), dir);
-    match refract_through_ball(&entry, centre, lens) {
-        Ok(out) => finish(lattice, &out.ray(), Some(cell), Some(cell), 1),
-        Err(e) => Shade::Fallback(ball_fallback(e, cell)),
+    // Step 3: refraction in and out (6.28), then on into neighbours.
+    let first = cell.index;
+    let max_lenses = options.max_lenses.clamp(1, MAX_LENSES);
+    let mut path = *fragment;
+    let mut transmittance = 1.0;
+    let mut count = 0;
+    loop {
+        let entry = Ray::from_unit(path.at(t_entry), path.dir());
+        let out = match refract_through_ball(&entry, centre, lens) {
+            Ok(out) => out,
+            Err(e) => return Shade::Fallback(ball_fallback(e, cell.index)),
+        };
+        path = out.ray();
+        transmittance *= out.transmittance;
+        count += 1;
+        if count >= max_lenses {
+            break;
+        }
+        match next_lens(lattice, &path, cell.index, k.max(1)) {
+            Some((next, c, t)) => (cell, centre, t_entry) = (next, c, t),
+            None => break,
+        }
     }
+    finish(lattice, &path, Some(first), Some(cell.index), count, transmittance)
+}
+
+/// Step 3's neighbour search: the lens the exit ray `path` enters next
+/// (not `current`, the one it just left), found by sampling the ray at
+/// `samples` points through the lens layer: `(cell, centre, t_entry)`.
+fn next_lens(lattice: &Lattice, path: &Ray, current: [i64; 2], samples: u32) -> Option<(LensCell, DVec3, f64)> {
+    let axes = lattice.axes();
+    let r = lattice.lens().radius();
+    let h0 = axes.depth(path.origin());
+    let down = -path.dir().dot(axes.normal());
+    // Where the ray leaves the layer 0 ≤ depth ≤ 2r, at most a few cells on.
+    let span = NEIGHBOUR_SPAN_CELLS * 2.0 * lattice.kind().cell_inradius(axes.u(), axes.v());
+    let t_layer = if down > MIN_COS {
+        (2.0 * r - h0) / down
+    } else if down < -MIN_COS {
+        h0 / -down
+    } else {
+        span
+    };
+    let t_end = t_layer.min(span);
+    if !(t_end > 0.0) {
+        return None;
+    }
+    for s in 1..=samples {
+        let t = t_end * f64::from(s) / f64::from(samples);
+        let q = path.at(t);
+        let cell = lattice.cell_of(lattice.slice_uv(q, axes.depth(q)));
+        if cell.index == current {
+            continue;
+        }
+        let centre = lattice.lens_centre(cell.centre_uv);
+        if let Some(t_in) = lattice.lens_entry(path, centre) {
+            return Some((cell, centre, t_in));
+        }
+    }
+    None
 }
 
 /// The shading fallback for a ray that has no exit from the lens `cell`.
@@ -130,20 +241,28 @@ pub(crate) fn ball_fallback(e: BallFailure, cell: [i64; 2]) -> ShadeFallback {
 
 /// Step 4: along `ray` to the pigment plane (6.29). `first` and `last` are
 /// the first and the last lens passed (for the hit and for
-/// [`ShadeFallback::Escaped`]).
-pub(crate) fn finish(lattice: &Lattice, ray: &Ray, first: Option<[i64; 2]>, last: Option<[i64; 2]>, lenses: u32) -> Shade {
+/// [`ShadeFallback::Escaped`]), `lenses` how many, `transmittance` the power
+/// their surfaces let through.
+pub(crate) fn finish(
+    lattice: &Lattice,
+    ray: &Ray,
+    first: Option<[i64; 2]>,
+    last: Option<[i64; 2]>,
+    lenses: u32,
+    transmittance: f64,
+) -> Shade {
     match lattice.to_pigment_plane(ray) {
         PigmentPlaneHit::At(point) => {
             let uv: DVec2 = lattice.pigment_uv(point); // (6.29)
             if uv.is_finite() {
-                Shade::Pigment(PigmentHit { uv, point, lens: first, lenses })
+                Shade::Pigment(PigmentHit { uv, point, lens: first, lenses, transmittance })
             } else {
                 Shade::Fallback(ShadeFallback::Overflow)
             }
         }
         PigmentPlaneHit::Overflow => Shade::Fallback(ShadeFallback::Overflow),
         PigmentPlaneHit::Escapes => match last {
-            Some(cell) => Shade::Fallback(ShadeFallback::Escaped { lens: cell }),
+            Some(cell) => Shade::Fallback(ShadeFallback::Escaped { lens: cell, dir: ray.dir() }),
             // Unreachable for a ray that reached the polygon from the front.
             None => Shade::Fallback(ShadeFallback::PolygonMiss),
         },

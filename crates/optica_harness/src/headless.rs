@@ -18,6 +18,7 @@ use bevy::{
         renderer::{RenderAdapterInfo, RenderDevice},
         settings::{RenderCreation, WgpuSettings},
     },
+    shader::ShaderCacheError,
     time::TimeUpdateStrategy,
     window::ExitCondition,
 };
@@ -196,6 +197,7 @@ impl Headless {
         for _ in 0..self.frames {
             step(&mut app)?;
         }
+        settle(&mut app)?;
         let data = read_back(&mut app, handle)?;
         let pipelines = pipeline_states(&mut app)?.ok;
         let adapter = adapter_info(&mut app)?;
@@ -218,6 +220,7 @@ impl Headless {
         for _ in 0..self.frames {
             step(&mut app)?;
         }
+        settle(&mut app)?;
         let states = pipeline_states(&mut app)?;
         Ok(PipelineReport { adapter: adapter_info(&mut app)?, ok: states.ok, pending: states.pending, labels: states.labels })
     }
@@ -254,6 +257,7 @@ impl Headless {
         for _ in 0..warmup {
             step(&mut app)?;
         }
+        settle(&mut app)?;
         let mut collector = SpanCollector::default();
         // Spans of warm-up frames still arrive in the first timed frames:
         // start from whatever the store holds now.
@@ -456,6 +460,23 @@ fn read_back(app: &mut App, handle: Handle<Image>) -> Result<Vec<u8>, HarnessErr
     Err(HarnessError::NoReadback(READBACK_FRAMES))
 }
 
+/// How many extra frames a run waits for pipelines whose shaders are still
+/// loading: embedded shaders load on the IO task pool, which a busy machine
+/// (parallel tests on two cores) can delay by a few frames.
+pub const MAX_SETTLE_FRAMES: u32 = 120;
+
+/// Steps until no pipeline waits for a shader (or [`MAX_SETTLE_FRAMES`]),
+/// so a frame is never read back or timed with meshes missing.
+fn settle(app: &mut App) -> Result<(), HarnessError> {
+    for _ in 0..MAX_SETTLE_FRAMES {
+        if pipeline_states(app)?.pending == 0 {
+            return Ok(());
+        }
+        step(app)?;
+    }
+    Ok(())
+}
+
 struct PipelineStates {
     ok: usize,
     pending: usize,
@@ -472,6 +493,10 @@ fn pipeline_states(app: &mut App) -> Result<PipelineStates, HarnessError> {
             CachedPipelineState::Ok(_) => {
                 states.ok += 1;
                 states.labels.push(pipeline_label(&pipeline.descriptor));
+            }
+            // A shader still loading is retried by the cache: pending, not failed.
+            CachedPipelineState::Err(ShaderCacheError::ShaderNotLoaded(_) | ShaderCacheError::ShaderImportNotYetAvailable) => {
+                states.pending += 1
             }
             CachedPipelineState::Err(e) => errors.push(format!("{}: {e}", pipeline_label(&pipeline.descriptor))),
             _ => states.pending += 1,

@@ -1,0 +1,261 @@
+//! The material's user-facing settings and what the shader receives.
+
+use bevy::prelude::*;
+use bevy::render::render_resource::{AsBindGroup, ShaderType};
+use optica_optics::compound_eye::{DarkCentre, LatticeKind, LensParams, MAX_LENSES, MAX_SLICES};
+use optica_optics::input::{self, InvalidInput};
+
+/// A compound eye on any UV-mapped mesh: a `StandardMaterial` (colour,
+/// roughness, textures, lights, shadows) with Sagawa's lens lattice between
+/// the surface and its colour.
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use optica_compound_eye::{CompoundEye, CompoundEyeMaterial, CompoundEyePlugin};
+///
+/// fn setup(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<CompoundEyeMaterial>>) {
+///     commands.spawn((
+///         Mesh3d(meshes.add(Sphere::new(1.0).mesh().uv(64, 32))),
+///         MeshMaterial3d(materials.add(CompoundEyeMaterial {
+///             base: StandardMaterial { base_color: Color::srgb(0.55, 0.12, 0.08), ..default() },
+///             extension: CompoundEye { facets_per_uv: 60.0, ..default() },
+///         })),
+///     ));
+/// }
+///
+/// App::new().add_plugins((DefaultPlugins, CompoundEyePlugin)).add_systems(Startup, setup).run();
+/// ```
+pub type CompoundEyeMaterial = bevy::pbr::ExtendedMaterial<StandardMaterial, CompoundEye>;
+
+/// The lens arrangement on the surface.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
+pub enum EyeLattice {
+    /// One lens per square cell: the thesis's layout.
+    Square,
+    /// Hexagonal close packing, like real ommatidia.
+    #[default]
+    Hexagonal,
+}
+
+impl From<EyeLattice> for LatticeKind {
+    fn from(l: EyeLattice) -> Self {
+        match l {
+            EyeLattice::Square => LatticeKind::Square,
+            EyeLattice::Hexagonal => LatticeKind::Hexagonal,
+        }
+    }
+}
+
+/// What the material draws.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
+pub enum EyeOutput {
+    /// The lit surface (the default).
+    #[default]
+    Shaded,
+    /// The optics alone, unlit, as linear values: red = the factor on the
+    /// surface colour (`c_t`, times the lenses' transmittance with Fresnel
+    /// on), green = the weight of the environment seen by escaping rays,
+    /// blue = lenses passed / 4. For tests, reports and debugging; read it
+    /// from an HDR target with tonemapping off.
+    PigmentOnly,
+}
+
+/// The procedural pigment used when no [`CompoundEye::pigment_texture`] is
+/// given: a dark disc around each lens axis on the pigment plane (see
+/// `optica_optics::compound_eye::DarkCentre`).
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct PigmentDisc {
+    /// Radius of the dark disc, in facets.
+    pub radius: f32,
+    /// Half-width of its soft edge, in facets.
+    pub softness: f32,
+    /// Fraction of the light absorbed at its centre, `0..=1`.
+    pub darkness: f32,
+}
+
+impl Default for PigmentDisc {
+    fn default() -> Self {
+        let d = DarkCentre::default();
+        Self { radius: d.radius() as f32, softness: d.softness() as f32, darkness: d.darkness() as f32 }
+    }
+}
+
+/// The compound-eye extension of `StandardMaterial`: the lens lattice, its
+/// optics, the pigment and the quality knobs. Use it as
+/// [`CompoundEyeMaterial`]`{ base, extension }`.
+///
+/// Lengths are relative to the lattice, so one setting fits any mesh scale:
+/// the lens radius is a fraction of the cell's inradius (half a facet on
+/// undistorted UVs), the pigment depth a multiple of the lens radius.
+///
+/// Invalid values (NaN, a radius outside `(0, 1]`, a depth below 2 radii,
+/// a non-positive index or `facets_per_uv`) switch the lattice off: the mesh
+/// renders as its plain `StandardMaterial`, and the plugin logs a warning
+/// naming the value (once per change of the material).
+#[derive(Asset, AsBindGroup, Reflect, Debug, Clone)]
+#[uniform(100, CompoundEyeUniform)]
+pub struct CompoundEye {
+    /// Facets per UV unit, `R_t` of the thesis's eq. 6.1: the texture
+    /// coordinate times this is the lattice coordinate, one facet per unit.
+    pub facets_per_uv: f32,
+    /// The lens arrangement.
+    pub lattice: EyeLattice,
+    /// Lens (sphere) radius as a fraction of the cell's inradius, `(0, 1]`;
+    /// 1 = neighbouring lenses touch.
+    pub lens_radius: f32,
+    /// Refractive index of the lenses relative to the outside, `> 0`.
+    pub lens_index: f32,
+    /// Depth of the pigment plane below the surface in lens radii, `≥ 2`
+    /// (2 = the thesis's `d = 2r`, eq. 6.29; the paraxial focus of a ball
+    /// lens lies at `1 + n/(2(n−1))`, 2.5 for `n = 1.5`).
+    pub pigment_depth: f32,
+    /// Slice planes of the lens search (`K`, §6.4), clamped to 64: the
+    /// quality knob. 0 looks only at the surface; 8 finds the right lens for
+    /// all but grazing rays; 32 reaches the method's floor.
+    pub slices: u32,
+    /// Follow a ray that leaves one lens into its neighbours (up to 4
+    /// lenses); off is the thesis's model (one lens).
+    pub follow_neighbours: bool,
+    /// Count the light the lens surfaces reflect (unpolarised Fresnel at
+    /// entry and exit): the pigment's contribution is scaled by what is
+    /// transmitted.
+    pub fresnel: bool,
+    /// Blend into the facet average where facets shrink below a pixel, so
+    /// that distant eyes show their pseudopupil without moiré.
+    pub prefilter: bool,
+    /// The procedural pigment, used when `pigment_texture` is `None`.
+    pub pigment: PigmentDisc,
+    /// A greyscale pigment texture (red channel; 1 = transparent, 0 =
+    /// absorbing), tiled over the pigment plane: its own UV space, set by
+    /// `pigment_uv_scale` and `pigment_uv_offset`, independent of the lens
+    /// lattice (thesis §6.2). Sampled with mipmaps when it has them.
+    #[texture(101)]
+    #[sampler(102)]
+    pub pigment_texture: Option<Handle<Image>>,
+    /// Pigment texture coordinate per facet: `tex = facet · scale + offset`.
+    pub pigment_uv_scale: Vec2,
+    /// See `pigment_uv_scale`.
+    pub pigment_uv_offset: Vec2,
+    /// What the material draws.
+    pub output: EyeOutput,
+}
+
+impl Default for CompoundEye {
+    /// Hexagonal touching lenses of index 1.5 focused on the pigment, 16
+    /// slices, neighbours, Fresnel and the prefilter on, 40 facets per UV
+    /// unit.
+    fn default() -> Self {
+        Self {
+            facets_per_uv: 40.0,
+            lattice: EyeLattice::Hexagonal,
+            lens_radius: 1.0,
+            lens_index: 1.5,
+            pigment_depth: 2.5,
+            slices: 16,
+            follow_neighbours: true,
+            fresnel: true,
+            prefilter: true,
+            pigment: PigmentDisc::default(),
+            pigment_texture: None,
+            pigment_uv_scale: Vec2::ONE,
+            pigment_uv_offset: Vec2::ZERO,
+            output: EyeOutput::Shaded,
+        }
+    }
+}
+
+impl CompoundEye {
+    /// The thesis's model: square lattice, touching lenses, `d = 2r`, one
+    /// lens per ray, no Fresnel, no prefilter, `slices` slice planes.
+    pub fn thesis(facets_per_uv: f32, lens_index: f32, slices: u32) -> Self {
+        Self {
+            facets_per_uv,
+            lattice: EyeLattice::Square,
+            lens_index,
+            pigment_depth: 2.0,
+            slices,
+            follow_neighbours: false,
+            fresnel: false,
+            prefilter: false,
+            ..default()
+        }
+    }
+
+    /// Checks every number: the first one the shader cannot use, named.
+    pub fn validate(&self) -> Result<(), InvalidInput> {
+        input::positive("facets per UV unit", self.facets_per_uv as f64)?;
+        input::in_range("lens radius (fraction of the cell inradius)", self.lens_radius as f64, f64::MIN_POSITIVE, 1.0)?;
+        // A unit lens checks index and depth ≥ 2r as the CPU twin does.
+        LensParams::new(1.0, self.lens_index as f64, self.pigment_depth as f64).map_err(|e| match e {
+            optica_optics::compound_eye::CompoundEyeError::Input(i) => i,
+            _ => InvalidInput::new(
+                "pigment depth (lens radii)",
+                self.pigment_depth as f64,
+                optica_optics::input::Expected::AtLeast(2.0),
+            ),
+        })?;
+        DarkCentre::new(self.pigment.radius as f64, self.pigment.softness as f64, self.pigment.darkness as f64)?;
+        input::finite_vec2("pigment UV scale", self.pigment_uv_scale.as_dvec2())?;
+        input::finite_vec2("pigment UV offset", self.pigment_uv_offset.as_dvec2())?;
+        Ok(())
+    }
+
+    /// The optics' `LatticeKind`.
+    pub fn lattice_kind(&self) -> LatticeKind {
+        self.lattice.into()
+    }
+}
+
+/// Switches of the shader, packed into one `u32` (the `FLAG_*` constants at
+/// the top of `compound_eye.wgsl`).
+mod flags {
+    pub const ENABLED: u32 = 1;
+    pub const HEXAGONAL: u32 = 2;
+    pub const FRESNEL: u32 = 4;
+    pub const PREFILTER: u32 = 8;
+    pub const TEXTURE: u32 = 16;
+    pub const PIGMENT_ONLY: u32 = 32;
+}
+
+/// The uniform the shader reads (`CompoundEyeUniform` in `compound_eye.wgsl`).
+#[derive(Clone, Copy, Debug, ShaderType)]
+pub struct CompoundEyeUniform {
+    facets_per_uv: f32,
+    lens_radius: f32,
+    lens_index: f32,
+    pigment_depth: f32,
+    dark_radius: f32,
+    dark_softness: f32,
+    darkness: f32,
+    slices: u32,
+    pigment_scale: Vec2,
+    pigment_offset: Vec2,
+    max_lenses: u32,
+    flags: u32,
+}
+
+impl From<&CompoundEye> for CompoundEyeUniform {
+    fn from(e: &CompoundEye) -> Self {
+        let flag = |on: bool, bit: u32| if on { bit } else { 0 };
+        let flags = flag(e.validate().is_ok(), flags::ENABLED)
+            | flag(e.lattice == EyeLattice::Hexagonal, flags::HEXAGONAL)
+            | flag(e.fresnel, flags::FRESNEL)
+            | flag(e.prefilter, flags::PREFILTER)
+            | flag(e.pigment_texture.is_some(), flags::TEXTURE)
+            | flag(e.output == EyeOutput::PigmentOnly, flags::PIGMENT_ONLY);
+        Self {
+            facets_per_uv: e.facets_per_uv,
+            lens_radius: e.lens_radius,
+            lens_index: e.lens_index,
+            pigment_depth: e.pigment_depth,
+            dark_radius: e.pigment.radius,
+            dark_softness: e.pigment.softness,
+            darkness: e.pigment.darkness,
+            slices: e.slices.min(MAX_SLICES),
+            pigment_scale: e.pigment_uv_scale,
+            pigment_offset: e.pigment_uv_offset,
+            max_lenses: if e.follow_neighbours { MAX_LENSES } else { 1 },
+            flags,
+        }
+    }
+}

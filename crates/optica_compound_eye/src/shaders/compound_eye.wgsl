@@ -1,0 +1,184 @@
+// The compound-eye material: StandardMaterial's fragment shader with
+// Sagawa's lens lattice (thesis ch. 6) between the surface and its colour.
+// The optics are in `compound_eye_optics.wgsl`, the twin of
+// `optica_optics::compound_eye`.
+
+#import bevy_pbr::{
+    pbr_fragment::pbr_input_from_standard_material,
+    pbr_functions::{alpha_discard, apply_pbr_lighting, main_pass_post_lighting_processing},
+    forward_io::{VertexOutput, FragmentOutput},
+}
+#import optica::compound_eye as eye
+
+struct CompoundEyeUniform {
+    facets_per_uv: f32,
+    lens_radius: f32,
+    lens_index: f32,
+    pigment_depth: f32,
+    dark_radius: f32,
+    dark_softness: f32,
+    darkness: f32,
+    slices: u32,
+    pigment_scale: vec2<f32>,
+    pigment_offset: vec2<f32>,
+    max_lenses: u32,
+    flags: u32,
+}
+
+// settings.rs `CompoundEyeFlags`.
+const FLAG_ENABLED: u32 = 1u;
+const FLAG_HEXAGONAL: u32 = 2u;
+const FLAG_FRESNEL: u32 = 4u;
+const FLAG_PREFILTER: u32 = 8u;
+const FLAG_TEXTURE: u32 = 16u;
+const FLAG_PIGMENT_ONLY: u32 = 32u;
+
+// texture_axes.rs UV_DET_REL_EPS for f32 derivatives: UV edges closer to
+// parallel than this (the sine of their angle) have no lattice.
+const UV_DET_REL_EPS: f32 = 1e-4;
+
+// pigment.rs PREFILTER_OFFSETS: a 3×3 stratified pattern.
+const PREFILTER_SAMPLES: u32 = 9u;
+
+@group(#{MATERIAL_BIND_GROUP}) @binding(100) var<uniform> material: CompoundEyeUniform;
+@group(#{MATERIAL_BIND_GROUP}) @binding(101) var pigment_texture: texture_2d<f32>;
+@group(#{MATERIAL_BIND_GROUP}) @binding(102) var pigment_sampler: sampler;
+
+struct Response {
+    multiplier: f32,
+    escape_weight: f32,
+    escape_dir: vec3<f32>,
+    lenses: u32,
+}
+
+// The pigment's c_t at the local pigment coordinate `t` (facets, relative to
+// the fragment's lattice origin shifted by `shift`): the texture if the
+// material has one (greyscale, red channel, its own UV scale and offset), the
+// procedural dark centre otherwise.
+fn pigment_transmission(kind: u32, t: vec2<f32>, shift: vec2<f32>, lod: f32) -> f32 {
+    if (material.flags & FLAG_TEXTURE) != 0u {
+        let st = (t + shift) * material.pigment_scale + material.pigment_offset;
+        return textureSampleLevel(pigment_texture, pigment_sampler, st, lod).r;
+    }
+    return eye::dark_centre(kind, t, material.dark_radius, material.dark_softness, material.darkness);
+}
+
+// pigment.rs `facet_response`.
+fn facet_response(l: eye::Lattice, p: vec3<f32>, d: vec3<f32>, shift: vec2<f32>, lod: f32) -> Response {
+    var r: Response;
+    r.multiplier = 1.0;
+    r.escape_weight = 0.0;
+    let trace = eye::shade_fragment(l, p, d, material.slices, material.max_lenses);
+    r.lenses = trace.lenses;
+    if trace.outcome == eye::OUTCOME_PIGMENT {
+        var transmittance = 1.0;
+        if (material.flags & FLAG_FRESNEL) != 0u {
+            transmittance = trace.transmittance;
+        }
+        r.multiplier = pigment_transmission(l.kind, trace.uv, shift, lod) * transmittance;
+    } else if trace.outcome == eye::OUTCOME_ESCAPED {
+        r.escape_weight = 1.0;
+        r.escape_dir = trace.dir;
+    }
+    return r;
+}
+
+@fragment
+fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> FragmentOutput {
+    var pbr_input = pbr_input_from_standard_material(in, is_front);
+    pbr_input.material.base_color = alpha_discard(pbr_input.material, pbr_input.material.base_color);
+
+    var response: Response;
+    response.multiplier = 1.0;
+    response.escape_weight = 0.0;
+
+#ifdef VERTEX_UVS_A
+    // Derivatives first, in uniform control flow (WGSL forbids them later).
+    // The lattice's texture axes U_p, V_p (eq. 6.8–6.15) are the triangle's
+    // ∂P/∂t, recovered exactly from the screen-space derivatives of the
+    // interpolated position and facet coordinate: both are affine in the
+    // triangle's barycentrics, so J_P = U·J_t and U = J_P·J_t⁻¹.
+    let facet = in.uv * material.facets_per_uv; // (6.1)
+    let dpx = dpdx(in.world_position.xyz);
+    let dpy = dpdy(in.world_position.xyz);
+    let dtx = dpdx(facet);
+    let dty = dpdy(facet);
+    let det = dtx.x * dty.y - dty.x * dtx.y;
+    let footprint = max(length(dtx), length(dty)); // facets per pixel
+    let lod = log2(max(footprint * max(material.pigment_scale.x, material.pigment_scale.y)
+        * f32(textureDimensions(pigment_texture).x), 1.0));
+
+    if (material.flags & FLAG_ENABLED) != 0u && abs(det) > UV_DET_REL_EPS * length(dtx) * length(dty) {
+        let u = (dpx * dty.y - dpy * dtx.y) / det;
+        let v = (dpy * dtx.x - dpx * dty.x) / det;
+        var n = normalize(cross(u, v));
+        // Lenses lie on the far side from the viewer.
+        if dot(n, pbr_input.V) < 0.0 {
+            n = -n;
+        }
+        var kind = eye::KIND_SQUARE;
+        if (material.flags & FLAG_HEXAGONAL) != 0u {
+            kind = eye::KIND_HEXAGONAL;
+        }
+        // Local facet coordinates: shifted by a lattice vector so that the
+        // numbers stay small whatever R_t is (the lattice is periodic).
+        var shift = floor(facet);
+        if kind == eye::KIND_HEXAGONAL {
+            let j = floor(facet.y / eye::ROW);
+            let q = floor(facet.x - 0.5 * facet.y / eye::ROW);
+            shift = eye::centre_of_index(kind, vec2<f32>(q, j));
+        }
+        let t = facet - shift;
+        // The fragment is the origin: P_c = −(a U + b V) (eq. 6.3 with P_e = P).
+        var l = eye::make_lattice(-(t.x * u + t.y * v), u, v, n, kind);
+        l.r = material.lens_radius * eye::cell_inradius(kind, u, v);
+        l.index = material.lens_index;
+        l.depth = material.pigment_depth * l.r;
+        let d = -pbr_input.V;
+        response = facet_response(l, vec3<f32>(0.0), d, shift, lod);
+        if (material.flags & FLAG_PREFILTER) != 0u {
+            // pigment.rs `facet_response_prefiltered`.
+            let w = smoothstep(eye::PREFILTER_START, eye::PREFILTER_FULL, footprint);
+            if w > 0.0 {
+                let centre = eye::cell_of(kind, t).centre_uv;
+                var sum = 0.0;
+                for (var i = 0u; i < PREFILTER_SAMPLES; i++) {
+                    let offset = vec2<f32>(f32(i % 3u) - 1.0, f32(i / 3u) - 1.0) / 3.0;
+                    let q = eye::point_of(l, centre + offset);
+                    sum += facet_response(l, q, d, shift, lod).multiplier;
+                }
+                response.multiplier = mix(response.multiplier, sum / f32(PREFILTER_SAMPLES), w);
+                response.escape_weight *= 1.0 - w;
+            }
+        }
+    }
+#endif
+
+    var out: FragmentOutput;
+    if (material.flags & FLAG_PIGMENT_ONLY) != 0u {
+        // The optics alone, unlit: c_t·T, the environment weight, lenses/4.
+        out.color = vec4<f32>(response.multiplier, response.escape_weight, f32(response.lenses) / 4.0, 1.0);
+        return out;
+    }
+
+    // Eq. 6.30, c = c_t (a + d) + s: c_t scales the colour that diffuse and
+    // ambient light act on; Bevy's specular term is left as it is.
+    pbr_input.material.base_color = vec4<f32>(pbr_input.material.base_color.rgb * response.multiplier,
+        pbr_input.material.base_color.a);
+    out.color = apply_pbr_lighting(pbr_input);
+    if response.escape_weight > 0.0 {
+        // What the escaping ray sees: the surface lit as a mirror whose
+        // reflection points along the ray, i.e. the view's environment map
+        // (or ambient light and light highlights without one).
+        var mirror = pbr_input;
+        mirror.material.base_color = vec4<f32>(1.0);
+        mirror.material.metallic = 1.0;
+        mirror.material.perceptual_roughness = 0.089;
+        mirror.material.emissive = vec4<f32>(0.0);
+        mirror.N = normalize(pbr_input.V + response.escape_dir);
+        let seen = apply_pbr_lighting(mirror);
+        out.color = vec4<f32>(mix(out.color.rgb, seen.rgb, response.escape_weight), out.color.a);
+    }
+    out.color = main_pass_post_lighting_processing(pbr_input, out.color);
+    return out;
+}

@@ -1,0 +1,422 @@
+// The compound-eye optics in WGSL: the twin of `optica_optics::compound_eye`
+// (shading_path.rs, lattice.rs, lattice_kind.rs, ball_lens.rs, pigment.rs),
+// step for step, in f32. Equation numbers are Sagawa's thesis (2014), ch. 6.
+// Positions are relative to the fragment (the fragment is the origin), which
+// keeps f32 round-off at the scale of a facet.
+
+#define_import_path optica::compound_eye
+
+// lattice_kind.rs: √3/2, the row spacing of the hexagonal lattice (facets).
+const ROW: f32 = 0.8660254;
+// lattice.rs MIN_COS, the f32 equivalent: rays closer to parallel with the
+// polygon than this do not go deeper.
+const MIN_COS: f32 = 1e-6;
+// lattice.rs LENGTH_REL_EPS in f32: f32 sphere intersections are good to
+// ~1e-6 relative, so a point within 1e-4 r of a surface is on it.
+const LENGTH_REL_EPS: f32 = 1e-4;
+// shading_path.rs MAX_SLICES and MAX_LENSES: the loop bounds.
+const MAX_SLICES: u32 = 64u;
+const MAX_LENSES: u32 = 4u;
+// shading_path.rs NEIGHBOUR_SPAN_CELLS.
+const NEIGHBOUR_SPAN_CELLS: f32 = 4.0;
+// pigment.rs PREFILTER_START / PREFILTER_FULL.
+const PREFILTER_START: f32 = 0.25;
+const PREFILTER_FULL: f32 = 1.0;
+
+const KIND_SQUARE: u32 = 0u;
+const KIND_HEXAGONAL: u32 = 1u;
+
+// What a traced fragment reached (outcome.rs).
+const OUTCOME_PIGMENT: u32 = 0u;
+const OUTCOME_ESCAPED: u32 = 1u;
+const OUTCOME_FALLBACK: u32 = 2u;
+
+// One triangle's lattice (lattice.rs `Lattice` + texture_axes.rs `TextureAxes`).
+struct Lattice {
+    // P_c of eq. 6.3, relative to the fragment.
+    origin: vec3<f32>,
+    // U_p, V_p (eq. 6.8–6.9): world vectors of one facet along u and v.
+    u: vec3<f32>,
+    v: vec3<f32>,
+    // Unit outward normal N of the polygon (lenses lie on the −N side).
+    n: vec3<f32>,
+    uu: f32,
+    vv: f32,
+    uv: f32,
+    gram: f32,
+    kind: u32,
+    // Lens radius r, relative index n, pigment depth d (world units).
+    r: f32,
+    index: f32,
+    depth: f32,
+}
+
+struct Cell {
+    index: vec2<f32>,
+    centre_uv: vec2<f32>,
+}
+
+struct Trace {
+    outcome: u32,
+    // Pigment-plane texture coordinate (facets), for OUTCOME_PIGMENT.
+    uv: vec2<f32>,
+    // Power the lens surfaces let through.
+    transmittance: f32,
+    // Lenses passed.
+    lenses: u32,
+    // Direction of an escaping ray, for OUTCOME_ESCAPED.
+    dir: vec3<f32>,
+}
+
+fn make_lattice(origin: vec3<f32>, u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, kind: u32) -> Lattice {
+    var l: Lattice;
+    l.origin = origin;
+    l.u = u;
+    l.v = v;
+    l.n = n;
+    l.uu = dot(u, u);
+    l.vv = dot(v, v);
+    l.uv = dot(u, v);
+    l.gram = l.uu * l.vv - l.uv * l.uv;
+    l.kind = kind;
+    return l;
+}
+
+// texture_axes.rs `uv_rate` (eq. 6.26–6.27 on a direction).
+fn uv_rate(l: Lattice, d: vec3<f32>) -> vec2<f32> {
+    let du = dot(d, l.u);
+    let dv = dot(d, l.v);
+    return vec2<f32>((l.vv * du - l.uv * dv) / l.gram, (l.uu * dv - l.uv * du) / l.gram);
+}
+
+// texture_axes.rs `uv_of` (eq. 6.25–6.27).
+fn uv_of(l: Lattice, p: vec3<f32>) -> vec2<f32> {
+    return uv_rate(l, p - l.origin);
+}
+
+// texture_axes.rs `point_of` (eq. 6.2).
+fn point_of(l: Lattice, t: vec2<f32>) -> vec3<f32> {
+    return l.origin + t.x * l.u + t.y * l.v;
+}
+
+// texture_axes.rs `depth`: depth below the polygon along −N.
+fn depth_of(l: Lattice, p: vec3<f32>) -> f32 {
+    return dot(l.origin - p, l.n);
+}
+
+// lattice_kind.rs: the square rule of eq. 6.17–6.20 for one coordinate.
+fn square_centre_coord(x: f32) -> f32 {
+    if x >= 0.0 {
+        return floor(x) + 0.5;
+    }
+    return ceil(x) - 0.5;
+}
+
+// lattice_kind.rs `centre_of_index`.
+fn centre_of_index(kind: u32, index: vec2<f32>) -> vec2<f32> {
+    if kind == KIND_HEXAGONAL {
+        return vec2<f32>(index.x + 0.5 * index.y, ROW * index.y);
+    }
+    return index + vec2<f32>(0.5);
+}
+
+// lattice_kind.rs `cell_of`.
+fn cell_of(kind: u32, t: vec2<f32>) -> Cell {
+    var c: Cell;
+    if kind == KIND_HEXAGONAL {
+        let j = t.y / ROW;
+        let q = t.x - 0.5 * j;
+        let r = j;
+        let s = -q - r;
+        var rq = round(q);
+        var rr = round(r);
+        let rs = round(s);
+        let dq = abs(rq - q);
+        let dr = abs(rr - r);
+        let ds = abs(rs - s);
+        if dq > dr && dq > ds {
+            rq = -rr - rs;
+        } else if dr > ds {
+            rr = -rq - rs;
+        }
+        c.index = vec2<f32>(rq, rr);
+        c.centre_uv = centre_of_index(kind, c.index);
+    } else {
+        c.centre_uv = vec2<f32>(square_centre_coord(t.x), square_centre_coord(t.y));
+        c.index = round(c.centre_uv - vec2<f32>(0.5));
+    }
+    return c;
+}
+
+// lattice_kind.rs `cell_inradius`.
+fn cell_inradius(kind: u32, u: vec3<f32>, v: vec3<f32>) -> f32 {
+    let normal = cross(u, v);
+    var best = 3.4e38;
+    var count = 2u;
+    if kind == KIND_HEXAGONAL {
+        count = 3u;
+    }
+    for (var k = 0u; k < count; k++) {
+        var nb = vec2<f32>(1.0, 0.0);
+        if k == 1u {
+            nb = select(vec2<f32>(0.0, 1.0), vec2<f32>(0.5, ROW), kind == KIND_HEXAGONAL);
+        } else if k == 2u {
+            nb = vec2<f32>(-0.5, ROW);
+        }
+        let edge = -nb.y * u + nb.x * v; // the bisector's direction, perp(n) in world
+        let m = normalize(cross(normal, edge));
+        best = min(best, abs(0.5 * dot(nb.x * u + nb.y * v, m)));
+    }
+    return best;
+}
+
+// lattice.rs `lens_centre` (eq. 6.21–6.22).
+fn lens_centre(l: Lattice, centre_uv: vec2<f32>) -> vec3<f32> {
+    return point_of(l, centre_uv) - l.r * l.n;
+}
+
+// lattice.rs `lens_entry` with surface.rs `intersect_sphere` (cancellation-free
+// roots): the distance along the ray to where it enters the sphere, or −1.
+fn lens_entry(l: Lattice, o: vec3<f32>, d: vec3<f32>, c: vec3<f32>) -> f32 {
+    let eps = LENGTH_REL_EPS * l.r;
+    let oc = o - c;
+    let b = dot(oc, d);
+    let cterm = dot(oc, oc) - l.r * l.r;
+    let perp = oc - b * d;
+    let disc = l.r * l.r - dot(perp, perp);
+    if disc < 0.0 {
+        return -1.0;
+    }
+    let s = sqrt(disc);
+    let q = -(b + select(s, -s, b < 0.0));
+    var t0 = 0.0;
+    var t1 = 0.0;
+    if q != 0.0 {
+        t0 = cterm / q;
+        t1 = q;
+    }
+    let t_near = min(t0, t1);
+    let t_far = max(t0, t1);
+    if t_far > eps && t_near > -eps {
+        return max(t_near, 0.0);
+    }
+    return -1.0;
+}
+
+// fresnel.rs `cos_sq_refracted`.
+fn cos_sq_refracted(cos_i: f32, n1: f32, n2: f32) -> f32 {
+    return ((n2 - n1) * (n2 + n1) + n1 * n1 * cos_i * cos_i) / (n2 * n2);
+}
+
+// surface.rs `refract`: zero vector on total internal reflection.
+fn refract_dir(d: vec3<f32>, normal: vec3<f32>, n1: f32, n2: f32) -> vec3<f32> {
+    var n = normal;
+    var cos_i = -dot(n, d);
+    if cos_i < 0.0 {
+        n = -n;
+        cos_i = -cos_i;
+    }
+    cos_i = min(cos_i, 1.0);
+    let eta = n1 / n2;
+    let cos2_t = cos_sq_refracted(cos_i, n1, n2);
+    if cos2_t < 0.0 {
+        return vec3<f32>(0.0);
+    }
+    return normalize(eta * d + (eta * cos_i - sqrt(cos2_t)) * n);
+}
+
+// fresnel.rs `try_fresnel_sp` + `fresnel_unpolarized`.
+fn fresnel_unpolarized(cos_in: f32, n1: f32, n2: f32) -> f32 {
+    let cos_i = min(abs(cos_in), 1.0);
+    if n1 == n2 {
+        return 0.0;
+    }
+    let cos2_t = cos_sq_refracted(cos_i, n1, n2);
+    if cos2_t < 0.0 || cos_i == 0.0 {
+        return 1.0;
+    }
+    let cos_t = sqrt(cos2_t);
+    let rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
+    let rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+struct BallExit {
+    ok: bool,
+    exit: vec3<f32>,
+    dir: vec3<f32>,
+    transmittance: f32,
+}
+
+// ball_lens.rs `refract_through_ball` (eq. 6.28 at entry and exit).
+fn refract_through_ball(entry_point: vec3<f32>, dir: vec3<f32>, centre: vec3<f32>, l: Lattice) -> BallExit {
+    var out: BallExit;
+    out.ok = false;
+    let offset = entry_point - centre;
+    var n_d = -dir;
+    if dot(offset, offset) > 0.0 {
+        n_d = normalize(offset);
+    }
+    let d = centre + l.r * n_d;
+    let inside = refract_dir(dir, n_d, 1.0, l.index);
+    if dot(inside, inside) == 0.0 {
+        return out;
+    }
+    let chord = max(-2.0 * l.r * dot(n_d, inside), 0.0);
+    let exit = d + chord * inside;
+    var n_x = inside;
+    if dot(exit - centre, exit - centre) > 0.0 {
+        n_x = normalize(exit - centre);
+    }
+    let leaving = refract_dir(inside, n_x, l.index, 1.0);
+    if dot(leaving, leaving) == 0.0 {
+        return out;
+    }
+    let r_in = fresnel_unpolarized(dot(dir, n_d), 1.0, l.index);
+    let r_out = fresnel_unpolarized(dot(inside, n_x), l.index, 1.0);
+    out.ok = true;
+    out.exit = exit;
+    out.dir = leaving;
+    out.transmittance = (1.0 - r_in) * (1.0 - r_out);
+    return out;
+}
+
+// shading_path.rs `finish` (eq. 6.29): on to the pigment plane.
+fn finish(l: Lattice, o: vec3<f32>, d: vec3<f32>, lenses: u32, transmittance: f32) -> Trace {
+    var t: Trace;
+    t.lenses = lenses;
+    t.transmittance = transmittance;
+    let down = -dot(d, l.n);
+    if !(down > MIN_COS) {
+        if lenses > 0u {
+            t.outcome = OUTCOME_ESCAPED;
+            t.dir = d;
+        } else {
+            t.outcome = OUTCOME_FALLBACK;
+        }
+        return t;
+    }
+    let s = (l.depth - depth_of(l, o)) / down;
+    let p = o + max(s, 0.0) * d;
+    t.outcome = OUTCOME_PIGMENT;
+    t.uv = uv_of(l, p + l.depth * l.n); // (6.29): projected back onto the polygon
+    return t;
+}
+
+struct NextLens {
+    found: bool,
+    cell: Cell,
+    centre: vec3<f32>,
+    t: f32,
+}
+
+// shading_path.rs `next_lens`: the neighbour the exit ray enters next.
+fn next_lens(l: Lattice, o: vec3<f32>, d: vec3<f32>, current: vec2<f32>, samples: u32) -> NextLens {
+    var found: NextLens;
+    found.found = false;
+    let h0 = depth_of(l, o);
+    let down = -dot(d, l.n);
+    let span = NEIGHBOUR_SPAN_CELLS * 2.0 * cell_inradius(l.kind, l.u, l.v);
+    var t_layer = span;
+    if down > MIN_COS {
+        t_layer = (2.0 * l.r - h0) / down;
+    } else if down < -MIN_COS {
+        t_layer = h0 / -down;
+    }
+    let t_end = min(t_layer, span);
+    if !(t_end > 0.0) {
+        return found;
+    }
+    for (var s = 1u; s <= samples; s++) {
+        let q = o + (t_end * f32(s) / f32(samples)) * d;
+        let cell = cell_of(l.kind, uv_of(l, q + depth_of(l, q) * l.n));
+        if all(cell.index == current) {
+            continue;
+        }
+        let c = lens_centre(l, cell.centre_uv);
+        let t_in = lens_entry(l, o, d, c);
+        if t_in >= 0.0 {
+            found.found = true;
+            found.cell = cell;
+            found.centre = c;
+            found.t = t_in;
+            return found;
+        }
+    }
+    return found;
+}
+
+// shading_path.rs `shade_fragment_with`: the fragment ray starts at `p` on
+// the polygon and runs along `d` (camera → fragment).
+fn shade_fragment(l: Lattice, p: vec3<f32>, d: vec3<f32>, slices: u32, max_lenses_in: u32) -> Trace {
+    var t: Trace;
+    let cos = -dot(d, l.n);
+    if !(cos > MIN_COS) {
+        t.outcome = OUTCOME_FALLBACK;
+        return t;
+    }
+    let k = min(slices, MAX_SLICES);
+    // Step 2: slice-plane search (6.16–6.27).
+    var found = false;
+    var cell: Cell;
+    var centre = vec3<f32>(0.0);
+    var t_entry = 0.0;
+    for (var s = 0u; s <= k; s++) {
+        var h = 0.0;
+        if k > 0u {
+            h = l.r * f32(s) / f32(k);
+        }
+        let p_s = p + (h / cos) * d;
+        let c = cell_of(l.kind, uv_of(l, p_s + h * l.n)); // (6.23)–(6.27), (6.17)–(6.20)
+        let cc = lens_centre(l, c.centre_uv); // (6.21)–(6.22)
+        let te = lens_entry(l, p, d, cc);
+        if te >= 0.0 {
+            found = true;
+            cell = c;
+            centre = cc;
+            t_entry = te;
+            break;
+        }
+    }
+    if !found {
+        return finish(l, p, d, 0u, 1.0);
+    }
+    // Step 3: refraction in and out (6.28), then into neighbours.
+    let max_lenses = clamp(max_lenses_in, 1u, MAX_LENSES);
+    var o = p;
+    var dir = d;
+    var transmittance = 1.0;
+    var count = 0u;
+    for (var guard = 0u; guard < MAX_LENSES; guard++) {
+        let out = refract_through_ball(o + t_entry * dir, dir, centre, l);
+        if !out.ok {
+            t.outcome = OUTCOME_FALLBACK;
+            return t;
+        }
+        o = out.exit;
+        dir = out.dir;
+        transmittance *= out.transmittance;
+        count += 1u;
+        if count >= max_lenses {
+            break;
+        }
+        let next = next_lens(l, o, dir, cell.index, max(k, 1u));
+        if !next.found {
+            break;
+        }
+        cell = next.cell;
+        centre = next.centre;
+        t_entry = next.t;
+    }
+    return finish(l, o, dir, count, transmittance);
+}
+
+// pigment.rs `smoothstep` is WGSL's own; `DarkCentre::transmission`.
+fn dark_centre(kind: u32, t: vec2<f32>, radius: f32, softness: f32, darkness: f32) -> f32 {
+    let rho = length(t - cell_of(kind, t).centre_uv);
+    var clear = select(0.0, 1.0, rho >= radius);
+    if softness > 0.0 {
+        clear = smoothstep(radius - softness, radius + softness, rho);
+    }
+    return 1.0 - darkness * (1.0 - clear);
+}

@@ -1,0 +1,7 @@
+//! Headless render tests of optica's plugins, one binary so that Bevy links
+//! once. They render on Mesa's lavapipe (`llvmpipe`): install
+//! `mesa-vulkan-drivers`. A missing driver fails them with a message saying
+//! so; nothing skips. Goldens are in `tests/golden/` (see `optica_harness`
+//! for the update workflow: `OPTICA_GOLDEN=pending|missing|overwrite`).
+
+mod compound_eye;

@@ -47,6 +47,11 @@ pub struct Report {
 /// One knob setting.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Row {
+    /// Which series the row belongs to when a sweep turns the knob under
+    /// more than one setting (e.g. `"one lens"` and `"neighbours"`); empty
+    /// for a single series. The plot draws one line per series and error.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub series: String,
     /// The knob's value.
     pub knob: f64,
     /// Named errors against the reference (`"rel_rms"`, `"max_px"`, `"psnr_db"`).
@@ -132,7 +137,21 @@ impl Report {
 impl Row {
     /// A row with the given knob and times; add errors with [`Row::err`].
     pub fn new(knob: f64, time_ms: f64, baseline_time_ms: f64) -> Self {
-        Self { knob, error: BTreeMap::new(), time_ms, baseline_time_ms, timings: BTreeMap::new(), work: BTreeMap::new() }
+        Self {
+            series: String::new(),
+            knob,
+            error: BTreeMap::new(),
+            time_ms,
+            baseline_time_ms,
+            timings: BTreeMap::new(),
+            work: BTreeMap::new(),
+        }
+    }
+
+    /// Puts the row in series `name`.
+    pub fn series(mut self, name: &str) -> Self {
+        self.series = name.into();
+        self
     }
 
     /// Adds a named error.

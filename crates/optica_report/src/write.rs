@@ -57,7 +57,8 @@ pub fn markdown(report: &Report) -> String {
     let errors = names(report.rows.iter().flat_map(|r| r.error.keys()));
     let timings = names(report.rows.iter().flat_map(|r| r.timings.keys()));
     let work = names(report.rows.iter().flat_map(|r| r.work.keys()));
-    let _ = write!(s, "\n| {} |", report.knob);
+    let has_series = report.rows.iter().any(|r| !r.series.is_empty());
+    let _ = write!(s, "\n|{} {} |", if has_series { " series |" } else { "" }, report.knob);
     for e in &errors {
         let _ = write!(s, " {e} |");
     }
@@ -69,11 +70,14 @@ pub fn markdown(report: &Report) -> String {
         let _ = write!(s, " {w} |");
     }
     let _ = write!(s, "\n|---|");
-    for _ in 0..errors.len() + timings.len() + work.len() + 3 {
+    for _ in 0..errors.len() + timings.len() + work.len() + 3 + usize::from(has_series) {
         let _ = write!(s, "---|");
     }
     s.push('\n');
     for row in &report.rows {
+        if has_series {
+            let _ = write!(s, "| {} ", row.series);
+        }
         let _ = write!(s, "| {} |", num(row.knob));
         for e in &errors {
             let _ = write!(s, " {} |", row.error.get(e).map_or("–".into(), |v| num(*v)));
@@ -179,18 +183,26 @@ fn plot(report: &Report, path: &Path) -> Result<(), String> {
         .y_label_formatter(&|v| num(*v))
         .draw()
         .map_err(|e| e.to_string())?;
-    for (i, name) in errors.iter().enumerate() {
+    let series_names = names(report.rows.iter().map(|r| &r.series));
+    let lines: Vec<(String, String)> =
+        series_names.iter().flat_map(|sn| errors.iter().map(move |e| (sn.clone(), e.clone()))).collect();
+    for (i, (series_name, name)) in lines.iter().enumerate() {
         let color = Palette99::pick(i).to_rgba();
         let series: Vec<(f64, f64, f64)> = report
             .rows
             .iter()
+            .filter(|r| &r.series == series_name)
             .filter_map(|r| r.error.get(name).map(|e| (r.time_ms, *e, r.knob)))
             .filter(|(t, e, _)| positive(*t) && positive(*e))
             .collect();
+        if series.is_empty() {
+            continue;
+        }
+        let label = if series_name.is_empty() { name.clone() } else { format!("{name} ({series_name})") };
         chart
             .draw_series(LineSeries::new(series.iter().map(|(t, e, _)| (*t, *e)), color.stroke_width(2)))
             .map_err(|e| e.to_string())?
-            .label(name.as_str())
+            .label(label)
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
         chart
             .draw_series(series.iter().map(|(t, e, k)| {

@@ -7,6 +7,7 @@ use bevy::mesh::VertexAttributeValues;
 use bevy::prelude::*;
 use optica_compound_eye::{CompoundEye, EyeLattice, EyeOutput};
 use optica_harness::Headless;
+use optica_optics::compound_eye::dark_patch_centroid;
 
 use super::scene;
 
@@ -39,39 +40,16 @@ fn look(camera: Transform, facet_px: f32) -> Seen {
         .render(scene(eye_sphere(), upright(), Some(eye), camera, projection))
         .expect("render");
     let img = frame.hdr().unwrap();
-    // Darkness on the sphere, averaged over about a facet (box blur), so that
-    // the principal pseudopupil (many dark facets together) stands out from
-    // the dark spots of single facets elsewhere; the patch is where that
-    // local darkness is at least half its peak.
-    let dark = |x: u32, y: u32| if on_sphere(camera, x, y) { 1.0 - img.get_pixel(x, y).0[0].clamp(0.0, 1.0) } else { 0.0 };
-    let half = (facet_px / 2.0).round() as i64;
-    let blurred: Vec<f32> = (0..SIZE * SIZE)
-        .map(|k| {
-            let (x, y) = ((k % SIZE) as i64, (k / SIZE) as i64);
-            let (mut sum, mut n) = (0.0, 0.0);
-            for dy in -half..=half {
-                for dx in -half..=half {
-                    let (xx, yy) = (x + dx, y + dy);
-                    if (0..SIZE as i64).contains(&xx) && (0..SIZE as i64).contains(&yy) {
-                        sum += dark(xx as u32, yy as u32);
-                        n += 1.0;
-                    }
-                }
-            }
-            sum / n
-        })
+    // Darkness on the sphere, 0 off it; the patch is found by averaging over
+    // about a facet (optica_optics::compound_eye::dark_patch_centroid).
+    let darkness: Vec<f64> = img
+        .enumerate_pixels()
+        .map(|(x, y, p)| if on_sphere(camera, x, y) { 1.0 - p.0[0].clamp(0.0, 1.0) as f64 } else { 0.0 })
         .collect();
-    let peak = blurred.iter().cloned().fold(0.0, f32::max);
-    let (mut sum, mut weight, mut n) = (Vec2::ZERO, 0.0, 0usize);
-    for (k, &b) in blurred.iter().enumerate() {
-        if b >= 0.5 * peak {
-            let p = Vec2::new((k as u32 % SIZE) as f32 + 0.5, (k as u32 / SIZE) as f32 + 0.5);
-            sum += b * p;
-            weight += b;
-            n += 1;
-        }
-    }
-    Seen { centroid: sum / weight.max(f32::MIN_POSITIVE), expected: project(camera, camera.translation.normalize() * RADIUS), dark_pixels: n }
+    let half = (facet_px / 2.0).round() as usize;
+    let centroid = dark_patch_centroid(&darkness, SIZE as usize, SIZE as usize, half).expect("no dark pixel on the eye");
+    let n = darkness.iter().filter(|&&d| d > 0.5).count();
+    Seen { centroid: centroid.as_vec2(), expected: project(camera, camera.translation.normalize() * RADIUS), dark_pixels: n }
 }
 
 /// Bevy's UV sphere has its poles on ±Z; turned so that they are on ±Y, the

@@ -157,6 +157,8 @@ pub use lattice_kind::{LatticeKind, LensCell};
 pub use outcome::{PigmentHit, Shade, ShadeFallback};
 pub use pseudopupil::{facet_lattice, ray_to_facet, shows_dark_centre};
 #[cfg(feature = "reference")]
+pub use pseudopupil::dark_patch_centroid;
+#[cfg(feature = "reference")]
 pub use shading_path::shade_batch;
 pub use pigment::{
     DarkCentre, FacetResponse, PREFILTER_FULL, PREFILTER_OFFSETS, PREFILTER_START, facet_response,

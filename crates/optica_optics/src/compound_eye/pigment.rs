@@ -289,33 +289,3 @@ mod tests {
         assert!(escaped > 0, "no ray escaped");
     }
 }
-#[cfg(test)]
-mod scratch {
-    use super::*;
-    use crate::compound_eye::lattice::LensParams;
-    use crate::compound_eye::lattice_kind::LatticeKind;
-    use crate::compound_eye::texture_axes::TextureAxes;
-    #[test]
-    fn scratch_normal() {
-        let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z).unwrap();
-        let kind = LatticeKind::Hexagonal;
-        let r = kind.cell_inradius(axes.u(), axes.v());
-        let l = Lattice::with_kind(axes, LensParams::new(r, 1.5, 2.5 * r).unwrap(), kind).unwrap();
-        for max_lenses in [1, 4] {
-            for polar in [0.0f64, 5.0, 15.0, 30.0] {
-                let (mut sum, mut lenses, mut n) = (0.0, [0; 5], 0);
-                for i in 0..20 { for j in 0..20 {
-                    let p = DVec3::new(i as f64 / 20.0, j as f64 / 20.0 * 0.866, 0.0);
-                    let t = polar.to_radians();
-                    let ray = Ray::new(p, DVec3::new(t.sin(), 0.0, -t.cos())).unwrap();
-                    let o = ShadeOptions { slices: 16, max_lenses };
-                    let resp = facet_response(&l, &ray, &o, &DarkCentre::default(), true);
-                    sum += resp.multiplier; n += 1;
-                    let k = shade_fragment_with(&l, &ray, &o).hit().map_or(4, |h| h.lenses as usize);
-                    lenses[k.min(4)] += 1;
-                }}
-                eprintln!("max {max_lenses} polar {polar}: mean multiplier {:.3}, lenses hist {:?}", sum / n as f64, lenses);
-            }
-        }
-    }
-}

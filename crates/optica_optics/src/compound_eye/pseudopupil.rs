@@ -60,9 +60,91 @@ pub fn shows_dark_centre(lattice: &Lattice, viewer: DVec3, dark_radius: f64) -> 
         .is_some_and(|ray| shade(lattice, &ray, 0).hit().is_some_and(|h| h.on_own_centre(dark_radius)))
 }
 
+/// Where the principal pseudopupil is in an image: the darkness-weighted
+/// centroid, in pixels (`(0.5, 0.5)` is the centre of the top-left pixel),
+/// of the connected region around the darkest spot whose darkness,
+/// averaged over a `(2·half + 1)²` box (about one facet), is at least half
+/// its peak. `darkness` is row-major, `width × height`, with values in
+/// `0..=1` (`1 − c_t`) and 0 off the eye. Averaging over a facet lets the
+/// patch of many dark facets stand out from single dark facets elsewhere
+/// (secondary pseudopupils, aliased distant facets), and keeping to the
+/// region connected to the peak keeps those out of the centroid. `None` for
+/// an image with no darkness. For tests and reports (cargo feature
+/// `reference`).
+#[cfg(feature = "reference")]
+pub fn dark_patch_centroid(darkness: &[f64], width: usize, height: usize, half: usize) -> Option<glam::DVec2> {
+    if darkness.len() != width * height || width == 0 || height == 0 {
+        return None;
+    }
+    // Summed-area table, so the box average is O(1) per pixel.
+    let mut sat = vec![0.0f64; (width + 1) * (height + 1)];
+    for y in 0..height {
+        let mut row = 0.0;
+        for x in 0..width {
+            let d = darkness[y * width + x];
+            row += if d.is_finite() { d } else { 0.0 };
+            sat[(y + 1) * (width + 1) + x + 1] = sat[y * (width + 1) + x + 1] + row;
+        }
+    }
+    let boxed = |x: usize, y: usize| {
+        let (x0, y0) = (x.saturating_sub(half), y.saturating_sub(half));
+        let (x1, y1) = ((x + half + 1).min(width), (y + half + 1).min(height));
+        let sum = sat[y1 * (width + 1) + x1] - sat[y0 * (width + 1) + x1] - sat[y1 * (width + 1) + x0] + sat[y0 * (width + 1) + x0];
+        sum / ((x1 - x0) * (y1 - y0)) as f64
+    };
+    let blurred: Vec<f64> = (0..width * height).map(|k| boxed(k % width, k / width)).collect();
+    let (top, peak) = blurred.iter().cloned().enumerate().fold((0, 0.0), |a, (k, b)| if b > a.1 { (k, b) } else { a });
+    if !(peak > 0.0) {
+        return None;
+    }
+    // Flood fill (4-connected) from the peak over pixels at least half as dark.
+    let mut seen = vec![false; width * height];
+    let mut stack = vec![top];
+    seen[top] = true;
+    let (mut sum, mut weight) = (glam::DVec2::ZERO, 0.0);
+    while let Some(k) = stack.pop() {
+        let (x, y) = (k % width, k / width);
+        let b = blurred[k];
+        sum += b * glam::DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+        weight += b;
+        let neighbours = [
+            (x > 0).then(|| k - 1),
+            (x + 1 < width).then(|| k + 1),
+            (y > 0).then(|| k - width),
+            (y + 1 < height).then(|| k + width),
+        ];
+        for n in neighbours.into_iter().flatten() {
+            if !seen[n] && blurred[n] >= 0.5 * peak {
+                seen[n] = true;
+                stack.push(n);
+            }
+        }
+    }
+    Some(sum / weight)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_dark_patch_outweighs_single_dark_pixels() {
+        // A 3×3 dark patch at (10..13, 4..7) and scattered single dark pixels.
+        let (w, h) = (24, 12);
+        let mut d = vec![0.0; w * h];
+        for y in 4..7 {
+            for x in 10..13 {
+                d[y * w + x] = 0.9;
+            }
+        }
+        for k in [3, 40, 77, 150, 201, 260] {
+            d[k] = 0.9;
+        }
+        let c = dark_patch_centroid(&d, w, h, 1).unwrap();
+        assert!((c - glam::DVec2::new(11.5, 5.5)).length() < 0.2, "{c}");
+        assert_eq!(dark_patch_centroid(&vec![0.0; w * h], w, h, 1), None);
+        assert_eq!(dark_patch_centroid(&d, w + 1, h, 1), None);
+    }
     use crate::compound_eye::exact_tracer::trace_exact;
     use crate::input::Expected;
 

@@ -19,6 +19,9 @@ pub enum SweepError {
     /// A headless run failed (no adapter, the wrong adapter, a wgpu error).
     #[error(transparent)]
     Harness(#[from] optica_harness::HarnessError),
+    /// The sweep's own scene or reference could not be set up.
+    #[error("setup: {0}")]
+    Setup(String),
 }
 
 /// A named sweep.
@@ -29,7 +32,7 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
     ("optics", |ctx| Ok(optics::run(ctx))),
     ("render", render::run),
     ("foveated_lod", |ctx| Ok(foveated_lod::run(ctx))),
-    ("compound_eye", |ctx| Ok(compound_eye::run(ctx))),
+    ("compound_eye", compound_eye::run),
     ("lens_flare", |ctx| Ok(lens_flare::run(ctx))),
     ("spectacles", |ctx| Ok(spectacles::run(ctx))),
     ("dome", |ctx| Ok(dome::run(ctx))),

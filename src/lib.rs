@@ -10,10 +10,12 @@
 //!
 //! | feature | what it adds |
 //! |---|---|
+//! | `compound_eye` | [`compound_eye`]: a material for insect compound eyes (Sagawa 2014), `CompoundEyePlugin` |
+//! | `egui` | settings panels (bevy_egui) of the plugins that are on |
 //! | `window` | opens a real window in the examples (winit + X11); without it, or without a display, they render to PNG |
 //!
-//! Plugin features (`spectacles`, `compound_eye`, `foveated_lod`, `lens_flare`,
-//! `dome`) are added to this table as each plugin lands.
+//! The other plugins (`spectacles`, `foveated_lod`, `lens_flare`, `dome`)
+//! join this table as they land.
 //!
 //! ```
 //! use optica::optics::glass::Glass;
@@ -25,7 +27,14 @@
 
 pub use optica_optics as optics;
 
-/// The usual imports.
+#[cfg(feature = "compound_eye")]
+pub use optica_compound_eye as compound_eye;
+
+/// The usual imports: the optics and each enabled plugin's plugin and
+/// user-facing types.
 pub mod prelude {
     pub use crate::optics;
+
+    #[cfg(feature = "compound_eye")]
+    pub use optica_compound_eye::{CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyeLattice, EyeOutput};
 }

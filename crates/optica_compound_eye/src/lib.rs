@@ -66,6 +66,12 @@
 //! - The lattice lives under the surface only optically: depth, shadows and
 //!   the silhouette are those of the mesh.
 //!
+//! ## Settings panel
+//!
+//! With the cargo feature `egui`, `compound_eye_ui` draws every setting
+//! and the species presets into an egui `Ui`, and `CompoundEyePanelPlugin`
+//! shows them in a window (needs `bevy_egui`'s `EguiPlugin`).
+//!
 //! ## Cost and quality
 //!
 //! The knob is [`CompoundEye::slices`]; the report sweep `compound_eye` of
@@ -80,9 +86,13 @@ use bevy::pbr::MaterialExtension;
 use bevy::prelude::*;
 use bevy::shader::{ShaderRef, load_shader_library};
 
+#[cfg(feature = "egui")]
+mod panel;
 pub mod presets;
 mod settings;
 
+#[cfg(feature = "egui")]
+pub use panel::{CompoundEyePanel, CompoundEyePanelPlugin, compound_eye_ui};
 pub use presets::EyePreset;
 pub use settings::{CompoundEye, CompoundEyeMaterial, CompoundEyeUniform, EyeLattice, EyeOutput, PigmentDisc};
 

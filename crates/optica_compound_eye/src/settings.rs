@@ -92,7 +92,7 @@ impl Default for PigmentDisc {
 /// a non-positive index or `facets_per_uv`) switch the lattice off: the mesh
 /// renders as its plain `StandardMaterial`, and the plugin logs a warning
 /// naming the value (once per change of the material).
-#[derive(Asset, AsBindGroup, Reflect, Debug, Clone)]
+#[derive(Asset, AsBindGroup, Reflect, Debug, Clone, PartialEq)]
 #[uniform(100, CompoundEyeUniform)]
 pub struct CompoundEye {
     /// Facets per UV unit, `R_t` of the thesis's eq. 6.1: the texture

@@ -14,7 +14,9 @@
 
 use bevy::mesh::VertexAttributeValues;
 use bevy::prelude::*;
-use optica::compound_eye::{CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyePreset, presets};
+use optica::compound_eye::{
+    CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyePreset, presets,
+};
 
 const WIDTH: u32 = 960;
 const HEIGHT: u32 = 640;
@@ -40,7 +42,9 @@ fn parse_args() -> Result<Args, String> {
                 preset = presets::PRESETS
                     .into_iter()
                     .find(|p| p.name.to_lowercase().contains(&name.to_lowercase()))
-                    .ok_or(format!("unknown preset `{name}`: drosophila, honeybee, housefly, dragonfly"))?;
+                    .ok_or(format!(
+                        "unknown preset `{name}`: drosophila, honeybee, housefly, dragonfly"
+                    ))?;
             }
             "--out" => out = Some(value()?),
             _ => return Err(format!("unknown argument {a}")),
@@ -61,8 +65,16 @@ fn main() {
         eprintln!("compound_eye: {e}");
         std::process::exit(2);
     });
-    let eye = CompoundEye { facets_per_uv: CompoundEye::from_preset(&args.preset).facets_per_uv.min(70.0), ..CompoundEye::from_preset(&args.preset) };
-    println!("{}: {} ommatidia ({})", args.preset.name, args.preset.ommatidia, args.preset.source);
+    let eye = CompoundEye {
+        facets_per_uv: CompoundEye::from_preset(&args.preset)
+            .facets_per_uv
+            .min(70.0),
+        ..CompoundEye::from_preset(&args.preset)
+    };
+    println!(
+        "{}: {} ommatidia ({})",
+        args.preset.name, args.preset.ommatidia, args.preset.source
+    );
     let has_display = std::env::var_os("DISPLAY").is_some();
     if cfg!(feature = "window") && has_display && args.out.is_none() {
         let mut app = App::new();
@@ -76,8 +88,11 @@ fn main() {
         }));
         setup_app(&mut app, eye);
         #[cfg(feature = "egui")]
-        app.add_plugins((bevy_egui::EguiPlugin::default(), optica::compound_eye::CompoundEyePanelPlugin))
-            .add_systems(PostStartup, edit_both_eyes);
+        app.add_plugins((
+            bevy_egui::EguiPlugin::default(),
+            optica::compound_eye::CompoundEyePanelPlugin,
+        ))
+        .add_systems(PostStartup, edit_both_eyes);
         app.run();
     } else {
         let dir = args.out.unwrap_or_else(|| "target/optica".into());
@@ -104,7 +119,11 @@ fn main() {
 fn setup_app(app: &mut App, eye: CompoundEye) {
     app.add_plugins(CompoundEyePlugin)
         .insert_resource(StartEye(eye))
-        .insert_resource(GlobalAmbientLight { color: Color::srgb(0.55, 0.65, 0.8), brightness: 350.0, ..default() })
+        .insert_resource(GlobalAmbientLight {
+            color: Color::srgb(0.55, 0.65, 0.8),
+            brightness: 350.0,
+            ..default()
+        })
         .add_systems(Startup, spawn_head)
         .add_systems(Update, orbit);
 }
@@ -138,26 +157,45 @@ fn spawn_head(
     mut plain: ResMut<Assets<StandardMaterial>>,
     mut eyes: ResMut<Assets<CompoundEyeMaterial>>,
 ) {
-    let chitin = plain.add(StandardMaterial { base_color: Color::srgb(0.16, 0.1, 0.06), perceptual_roughness: 0.35, ..default() });
-    let bristle = plain.add(StandardMaterial { base_color: Color::srgb(0.08, 0.06, 0.05), perceptual_roughness: 0.6, ..default() });
+    let chitin = plain.add(StandardMaterial {
+        base_color: Color::srgb(0.16, 0.1, 0.06),
+        perceptual_roughness: 0.35,
+        ..default()
+    });
+    let bristle = plain.add(StandardMaterial {
+        base_color: Color::srgb(0.08, 0.06, 0.05),
+        perceptual_roughness: 0.6,
+        ..default()
+    });
     // The head: a flattened ellipsoid looking along −Z; the thorax behind it.
-    commands.spawn((Mesh3d(meshes.add(Sphere::new(1.0))), MeshMaterial3d(chitin.clone()), Transform::from_scale(Vec3::new(0.95, 0.8, 0.7))));
+    commands.spawn((
+        Mesh3d(meshes.add(Sphere::new(1.0))),
+        MeshMaterial3d(chitin.clone()),
+        Transform::from_scale(Vec3::new(0.95, 0.8, 0.7)),
+    ));
     commands.spawn((
         Mesh3d(meshes.add(Capsule3d::new(0.55, 0.9))),
         MeshMaterial3d(chitin.clone()),
-        Transform::from_xyz(0.0, -0.15, 1.35).with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2)),
+        Transform::from_xyz(0.0, -0.15, 1.35)
+            .with_rotation(Quat::from_rotation_x(std::f32::consts::FRAC_PI_2)),
     ));
     // Antennae and mouthparts.
     for side in [-1.0f32, 1.0] {
         commands.spawn((
             Mesh3d(meshes.add(Cylinder::new(0.03, 0.9))),
             MeshMaterial3d(bristle.clone()),
-            Transform::from_xyz(0.22 * side, 0.55, -0.7).with_rotation(Quat::from_euler(EulerRot::XYZ, -0.9, 0.0, -0.35 * side)),
+            Transform::from_xyz(0.22 * side, 0.55, -0.7).with_rotation(Quat::from_euler(
+                EulerRot::XYZ,
+                -0.9,
+                0.0,
+                -0.35 * side,
+            )),
         ));
         commands.spawn((
             Mesh3d(meshes.add(Cone::new(0.09, 0.35))),
             MeshMaterial3d(bristle.clone()),
-            Transform::from_xyz(0.12 * side, -0.62, -0.45).with_rotation(Quat::from_rotation_x(3.0)),
+            Transform::from_xyz(0.12 * side, -0.62, -0.45)
+                .with_rotation(Quat::from_rotation_x(3.0)),
         ));
     }
     // The compound eyes: large bulges on both sides; the UV sphere's poles
@@ -165,7 +203,11 @@ fn spawn_head(
     let eye_mesh = meshes.add(eye_mesh());
     for side in [-1.0f32, 1.0] {
         let material = eyes.add(CompoundEyeMaterial {
-            base: StandardMaterial { base_color: Color::srgb(0.62, 0.14, 0.08), perceptual_roughness: 0.25, ..default() },
+            base: StandardMaterial {
+                base_color: Color::srgb(0.62, 0.14, 0.08),
+                perceptual_roughness: 0.25,
+                ..default()
+            },
             extension: start.0.clone(),
         });
         commands.spawn((
@@ -176,15 +218,30 @@ fn spawn_head(
         ));
     }
     commands.spawn((
-        DirectionalLight { illuminance: 9_000.0, shadow_maps_enabled: true, ..default() },
+        DirectionalLight {
+            illuminance: 9_000.0,
+            shadow_maps_enabled: true,
+            ..default()
+        },
         Transform::default(),
-        Orbit { radius: 4.0, height: 3.0, speed: LIGHT_ORBIT },
+        Orbit {
+            radius: 4.0,
+            height: 3.0,
+            speed: LIGHT_ORBIT,
+        },
     ));
     commands.spawn((
         Camera3d::default(),
-        Camera { clear_color: ClearColorConfig::Custom(Color::srgb(0.62, 0.74, 0.88)), ..default() },
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::srgb(0.62, 0.74, 0.88)),
+            ..default()
+        },
         Transform::default(),
-        Orbit { radius: 3.6, height: 0.9, speed: CAMERA_ORBIT },
+        Orbit {
+            radius: 3.6,
+            height: 0.9,
+            speed: CAMERA_ORBIT,
+        },
     ));
 }
 
@@ -193,12 +250,18 @@ fn spawn_head(
 fn orbit(time: Res<Time>, mut movers: Query<(&Orbit, &mut Transform)>) {
     for (o, mut t) in &mut movers {
         let a = -0.45 - o.speed * time.elapsed_secs();
-        *t = Transform::from_xyz(o.radius * a.cos(), o.height, o.radius * a.sin()).looking_at(Vec3::new(0.0, 0.1, 0.0), Vec3::Y);
+        *t = Transform::from_xyz(o.radius * a.cos(), o.height, o.radius * a.sin())
+            .looking_at(Vec3::new(0.0, 0.1, 0.0), Vec3::Y);
     }
 }
 
 /// The panel edits both eyes together.
 #[cfg(feature = "egui")]
-fn edit_both_eyes(mut commands: Commands, eyes: Query<&MeshMaterial3d<CompoundEyeMaterial>, With<Eye>>) {
-    commands.insert_resource(optica::compound_eye::CompoundEyePanel { materials: eyes.iter().map(|m| m.id()).collect() });
+fn edit_both_eyes(
+    mut commands: Commands,
+    eyes: Query<&MeshMaterial3d<CompoundEyeMaterial>, With<Eye>>,
+) {
+    commands.insert_resource(optica::compound_eye::CompoundEyePanel {
+        materials: eyes.iter().map(|m| m.id()).collect(),
+    });
 }

@@ -18,12 +18,7 @@
 //! internally reflected (drawn as far as they got) or pass outside a
 //! semi-aperture or the stop (vignetted).
 
-use bevy::{
-    asset::RenderAssetUsages,
-    camera::ScalingMode,
-    mesh::PrimitiveTopology,
-    prelude::*,
-};
+use bevy::{asset::RenderAssetUsages, camera::ScalingMode, mesh::PrimitiveTopology, prelude::*};
 use optica::optics::{
     glam::DVec3,
     glass::{Glass, LAMBDA_D_NM},
@@ -59,7 +54,9 @@ fn parse_args() -> Result<Args, String> {
                 }
             }
             "--field" => {
-                field_deg = value()?.parse().map_err(|_| "--field takes degrees".to_string())?;
+                field_deg = value()?
+                    .parse()
+                    .map_err(|_| "--field takes degrees".to_string())?;
                 if !(0.0..60.0).contains(&field_deg) {
                     return Err("--field must be in [0, 60) degrees".into());
                 }
@@ -67,13 +64,21 @@ fn parse_args() -> Result<Args, String> {
             "--ghost" => {
                 let v = value()?;
                 let (i, j) = v.split_once(',').ok_or("--ghost takes I,J")?;
-                ghost = Some((i.trim().parse().map_err(|_| "bad I")?, j.trim().parse().map_err(|_| "bad J")?));
+                ghost = Some((
+                    i.trim().parse().map_err(|_| "bad I")?,
+                    j.trim().parse().map_err(|_| "bad J")?,
+                ));
             }
             "--out" => out = Some(value()?),
             _ => return Err(format!("unknown argument {a}")),
         }
     }
-    Ok(Args { lens, field_deg, ghost, out })
+    Ok(Args {
+        lens,
+        field_deg,
+        ghost,
+        out,
+    })
 }
 
 fn main() {
@@ -107,11 +112,14 @@ fn main() {
             .add_systems(Startup, spawn_scene)
             .run();
     } else {
-        let out = args.out.unwrap_or_else(|| "target/optica/lens_bench.png".into());
+        let out = args
+            .out
+            .unwrap_or_else(|| "target/optica/lens_bench.png".into());
         let frame = optica_harness::Headless::new(WIDTH, HEIGHT)
             .adapter(optica_harness::Adapter::Auto)
             .render(|app| {
-                app.insert_resource(drawing).add_systems(Startup, spawn_scene);
+                app.insert_resource(drawing)
+                    .add_systems(Startup, spawn_scene);
             })
             .unwrap_or_else(|e| {
                 eprintln!("lens_bench: headless render failed: {e}");
@@ -150,16 +158,29 @@ impl LensDrawing {
         let light = light_from_field(args.field_deg, 90.0);
         let ghost = match args.ghost {
             Some((i, j)) => TracePath::ghost(i, j),
-            None => estimate_ghosts(lens, light, LAMBDA_D_NM, &Aperture::of_stop(lens), &EstimateOptions::default())
-                .map_err(|e| e.to_string())?
-                .first()
-                .map(|g| g.path)
-                .ok_or("the lens has no ghost")?,
+            None => estimate_ghosts(
+                lens,
+                light,
+                LAMBDA_D_NM,
+                &Aperture::of_stop(lens),
+                &EstimateOptions::default(),
+            )
+            .map_err(|e| e.to_string())?
+            .first()
+            .map(|g| g.path)
+            .ok_or("the lens has no ghost")?,
         };
-        prepared.check_path(ghost).map_err(|e| format!("ghost path: {e}"))?;
+        prepared
+            .check_path(ghost)
+            .map_err(|e| format!("ghost path: {e}"))?;
 
         let mut d = LensDrawing {
-            caption: format!("{} — field {}°, ghost {:?}", lens.name(), args.field_deg, ghost),
+            caption: format!(
+                "{} — field {}°, ghost {:?}",
+                lens.name(),
+                args.field_deg,
+                ghost
+            ),
             glass: Vec::new(),
             axis: Vec::new(),
             primary: Vec::new(),
@@ -172,12 +193,16 @@ impl LensDrawing {
         let profile = |k: usize| -> Vec<Vec2> {
             let s = &lens.surfaces()[k];
             // A validated prescription has finite vertices and curvatures.
-            let Ok(geometry) = SphericalSurface::new(vz[k], s.curvature) else { return Vec::new() };
+            let Ok(geometry) = SphericalSurface::new(vz[k], s.curvature) else {
+                return Vec::new();
+            };
             let a = s.semi_aperture_mm;
             (0..=32)
                 .filter_map(|i| {
                     let y = -a + 2.0 * a * i as f64 / 32.0;
-                    geometry.sag(y.abs()).map(|sag| Vec2::new((vz[k] + sag) as f32, y as f32))
+                    geometry
+                        .sag(y.abs())
+                        .map(|sag| Vec2::new((vz[k] + sag) as f32, y as f32))
                 })
                 .collect()
         };
@@ -190,20 +215,31 @@ impl LensDrawing {
             }
             let p = profile(k);
             d.glass.extend(p.windows(2).map(|w| [w[0], w[1]]));
-            let inside_glass = !matches!(s.glass_after, Glass::Air) && k + 1 < lens.surfaces().len();
+            let inside_glass =
+                !matches!(s.glass_after, Glass::Air) && k + 1 < lens.surfaces().len();
             if inside_glass {
                 let q = profile(k + 1);
-                if let (Some(p0), Some(q0), Some(p1), Some(q1)) = (p.first(), q.first(), p.last(), q.last()) {
+                if let (Some(p0), Some(q0), Some(p1), Some(q1)) =
+                    (p.first(), q.first(), p.last(), q.last())
+                {
                     d.glass.push([*p0, *q0]);
                     d.glass.push([*p1, *q1]);
                 }
             }
         }
         let last = *vz.last().unwrap_or(&0.0) as f32;
-        let rim = lens.surfaces().iter().map(|s| s.semi_aperture_mm).fold(0.0, f64::max) as f32;
+        let rim = lens
+            .surfaces()
+            .iter()
+            .map(|s| s.semi_aperture_mm)
+            .fold(0.0, f64::max) as f32;
         let start_z = -0.35 * (sensor_z as f32).max(rim);
-        d.axis.push([Vec2::new(start_z, 0.0), Vec2::new(sensor_z as f32, 0.0)]);
-        d.axis.push([Vec2::new(sensor_z as f32, -rim), Vec2::new(sensor_z as f32, rim)]);
+        d.axis
+            .push([Vec2::new(start_z, 0.0), Vec2::new(sensor_z as f32, 0.0)]);
+        d.axis.push([
+            Vec2::new(sensor_z as f32, -rim),
+            Vec2::new(sensor_z as f32, rim),
+        ]);
 
         // A fan in the y–z plane, aimed at the entrance pupil's centre region.
         let pupil = lens.paraxial(LAMBDA_D_NM).map_err(|e| e.to_string())?;
@@ -222,7 +258,10 @@ impl LensDrawing {
                     (Ok(_), 0) => &mut d.primary,
                     _ => &mut d.ghost,
                 };
-                let pts: Vec<Vec2> = points.iter().map(|p| Vec2::new(p.z as f32, p.y as f32)).collect();
+                let pts: Vec<Vec2> = points
+                    .iter()
+                    .map(|p| Vec2::new(p.z as f32, p.y as f32))
+                    .collect();
                 target.extend(pts.windows(2).map(|w| [w[0], w[1]]));
             }
         }
@@ -235,7 +274,10 @@ impl LensDrawing {
 }
 
 fn line_mesh(segments: &[[Vec2; 2]]) -> Mesh {
-    let positions: Vec<[f32; 3]> = segments.iter().flat_map(|s| s.iter().map(|p| [p.x, p.y, 0.0])).collect();
+    let positions: Vec<[f32; 3]> = segments
+        .iter()
+        .flat_map(|s| s.iter().map(|p| [p.x, p.y, 0.0]))
+        .collect();
     Mesh::new(PrimitiveTopology::LineList, RenderAssetUsages::RENDER_WORLD)
         .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
 }
@@ -259,7 +301,11 @@ fn spawn_scene(
         }
         commands.spawn((
             Mesh3d(meshes.add(line_mesh(segments))),
-            MeshMaterial3d(materials.add(StandardMaterial { base_color: color, unlit: true, ..default() })),
+            MeshMaterial3d(materials.add(StandardMaterial {
+                base_color: color,
+                unlit: true,
+                ..default()
+            })),
             Transform::from_xyz(0.0, 0.0, z),
         ));
     }
@@ -268,11 +314,17 @@ fn spawn_scene(
     let half_height = drawing.half_extent.y.max(drawing.half_extent.x / aspect) * 1.05;
     commands.spawn((
         Camera3d::default(),
-        Camera { clear_color: ClearColorConfig::Custom(Color::srgb(0.04, 0.05, 0.08)), ..default() },
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::srgb(0.04, 0.05, 0.08)),
+            ..default()
+        },
         Projection::from(OrthographicProjection {
-            scaling_mode: ScalingMode::FixedVertical { viewport_height: 2.0 * half_height },
+            scaling_mode: ScalingMode::FixedVertical {
+                viewport_height: 2.0 * half_height,
+            },
             ..OrthographicProjection::default_3d()
         }),
-        Transform::from_xyz(drawing.centre.x, drawing.centre.y, 100.0).looking_at(drawing.centre.extend(0.0), Vec3::Y),
+        Transform::from_xyz(drawing.centre.x, drawing.centre.y, 100.0)
+            .looking_at(drawing.centre.extend(0.0), Vec3::Y),
     ));
 }

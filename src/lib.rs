@@ -36,5 +36,7 @@ pub mod prelude {
     pub use crate::optics;
 
     #[cfg(feature = "compound_eye")]
-    pub use optica_compound_eye::{CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyeLattice, EyeOutput};
+    pub use optica_compound_eye::{
+        CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyeLattice, EyeOutput,
+    };
 }

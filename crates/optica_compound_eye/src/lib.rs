@@ -94,7 +94,9 @@ mod settings;
 #[cfg(feature = "egui")]
 pub use panel::{CompoundEyePanel, CompoundEyePanelPlugin, compound_eye_ui};
 pub use presets::EyePreset;
-pub use settings::{CompoundEye, CompoundEyeMaterial, CompoundEyeUniform, EyeLattice, EyeOutput, PigmentDisc};
+pub use settings::{
+    CompoundEye, CompoundEyeMaterial, CompoundEyeUniform, EyeLattice, EyeOutput, PigmentDisc,
+};
 
 /// Where `embedded_asset!` puts the material shader.
 const SHADER_PATH: &str = "embedded://optica_compound_eye/shaders/compound_eye.wgsl";
@@ -128,11 +130,15 @@ fn warn_about_invalid_settings(
     materials: Res<Assets<CompoundEyeMaterial>>,
 ) {
     for event in events.read() {
-        let (AssetEvent::Added { id } | AssetEvent::Modified { id }) = event else { continue };
+        let (AssetEvent::Added { id } | AssetEvent::Modified { id }) = event else {
+            continue;
+        };
         if let Some(material) = materials.get(*id)
             && let Err(e) = material.extension.validate()
         {
-            warn!("compound eye material {id}: {e}; the lattice is off and the mesh renders as its base material");
+            warn!(
+                "compound eye material {id}: {e}; the lattice is off and the mesh renders as its base material"
+            );
         }
     }
 }

@@ -40,7 +40,8 @@ pub struct CompoundEyePanelPlugin;
 
 impl Plugin for CompoundEyePanelPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<CompoundEyePanel>().add_systems(EguiPrimaryContextPass, panel_window);
+        app.init_resource::<CompoundEyePanel>()
+            .add_systems(EguiPrimaryContextPass, panel_window);
     }
 }
 
@@ -49,10 +50,14 @@ fn panel_window(
     panel: Res<CompoundEyePanel>,
     mut materials: ResMut<Assets<CompoundEyeMaterial>>,
 ) -> Result {
-    let Some(first) = panel.materials.first().and_then(|id| materials.get(*id)) else { return Ok(()) };
+    let Some(first) = panel.materials.first().and_then(|id| materials.get(*id)) else {
+        return Ok(());
+    };
     let mut eye = first.extension.clone();
     let mut changed = false;
-    egui::Window::new("Compound eye").show(contexts.ctx_mut()?, |ui| changed = compound_eye_ui(ui, &mut eye));
+    egui::Window::new("Compound eye").show(contexts.ctx_mut()?, |ui| {
+        changed = compound_eye_ui(ui, &mut eye)
+    });
     if changed {
         for id in &panel.materials {
             if let Some(mut m) = materials.get_mut(*id) {
@@ -73,78 +78,94 @@ pub fn compound_eye_ui(ui: &mut egui::Ui, eye: &mut CompoundEye) -> bool {
         ui.label("Preset:");
         for preset in PRESETS {
             let short = preset.name.split(" (").next().unwrap_or(preset.name);
-            if ui.button(short).on_hover_text(format!("{} ommatidia; {}", preset.ommatidia, preset.source)).clicked() {
+            if ui
+                .button(short)
+                .on_hover_text(format!("{} ommatidia; {}", preset.ommatidia, preset.source))
+                .clicked()
+            {
                 let keep = (eye.pigment_texture.clone(), eye.output);
                 *eye = CompoundEye::from_preset(&preset);
                 (eye.pigment_texture, eye.output) = keep;
             }
         }
-        if ui.button("thesis").on_hover_text("Sagawa's model: square lattice, d = 2r, one lens").clicked() {
-            *eye = CompoundEye { output: eye.output, ..CompoundEye::thesis(eye.facets_per_uv, 1.5, eye.slices) };
+        if ui
+            .button("thesis")
+            .on_hover_text("Sagawa's model: square lattice, d = 2r, one lens")
+            .clicked()
+        {
+            *eye = CompoundEye {
+                output: eye.output,
+                ..CompoundEye::thesis(eye.facets_per_uv, 1.5, eye.slices)
+            };
         }
     });
     ui.separator();
-    egui::Grid::new("compound_eye_settings").num_columns(2).show(ui, |ui| {
-        ui.label("facets per UV unit (R_t)");
-        ui.add(egui::Slider::new(&mut eye.facets_per_uv, 1.0..=400.0).logarithmic(true));
-        ui.end_row();
-        ui.label("lattice");
-        ui.horizontal(|ui| {
-            ui.selectable_value(&mut eye.lattice, EyeLattice::Square, "square");
-            ui.selectable_value(&mut eye.lattice, EyeLattice::Hexagonal, "hexagonal");
+    egui::Grid::new("compound_eye_settings")
+        .num_columns(2)
+        .show(ui, |ui| {
+            ui.label("facets per UV unit (R_t)");
+            ui.add(egui::Slider::new(&mut eye.facets_per_uv, 1.0..=400.0).logarithmic(true));
+            ui.end_row();
+            ui.label("lattice");
+            ui.horizontal(|ui| {
+                ui.selectable_value(&mut eye.lattice, EyeLattice::Square, "square");
+                ui.selectable_value(&mut eye.lattice, EyeLattice::Hexagonal, "hexagonal");
+            });
+            ui.end_row();
+            ui.label("lens radius (of the cell)");
+            ui.add(egui::Slider::new(&mut eye.lens_radius, 0.05..=1.0));
+            ui.end_row();
+            ui.label("lens index");
+            ui.add(egui::Slider::new(&mut eye.lens_index, 0.5..=2.5));
+            ui.end_row();
+            ui.label("pigment depth (lens radii)");
+            ui.add(egui::Slider::new(&mut eye.pigment_depth, 2.0..=6.0));
+            ui.end_row();
+            ui.label("slice planes K");
+            ui.add(egui::Slider::new(&mut eye.slices, 0..=64));
+            ui.end_row();
+            ui.label("neighbouring lenses");
+            ui.checkbox(&mut eye.follow_neighbours, "follow the ray on");
+            ui.end_row();
+            ui.label("Fresnel");
+            ui.checkbox(&mut eye.fresnel, "lens surfaces reflect");
+            ui.end_row();
+            ui.label("prefilter");
+            ui.checkbox(&mut eye.prefilter, "average sub-pixel facets");
+            ui.end_row();
+            ui.label("pigment radius (facets)");
+            ui.add(egui::Slider::new(&mut eye.pigment.radius, 0.0..=0.6));
+            ui.end_row();
+            ui.label("pigment edge (facets)");
+            ui.add(egui::Slider::new(&mut eye.pigment.softness, 0.0..=0.3));
+            ui.end_row();
+            ui.label("pigment darkness");
+            ui.add(egui::Slider::new(&mut eye.pigment.darkness, 0.0..=1.0));
+            ui.end_row();
+            ui.label("pigment texture scale");
+            ui.horizontal(|ui| {
+                ui.add(egui::DragValue::new(&mut eye.pigment_uv_scale.x).speed(0.01));
+                ui.add(egui::DragValue::new(&mut eye.pigment_uv_scale.y).speed(0.01));
+            });
+            ui.end_row();
+            ui.label("pigment texture offset");
+            ui.horizontal(|ui| {
+                ui.add(egui::DragValue::new(&mut eye.pigment_uv_offset.x).speed(0.01));
+                ui.add(egui::DragValue::new(&mut eye.pigment_uv_offset.y).speed(0.01));
+            });
+            ui.end_row();
+            ui.label("output");
+            ui.horizontal(|ui| {
+                ui.selectable_value(&mut eye.output, EyeOutput::Shaded, "shaded");
+                ui.selectable_value(&mut eye.output, EyeOutput::PigmentOnly, "optics only");
+            });
+            ui.end_row();
         });
-        ui.end_row();
-        ui.label("lens radius (of the cell)");
-        ui.add(egui::Slider::new(&mut eye.lens_radius, 0.05..=1.0));
-        ui.end_row();
-        ui.label("lens index");
-        ui.add(egui::Slider::new(&mut eye.lens_index, 0.5..=2.5));
-        ui.end_row();
-        ui.label("pigment depth (lens radii)");
-        ui.add(egui::Slider::new(&mut eye.pigment_depth, 2.0..=6.0));
-        ui.end_row();
-        ui.label("slice planes K");
-        ui.add(egui::Slider::new(&mut eye.slices, 0..=64));
-        ui.end_row();
-        ui.label("neighbouring lenses");
-        ui.checkbox(&mut eye.follow_neighbours, "follow the ray on");
-        ui.end_row();
-        ui.label("Fresnel");
-        ui.checkbox(&mut eye.fresnel, "lens surfaces reflect");
-        ui.end_row();
-        ui.label("prefilter");
-        ui.checkbox(&mut eye.prefilter, "average sub-pixel facets");
-        ui.end_row();
-        ui.label("pigment radius (facets)");
-        ui.add(egui::Slider::new(&mut eye.pigment.radius, 0.0..=0.6));
-        ui.end_row();
-        ui.label("pigment edge (facets)");
-        ui.add(egui::Slider::new(&mut eye.pigment.softness, 0.0..=0.3));
-        ui.end_row();
-        ui.label("pigment darkness");
-        ui.add(egui::Slider::new(&mut eye.pigment.darkness, 0.0..=1.0));
-        ui.end_row();
-        ui.label("pigment texture scale");
-        ui.horizontal(|ui| {
-            ui.add(egui::DragValue::new(&mut eye.pigment_uv_scale.x).speed(0.01));
-            ui.add(egui::DragValue::new(&mut eye.pigment_uv_scale.y).speed(0.01));
-        });
-        ui.end_row();
-        ui.label("pigment texture offset");
-        ui.horizontal(|ui| {
-            ui.add(egui::DragValue::new(&mut eye.pigment_uv_offset.x).speed(0.01));
-            ui.add(egui::DragValue::new(&mut eye.pigment_uv_offset.y).speed(0.01));
-        });
-        ui.end_row();
-        ui.label("output");
-        ui.horizontal(|ui| {
-            ui.selectable_value(&mut eye.output, EyeOutput::Shaded, "shaded");
-            ui.selectable_value(&mut eye.output, EyeOutput::PigmentOnly, "optics only");
-        });
-        ui.end_row();
-    });
     if let Err(e) = eye.validate() {
-        ui.colored_label(egui::Color32::from_rgb(230, 120, 60), format!("lattice off: {e}"));
+        ui.colored_label(
+            egui::Color32::from_rgb(230, 120, 60),
+            format!("lattice off: {e}"),
+        );
     }
     *eye != before
 }

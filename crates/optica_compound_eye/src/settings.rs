@@ -76,7 +76,11 @@ pub struct PigmentDisc {
 impl Default for PigmentDisc {
     fn default() -> Self {
         let d = DarkCentre::default();
-        Self { radius: d.radius() as f32, softness: d.softness() as f32, darkness: d.darkness() as f32 }
+        Self {
+            radius: d.radius() as f32,
+            softness: d.softness() as f32,
+            darkness: d.darkness() as f32,
+        }
     }
 }
 
@@ -184,17 +188,28 @@ impl CompoundEye {
     /// Checks every number: the first one the shader cannot use, named.
     pub fn validate(&self) -> Result<(), InvalidInput> {
         input::positive("facets per UV unit", self.facets_per_uv as f64)?;
-        input::in_range("lens radius (fraction of the cell inradius)", self.lens_radius as f64, f64::MIN_POSITIVE, 1.0)?;
+        input::in_range(
+            "lens radius (fraction of the cell inradius)",
+            self.lens_radius as f64,
+            f64::MIN_POSITIVE,
+            1.0,
+        )?;
         // A unit lens checks index and depth ≥ 2r as the CPU twin does.
-        LensParams::new(1.0, self.lens_index as f64, self.pigment_depth as f64).map_err(|e| match e {
-            optica_optics::compound_eye::CompoundEyeError::Input(i) => i,
-            _ => InvalidInput::new(
-                "pigment depth (lens radii)",
-                self.pigment_depth as f64,
-                optica_optics::input::Expected::AtLeast(2.0),
-            ),
-        })?;
-        DarkCentre::new(self.pigment.radius as f64, self.pigment.softness as f64, self.pigment.darkness as f64)?;
+        LensParams::new(1.0, self.lens_index as f64, self.pigment_depth as f64).map_err(
+            |e| match e {
+                optica_optics::compound_eye::CompoundEyeError::Input(i) => i,
+                _ => InvalidInput::new(
+                    "pigment depth (lens radii)",
+                    self.pigment_depth as f64,
+                    optica_optics::input::Expected::AtLeast(2.0),
+                ),
+            },
+        )?;
+        DarkCentre::new(
+            self.pigment.radius as f64,
+            self.pigment.softness as f64,
+            self.pigment.darkness as f64,
+        )?;
         input::finite_vec2("pigment UV scale", self.pigment_uv_scale.as_dvec2())?;
         input::finite_vec2("pigment UV offset", self.pigment_uv_offset.as_dvec2())?;
         Ok(())

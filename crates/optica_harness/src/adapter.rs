@@ -84,10 +84,24 @@ impl AdapterInfo {
         let head = self.name.split('(').next().unwrap_or_default().trim();
         let slug: String = head
             .chars()
-            .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '-' })
+            .map(|c| {
+                if c.is_ascii_alphanumeric() {
+                    c.to_ascii_lowercase()
+                } else {
+                    '-'
+                }
+            })
             .collect();
-        let slug = slug.split('-').filter(|s| !s.is_empty()).collect::<Vec<_>>().join("-");
-        if slug.is_empty() { "unknown".into() } else { slug }
+        let slug = slug
+            .split('-')
+            .filter(|s| !s.is_empty())
+            .collect::<Vec<_>>()
+            .join("-");
+        if slug.is_empty() {
+            "unknown".into()
+        } else {
+            slug
+        }
     }
 
     /// Whether this is a CPU rasteriser (lavapipe, WARP, SwiftShader).

@@ -4,7 +4,9 @@
 #[derive(Debug, thiserror::Error)]
 pub enum HarnessError {
     /// No adapter could be created (on Linux: install `mesa-vulkan-drivers`).
-    #[error("no render adapter: install a Vulkan driver (on headless Linux: apt-get install mesa-vulkan-drivers)")]
+    #[error(
+        "no render adapter: install a Vulkan driver (on headless Linux: apt-get install mesa-vulkan-drivers)"
+    )]
     NoAdapter,
     /// The adapter asked for is not the one Bevy found (Bevy falls back to
     /// any adapter when the named one is missing).
@@ -19,7 +21,9 @@ pub enum HarnessError {
     #[error("wgpu noop backend: {0}")]
     Noop(String),
     /// Pixels or timings were asked of the noop backend, which draws nothing.
-    #[error("the noop backend draws nothing: use Headless::check_pipelines, or another adapter for pixels and timings")]
+    #[error(
+        "the noop backend draws nothing: use Headless::check_pipelines, or another adapter for pixels and timings"
+    )]
     NoPixelsOnNoop,
     /// A timing run of zero frames.
     #[error("a timing run needs at least one timed frame")]

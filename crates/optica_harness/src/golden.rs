@@ -94,7 +94,9 @@ impl UpdateMode {
                 path: MODE_ENV.into(),
                 message: format!("unknown mode `{v}`: use never, pending, missing or overwrite"),
             }),
-            _ if std::env::var_os("CI").is_some_and(|v| !v.is_empty() && v != "false" && v != "0") => {
+            _ if std::env::var_os("CI")
+                .is_some_and(|v| !v.is_empty() && v != "false" && v != "0") =>
+            {
                 Ok(UpdateMode::Never)
             }
             _ => Ok(UpdateMode::Pending),
@@ -119,7 +121,11 @@ impl Default for Tolerance {
     /// 3.4 % differing pixels at 128²); loose enough for rasteriser noise
     /// between Mesa versions.
     fn default() -> Self {
-        Self { min_psnr_db: 38.0, max_flip_mean: 0.01, max_differing_fraction: 0.005 }
+        Self {
+            min_psnr_db: 38.0,
+            max_flip_mean: 0.01,
+            max_differing_fraction: 0.005,
+        }
     }
 }
 
@@ -189,7 +195,10 @@ pub enum GoldenOutcome {
 impl GoldenOutcome {
     /// Whether a test should pass: the render matched, or the golden was written.
     pub fn passed(&self) -> bool {
-        matches!(self, GoldenOutcome::Matches { .. } | GoldenOutcome::Written { .. })
+        matches!(
+            self,
+            GoldenOutcome::Matches { .. } | GoldenOutcome::Written { .. }
+        )
     }
 }
 
@@ -208,7 +217,11 @@ impl Golden {
     /// quietly run a test suite in the wrong mode.
     pub fn new(dir: impl Into<PathBuf>) -> Self {
         let mode = UpdateMode::from_env().unwrap_or_else(|e| panic!("{e}"));
-        Self { dir: dir.into(), mode, reference_family: REFERENCE_FAMILY.into() }
+        Self {
+            dir: dir.into(),
+            mode,
+            reference_family: REFERENCE_FAMILY.into(),
+        }
     }
 
     /// Sets the update mode, whatever the environment says.
@@ -241,12 +254,21 @@ impl Golden {
 
     fn stem(&self, name: &str, adapter: &AdapterInfo) -> String {
         let family = adapter.family();
-        if family == self.reference_family { name.to_string() } else { format!("{name}@{family}") }
+        if family == self.reference_family {
+            name.to_string()
+        } else {
+            format!("{name}@{family}")
+        }
     }
 
     /// Compares `frame` with golden `name` of its adapter family, writing
     /// what the [`UpdateMode`] allows.
-    pub fn compare(&self, name: &str, frame: &RenderedFrame, tolerance: Tolerance) -> Result<GoldenOutcome, HarnessError> {
+    pub fn compare(
+        &self,
+        name: &str,
+        frame: &RenderedFrame,
+        tolerance: Tolerance,
+    ) -> Result<GoldenOutcome, HarnessError> {
         self.compare_image(name, &frame.to_rgba8(), &frame.adapter, tolerance)
     }
 
@@ -261,9 +283,15 @@ impl Golden {
         check_name(name)?;
         let path = self.path(name, adapter);
         let stem = self.stem(name, adapter);
-        let err = |p: &Path, message: String| HarnessError::Golden { path: p.display().to_string(), message };
+        let err = |p: &Path, message: String| HarnessError::Golden {
+            path: p.display().to_string(),
+            message,
+        };
         if self.mode == UpdateMode::Never && !path.exists() {
-            return Ok(GoldenOutcome::Missing { path, other_families: self.families_of(name) });
+            return Ok(GoldenOutcome::Missing {
+                path,
+                other_families: self.families_of(name),
+            });
         }
         std::fs::create_dir_all(&self.dir).map_err(|e| err(&self.dir, e.to_string()))?;
         let _lock = FolderLock::acquire(&self.dir)?;
@@ -272,15 +300,25 @@ impl Golden {
 
         if !path.exists() {
             return match self.mode {
-                UpdateMode::Never => Ok(GoldenOutcome::Missing { path, other_families: self.families_of(name) }),
+                UpdateMode::Never => Ok(GoldenOutcome::Missing {
+                    path,
+                    other_families: self.families_of(name),
+                }),
                 UpdateMode::Pending => {
                     write_png(&new, image, adapter)?;
-                    Ok(GoldenOutcome::Pending { new, diff: None, metrics: None })
+                    Ok(GoldenOutcome::Pending {
+                        new,
+                        diff: None,
+                        metrics: None,
+                    })
                 }
                 UpdateMode::Missing | UpdateMode::Overwrite => {
                     write_png(&path, image, adapter)?;
                     remove_stale(&[&new, &diff_path]);
-                    Ok(GoldenOutcome::Written { path, reason: WriteReason::Missing })
+                    Ok(GoldenOutcome::Written {
+                        path,
+                        reason: WriteReason::Missing,
+                    })
                 }
             };
         }
@@ -297,11 +335,18 @@ impl Golden {
             return Ok(GoldenOutcome::Matches { metrics: m, path });
         }
         match self.mode {
-            UpdateMode::Never => Ok(GoldenOutcome::Differs { metrics: m, path, golden_adapter }),
+            UpdateMode::Never => Ok(GoldenOutcome::Differs {
+                metrics: m,
+                path,
+                golden_adapter,
+            }),
             UpdateMode::Overwrite => {
                 write_png(&path, image, adapter)?;
                 remove_stale(&[&new, &diff_path]);
-                Ok(GoldenOutcome::Written { path, reason: WriteReason::Replaced(m) })
+                Ok(GoldenOutcome::Written {
+                    path,
+                    reason: WriteReason::Replaced(m),
+                })
             }
             UpdateMode::Pending | UpdateMode::Missing => {
                 write_png(&new, image, adapter)?;
@@ -311,7 +356,11 @@ impl Golden {
                 } else {
                     None
                 };
-                Ok(GoldenOutcome::Pending { new, diff, metrics: Some(m) })
+                Ok(GoldenOutcome::Pending {
+                    new,
+                    diff,
+                    metrics: Some(m),
+                })
             }
         }
     }
@@ -319,8 +368,15 @@ impl Golden {
     /// Like [`Golden::compare`], panicking with a message that says what to
     /// do when the outcome is not a pass: for use in `#[test]`s.
     #[track_caller]
-    pub fn assert_matches(&self, name: &str, frame: &RenderedFrame, tolerance: Tolerance) -> GoldenOutcome {
-        let outcome = self.compare(name, frame, tolerance).unwrap_or_else(|e| panic!("{e}"));
+    pub fn assert_matches(
+        &self,
+        name: &str,
+        frame: &RenderedFrame,
+        tolerance: Tolerance,
+    ) -> GoldenOutcome {
+        let outcome = self
+            .compare(name, frame, tolerance)
+            .unwrap_or_else(|e| panic!("{e}"));
         if let Some(message) = failure_message(name, &frame.adapter, &outcome, tolerance) {
             panic!("{message}");
         }
@@ -330,7 +386,10 @@ impl Golden {
     /// Accepts every pending render in the folder: `<x>.new.png` replaces
     /// `<x>.png`, and `<x>.diff.png` is removed. Returns the goldens written.
     pub fn accept_pending(&self) -> Result<Vec<PathBuf>, HarnessError> {
-        let err = |p: &Path, e: std::io::Error| HarnessError::Golden { path: p.display().to_string(), message: e.to_string() };
+        let err = |p: &Path, e: std::io::Error| HarnessError::Golden {
+            path: p.display().to_string(),
+            message: e.to_string(),
+        };
         if !self.dir.exists() {
             return Ok(Vec::new());
         }
@@ -338,7 +397,11 @@ impl Golden {
         let mut accepted = Vec::new();
         for entry in std::fs::read_dir(&self.dir).map_err(|e| err(&self.dir, e))? {
             let path = entry.map_err(|e| err(&self.dir, e))?.path();
-            let Some(stem) = path.file_name().and_then(|n| n.to_str()).and_then(|n| n.strip_suffix(".new.png")) else {
+            let Some(stem) = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .and_then(|n| n.strip_suffix(".new.png"))
+            else {
                 continue;
             };
             let golden = self.dir.join(format!("{stem}.png"));
@@ -352,7 +415,9 @@ impl Golden {
 
     /// The adapter families that have a golden called `name`.
     fn families_of(&self, name: &str) -> Vec<String> {
-        let Ok(entries) = std::fs::read_dir(&self.dir) else { return Vec::new() };
+        let Ok(entries) = std::fs::read_dir(&self.dir) else {
+            return Vec::new();
+        };
         let mut families: Vec<String> = entries
             .filter_map(|e| e.ok()?.file_name().into_string().ok())
             .filter_map(|f| {
@@ -363,7 +428,9 @@ impl Golden {
                 if stem == name {
                     Some(self.reference_family.clone())
                 } else {
-                    stem.strip_prefix(name)?.strip_prefix('@').map(str::to_string)
+                    stem.strip_prefix(name)?
+                        .strip_prefix('@')
+                        .map(str::to_string)
                 }
             })
             .collect();
@@ -373,27 +440,49 @@ impl Golden {
 }
 
 /// What a failed outcome means, in words; `None` for a pass.
-fn failure_message(name: &str, adapter: &AdapterInfo, outcome: &GoldenOutcome, tolerance: Tolerance) -> Option<String> {
-    let modes = format!("set {MODE_ENV}=pending to write a render to review, or missing/overwrite to write goldens");
+fn failure_message(
+    name: &str,
+    adapter: &AdapterInfo,
+    outcome: &GoldenOutcome,
+    tolerance: Tolerance,
+) -> Option<String> {
+    let modes = format!(
+        "set {MODE_ENV}=pending to write a render to review, or missing/overwrite to write goldens"
+    );
     match outcome {
         GoldenOutcome::Matches { .. } | GoldenOutcome::Written { .. } => None,
         GoldenOutcome::Pending { new, diff, metrics } => Some(format!(
             "golden `{name}`: {}; review {}{} and accept it (Golden::accept_pending, or rename it to .png)",
             match metrics {
                 Some(m) => format!("render differs ({}; tolerance {tolerance:?})", describe(m)),
-                None => format!("no golden yet for adapter {} (family `{}`)", adapter.summary(), adapter.family()),
+                None => format!(
+                    "no golden yet for adapter {} (family `{}`)",
+                    adapter.summary(),
+                    adapter.family()
+                ),
             },
             new.display(),
-            diff.as_ref().map(|d| format!(" (difference map {})", d.display())).unwrap_or_default()
+            diff.as_ref()
+                .map(|d| format!(" (difference map {})", d.display()))
+                .unwrap_or_default()
         )),
-        GoldenOutcome::Differs { metrics, path, golden_adapter } => Some(format!(
+        GoldenOutcome::Differs {
+            metrics,
+            path,
+            golden_adapter,
+        } => Some(format!(
             "golden `{name}` differs: {} (tolerance {tolerance:?}); golden {} made on {}, this render on {}; {modes}",
             describe(metrics),
             path.display(),
-            golden_adapter.as_ref().map_or("an unrecorded adapter".into(), AdapterInfo::summary),
+            golden_adapter
+                .as_ref()
+                .map_or("an unrecorded adapter".into(), AdapterInfo::summary),
             adapter.summary()
         )),
-        GoldenOutcome::Missing { path, other_families } => Some(format!(
+        GoldenOutcome::Missing {
+            path,
+            other_families,
+        } => Some(format!(
             "golden `{name}`: none for adapter {} (family `{}`) at {}; {}; goldens are per adapter family; {modes}",
             adapter.summary(),
             adapter.family(),
@@ -421,7 +510,10 @@ fn describe(m: &metrics::ImageMetrics) -> String {
 
 /// A golden name becomes a file name: no separators, no leading dot.
 fn check_name(name: &str) -> Result<(), HarnessError> {
-    let bad = name.is_empty() || name.starts_with('.') || name.contains(['/', '\\', '@']) || name.ends_with(".new");
+    let bad = name.is_empty()
+        || name.starts_with('.')
+        || name.contains(['/', '\\', '@'])
+        || name.ends_with(".new");
     if bad {
         return Err(HarnessError::Golden {
             path: name.into(),
@@ -437,8 +529,16 @@ struct FolderLock(File);
 impl FolderLock {
     fn acquire(dir: &Path) -> Result<Self, HarnessError> {
         let path = dir.join(LOCK_FILE);
-        let err = |e: std::io::Error| HarnessError::Golden { path: path.display().to_string(), message: e.to_string() };
-        let file = File::options().create(true).truncate(false).write(true).open(&path).map_err(err)?;
+        let err = |e: std::io::Error| HarnessError::Golden {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        };
+        let file = File::options()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(err)?;
         file.lock().map_err(err)?;
         Ok(Self(file))
     }
@@ -459,7 +559,10 @@ fn remove_stale(paths: &[&Path]) {
 /// Writes an RGBA PNG with the adapter record, atomically (a temporary file,
 /// then a rename), so a reader never sees half a file.
 fn write_png(path: &Path, image: &RgbaImage, adapter: &AdapterInfo) -> Result<(), HarnessError> {
-    let err = |message: String| HarnessError::Golden { path: path.display().to_string(), message };
+    let err = |message: String| HarnessError::Golden {
+        path: path.display().to_string(),
+        message,
+    };
     let tmp = path.with_extension("png.tmp");
     let record = serde_json::to_string(adapter).map_err(|e| err(e.to_string()))?;
     {
@@ -467,9 +570,13 @@ fn write_png(path: &Path, image: &RgbaImage, adapter: &AdapterInfo) -> Result<()
         let mut encoder = png::Encoder::new(BufWriter::new(file), image.width(), image.height());
         encoder.set_color(png::ColorType::Rgba);
         encoder.set_depth(png::BitDepth::Eight);
-        encoder.add_itxt_chunk(ADAPTER_KEYWORD.into(), record).map_err(|e| err(e.to_string()))?;
+        encoder
+            .add_itxt_chunk(ADAPTER_KEYWORD.into(), record)
+            .map_err(|e| err(e.to_string()))?;
         let mut writer = encoder.write_header().map_err(|e| err(e.to_string()))?;
-        writer.write_image_data(image.as_raw()).map_err(|e| err(e.to_string()))?;
+        writer
+            .write_image_data(image.as_raw())
+            .map_err(|e| err(e.to_string()))?;
         writer.finish().map_err(|e| err(e.to_string()))?;
     }
     std::fs::rename(&tmp, path).map_err(|e| err(e.to_string()))
@@ -477,10 +584,17 @@ fn write_png(path: &Path, image: &RgbaImage, adapter: &AdapterInfo) -> Result<()
 
 /// Reads a golden and its adapter record (`None` for a PNG without one).
 fn read_png(path: &Path) -> Result<(RgbaImage, Option<AdapterInfo>), HarnessError> {
-    let err = |message: String| HarnessError::Golden { path: path.display().to_string(), message };
-    let image = image::open(path).map_err(|e| err(e.to_string()))?.to_rgba8();
+    let err = |message: String| HarnessError::Golden {
+        path: path.display().to_string(),
+        message,
+    };
+    let image = image::open(path)
+        .map_err(|e| err(e.to_string()))?
+        .to_rgba8();
     let file = File::open(path).map_err(|e| err(e.to_string()))?;
-    let reader = png::Decoder::new(BufReader::new(file)).read_info().map_err(|e| err(e.to_string()))?;
+    let reader = png::Decoder::new(BufReader::new(file))
+        .read_info()
+        .map_err(|e| err(e.to_string()))?;
     let adapter = reader
         .info()
         .utf8_text
@@ -501,7 +615,10 @@ fn write_diff(golden: &RgbaImage, image: &RgbaImage, path: &Path) -> Result<(), 
     let (w, h) = golden.dimensions();
     let float = nv_flip::FlipImageFloat::with_data(w, h, &map);
     let colored = float.apply_color_lut(&nv_flip::magma_lut());
-    image::RgbImage::from_raw(w, h, colored.to_vec()).ok_or("diff buffer size")?.save(path).map_err(|e| e.to_string())
+    image::RgbImage::from_raw(w, h, colored.to_vec())
+        .ok_or("diff buffer size")?
+        .save(path)
+        .map_err(|e| e.to_string())
 }
 
 /// A golden name from a function's type path (what
@@ -518,7 +635,11 @@ fn write_diff(golden: &RgbaImage, image: &RgbaImage, path: &Path) -> Result<(), 
 pub fn name_from_type_path(path: &str) -> String {
     let parts: Vec<&str> = path.split("::").filter(|p| !p.starts_with('{')).collect();
     // [crate, modules.., test, here]
-    let inner = if parts.len() > 2 { &parts[1..parts.len() - 1] } else { &parts[..parts.len().saturating_sub(1)] };
+    let inner = if parts.len() > 2 {
+        &parts[1..parts.len() - 1]
+    } else {
+        &parts[..parts.len().saturating_sub(1)]
+    };
     inner.join("__")
 }
 
@@ -557,10 +678,10 @@ macro_rules! assert_golden {
         $crate::assert_golden!($frame, $crate::Tolerance::default())
     };
     ($frame:expr, $tolerance:expr) => {
-        $crate::Golden::new(::std::concat!(::std::env!("CARGO_MANIFEST_DIR"), "/tests/golden")).assert_matches(
-            &$crate::golden_name!(),
-            $frame,
-            $tolerance,
-        )
+        $crate::Golden::new(::std::concat!(
+            ::std::env!("CARGO_MANIFEST_DIR"),
+            "/tests/golden"
+        ))
+        .assert_matches(&$crate::golden_name!(), $frame, $tolerance)
     };
 }

@@ -206,7 +206,11 @@ impl Headless {
         } else {
             Pixels::Rgba8(decode_rgba8(&data, self.width, self.height)?)
         };
-        Ok(RenderedFrame { adapter, pixels, pipelines })
+        Ok(RenderedFrame {
+            adapter,
+            pixels,
+            pipelines,
+        })
     }
 
     /// Runs the app for [`Headless::frames`] frames and checks that every
@@ -214,7 +218,10 @@ impl Headless {
     /// not ask to exit. Works on [`Adapter::Noop`], where no driver exists.
     ///
     /// Cameras are pointed at an image target as in [`Headless::render`].
-    pub fn check_pipelines(&self, setup: impl FnOnce(&mut App)) -> Result<PipelineReport, HarnessError> {
+    pub fn check_pipelines(
+        &self,
+        setup: impl FnOnce(&mut App),
+    ) -> Result<PipelineReport, HarnessError> {
         let _one_at_a_time = lock();
         let (mut app, _) = self.prepare(setup, false)?;
         for _ in 0..self.frames {
@@ -222,7 +229,12 @@ impl Headless {
         }
         settle(&mut app)?;
         let states = pipeline_states(&mut app)?;
-        Ok(PipelineReport { adapter: adapter_info(&mut app)?, ok: states.ok, pending: states.pending, labels: states.labels })
+        Ok(PipelineReport {
+            adapter: adapter_info(&mut app)?,
+            ok: states.ok,
+            pending: states.pending,
+            labels: states.labels,
+        })
     }
 
     /// Times the scene: runs `warmup` frames, then `frames` timed frames,
@@ -278,22 +290,37 @@ impl Headless {
             step(&mut app)?;
             collector.collect(app.world());
         }
-        Ok(FrameTimings::new(adapter_info(&mut app)?, frame_ms, collector.finish(frames as usize)))
+        Ok(FrameTimings::new(
+            adapter_info(&mut app)?,
+            frame_ms,
+            collector.finish(frames as usize),
+        ))
     }
 
     /// The app with its target image, set up and finished, before any frame.
-    fn prepare(&self, setup: impl FnOnce(&mut App), timing: bool) -> Result<(App, Handle<Image>), HarnessError> {
+    fn prepare(
+        &self,
+        setup: impl FnOnce(&mut App),
+        timing: bool,
+    ) -> Result<(App, Handle<Image>), HarnessError> {
         if self.width == 0 || self.height == 0 || self.width > MAX_SIDE || self.height > MAX_SIDE {
             return Err(HarnessError::BadSize(self.width, self.height));
         }
         let mut app = self.build_app(timing)?;
-        let format = if self.hdr { TextureFormat::Rgba16Float } else { TextureFormat::Rgba8UnormSrgb };
+        let format = if self.hdr {
+            TextureFormat::Rgba16Float
+        } else {
+            TextureFormat::Rgba8UnormSrgb
+        };
         let mut target = Image::new_target_texture(self.width, self.height, format, None);
         target.asset_usage = RenderAssetUsages::RENDER_WORLD;
         // The readback copies from the texture.
         target.texture_descriptor.usage |= TextureUsages::COPY_SRC;
         let handle = app.world_mut().resource_mut::<Assets<Image>>().add(target);
-        app.insert_resource(HarnessTarget { image: handle.clone(), hdr: self.hdr });
+        app.insert_resource(HarnessTarget {
+            image: handle.clone(),
+            hdr: self.hdr,
+        });
         app.add_systems(PreUpdate, retarget_cameras);
         setup(&mut app);
         finish(&mut app)?;
@@ -316,8 +343,16 @@ impl Headless {
         };
         let plugins = DefaultPlugins
             .build()
-            .set(WindowPlugin { primary_window: None, exit_condition: ExitCondition::DontExit, ..default() })
-            .set(RenderPlugin { render_creation, synchronous_pipeline_compilation: true, ..default() })
+            .set(WindowPlugin {
+                primary_window: None,
+                exit_condition: ExitCondition::DontExit,
+                ..default()
+            })
+            .set(RenderPlugin {
+                render_creation,
+                synchronous_pipeline_compilation: true,
+                ..default()
+            })
             // Frames must be finished when `update` returns, for a deterministic readback.
             .disable::<PipelinedRenderingPlugin>()
             // Several apps per test process: only one may own the global logger.
@@ -339,8 +374,15 @@ impl Headless {
         app.init_resource::<RenderErrors>();
         // Record wgpu errors instead of only logging them, so a test can say what failed.
         app.insert_resource(RenderErrorHandler(|error, main_world, _| {
-            let source = error.source.as_ref().map(|s| format!(" ({:?})", **s)).unwrap_or_default();
-            main_world.resource_mut::<RenderErrors>().0.push(format!("{:?}: {}{source}", error.ty, error.description));
+            let source = error
+                .source
+                .as_ref()
+                .map(|s| format!(" ({:?})", **s))
+                .unwrap_or_default();
+            main_world
+                .resource_mut::<RenderErrors>()
+                .0
+                .push(format!("{:?}: {}{source}", error.ty, error.description));
             main_world.write_message(AppExit::error());
             RenderErrorPolicy::StopRendering
         }));
@@ -383,7 +425,10 @@ fn retarget_cameras(
     if target.hdr {
         for entity in &ldr_cameras {
             // Linear output: HDR intermediate and no tonemapping curve.
-            commands.entity(entity).insert((bevy::camera::Hdr, bevy::core_pipeline::tonemapping::Tonemapping::None));
+            commands.entity(entity).insert((
+                bevy::camera::Hdr,
+                bevy::core_pipeline::tonemapping::Tonemapping::None,
+            ));
         }
     }
 }
@@ -420,13 +465,23 @@ fn check_adapter(wanted: &Adapter, got: &AdapterInfo) -> Result<(), HarnessError
         Adapter::Named(name) => got.name.to_lowercase().contains(&name.to_lowercase()),
         Adapter::Auto | Adapter::Noop => true,
     };
-    if ok { Ok(()) } else { Err(HarnessError::WrongAdapter { wanted: format!("{wanted:?}"), got: got.summary() }) }
+    if ok {
+        Ok(())
+    } else {
+        Err(HarnessError::WrongAdapter {
+            wanted: format!("{wanted:?}"),
+            got: got.summary(),
+        })
+    }
 }
 
 pub(crate) fn step(app: &mut App) -> Result<(), HarnessError> {
     app.update();
     if let Some(device) = app.world().get_resource::<RenderDevice>() {
-        let _ = device.wgpu_device().poll(wgpu::PollType::Wait { submission_index: None, timeout: None });
+        let _ = device.wgpu_device().poll(wgpu::PollType::Wait {
+            submission_index: None,
+            timeout: None,
+        });
     }
     let errors = &app.world().resource::<RenderErrors>().0;
     if !errors.is_empty() {
@@ -486,7 +541,11 @@ struct PipelineStates {
 fn pipeline_states(app: &mut App) -> Result<PipelineStates, HarnessError> {
     let render = app.get_sub_app(RenderApp).ok_or(HarnessError::NoAdapter)?;
     let cache = render.world().resource::<PipelineCache>();
-    let mut states = PipelineStates { ok: 0, pending: 0, labels: Vec::new() };
+    let mut states = PipelineStates {
+        ok: 0,
+        pending: 0,
+        labels: Vec::new(),
+    };
     let mut errors = Vec::new();
     for pipeline in cache.pipelines() {
         match &pipeline.state {
@@ -495,10 +554,13 @@ fn pipeline_states(app: &mut App) -> Result<PipelineStates, HarnessError> {
                 states.labels.push(pipeline_label(&pipeline.descriptor));
             }
             // A shader still loading is retried by the cache: pending, not failed.
-            CachedPipelineState::Err(ShaderCacheError::ShaderNotLoaded(_) | ShaderCacheError::ShaderImportNotYetAvailable) => {
-                states.pending += 1
+            CachedPipelineState::Err(
+                ShaderCacheError::ShaderNotLoaded(_)
+                | ShaderCacheError::ShaderImportNotYetAvailable,
+            ) => states.pending += 1,
+            CachedPipelineState::Err(e) => {
+                errors.push(format!("{}: {e}", pipeline_label(&pipeline.descriptor)))
             }
-            CachedPipelineState::Err(e) => errors.push(format!("{}: {e}", pipeline_label(&pipeline.descriptor))),
             _ => states.pending += 1,
         }
     }
@@ -527,9 +589,15 @@ fn adapter_info(app: &mut App) -> Result<AdapterInfo, HarnessError> {
 }
 
 /// Readback rows are padded to 256 bytes (wgpu's `COPY_BYTES_PER_ROW_ALIGNMENT`); strip the padding.
-pub(crate) fn unpad(data: &[u8], width: u32, height: u32, bytes_per_pixel: u32) -> Result<Vec<u8>, HarnessError> {
+pub(crate) fn unpad(
+    data: &[u8],
+    width: u32,
+    height: u32,
+    bytes_per_pixel: u32,
+) -> Result<Vec<u8>, HarnessError> {
     let row = (width * bytes_per_pixel) as usize;
-    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
+    let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize)
+        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
     let h = height as usize;
     if data.len() == row * h {
         return Ok(data.to_vec());
@@ -537,17 +605,27 @@ pub(crate) fn unpad(data: &[u8], width: u32, height: u32, bytes_per_pixel: u32) 
     if h == 0 || data.len() < padded * (h - 1) + row {
         return Err(HarnessError::BadReadback(data.len(), row * h));
     }
-    Ok((0..h).flat_map(|y| data[y * padded..y * padded + row].iter().copied()).collect())
+    Ok((0..h)
+        .flat_map(|y| data[y * padded..y * padded + row].iter().copied())
+        .collect())
 }
 
 fn decode_rgba8(data: &[u8], width: u32, height: u32) -> Result<RgbaImage, HarnessError> {
     let bytes = unpad(data, width, height, 4)?;
-    RgbaImage::from_raw(width, height, bytes).ok_or(HarnessError::BadReadback(data.len(), (width * height * 4) as usize))
+    RgbaImage::from_raw(width, height, bytes).ok_or(HarnessError::BadReadback(
+        data.len(),
+        (width * height * 4) as usize,
+    ))
 }
 
 fn decode_rgba16f(data: &[u8], width: u32, height: u32) -> Result<Rgba32FImage, HarnessError> {
     let bytes = unpad(data, width, height, 8)?;
-    let floats: Vec<f32> =
-        bytes.chunks_exact(2).map(|h| half::f16::from_le_bytes([h[0], h[1]]).to_f32()).collect();
-    Rgba32FImage::from_raw(width, height, floats).ok_or(HarnessError::BadReadback(data.len(), (width * height * 8) as usize))
+    let floats: Vec<f32> = bytes
+        .chunks_exact(2)
+        .map(|h| half::f16::from_le_bytes([h[0], h[1]]).to_f32())
+        .collect();
+    Rgba32FImage::from_raw(width, height, floats).ok_or(HarnessError::BadReadback(
+        data.len(),
+        (width * height * 8) as usize,
+    ))
 }

@@ -80,5 +80,10 @@ pub use adapter::{Adapter, AdapterInfo};
 pub use error::HarnessError;
 pub use frame::{Pixels, RenderedFrame};
 pub use golden::{Golden, GoldenOutcome, Tolerance, UpdateMode, WriteReason};
-pub use headless::{DEFAULT_TIME_STEP, HarnessTarget, Headless, MAX_SETTLE_FRAMES, MAX_SIDE, PipelineReport, PluginsHook};
-pub use timing::{FrameTimings, MAX_DIAGNOSTIC_LAG_FRAMES, PassTime, SpanTiming, Stats, TimeSource};
+pub use headless::{
+    DEFAULT_TIME_STEP, HarnessTarget, Headless, MAX_SETTLE_FRAMES, MAX_SIDE, PipelineReport,
+    PluginsHook,
+};
+pub use timing::{
+    FrameTimings, MAX_DIAGNOSTIC_LAG_FRAMES, PassTime, SpanTiming, Stats, TimeSource,
+};

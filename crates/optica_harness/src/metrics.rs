@@ -23,7 +23,13 @@ impl ImageMetrics {
     /// The metrics of two images that cannot be compared (different sizes):
     /// NaN PSNR, SSIM and ꟻLIP, every pixel differing. No tolerance accepts them.
     pub fn incomparable() -> Self {
-        Self { psnr_db: f64::NAN, ssim: f64::NAN, flip_mean: f64::NAN, flip_max: f64::NAN, differing_fraction: 1.0 }
+        Self {
+            psnr_db: f64::NAN,
+            ssim: f64::NAN,
+            flip_mean: f64::NAN,
+            flip_max: f64::NAN,
+            differing_fraction: 1.0,
+        }
     }
 }
 
@@ -48,15 +54,23 @@ pub fn psnr(reference: &RgbaImage, test: &RgbaImage) -> Result<f64, SizeMismatch
         }
     }
     let mse = sum / n.max(1) as f64;
-    Ok(if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0f64 * 255.0 / mse).log10() })
+    Ok(if mse == 0.0 {
+        f64::INFINITY
+    } else {
+        10.0 * (255.0f64 * 255.0 / mse).log10()
+    })
 }
 
 /// Mean SSIM (the lowest of the three channels).
 pub fn ssim(reference: &RgbaImage, test: &RgbaImage) -> Result<f64, SizeMismatch> {
     check(reference, test)?;
-    image_compare::rgb_similarity_structure(&image_compare::Algorithm::MSSIMSimple, &rgb(reference), &rgb(test))
-        .map(|s| s.score)
-        .map_err(|_| SizeMismatch(reference.dimensions(), test.dimensions()))
+    image_compare::rgb_similarity_structure(
+        &image_compare::Algorithm::MSSIMSimple,
+        &rgb(reference),
+        &rgb(test),
+    )
+    .map(|s| s.score)
+    .map_err(|_| SizeMismatch(reference.dimensions(), test.dimensions()))
 }
 
 /// The ꟻLIP error map (values in [0, 1], one per pixel) at the default viewing
@@ -84,7 +98,8 @@ pub fn compare(reference: &RgbaImage, test: &RgbaImage) -> Result<ImageMetrics, 
         ssim: ssim(reference, test)?,
         flip_mean,
         flip_max,
-        differing_fraction: differing as f64 / (reference.width() * reference.height()).max(1) as f64,
+        differing_fraction: differing as f64
+            / (reference.width() * reference.height()).max(1) as f64,
     })
 }
 

@@ -4,12 +4,14 @@
 use std::sync::Arc;
 
 use bevy::render::{
-    renderer::{RenderAdapter, RenderAdapterInfo, RenderDevice, RenderInstance, RenderQueue, WgpuWrapper},
+    renderer::{
+        RenderAdapter, RenderAdapterInfo, RenderDevice, RenderInstance, RenderQueue, WgpuWrapper,
+    },
     settings::RenderCreation,
 };
 use wgpu::{
-    BackendOptions, Backends, DeviceDescriptor, Features, Instance, InstanceDescriptor, InstanceFlags, Limits,
-    NoopBackendOptions, RequestAdapterOptions,
+    BackendOptions, Backends, DeviceDescriptor, Features, Instance, InstanceDescriptor,
+    InstanceFlags, Limits, NoopBackendOptions, RequestAdapterOptions,
 };
 
 use crate::HarnessError;
@@ -21,13 +23,18 @@ pub(crate) fn render_creation() -> Result<RenderCreation, HarnessError> {
         flags: InstanceFlags::default(),
         memory_budget_thresholds: Default::default(),
         display: None,
-        backend_options: BackendOptions { noop: NoopBackendOptions { enable: true }, ..Default::default() },
+        backend_options: BackendOptions {
+            noop: NoopBackendOptions { enable: true },
+            ..Default::default()
+        },
     });
-    let adapter = bevy::tasks::block_on(instance.request_adapter(&RequestAdapterOptions::default()))
-        .map_err(|e| HarnessError::Noop(e.to_string()))?;
+    let adapter =
+        bevy::tasks::block_on(instance.request_adapter(&RequestAdapterOptions::default()))
+            .map_err(|e| HarnessError::Noop(e.to_string()))?;
     // Everything the noop adapter claims, less what Bevy must not switch on blindly.
-    let features =
-        adapter.features() - Features::all_experimental_mask() - Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
+    let features = adapter.features()
+        - Features::all_experimental_mask()
+        - Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
     let (device, queue) = bevy::tasks::block_on(adapter.request_device(&DeviceDescriptor {
         label: Some("optica noop device"),
         required_features: features,

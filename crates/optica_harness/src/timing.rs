@@ -119,8 +119,20 @@ impl FrameTimings {
     pub(crate) fn new(adapter: AdapterInfo, frame_ms: Vec<f64>, spans: Vec<SpanTiming>) -> Self {
         // `time_frames` refuses zero frames, so there is at least one sample;
         // a frame time is never NaN.
-        let frame_ms = Stats::of(&frame_ms).unwrap_or(Stats { n: 0, median: 0.0, p25: 0.0, p75: 0.0, min: 0.0, max: 0.0, mean: 0.0 });
-        Self { adapter, frame_ms, spans }
+        let frame_ms = Stats::of(&frame_ms).unwrap_or(Stats {
+            n: 0,
+            median: 0.0,
+            p25: 0.0,
+            p75: 0.0,
+            min: 0.0,
+            max: 0.0,
+            mean: 0.0,
+        });
+        Self {
+            adapter,
+            frame_ms,
+            spans,
+        }
     }
 
     /// Whether any span has GPU times, i.e. the adapter has timestamp queries.
@@ -139,8 +151,14 @@ impl FrameTimings {
     pub fn pass(&self, name: &str) -> Option<PassTime> {
         let span = self.span(name)?;
         Some(match (span.gpu_ms, self.has_gpu_timestamps()) {
-            (Some(ms), _) => PassTime { ms, source: TimeSource::GpuTimestamps },
-            _ => PassTime { ms: self.frame_ms, source: TimeSource::FrameWallTime },
+            (Some(ms), _) => PassTime {
+                ms,
+                source: TimeSource::GpuTimestamps,
+            },
+            _ => PassTime {
+                ms: self.frame_ms,
+                source: TimeSource::FrameWallTime,
+            },
         })
     }
 }
@@ -200,9 +218,17 @@ impl SpanCollector {
                 None => (path.strip_suffix(CPU_SUFFIX).unwrap_or(&path), false),
             };
             let name = name.strip_prefix(PREFIX).unwrap_or(name).to_string();
-            let span = spans.entry(name.clone()).or_insert(SpanTiming { name, gpu_ms: None, cpu_ms: None });
+            let span = spans.entry(name.clone()).or_insert(SpanTiming {
+                name,
+                gpu_ms: None,
+                cpu_ms: None,
+            });
             let stats = Stats::of(values);
-            if gpu { span.gpu_ms = stats } else { span.cpu_ms = stats }
+            if gpu {
+                span.gpu_ms = stats
+            } else {
+                span.cpu_ms = stats
+            }
         }
         spans.into_values().collect()
     }

@@ -67,7 +67,14 @@ fn check_cos(cos_i: f64) -> Result<f64, InvalidInput> {
     if c <= 1.0 + COSINE_ROUNDOFF {
         Ok(c.min(1.0))
     } else {
-        Err(InvalidInput::new("cosine of incidence", cos_i, Expected::Range { min: -1.0, max: 1.0 }))
+        Err(InvalidInput::new(
+            "cosine of incidence",
+            cos_i,
+            Expected::Range {
+                min: -1.0,
+                max: 1.0,
+            },
+        ))
     }
 }
 
@@ -135,11 +142,19 @@ const MAX_EVANESCENT_EXPONENT: f64 = 40.0;
 fn cos_and_sinc(phase_sq: f64) -> (f64, f64) {
     if phase_sq >= 0.0 {
         let x = phase_sq.sqrt();
-        let sinc = if x < 1e-4 { 1.0 - x * x / 6.0 } else { x.sin() / x };
+        let sinc = if x < 1e-4 {
+            1.0 - x * x / 6.0
+        } else {
+            x.sin() / x
+        };
         (x.cos(), sinc)
     } else {
         let y = (-phase_sq).sqrt().min(MAX_EVANESCENT_EXPONENT);
-        let sinhc = if y < 1e-4 { 1.0 + y * y / 6.0 } else { y.sinh() / y };
+        let sinhc = if y < 1e-4 {
+            1.0 + y * y / 6.0
+        } else {
+            y.sinh() / y
+        };
         (y.cosh(), sinhc)
     }
 }
@@ -156,7 +171,11 @@ fn film_reflectance(eta0: f64, eta1_sq: f64, eta2: f64, cos_d: f64, s: f64) -> f
     let c = (eta0 + eta2) * cos_d;
     let d = s * (eta0 * eta2 + eta1_sq);
     let den = c * c + d * d;
-    if den > 0.0 { ((a * a + b * b) / den).clamp(0.0, 1.0) } else { 1.0 }
+    if den > 0.0 {
+        ((a * a + b * b) / den).clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
 }
 
 /// Exact unpolarised reflectance of a single layer of index `n_c` and
@@ -218,7 +237,10 @@ impl Coating {
     pub fn quarter_wave(index: f64, design_wavelength_nm: f64) -> Result<Self, InvalidInput> {
         let index = input::positive("coating index", index)?;
         let wavelength = input::positive("coating design wavelength (nm)", design_wavelength_nm)?;
-        Ok(Self { index, thickness_nm: wavelength / (4.0 * index) })
+        Ok(Self {
+            index,
+            thickness_nm: wavelength / (4.0 * index),
+        })
     }
 
     /// A layer of refractive `index` and physical thickness `thickness_nm`.
@@ -228,7 +250,10 @@ impl Coating {
     pub fn new(index: f64, thickness_nm: f64) -> Result<Self, InvalidInput> {
         let index = input::positive("coating index", index)?;
         let thickness_nm = input::non_negative("coating thickness (nm)", thickness_nm)?;
-        Ok(Self { index, thickness_nm })
+        Ok(Self {
+            index,
+            thickness_nm,
+        })
     }
 
     /// Refractive index of the layer (MgF₂ ≈ 1.38).
@@ -251,7 +276,13 @@ impl Coating {
     /// `n1` (cosine `cos_i`, sign ignored) and leaving into `n2`; the layer is
     /// between them whichever side the light comes from. See
     /// [`try_single_layer_reflectance`].
-    pub fn try_reflectance(&self, cos_i: f64, n1: f64, n2: f64, wavelength_nm: f64) -> Result<f64, InvalidInput> {
+    pub fn try_reflectance(
+        &self,
+        cos_i: f64,
+        n1: f64,
+        n2: f64,
+        wavelength_nm: f64,
+    ) -> Result<f64, InvalidInput> {
         try_single_layer_reflectance(cos_i, n1, self.index, self.thickness_nm, n2, wavelength_nm)
     }
 
@@ -260,7 +291,8 @@ impl Coating {
     /// Documented fallback, as [`fresnel_unpolarized`]: invalid `cos_i`,
     /// `n1`, `n2` or wavelength give 1.0 (all light reflected). Never NaN.
     pub fn reflectance(&self, cos_i: f64, n1: f64, n2: f64, wavelength_nm: f64) -> f64 {
-        self.try_reflectance(cos_i, n1, n2, wavelength_nm).unwrap_or(1.0)
+        self.try_reflectance(cos_i, n1, n2, wavelength_nm)
+            .unwrap_or(1.0)
     }
 }
 
@@ -333,18 +365,33 @@ mod tests {
         let e = Coating::quarter_wave(1.38, f64::NAN).unwrap_err();
         assert_eq!(e.what, "coating design wavelength (nm)");
         let e = Coating::new(1.38, -1.0).unwrap_err();
-        assert_eq!((e.what, e.expected), ("coating thickness (nm)", Expected::NonNegative));
+        assert_eq!(
+            (e.what, e.expected),
+            ("coating thickness (nm)", Expected::NonNegative)
+        );
         assert_eq!(Coating::new(1.38, 0.0).unwrap().thickness_nm(), 0.0);
     }
 
     #[test]
     fn bad_numbers_name_themselves() {
         let e = try_fresnel_unpolarized(1.5, 1.0, 1.5).unwrap_err();
-        assert_eq!((e.what, e.expected), ("cosine of incidence", Expected::Range { min: -1.0, max: 1.0 }));
+        assert_eq!(
+            (e.what, e.expected),
+            (
+                "cosine of incidence",
+                Expected::Range {
+                    min: -1.0,
+                    max: 1.0
+                }
+            )
+        );
         let e = try_fresnel_unpolarized(1.0, f64::NAN, 1.5).unwrap_err();
         assert_eq!(e.what, "refractive index");
         let e = try_single_layer_reflectance(1.0, 1.0, 1.38, 100.0, 1.5, -550.0).unwrap_err();
-        assert_eq!((e.what, e.expected), ("wavelength (nm)", Expected::Positive));
+        assert_eq!(
+            (e.what, e.expected),
+            ("wavelength (nm)", Expected::Positive)
+        );
         // The inner-loop form falls back to total reflection, never NaN.
         let c = Coating::quarter_wave(1.38, 550.0).unwrap();
         assert_eq!(c.reflectance(1.0, 1.0, 1.5, f64::NAN), 1.0);
@@ -382,7 +429,10 @@ mod tests {
         for &ci in &[1.0, 0.9, 0.5, 0.1, 0.01] {
             for &(a, b) in &[(1.0, 1.52), (1.7, 1.0), (1.5, 1.9)] {
                 let bare = fresnel_unpolarized(ci, a, b);
-                assert!((c.reflectance(ci, a, b, 550.0) - bare).abs() < 1e-14, "{ci} {a} {b}");
+                assert!(
+                    (c.reflectance(ci, a, b, 550.0) - bare).abs() < 1e-14,
+                    "{ci} {a} {b}"
+                );
             }
         }
     }
@@ -404,13 +454,20 @@ mod tests {
         // With t01 t10 = 1 − r01² the two-beam sum is already close to 0; ours is 0.
         let t01t10 = 1.0 - r01 * r01;
         assert!((r01 - t01t10 * r12).powi(2) < 2e-6);
-        assert!(Coating::quarter_wave(nc, 550.0).unwrap().reflectance(1.0, 1.0, 1.52, 550.0) < 1e-30);
+        assert!(
+            Coating::quarter_wave(nc, 550.0)
+                .unwrap()
+                .reflectance(1.0, 1.0, 1.52, 550.0)
+                < 1e-30
+        );
         // MgF2 (1.38): r01 = −0.159664, r12 = −0.048276, t01² = 0.706165:
         // (−0.159664 + 0.034091)² = 0.015769 — 1.58 % against the exact 1.26 %.
         let (r01, r12, t01): (f64, f64, f64) = (-0.38 / 2.38, -0.14 / 2.90, 2.0 / 2.38);
         let supplement = (r01 - t01 * t01 * r12).powi(2);
         assert!((supplement - 0.015769).abs() < 1e-6, "{supplement}");
-        let ours = Coating::quarter_wave(1.38, 550.0).unwrap().reflectance(1.0, 1.0, 1.52, 550.0);
+        let ours = Coating::quarter_wave(1.38, 550.0)
+            .unwrap()
+            .reflectance(1.0, 1.0, 1.52, 550.0);
         assert!(supplement > ours + 0.003);
     }
 

@@ -96,12 +96,25 @@ const ABBE_CATALOG: [(&str, f64, f64); 7] = [
 /// callers that name a spectacle material by its index keep working. They are
 /// not canonical names, and the lens file never looks them up: there a number
 /// is a constant index.
-const NUMERIC_ALIASES: [(&str, &str); 3] = [("1.60", "index-1.60"), ("1.67", "index-1.67"), ("1.74", "index-1.74")];
+const NUMERIC_ALIASES: [(&str, &str); 3] = [
+    ("1.60", "index-1.60"),
+    ("1.67", "index-1.67"),
+    ("1.74", "index-1.74"),
+];
 
 /// Canonical catalog names, in [`Glass::catalog_names`] order. None of them
 /// parses as a number.
-const CATALOG_NAMES: [&str; 9] =
-    ["air", "N-BK7", "CR-39", "crown", "Trivex", "polycarbonate", "index-1.60", "index-1.67", "index-1.74"];
+const CATALOG_NAMES: [&str; 9] = [
+    "air",
+    "N-BK7",
+    "CR-39",
+    "crown",
+    "Trivex",
+    "polycarbonate",
+    "index-1.60",
+    "index-1.67",
+    "index-1.74",
+];
 
 /// The visible band (nm) over which a lens prescription's glasses must have a
 /// usable index ([`Glass::first_bad_index`]).
@@ -157,7 +170,14 @@ impl Glass {
     pub fn try_index(&self, wavelength_nm: f64) -> Result<f64, GlassError> {
         input::positive("wavelength (nm)", wavelength_nm)?;
         let n = self.raw_index(wavelength_nm);
-        if n.is_finite() && n >= 1.0 { Ok(n) } else { Err(GlassError::NoIndex { wavelength_nm, index: n }) }
+        if n.is_finite() && n >= 1.0 {
+            Ok(n)
+        } else {
+            Err(GlassError::NoIndex {
+                wavelength_nm,
+                index: n,
+            })
+        }
     }
 
     fn raw_index(&self, nm: f64) -> f64 {
@@ -188,7 +208,11 @@ impl Glass {
             Glass::Abbe { vd, .. } => vd,
             _ => {
                 let dn = self.index(LAMBDA_F_NM) - self.index(LAMBDA_C_NM);
-                if dn > 0.0 { (self.nd() - 1.0) / dn } else { f64::INFINITY }
+                if dn > 0.0 {
+                    (self.nd() - 1.0) / dn
+                } else {
+                    f64::INFINITY
+                }
             }
         }
     }
@@ -208,7 +232,11 @@ impl Glass {
 
     /// A constant index from a user number, rejecting non-finite or < 1.
     pub fn constant_checked(n: f64) -> Result<Glass, GlassError> {
-        Ok(Glass::Constant(input::at_least("refractive index", n, 1.0)?))
+        Ok(Glass::Constant(input::at_least(
+            "refractive index",
+            n,
+            1.0,
+        )?))
     }
 
     /// Sellmeier coefficients from user numbers: all finite and non-negative,
@@ -227,7 +255,10 @@ impl Glass {
 
     /// Schott N-BK7 (Sellmeier).
     pub fn n_bk7() -> Glass {
-        Glass::Sellmeier { b: N_BK7_B, c: N_BK7_C }
+        Glass::Sellmeier {
+            b: N_BK7_B,
+            c: N_BK7_C,
+        }
     }
 
     /// A catalog glass by name, case-insensitive (surrounding spaces ignored);
@@ -240,7 +271,10 @@ impl Glass {
     /// not use this lookup for numbers (there `1.67` is `Constant(1.67)`).
     pub fn catalog(name: &str) -> Option<Glass> {
         let name = name.trim();
-        let name = NUMERIC_ALIASES.iter().find(|(alias, _)| *alias == name).map_or(name, |(_, canonical)| canonical);
+        let name = NUMERIC_ALIASES
+            .iter()
+            .find(|(alias, _)| *alias == name)
+            .map_or(name, |(_, canonical)| canonical);
         if name.eq_ignore_ascii_case("air") {
             return Some(Glass::Air);
         }
@@ -269,7 +303,13 @@ impl Glass {
     /// [1, 3]): [`Glass::index`] hides a bad curve behind its fallback, and
     /// a glass can be fine at the d line and not elsewhere — `1.5/0.05` (an
     /// absurd Abbe number) has `n(700 nm) = −2.98`.
-    pub fn first_bad_index(&self, lo_nm: f64, hi_nm: f64, min: f64, max: f64) -> Option<(f64, f64)> {
+    pub fn first_bad_index(
+        &self,
+        lo_nm: f64,
+        hi_nm: f64,
+        min: f64,
+        max: f64,
+    ) -> Option<(f64, f64)> {
         if let Glass::Sellmeier { b, c } = self {
             let (lo2, hi2) = ((lo_nm * 1e-3).powi(2), (hi_nm * 1e-3).powi(2));
             for i in 0..3 {
@@ -280,7 +320,13 @@ impl Glass {
         }
         let steps = (((hi_nm - lo_nm) / 5.0).ceil().max(0.0) as usize).min(100_000);
         (0..=steps)
-            .map(|k| if k == steps { hi_nm } else { lo_nm + 5.0 * k as f64 })
+            .map(|k| {
+                if k == steps {
+                    hi_nm
+                } else {
+                    lo_nm + 5.0 * k as f64
+                }
+            })
             .find_map(|nm| {
                 let n = self.raw_index(nm);
                 (!(n.is_finite() && n >= min && n <= max)).then_some((nm, n))
@@ -323,7 +369,13 @@ mod tests {
             }
         }
         // Published values for the spectacle materials.
-        assert_eq!(Glass::catalog("polycarbonate"), Some(Glass::Abbe { nd: 1.586, vd: 30.0 }));
+        assert_eq!(
+            Glass::catalog("polycarbonate"),
+            Some(Glass::Abbe {
+                nd: 1.586,
+                vd: 30.0
+            })
+        );
         assert_eq!(Glass::catalog("1.74").unwrap().nd(), 1.74);
         assert_eq!(Glass::catalog("cr-39").unwrap().abbe(), 58.0);
     }
@@ -353,14 +405,24 @@ mod tests {
             assert_eq!(Glass::catalog(&name.to_lowercase()), Glass::catalog(name));
         }
         assert_eq!(Glass::catalog(" n-bk7 "), Some(Glass::n_bk7()));
-        assert_eq!(Glass::catalog("TRIVEX"), Some(Glass::Abbe { nd: 1.53, vd: 44.0 }));
+        assert_eq!(
+            Glass::catalog("TRIVEX"),
+            Some(Glass::Abbe { nd: 1.53, vd: 44.0 })
+        );
         assert_eq!(Glass::catalog("unobtainium"), None);
         assert_eq!(Glass::Air.abbe(), f64::INFINITY);
         // No canonical name is a number (a number in a lens file is a
         // constant index); the bare spectacle spellings are exact aliases.
-        assert!(Glass::catalog_names().iter().all(|n| n.parse::<f64>().is_err()));
+        assert!(
+            Glass::catalog_names()
+                .iter()
+                .all(|n| n.parse::<f64>().is_err())
+        );
         assert_eq!(Glass::catalog("1.67"), Glass::catalog("index-1.67"));
-        assert_eq!(Glass::catalog("index-1.67"), Some(Glass::Abbe { nd: 1.67, vd: 32.0 }));
+        assert_eq!(
+            Glass::catalog("index-1.67"),
+            Some(Glass::Abbe { nd: 1.67, vd: 32.0 })
+        );
         assert_eq!(Glass::catalog("1.670"), None);
         assert_eq!(Glass::catalog("1.5"), None);
         assert!(!Glass::Constant(1.5).is_dispersive());
@@ -377,20 +439,43 @@ mod tests {
         assert_eq!(what(Glass::abbe_checked(f64::NAN, 40.0)), nd);
         assert_eq!(what(Glass::abbe_checked(0.9, 40.0)), nd);
         assert_eq!(what(Glass::abbe_checked(f64::INFINITY, 40.0)), nd);
-        assert_eq!(what(Glass::abbe_checked(1.5, 0.0)), ("Abbe number V_d", Expected::Positive));
-        assert_eq!(what(Glass::abbe_checked(1.5, f64::NAN)), ("Abbe number V_d", Expected::Positive));
+        assert_eq!(
+            what(Glass::abbe_checked(1.5, 0.0)),
+            ("Abbe number V_d", Expected::Positive)
+        );
+        assert_eq!(
+            what(Glass::abbe_checked(1.5, f64::NAN)),
+            ("Abbe number V_d", Expected::Positive)
+        );
         assert!(Glass::abbe_checked(1.5, 40.0).is_ok());
-        assert_eq!(what(Glass::constant_checked(0.5)), ("refractive index", Expected::AtLeast(1.0)));
-        assert_eq!(what(Glass::sellmeier_checked([f64::NAN, 0.0, 0.0], [0.0; 3])).0, "Sellmeier B coefficient");
-        assert_eq!(what(Glass::sellmeier_checked([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0])).0, "Sellmeier C coefficient (µm²)");
+        assert_eq!(
+            what(Glass::constant_checked(0.5)),
+            ("refractive index", Expected::AtLeast(1.0))
+        );
+        assert_eq!(
+            what(Glass::sellmeier_checked([f64::NAN, 0.0, 0.0], [0.0; 3])).0,
+            "Sellmeier B coefficient"
+        );
+        assert_eq!(
+            what(Glass::sellmeier_checked([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0])).0,
+            "Sellmeier C coefficient (µm²)"
+        );
         // Finite, non-negative coefficients with a pole at the d line: no index there.
         let pole_c = [(LAMBDA_D_NM * 1e-3).powi(2), 0.0, 0.0];
-        assert!(matches!(Glass::sellmeier_checked([1.0, 0.0, 0.0], pole_c), Err(GlassError::NoIndex { .. })));
+        assert!(matches!(
+            Glass::sellmeier_checked([1.0, 0.0, 0.0], pole_c),
+            Err(GlassError::NoIndex { .. })
+        ));
         assert!(Glass::sellmeier_checked(N_BK7_B, N_BK7_C).is_ok());
-        assert!(matches!(Glass::n_bk7().try_index(-1.0), Err(GlassError::Input(e)) if e.what == "wavelength (nm)"));
+        assert!(
+            matches!(Glass::n_bk7().try_index(-1.0), Err(GlassError::Input(e)) if e.what == "wavelength (nm)")
+        );
         assert!(Glass::n_bk7().index(f64::NAN).is_finite());
         // A hand-built Sellmeier with a pole at the d line falls back to 1.
-        let pole = Glass::Sellmeier { b: [1.0, 0.0, 0.0], c: pole_c };
+        let pole = Glass::Sellmeier {
+            b: [1.0, 0.0, 0.0],
+            c: pole_c,
+        };
         assert!(pole.index(LAMBDA_D_NM).is_finite());
     }
 
@@ -400,17 +485,39 @@ mod tests {
         // B = 0.5/(0.05·(λF⁻² − λC⁻²)) = 5.237 µm², A = 1.5 − B/λd² = −13.67).
         let g = Glass::Abbe { nd: 1.5, vd: 0.05 };
         assert!((g.try_index(LAMBDA_D_NM).unwrap() - 1.5).abs() < 1e-12);
-        assert!((g.raw_index(700.0) + 2.98).abs() < 0.01, "{}", g.raw_index(700.0));
-        let (nm, n) = g.first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, 1.0, 3.0).unwrap();
-        assert!(nm < LAMBDA_D_NM && n > 3.0, "too high in the blue first: {nm} nm, n = {n}");
-        let (nm, n) = g.first_bad_index(LAMBDA_D_NM, VISIBLE_NM.1, 1.0, 3.0).unwrap();
+        assert!(
+            (g.raw_index(700.0) + 2.98).abs() < 0.01,
+            "{}",
+            g.raw_index(700.0)
+        );
+        let (nm, n) = g
+            .first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, 1.0, 3.0)
+            .unwrap();
+        assert!(
+            nm < LAMBDA_D_NM && n > 3.0,
+            "too high in the blue first: {nm} nm, n = {n}"
+        );
+        let (nm, n) = g
+            .first_bad_index(LAMBDA_D_NM, VISIBLE_NM.1, 1.0, 3.0)
+            .unwrap();
         assert!(nm > LAMBDA_D_NM && n < 1.0, "{nm} nm, n = {n}");
         for name in Glass::catalog_names() {
-            assert_eq!(Glass::catalog(name).unwrap().first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, 1.0, 3.0), None, "{name}");
+            assert_eq!(
+                Glass::catalog(name)
+                    .unwrap()
+                    .first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, 1.0, 3.0),
+                None,
+                "{name}"
+            );
         }
         // A weak Sellmeier pole at 502.5 nm, between two 5 nm samples.
-        let pole = Glass::Sellmeier { b: [1e-9, 0.2, 0.0], c: [0.5025f64.powi(2), 0.01, 0.0] };
-        let (nm, n) = pole.first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, 1.0, 3.0).unwrap();
+        let pole = Glass::Sellmeier {
+            b: [1e-9, 0.2, 0.0],
+            c: [0.5025f64.powi(2), 0.01, 0.0],
+        };
+        let (nm, n) = pole
+            .first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, 1.0, 3.0)
+            .unwrap();
         assert!((nm - 502.5).abs() < 1e-9 && n.is_nan(), "{nm} {n}");
     }
 

@@ -81,29 +81,49 @@ pub struct InvalidInput {
 impl InvalidInput {
     /// An error for `what` = `value`, which had to be `expected`.
     pub fn new(what: &'static str, value: f64, expected: Expected) -> Self {
-        Self { what, value, expected }
+        Self {
+            what,
+            value,
+            expected,
+        }
     }
 }
 
 /// `x` if it is finite.
 pub fn finite(what: &'static str, x: f64) -> Result<f64, InvalidInput> {
-    if x.is_finite() { Ok(x) } else { Err(InvalidInput::new(what, x, Expected::Finite)) }
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(InvalidInput::new(what, x, Expected::Finite))
+    }
 }
 
 /// `x` if it is finite and greater than zero.
 pub fn positive(what: &'static str, x: f64) -> Result<f64, InvalidInput> {
     // `x > 0.0` is false for NaN, and +∞ is caught by `is_finite`.
-    if x.is_finite() && x > 0.0 { Ok(x) } else { Err(InvalidInput::new(what, x, Expected::Positive)) }
+    if x.is_finite() && x > 0.0 {
+        Ok(x)
+    } else {
+        Err(InvalidInput::new(what, x, Expected::Positive))
+    }
 }
 
 /// `x` if it is finite and not negative.
 pub fn non_negative(what: &'static str, x: f64) -> Result<f64, InvalidInput> {
-    if x.is_finite() && x >= 0.0 { Ok(x) } else { Err(InvalidInput::new(what, x, Expected::NonNegative)) }
+    if x.is_finite() && x >= 0.0 {
+        Ok(x)
+    } else {
+        Err(InvalidInput::new(what, x, Expected::NonNegative))
+    }
 }
 
 /// `x` if it is finite and at least `min`.
 pub fn at_least(what: &'static str, x: f64, min: f64) -> Result<f64, InvalidInput> {
-    if x.is_finite() && x >= min { Ok(x) } else { Err(InvalidInput::new(what, x, Expected::AtLeast(min))) }
+    if x.is_finite() && x >= min {
+        Ok(x)
+    } else {
+        Err(InvalidInput::new(what, x, Expected::AtLeast(min)))
+    }
 }
 
 /// `x` if it is finite and in `min..=max`.
@@ -136,8 +156,12 @@ pub fn finite_vec2(what: &'static str, v: DVec2) -> Result<DVec2, InvalidInput> 
 /// Callers that need a unit vector take any length and normalise it here,
 /// rather than rejecting a direction that is merely not unit.
 pub fn direction(what: &'static str, v: DVec3) -> Result<DVec3, InvalidInput> {
-    let v = finite_vec3(what, v).map_err(|e| InvalidInput { expected: Expected::Direction, ..e })?;
-    v.try_normalize().ok_or(InvalidInput::new(what, v.length(), Expected::Direction))
+    let v = finite_vec3(what, v).map_err(|e| InvalidInput {
+        expected: Expected::Direction,
+        ..e
+    })?;
+    v.try_normalize()
+        .ok_or(InvalidInput::new(what, v.length(), Expected::Direction))
 }
 
 #[cfg(test)]
@@ -147,13 +171,25 @@ mod tests {
     #[test]
     fn scalars_are_checked_and_passed_through() {
         assert_eq!(finite("x", -3.0), Ok(-3.0));
-        assert_eq!(finite("x", f64::INFINITY).unwrap_err().expected, Expected::Finite);
+        assert_eq!(
+            finite("x", f64::INFINITY).unwrap_err().expected,
+            Expected::Finite
+        );
         assert_eq!(positive("x", 0.0).unwrap_err().value, 0.0);
-        assert_eq!(positive("x", f64::INFINITY).unwrap_err().expected, Expected::Positive);
+        assert_eq!(
+            positive("x", f64::INFINITY).unwrap_err().expected,
+            Expected::Positive
+        );
         assert_eq!(non_negative("x", 0.0), Ok(0.0));
-        assert_eq!(non_negative("x", -1e-300).unwrap_err().expected, Expected::NonNegative);
+        assert_eq!(
+            non_negative("x", -1e-300).unwrap_err().expected,
+            Expected::NonNegative
+        );
         assert_eq!(at_least("x", 1.0, 1.0), Ok(1.0));
-        assert_eq!(at_least("x", f64::INFINITY, 1.0).unwrap_err().expected, Expected::AtLeast(1.0));
+        assert_eq!(
+            at_least("x", f64::INFINITY, 1.0).unwrap_err().expected,
+            Expected::AtLeast(1.0)
+        );
         assert_eq!(in_range("x", 1.0, 1.0, 3.0), Ok(1.0));
         let e = in_range("x", f64::NAN, 1.0, 3.0).unwrap_err();
         assert_eq!(e.expected, Expected::Range { min: 1.0, max: 3.0 });
@@ -163,7 +199,10 @@ mod tests {
     #[test]
     fn vectors_name_the_bad_component() {
         let e = finite_vec3("origin", DVec3::new(1.0, f64::NEG_INFINITY, f64::NAN)).unwrap_err();
-        assert_eq!((e.what, e.value, e.expected), ("origin", f64::NEG_INFINITY, Expected::FiniteVector));
+        assert_eq!(
+            (e.what, e.value, e.expected),
+            ("origin", f64::NEG_INFINITY, Expected::FiniteVector)
+        );
         assert!(finite_vec2("uv", DVec2::new(f64::NAN, 0.0)).is_err());
         assert_eq!(finite_vec2("uv", DVec2::ONE), Ok(DVec2::ONE));
     }
@@ -183,6 +222,9 @@ mod tests {
     #[test]
     fn messages_say_what_and_why() {
         let e = in_range("stop opening", 1.5, 0.0, 1.0).unwrap_err();
-        assert_eq!(e.to_string(), "stop opening = 1.5: expected a finite number in 0 ..= 1");
+        assert_eq!(
+            e.to_string(),
+            "stop opening = 1.5: expected a finite number in 0 ..= 1"
+        );
     }
 }

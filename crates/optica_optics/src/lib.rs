@@ -56,8 +56,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod fresnel;
-pub mod input;
 pub mod glass;
+pub mod input;
 pub mod lens;
 pub mod ray;
 pub mod surface;
@@ -70,4 +70,3 @@ pub mod lens_flare;
 pub mod spectacles;
 
 pub use glam;
-

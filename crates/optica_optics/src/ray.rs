@@ -34,7 +34,10 @@ impl Ray {
     #[inline]
     pub(crate) fn from_unit(origin: DVec3, dir: DVec3) -> Self {
         debug_assert!(origin.is_finite(), "ray origin {origin} is not finite");
-        debug_assert!((dir.length_squared() - 1.0).abs() < 1e-9, "ray direction {dir} is not unit");
+        debug_assert!(
+            (dir.length_squared() - 1.0).abs() < 1e-9,
+            "ray direction {dir} is not unit"
+        );
         Self { origin, dir }
     }
 
@@ -74,11 +77,17 @@ mod tests {
     #[test]
     fn bad_rays_are_errors_naming_the_part() {
         let zero = Ray::new(DVec3::ZERO, DVec3::ZERO).unwrap_err();
-        assert_eq!((zero.what, zero.expected), ("ray direction", Expected::Direction));
+        assert_eq!(
+            (zero.what, zero.expected),
+            ("ray direction", Expected::Direction)
+        );
         let nan = Ray::new(DVec3::ZERO, DVec3::new(f64::NAN, 0.0, 1.0)).unwrap_err();
         assert_eq!(nan.what, "ray direction");
         let origin = Ray::new(DVec3::splat(f64::INFINITY), DVec3::Z).unwrap_err();
-        assert_eq!((origin.what, origin.expected), ("ray origin", Expected::FiniteVector));
+        assert_eq!(
+            (origin.what, origin.expected),
+            ("ray origin", Expected::FiniteVector)
+        );
     }
 
     proptest! {

@@ -109,14 +109,23 @@ impl SphericalSurface {
     pub fn new(vertex_z: f64, curvature: f64) -> Result<Self, InvalidInput> {
         let vertex_z = input::finite("surface vertex z", vertex_z)?;
         let curvature = input::finite("surface curvature (1/length)", curvature)?;
-        Ok(Self { vertex_z, curvature })
+        Ok(Self {
+            vertex_z,
+            curvature,
+        })
     }
 
     /// A surface from numbers the crate has already checked (a validated
     /// prescription or spectacle lens).
     pub(crate) fn from_checked(vertex_z: f64, curvature: f64) -> Self {
-        debug_assert!(vertex_z.is_finite() && curvature.is_finite(), "surface z {vertex_z}, c {curvature}");
-        Self { vertex_z, curvature }
+        debug_assert!(
+            vertex_z.is_finite() && curvature.is_finite(),
+            "surface z {vertex_z}, c {curvature}"
+        );
+        Self {
+            vertex_z,
+            curvature,
+        }
     }
 
     /// A flat surface `z = vertex_z`. Errors: a vertex that is not finite.
@@ -129,7 +138,11 @@ impl SphericalSurface {
     /// not finite.
     pub fn from_radius(vertex_z: f64, radius: f64) -> Result<Self, InvalidInput> {
         if radius.is_nan() || radius == 0.0 {
-            return Err(InvalidInput::new("radius of curvature", radius, Expected::NonZero));
+            return Err(InvalidInput::new(
+                "radius of curvature",
+                radius,
+                Expected::NonZero,
+            ));
         }
         // 1/±∞ = 0 exactly, so flat needs no special case.
         Self::new(vertex_z, 1.0 / radius)
@@ -147,7 +160,11 @@ impl SphericalSurface {
 
     /// The radius of curvature `1/c` (`±∞` when flat).
     pub fn radius(&self) -> f64 {
-        if self.curvature == 0.0 { f64::INFINITY } else { 1.0 / self.curvature }
+        if self.curvature == 0.0 {
+            f64::INFINITY
+        } else {
+            1.0 / self.curvature
+        }
     }
 
     /// True for a flat surface (`c == 0`).
@@ -239,7 +256,11 @@ impl SphericalSurface {
         if c * (point.z - self.vertex_z) > 1.0 {
             return None;
         }
-        Some(Hit { t, point, normal: self.normal_at(point) })
+        Some(Hit {
+            t,
+            point,
+            normal: self.normal_at(point),
+        })
     }
 }
 
@@ -270,11 +291,18 @@ pub fn intersect_sphere(ray: &Ray, center: DVec3, radius: f64) -> Option<SphereH
     }
     let s = (a * disc).sqrt();
     let q = -(b + if b < 0.0 { -s } else { s });
-    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (cterm / q, q / a) };
+    let (t0, t1) = if q == 0.0 {
+        (0.0, 0.0)
+    } else {
+        (cterm / q, q / a)
+    };
     if !t0.is_finite() || !t1.is_finite() {
         return None;
     }
-    Some(SphereHits { t_near: t0.min(t1), t_far: t0.max(t1) })
+    Some(SphereHits {
+        t_near: t0.min(t1),
+        t_far: t0.max(t1),
+    })
 }
 
 /// Refract the unit direction `dir` through an interface with unit `normal`
@@ -292,7 +320,12 @@ pub fn refract(dir: DVec3, normal: DVec3, n1: f64, n2: f64) -> Refraction {
 }
 
 /// [`refract`] with a typed error for invalid input.
-pub fn try_refract(dir: DVec3, normal: DVec3, n1: f64, n2: f64) -> Result<Refraction, InvalidInput> {
+pub fn try_refract(
+    dir: DVec3,
+    normal: DVec3,
+    n1: f64,
+    n2: f64,
+) -> Result<Refraction, InvalidInput> {
     input::positive("refractive index", n1)?;
     input::positive("refractive index", n2)?;
     let d = input::direction("refracted direction", dir)?;
@@ -341,7 +374,9 @@ mod tests {
         // Sag = 10 − √(100 − 9) = 0.460608 (also 0.9 / (1 + √0.91)), so
         // t = 5.460608 and the normal is (0, 3, 0.460608 − 10)/10.
         let s = SphericalSurface::from_radius(0.0, 10.0).unwrap();
-        let h = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, -5.0), DVec3::Z).unwrap()).unwrap();
+        let h = s
+            .intersect(&Ray::new(DVec3::new(0.0, 3.0, -5.0), DVec3::Z).unwrap())
+            .unwrap();
         let sag = 10.0 - 91f64.sqrt();
         assert!((h.t - (5.0 + sag)).abs() < 1e-13);
         assert!((h.point.z - sag).abs() < 1e-13);
@@ -354,14 +389,20 @@ mod tests {
     fn surface_concave_takes_vertex_cap_both_directions() {
         // R = −10 at z = 0: sphere spans z in [−20, 0]; the cap is z in [−10, 0].
         let s = SphericalSurface::new(0.0, -0.1).unwrap();
-        let from_left = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, -30.0), DVec3::Z).unwrap()).unwrap();
+        let from_left = s
+            .intersect(&Ray::new(DVec3::new(0.0, 3.0, -30.0), DVec3::Z).unwrap())
+            .unwrap();
         let sag = -(10.0 - 91f64.sqrt());
         assert!((from_left.point.z - sag).abs() < 1e-12, "{from_left:?}");
-        let from_right = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, 5.0), DVec3::NEG_Z).unwrap()).unwrap();
+        let from_right = s
+            .intersect(&Ray::new(DVec3::new(0.0, 3.0, 5.0), DVec3::NEG_Z).unwrap())
+            .unwrap();
         assert!((from_right.point.z - sag).abs() < 1e-12);
         // Convex surface hit from the right (a reflected flare ray).
         let s = SphericalSurface::new(0.0, 0.1).unwrap();
-        let h = s.intersect(&Ray::new(DVec3::new(0.0, 3.0, 30.0), DVec3::NEG_Z).unwrap()).unwrap();
+        let h = s
+            .intersect(&Ray::new(DVec3::new(0.0, 3.0, 30.0), DVec3::NEG_Z).unwrap())
+            .unwrap();
         assert!((h.point.z + sag).abs() < 1e-12);
         assert!(h.normal.z < 0.0);
     }
@@ -369,20 +410,45 @@ mod tests {
     #[test]
     fn surface_flat_and_misses() {
         let s = SphericalSurface::flat(2.0).unwrap();
-        let h = s.intersect(&Ray::new(DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.6, 0.8)).unwrap()).unwrap();
+        let h = s
+            .intersect(&Ray::new(DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 0.6, 0.8)).unwrap())
+            .unwrap();
         assert!((h.t - 2.5).abs() < 1e-15);
         assert_eq!(h.normal, DVec3::NEG_Z);
         // Parallel to the plane, behind the origin, and past the sphere.
-        assert!(s.intersect(&Ray::new(DVec3::ZERO, DVec3::X).unwrap()).is_none());
-        assert!(s.intersect(&Ray::new(DVec3::new(0.0, 0.0, 3.0), DVec3::Z).unwrap()).is_none());
+        assert!(
+            s.intersect(&Ray::new(DVec3::ZERO, DVec3::X).unwrap())
+                .is_none()
+        );
+        assert!(
+            s.intersect(&Ray::new(DVec3::new(0.0, 0.0, 3.0), DVec3::Z).unwrap())
+                .is_none()
+        );
         let s = SphericalSurface::new(0.0, 0.1).unwrap();
-        assert!(s.intersect(&Ray::new(DVec3::new(0.0, 10.5, -5.0), DVec3::Z).unwrap()).is_none());
+        assert!(
+            s.intersect(&Ray::new(DVec3::new(0.0, 10.5, -5.0), DVec3::Z).unwrap())
+                .is_none()
+        );
         let e = SphericalSurface::new(0.0, f64::NAN).unwrap_err();
-        assert_eq!((e.what, e.expected), ("surface curvature (1/length)", Expected::Finite));
+        assert_eq!(
+            (e.what, e.expected),
+            ("surface curvature (1/length)", Expected::Finite)
+        );
         let e = SphericalSurface::from_radius(0.0, 0.0).unwrap_err();
-        assert_eq!((e.what, e.value, e.expected), ("radius of curvature", 0.0, Expected::NonZero));
-        assert_eq!(SphericalSurface::flat(f64::INFINITY).unwrap_err().what, "surface vertex z");
-        assert_eq!(SphericalSurface::from_radius(1.0, f64::NEG_INFINITY).unwrap().curvature, 0.0);
+        assert_eq!(
+            (e.what, e.value, e.expected),
+            ("radius of curvature", 0.0, Expected::NonZero)
+        );
+        assert_eq!(
+            SphericalSurface::flat(f64::INFINITY).unwrap_err().what,
+            "surface vertex z"
+        );
+        assert_eq!(
+            SphericalSurface::from_radius(1.0, f64::NEG_INFINITY)
+                .unwrap()
+                .curvature,
+            0.0
+        );
     }
 
     #[test]
@@ -392,14 +458,22 @@ mod tests {
         // be wrong by ~1e-16, far above the tolerances below.
         // c = 1e-12 (R = 1e12) at height 1: sag = c r²/(1 + √(1 − c²r²)) = 5e-13.
         let ray = Ray::new(DVec3::new(0.0, 1.0, -1e-8), DVec3::Z).unwrap();
-        let h = SphericalSurface::new(0.0, 1e-12).unwrap().intersect(&ray).unwrap();
+        let h = SphericalSurface::new(0.0, 1e-12)
+            .unwrap()
+            .intersect(&ray)
+            .unwrap();
         assert!((h.t - (1e-8 + 5e-13)).abs() < 1e-22, "{}", h.t);
         // The same ray on c = 0 differs by just the sag: continuous at c = 0.
-        let h0 = SphericalSurface::flat(0.0).unwrap().intersect(&ray).unwrap();
+        let h0 = SphericalSurface::flat(0.0)
+            .unwrap()
+            .intersect(&ray)
+            .unwrap();
         assert!((h.t - h0.t - 5e-13).abs() < 1e-22);
         // Near-axis ray (height 1e-9) on c = 1: sag = 5e-19.
         let s = SphericalSurface::new(0.0, 1.0).unwrap();
-        let h = s.intersect(&Ray::new(DVec3::new(1e-9, 0.0, -1e-8), DVec3::Z).unwrap()).unwrap();
+        let h = s
+            .intersect(&Ray::new(DVec3::new(1e-9, 0.0, -1e-8), DVec3::Z).unwrap())
+            .unwrap();
         assert!((h.t - (1e-8 + 5e-19)).abs() < 1e-23, "{}", h.t);
         assert!((s.sag(1e-9).unwrap() - 5e-19).abs() < 1e-33);
     }
@@ -409,21 +483,43 @@ mod tests {
         // Ray starting inside the sphere beyond its centre, travelling +z:
         // the vertex cap is behind it.
         let s = SphericalSurface::new(0.0, 0.1).unwrap();
-        assert!(s.intersect(&Ray::new(DVec3::new(0.0, 0.0, 15.0), DVec3::Z).unwrap()).is_none());
+        assert!(
+            s.intersect(&Ray::new(DVec3::new(0.0, 0.0, 15.0), DVec3::Z).unwrap())
+                .is_none()
+        );
     }
 
     #[test]
     fn sphere_hand_worked_roots() {
         // Unit sphere at (0,0,5), ray from origin along +z: t = 4 and 6.
-        let h = intersect_sphere(&Ray::new(DVec3::ZERO, DVec3::Z).unwrap(), DVec3::new(0.0, 0.0, 5.0), 1.0).unwrap();
+        let h = intersect_sphere(
+            &Ray::new(DVec3::ZERO, DVec3::Z).unwrap(),
+            DVec3::new(0.0, 0.0, 5.0),
+            1.0,
+        )
+        .unwrap();
         assert!((h.t_near - 4.0).abs() < 1e-15 && (h.t_far - 6.0).abs() < 1e-15);
         assert_eq!(h.first_forward(T_EPSILON), Some(h.t_near));
         // Far origin (1e8) and small sphere: roots still accurate.
-        let h = intersect_sphere(&Ray::new(DVec3::new(0.0, 0.5, -1e8), DVec3::Z).unwrap(), DVec3::ZERO, 1.0).unwrap();
+        let h = intersect_sphere(
+            &Ray::new(DVec3::new(0.0, 0.5, -1e8), DVec3::Z).unwrap(),
+            DVec3::ZERO,
+            1.0,
+        )
+        .unwrap();
         let half = 0.75f64.sqrt();
         assert!((h.t_near - (1e8 - half)).abs() < 1e-7 && (h.t_far - (1e8 + half)).abs() < 1e-7);
-        assert!(intersect_sphere(&Ray::new(DVec3::ZERO, DVec3::Z).unwrap(), DVec3::new(0.0, 2.0, 5.0), 1.0).is_none());
-        assert!(intersect_sphere(&Ray::new(DVec3::ZERO, DVec3::Z).unwrap(), DVec3::ZERO, 0.0).is_none());
+        assert!(
+            intersect_sphere(
+                &Ray::new(DVec3::ZERO, DVec3::Z).unwrap(),
+                DVec3::new(0.0, 2.0, 5.0),
+                1.0
+            )
+            .is_none()
+        );
+        assert!(
+            intersect_sphere(&Ray::new(DVec3::ZERO, DVec3::Z).unwrap(), DVec3::ZERO, 0.0).is_none()
+        );
     }
 
     #[test]
@@ -435,10 +531,24 @@ mod tests {
         // Same with the normal facing the other way.
         assert_eq!(refract(d, DVec3::Z, 1.0, 1.5), Refraction::Transmitted(t));
         // Glass to air beyond the critical angle (41.8°): TIR, not a zero vector.
-        assert_eq!(refract(d, DVec3::Z, 1.5, 1.0), Refraction::TotalInternalReflection);
-        assert_eq!(try_refract(d, DVec3::Z, f64::NAN, 1.0).unwrap_err().what, "refractive index");
-        assert_eq!(try_refract(DVec3::ZERO, DVec3::Z, 1.0, 1.0).unwrap_err().what, "refracted direction");
-        assert_eq!(try_refract(d, DVec3::ZERO, 1.0, 1.5).unwrap_err().what, "surface normal");
+        assert_eq!(
+            refract(d, DVec3::Z, 1.5, 1.0),
+            Refraction::TotalInternalReflection
+        );
+        assert_eq!(
+            try_refract(d, DVec3::Z, f64::NAN, 1.0).unwrap_err().what,
+            "refractive index"
+        );
+        assert_eq!(
+            try_refract(DVec3::ZERO, DVec3::Z, 1.0, 1.0)
+                .unwrap_err()
+                .what,
+            "refracted direction"
+        );
+        assert_eq!(
+            try_refract(d, DVec3::ZERO, 1.0, 1.5).unwrap_err().what,
+            "surface normal"
+        );
         assert_eq!(reflect(d, DVec3::Z), DVec3::new(d.x, 0.0, -d.z));
     }
 

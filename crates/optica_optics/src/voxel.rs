@@ -83,7 +83,10 @@ fn check_geometry(origin: DVec3, cell_size: DVec3, dims: [usize; 3]) -> Result<u
         input::positive("voxel cell size", c)?;
     }
     dims.iter()
-        .try_fold(1usize, |acc, &n| if n == 0 { None } else { acc.checked_mul(n) })
+        .try_fold(
+            1usize,
+            |acc, &n| if n == 0 { None } else { acc.checked_mul(n) },
+        )
         .ok_or(VoxelError::BadDims(dims))
 }
 
@@ -98,7 +101,12 @@ impl<T> VoxelGrid<T> {
     ) -> Result<Self, VoxelError> {
         let n = check_geometry(origin, cell_size, dims)?;
         let cells = (0..n).map(|i| f(unflatten(i, dims))).collect();
-        Ok(Self { origin, cell_size, dims, cells })
+        Ok(Self {
+            origin,
+            cell_size,
+            dims,
+            cells,
+        })
     }
 
     /// [`VoxelGrid::from_fn`] evaluated in parallel (rayon), for expensive
@@ -113,17 +121,39 @@ impl<T> VoxelGrid<T> {
         T: Send,
     {
         let n = check_geometry(origin, cell_size, dims)?;
-        let cells = (0..n).into_par_iter().map(|i| f(unflatten(i, dims))).collect();
-        Ok(Self { origin, cell_size, dims, cells })
+        let cells = (0..n)
+            .into_par_iter()
+            .map(|i| f(unflatten(i, dims)))
+            .collect();
+        Ok(Self {
+            origin,
+            cell_size,
+            dims,
+            cells,
+        })
     }
 
     /// A grid over existing storage (x fastest, then y, then z).
-    pub fn from_vec(origin: DVec3, cell_size: DVec3, dims: [usize; 3], cells: Vec<T>) -> Result<Self, VoxelError> {
+    pub fn from_vec(
+        origin: DVec3,
+        cell_size: DVec3,
+        dims: [usize; 3],
+        cells: Vec<T>,
+    ) -> Result<Self, VoxelError> {
         let n = check_geometry(origin, cell_size, dims)?;
         if cells.len() != n {
-            return Err(VoxelError::WrongLength { dims, expected: n, got: cells.len() });
+            return Err(VoxelError::WrongLength {
+                dims,
+                expected: n,
+                got: cells.len(),
+            });
         }
-        Ok(Self { origin, cell_size, dims, cells })
+        Ok(Self {
+            origin,
+            cell_size,
+            dims,
+            cells,
+        })
     }
 
     /// Min corner of the grid.
@@ -260,7 +290,8 @@ impl<T> VoxelGrid<T> {
             i1[a] = (i0[a] + 1).min(last);
             w[a] = x - f;
         }
-        let v = |x: usize, y: usize, z: usize| self.cells[x + self.dims[0] * (y + self.dims[1] * z)];
+        let v =
+            |x: usize, y: usize, z: usize| self.cells[x + self.dims[0] * (y + self.dims[1] * z)];
         let lerp = |a: T, b: T, t: f64| a * (1.0 - t) + b * t;
         let c00 = lerp(v(i0[0], i0[1], i0[2]), v(i1[0], i0[1], i0[2]), w[0]);
         let c10 = lerp(v(i0[0], i1[1], i0[2]), v(i1[0], i1[1], i0[2]), w[0]);
@@ -272,19 +303,38 @@ impl<T> VoxelGrid<T> {
 
 impl<T: Clone> VoxelGrid<T> {
     /// A grid with every cell set to `fill`.
-    pub fn new(origin: DVec3, cell_size: DVec3, dims: [usize; 3], fill: T) -> Result<Self, VoxelError> {
+    pub fn new(
+        origin: DVec3,
+        cell_size: DVec3,
+        dims: [usize; 3],
+        fill: T,
+    ) -> Result<Self, VoxelError> {
         let n = check_geometry(origin, cell_size, dims)?;
-        Ok(Self { origin, cell_size, dims, cells: vec![fill; n] })
+        Ok(Self {
+            origin,
+            cell_size,
+            dims,
+            cells: vec![fill; n],
+        })
     }
 
     /// A grid spanning the box `[min, max]` with `dims` cells per axis.
-    pub fn from_bounds(min: DVec3, max: DVec3, dims: [usize; 3], fill: T) -> Result<Self, VoxelError> {
+    pub fn from_bounds(
+        min: DVec3,
+        max: DVec3,
+        dims: [usize; 3],
+        fill: T,
+    ) -> Result<Self, VoxelError> {
         Self::new(min, (max - min) / dims_vec(dims), dims, fill)
     }
 }
 
 fn unflatten(i: usize, dims: [usize; 3]) -> [usize; 3] {
-    [i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1])]
+    [
+        i % dims[0],
+        (i / dims[0]) % dims[1],
+        i / (dims[0] * dims[1]),
+    ]
 }
 
 fn dims_vec(d: [usize; 3]) -> DVec3 {
@@ -387,7 +437,11 @@ impl GridTraversal {
         // the entry face.
         for a in 0..3 {
             let u = (o[a] - grid_origin[a]) / cell_size[a] + d[a] / cell_size[a] * t0;
-            let k = if d[a] < 0.0 { u.ceil() - 1.0 } else { u.floor() };
+            let k = if d[a] < 0.0 {
+                u.ceil() - 1.0
+            } else {
+                u.floor()
+            };
             it.cell[a] = k.clamp(0.0, (dims[a] - 1) as f64) as usize;
         }
         // `u` can round to the wrong side of a boundary the ray starts on;
@@ -487,7 +541,9 @@ mod tests {
 
     fn walk(g: &VoxelGrid<u8>, o: [f64; 3], d: [f64; 3]) -> Vec<([usize; 3], f64, f64)> {
         // A ray that cannot be built (zero or NaN) walks no cell.
-        Ray::new(DVec3::from(o), DVec3::from(d)).map(|r| g.traverse(&r).collect()).unwrap_or_default()
+        Ray::new(DVec3::from(o), DVec3::from(d))
+            .map(|r| g.traverse(&r).collect())
+            .unwrap_or_default()
     }
 
     fn cells(w: &[([usize; 3], f64, f64)]) -> Vec<[usize; 3]> {
@@ -496,7 +552,13 @@ mod tests {
 
     #[test]
     fn voxel_grid_indexing_and_cell_of() {
-        let g = VoxelGrid::from_fn(DVec3::new(-1.0, 0.0, 2.0), DVec3::new(0.5, 1.0, 2.0), [3, 2, 2], |c| c).unwrap();
+        let g = VoxelGrid::from_fn(
+            DVec3::new(-1.0, 0.0, 2.0),
+            DVec3::new(0.5, 1.0, 2.0),
+            [3, 2, 2],
+            |c| c,
+        )
+        .unwrap();
         assert_eq!(g.len(), 12);
         for i in 0..12 {
             let c = g.cell_at_index(i).unwrap();
@@ -504,7 +566,10 @@ mod tests {
             assert_eq!(*g.get(c).unwrap(), c);
         }
         assert_eq!(g.index([3, 0, 0]), None);
-        assert_eq!(g.bounds(), (DVec3::new(-1.0, 0.0, 2.0), DVec3::new(0.5, 2.0, 6.0)));
+        assert_eq!(
+            g.bounds(),
+            (DVec3::new(-1.0, 0.0, 2.0), DVec3::new(0.5, 2.0, 6.0))
+        );
         assert_eq!(g.cell_of(DVec3::new(-0.75, 1.5, 5.0)), Some([0, 1, 1]));
         // Half-open: min faces in, max faces out.
         assert_eq!(g.cell_of(DVec3::new(-1.0, 0.0, 2.0)), Some([0, 0, 0]));
@@ -515,19 +580,47 @@ mod tests {
             VoxelError::Input(i) => (i.what, i.value),
             other => panic!("expected an input error, got {other:?}"),
         };
-        assert_eq!(input(VoxelGrid::new(DVec3::ZERO, DVec3::new(1.0, 0.0, 1.0), [1, 1, 1], 0).unwrap_err()), ("voxel cell size", 0.0));
-        assert_eq!(input(VoxelGrid::new(DVec3::new(0.0, f64::NAN, 0.0), DVec3::ONE, [1, 1, 1], 0).unwrap_err()).0, "voxel grid origin");
-        assert_eq!(VoxelGrid::new(DVec3::ZERO, DVec3::ONE, [1, 0, 1], 0).unwrap_err(), VoxelError::BadDims([1, 0, 1]));
-        assert_eq!(VoxelGrid::new(DVec3::ZERO, DVec3::ONE, [usize::MAX, 2, 1], 0).unwrap_err(), VoxelError::BadDims([usize::MAX, 2, 1]));
+        assert_eq!(
+            input(
+                VoxelGrid::new(DVec3::ZERO, DVec3::new(1.0, 0.0, 1.0), [1, 1, 1], 0).unwrap_err()
+            ),
+            ("voxel cell size", 0.0)
+        );
+        assert_eq!(
+            input(
+                VoxelGrid::new(DVec3::new(0.0, f64::NAN, 0.0), DVec3::ONE, [1, 1, 1], 0)
+                    .unwrap_err()
+            )
+            .0,
+            "voxel grid origin"
+        );
+        assert_eq!(
+            VoxelGrid::new(DVec3::ZERO, DVec3::ONE, [1, 0, 1], 0).unwrap_err(),
+            VoxelError::BadDims([1, 0, 1])
+        );
+        assert_eq!(
+            VoxelGrid::new(DVec3::ZERO, DVec3::ONE, [usize::MAX, 2, 1], 0).unwrap_err(),
+            VoxelError::BadDims([usize::MAX, 2, 1])
+        );
         assert_eq!(
             VoxelGrid::from_vec(DVec3::ZERO, DVec3::ONE, [2, 1, 1], vec![0]).unwrap_err(),
-            VoxelError::WrongLength { dims: [2, 1, 1], expected: 2, got: 1 }
+            VoxelError::WrongLength {
+                dims: [2, 1, 1],
+                expected: 2,
+                got: 1
+            }
         );
         let mut g = grid441();
         *g.get_mut([3, 3, 0]).unwrap() = 7;
         assert_eq!(g.cells()[15], 7);
-        let p = VoxelGrid::from_fn_par(DVec3::ZERO, DVec3::ONE, [5, 4, 3], |c| c[0] + 10 * c[1] + 100 * c[2]).unwrap();
-        let s = VoxelGrid::from_fn(DVec3::ZERO, DVec3::ONE, [5, 4, 3], |c| c[0] + 10 * c[1] + 100 * c[2]).unwrap();
+        let p = VoxelGrid::from_fn_par(DVec3::ZERO, DVec3::ONE, [5, 4, 3], |c| {
+            c[0] + 10 * c[1] + 100 * c[2]
+        })
+        .unwrap();
+        let s = VoxelGrid::from_fn(DVec3::ZERO, DVec3::ONE, [5, 4, 3], |c| {
+            c[0] + 10 * c[1] + 100 * c[2]
+        })
+        .unwrap();
         assert_eq!(p, s);
     }
 
@@ -537,35 +630,59 @@ mod tests {
         // the centre lattice and clamped outside it.
         let f = |p: DVec3| 2.0 * p.x - p.y + 0.5 * p.z + 1.0;
         let g = VoxelGrid::from_fn(DVec3::ZERO, DVec3::new(1.0, 2.0, 0.5), [4, 3, 5], |c| {
-            f(DVec3::new(c[0] as f64 + 0.5, 2.0 * c[1] as f64 + 1.0, 0.5 * c[2] as f64 + 0.25))
+            f(DVec3::new(
+                c[0] as f64 + 0.5,
+                2.0 * c[1] as f64 + 1.0,
+                0.5 * c[2] as f64 + 0.25,
+            ))
         })
         .unwrap();
-        for p in [DVec3::new(1.3, 2.2, 1.1), DVec3::new(0.5, 1.0, 0.25), DVec3::new(3.5, 5.0, 2.25)] {
+        for p in [
+            DVec3::new(1.3, 2.2, 1.1),
+            DVec3::new(0.5, 1.0, 0.25),
+            DVec3::new(3.5, 5.0, 2.25),
+        ] {
             assert!((g.trilinear(p).unwrap() - f(p)).abs() < 1e-12, "{p}");
         }
-        assert!((g.trilinear(DVec3::new(-5.0, 1.0, 0.25)).unwrap() - f(DVec3::new(0.5, 1.0, 0.25))).abs() < 1e-12);
+        assert!(
+            (g.trilinear(DVec3::new(-5.0, 1.0, 0.25)).unwrap() - f(DVec3::new(0.5, 1.0, 0.25)))
+                .abs()
+                < 1e-12
+        );
         assert!(g.trilinear(DVec3::NAN).is_none());
     }
 
     #[test]
     fn voxel_grid_deserialisation_is_validated() {
         // A good grid round-trips.
-        let g = VoxelGrid::from_fn(DVec3::new(-1.0, 0.0, 2.0), DVec3::new(0.5, 1.0, 2.0), [3, 2, 1], |c| c[0] as u32).unwrap();
+        let g = VoxelGrid::from_fn(
+            DVec3::new(-1.0, 0.0, 2.0),
+            DVec3::new(0.5, 1.0, 2.0),
+            [3, 2, 1],
+            |c| c[0] as u32,
+        )
+        .unwrap();
         let json = serde_json::to_string(&g).unwrap();
         assert_eq!(serde_json::from_str::<VoxelGrid<u32>>(&json).unwrap(), g);
         // Zero dims (would underflow `dims − 1` in `trilinear`), short
         // storage (would panic in `get`), a bad cell size: all rejected by
         // the deserialiser with the constructor's message.
         let bad = |origin: &str, size: &str, dims: &str, cells: &str| {
-            let j = format!(r#"{{"origin":{origin},"cell_size":{size},"dims":{dims},"cells":{cells}}}"#);
-            serde_json::from_str::<VoxelGrid<f64>>(&j).err().map(|e| e.to_string())
+            let j = format!(
+                r#"{{"origin":{origin},"cell_size":{size},"dims":{dims},"cells":{cells}}}"#
+            );
+            serde_json::from_str::<VoxelGrid<f64>>(&j)
+                .err()
+                .map(|e| e.to_string())
         };
         assert_eq!(bad("[0,0,0]", "[1,1,1]", "[1,1,1]", "[5.0]"), None);
         let e = bad("[0,0,0]", "[1,1,1]", "[0,1,1]", "[]").expect("zero dims must be rejected");
         assert!(e.contains("zero or too large"), "{e}");
-        let e = bad("[0,0,0]", "[1,1,1]", "[2,2,1]", "[1.0]").expect("short storage must be rejected");
+        let e =
+            bad("[0,0,0]", "[1,1,1]", "[2,2,1]", "[1.0]").expect("short storage must be rejected");
         assert!(e.contains("needs 4 cells, got 1"), "{e}");
-        let e = bad("[0,0,0]", "[1,-1,1]", "[1,1,1]", "[1.0]").expect("negative cell size must be rejected");
+        let e = bad("[0,0,0]", "[1,-1,1]", "[1,1,1]", "[1.0]")
+            .expect("negative cell size must be rejected");
         assert!(e.contains("cell size"), "{e}");
         assert!(bad("[0,0,0]", "[1,1,1]", "[18446744073709551615,2,1]", "[1.0]").is_some());
     }
@@ -574,7 +691,11 @@ mod tests {
     fn voxel_trilinear_with_single_cell_axes() {
         // One cell per axis: the value everywhere (clamped), no underflow.
         let g = VoxelGrid::new(DVec3::ZERO, DVec3::ONE, [1, 1, 1], 3.5).unwrap();
-        for p in [DVec3::splat(0.5), DVec3::splat(-7.0), DVec3::new(1e300, -1e300, 0.0)] {
+        for p in [
+            DVec3::splat(0.5),
+            DVec3::splat(-7.0),
+            DVec3::new(1e300, -1e300, 0.0),
+        ] {
             assert_eq!(g.trilinear(p), Some(3.5), "{p}");
         }
         // One cell on x and z, three on y: linear along y only.
@@ -594,7 +715,11 @@ mod tests {
         }
         // Only [1.5, 2.5] of that ray: half of cell 0, half of cell 1.
         let w: Vec<_> = grid441()
-            .traverse_segment(&Ray::new(DVec3::new(-1.0, 0.5, 0.5), DVec3::X).unwrap(), 1.5, 2.5)
+            .traverse_segment(
+                &Ray::new(DVec3::new(-1.0, 0.5, 0.5), DVec3::X).unwrap(),
+                1.5,
+                2.5,
+            )
             .collect();
         assert_eq!(w, vec![([0, 0, 0], 1.5, 2.0), ([1, 0, 0], 2.0, 2.5)]);
     }
@@ -617,7 +742,10 @@ mod tests {
         assert_eq!(w.len(), expect.len());
         for (got, want) in w.iter().zip(expect) {
             assert_eq!(got.0, want.0);
-            assert!((got.1 - want.1 * k).abs() < 1e-12 && (got.2 - want.2 * k).abs() < 1e-12, "{got:?}");
+            assert!(
+                (got.1 - want.1 * k).abs() < 1e-12 && (got.2 - want.2 * k).abs() < 1e-12,
+                "{got:?}"
+            );
         }
         // The same ray reversed visits the same cells backwards.
         let back = walk(&grid441(), [4.0, 1.7, 0.5], [-1.0, -0.5, 0.0]);
@@ -630,16 +758,33 @@ mod tests {
     fn traversal_boundaries_and_corners() {
         let g = grid441();
         // Origin on the x = 1 boundary: the cell it heads into.
-        assert_eq!(cells(&walk(&g, [1.0, 0.5, 0.5], [1.0, 0.0, 0.0]))[0], [1, 0, 0]);
-        assert_eq!(cells(&walk(&g, [1.0, 0.5, 0.5], [-1.0, 0.0, 0.0])), vec![[0, 0, 0]]);
+        assert_eq!(
+            cells(&walk(&g, [1.0, 0.5, 0.5], [1.0, 0.0, 0.0]))[0],
+            [1, 0, 0]
+        );
+        assert_eq!(
+            cells(&walk(&g, [1.0, 0.5, 0.5], [-1.0, 0.0, 0.0])),
+            vec![[0, 0, 0]]
+        );
         // On a boundary of an axis it does not move along: half-open rule.
-        assert_eq!(cells(&walk(&g, [1.0, 0.5, 0.5], [0.0, 1.0, 0.0])), vec![[1, 0, 0], [1, 1, 0], [1, 2, 0], [1, 3, 0]]);
+        assert_eq!(
+            cells(&walk(&g, [1.0, 0.5, 0.5], [0.0, 1.0, 0.0])),
+            vec![[1, 0, 0], [1, 1, 0], [1, 2, 0], [1, 3, 0]]
+        );
         // Exactly through the corners (1,1), (2,2), (3,3): x steps before y,
         // the in-between cells have zero length, no cell is skipped or repeated.
         let w = walk(&g, [0.5, 0.5, 0.5], [1.0, 1.0, 0.0]);
         assert_eq!(
             cells(&w),
-            vec![[0, 0, 0], [1, 0, 0], [1, 1, 0], [2, 1, 0], [2, 2, 0], [3, 2, 0], [3, 3, 0]]
+            vec![
+                [0, 0, 0],
+                [1, 0, 0],
+                [1, 1, 0],
+                [2, 1, 0],
+                [2, 2, 0],
+                [3, 2, 0],
+                [3, 3, 0]
+            ]
         );
         assert_eq!(w[1].1, w[1].2);
         // Along the max face y = 4 (outside, half-open) and the min face y = 0 (inside).
@@ -653,10 +798,30 @@ mod tests {
         assert!(walk(&g, [5.0, 0.5, 0.5], [1.0, 0.1, 0.0]).is_empty());
         assert!(walk(&g, [0.5, 0.5, 0.5], [0.0, 0.0, 0.0]).is_empty());
         assert!(walk(&g, [0.5, f64::NAN, 0.5], [1.0, 0.0, 0.0]).is_empty());
-        assert_eq!(g.traverse_segment(&Ray::new(DVec3::splat(0.5), DVec3::X).unwrap(), 2.0, 1.0).count(), 0);
-        assert_eq!(g.traverse_segment(&Ray::new(DVec3::splat(0.5), DVec3::X).unwrap(), f64::NAN, 1.0).count(), 0);
+        assert_eq!(
+            g.traverse_segment(&Ray::new(DVec3::splat(0.5), DVec3::X).unwrap(), 2.0, 1.0)
+                .count(),
+            0
+        );
+        assert_eq!(
+            g.traverse_segment(
+                &Ray::new(DVec3::splat(0.5), DVec3::X).unwrap(),
+                f64::NAN,
+                1.0
+            )
+            .count(),
+            0
+        );
         // Whole line (t from −∞): all four cells of the row.
-        assert_eq!(g.traverse_segment(&Ray::new(DVec3::new(2.5, 0.5, 0.5), DVec3::X).unwrap(), f64::NEG_INFINITY, f64::INFINITY).count(), 4);
+        assert_eq!(
+            g.traverse_segment(
+                &Ray::new(DVec3::new(2.5, 0.5, 0.5), DVec3::X).unwrap(),
+                f64::NEG_INFINITY,
+                f64::INFINITY
+            )
+            .count(),
+            4
+        );
     }
 
     /// A coordinate that is sometimes snapped onto a cell boundary, to

@@ -20,7 +20,13 @@ pub struct SweepContext {
 impl SweepContext {
     /// A context for the sweep named `label`, rendering on lavapipe.
     pub fn new(label: &str, quick: bool, quiet: bool) -> Self {
-        Self { quick, adapter: Adapter::Software, label: label.into(), started: Instant::now(), quiet }
+        Self {
+            quick,
+            adapter: Adapter::Software,
+            label: label.into(),
+            started: Instant::now(),
+            quiet,
+        }
     }
 
     /// Renders on `adapter` instead.
@@ -41,7 +47,10 @@ impl SweepContext {
             return;
         }
         let secs = self.started.elapsed().as_secs_f64();
-        eprintln!("[{}] {}/{} {} ({:.1} s)", self.label, step, total, note, secs);
+        eprintln!(
+            "[{}] {}/{} {} ({:.1} s)",
+            self.label, step, total, note, secs
+        );
         let _ = std::io::stderr().flush();
     }
 

@@ -49,14 +49,21 @@ pub struct RunOptions {
 /// Runs the sweep called `name` (or every sweep for `all`) and writes its
 /// files into `options.out`. Returns the reports.
 pub fn run(name: &str, options: &RunOptions) -> Result<Vec<Report>, String> {
-    let chosen: Vec<_> = sweeps::SWEEPS.iter().filter(|(n, _)| name == "all" || *n == name).collect();
+    let chosen: Vec<_> = sweeps::SWEEPS
+        .iter()
+        .filter(|(n, _)| name == "all" || *n == name)
+        .collect();
     if chosen.is_empty() {
         let known: Vec<_> = sweeps::SWEEPS.iter().map(|(n, _)| *n).collect();
-        return Err(format!("unknown sweep `{name}`; known: all, {}", known.join(", ")));
+        return Err(format!(
+            "unknown sweep `{name}`; known: all, {}",
+            known.join(", ")
+        ));
     }
     let mut reports = Vec::new();
     for (n, f) in chosen {
-        let ctx = SweepContext::new(n, options.quick, options.quiet).with_adapter(options.adapter.clone());
+        let ctx = SweepContext::new(n, options.quick, options.quiet)
+            .with_adapter(options.adapter.clone());
         let report = f(&ctx).map_err(|e| format!("sweep `{n}`: {e}"))?;
         write_all(&report, &options.out).map_err(|e| e.to_string())?;
         reports.push(report);

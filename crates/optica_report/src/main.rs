@@ -9,7 +9,12 @@ use optica_report::RunOptions;
 fn main() -> ExitCode {
     let mut args = std::env::args().skip(1);
     let mut name = None;
-    let mut options = RunOptions { out: PathBuf::from("report"), quick: false, quiet: false, adapter: Adapter::Software };
+    let mut options = RunOptions {
+        out: PathBuf::from("report"),
+        quick: false,
+        quiet: false,
+        adapter: Adapter::Software,
+    };
     while let Some(a) = args.next() {
         match a.as_str() {
             "--out" => match args.next() {
@@ -18,7 +23,9 @@ fn main() -> ExitCode {
             },
             "--adapter" => match args.next() {
                 Some(choice) if choice.eq_ignore_ascii_case("noop") => {
-                    return usage("--adapter noop draws nothing: use software, auto or an adapter name");
+                    return usage(
+                        "--adapter noop draws nothing: use software, auto or an adapter name",
+                    );
                 }
                 Some(choice) => options.adapter = Adapter::parse(&choice),
                 None => return usage("--adapter needs software, auto or part of an adapter name"),
@@ -29,7 +36,9 @@ fn main() -> ExitCode {
             _ => return usage(&format!("unexpected argument `{a}`")),
         }
     }
-    let Some(name) = name else { return usage("name a sweep or `all`") };
+    let Some(name) = name else {
+        return usage("name a sweep or `all`");
+    };
     match optica_report::run(&name, &options) {
         Ok(reports) => {
             for r in reports {
@@ -58,10 +67,17 @@ fn usage(problem: &str) -> ExitCode {
     if !problem.is_empty() {
         eprintln!("error: {problem}");
     }
-    let names: Vec<_> = optica_report::sweeps::SWEEPS.iter().map(|(n, _)| *n).collect();
+    let names: Vec<_> = optica_report::sweeps::SWEEPS
+        .iter()
+        .map(|(n, _)| *n)
+        .collect();
     eprintln!(
         "usage: optica_report <{}|all> [--out DIR] [--quick] [--adapter software|auto|<name>]",
         names.join("|")
     );
-    if problem.is_empty() { ExitCode::SUCCESS } else { ExitCode::FAILURE }
+    if problem.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    }
 }

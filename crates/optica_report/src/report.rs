@@ -97,7 +97,10 @@ impl Report {
 
     /// An empty report of a sweep that rendered on `adapter`.
     pub fn rendered(plugin: &str, knob: &str, adapter: AdapterInfo) -> Self {
-        Self { adapter: Some(adapter), ..Self::cpu(plugin, knob) }
+        Self {
+            adapter: Some(adapter),
+            ..Self::cpu(plugin, knob)
+        }
     }
 
     /// The adapter in words: its summary, or that the sweep ran on the CPU only.
@@ -110,7 +113,11 @@ impl Report {
 
     /// Adds a stability case.
     pub fn case(&mut self, case: &str, ok: bool, detail: impl Into<String>) {
-        self.stability.push(StabilityCase { case: case.into(), ok, detail: detail.into() });
+        self.stability.push(StabilityCase {
+            case: case.into(),
+            ok,
+            detail: detail.into(),
+        });
     }
 
     /// What a sweep's own test must fail on, in words: a non-finite time,
@@ -119,8 +126,16 @@ impl Report {
     pub fn problems(&self) -> Vec<String> {
         let mut out = Vec::new();
         for row in &self.rows {
-            let numbers = [("time_ms", &row.time_ms), ("baseline_time_ms", &row.baseline_time_ms)];
-            let named = row.error.iter().chain(row.work.iter()).chain(row.timings.iter()).map(|(k, v)| (k.as_str(), v));
+            let numbers = [
+                ("time_ms", &row.time_ms),
+                ("baseline_time_ms", &row.baseline_time_ms),
+            ];
+            let named = row
+                .error
+                .iter()
+                .chain(row.work.iter())
+                .chain(row.timings.iter())
+                .map(|(k, v)| (k.as_str(), v));
             for (name, v) in numbers.into_iter().chain(named) {
                 if !v.is_finite() {
                     out.push(format!("{} = {}: {name} is {v}", self.knob, row.knob));
@@ -180,10 +195,12 @@ mod tests {
     #[test]
     fn problems_name_non_finite_numbers_and_failed_cases() {
         let mut r = Report::cpu("demo", "n");
-        r.rows.push(Row::new(1.0, 2.0, 1.0).err("rel", 0.1).work("rays", 10.0));
+        r.rows
+            .push(Row::new(1.0, 2.0, 1.0).err("rel", 0.1).work("rays", 10.0));
         r.case("fine", true, "ok");
         assert!(r.problems().is_empty());
-        r.rows.push(Row::new(2.0, f64::NAN, 1.0).err("rel", f64::INFINITY));
+        r.rows
+            .push(Row::new(2.0, f64::NAN, 1.0).err("rel", f64::INFINITY));
         r.case("broken", false, "NaN pixel");
         let p = r.problems();
         assert_eq!(p.len(), 3, "{p:?}");

@@ -30,14 +30,26 @@ pub enum WriteError {
 
 /// Writes `DIR/<plugin>.json`, `.md` and `.png`; returns the three paths.
 pub fn write_all(report: &Report, dir: &Path) -> Result<[PathBuf; 3], WriteError> {
-    std::fs::create_dir_all(dir).map_err(|source| WriteError::Io { path: dir.into(), source })?;
+    std::fs::create_dir_all(dir).map_err(|source| WriteError::Io {
+        path: dir.into(),
+        source,
+    })?;
     let json = dir.join(format!("{}.json", report.plugin));
     let md = dir.join(format!("{}.md", report.plugin));
     let png = dir.join(format!("{}.png", report.plugin));
     let text = serde_json::to_string_pretty(report).expect("a report serialises");
-    std::fs::write(&json, text).map_err(|source| WriteError::Io { path: json.clone(), source })?;
-    std::fs::write(&md, markdown(report)).map_err(|source| WriteError::Io { path: md.clone(), source })?;
-    plot(report, &png).map_err(|message| WriteError::Plot { path: png.clone(), message })?;
+    std::fs::write(&json, text).map_err(|source| WriteError::Io {
+        path: json.clone(),
+        source,
+    })?;
+    std::fs::write(&md, markdown(report)).map_err(|source| WriteError::Io {
+        path: md.clone(),
+        source,
+    })?;
+    plot(report, &png).map_err(|message| WriteError::Plot {
+        path: png.clone(),
+        message,
+    })?;
     Ok([json, md, png])
 }
 
@@ -58,7 +70,12 @@ pub fn markdown(report: &Report) -> String {
     let timings = names(report.rows.iter().flat_map(|r| r.timings.keys()));
     let work = names(report.rows.iter().flat_map(|r| r.work.keys()));
     let has_series = report.rows.iter().any(|r| !r.series.is_empty());
-    let _ = write!(s, "\n|{} {} |", if has_series { " series |" } else { "" }, report.knob);
+    let _ = write!(
+        s,
+        "\n|{} {} |",
+        if has_series { " series |" } else { "" },
+        report.knob
+    );
     for e in &errors {
         let _ = write!(s, " {e} |");
     }
@@ -82,10 +99,24 @@ pub fn markdown(report: &Report) -> String {
         for e in &errors {
             let _ = write!(s, " {} |", row.error.get(e).map_or("–".into(), |v| num(*v)));
         }
-        let ratio = if row.baseline_time_ms > 0.0 { row.time_ms / row.baseline_time_ms } else { f64::NAN };
-        let _ = write!(s, " {} | {} | {} |", num(row.time_ms), num(row.baseline_time_ms), num(ratio));
+        let ratio = if row.baseline_time_ms > 0.0 {
+            row.time_ms / row.baseline_time_ms
+        } else {
+            f64::NAN
+        };
+        let _ = write!(
+            s,
+            " {} | {} | {} |",
+            num(row.time_ms),
+            num(row.baseline_time_ms),
+            num(ratio)
+        );
         for t in &timings {
-            let _ = write!(s, " {} |", row.timings.get(t).map_or("–".into(), |v| num(*v)));
+            let _ = write!(
+                s,
+                " {} |",
+                row.timings.get(t).map_or("–".into(), |v| num(*v))
+            );
         }
         for w in &work {
             let _ = write!(s, " {} |", row.work.get(w).map_or("–".into(), |v| num(*v)));
@@ -94,7 +125,13 @@ pub fn markdown(report: &Report) -> String {
     }
     let _ = writeln!(s, "\n## Stability\n\n| case | ok | detail |\n|---|---|---|");
     for c in &report.stability {
-        let _ = writeln!(s, "| {} | {} | {} |", c.case, if c.ok { "yes" } else { "**NO**" }, c.detail.replace('|', "\\|"));
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} |",
+            c.case,
+            if c.ok { "yes" } else { "**NO**" },
+            c.detail.replace('|', "\\|")
+        );
     }
     s
 }
@@ -139,12 +176,20 @@ fn plot(report: &Report, path: &Path) -> Result<(), String> {
     REGISTER.call_once(|| {
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
     });
-    let errors: Vec<String> = names(report.rows.iter().flat_map(|r| r.error.keys())).into_iter().filter(|n| plotted(n)).collect();
+    let errors: Vec<String> = names(report.rows.iter().flat_map(|r| r.error.keys()))
+        .into_iter()
+        .filter(|n| plotted(n))
+        .collect();
     let positive = |v: f64| v.is_finite() && v > 0.0;
     let pts: Vec<(f64, f64)> = report
         .rows
         .iter()
-        .flat_map(|r| r.error.iter().filter(|(n, _)| plotted(n)).map(move |(_, e)| (r.time_ms, *e)))
+        .flat_map(|r| {
+            r.error
+                .iter()
+                .filter(|(n, _)| plotted(n))
+                .map(move |(_, e)| (r.time_ms, *e))
+        })
         .filter(|(t, e)| positive(*t) && positive(*e))
         .collect();
     let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
@@ -155,7 +200,8 @@ fn plot(report: &Report, path: &Path) -> Result<(), String> {
     };
     let title = format!("{}: error vs time ({device})", report.plugin);
     if pts.is_empty() {
-        root.titled(&title, ("sans-serif", 22)).map_err(|e| e.to_string())?;
+        root.titled(&title, ("sans-serif", 22))
+            .map_err(|e| e.to_string())?;
         return root.present().map_err(|e| e.to_string());
     }
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
@@ -184,8 +230,10 @@ fn plot(report: &Report, path: &Path) -> Result<(), String> {
         .draw()
         .map_err(|e| e.to_string())?;
     let series_names = names(report.rows.iter().map(|r| &r.series));
-    let lines: Vec<(String, String)> =
-        series_names.iter().flat_map(|sn| errors.iter().map(move |e| (sn.clone(), e.clone()))).collect();
+    let lines: Vec<(String, String)> = series_names
+        .iter()
+        .flat_map(|sn| errors.iter().map(move |e| (sn.clone(), e.clone())))
+        .collect();
     for (i, (series_name, name)) in lines.iter().enumerate() {
         let color = Palette99::pick(i).to_rgba();
         let series: Vec<(f64, f64, f64)> = report
@@ -198,12 +246,21 @@ fn plot(report: &Report, path: &Path) -> Result<(), String> {
         if series.is_empty() {
             continue;
         }
-        let label = if series_name.is_empty() { name.clone() } else { format!("{name} ({series_name})") };
+        let label = if series_name.is_empty() {
+            name.clone()
+        } else {
+            format!("{name} ({series_name})")
+        };
         chart
-            .draw_series(LineSeries::new(series.iter().map(|(t, e, _)| (*t, *e)), color.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                series.iter().map(|(t, e, _)| (*t, *e)),
+                color.stroke_width(2),
+            ))
             .map_err(|e| e.to_string())?
             .label(label)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
         chart
             .draw_series(series.iter().map(|(t, e, k)| {
                 EmptyElement::at((*t, *e))
@@ -239,12 +296,17 @@ mod tests {
     fn writes_three_files_with_the_shape() {
         let mut r = Report::cpu("demo", "n");
         for n in [1.0, 2.0, 4.0] {
-            r.rows.push(Row::new(n, n * 1.5, 1.0).err("rel", 1.0 / n).work("rays", n * 100.0));
+            r.rows.push(
+                Row::new(n, n * 1.5, 1.0)
+                    .err("rel", 1.0 / n)
+                    .work("rays", n * 100.0),
+            );
         }
         r.case("zero", true, "finite");
         let dir = std::env::temp_dir().join(format!("optica-report-{}", std::process::id()));
         let [json, md, png] = write_all(&r, &dir).unwrap();
-        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
         for key in ["plugin", "cpu", "adapter", "knob", "rows", "stability"] {
             assert!(v.get(key).is_some(), "missing {key}");
         }
@@ -252,7 +314,11 @@ mod tests {
         for key in ["knob", "error", "time_ms", "baseline_time_ms"] {
             assert!(row.get(key).is_some(), "row missing {key}");
         }
-        assert!(std::fs::read_to_string(md).unwrap().contains("| 4 | 0.2500 | 6 | 1 | 6 | 400 |"));
+        assert!(
+            std::fs::read_to_string(md)
+                .unwrap()
+                .contains("| 4 | 0.2500 | 6 | 1 | 6 | 400 |")
+        );
         let img = image_size(&png);
         assert_eq!(img, (900, 600));
         let _ = std::fs::remove_dir_all(dir);
@@ -262,6 +328,9 @@ mod tests {
     fn image_size(path: &Path) -> (u32, u32) {
         let b = std::fs::read(path).unwrap();
         assert_eq!(&b[1..4], b"PNG");
-        (u32::from_be_bytes(b[16..20].try_into().unwrap()), u32::from_be_bytes(b[20..24].try_into().unwrap()))
+        (
+            u32::from_be_bytes(b[16..20].try_into().unwrap()),
+            u32::from_be_bytes(b[20..24].try_into().unwrap()),
+        )
     }
 }

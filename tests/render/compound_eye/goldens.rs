@@ -9,11 +9,25 @@ use super::pseudopupil::{eye_sphere, upright};
 use super::scene;
 
 fn eye_frame(lattice: EyeLattice) -> optica_harness::RenderedFrame {
-    let eye = CompoundEye { facets_per_uv: 24.0, lattice, slices: 12, ..default() };
+    let eye = CompoundEye {
+        facets_per_uv: 24.0,
+        lattice,
+        slices: 12,
+        ..default()
+    };
     let camera = Transform::from_xyz(0.4, 0.3, 1.6).looking_at(Vec3::ZERO, Vec3::Y);
-    let projection = Projection::Perspective(PerspectiveProjection { fov: 0.6, ..default() });
+    let projection = Projection::Perspective(PerspectiveProjection {
+        fov: 0.6,
+        ..default()
+    });
     Headless::new(128, 128)
-        .render(scene(eye_sphere(), upright(), Some(eye), camera, projection))
+        .render(scene(
+            eye_sphere(),
+            upright(),
+            Some(eye),
+            camera,
+            projection,
+        ))
         .expect("render")
 }
 

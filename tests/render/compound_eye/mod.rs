@@ -15,7 +15,11 @@ use optica_compound_eye::{CompoundEye, CompoundEyeMaterial, CompoundEyePlugin};
 
 /// The base material every test eye uses: a dull red-brown.
 pub fn base() -> StandardMaterial {
-    StandardMaterial { base_color: Color::srgb(0.55, 0.16, 0.1), perceptual_roughness: 0.45, ..default() }
+    StandardMaterial {
+        base_color: Color::srgb(0.55, 0.16, 0.1),
+        perceptual_roughness: 0.45,
+        ..default()
+    }
 }
 
 /// A scene: `mesh` with `eye` (or the plain base material when `None`), a
@@ -39,20 +43,34 @@ pub fn scene(
                 let mesh = meshes.add(mesh.clone());
                 match eye.clone() {
                     Some(extension) => {
-                        let material = eyes.add(CompoundEyeMaterial { base: base(), extension });
+                        let material = eyes.add(CompoundEyeMaterial {
+                            base: base(),
+                            extension,
+                        });
                         commands.spawn((Mesh3d(mesh), MeshMaterial3d(material), mesh_transform));
                     }
                     None => {
-                        commands.spawn((Mesh3d(mesh), MeshMaterial3d(plain.add(base())), mesh_transform));
+                        commands.spawn((
+                            Mesh3d(mesh),
+                            MeshMaterial3d(plain.add(base())),
+                            mesh_transform,
+                        ));
                     }
                 }
                 commands.spawn((
-                    DirectionalLight { illuminance: 6_000.0, shadow_maps_enabled: false, ..default() },
+                    DirectionalLight {
+                        illuminance: 6_000.0,
+                        shadow_maps_enabled: false,
+                        ..default()
+                    },
                     Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
                 ));
                 commands.spawn((
                     Camera3d::default(),
-                    Camera { clear_color: ClearColorConfig::Custom(Color::srgb(0.05, 0.06, 0.08)), ..default() },
+                    Camera {
+                        clear_color: ClearColorConfig::Custom(Color::srgb(0.05, 0.06, 0.08)),
+                        ..default()
+                    },
                     Msaa::Off,
                     projection.clone(),
                     camera,
@@ -65,7 +83,10 @@ pub fn scene(
 /// An orthographic projection showing `size`×`size` world units.
 pub fn ortho(size: f32) -> Projection {
     Projection::Orthographic(OrthographicProjection {
-        scaling_mode: ScalingMode::Fixed { width: size, height: size },
+        scaling_mode: ScalingMode::Fixed {
+            width: size,
+            height: size,
+        },
         ..OrthographicProjection::default_3d()
     })
 }

@@ -43,21 +43,45 @@ struct Setup {
 }
 
 fn cpu_setup(eye: &CompoundEye, quad: &Mesh) -> Setup {
-    let Some(VertexAttributeValues::Float32x3(p)) = quad.attribute(Mesh::ATTRIBUTE_POSITION) else { panic!("positions") };
-    let Some(VertexAttributeValues::Float32x2(uv)) = quad.attribute(Mesh::ATTRIBUTE_UV_0) else { panic!("uvs") };
-    let Some(Indices::U32(idx)) = quad.indices() else { panic!("u32 indices") };
+    let Some(VertexAttributeValues::Float32x3(p)) = quad.attribute(Mesh::ATTRIBUTE_POSITION) else {
+        panic!("positions")
+    };
+    let Some(VertexAttributeValues::Float32x2(uv)) = quad.attribute(Mesh::ATTRIBUTE_UV_0) else {
+        panic!("uvs")
+    };
+    let Some(Indices::U32(idx)) = quad.indices() else {
+        panic!("u32 indices")
+    };
     let corner = |k: usize| {
         let i = idx[k] as usize;
-        (DVec3::from(p[i].map(f64::from)), DVec2::from(uv[i].map(f64::from)) * eye.facets_per_uv as f64)
+        (
+            DVec3::from(p[i].map(f64::from)),
+            DVec2::from(uv[i].map(f64::from)) * eye.facets_per_uv as f64,
+        )
     };
     let (a, b, c) = (corner(0), corner(1), corner(2));
-    let axes = TextureAxes::from_triangle([a.0, b.0, c.0], [a.1, b.1, c.1]).expect("a regular quad");
+    let axes =
+        TextureAxes::from_triangle([a.0, b.0, c.0], [a.1, b.1, c.1]).expect("a regular quad");
     let kind = eye.lattice_kind();
     let r = eye.lens_radius as f64 * kind.cell_inradius(axes.u(), axes.v());
-    let lens = LensParams::new(r, eye.lens_index as f64, eye.pigment_depth as f64 * r).expect("valid lens");
-    let pigment = DarkCentre::new(eye.pigment.radius as f64, eye.pigment.softness as f64, eye.pigment.darkness as f64).unwrap();
-    let options = ShadeOptions { slices: eye.slices, max_lenses: if eye.follow_neighbours { 4 } else { 1 } };
-    Setup { lattice: Lattice::with_kind(axes, lens, kind).unwrap(), options, pigment, fresnel: eye.fresnel }
+    let lens = LensParams::new(r, eye.lens_index as f64, eye.pigment_depth as f64 * r)
+        .expect("valid lens");
+    let pigment = DarkCentre::new(
+        eye.pigment.radius as f64,
+        eye.pigment.softness as f64,
+        eye.pigment.darkness as f64,
+    )
+    .unwrap();
+    let options = ShadeOptions {
+        slices: eye.slices,
+        max_lenses: if eye.follow_neighbours { 4 } else { 1 },
+    };
+    Setup {
+        lattice: Lattice::with_kind(axes, lens, kind).unwrap(),
+        options,
+        pigment,
+        fresnel: eye.fresnel,
+    }
 }
 
 /// The CPU ray through the centre of pixel (i, j), where it meets the quad
@@ -83,34 +107,65 @@ struct Agreement {
 }
 
 fn compare(eye: CompoundEye) -> Agreement {
-    let eye = CompoundEye { output: EyeOutput::PigmentOnly, prefilter: false, ..eye };
+    let eye = CompoundEye {
+        output: EyeOutput::PigmentOnly,
+        prefilter: false,
+        ..eye
+    };
     let quad = Mesh::from(Rectangle::new(2.0, 2.0));
     let setup = cpu_setup(&eye, &quad);
     let frame = Headless::new(SIZE, SIZE)
         .hdr(true)
-        .render(scene(quad, Transform::IDENTITY, Some(eye), camera(), ortho(VIEW_SPAN)))
+        .render(scene(
+            quad,
+            Transform::IDENTITY,
+            Some(eye),
+            camera(),
+            ortho(VIEW_SPAN),
+        ))
         .expect("render");
     let gpu = frame.hdr().expect("an HDR frame");
-    let (mut n, mut within, mut sum, mut counts, mut escaping) = (0usize, 0usize, 0.0, 0usize, 0usize);
+    let (mut n, mut within, mut sum, mut counts, mut escaping) =
+        (0usize, 0usize, 0.0, 0usize, 0usize);
     for j in 0..SIZE {
         for i in 0..SIZE {
-            let Some(ray) = cpu_fragment(i, j) else { continue };
-            let cpu = facet_response(&setup.lattice, &ray, &setup.options, &setup.pigment, setup.fresnel);
+            let Some(ray) = cpu_fragment(i, j) else {
+                continue;
+            };
+            let cpu = facet_response(
+                &setup.lattice,
+                &ray,
+                &setup.options,
+                &setup.pigment,
+                setup.fresnel,
+            );
             let [m, e, lenses, _] = gpu.get_pixel(i, j).0;
             let cpu_e = cpu.escape.map_or(0.0, |(_, w)| w);
-            let d = (m as f64 - cpu.multiplier).abs().max((e as f64 - cpu_e).abs());
+            let d = (m as f64 - cpu.multiplier)
+                .abs()
+                .max((e as f64 - cpu_e).abs());
             n += 1;
             sum += d;
             within += usize::from(d <= 0.02);
             escaping += usize::from(cpu_e > 0.0);
             // The lens count: the CPU hit's, 0 for a ray that found no lens.
-            let cpu_lenses = optica_optics::compound_eye::shade_fragment_with(&setup.lattice, &ray, &setup.options)
-                .hit()
-                .map_or(lenses, |h| h.lenses as f32 / 4.0);
+            let cpu_lenses = optica_optics::compound_eye::shade_fragment_with(
+                &setup.lattice,
+                &ray,
+                &setup.options,
+            )
+            .hit()
+            .map_or(lenses, |h| h.lenses as f32 / 4.0);
             counts += usize::from((lenses - cpu_lenses).abs() < 0.01);
         }
     }
-    Agreement { pixels: n, within: within as f64 / n as f64, mean: sum / n as f64, lens_count_agree: counts as f64 / n as f64, escaping }
+    Agreement {
+        pixels: n,
+        within: within as f64 / n as f64,
+        mean: sum / n as f64,
+        lens_count_agree: counts as f64 / n as f64,
+        escaping,
+    }
 }
 
 fn assert_agrees(name: &str, a: &Agreement) {
@@ -122,9 +177,22 @@ fn assert_agrees(name: &str, a: &Agreement) {
         100.0 * a.lens_count_agree,
         a.escaping
     );
-    assert!(a.pixels > 3000, "{name}: only {} pixels on the quad", a.pixels);
-    assert!(a.within >= 0.98 && a.mean < 0.01, "{name}: {:.4} within 0.02, mean {:.5}", a.within, a.mean);
-    assert!(a.lens_count_agree >= 0.98, "{name}: lens counts agree on {:.4}", a.lens_count_agree);
+    assert!(
+        a.pixels > 3000,
+        "{name}: only {} pixels on the quad",
+        a.pixels
+    );
+    assert!(
+        a.within >= 0.98 && a.mean < 0.01,
+        "{name}: {:.4} within 0.02, mean {:.5}",
+        a.within,
+        a.mean
+    );
+    assert!(
+        a.lens_count_agree >= 0.98,
+        "{name}: lens counts agree on {:.4}",
+        a.lens_count_agree
+    );
 }
 
 #[test]
@@ -135,7 +203,12 @@ fn thesis_path_matches_its_cpu_twin() {
 
 #[test]
 fn hexagonal_lattice_with_neighbours_and_fresnel_matches_its_cpu_twin() {
-    let eye = CompoundEye { facets_per_uv: 7.0, lattice: EyeLattice::Hexagonal, slices: 12, ..default() };
+    let eye = CompoundEye {
+        facets_per_uv: 7.0,
+        lattice: EyeLattice::Hexagonal,
+        slices: 12,
+        ..default()
+    };
     let a = compare(eye);
     assert_agrees("hexagonal, neighbours, Fresnel", &a);
 }
@@ -144,7 +217,11 @@ fn hexagonal_lattice_with_neighbours_and_fresnel_matches_its_cpu_twin() {
 fn low_index_lenses_send_rays_back_out_on_the_cpu_and_the_gpu_alike() {
     // n = 0.8 bends rays away from the axis; steep ones leave the eye again,
     // and the shader must report the same escapes as the twin.
-    let eye = CompoundEye { lens_index: 0.8, pigment_depth: 2.0, ..CompoundEye::thesis(8.0, 0.8, 16) };
+    let eye = CompoundEye {
+        lens_index: 0.8,
+        pigment_depth: 2.0,
+        ..CompoundEye::thesis(8.0, 0.8, 16)
+    };
     let a = compare(eye);
     assert_agrees("n = 0.8", &a);
     assert!(a.escaping > 0, "no ray escaped: the case tests nothing");

@@ -34,22 +34,42 @@ fn look(camera: Transform, facet_px: f32) -> Seen {
         slices: 16,
         ..default()
     };
-    let projection = Projection::Perspective(PerspectiveProjection { fov: FOV, ..default() });
+    let projection = Projection::Perspective(PerspectiveProjection {
+        fov: FOV,
+        ..default()
+    });
     let frame = Headless::new(SIZE, SIZE)
         .hdr(true)
-        .render(scene(eye_sphere(), upright(), Some(eye), camera, projection))
+        .render(scene(
+            eye_sphere(),
+            upright(),
+            Some(eye),
+            camera,
+            projection,
+        ))
         .expect("render");
     let img = frame.hdr().unwrap();
     // Darkness on the sphere, 0 off it; the patch is found by averaging over
     // about a facet (optica_optics::compound_eye::dark_patch_centroid).
     let darkness: Vec<f64> = img
         .enumerate_pixels()
-        .map(|(x, y, p)| if on_sphere(camera, x, y) { 1.0 - p.0[0].clamp(0.0, 1.0) as f64 } else { 0.0 })
+        .map(|(x, y, p)| {
+            if on_sphere(camera, x, y) {
+                1.0 - p.0[0].clamp(0.0, 1.0) as f64
+            } else {
+                0.0
+            }
+        })
         .collect();
     let half = (facet_px / 2.0).round() as usize;
-    let centroid = dark_patch_centroid(&darkness, SIZE as usize, SIZE as usize, half).expect("no dark pixel on the eye");
+    let centroid = dark_patch_centroid(&darkness, SIZE as usize, SIZE as usize, half)
+        .expect("no dark pixel on the eye");
     let n = darkness.iter().filter(|&&d| d > 0.5).count();
-    Seen { centroid: centroid.as_vec2(), expected: project(camera, camera.translation.normalize() * RADIUS), dark_pixels: n }
+    Seen {
+        centroid: centroid.as_vec2(),
+        expected: project(camera, camera.translation.normalize() * RADIUS),
+        dark_pixels: n,
+    }
 }
 
 /// Bevy's UV sphere has its poles on ±Z; turned so that they are on ±Y, the
@@ -74,7 +94,10 @@ pub fn eye_sphere() -> Mesh {
 /// least a pixel inside its silhouette.
 fn on_sphere(camera: Transform, x: u32, y: u32) -> bool {
     let t = (FOV / 2.0).tan();
-    let ndc = Vec2::new((x as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / SIZE as f32 * 2.0);
+    let ndc = Vec2::new(
+        (x as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0,
+        1.0 - (y as f32 + 0.5) / SIZE as f32 * 2.0,
+    );
     let dir = camera.rotation * Vec3::new(ndc.x * t, ndc.y * t, -1.0).normalize();
     let o = camera.translation;
     // Distance of the line from the centre, against the radius less a pixel.
@@ -88,7 +111,10 @@ fn project(camera: Transform, p: Vec3) -> Vec2 {
     let view = camera.compute_affine().inverse().transform_point3(p);
     let t = (FOV / 2.0).tan();
     let ndc = Vec2::new(view.x / (-view.z * t), view.y / (-view.z * t));
-    Vec2::new((ndc.x + 1.0) / 2.0 * SIZE as f32, (1.0 - ndc.y) / 2.0 * SIZE as f32)
+    Vec2::new(
+        (ndc.x + 1.0) / 2.0 * SIZE as f32,
+        (1.0 - ndc.y) / 2.0 * SIZE as f32,
+    )
 }
 
 /// Pixels per world unit near the sphere's front for a camera at `distance`.
@@ -117,13 +143,22 @@ fn the_dark_patch_faces_the_camera_and_moves_with_it() {
             miss / facet_px
         );
         assert!(seen.dark_pixels > 5, "no pseudopupil from x = {x}");
-        assert!(miss <= facet_px, "the pseudopupil is {:.2} facets from where the normal faces the camera", miss / facet_px);
+        assert!(
+            miss <= facet_px,
+            "the pseudopupil is {:.2} facets from where the normal faces the camera",
+            miss / facet_px
+        );
         seen_at.push(seen);
     }
     // It moved with the viewpoint, by what the geometry says.
     let moved = seen_at[1].centroid - seen_at[0].centroid;
     let expected = seen_at[1].expected - seen_at[0].expected;
-    assert!(expected.length() > 4.0 * facet_px, "the two viewpoints are too close to tell");
-    assert!((moved - expected).length() <= 2.0 * facet_px, "moved {moved:?}, expected {expected:?}");
+    assert!(
+        expected.length() > 4.0 * facet_px,
+        "the two viewpoints are too close to tell"
+    );
+    assert!(
+        (moved - expected).length() <= 2.0 * facet_px,
+        "moved {moved:?}, expected {expected:?}"
+    );
 }
-

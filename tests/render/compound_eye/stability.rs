@@ -22,11 +22,16 @@ fn quad_with_uvs(map: impl Fn([f32; 2]) -> [f32; 2]) -> Mesh {
 }
 
 fn render(mesh: Mesh, eye: Option<CompoundEye>, camera: Transform) -> RenderedFrame {
-    Headless::new(SIZE, SIZE).hdr(true).render(scene(mesh, Transform::IDENTITY, eye, camera, ortho(2.4))).expect("render")
+    Headless::new(SIZE, SIZE)
+        .hdr(true)
+        .render(scene(mesh, Transform::IDENTITY, eye, camera, ortho(2.4)))
+        .expect("render")
 }
 
 fn finite(frame: &RenderedFrame) -> bool {
-    frame.hdr().is_some_and(|img| img.as_raw().iter().all(|v| v.is_finite()))
+    frame
+        .hdr()
+        .is_some_and(|img| img.as_raw().iter().all(|v| v.is_finite()))
 }
 
 fn front() -> Transform {
@@ -35,12 +40,20 @@ fn front() -> Transform {
 
 /// 89° from the quad's normal.
 fn grazing() -> Transform {
-    let dir = Vec3::new(0.0, -(89f32.to_radians().sin()), -(89f32.to_radians().cos())).normalize();
+    let dir = Vec3::new(
+        0.0,
+        -(89f32.to_radians().sin()),
+        -(89f32.to_radians().cos()),
+    )
+    .normalize();
     Transform::from_translation(-4.0 * dir).looking_to(dir, Vec3::Y)
 }
 
 fn pigment(eye: CompoundEye) -> Option<CompoundEye> {
-    Some(CompoundEye { output: EyeOutput::PigmentOnly, ..eye })
+    Some(CompoundEye {
+        output: EyeOutput::PigmentOnly,
+        ..eye
+    })
 }
 
 #[test]
@@ -48,18 +61,81 @@ fn extreme_views_and_settings_give_finite_pixels() {
     let quad = || quad_with_uvs(|t| t);
     let cases: Vec<(&str, Mesh, CompoundEye, Transform)> = vec![
         ("normal view", quad(), CompoundEye::default(), front()),
-        ("grazing view (89°)", quad(), CompoundEye::default(), grazing()),
-        ("lens index 1", quad(), CompoundEye { lens_index: 1.0, ..default() }, front()),
-        ("R_t = 0.01 (one facet over many meshes)", quad(), CompoundEye { facets_per_uv: 0.01, ..default() }, front()),
-        ("R_t = 1e4 (facets far below a pixel)", quad(), CompoundEye { facets_per_uv: 1e4, ..default() }, front()),
-        ("R_t = 1e4 without prefilter", quad(), CompoundEye { facets_per_uv: 1e4, prefilter: false, ..default() }, grazing()),
-        ("radius 1e-6 of the cell", quad(), CompoundEye { lens_radius: 1e-6, ..default() }, front()),
-        ("mirrored UVs", quad_with_uvs(|[u, v]| [-u, v]), CompoundEye::default(), front()),
-        ("stretched UVs (u × 4)", quad_with_uvs(|[u, v]| [4.0 * u, v]), CompoundEye::default(), front()),
+        (
+            "grazing view (89°)",
+            quad(),
+            CompoundEye::default(),
+            grazing(),
+        ),
+        (
+            "lens index 1",
+            quad(),
+            CompoundEye {
+                lens_index: 1.0,
+                ..default()
+            },
+            front(),
+        ),
+        (
+            "R_t = 0.01 (one facet over many meshes)",
+            quad(),
+            CompoundEye {
+                facets_per_uv: 0.01,
+                ..default()
+            },
+            front(),
+        ),
+        (
+            "R_t = 1e4 (facets far below a pixel)",
+            quad(),
+            CompoundEye {
+                facets_per_uv: 1e4,
+                ..default()
+            },
+            front(),
+        ),
+        (
+            "R_t = 1e4 without prefilter",
+            quad(),
+            CompoundEye {
+                facets_per_uv: 1e4,
+                prefilter: false,
+                ..default()
+            },
+            grazing(),
+        ),
+        (
+            "radius 1e-6 of the cell",
+            quad(),
+            CompoundEye {
+                lens_radius: 1e-6,
+                ..default()
+            },
+            front(),
+        ),
+        (
+            "mirrored UVs",
+            quad_with_uvs(|[u, v]| [-u, v]),
+            CompoundEye::default(),
+            front(),
+        ),
+        (
+            "stretched UVs (u × 4)",
+            quad_with_uvs(|[u, v]| [4.0 * u, v]),
+            CompoundEye::default(),
+            front(),
+        ),
     ];
     for (name, mesh, eye, camera) in cases {
         for output in [EyeOutput::Shaded, EyeOutput::PigmentOnly] {
-            let frame = render(mesh.clone(), Some(CompoundEye { output, ..eye.clone() }), camera);
+            let frame = render(
+                mesh.clone(),
+                Some(CompoundEye {
+                    output,
+                    ..eye.clone()
+                }),
+                camera,
+            );
             assert!(finite(&frame), "{name} ({output:?}): a non-finite pixel");
         }
     }
@@ -70,23 +146,75 @@ fn degenerate_uvs_and_invalid_numbers_fall_back_to_the_base_material() {
     let quad = || quad_with_uvs(|t| t);
     let plain = render(quad(), None, front());
     // All UVs equal: no texture axes, no lattice.
-    let flat_uv = render(quad_with_uvs(|_| [0.3, 0.7]), Some(CompoundEye::default()), front());
+    let flat_uv = render(
+        quad_with_uvs(|_| [0.3, 0.7]),
+        Some(CompoundEye::default()),
+        front(),
+    );
     // NaN, zero and out-of-range settings: the lattice is switched off.
     for (name, eye) in [
-        ("NaN index", CompoundEye { lens_index: f32::NAN, ..default() }),
-        ("NaN R_t", CompoundEye { facets_per_uv: f32::NAN, ..default() }),
-        ("radius 0", CompoundEye { lens_radius: 0.0, ..default() }),
-        ("depth below 2r", CompoundEye { pigment_depth: 1.0, ..default() }),
-        ("NaN darkness", CompoundEye { pigment: optica_compound_eye::PigmentDisc { darkness: f32::NAN, ..default() }, ..default() }),
+        (
+            "NaN index",
+            CompoundEye {
+                lens_index: f32::NAN,
+                ..default()
+            },
+        ),
+        (
+            "NaN R_t",
+            CompoundEye {
+                facets_per_uv: f32::NAN,
+                ..default()
+            },
+        ),
+        (
+            "radius 0",
+            CompoundEye {
+                lens_radius: 0.0,
+                ..default()
+            },
+        ),
+        (
+            "depth below 2r",
+            CompoundEye {
+                pigment_depth: 1.0,
+                ..default()
+            },
+        ),
+        (
+            "NaN darkness",
+            CompoundEye {
+                pigment: optica_compound_eye::PigmentDisc {
+                    darkness: f32::NAN,
+                    ..default()
+                },
+                ..default()
+            },
+        ),
     ] {
         assert!(eye.validate().is_err(), "{name} passed validation");
         let frame = render(quad(), Some(eye), front());
         assert!(finite(&frame), "{name}: a non-finite pixel");
-        assert_eq!(frame.to_rgba8(), plain.to_rgba8(), "{name}: not the plain base material");
+        assert_eq!(
+            frame.to_rgba8(),
+            plain.to_rgba8(),
+            "{name}: not the plain base material"
+        );
     }
-    assert_eq!(flat_uv.to_rgba8(), plain.to_rgba8(), "degenerate UVs: not the plain base material");
+    assert_eq!(
+        flat_uv.to_rgba8(),
+        plain.to_rgba8(),
+        "degenerate UVs: not the plain base material"
+    );
     // In the optics-only output a switched-off lattice is a factor of exactly 1.
-    let off = render(quad(), pigment(CompoundEye { lens_index: f32::NAN, ..default() }), front());
+    let off = render(
+        quad(),
+        pigment(CompoundEye {
+            lens_index: f32::NAN,
+            ..default()
+        }),
+        front(),
+    );
     let centre = off.hdr().unwrap().get_pixel(SIZE / 2, SIZE / 2).0;
     assert_eq!(centre[0], 1.0, "{centre:?}");
 }

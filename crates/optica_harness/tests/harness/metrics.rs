@@ -4,7 +4,9 @@ use image::RgbaImage;
 use optica_harness::metrics::{SizeMismatch, compare, psnr};
 
 fn gradient(shift: u8) -> RgbaImage {
-    RgbaImage::from_fn(64, 64, |x, y| image::Rgba([(x * 4) as u8, (y * 4) as u8, shift, 255]))
+    RgbaImage::from_fn(64, 64, |x, y| {
+        image::Rgba([(x * 4) as u8, (y * 4) as u8, shift, 255])
+    })
 }
 
 #[test]
@@ -37,5 +39,8 @@ fn metrics_grow_with_the_difference() {
 #[test]
 fn sizes_must_match() {
     let other = RgbaImage::new(32, 64);
-    assert_eq!(psnr(&gradient(0), &other), Err(SizeMismatch((64, 64), (32, 64))));
+    assert_eq!(
+        psnr(&gradient(0), &other),
+        Err(SizeMismatch((64, 64), (32, 64)))
+    );
 }

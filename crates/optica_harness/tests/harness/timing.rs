@@ -7,8 +7,9 @@ use bevy::render::{
     RenderApp,
     diagnostic::RecordDiagnostics,
     render_resource::{
-        Extent3d, LoadOp, Operations, RenderPassColorAttachment, RenderPassDescriptor, StoreOp, Texture,
-        TextureDescriptor, TextureDimension, TextureFormat, TextureUsages, TextureViewDescriptor,
+        Extent3d, LoadOp, Operations, RenderPassColorAttachment, RenderPassDescriptor, StoreOp,
+        Texture, TextureDescriptor, TextureDimension, TextureFormat, TextureUsages,
+        TextureViewDescriptor,
     },
     renderer::{RenderContext, ViewQuery},
     view::ViewTarget,
@@ -21,15 +22,24 @@ struct ClearPassPlugin;
 
 impl Plugin for ClearPassPlugin {
     fn build(&self, app: &mut App) {
-        app.sub_app_mut(RenderApp).add_systems(Core3d, clear_pass.in_set(Core3dSystems::PostProcess));
+        app.sub_app_mut(RenderApp)
+            .add_systems(Core3d, clear_pass.in_set(Core3dSystems::PostProcess));
     }
 }
 
-fn clear_pass(_view: ViewQuery<&ViewTarget>, mut scratch: Local<Option<Texture>>, mut ctx: RenderContext) {
+fn clear_pass(
+    _view: ViewQuery<&ViewTarget>,
+    mut scratch: Local<Option<Texture>>,
+    mut ctx: RenderContext,
+) {
     let texture = scratch.get_or_insert_with(|| {
         ctx.render_device().create_texture(&TextureDescriptor {
             label: Some("clear_pass scratch"),
-            size: Extent3d { width: 1024, height: 1024, depth_or_array_layers: 1 },
+            size: Extent3d {
+                width: 1024,
+                height: 1024,
+                depth_or_array_layers: 1,
+            },
             mip_level_count: 1,
             sample_count: 1,
             dimension: TextureDimension::D2,
@@ -44,28 +54,49 @@ fn clear_pass(_view: ViewQuery<&ViewTarget>, mut scratch: Local<Option<Texture>>
     let diagnostics = ctx.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
     let span = diagnostics.time_span(ctx.command_encoder(), "my_plugin/clear");
-    ctx.command_encoder().begin_render_pass(&RenderPassDescriptor {
-        label: Some("my_plugin/clear"),
-        color_attachments: &[Some(RenderPassColorAttachment {
-            view: &view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: Operations { load: LoadOp::Clear(Default::default()), store: StoreOp::Store },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
+    ctx.command_encoder()
+        .begin_render_pass(&RenderPassDescriptor {
+            label: Some("my_plugin/clear"),
+            color_attachments: &[Some(RenderPassColorAttachment {
+                view: &view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: Operations {
+                    load: LoadOp::Clear(Default::default()),
+                    store: StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
     span.end(ctx.command_encoder());
 }
 
 fn scene(app: &mut App) {
-    app.add_systems(Startup, |mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>| {
-        commands.spawn((Mesh3d(meshes.add(Sphere::new(1.0))), MeshMaterial3d(materials.add(Color::WHITE))));
-        commands.spawn((DirectionalLight { shadow_maps_enabled: false, ..default() }, Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y)));
-        commands.spawn((Camera3d::default(), Transform::from_xyz(0.0, 0.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y)));
-    });
+    app.add_systems(
+        Startup,
+        |mut commands: Commands,
+         mut meshes: ResMut<Assets<Mesh>>,
+         mut materials: ResMut<Assets<StandardMaterial>>| {
+            commands.spawn((
+                Mesh3d(meshes.add(Sphere::new(1.0))),
+                MeshMaterial3d(materials.add(Color::WHITE)),
+            ));
+            commands.spawn((
+                DirectionalLight {
+                    shadow_maps_enabled: false,
+                    ..default()
+                },
+                Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+            commands.spawn((
+                Camera3d::default(),
+                Transform::from_xyz(0.0, 0.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+        },
+    );
 }
 
 #[test]
@@ -76,25 +107,51 @@ fn a_plugin_pass_is_timed_on_the_gpu() {
             app.add_plugins(ClearPassPlugin);
         })
         .expect("timing run");
-    eprintln!("{} frame {:.2} ms", timings.adapter, timings.frame_ms.median);
+    eprintln!(
+        "{} frame {:.2} ms",
+        timings.adapter, timings.frame_ms.median
+    );
     for s in &timings.spans {
-        eprintln!("  {:<28} gpu {:?} cpu {:?}", s.name, s.gpu_ms.map(|m| m.median), s.cpu_ms.map(|m| m.median));
+        eprintln!(
+            "  {:<28} gpu {:?} cpu {:?}",
+            s.name,
+            s.gpu_ms.map(|m| m.median),
+            s.cpu_ms.map(|m| m.median)
+        );
     }
     assert_eq!(timings.frame_ms.n, 10);
     assert!(timings.frame_ms.median > 0.0 && timings.frame_ms.min <= timings.frame_ms.median);
     // lavapipe has timestamp queries: the pass gets a real GPU time.
-    let pass = timings.pass("my_plugin/clear").expect("the clear pass recorded no span");
-    assert_eq!(pass.source, TimeSource::GpuTimestamps, "{}: no timestamp queries", timings.adapter);
+    let pass = timings
+        .pass("my_plugin/clear")
+        .expect("the clear pass recorded no span");
+    assert_eq!(
+        pass.source,
+        TimeSource::GpuTimestamps,
+        "{}: no timestamp queries",
+        timings.adapter
+    );
     assert!(pass.ms.median > 0.0 && pass.ms.n == 10, "{:?}", pass.ms);
     // Clearing 4 MB is less than the whole frame.
-    assert!(pass.ms.median < timings.frame_ms.median, "{:?} vs frame {:?}", pass.ms, timings.frame_ms);
+    assert!(
+        pass.ms.median < timings.frame_ms.median,
+        "{:?} vs frame {:?}",
+        pass.ms,
+        timings.frame_ms
+    );
     // Bevy's own passes are timed the same way.
-    assert!(timings.pass("main_opaque_pass_3d").is_some(), "{:?}", timings.spans);
+    assert!(
+        timings.pass("main_opaque_pass_3d").is_some(),
+        "{:?}",
+        timings.spans
+    );
 }
 
 #[test]
 fn a_pass_that_did_not_run_has_no_time() {
-    let timings = Headless::new(64, 64).time_frames(1, 3, scene).expect("timing run");
+    let timings = Headless::new(64, 64)
+        .time_frames(1, 3, scene)
+        .expect("timing run");
     assert!(timings.pass("my_plugin/clear").is_none());
     assert!(timings.span("main_opaque_pass_3d").is_some());
 }

@@ -10,7 +10,11 @@ pub struct Spin;
 
 /// The scene: an orange cube lit by a directional light, seen from above a
 /// corner. No shadows: they cost most of a lavapipe frame.
-pub fn scene(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>) {
+pub fn scene(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
     commands.spawn((
         Spin,
         Mesh3d(meshes.add(Cuboid::new(1.0, 1.0, 1.0))),
@@ -21,12 +25,19 @@ pub fn scene(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut mater
         })),
     ));
     commands.spawn((
-        DirectionalLight { illuminance: 8_000.0, shadow_maps_enabled: false, ..default() },
+        DirectionalLight {
+            illuminance: 8_000.0,
+            shadow_maps_enabled: false,
+            ..default()
+        },
         Transform::from_xyz(2.0, 4.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
     ));
     commands.spawn((
         Camera3d::default(),
-        Camera { clear_color: ClearColorConfig::Custom(Color::srgb(0.1, 0.12, 0.16)), ..default() },
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::srgb(0.1, 0.12, 0.16)),
+            ..default()
+        },
         Transform::from_xyz(1.8, 1.5, 2.4).looking_at(Vec3::ZERO, Vec3::Y),
     ));
 }

@@ -7,8 +7,8 @@
 use glam::DVec3;
 
 use super::lattice::LensParams;
-use crate::ray::Ray;
 use crate::fresnel::fresnel_unpolarized;
+use crate::ray::Ray;
 use crate::surface::{Refraction, refract};
 
 /// Effective focal length of a ball lens of radius `r` and relative index
@@ -72,7 +72,11 @@ pub enum BallFailure {
 /// along the inward direction `t` is `−2 (D − C)·t`. An entry point *at* the
 /// centre has no normal; it is taken as the ray through the centre, which
 /// passes undeviated.
-pub fn refract_through_ball(incoming: &Ray, centre: DVec3, lens: &LensParams) -> Result<BallExit, BallFailure> {
+pub fn refract_through_ball(
+    incoming: &Ray,
+    centre: DVec3,
+    lens: &LensParams,
+) -> Result<BallExit, BallFailure> {
     let (radius, index, dir) = (lens.radius(), lens.index(), incoming.dir());
     let offset = incoming.origin() - centre;
     if !offset.is_finite() {
@@ -91,7 +95,12 @@ pub fn refract_through_ball(incoming: &Ray, centre: DVec3, lens: &LensParams) ->
         Refraction::Transmitted(out) if d.is_finite() && exit.is_finite() && out.is_finite() => {
             let r_in = fresnel_unpolarized(dir.dot(n_d), 1.0, index);
             let r_out = fresnel_unpolarized(inside.dot(n_x), index, 1.0);
-            Ok(BallExit { entry: d, exit, dir: out, transmittance: (1.0 - r_in) * (1.0 - r_out) })
+            Ok(BallExit {
+                entry: d,
+                exit,
+                dir: out,
+                transmittance: (1.0 - r_in) * (1.0 - r_out),
+            })
         }
         Refraction::Transmitted(_) => Err(BallFailure::Overflow),
         Refraction::TotalInternalReflection => Err(BallFailure::ReflectedAtExit),
@@ -127,7 +136,10 @@ mod tests {
         for (r, n) in [(1.0, 1.5), (0.5, 1.33), (2.0, 1.8), (0.008, 2.0)] {
             let f = ball_focal_length(r, n);
             let got = axis_crossing(r, n, 1e-4 * r);
-            assert!(((got - f) / f).abs() < 1e-6, "r {r} n {n}: traced {got}, formula {f}");
+            assert!(
+                ((got - f) / f).abs() < 1e-6,
+                "r {r} n {n}: traced {got}, formula {f}"
+            );
             // Spherical aberration: marginal rays focus shorter (monotone in height).
             assert!(axis_crossing(r, n, 0.5 * r) < got);
         }
@@ -137,12 +149,18 @@ mod tests {
     fn ray_through_centre_is_undeviated_and_n_1_is_identity() {
         let dir = DVec3::new(0.3, -0.2, -0.9).normalize();
         // Unit sphere at the origin, ray through its centre.
-        let out = refract_through_ball(&Ray::new(-dir, dir).unwrap(), DVec3::ZERO, &lens(1.0, 1.6)).unwrap();
+        let out = refract_through_ball(&Ray::new(-dir, dir).unwrap(), DVec3::ZERO, &lens(1.0, 1.6))
+            .unwrap();
         assert!((out.dir - dir).length() < 1e-15);
         assert!((out.exit - dir).length() < 1e-15);
         assert_eq!(out.ray().origin(), out.exit);
         // An entry at the centre is the ray through the centre.
-        let at_centre = refract_through_ball(&Ray::new(DVec3::ZERO, dir).unwrap(), DVec3::ZERO, &lens(1.0, 1.6)).unwrap();
+        let at_centre = refract_through_ball(
+            &Ray::new(DVec3::ZERO, dir).unwrap(),
+            DVec3::ZERO,
+            &lens(1.0, 1.6),
+        )
+        .unwrap();
         assert!((at_centre.entry + dir).length() < 1e-15 && (at_centre.dir - dir).length() < 1e-15);
         let entry = Ray::new(DVec3::new(0.6, 0.0, 0.8), DVec3::new(0.0, 0.1, -1.0)).unwrap();
         let out = refract_through_ball(&entry, DVec3::ZERO, &lens(1.0, 1.0)).unwrap();
@@ -154,15 +172,24 @@ mod tests {
         // n = 0.7: critical angle asin(0.7) = 44.4°; 60° incidence is reflected.
         let dir = DVec3::new(60f64.to_radians().sin(), 0.0, -60f64.to_radians().cos());
         let apex = Ray::new(DVec3::Z, dir).unwrap();
-        assert_eq!(refract_through_ball(&apex, DVec3::ZERO, &lens(1.0, 0.7)), Err(BallFailure::ReflectedAtEntry));
+        assert_eq!(
+            refract_through_ball(&apex, DVec3::ZERO, &lens(1.0, 0.7)),
+            Err(BallFailure::ReflectedAtEntry)
+        );
     }
 
     #[test]
     fn a_centre_out_of_range_is_overflow_not_nan() {
         let apex = Ray::new(DVec3::Z, -DVec3::Z).unwrap();
         let high = Ray::new(DVec3::new(0.0, 0.0, 1e308), -DVec3::Z).unwrap();
-        for (ray, centre) in [(apex, DVec3::new(f64::NAN, 0.0, 0.0)), (high, DVec3::new(0.0, 0.0, -1e308))] {
-            assert_eq!(refract_through_ball(&ray, centre, &lens(1.0, 1.5)), Err(BallFailure::Overflow));
+        for (ray, centre) in [
+            (apex, DVec3::new(f64::NAN, 0.0, 0.0)),
+            (high, DVec3::new(0.0, 0.0, -1e308)),
+        ] {
+            assert_eq!(
+                refract_through_ball(&ray, centre, &lens(1.0, 1.5)),
+                Err(BallFailure::Overflow)
+            );
         }
     }
 }

@@ -26,7 +26,9 @@ pub enum CompoundEyeError {
     /// most [`UV_DET_REL_EPS`](super::UV_DET_REL_EPS)` · |T_10|·|T_20|`, so eq. 6.15 has no usable
     /// inverse. From [`super::TextureAxes::from_axes`]: `U_p`, `V_p` (nearly)
     /// parallel, with `det` their `|U_p × V_p| / (|U_p|·|V_p|)`.
-    #[error("degenerate UV triangle: det(T10, T20) = {det:e} is ~0 relative to the UV edge lengths")]
+    #[error(
+        "degenerate UV triangle: det(T10, T20) = {det:e} is ~0 relative to the UV edge lengths"
+    )]
     DegenerateUv {
         /// `det A`, the signed doubled UV area (for [`super::TextureAxes::from_axes`]:
         /// the sine of the angle between `U_p` and `V_p`).

@@ -75,7 +75,9 @@ pub fn trace_exact(lattice: &Lattice, ray: &Ray, max_lenses: u32) -> Shade {
 
 /// [`trace_exact`] over many rays, in parallel.
 pub fn trace_exact_batch(lattice: &Lattice, rays: &[Ray], max_lenses: u32) -> Vec<Shade> {
-    rays.par_iter().map(|r| trace_exact(lattice, r, max_lenses)).collect()
+    rays.par_iter()
+        .map(|r| trace_exact(lattice, r, max_lenses))
+        .collect()
 }
 
 /// The nearest lens `view` enters while in the lens layer, skipping the lens
@@ -172,7 +174,11 @@ fn sign(x: f64) -> f64 {
 }
 
 fn inv_abs(x: f64) -> f64 {
-    if x != 0.0 { 1.0 / x.abs() } else { f64::INFINITY }
+    if x != 0.0 {
+        1.0 / x.abs()
+    } else {
+        f64::INFINITY
+    }
 }
 
 #[cfg(test)]
@@ -213,7 +219,9 @@ mod tests {
     fn compare(l: &Lattice, rays: &[Ray], slices: u32) -> (f64, f64) {
         let (mut sum, mut wrong, mut n) = (0.0, 0usize, 0usize);
         for ray in rays {
-            if let (Shade::Pigment(s), Shade::Pigment(e)) = (shade(l, ray, slices), trace_exact(l, ray, 1)) {
+            if let (Shade::Pigment(s), Shade::Pigment(e)) =
+                (shade(l, ray, slices), trace_exact(l, ray, 1))
+            {
                 sum += (s.uv - e.uv).length();
                 wrong += usize::from(s.lens != e.lens);
                 n += 1;
@@ -236,7 +244,12 @@ mod tests {
         // goes straight on: a measurably different texel.
         let k0 = *shade(&l, &ray, 0).hit().unwrap();
         assert_eq!(k0.lens, None);
-        assert!((k0.uv - exact.uv).length() > 0.3, "{:?} vs {:?}", k0.uv, exact.uv);
+        assert!(
+            (k0.uv - exact.uv).length() > 0.3,
+            "{:?} vs {:?}",
+            k0.uv,
+            exact.uv
+        );
         // Slices at depth r/8 already see the ray in cell (1, 0).
         let k8 = *shade(&l, &ray, 8).hit().unwrap();
         assert_eq!(k8.lens, Some([1, 0]));
@@ -248,11 +261,17 @@ mod tests {
         let l = unit_lattice(0.5, 1.5, 1.0);
         for polar in [0.0, 3.0, 6.0, 10.0] {
             let (mean, wrong) = compare(&l, &rays(polar, 12), 2);
-            assert!(mean < 1e-12 && wrong == 0.0, "{polar}°: mean {mean}, wrong {wrong}");
+            assert!(
+                mean < 1e-12 && wrong == 0.0,
+                "{polar}°: mean {mean}, wrong {wrong}"
+            );
         }
         for polar in [75.0, 80.0, 85.0] {
             let (mean, wrong) = compare(&l, &rays(polar, 12), 2);
-            assert!(mean > 0.02 && wrong > 0.02, "{polar}°: mean {mean}, wrong {wrong}");
+            assert!(
+                mean > 0.02 && wrong > 0.02,
+                "{polar}°: mean {mean}, wrong {wrong}"
+            );
         }
     }
 
@@ -261,11 +280,18 @@ mod tests {
         // Nested slice sets (K = 1, 2, 4, …): once a ray's lens is right it stays
         // right, so the wrong-lens fraction cannot grow.
         let l = unit_lattice(0.5, 1.5, 1.0);
-        let rays: Vec<Ray> = [50.0, 70.0, 80.0].iter().flat_map(|&p| rays(p, 10)).collect();
+        let rays: Vec<Ray> = [50.0, 70.0, 80.0]
+            .iter()
+            .flat_map(|&p| rays(p, 10))
+            .collect();
         let mut last = (f64::INFINITY, f64::INFINITY);
         for k in [0, 1, 2, 4, 8, 16, 32, 64] {
             let (mean, wrong) = compare(&l, &rays, k);
-            assert!(wrong <= last.1 + 1e-15, "K {k}: wrong {wrong} after {}", last.1);
+            assert!(
+                wrong <= last.1 + 1e-15,
+                "K {k}: wrong {wrong} after {}",
+                last.1
+            );
             last = (mean, wrong);
         }
         let (m0, _) = compare(&l, &rays, 0);
@@ -279,8 +305,15 @@ mod tests {
             assert_eq!(trace_exact(&l, &ray, 1), trace_exact(&l, &ray, 8));
         }
         let grazing = rays(70.0, 8);
-        let changed = grazing.iter().filter(|r| trace_exact(&l, r, 1) != trace_exact(&l, r, 8)).count();
-        assert!(changed > grazing.len() / 20, "only {changed} of {} changed", grazing.len());
+        let changed = grazing
+            .iter()
+            .filter(|r| trace_exact(&l, r, 1) != trace_exact(&l, r, 8))
+            .count();
+        assert!(
+            changed > grazing.len() / 20,
+            "only {changed} of {} changed",
+            grazing.len()
+        );
     }
 
     /// Brute force: the nearest lens entry over a 61 × 61 block of lenses.
@@ -327,7 +360,12 @@ mod tests {
 
     /// (mean |Δuv|, fraction of rays whose lens differs) of the shading path
     /// with `options` against the exact tracer through `max_lenses` lenses.
-    fn compare_with(l: &Lattice, rays: &[Ray], options: &ShadeOptions, max_lenses: u32) -> (f64, f64) {
+    fn compare_with(
+        l: &Lattice,
+        rays: &[Ray],
+        options: &ShadeOptions,
+        max_lenses: u32,
+    ) -> (f64, f64) {
         let (mut sum, mut wrong, mut n) = (0.0, 0usize, 0usize);
         for ray in rays {
             match (shade_with(l, ray, options), trace_exact(l, ray, max_lenses)) {
@@ -345,12 +383,23 @@ mod tests {
     #[test]
     fn hexagonal_slice_search_converges_to_the_exact_tracer() {
         let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z).unwrap();
-        let l = Lattice::with_kind(axes, LensParams::thesis(0.5, 1.5).unwrap(), LatticeKind::Hexagonal).unwrap();
+        let l = Lattice::with_kind(
+            axes,
+            LensParams::thesis(0.5, 1.5).unwrap(),
+            LatticeKind::Hexagonal,
+        )
+        .unwrap();
         let rays: Vec<Ray> = [0.0, 40.0, 70.0].iter().flat_map(|&p| rays(p, 8)).collect();
         let (m0, w0) = compare_with(&l, &rays, &ShadeOptions::thesis(0), 1);
         let (m32, w32) = compare_with(&l, &rays, &ShadeOptions::thesis(32), 1);
-        assert!(w32 < 0.02 && w32 < w0, "wrong-lens fraction {w0} at K = 0, {w32} at K = 32");
-        assert!(m32 < 0.2 * m0, "mean texel error {m0} at K = 0, {m32} at K = 32");
+        assert!(
+            w32 < 0.02 && w32 < w0,
+            "wrong-lens fraction {w0} at K = 0, {w32} at K = 32"
+        );
+        assert!(
+            m32 < 0.2 * m0,
+            "mean texel error {m0} at K = 0, {m32} at K = 32"
+        );
         // Normal incidence through a lens axis lands on it, in both lattices.
         let c = l.kind().centre_of_index([3, -2]);
         let ray = Ray::new(DVec3::new(c.x, c.y, 1.0), -DVec3::Z).unwrap();
@@ -362,14 +411,30 @@ mod tests {
     #[test]
     fn following_neighbours_approaches_the_exact_multi_lens_trace() {
         let l = unit_lattice(0.5, 1.5, 1.0);
-        let rays: Vec<Ray> = [50.0, 70.0, 80.0].iter().flat_map(|&p| rays(p, 10)).collect();
+        let rays: Vec<Ray> = [50.0, 70.0, 80.0]
+            .iter()
+            .flat_map(|&p| rays(p, 10))
+            .collect();
         let (_, thesis) = compare_with(&l, &rays, &ShadeOptions::thesis(32), MAX_LENSES);
         let (_, follow) = compare_with(&l, &rays, &ShadeOptions::neighbours(32), MAX_LENSES);
         // The thesis's one-lens path misses the second lens of many grazing
         // rays; following the exit ray finds most of them.
-        assert!(thesis > 0.05, "one-lens path against {MAX_LENSES}-lens trace: {thesis}");
-        assert!(follow < 0.5 * thesis, "followed: {follow}, thesis: {thesis}");
-        let passed_two = rays.iter().filter(|r| shade_with(&l, r, &ShadeOptions::neighbours(32)).hit().is_some_and(|h| h.lenses >= 2)).count();
+        assert!(
+            thesis > 0.05,
+            "one-lens path against {MAX_LENSES}-lens trace: {thesis}"
+        );
+        assert!(
+            follow < 0.5 * thesis,
+            "followed: {follow}, thesis: {thesis}"
+        );
+        let passed_two = rays
+            .iter()
+            .filter(|r| {
+                shade_with(&l, r, &ShadeOptions::neighbours(32))
+                    .hit()
+                    .is_some_and(|h| h.lenses >= 2)
+            })
+            .count();
         assert!(passed_two > 0);
     }
 
@@ -381,7 +446,11 @@ mod tests {
         let ray = ray_at(0.5, 0.5, 0.0, 0.0);
         for got in [shade(&l, &ray, 4), trace_exact(&l, &ray, 3)] {
             let h = got.hit().unwrap();
-            assert!((h.transmittance - 0.9216).abs() < 1e-12, "{}", h.transmittance);
+            assert!(
+                (h.transmittance - 0.9216).abs() < 1e-12,
+                "{}",
+                h.transmittance
+            );
         }
         // n = 1: nothing reflected; no lens: nothing either.
         let one = unit_lattice(0.5, 1.0, 1.0);

@@ -71,9 +71,16 @@ impl LensParams {
         let index = input::positive("lens refractive index n", index)?;
         let pigment_depth = input::finite("pigment-plane depth d (mesh units)", pigment_depth)?;
         if !(pigment_depth >= 2.0 * radius * (1.0 - BOUND_REL_TOL)) {
-            return Err(CompoundEyeError::PigmentInsideLens { depth: pigment_depth, min: 2.0 * radius });
+            return Err(CompoundEyeError::PigmentInsideLens {
+                depth: pigment_depth,
+                min: 2.0 * radius,
+            });
         }
-        Ok(Self { radius, index, pigment_depth: pigment_depth.max(2.0 * radius) })
+        Ok(Self {
+            radius,
+            index,
+            pigment_depth: pigment_depth.max(2.0 * radius),
+        })
     }
 
     /// The thesis's layout: pigment plane at the lens bottom, `d = 2r` (eq. 6.29).
@@ -135,10 +142,17 @@ impl Lattice {
     /// inradius ([`LatticeKind::cell_inradius`]; half the smaller cell height
     /// of the square lattice): the slice search and the exact tracer both
     /// rely on each lens staying inside its own cell's column.
-    pub fn with_kind(axes: TextureAxes, lens: LensParams, kind: LatticeKind) -> Result<Self, CompoundEyeError> {
+    pub fn with_kind(
+        axes: TextureAxes,
+        lens: LensParams,
+        kind: LatticeKind,
+    ) -> Result<Self, CompoundEyeError> {
         let half_cell = kind.cell_inradius(axes.u(), axes.v());
         if !(lens.radius <= half_cell * (1.0 + BOUND_REL_TOL)) {
-            return Err(CompoundEyeError::LensesOverlap { radius: lens.radius, half_cell });
+            return Err(CompoundEyeError::LensesOverlap {
+                radius: lens.radius,
+                half_cell,
+            });
         }
         Ok(Self { axes, lens, kind })
     }
@@ -203,7 +217,11 @@ impl Lattice {
         }
         let t = (self.lens.pigment_depth - self.axes.depth(ray.origin())) / down;
         let p = ray.at(t.max(0.0));
-        if p.is_finite() { PigmentPlaneHit::At(p) } else { PigmentPlaneHit::Overflow }
+        if p.is_finite() {
+            PigmentPlaneHit::At(p)
+        } else {
+            PigmentPlaneHit::Overflow
+        }
     }
 
     /// The distance along `view` at which it enters the lens centred at
@@ -265,7 +283,10 @@ mod tests {
         }
         // Below the plane already: its projection.
         let deep = Ray::new(DVec3::new(0.2, 0.3, -1.5), DVec3::new(0.6, 0.0, -0.8)).unwrap();
-        assert_eq!(l.to_pigment_plane(&deep), PigmentPlaneHit::At(DVec3::new(0.2, 0.3, -1.5)));
+        assert_eq!(
+            l.to_pigment_plane(&deep),
+            PigmentPlaneHit::At(DVec3::new(0.2, 0.3, -1.5))
+        );
         let level = Ray::new(DVec3::ZERO, DVec3::X).unwrap();
         assert_eq!(l.to_pigment_plane(&level), PigmentPlaneHit::Escapes);
         let up = Ray::new(DVec3::new(0.0, 0.0, -0.5), DVec3::new(0.0, 0.1, 1.0)).unwrap();
@@ -286,16 +307,43 @@ mod tests {
     #[test]
     fn parameters_are_checked() {
         let e = input_error(LensParams::new(0.0, 1.5, 1.0));
-        assert_eq!((e.what, e.value, e.expected), ("lens radius r (mesh units)", 0.0, Expected::Positive));
+        assert_eq!(
+            (e.what, e.value, e.expected),
+            ("lens radius r (mesh units)", 0.0, Expected::Positive)
+        );
         let e = input_error(LensParams::new(0.5, f64::NAN, 1.0));
-        assert_eq!((e.what, e.expected), ("lens refractive index n", Expected::Positive));
+        assert_eq!(
+            (e.what, e.expected),
+            ("lens refractive index n", Expected::Positive)
+        );
         let e = input_error(LensParams::new(0.5, 1.5, f64::INFINITY));
-        assert_eq!((e.what, e.expected), ("pigment-plane depth d (mesh units)", Expected::Finite));
-        assert_eq!(LensParams::new(0.5, 1.5, 0.9), Err(CompoundEyeError::PigmentInsideLens { depth: 0.9, min: 1.0 }));
-        assert_eq!(LensParams::focused(0.5, 1.0), Err(CompoundEyeError::NoFocus(1.0)));
-        assert_eq!(input_error(LensParams::focused(0.5, -1.0)).what, "lens refractive index n");
-        assert_eq!(input_error(LensParams::focused(f64::NAN, 1.5)).what, "lens radius r (mesh units)");
-        assert!(matches!(LensParams::focused(0.5, 2.5), Err(CompoundEyeError::PigmentInsideLens { .. })));
+        assert_eq!(
+            (e.what, e.expected),
+            ("pigment-plane depth d (mesh units)", Expected::Finite)
+        );
+        assert_eq!(
+            LensParams::new(0.5, 1.5, 0.9),
+            Err(CompoundEyeError::PigmentInsideLens {
+                depth: 0.9,
+                min: 1.0
+            })
+        );
+        assert_eq!(
+            LensParams::focused(0.5, 1.0),
+            Err(CompoundEyeError::NoFocus(1.0))
+        );
+        assert_eq!(
+            input_error(LensParams::focused(0.5, -1.0)).what,
+            "lens refractive index n"
+        );
+        assert_eq!(
+            input_error(LensParams::focused(f64::NAN, 1.5)).what,
+            "lens radius r (mesh units)"
+        );
+        assert!(matches!(
+            LensParams::focused(0.5, 2.5),
+            Err(CompoundEyeError::PigmentInsideLens { .. })
+        ));
         // n = 1.5, r = 0.5: f = n r / (2(n − 1)) = 0.75 from the centre → d = 1.25 = 2.5 r.
         let f = LensParams::focused(0.5, 1.5).unwrap();
         assert!((f.pigment_depth() - 1.25).abs() < 1e-15);

@@ -55,12 +55,18 @@ impl LatticeKind {
         match self {
             LatticeKind::Square => {
                 let c = DVec2::new(square_centre_coord(uv.x), square_centre_coord(uv.y));
-                LensCell { index: [(c.x - 0.5).round() as i64, (c.y - 0.5).round() as i64], centre_uv: c }
+                LensCell {
+                    index: [(c.x - 0.5).round() as i64, (c.y - 0.5).round() as i64],
+                    centre_uv: c,
+                }
             }
             LatticeKind::Hexagonal => {
                 let w = self.to_lattice(uv);
                 let index = hex_round(w);
-                LensCell { index, centre_uv: self.centre_of_index(index) }
+                LensCell {
+                    index,
+                    centre_uv: self.centre_of_index(index),
+                }
             }
         }
     }
@@ -109,12 +115,34 @@ impl LatticeKind {
     /// equilateral triangles).
     #[cfg(feature = "reference")]
     pub(crate) fn walk_neighbourhood(self) -> &'static [[i64; 2]] {
-        const SQUARE: [[i64; 2]; 9] = [[-1, -1], [0, -1], [1, -1], [-1, 0], [0, 0], [1, 0], [-1, 1], [0, 1], [1, 1]];
+        const SQUARE: [[i64; 2]; 9] = [
+            [-1, -1],
+            [0, -1],
+            [1, -1],
+            [-1, 0],
+            [0, 0],
+            [1, 0],
+            [-1, 1],
+            [0, 1],
+            [1, 1],
+        ];
         const HEX: [[i64; 2]; 16] = [
-            [-1, -1], [0, -1], [1, -1], [2, -1],
-            [-1, 0], [0, 0], [1, 0], [2, 0],
-            [-1, 1], [0, 1], [1, 1], [2, 1],
-            [-1, 2], [0, 2], [1, 2], [2, 2],
+            [-1, -1],
+            [0, -1],
+            [1, -1],
+            [2, -1],
+            [-1, 0],
+            [0, 0],
+            [1, 0],
+            [2, 0],
+            [-1, 1],
+            [0, 1],
+            [1, 1],
+            [2, 1],
+            [-1, 2],
+            [0, 2],
+            [1, 2],
+            [2, 2],
         ];
         match self {
             LatticeKind::Square => &SQUARE,
@@ -136,7 +164,11 @@ impl LatticeKind {
         // in world space is |½n_w · m| with m the unit normal of the mapped edge.
         let neighbours: &[DVec2] = match self {
             LatticeKind::Square => &[DVec2::X, DVec2::Y],
-            LatticeKind::Hexagonal => &[DVec2::new(1.0, 0.0), DVec2::new(0.5, ROW), DVec2::new(-0.5, ROW)],
+            LatticeKind::Hexagonal => &[
+                DVec2::new(1.0, 0.0),
+                DVec2::new(0.5, ROW),
+                DVec2::new(-0.5, ROW),
+            ],
         };
         let normal = u.cross(v);
         let to_world = |t: DVec2| t.x * u + t.y * v;
@@ -154,7 +186,11 @@ impl LatticeKind {
 /// The thesis's rule for one coordinate (eq. 6.17–6.20).
 #[inline]
 fn square_centre_coord(x: f64) -> f64 {
-    if x >= 0.0 { x.floor() + 0.5 } else { x.ceil() - 0.5 }
+    if x >= 0.0 {
+        x.floor() + 0.5
+    } else {
+        x.ceil() - 0.5
+    }
 }
 
 /// Nearest hexagon in axial coordinates, by rounding the cube coordinates
@@ -180,8 +216,19 @@ mod tests {
     #[test]
     fn square_cells_follow_the_thesis() {
         let k = LatticeKind::Square;
-        for (x, want) in [(0.3, 0.5), (0.0, 0.5), (1.0, 1.5), (2.7, 2.5), (-0.3, -0.5), (-1.0, -1.5)] {
-            assert_eq!(k.cell_of(DVec2::new(x, x)).centre_uv, DVec2::splat(want), "x = {x}");
+        for (x, want) in [
+            (0.3, 0.5),
+            (0.0, 0.5),
+            (1.0, 1.5),
+            (2.7, 2.5),
+            (-0.3, -0.5),
+            (-1.0, -1.5),
+        ] {
+            assert_eq!(
+                k.cell_of(DVec2::new(x, x)).centre_uv,
+                DVec2::splat(want),
+                "x = {x}"
+            );
         }
         assert_eq!(k.cell_of(DVec2::new(-0.5, 2.5)).index, [-1, 2]);
         let c = k.cell_of(DVec2::new(3.2, -1.7));
@@ -200,18 +247,26 @@ mod tests {
                     .flat_map(|i| (-6..=6).map(move |j| [i, j]))
                     .map(|ij| (k.centre_of_index(ij) - uv).length())
                     .fold(f64::INFINITY, f64::min);
-                assert!((cell.centre_uv - uv).length() <= best + 1e-12, "{uv}: {cell:?}");
+                assert!(
+                    (cell.centre_uv - uv).length() <= best + 1e-12,
+                    "{uv}: {cell:?}"
+                );
             }
         }
         // Neighbours one facet apart, in six directions.
         let c = k.centre_of_index([0, 0]);
         for ij in [[1, 0], [0, 1], [-1, 1], [-1, 0], [0, -1], [1, -1]] {
-            assert!(((k.centre_of_index(ij) - c).length() - 1.0).abs() < 1e-12, "{ij:?}");
+            assert!(
+                ((k.centre_of_index(ij) - c).length() - 1.0).abs() < 1e-12,
+                "{ij:?}"
+            );
         }
         let w = DVec2::new(2.3, -1.4);
         assert!((k.to_lattice(k.from_lattice(w)) - w).length() < 1e-12);
         let d = DVec2::new(0.3, 0.8);
-        assert!((k.lattice_rate(d) - (k.to_lattice(d) - k.to_lattice(DVec2::ZERO))).length() < 1e-12);
+        assert!(
+            (k.lattice_rate(d) - (k.to_lattice(d) - k.to_lattice(DVec2::ZERO))).length() < 1e-12
+        );
     }
 
     #[test]

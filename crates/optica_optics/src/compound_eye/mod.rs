@@ -155,16 +155,17 @@ pub use exact_tracer::{MAX_CELLS, THESIS_MAX_LENSES, trace_exact, trace_exact_ba
 pub use lattice::{Lattice, LensParams, MAX_SLICES, MIN_COS, PigmentPlaneHit};
 pub use lattice_kind::{LatticeKind, LensCell};
 pub use outcome::{PigmentHit, Shade, ShadeFallback};
-pub use pseudopupil::{facet_lattice, ray_to_facet, shows_dark_centre};
-#[cfg(feature = "reference")]
-pub use pseudopupil::dark_patch_centroid;
-#[cfg(feature = "reference")]
-pub use shading_path::shade_batch;
 pub use pigment::{
     DarkCentre, FacetResponse, PREFILTER_FULL, PREFILTER_OFFSETS, PREFILTER_START, facet_response,
     facet_response_prefiltered,
 };
+#[cfg(feature = "reference")]
+pub use pseudopupil::dark_patch_centroid;
+pub use pseudopupil::{facet_lattice, ray_to_facet, shows_dark_centre};
+#[cfg(feature = "reference")]
+pub use shading_path::shade_batch;
 pub use shading_path::{
-    MAX_LENSES, NEIGHBOUR_SPAN_CELLS, ShadeOptions, shade, shade_fragment, shade_fragment_with, shade_with,
+    MAX_LENSES, NEIGHBOUR_SPAN_CELLS, ShadeOptions, shade, shade_fragment, shade_fragment_with,
+    shade_with,
 };
 pub use texture_axes::{AREA_REL_EPS, NORMAL_COS_EPS, TextureAxes, UV_DET_REL_EPS, scale_uv};

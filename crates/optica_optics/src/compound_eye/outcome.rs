@@ -27,7 +27,8 @@ impl PigmentHit {
     /// The hit's offset from the centre of the first lens's own cell, in
     /// facets (`None` without a lens). `(0, 0)` is the ommatidium's rhabdom.
     pub fn offset_from_lens(&self) -> Option<DVec2> {
-        self.lens.map(|[i, j]| self.uv - DVec2::new(i as f64 + 0.5, j as f64 + 0.5))
+        self.lens
+            .map(|[i, j]| self.uv - DVec2::new(i as f64 + 0.5, j as f64 + 0.5))
     }
 
     /// `true` when the ray went through a lens and landed within
@@ -37,7 +38,8 @@ impl PigmentHit {
     /// of Sensory Physiology* VII/6A, Springer, 1979). (A texture tiled per cell, as in the thesis, also darkens
     /// hits near a *neighbour's* centre: the secondary pseudopupils.)
     pub fn on_own_centre(&self, dark_radius: f64) -> bool {
-        self.offset_from_lens().is_some_and(|o| o.length() < dark_radius)
+        self.offset_from_lens()
+            .is_some_and(|o| o.length() < dark_radius)
     }
 
     /// The texel of the per-facet pigment texture, in `[0, 1)²`: the thesis
@@ -110,6 +112,7 @@ impl Shade {
     /// of this module: what the tests check).
     #[cfg(test)]
     pub(crate) fn is_finite(&self) -> bool {
-        self.hit().is_none_or(|h| h.uv.is_finite() && h.point.is_finite())
+        self.hit()
+            .is_none_or(|h| h.uv.is_finite() && h.point.is_finite())
     }
 }

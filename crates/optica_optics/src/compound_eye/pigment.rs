@@ -49,7 +49,11 @@ impl Default for DarkCentre {
     /// absorbing 90 %: the size of the dark pseudopupil facet in photographs
     /// of insect eyes, where the rhabdom's image fills about half the facet.
     fn default() -> Self {
-        Self { radius: 0.25, softness: 0.08, darkness: 0.9 }
+        Self {
+            radius: 0.25,
+            softness: 0.08,
+            darkness: 0.9,
+        }
     }
 }
 
@@ -87,7 +91,11 @@ impl DarkCentre {
     /// `1 − darkness` on a lens axis, 1 far from every axis.
     pub fn transmission(&self, lattice: &Lattice, uv: DVec2) -> f64 {
         let rho = (uv - lattice.cell_of(uv).centre_uv).length();
-        let clear = smoothstep(self.radius - self.softness, self.radius + self.softness, rho);
+        let clear = smoothstep(
+            self.radius - self.softness,
+            self.radius + self.softness,
+            rho,
+        );
         1.0 - self.darkness * (1.0 - clear)
     }
 }
@@ -129,10 +137,19 @@ pub fn facet_response(
     match shade_fragment_with(lattice, fragment, options) {
         Shade::Pigment(hit) => {
             let t = if fresnel { hit.transmittance } else { 1.0 };
-            FacetResponse { multiplier: pigment.transmission(lattice, hit.uv) * t, escape: None }
+            FacetResponse {
+                multiplier: pigment.transmission(lattice, hit.uv) * t,
+                escape: None,
+            }
         }
-        Shade::Fallback(ShadeFallback::Escaped { dir, .. }) => FacetResponse { multiplier: 1.0, escape: Some((dir, 1.0)) },
-        Shade::Fallback(_) => FacetResponse { multiplier: 1.0, escape: None },
+        Shade::Fallback(ShadeFallback::Escaped { dir, .. }) => FacetResponse {
+            multiplier: 1.0,
+            escape: Some((dir, 1.0)),
+        },
+        Shade::Fallback(_) => FacetResponse {
+            multiplier: 1.0,
+            escape: None,
+        },
     }
 }
 
@@ -181,7 +198,15 @@ pub fn facet_response_prefiltered(
     footprint: f64,
 ) -> FacetResponse {
     let point = facet_response(lattice, fragment, options, pigment, fresnel);
-    let w = smoothstep(PREFILTER_START, PREFILTER_FULL, if footprint.is_finite() { footprint } else { 0.0 });
+    let w = smoothstep(
+        PREFILTER_START,
+        PREFILTER_FULL,
+        if footprint.is_finite() {
+            footprint
+        } else {
+            0.0
+        },
+    );
     if w <= 0.0 {
         return point;
     }
@@ -190,7 +215,13 @@ pub fn facet_response_prefiltered(
     let mut sum = 0.0;
     for [du, dv] in PREFILTER_OFFSETS {
         let p = axes.point_of(centre + DVec2::new(du, dv));
-        let r = facet_response(lattice, &Ray::from_unit(p, fragment.dir()), options, pigment, fresnel);
+        let r = facet_response(
+            lattice,
+            &Ray::from_unit(p, fragment.dir()),
+            options,
+            pigment,
+            fresnel,
+        );
         sum += r.multiplier;
     }
     let average = sum / PREFILTER_OFFSETS.len() as f64;
@@ -215,7 +246,11 @@ mod tests {
 
     fn fragment(x: f64, y: f64, polar_deg: f64, azimuth_deg: f64) -> Ray {
         let (t, p) = (polar_deg.to_radians(), azimuth_deg.to_radians());
-        Ray::new(DVec3::new(x, y, 0.0), DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), -t.cos())).unwrap()
+        Ray::new(
+            DVec3::new(x, y, 0.0),
+            DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), -t.cos()),
+        )
+        .unwrap()
     }
 
     #[test]
@@ -224,16 +259,28 @@ mod tests {
         for kind in [LatticeKind::Square, LatticeKind::Hexagonal] {
             let l = lattice(kind);
             let axis = kind.centre_of_index([2, 1]);
-            assert!((p.transmission(&l, axis) - (1.0 - p.darkness())).abs() < 1e-12, "{kind:?}");
+            assert!(
+                (p.transmission(&l, axis) - (1.0 - p.darkness())).abs() < 1e-12,
+                "{kind:?}"
+            );
             // Half a facet from every axis (between two lenses): clear.
             let between = 0.5 * (kind.centre_of_index([2, 1]) + kind.centre_of_index([3, 1]));
-            assert!((p.transmission(&l, between) - 1.0).abs() < 1e-12, "{kind:?}");
+            assert!(
+                (p.transmission(&l, between) - 1.0).abs() < 1e-12,
+                "{kind:?}"
+            );
         }
         assert_eq!(smoothstep(0.2, 0.2, 0.1), 0.0);
         assert_eq!(smoothstep(0.2, 0.2, 0.2), 1.0);
         let e = DarkCentre::new(0.2, 0.05, 1.5).unwrap_err();
-        assert_eq!((e.what, e.expected), ("pigment darkness", Expected::Range { min: 0.0, max: 1.0 }));
-        assert_eq!(DarkCentre::new(f64::NAN, 0.05, 0.5).unwrap_err().what, "pigment dark radius (facets)");
+        assert_eq!(
+            (e.what, e.expected),
+            ("pigment darkness", Expected::Range { min: 0.0, max: 1.0 })
+        );
+        assert_eq!(
+            DarkCentre::new(f64::NAN, 0.05, 0.5).unwrap_err().what,
+            "pigment dark radius (facets)"
+        );
         let json = r#"{"radius": -1.0, "softness": 0.1, "darkness": 0.5}"#;
         assert!(serde_json::from_str::<DarkCentre>(json).is_err());
     }
@@ -244,7 +291,10 @@ mod tests {
         let p = DarkCentre::default();
         let on_axis = fragment(0.5, 0.5, 0.0, 0.0);
         let plain = facet_response(&l, &on_axis, &ShadeOptions::thesis(8), &p, false);
-        assert!((plain.multiplier - 0.1).abs() < 1e-12 && plain.escape.is_none(), "{plain:?}");
+        assert!(
+            (plain.multiplier - 0.1).abs() < 1e-12 && plain.escape.is_none(),
+            "{plain:?}"
+        );
         let lossy = facet_response(&l, &on_axis, &ShadeOptions::thesis(8), &p, true);
         assert!((lossy.multiplier - 0.1 * 0.9216).abs() < 1e-12, "{lossy:?}");
     }
@@ -256,18 +306,32 @@ mod tests {
         let o = ShadeOptions::neighbours(8);
         let frag = fragment(0.31, 0.2, 25.0, 40.0);
         let point = facet_response(&l, &frag, &o, &p, true);
-        assert_eq!(facet_response_prefiltered(&l, &frag, &o, &p, true, 0.1), point);
-        assert_eq!(facet_response_prefiltered(&l, &frag, &o, &p, true, f64::NAN), point);
+        assert_eq!(
+            facet_response_prefiltered(&l, &frag, &o, &p, true, 0.1),
+            point
+        );
+        assert_eq!(
+            facet_response_prefiltered(&l, &frag, &o, &p, true, f64::NAN),
+            point
+        );
         // Beyond one facet per pixel, every fragment of a facet shows the same average.
         let a = facet_response_prefiltered(&l, &frag, &o, &p, true, 2.0);
         let b = facet_response_prefiltered(&l, &fragment(0.05, 0.1, 25.0, 40.0), &o, &p, true, 2.0);
-        assert!((a.multiplier - b.multiplier).abs() < 1e-12, "{a:?} vs {b:?}");
+        assert!(
+            (a.multiplier - b.multiplier).abs() < 1e-12,
+            "{a:?} vs {b:?}"
+        );
         let half = facet_response_prefiltered(&l, &frag, &o, &p, true, 0.625);
         assert!((half.multiplier - 0.5 * (point.multiplier + a.multiplier)).abs() < 1e-12);
         // The average still follows the view direction: the pseudopupil stays.
-        let head_on = facet_response_prefiltered(&l, &fragment(0.3, 0.2, 0.0, 0.0), &o, &p, true, 2.0);
-        let oblique = facet_response_prefiltered(&l, &fragment(0.3, 0.2, 45.0, 0.0), &o, &p, true, 2.0);
-        assert!(head_on.multiplier < oblique.multiplier, "{head_on:?} vs {oblique:?}");
+        let head_on =
+            facet_response_prefiltered(&l, &fragment(0.3, 0.2, 0.0, 0.0), &o, &p, true, 2.0);
+        let oblique =
+            facet_response_prefiltered(&l, &fragment(0.3, 0.2, 45.0, 0.0), &o, &p, true, 2.0);
+        assert!(
+            head_on.multiplier < oblique.multiplier,
+            "{head_on:?} vs {oblique:?}"
+        );
     }
 
     #[test]
@@ -279,11 +343,25 @@ mod tests {
         let p = DarkCentre::default();
         let mut escaped = 0;
         for k in 0..400 {
-            let (x, y) = ((k % 20) as f64 / 20.0 + 0.025, (k / 20) as f64 / 20.0 + 0.025);
-            let r = facet_response(&l, &fragment(x, y, 60.0, 10.0), &ShadeOptions::thesis(16), &p, false);
+            let (x, y) = (
+                (k % 20) as f64 / 20.0 + 0.025,
+                (k / 20) as f64 / 20.0 + 0.025,
+            );
+            let r = facet_response(
+                &l,
+                &fragment(x, y, 60.0, 10.0),
+                &ShadeOptions::thesis(16),
+                &p,
+                false,
+            );
             if let Some((dir, w)) = r.escape {
                 escaped += 1;
-                assert!(dir.z > 0.0 && (dir.length() - 1.0).abs() < 1e-12 && w == 1.0 && r.multiplier == 1.0);
+                assert!(
+                    dir.z > 0.0
+                        && (dir.length() - 1.0).abs() < 1e-12
+                        && w == 1.0
+                        && r.multiplier == 1.0
+                );
             }
         }
         assert!(escaped > 0, "no ray escaped");

@@ -20,7 +20,12 @@ use crate::ray::Ray;
 /// Errors: [`CompoundEyeError::Input`] for a non-finite `centre`, a zero or
 /// non-finite `axis`, or a `facet` that is not finite and positive, and
 /// [`Lattice::new`]'s errors for the lens.
-pub fn facet_lattice(centre: DVec3, axis: DVec3, facet: f64, lens: LensParams) -> Result<Lattice, CompoundEyeError> {
+pub fn facet_lattice(
+    centre: DVec3,
+    axis: DVec3,
+    facet: f64,
+    lens: LensParams,
+) -> Result<Lattice, CompoundEyeError> {
     let centre = input::finite_vec3("facet centre (mesh units)", centre)?;
     let axis = input::direction("facet axis", axis)?;
     let facet = input::positive("facet size (mesh units)", facet)?;
@@ -56,8 +61,11 @@ pub fn ray_to_facet(lattice: &Lattice, viewer: DVec3) -> Option<Ray> {
 /// ~1e-9 rad of the facet's plane, the shading path here gives what the
 /// exact lattice tracer gives.
 pub fn shows_dark_centre(lattice: &Lattice, viewer: DVec3, dark_radius: f64) -> bool {
-    ray_to_facet(lattice, viewer)
-        .is_some_and(|ray| shade(lattice, &ray, 0).hit().is_some_and(|h| h.on_own_centre(dark_radius)))
+    ray_to_facet(lattice, viewer).is_some_and(|ray| {
+        shade(lattice, &ray, 0)
+            .hit()
+            .is_some_and(|h| h.on_own_centre(dark_radius))
+    })
 }
 
 /// Where the principal pseudopupil is in an image: the darkness-weighted
@@ -72,7 +80,12 @@ pub fn shows_dark_centre(lattice: &Lattice, viewer: DVec3, dark_radius: f64) -> 
 /// an image with no darkness. For tests and reports (cargo feature
 /// `reference`).
 #[cfg(feature = "reference")]
-pub fn dark_patch_centroid(darkness: &[f64], width: usize, height: usize, half: usize) -> Option<glam::DVec2> {
+pub fn dark_patch_centroid(
+    darkness: &[f64],
+    width: usize,
+    height: usize,
+    half: usize,
+) -> Option<glam::DVec2> {
     if darkness.len() != width * height || width == 0 || height == 0 {
         return None;
     }
@@ -89,11 +102,19 @@ pub fn dark_patch_centroid(darkness: &[f64], width: usize, height: usize, half: 
     let boxed = |x: usize, y: usize| {
         let (x0, y0) = (x.saturating_sub(half), y.saturating_sub(half));
         let (x1, y1) = ((x + half + 1).min(width), (y + half + 1).min(height));
-        let sum = sat[y1 * (width + 1) + x1] - sat[y0 * (width + 1) + x1] - sat[y1 * (width + 1) + x0] + sat[y0 * (width + 1) + x0];
+        let sum =
+            sat[y1 * (width + 1) + x1] - sat[y0 * (width + 1) + x1] - sat[y1 * (width + 1) + x0]
+                + sat[y0 * (width + 1) + x0];
         sum / ((x1 - x0) * (y1 - y0)) as f64
     };
-    let blurred: Vec<f64> = (0..width * height).map(|k| boxed(k % width, k / width)).collect();
-    let (top, peak) = blurred.iter().cloned().enumerate().fold((0, 0.0), |a, (k, b)| if b > a.1 { (k, b) } else { a });
+    let blurred: Vec<f64> = (0..width * height)
+        .map(|k| boxed(k % width, k / width))
+        .collect();
+    let (top, peak) = blurred
+        .iter()
+        .cloned()
+        .enumerate()
+        .fold((0, 0.0), |a, (k, b)| if b > a.1 { (k, b) } else { a });
     if !(peak > 0.0) {
         return None;
     }
@@ -205,19 +226,30 @@ mod tests {
             // Exactly the facets within some angle of the viewer are dark:
             // the dark set is a cap around the viewer's direction.
             assert!(!dark.is_empty());
-            assert!(max_dark < min_bright, "dark up to {max_dark}°, bright from {min_bright}°");
+            assert!(
+                max_dark < min_bright,
+                "dark up to {max_dark}°, bright from {min_bright}°"
+            );
             // Paraxial estimate of the cap: offset ≈ 2rθ/n = ρ → θ ≈ 12.9°
             // (r = 0.5, n = 1.5, ρ = 0.15 facet); the exact cap is near it.
             assert!((8.0..16.0).contains(&max_dark), "cap {max_dark}°");
             let centroid = dark.iter().copied().sum::<DVec3>().normalize();
-            assert!(centroid.angle_between(w).to_degrees() < 1.5, "centroid off the viewer by {}°",
-                centroid.angle_between(w).to_degrees());
+            assert!(
+                centroid.angle_between(w).to_degrees() < 1.5,
+                "centroid off the viewer by {}°",
+                centroid.angle_between(w).to_degrees()
+            );
             centroids.push((centroid, dark.len()));
         }
         // It moved with the viewer: by the viewer's angle, to within 2°.
         let moved = centroids[0].0.angle_between(centroids[1].0).to_degrees();
-        let viewer_moved = dir_from(10.0, 30.0).angle_between(dir_from(25.0, 200.0)).to_degrees();
-        assert!((moved - viewer_moved).abs() < 2.0, "pupil moved {moved}°, viewer {viewer_moved}°");
+        let viewer_moved = dir_from(10.0, 30.0)
+            .angle_between(dir_from(25.0, 200.0))
+            .to_degrees();
+        assert!(
+            (moved - viewer_moved).abs() < 2.0,
+            "pupil moved {moved}°, viewer {viewer_moved}°"
+        );
     }
 
     #[test]
@@ -244,17 +276,34 @@ mod tests {
         let lens = LensParams::thesis(0.5, 1.5).unwrap();
         let (c, a) = (DVec3::new(0.0, 0.0, 5.0), DVec3::Z);
         // A NaN, infinite or zero axis has no direction.
-        for axis in [DVec3::new(f64::NAN, 0.0, 1.0), DVec3::new(0.0, f64::INFINITY, 1.0), DVec3::ZERO] {
-            assert_eq!(input_error(facet_lattice(c, axis, 1.0, lens)), ("facet axis", Expected::Direction));
+        for axis in [
+            DVec3::new(f64::NAN, 0.0, 1.0),
+            DVec3::new(0.0, f64::INFINITY, 1.0),
+            DVec3::ZERO,
+        ] {
+            assert_eq!(
+                input_error(facet_lattice(c, axis, 1.0, lens)),
+                ("facet axis", Expected::Direction)
+            );
         }
         let centre = ("facet centre (mesh units)", Expected::FiniteVector);
-        assert_eq!(input_error(facet_lattice(DVec3::splat(f64::NAN), a, 1.0, lens)), centre);
+        assert_eq!(
+            input_error(facet_lattice(DVec3::splat(f64::NAN), a, 1.0, lens)),
+            centre
+        );
         let facet = ("facet size (mesh units)", Expected::Positive);
         for size in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            assert_eq!(input_error(facet_lattice(c, a, size, lens)), facet, "facet {size}");
+            assert_eq!(
+                input_error(facet_lattice(c, a, size, lens)),
+                facet,
+                "facet {size}"
+            );
         }
         // Facets too small for the lenses.
-        assert!(matches!(facet_lattice(c, a, 0.9, lens), Err(CompoundEyeError::LensesOverlap { .. })));
+        assert!(matches!(
+            facet_lattice(c, a, 0.9, lens),
+            Err(CompoundEyeError::LensesOverlap { .. })
+        ));
         assert!(facet_lattice(c, a, 1.0, lens).is_ok());
     }
 }

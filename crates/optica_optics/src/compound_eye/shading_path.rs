@@ -25,7 +25,11 @@ pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<Ray, ShadeFa
         return Err(ShadeFallback::PolygonMiss);
     }
     let p = ray.at((-h0 / cos).max(0.0));
-    if p.is_finite() { Ok(Ray::from_unit(p, ray.dir())) } else { Err(ShadeFallback::Overflow) }
+    if p.is_finite() {
+        Ok(Ray::from_unit(p, ray.dir()))
+    } else {
+        Err(ShadeFallback::Overflow)
+    }
 }
 
 /// Most lenses the shading path follows one view ray through: the bound of
@@ -59,13 +63,19 @@ pub struct ShadeOptions {
 impl ShadeOptions {
     /// The thesis's model with `slices` slice planes: one lens per ray.
     pub fn thesis(slices: u32) -> Self {
-        Self { slices, max_lenses: 1 }
+        Self {
+            slices,
+            max_lenses: 1,
+        }
     }
 
     /// The physical default: `slices` slice planes, rays followed through up
     /// to [`MAX_LENSES`] lenses.
     pub fn neighbours(slices: u32) -> Self {
-        Self { slices, max_lenses: MAX_LENSES }
+        Self {
+            slices,
+            max_lenses: MAX_LENSES,
+        }
     }
 }
 
@@ -153,7 +163,11 @@ pub fn shade_fragment_with(lattice: &Lattice, fragment: &Ray, options: &ShadeOpt
     // Step 2: slice-plane search (6.16–6.27).
     let mut found = None;
     for s in 0..=k {
-        let h = if k == 0 { 0.0 } else { r * f64::from(s) / f64::from(k) };
+        let h = if k == 0 {
+            0.0
+        } else {
+            r * f64::from(s) / f64::from(k)
+        };
         let p_s = p + (h / cos) * dir; // the view ray on the slice plane at depth h
         let uv_s = lattice.slice_uv(p_s, h); // (6.23)–(6.27); s = 0 is (6.16)
         let cell = lattice.cell_of(uv_s); // (6.17)–(6.20)
@@ -190,13 +204,25 @@ pub fn shade_fragment_with(lattice: &Lattice, fragment: &Ray, options: &ShadeOpt
             None => break,
         }
     }
-    finish(lattice, &path, Some(first), Some(cell.index), count, transmittance)
+    finish(
+        lattice,
+        &path,
+        Some(first),
+        Some(cell.index),
+        count,
+        transmittance,
+    )
 }
 
 /// Step 3's neighbour search: the lens the exit ray `path` enters next
 /// (not `current`, the one it just left), found by sampling the ray at
 /// `samples` points through the lens layer: `(cell, centre, t_entry)`.
-fn next_lens(lattice: &Lattice, path: &Ray, current: [i64; 2], samples: u32) -> Option<(LensCell, DVec3, f64)> {
+fn next_lens(
+    lattice: &Lattice,
+    path: &Ray,
+    current: [i64; 2],
+    samples: u32,
+) -> Option<(LensCell, DVec3, f64)> {
     let axes = lattice.axes();
     let r = lattice.lens().radius();
     let h0 = axes.depth(path.origin());
@@ -255,14 +281,23 @@ pub(crate) fn finish(
         PigmentPlaneHit::At(point) => {
             let uv: DVec2 = lattice.pigment_uv(point); // (6.29)
             if uv.is_finite() {
-                Shade::Pigment(PigmentHit { uv, point, lens: first, lenses, transmittance })
+                Shade::Pigment(PigmentHit {
+                    uv,
+                    point,
+                    lens: first,
+                    lenses,
+                    transmittance,
+                })
             } else {
                 Shade::Fallback(ShadeFallback::Overflow)
             }
         }
         PigmentPlaneHit::Overflow => Shade::Fallback(ShadeFallback::Overflow),
         PigmentPlaneHit::Escapes => match last {
-            Some(cell) => Shade::Fallback(ShadeFallback::Escaped { lens: cell, dir: ray.dir() }),
+            Some(cell) => Shade::Fallback(ShadeFallback::Escaped {
+                lens: cell,
+                dir: ray.dir(),
+            }),
             // Unreachable for a ray that reached the polygon from the front.
             None => Shade::Fallback(ShadeFallback::PolygonMiss),
         },
@@ -308,7 +343,12 @@ mod tests {
             let dir = DVec3::new(0.3, 0.2, -1.0);
             let ray = ray_at(2.5 - 0.15, -0.5 - 0.1, dir);
             let want = DVec2::new(2.5 + 0.3 * (d - 0.5), -0.5 + 0.2 * (d - 0.5));
-            for got in [shade(&l, &ray, 0), shade(&l, &ray, 8), trace_exact(&l, &ray, 1), trace_exact(&l, &ray, 8)] {
+            for got in [
+                shade(&l, &ray, 0),
+                shade(&l, &ray, 8),
+                trace_exact(&l, &ray, 1),
+                trace_exact(&l, &ray, 8),
+            ] {
                 let h = *got.hit().unwrap();
                 assert_eq!(h.lens, Some([2, -1]));
                 assert!((h.uv - want).length() < 1e-12, "{:?} vs {want:?}", h.uv);
@@ -342,9 +382,14 @@ mod tests {
         let dir = DVec3::new(1.0, 1.0, -4.0).normalize();
         let ray = ray_at(0.02, 0.02, dir);
         let fragment = polygon_entry(&l, &ray).unwrap();
-        let t = l.lens_entry(&fragment, l.lens_centre(DVec2::splat(0.5))).unwrap();
+        let t = l
+            .lens_entry(&fragment, l.lens_centre(DVec2::splat(0.5)))
+            .unwrap();
         let entry_depth = l.axes().depth(fragment.at(t));
-        assert!(entry_depth > 0.5 && entry_depth < 0.6, "enters at depth {entry_depth}");
+        assert!(
+            entry_depth > 0.5 && entry_depth < 0.6,
+            "enters at depth {entry_depth}"
+        );
         let exact = *trace_exact(&l, &ray, 1).hit().unwrap();
         assert_eq!(exact.lens, Some([0, 0]));
         for k in [0, 1, 8] {
@@ -359,10 +404,19 @@ mod tests {
         let l = unit_lattice(0.5, 1.0, 1.3);
         for k in 0..50 {
             let a = k as f64 * 0.37;
-            let dir = DVec3::new(a.cos() * (k as f64 * 0.03), a.sin() * (k as f64 * 0.02), -1.0).normalize();
+            let dir = DVec3::new(
+                a.cos() * (k as f64 * 0.03),
+                a.sin() * (k as f64 * 0.02),
+                -1.0,
+            )
+            .normalize();
             let ray = ray_at(0.1 * k as f64, -0.07 * k as f64, dir);
             let straight = ray.at((ray.origin().z + 1.3) / -ray.dir().z);
-            for got in [shade(&l, &ray, 4), trace_exact(&l, &ray, 1), trace_exact(&l, &ray, 6)] {
+            for got in [
+                shade(&l, &ray, 4),
+                trace_exact(&l, &ray, 1),
+                trace_exact(&l, &ray, 6),
+            ] {
                 let h = got.hit().unwrap();
                 assert!((h.point - straight).length() < 1e-12, "k {k}");
             }
@@ -414,7 +468,10 @@ mod tests {
     fn a_fragment_ray_leaving_the_surface_is_a_polygon_miss() {
         let l = unit_lattice(0.5, 1.5, 1.0);
         let out = Ray::new(DVec3::new(0.5, 0.5, 0.0), DVec3::new(0.0, 0.3, 1.0)).unwrap();
-        assert_eq!(shade_fragment(&l, &out, 4), Shade::Fallback(ShadeFallback::PolygonMiss));
+        assert_eq!(
+            shade_fragment(&l, &out, 4),
+            Shade::Fallback(ShadeFallback::PolygonMiss)
+        );
         // A fragment ray pointing in gives what shade gives for the view ray through it.
         let view = ray_at(0.3, 0.6, DVec3::new(0.2, -0.1, -1.0));
         let fragment = Ray::new(DVec3::new(0.3, 0.6, 0.0), view.dir()).unwrap();
@@ -436,7 +493,11 @@ mod tests {
         // The same triangle with UVs mirrored in a: every pigment texture
         // coordinate mirrors, lens indices map i → −1 − i, and the lenses stay
         // under the surface (the normal follows the winding).
-        let p = [DVec3::ZERO, DVec3::new(3.0, 0.0, 0.0), DVec3::new(0.0, 3.0, 0.0)];
+        let p = [
+            DVec3::ZERO,
+            DVec3::new(3.0, 0.0, 0.0),
+            DVec3::new(0.0, 3.0, 0.0),
+        ];
         let t = [DVec2::ZERO, DVec2::new(3.0, 0.0), DVec2::new(0.0, 3.0)];
         let tm = t.map(|x| DVec2::new(-x.x, x.y));
         let lens = LensParams::thesis(0.5, 1.5).unwrap();
@@ -445,12 +506,19 @@ mod tests {
         assert_eq!(m.axes().handedness(), -1.0);
         for k in 0..200 {
             let f = k as f64;
-            let dir = DVec3::new((f * 0.7).cos(), (f * 0.7).sin(), -0.2 - (f * 0.013) % 1.5).normalize();
+            let dir =
+                DVec3::new((f * 0.7).cos(), (f * 0.7).sin(), -0.2 - (f * 0.013) % 1.5).normalize();
             let ray = ray_at(1.0 + (f * 0.137) % 1.0, 1.0 + (f * 0.291) % 1.0, dir);
-            for (sa, sm) in [(shade(&a, &ray, 3), shade(&m, &ray, 3)), (trace_exact(&a, &ray, 1), trace_exact(&m, &ray, 1))] {
+            for (sa, sm) in [
+                (shade(&a, &ray, 3), shade(&m, &ray, 3)),
+                (trace_exact(&a, &ray, 1), trace_exact(&m, &ray, 1)),
+            ] {
                 match (sa, sm) {
                     (Shade::Pigment(ha), Shade::Pigment(hm)) => {
-                        assert!((ha.uv - DVec2::new(-hm.uv.x, hm.uv.y)).length() < 1e-12, "ray {k}");
+                        assert!(
+                            (ha.uv - DVec2::new(-hm.uv.x, hm.uv.y)).length() < 1e-12,
+                            "ray {k}"
+                        );
                         assert_eq!(ha.lens.map(|[i, j]| [-1 - i, j]), hm.lens);
                         assert!((ha.point - hm.point).length() < 1e-12);
                     }
@@ -461,7 +529,14 @@ mod tests {
     }
 
     fn arb_lattice() -> impl Strategy<Value = Lattice> {
-        (0.05f64..1.0, 0.3f64..3.0, 0.0f64..2.0, -0.5f64..0.5, 0.5f64..2.0, prop::array::uniform3(-1.0f64..1.0))
+        (
+            0.05f64..1.0,
+            0.3f64..3.0,
+            0.0f64..2.0,
+            -0.5f64..0.5,
+            0.5f64..2.0,
+            prop::array::uniform3(-1.0f64..1.0),
+        )
             .prop_filter_map("valid lattice", |(r_frac, n, extra, skew, aspect, nrm)| {
                 let normal = DVec3::from(nrm).try_normalize()?;
                 let (t, b) = normal.any_orthonormal_pair();

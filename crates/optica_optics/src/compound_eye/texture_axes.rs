@@ -35,7 +35,10 @@ pub const NORMAL_COS_EPS: f64 = 1e-9;
 /// facets cover the surface. `R_t` must be finite and positive and `t_obj`
 /// finite.
 pub fn scale_uv(t_obj: DVec2, texture_resolution: f64) -> Result<DVec2, InvalidInput> {
-    let r_t = input::positive("texture resolution R_t (facets per UV unit)", texture_resolution)?;
+    let r_t = input::positive(
+        "texture resolution R_t (facets per UV unit)",
+        texture_resolution,
+    )?;
     let t = input::finite_vec2("mesh texture coordinate (UV units)", t_obj)?;
     Ok(r_t * t)
 }
@@ -160,7 +163,8 @@ impl TextureAxes {
             Ok(axes) => return axes,
             Err(e) => e,
         };
-        let s = input::positive("fallback facet size (mesh units)", fallback_cell).unwrap_or(DEFAULT_FALLBACK_CELL);
+        let s = input::positive("fallback facet size (mesh units)", fallback_cell)
+            .unwrap_or(DEFAULT_FALLBACK_CELL);
         let t0 = if t[0].is_finite() { t[0] } else { DVec2::ZERO };
         let p0 = if p[0].is_finite() { p[0] } else { DVec3::ZERO };
         let (u_hat, v_hat, normal) = match reason {
@@ -168,7 +172,11 @@ impl TextureAxes {
                 let p10 = p[1] - p[0];
                 let p20 = p[2] - p[0];
                 let normal = p10.cross(p20).normalize();
-                let long = if p10.length_squared() >= p20.length_squared() { p10 } else { p20 };
+                let long = if p10.length_squared() >= p20.length_squared() {
+                    p10
+                } else {
+                    p20
+                };
                 let u_hat = long.normalize();
                 (u_hat, normal.cross(u_hat), normal)
             }
@@ -182,7 +190,14 @@ impl TextureAxes {
             axes
         } else {
             // Huge-but-finite input overflowed: the world frame at the origin.
-            Self::assemble(DVec3::ZERO, s * DVec3::X, s * DVec3::Y, DVec3::Z, 1.0, Some(reason))
+            Self::assemble(
+                DVec3::ZERO,
+                s * DVec3::X,
+                s * DVec3::Y,
+                DVec3::Z,
+                1.0,
+                Some(reason),
+            )
         }
     }
 
@@ -201,7 +216,12 @@ impl TextureAxes {
     /// [`CompoundEyeError::DegenerateUv`] when `u`, `v` are (nearly) parallel
     /// (see [`UV_DET_REL_EPS`]) and
     /// [`CompoundEyeError::NormalNotPerpendicular`] for a tilted `normal`.
-    pub fn from_axes(origin: DVec3, u: DVec3, v: DVec3, normal: DVec3) -> Result<Self, CompoundEyeError> {
+    pub fn from_axes(
+        origin: DVec3,
+        u: DVec3,
+        v: DVec3,
+        normal: DVec3,
+    ) -> Result<Self, CompoundEyeError> {
         let origin = input::finite_vec3("lattice origin P_c (mesh units)", origin)?;
         let u = input::finite_vec3("lattice axis U_p (mesh units per facet)", u)?;
         let v = input::finite_vec3("lattice axis V_p (mesh units per facet)", v)?;
@@ -210,7 +230,11 @@ impl TextureAxes {
         let sin_len = cross.length();
         let lengths = u.length() * v.length();
         if !(sin_len > UV_DET_REL_EPS * lengths) || !sin_len.is_finite() {
-            let sin = if lengths > 0.0 && (sin_len / lengths).is_finite() { sin_len / lengths } else { 0.0 };
+            let sin = if lengths > 0.0 && (sin_len / lengths).is_finite() {
+                sin_len / lengths
+            } else {
+                0.0
+            };
             return Err(CompoundEyeError::DegenerateUv { det: sin });
         }
         let plane_normal = cross / sin_len;
@@ -224,7 +248,9 @@ impl TextureAxes {
             Ok(axes)
         } else {
             // Only reachable with extreme magnitudes (overflow or underflow of U·U, V·V).
-            Err(CompoundEyeError::DegenerateUv { det: sin_len / lengths })
+            Err(CompoundEyeError::DegenerateUv {
+                det: sin_len / lengths,
+            })
         }
     }
 
@@ -267,11 +293,26 @@ impl TextureAxes {
         self.fallback
     }
 
-    fn assemble(origin: DVec3, u: DVec3, v: DVec3, normal: DVec3, handedness: f64, fallback: Option<CompoundEyeError>) -> Self {
+    fn assemble(
+        origin: DVec3,
+        u: DVec3,
+        v: DVec3,
+        normal: DVec3,
+        handedness: f64,
+        fallback: Option<CompoundEyeError>,
+    ) -> Self {
         let uu = u.dot(u);
         let vv = v.dot(v);
         let uv = u.dot(v);
-        Self { origin, u, v, normal, handedness, fallback, gram: uu * vv - uv * uv }
+        Self {
+            origin,
+            u,
+            v,
+            normal,
+            handedness,
+            fallback,
+            gram: uu * vv - uv * uv,
+        }
     }
 
     /// Eq. 6.2: the polygon point with texture coordinate `uv` (in facets).
@@ -335,14 +376,30 @@ mod tests {
         // → A = [[2,0],[1,1]], det 2, A⁻¹ = ½[[1,0],[−1,2]]: (i,j) = (½,−½), (k,l) = (0,1)
         // → U_p = ½P10 − ½P20 = (1,−½,−½), V_p = P20 = (0,1,1).
         // T0 = (3,−1) → P_c = P0 − 3U + V = (1,1,0) − (3,−1.5,−1.5) + (0,1,1) = (−2,3.5,2.5).
-        let p = [DVec3::new(1.0, 1.0, 0.0), DVec3::new(3.0, 1.0, 0.0), DVec3::new(1.0, 2.0, 1.0)];
-        let t = [DVec2::new(3.0, -1.0), DVec2::new(5.0, 0.0), DVec2::new(3.0, 0.0)];
+        let p = [
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(3.0, 1.0, 0.0),
+            DVec3::new(1.0, 2.0, 1.0),
+        ];
+        let t = [
+            DVec2::new(3.0, -1.0),
+            DVec2::new(5.0, 0.0),
+            DVec2::new(3.0, 0.0),
+        ];
         let a = TextureAxes::from_triangle(p, t).unwrap();
         assert!(close(a.u, DVec3::new(1.0, -0.5, -0.5), 1e-14), "{:?}", a.u);
         assert!(close(a.v, DVec3::new(0.0, 1.0, 1.0), 1e-14), "{:?}", a.v);
-        assert!(close(a.origin, DVec3::new(-2.0, 3.5, 2.5), 1e-13), "{:?}", a.origin);
+        assert!(
+            close(a.origin, DVec3::new(-2.0, 3.5, 2.5), 1e-13),
+            "{:?}",
+            a.origin
+        );
         // N = P10 × P20 / |…| = (0,−2,2)/√8.
-        assert!(close(a.normal, DVec3::new(0.0, -1.0, 1.0) / 2f64.sqrt(), 1e-15));
+        assert!(close(
+            a.normal,
+            DVec3::new(0.0, -1.0, 1.0) / 2f64.sqrt(),
+            1e-15
+        ));
         assert_eq!(a.handedness, 1.0);
         assert!(a.fallback.is_none());
         // Every vertex maps back to its UV (eq. 6.2 and 6.26–6.27 are inverses on the plane).
@@ -356,15 +413,26 @@ mod tests {
 
     #[test]
     fn degenerate_uv_is_typed_and_falls_back_to_a_plane_frame() {
-        let p = [DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
+        let p = [
+            DVec3::ZERO,
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+        ];
         // Collinear UVs (det = 0) and a collapsed UV edge.
         for t in [
             [DVec2::ZERO, DVec2::new(1.0, 1.0), DVec2::new(2.0, 2.0)],
-            [DVec2::new(0.5, 0.5), DVec2::new(0.5, 0.5), DVec2::new(1.0, 0.0)],
+            [
+                DVec2::new(0.5, 0.5),
+                DVec2::new(0.5, 0.5),
+                DVec2::new(1.0, 0.0),
+            ],
             [DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(1.0, 1e-9)],
         ] {
             let err = TextureAxes::from_triangle(p, t).unwrap_err();
-            assert!(matches!(err, CompoundEyeError::DegenerateUv { .. }), "{err:?}");
+            assert!(
+                matches!(err, CompoundEyeError::DegenerateUv { .. }),
+                "{err:?}"
+            );
             let a = TextureAxes::from_triangle_or_fallback(p, t, 0.25);
             assert_eq!(a.fallback, Some(err));
             // Orthogonal, one facet = 0.25 long, in the triangle's plane (z = 0), right-handed.
@@ -383,31 +451,51 @@ mod tests {
     fn degenerate_and_non_finite_triangles_are_typed() {
         let t = [DVec2::ZERO, DVec2::X, DVec2::Y];
         let line = [DVec3::ZERO, DVec3::X, 2.0 * DVec3::X];
-        assert_eq!(TextureAxes::from_triangle(line, t), Err(CompoundEyeError::DegenerateTriangle));
+        assert_eq!(
+            TextureAxes::from_triangle(line, t),
+            Err(CompoundEyeError::DegenerateTriangle)
+        );
         let a = TextureAxes::from_triangle_or_fallback(line, t, 1.0);
         assert_eq!(a.fallback, Some(CompoundEyeError::DegenerateTriangle));
         assert_eq!(a.normal, DVec3::Z);
         let nan = [DVec3::ZERO, DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Y];
         match TextureAxes::from_triangle(nan, t) {
             Err(CompoundEyeError::Input(e)) => {
-                assert_eq!((e.what, e.expected), ("triangle vertex position (mesh units)", Expected::FiniteVector));
+                assert_eq!(
+                    (e.what, e.expected),
+                    (
+                        "triangle vertex position (mesh units)",
+                        Expected::FiniteVector
+                    )
+                );
                 assert!(e.value.is_nan());
             }
             other => panic!("{other:?}"),
         }
         let inf_uv = [DVec2::ZERO, DVec2::new(0.0, f64::INFINITY), DVec2::Y];
         match TextureAxes::from_triangle(line, inf_uv) {
-            Err(CompoundEyeError::Input(e)) => assert_eq!((e.what, e.value), ("triangle texture coordinate (facets)", f64::INFINITY)),
+            Err(CompoundEyeError::Input(e)) => assert_eq!(
+                (e.what, e.value),
+                ("triangle texture coordinate (facets)", f64::INFINITY)
+            ),
             other => panic!("{other:?}"),
         }
         let a = TextureAxes::from_triangle_or_fallback(nan, t, f64::NAN);
         assert!(matches!(a.fallback, Some(CompoundEyeError::Input(_))));
-        assert!(a.origin.is_finite() && a.u.is_finite() && (a.u.length() - DEFAULT_FALLBACK_CELL).abs() < 1e-15);
+        assert!(
+            a.origin.is_finite()
+                && a.u.is_finite()
+                && (a.u.length() - DEFAULT_FALLBACK_CELL).abs() < 1e-15
+        );
     }
 
     #[test]
     fn mirrored_uv_flips_handedness_not_the_normal() {
-        let p = [DVec3::ZERO, DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
+        let p = [
+            DVec3::ZERO,
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+        ];
         let t = [DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
         let tm = t.map(|x| DVec2::new(-x.x, x.y)); // mirrored in a: det A = −1
         let a = TextureAxes::from_triangle(p, t).unwrap();
@@ -433,7 +521,9 @@ mod tests {
         // cells' columns and poke through the polygon.
         let tilted = DVec3::new(1.0, 0.0, 1.0) / 2f64.sqrt();
         match TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, tilted) {
-            Err(CompoundEyeError::NormalNotPerpendicular { cos }) => assert!((cos - tilted.z).abs() < 1e-15),
+            Err(CompoundEyeError::NormalNotPerpendicular { cos }) => {
+                assert!((cos - tilted.z).abs() < 1e-15)
+            }
             other => panic!("{other:?}"),
         }
         // In the plane: rejected too, not a handedness of +1.
@@ -446,25 +536,44 @@ mod tests {
         assert!(TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, off).is_err());
         // Within the tolerance, and of any length: only the side is taken; the
         // stored normal is exactly ±(U × V)/|U × V|.
-        let a = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(1e-6, 0.0, 3.0)).unwrap();
+        let a = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(1e-6, 0.0, 3.0))
+            .unwrap();
         assert_eq!((a.normal(), a.handedness()), (DVec3::Z, 1.0));
-        let m = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(0.0, -1e-6, -0.5)).unwrap();
+        let m = TextureAxes::from_axes(
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::Y,
+            DVec3::new(0.0, -1e-6, -0.5),
+        )
+        .unwrap();
         assert_eq!((m.normal(), m.handedness()), (DVec3::NEG_Z, -1.0));
         // Depth along N and the uv projection stay independent.
         let q = DVec3::new(0.3, 0.7, -0.4);
         assert_eq!(a.uv_of(q), DVec2::new(0.3, 0.7));
         assert_eq!(a.depth(q), 0.4);
         match TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ZERO) {
-            Err(CompoundEyeError::Input(e)) => assert_eq!((e.what, e.expected), ("lattice normal", Expected::Direction)),
+            Err(CompoundEyeError::Input(e)) => assert_eq!(
+                (e.what, e.expected),
+                ("lattice normal", Expected::Direction)
+            ),
             other => panic!("{other:?}"),
         }
-        match TextureAxes::from_axes(DVec3::ZERO, DVec3::new(0.0, f64::NAN, 0.0), DVec3::Y, DVec3::Z) {
-            Err(CompoundEyeError::Input(e)) => assert_eq!(e.what, "lattice axis U_p (mesh units per facet)"),
+        match TextureAxes::from_axes(
+            DVec3::ZERO,
+            DVec3::new(0.0, f64::NAN, 0.0),
+            DVec3::Y,
+            DVec3::Z,
+        ) {
+            Err(CompoundEyeError::Input(e)) => {
+                assert_eq!(e.what, "lattice axis U_p (mesh units per facet)")
+            }
             other => panic!("{other:?}"),
         }
         // Parallel axes: the error carries the sine of their angle.
         match TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1e-7, 0.0), DVec3::Z) {
-            Err(CompoundEyeError::DegenerateUv { det }) => assert!((det - 1e-7).abs() < 1e-12, "{det}"),
+            Err(CompoundEyeError::DegenerateUv { det }) => {
+                assert!((det - 1e-7).abs() < 1e-12, "{det}")
+            }
             other => panic!("{other:?}"),
         }
         assert_eq!(
@@ -477,8 +586,17 @@ mod tests {
     fn getters_match_the_cached_gram_determinant() {
         // With private fields, the axes read back are the ones the cached Gram
         // determinant belongs to: uv_rate and cell_heights use them consistently.
-        let a = TextureAxes::from_axes(DVec3::ONE, 2.0 * DVec3::X, DVec3::new(0.5, 1.0, 0.0), DVec3::Z).unwrap();
-        assert_eq!((a.origin(), a.u(), a.v()), (DVec3::ONE, 2.0 * DVec3::X, DVec3::new(0.5, 1.0, 0.0)));
+        let a = TextureAxes::from_axes(
+            DVec3::ONE,
+            2.0 * DVec3::X,
+            DVec3::new(0.5, 1.0, 0.0),
+            DVec3::Z,
+        )
+        .unwrap();
+        assert_eq!(
+            (a.origin(), a.u(), a.v()),
+            (DVec3::ONE, 2.0 * DVec3::X, DVec3::new(0.5, 1.0, 0.0))
+        );
         assert_eq!(a.fallback(), None);
         assert!((a.uv_rate(a.u()) - DVec2::X).length() < 1e-15);
         assert!((a.uv_rate(a.v()) - DVec2::Y).length() < 1e-15);
@@ -489,12 +607,26 @@ mod tests {
 
     #[test]
     fn scale_uv_is_eq_6_1() {
-        assert_eq!(scale_uv(DVec2::new(0.25, 0.5), 40.0), Ok(DVec2::new(10.0, 20.0)));
+        assert_eq!(
+            scale_uv(DVec2::new(0.25, 0.5), 40.0),
+            Ok(DVec2::new(10.0, 20.0))
+        );
         for bad in [0.0, -3.0, f64::NAN, f64::INFINITY] {
             let e = scale_uv(DVec2::ONE, bad).unwrap_err();
-            assert_eq!((e.what, e.expected), ("texture resolution R_t (facets per UV unit)", Expected::Positive));
+            assert_eq!(
+                (e.what, e.expected),
+                (
+                    "texture resolution R_t (facets per UV unit)",
+                    Expected::Positive
+                )
+            );
         }
-        assert_eq!(scale_uv(DVec2::new(f64::NAN, 0.0), 40.0).unwrap_err().expected, Expected::FiniteVector);
+        assert_eq!(
+            scale_uv(DVec2::new(f64::NAN, 0.0), 40.0)
+                .unwrap_err()
+                .expected,
+            Expected::FiniteVector
+        );
     }
 
     proptest! {

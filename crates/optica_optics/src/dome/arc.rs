@@ -35,7 +35,10 @@ pub(crate) fn subtended_angle(a: DVec3, b: DVec3) -> f64 {
 
 /// Whether `a` comes before `b` in the canonical (lexicographic, total) order.
 pub(crate) fn canonical_less(a: DVec3, b: DVec3) -> bool {
-    a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)).then(a.z.total_cmp(&b.z)) == Ordering::Less
+    a.x.total_cmp(&b.x)
+        .then(a.y.total_cmp(&b.y))
+        .then(a.z.total_cmp(&b.z))
+        == Ordering::Less
 }
 
 /// Range of the polar angle (from a unit axis) over an arc.
@@ -105,11 +108,27 @@ impl Arc {
                 return Err(ArcError::ThroughViewer);
             }
             // Radial towards the viewer (or zero length): the image is a point.
-            return Ok(Self { a, b, a_hat, w_hat: DVec3::ZERO, alpha: 0.0, len_a, len_b });
+            return Ok(Self {
+                a,
+                b,
+                a_hat,
+                w_hat: DVec3::ZERO,
+                alpha: 0.0,
+                len_a,
+                len_b,
+            });
         }
         let w_hat = n.cross(a).normalize();
         let alpha = n_len.atan2(dot);
-        Ok(Self { a, b, a_hat, w_hat, alpha, len_a, len_b })
+        Ok(Self {
+            a,
+            b,
+            a_hat,
+            w_hat,
+            alpha,
+            len_a,
+            len_b,
+        })
     }
 
     /// Whether the whole segment is seen in one direction.
@@ -136,7 +155,11 @@ impl Arc {
         }
         let num = self.len_a * beta.sin();
         let den = num + self.len_b * (self.alpha - beta).sin();
-        if den > 0.0 { (num / den).clamp(0.0, 1.0) } else { 0.0 }
+        if den > 0.0 {
+            (num / den).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
     }
 
     /// The 3D point on the segment seen at angle β along the arc.
@@ -190,7 +213,11 @@ pub(crate) fn split_points(a: DVec3, b: DVec3, n: u32) -> Result<Vec<DVec3>, Arc
     pts.push(p);
     for i in 1..n {
         let beta = arc.alpha * f64::from(i) / f64::from(n);
-        let pt = if arc.is_point() { p + (f64::from(i) / f64::from(n)) * (q - p) } else { arc.point(beta) };
+        let pt = if arc.is_point() {
+            p + (f64::from(i) / f64::from(n)) * (q - p)
+        } else {
+            arc.point(beta)
+        };
         pts.push(pt);
     }
     pts.push(q);
@@ -208,7 +235,9 @@ mod tests {
     #[test]
     fn subtended_angle_known_values() {
         assert!((subtended_angle(DVec3::X, DVec3::Y) - PI / 2.0).abs() < 1e-15);
-        assert!((subtended_angle(DVec3::X * 3.0, DVec3::new(1.0, 1.0, 0.0)) - PI / 4.0).abs() < 1e-15);
+        assert!(
+            (subtended_angle(DVec3::X * 3.0, DVec3::new(1.0, 1.0, 0.0)) - PI / 4.0).abs() < 1e-15
+        );
         // 1e-9 rad apart: acos(dot) would return 0 or ~1.5e-8 here.
         let b = DVec3::new(1.0, 1e-9, 0.0);
         assert!((subtended_angle(DVec3::X, b) - 1e-9).abs() < 1e-20);
@@ -239,14 +268,20 @@ mod tests {
         assert_eq!(split_segment(a, DVec3::ZERO, 2), Err(DomeError::AtOrigin));
         match split_segment(a, DVec3::new(0.0, f64::INFINITY, 0.0), 2) {
             Err(DomeError::Input(e)) => {
-                assert_eq!((e.what, e.value, e.expected), (VERTEX, f64::INFINITY, input::Expected::FiniteVector))
+                assert_eq!(
+                    (e.what, e.value, e.expected),
+                    (VERTEX, f64::INFINITY, input::Expected::FiniteVector)
+                )
             }
             other => panic!("{other:?}"),
         }
         // The piece count is clamped to 1 ..= MAX_PIECES.
         let b = DVec3::new(-2.0, 1.0, -3.0);
         assert_eq!(split_segment(a, b, 0).unwrap(), vec![a, b]);
-        assert_eq!(split_segment(a, b, u32::MAX).unwrap().len(), super::super::MAX_PIECES as usize + 1);
+        assert_eq!(
+            split_segment(a, b, u32::MAX).unwrap().len(),
+            super::super::MAX_PIECES as usize + 1
+        );
         // Radial towards the viewer: a point arc, split linearly, finite.
         let pts = split_segment(a, 0.25 * a, 4).unwrap();
         assert!(pts.iter().all(|p| p.is_finite()));

@@ -59,7 +59,11 @@ pub struct DomeSettings {
 impl Default for DomeSettings {
     /// A 4K, 180°, untilted dome: the common domemaster.
     fn default() -> Self {
-        Self { fov_deg: 180.0, tilt_deg: 0.0, size_px: 4096 }
+        Self {
+            fov_deg: 180.0,
+            tilt_deg: 0.0,
+            size_px: 4096,
+        }
     }
 }
 
@@ -176,7 +180,11 @@ impl DomeProjection {
     /// rim and this angle geometry is kept and lands outside the image circle,
     /// where a renderer discards its fragments.
     pub fn theta_clip(&self) -> f64 {
-        if self.clips_at_view_plane() { 0.5 * PI } else { 0.5 * (self.theta_max + PI) }
+        if self.clips_at_view_plane() {
+            0.5 * PI
+        } else {
+            0.5 * (self.theta_max + PI)
+        }
     }
 
     /// Largest polar angle a kept piece of geometry can reach: the clip angle
@@ -187,7 +195,11 @@ impl DomeProjection {
     /// leave the guard cone at π − θ_clip, which keeps every kept arc within
     /// this angle, away from the antipode.
     pub fn theta_reach(&self) -> f64 {
-        if self.clips_at_view_plane() { self.theta_clip() } else { 0.5 * (self.theta_clip() + PI) }
+        if self.clips_at_view_plane() {
+            self.theta_clip()
+        } else {
+            0.5 * (self.theta_clip() + PI)
+        }
     }
 
     /// View-space point in dome coordinates: (along image right, along image
@@ -209,36 +221,71 @@ mod tests {
     use crate::input::Expected;
 
     fn frame(fov_deg: f64, tilt_deg: f64, size_px: u32) -> Result<DomeProjection, DomeError> {
-        DomeProjection::new(&DomeSettings { fov_deg, tilt_deg, size_px })
+        DomeProjection::new(&DomeSettings {
+            fov_deg,
+            tilt_deg,
+            size_px,
+        })
     }
 
     #[test]
     fn bad_settings_are_refused_with_the_quantity_named() {
         // 1e-320° (subnormal): θ_max underflows, f = ∞, projection NaN.
-        for fov in [1e-320, f64::MIN_POSITIVE, 1e-300, 1e-7, 0.0, -1.0, 360.0, f64::NAN, f64::INFINITY] {
+        for fov in [
+            1e-320,
+            f64::MIN_POSITIVE,
+            1e-300,
+            1e-7,
+            0.0,
+            -1.0,
+            360.0,
+            f64::NAN,
+            f64::INFINITY,
+        ] {
             match frame(fov, 0.0, 4096) {
                 Err(DomeError::Input(e)) => {
                     assert_eq!(e.what, "dome field of view (deg)");
-                    assert_eq!(e.expected, Expected::Range { min: MIN_FOV_DEG, max: 360f64.next_down() });
-                    assert!(e.value == fov || (fov.is_nan() && e.value.is_nan()), "{fov}");
+                    assert_eq!(
+                        e.expected,
+                        Expected::Range {
+                            min: MIN_FOV_DEG,
+                            max: 360f64.next_down()
+                        }
+                    );
+                    assert!(
+                        e.value == fov || (fov.is_nan() && e.value.is_nan()),
+                        "{fov}"
+                    );
                 }
                 other => panic!("{fov}: {other:?}"),
             }
         }
         match frame(180.0, f64::NAN, 4096) {
-            Err(DomeError::Input(e)) => assert_eq!((e.what, e.expected), ("dome tilt (deg)", Expected::Finite)),
+            Err(DomeError::Input(e)) => {
+                assert_eq!((e.what, e.expected), ("dome tilt (deg)", Expected::Finite))
+            }
             other => panic!("{other:?}"),
         }
         match frame(180.0, 0.0, 0) {
             Err(DomeError::Input(e)) => {
-                assert_eq!((e.what, e.value, e.expected), ("domemaster size (px)", 0.0, Expected::Positive))
+                assert_eq!(
+                    (e.what, e.value, e.expected),
+                    ("domemaster size (px)", 0.0, Expected::Positive)
+                )
             }
             other => panic!("{other:?}"),
         }
         // Just below 360° is accepted; the default is the 4K/180° dome.
         assert!(frame(360f64.next_down(), 0.0, 4096).is_ok());
         let d = DomeProjection::new(&DomeSettings::default()).unwrap();
-        assert_eq!(d.settings(), DomeSettings { fov_deg: 180.0, tilt_deg: 0.0, size_px: 4096 });
+        assert_eq!(
+            d.settings(),
+            DomeSettings {
+                fov_deg: 180.0,
+                tilt_deg: 0.0,
+                size_px: 4096
+            }
+        );
     }
 
     #[test]
@@ -247,10 +294,18 @@ mod tests {
         for size in [1, 4096, u32::MAX] {
             let p = frame(MIN_FOV_DEG, 10.0, size).unwrap();
             assert!(p.focal_px().is_finite() && p.focal_px() > 0.0);
-            for q in [DVec3::new(0.0, 0.0, -1.0), DVec3::new(1e-12, 0.0, -1.0), DVec3::new(1.0, 2.0, 3.0), DVec3::new(0.3, -1.0, 0.0)] {
+            for q in [
+                DVec3::new(0.0, 0.0, -1.0),
+                DVec3::new(1e-12, 0.0, -1.0),
+                DVec3::new(1.0, 2.0, 3.0),
+                DVec3::new(0.3, -1.0, 0.0),
+            ] {
                 match p.project(q) {
                     Projected::Visible(ip) | Projected::OutsideFov(ip) => {
-                        assert!(ip.pixel.is_finite() && ip.theta.is_finite(), "{size} {q}: {ip:?}")
+                        assert!(
+                            ip.pixel.is_finite() && ip.theta.is_finite(),
+                            "{size} {q}: {ip:?}"
+                        )
                     }
                     other => panic!("{size} {q}: {other:?}"),
                 }

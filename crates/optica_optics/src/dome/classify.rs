@@ -77,7 +77,10 @@ pub fn pre_subdivide(mesh: &TriMesh, max_piece_rad: f64) -> Result<RefinedMesh, 
         .triangles
         .par_iter()
         .map(|&t| {
-            let mut st = RefineStats { input: 1, ..Default::default() };
+            let mut st = RefineStats {
+                input: 1,
+                ..Default::default()
+            };
             match subdivide_triangle(mesh.corners(t), &pieces) {
                 Ok((m, capped)) => {
                     st.capped_edges = usize::from(capped);
@@ -124,7 +127,12 @@ mod tests {
             let (az, el) = (az.to_radians(), el.to_radians());
             DVec3::new(el.cos() * az.sin(), el.sin(), -el.cos() * az.cos()) * 100.0
         };
-        let positions = vec![d(-20.0, -15.0), d(20.0, -15.0), d(20.0, 15.0), d(-20.0, 15.0)];
+        let positions = vec![
+            d(-20.0, -15.0),
+            d(20.0, -15.0),
+            d(20.0, 15.0),
+            d(-20.0, 15.0),
+        ];
         TriMesh::new(positions, vec![[0, 1, 2], [0, 2, 3]]).unwrap()
     }
 
@@ -165,9 +173,17 @@ mod tests {
         let uses_3 = triangles.iter().filter(|t| t.contains(&3)).count();
         positions[3] = DVec3::splat(f64::NAN);
         let n = positions.len() as u32;
-        positions.extend([DVec3::ZERO, DVec3::new(1.0, 0.0, -3.0), DVec3::new(0.0, 1.0, -3.0)]);
+        positions.extend([
+            DVec3::ZERO,
+            DVec3::new(1.0, 0.0, -3.0),
+            DVec3::new(0.0, 1.0, -3.0),
+        ]);
         triangles.push([n, n + 1, n + 2]);
-        positions.extend([DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 0.0, 1.0), DVec3::new(0.0, 1.0, -1.0)]);
+        positions.extend([
+            DVec3::new(-1.0, 0.0, -1.0),
+            DVec3::new(1.0, 0.0, 1.0),
+            DVec3::new(0.0, 1.0, -1.0),
+        ]);
         triangles.push([n + 3, n + 4, n + 5]);
         let bad = TriMesh::new(positions, triangles).unwrap();
         let r = pre_subdivide(&bad, 0.1).unwrap();

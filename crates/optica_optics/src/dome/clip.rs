@@ -31,7 +31,11 @@ use super::error::DomeError;
 /// The point where segment p–q crosses the plane, from signed distances
 /// `dp`, `dq` of opposite strict signs; symmetric in (p, q) bit for bit.
 fn plane_cut(p: DVec3, q: DVec3, dp: f64, dq: f64) -> DVec3 {
-    let (p, q, dp, dq) = if canonical_less(q, p) { (q, p, dq, dp) } else { (p, q, dp, dq) };
+    let (p, q, dp, dq) = if canonical_less(q, p) {
+        (q, p, dq, dp)
+    } else {
+        (p, q, dp, dq)
+    };
     let t = dp / (dp - dq);
     p + t * (q - p)
 }
@@ -39,12 +43,20 @@ fn plane_cut(p: DVec3, q: DVec3, dp: f64, dq: f64) -> DVec3 {
 /// Clips segment a→b to the part [`DomeProjection`] can draw (see the module
 /// docs): zero, one or two sub-segments, each oriented like a→b.
 /// Errors as [`split_segment`](super::split_segment).
-pub fn clip_segment(proj: &DomeProjection, a: DVec3, b: DVec3) -> Result<Vec<[DVec3; 2]>, DomeError> {
+pub fn clip_segment(
+    proj: &DomeProjection,
+    a: DVec3,
+    b: DVec3,
+) -> Result<Vec<[DVec3; 2]>, DomeError> {
     Ok(clip_parts(proj, a, b)?)
 }
 
 /// [`clip_segment`] with the failure's cause.
-pub(crate) fn clip_parts(proj: &DomeProjection, a: DVec3, b: DVec3) -> Result<Vec<[DVec3; 2]>, ArcError> {
+pub(crate) fn clip_parts(
+    proj: &DomeProjection,
+    a: DVec3,
+    b: DVec3,
+) -> Result<Vec<[DVec3; 2]>, ArcError> {
     let swap = canonical_less(b, a);
     let (p, q) = if swap { (b, a) } else { (a, b) };
     // Validates and rejects through-the-viewer segments for both branches.
@@ -80,7 +92,11 @@ fn clip_segment_plane(axis: DVec3, p: DVec3, q: DVec3) -> Vec<[DVec3; 2]> {
 fn clip_segment_cone(arc: &Arc, axis: DVec3, theta_clip: f64) -> Vec<[DVec3; 2]> {
     let theta_of = |d: DVec3| d.cross(axis).length().atan2(d.dot(axis));
     if arc.is_point() {
-        return if theta_of(arc.a_hat) <= theta_clip { vec![[arc.a, arc.b]] } else { vec![] };
+        return if theta_of(arc.a_hat) <= theta_clip {
+            vec![[arc.a, arc.b]]
+        } else {
+            vec![]
+        };
     }
     let (ca, cb) = (arc.a_hat.dot(axis), arc.w_hat.dot(axis));
     let r = ca.hypot(cb);
@@ -122,7 +138,10 @@ fn clip_segment_cone(arc: &Arc, axis: DVec3, theta_clip: f64) -> Vec<[DVec3; 2]>
             arc.point(beta)
         }
     };
-    keep.into_iter().filter(|(s, e)| e > s).map(|(s, e)| [at(s), at(e)]).collect()
+    keep.into_iter()
+        .filter(|(s, e)| e > s)
+        .map(|(s, e)| [at(s), at(e)])
+        .collect()
 }
 
 /// Clips triangle (a, b, c) against the view plane `p·axis ≥ 0`
@@ -147,7 +166,9 @@ pub(crate) fn clip_triangle_plane(axis: DVec3, tri: [DVec3; 3]) -> Vec<[DVec3; 3
             poly.push(plane_cut(tri[i], tri[j], d[i], d[j]));
         }
     }
-    (1..poly.len().saturating_sub(1)).map(|k| [poly[0], poly[k], poly[k + 1]]).collect()
+    (1..poly.len().saturating_sub(1))
+        .map(|k| [poly[0], poly[k], poly[k + 1]])
+        .collect()
 }
 
 #[cfg(test)]
@@ -162,7 +183,11 @@ mod tests {
     fn plane_clip_of_segments() {
         let p = dome(180.0);
         // Entirely behind the viewer (z > 0 in view space, axis −Z).
-        assert!(clip_segment(&p, DVec3::new(1.0, 0.0, 1.0), DVec3::new(-1.0, 2.0, 3.0)).unwrap().is_empty());
+        assert!(
+            clip_segment(&p, DVec3::new(1.0, 0.0, 1.0), DVec3::new(-1.0, 2.0, 3.0))
+                .unwrap()
+                .is_empty()
+        );
         // Crossing: the kept end is in front and the cut is on z = 0.
         let s = clip_segment(&p, DVec3::new(1.0, 0.0, 1.0), DVec3::new(-1.0, 0.5, -1.0)).unwrap();
         assert_eq!(s.len(), 1);
@@ -194,24 +219,39 @@ mod tests {
         // Entirely near the antipode: removed.
         assert!(clip_segment(&p, d(170.0), d(-175.0)).unwrap().is_empty());
         // Entirely visible: unchanged.
-        assert_eq!(clip_segment(&p, d(10.0), d(100.0)).unwrap(), vec![[d(10.0), d(100.0)]]);
+        assert_eq!(
+            clip_segment(&p, d(10.0), d(100.0)).unwrap(),
+            vec![[d(10.0), d(100.0)]]
+        );
     }
 
     #[test]
     fn triangle_plane_clip() {
         let axis = DVec3::NEG_Z;
         // One vertex behind: a quad (2 triangles), all kept vertices in front.
-        let t = [DVec3::new(0.0, 0.0, -2.0), DVec3::new(2.0, 0.0, -2.0), DVec3::new(1.0, 0.0, 2.0)];
+        let t = [
+            DVec3::new(0.0, 0.0, -2.0),
+            DVec3::new(2.0, 0.0, -2.0),
+            DVec3::new(1.0, 0.0, 2.0),
+        ];
         let out = clip_triangle_plane(axis, t);
         assert_eq!(out.len(), 2);
         for tri in &out {
             assert!(tri.iter().all(|v| v.z <= 0.0));
         }
         // Two vertices behind: one triangle.
-        let t = [DVec3::new(0.0, 1.0, -2.0), DVec3::new(2.0, 0.0, 2.0), DVec3::new(1.0, 0.0, 2.0)];
+        let t = [
+            DVec3::new(0.0, 1.0, -2.0),
+            DVec3::new(2.0, 0.0, 2.0),
+            DVec3::new(1.0, 0.0, 2.0),
+        ];
         assert_eq!(clip_triangle_plane(axis, t).len(), 1);
         // A vertex on the plane is not duplicated.
-        let t = [DVec3::new(0.0, 1.0, -2.0), DVec3::new(2.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 2.0)];
+        let t = [
+            DVec3::new(0.0, 1.0, -2.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 2.0),
+        ];
         let out = clip_triangle_plane(axis, t);
         assert_eq!(out.len(), 1);
         assert!(out[0][0] != out[0][1] && out[0][1] != out[0][2] && out[0][0] != out[0][2]);

@@ -50,9 +50,14 @@ pub(crate) fn bisect_interior(
             add_edge(&mut edges, t[k], t[(k + 1) % 3], ti as u32);
         }
     }
-    let angle = |m: &TriMesh, e: [u32; 2]| subtended_angle(m.positions[e[0] as usize], m.positions[e[1] as usize]);
+    let angle = |m: &TriMesh, e: [u32; 2]| {
+        subtended_angle(m.positions[e[0] as usize], m.positions[e[1] as usize])
+    };
     let mut heap: BinaryHeap<(u64, [u32; 2])> = BinaryHeap::new();
-    let consider = |heap: &mut BinaryHeap<(u64, [u32; 2])>, m: &TriMesh, e: [u32; 2], users: [u32; 2]| {
+    let consider = |heap: &mut BinaryHeap<(u64, [u32; 2])>,
+                    m: &TriMesh,
+                    e: [u32; 2],
+                    users: [u32; 2]| {
         if users[1] != NONE && needs_split(m.positions[e[0] as usize], m.positions[e[1] as usize]) {
             // Positive f64 bits sort like the values: longest first.
             heap.push((angle(m, e).to_bits(), e));
@@ -62,12 +67,16 @@ pub(crate) fn bisect_interior(
         consider(&mut heap, mesh, e, users);
     }
     while let Some((_, e)) = heap.pop() {
-        let Some(&users) = edges.get(&e) else { continue }; // already bisected
+        let Some(&users) = edges.get(&e) else {
+            continue;
+        }; // already bisected
         if mesh.triangles.len() + 2 > max_triangles {
             return true;
         }
         let (pa, pb) = (mesh.positions[e[0] as usize], mesh.positions[e[1] as usize]);
-        let Ok(pts) = split_segment(pa, pb, 2) else { continue };
+        let Ok(pts) = split_segment(pa, pb, 2) else {
+            continue;
+        };
         let mid = mesh.positions.len() as u32;
         mesh.positions.push(pts[1]);
         edges.remove(&e);
@@ -75,7 +84,9 @@ pub(crate) fn bisect_interior(
         for t in users {
             let tri = mesh.triangles[t as usize];
             // Rotate so the split edge is (x, y), in the triangle's winding.
-            let k = (0..3).find(|&k| key(tri[k], tri[(k + 1) % 3]) == e).expect("edge of its triangle");
+            let k = (0..3)
+                .find(|&k| key(tri[k], tri[(k + 1) % 3]) == e)
+                .expect("edge of its triangle");
             let (x, y, w) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
             let t2 = mesh.triangles.len() as u32;
             mesh.triangles[t as usize] = [x, mid, w];

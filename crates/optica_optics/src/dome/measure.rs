@@ -50,7 +50,11 @@ const SEARCH_REL: f64 = 1e-12;
 fn dist_to_segment(x: DVec2, p0: DVec2, p1: DVec2) -> f64 {
     let v = p1 - p0;
     let l2 = v.length_squared();
-    let t = if l2 > 0.0 { ((x - p0).dot(v) / l2).clamp(0.0, 1.0) } else { 0.0 };
+    let t = if l2 > 0.0 {
+        ((x - p0).dot(v) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     (x - (p0 + t * v)).length()
 }
 
@@ -67,7 +71,10 @@ pub fn chord_error_px(proj: &DomeProjection, a: DVec3, b: DVec3) -> Result<f64, 
     if arc.is_point() {
         return Ok(0.0);
     }
-    let f = |beta: f64| proj.pixel_of_direction(arc.dir(beta)).map_or(0.0, |x| dist_to_segment(x, p0, p1));
+    let f = |beta: f64| {
+        proj.pixel_of_direction(arc.dir(beta))
+            .map_or(0.0, |x| dist_to_segment(x, p0, p1))
+    };
     let step = arc.alpha / SAMPLES as f64;
     let (mut best_k, mut best) = (0, 0.0);
     for k in 1..SAMPLES {
@@ -103,7 +110,10 @@ pub fn chord_error_px(proj: &DomeProjection, a: DVec3, b: DVec3) -> Result<f64, 
 
 /// Largest E (D8) over the pieces of a polyline.
 pub fn polyline_error_px(proj: &DomeProjection, points: &[DVec3]) -> Result<f64, DomeError> {
-    points.windows(2).try_fold(0.0, |m: f64, w| Ok(m.max(chord_error_px(proj, w[0], w[1])?)))
+    points.windows(2).try_fold(
+        0.0,
+        |m: f64, w| Ok(m.max(chord_error_px(proj, w[0], w[1])?)),
+    )
 }
 
 /// Summary of edge errors over many edges.
@@ -128,19 +138,34 @@ impl EdgeErrors {
                 Ok(e) => (e, e, 1usize, 0usize),
                 Err(_) => (0.0, 0.0, 0, 1),
             })
-            .reduce(|| (0.0, 0.0, 0, 0), |x, y| (x.0 + y.0, x.1.max(y.1), x.2 + y.2, x.3 + y.3));
-        Self { max_px: max, mean_px: if count > 0 { sum / count as f64 } else { 0.0 }, count, failed }
+            .reduce(
+                || (0.0, 0.0, 0, 0),
+                |x, y| (x.0 + y.0, x.1.max(y.1), x.2 + y.2, x.3 + y.3),
+            );
+        Self {
+            max_px: max,
+            mean_px: if count > 0 { sum / count as f64 } else { 0.0 },
+            count,
+            failed,
+        }
     }
 
     /// Measures every piece of every polyline.
     pub fn of_strips(proj: &DomeProjection, strips: &[Vec<DVec3>]) -> Self {
-        let edges: Vec<[DVec3; 2]> = strips.iter().flat_map(|s| s.windows(2).map(|w| [w[0], w[1]])).collect();
+        let edges: Vec<[DVec3; 2]> = strips
+            .iter()
+            .flat_map(|s| s.windows(2).map(|w| [w[0], w[1]]))
+            .collect();
         Self::of_edges(proj, &edges)
     }
 
     /// Measures every edge of a mesh once.
     pub fn of_mesh(proj: &DomeProjection, mesh: &TriMesh) -> Self {
-        let edges: Vec<[DVec3; 2]> = mesh.edges().iter().map(|&[i, j]| [mesh.corner(i), mesh.corner(j)]).collect();
+        let edges: Vec<[DVec3; 2]> = mesh
+            .edges()
+            .iter()
+            .map(|&[i, j]| [mesh.corner(i), mesh.corner(j)])
+            .collect();
         Self::of_edges(proj, &edges)
     }
 }
@@ -165,10 +190,16 @@ impl TriMesh {
         let mut count: HashMap<[u32; 2], u32> = HashMap::new();
         for t in &self.triangles {
             for [a, b] in [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]] {
-                *count.entry(if a < b { [a, b] } else { [b, a] }).or_default() += 1;
+                *count
+                    .entry(if a < b { [a, b] } else { [b, a] })
+                    .or_default() += 1;
             }
         }
-        let mut e: Vec<[u32; 2]> = count.into_iter().filter(|&(_, c)| c == 1).map(|(e, _)| e).collect();
+        let mut e: Vec<[u32; 2]> = count
+            .into_iter()
+            .filter(|&(_, c)| c == 1)
+            .map(|(e, _)| e)
+            .collect();
         e.sort_unstable();
         e
     }
@@ -192,7 +223,10 @@ mod tests {
     /// A tangential edge on the 180° rim subtending `deg`, centred on the front.
     fn rim_edge(deg: f64) -> (DVec3, DVec3) {
         let h = (deg / 2.0).to_radians();
-        (DVec3::new(h.sin(), -h.cos(), 0.0) * 2.0, DVec3::new(-h.sin(), -h.cos(), 0.0) * 9.0)
+        (
+            DVec3::new(h.sin(), -h.cos(), 0.0) * 2.0,
+            DVec3::new(-h.sin(), -h.cos(), 0.0) * 9.0,
+        )
     }
 
     #[test]
@@ -233,7 +267,10 @@ mod tests {
             let b = (q * half.cos() - DVec3::Y * half.sin()) * 5.0;
             let exact = chord_error_px(&p, a, b).unwrap();
             let est = crate::dome::rule::tangential_chord_gap_px(p.focal_px(), 2.0 * half, t);
-            assert!((exact / est - 1.0).abs() < 0.01, "θ = {deg}: {exact} vs {est}");
+            assert!(
+                (exact / est - 1.0).abs() < 0.01,
+                "θ = {deg}: {exact} vs {est}"
+            );
         }
     }
 
@@ -252,7 +289,10 @@ mod tests {
         }
         // An arc through the antipode (axis −Z, antipode +Z).
         let q = dome(300.0, 0.0);
-        assert_eq!(chord_error_px(&q, DVec3::new(1.0, 0.0, 1.0), DVec3::new(-1.0, 0.0, 1.0)), Err(DomeError::Antipode));
+        assert_eq!(
+            chord_error_px(&q, DVec3::new(1.0, 0.0, 1.0), DVec3::new(-1.0, 0.0, 1.0)),
+            Err(DomeError::Antipode)
+        );
     }
 
     #[test]
@@ -264,7 +304,12 @@ mod tests {
             let t = deg.to_radians();
             let q = DVec3::new(t.sin(), 0.0, -t.cos());
             let h = 5f64.to_radians();
-            let e = chord_error_px(&p, q * h.cos() + DVec3::Y * h.sin(), q * h.cos() - DVec3::Y * h.sin()).unwrap();
+            let e = chord_error_px(
+                &p,
+                q * h.cos() + DVec3::Y * h.sin(),
+                q * h.cos() - DVec3::Y * h.sin(),
+            )
+            .unwrap();
             assert!(e > prev, "θ = {deg}");
             prev = e;
         }
@@ -278,8 +323,16 @@ mod tests {
         // interior bisection, diagonals on the ceiling reached 4.5·tol at
         // 0.5 px.) Unrefined, the same room is off by hundreds of px.
         let p = dome(180.0, 0.0);
-        let m = TriMesh::cuboid(DVec3::new(-4.0, -6.0, -3.0), DVec3::new(4.0, 3.0, 1.7), true);
-        let input_edges: Vec<[DVec3; 2]> = m.edges().iter().map(|e| e.map(|i| m.positions()[i as usize])).collect();
+        let m = TriMesh::cuboid(
+            DVec3::new(-4.0, -6.0, -3.0),
+            DVec3::new(4.0, 3.0, 1.7),
+            true,
+        );
+        let input_edges: Vec<[DVec3; 2]> = m
+            .edges()
+            .iter()
+            .map(|e| e.map(|i| m.positions()[i as usize]))
+            .collect();
         let on_input_edge = |x: DVec3, y: DVec3| {
             input_edges.iter().any(|[a, b]| {
                 let d = |q: DVec3| (q - *a).cross(*b - *a).length() / (*b - *a).length();
@@ -295,7 +348,10 @@ mod tests {
             assert!(e.max_px <= tol, "tol {tol}: {e:?}");
             let mut on_edges = 0;
             for [i, j] in r.mesh.edges() {
-                let (x, y) = (r.mesh.positions()[i as usize], r.mesh.positions()[j as usize]);
+                let (x, y) = (
+                    r.mesh.positions()[i as usize],
+                    r.mesh.positions()[j as usize],
+                );
                 if on_input_edge(x, y) {
                     on_edges += 1;
                     assert!(chord_error_px(&p, x, y).unwrap() <= tol);
@@ -308,7 +364,11 @@ mod tests {
     /// Unit direction at polar angle θ and azimuth φ in dome coordinates
     /// (third component along the axis).
     fn dome_dir(theta: f64, phi: f64) -> DVec3 {
-        DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos())
+        DVec3::new(
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        )
     }
 
     proptest! {

@@ -154,14 +154,16 @@ mod scenes;
 mod triangle;
 
 pub use arc::split_segment;
-pub use camera::{DomeSettings, DomeProjection, MIN_FOV_DEG};
+pub use camera::{DomeProjection, DomeSettings, MIN_FOV_DEG};
 pub use classify::{ApparentSize, PrimitiveKind, Treatment, classify, pre_subdivide};
 pub use clip::clip_segment;
 pub use error::DomeError;
 #[cfg(feature = "reference")]
 pub use measure::{EdgeErrors, SAMPLES, chord_error_px, polyline_error_px};
 pub use projection::{ANTIPODE_EPS_RAD, ImagePoint, Projected};
-pub use refine::{RefineStats, RefinedLines, RefinedSegment, refine_polyline, refine_segment, refine_segments};
+pub use refine::{
+    RefineStats, RefinedLines, RefinedSegment, refine_polyline, refine_segment, refine_segments,
+};
 pub use rule::{MAX_PIECES, Pieces, SplitRule};
 #[cfg(feature = "reference")]
 pub use scenes::{RANDOM_EDGE_DISTANCE_M, random_edges};
@@ -175,5 +177,10 @@ pub use crate::input::{Expected, InvalidInput};
 /// The projection of a test: `fov` degrees, `tilt` degrees, `size` px.
 #[cfg(test)]
 pub(crate) fn test_dome(fov: f64, tilt: f64, size: u32) -> DomeProjection {
-    DomeProjection::new(&DomeSettings { fov_deg: fov, tilt_deg: tilt, size_px: size }).expect("valid test dome")
+    DomeProjection::new(&DomeSettings {
+        fov_deg: fov,
+        tilt_deg: tilt,
+        size_px: size,
+    })
+    .expect("valid test dome")
 }

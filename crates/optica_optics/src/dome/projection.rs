@@ -103,8 +103,16 @@ impl DomeProjection {
         let Some((pixel, theta)) = self.pixel_theta_of_dome(q) else {
             return Projected::Antipode;
         };
-        let ip = ImagePoint { pixel, theta, distance: p.length() };
-        if theta <= self.theta_max() { Projected::Visible(ip) } else { Projected::OutsideFov(ip) }
+        let ip = ImagePoint {
+            pixel,
+            theta,
+            distance: p.length(),
+        };
+        if theta <= self.theta_max() {
+            Projected::Visible(ip)
+        } else {
+            Projected::OutsideFov(ip)
+        }
     }
 
     /// Pixel of a view-space direction (or point; only its direction counts),
@@ -148,7 +156,11 @@ impl DomeProjection {
         }
         let theta = r / self.focal_px();
         let (s, c) = theta.sin_cos();
-        let q = if r == 0.0 { DVec3::Z } else { DVec3::new(s * du / r, s * dv / r, c) };
+        let q = if r == 0.0 {
+            DVec3::Z
+        } else {
+            DVec3::new(s * du / r, s * dv / r, c)
+        };
         Some(self.from_dome(q))
     }
 }
@@ -173,7 +185,10 @@ mod tests {
     #[test]
     fn zenith_projects_to_centre() {
         let p = dome(180.0, 0.0, 4096);
-        let px = p.project(DVec3::new(0.0, 0.0, -7.0)).visible_pixel().unwrap();
+        let px = p
+            .project(DVec3::new(0.0, 0.0, -7.0))
+            .visible_pixel()
+            .unwrap();
         assert_eq!(px, DVec2::new(2048.0, 2048.0));
     }
 
@@ -247,8 +262,14 @@ mod tests {
     fn singular_inputs_are_typed() {
         let p = dome(220.0, 10.0, 4096);
         assert_eq!(p.project(DVec3::ZERO), Projected::Origin);
-        assert_eq!(p.project(DVec3::new(f64::NAN, 0.0, 0.0)), Projected::Invalid);
-        assert_eq!(p.project(DVec3::new(0.0, f64::INFINITY, 0.0)), Projected::Invalid);
+        assert_eq!(
+            p.project(DVec3::new(f64::NAN, 0.0, 0.0)),
+            Projected::Invalid
+        );
+        assert_eq!(
+            p.project(DVec3::new(0.0, f64::INFINITY, 0.0)),
+            Projected::Invalid
+        );
         // The exact antipode of the tilted axis, and a point 1e-12 rad off it.
         let anti = -p.axis() * 4.0;
         assert_eq!(p.project(anti), Projected::Antipode);
@@ -270,7 +291,11 @@ mod tests {
     #[test]
     fn tiny_and_huge_points_are_finite() {
         let p = dome(180.0, 0.0, 4096);
-        for v in [DVec3::new(1e-300, 0.0, -1e-300), DVec3::new(1e150, -1e150, -1e150), DVec3::new(1e-320, 0.0, -1.0)] {
+        for v in [
+            DVec3::new(1e-300, 0.0, -1e-300),
+            DVec3::new(1e150, -1e150, -1e150),
+            DVec3::new(1e-320, 0.0, -1.0),
+        ] {
             let ip = p.project(v).image_point().unwrap();
             assert!(ip.pixel.is_finite() && ip.theta.is_finite(), "{v}");
         }

@@ -93,12 +93,22 @@ impl RefinedSegment {
 /// Clips and refines segment a→b. Errors: a non-finite vertex
 /// ([`DomeError::Input`]), an endpoint at the origin, a segment through the
 /// viewer.
-pub fn refine_segment(proj: &DomeProjection, a: DVec3, b: DVec3, rule: SplitRule) -> Result<RefinedSegment, DomeError> {
+pub fn refine_segment(
+    proj: &DomeProjection,
+    a: DVec3,
+    b: DVec3,
+    rule: SplitRule,
+) -> Result<RefinedSegment, DomeError> {
     Ok(refine_one(proj, a, b, rule)?)
 }
 
 /// [`refine_segment`] with the failure's cause.
-fn refine_one(proj: &DomeProjection, a: DVec3, b: DVec3, rule: SplitRule) -> Result<RefinedSegment, ArcError> {
+fn refine_one(
+    proj: &DomeProjection,
+    a: DVec3,
+    b: DVec3,
+    rule: SplitRule,
+) -> Result<RefinedSegment, ArcError> {
     let mut capped = false;
     let mut strips = Vec::new();
     for [p, q] in clip_parts(proj, a, b)? {
@@ -137,7 +147,9 @@ pub fn refine_polyline(proj: &DomeProjection, points: &[DVec3], rule: SplitRule)
                 for strip in seg.strips {
                     // Continue the previous strip when this one starts where it ended.
                     match out.strips.last_mut() {
-                        Some(last) if last.last() == strip.first() => last.extend_from_slice(&strip[1..]),
+                        Some(last) if last.last() == strip.first() => {
+                            last.extend_from_slice(&strip[1..])
+                        }
                         _ => out.strips.push(strip),
                     }
                 }
@@ -150,11 +162,18 @@ pub fn refine_polyline(proj: &DomeProjection, points: &[DVec3], rule: SplitRule)
 /// Refines independent segments in parallel; one or two strips per kept
 /// segment, in input order. Bad segments are left out and counted per
 /// cause, not fatal.
-pub fn refine_segments(proj: &DomeProjection, segments: &[[DVec3; 2]], rule: SplitRule) -> RefinedLines {
+pub fn refine_segments(
+    proj: &DomeProjection,
+    segments: &[[DVec3; 2]],
+    rule: SplitRule,
+) -> RefinedLines {
     let parts: Vec<(Vec<Vec<DVec3>>, RefineStats)> = segments
         .par_iter()
         .map(|&[a, b]| {
-            let mut st = RefineStats { input: 1, ..Default::default() };
+            let mut st = RefineStats {
+                input: 1,
+                ..Default::default()
+            };
             match refine_one(proj, a, b, rule) {
                 Err(cause) => {
                     st.drop_for(cause);
@@ -208,7 +227,10 @@ mod tests {
         // z = 0 and ends there; the fourth starts on z = 0: two strips.
         assert_eq!(out.strips.len(), 2);
         assert!(out.strips.iter().flatten().all(|v| v.z <= 0.0));
-        assert_eq!(out.stats.emitted, out.strips.iter().map(|s| s.len() - 1).sum::<usize>());
+        assert_eq!(
+            out.stats.emitted,
+            out.strips.iter().map(|s| s.len() - 1).sum::<usize>()
+        );
         assert!(out.stats.emitted > 4);
     }
 
@@ -241,10 +263,22 @@ mod tests {
             Err(DomeError::Input(e)) => assert_eq!(e.expected, Expected::FiniteVector),
             other => panic!("{other:?}"),
         }
-        assert_eq!(refine_segment(&p, segs[1][0], segs[1][1], rule), Err(DomeError::ThroughViewer));
-        assert_eq!(refine_segment(&p, segs[2][0], segs[2][1], rule), Err(DomeError::AtOrigin));
+        assert_eq!(
+            refine_segment(&p, segs[1][0], segs[1][1], rule),
+            Err(DomeError::ThroughViewer)
+        );
+        assert_eq!(
+            refine_segment(&p, segs[2][0], segs[2][1], rule),
+            Err(DomeError::AtOrigin)
+        );
         // And in a polyline, which restarts after each bad segment.
-        let line = [segs[3][0], segs[3][1], DVec3::ZERO, DVec3::new(0.0, 1.0, -1.0), DVec3::new(1.0, 1.0, -1.0)];
+        let line = [
+            segs[3][0],
+            segs[3][1],
+            DVec3::ZERO,
+            DVec3::new(0.0, 1.0, -1.0),
+            DVec3::new(1.0, 1.0, -1.0),
+        ];
         let out = refine_polyline(&p, &line, rule);
         assert_eq!((out.stats.input, out.stats.dropped_at_origin), (4, 2));
         assert_eq!(out.strips.len(), 2);

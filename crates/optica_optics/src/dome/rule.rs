@@ -142,9 +142,15 @@ pub(crate) fn count_pieces(steps: f64) -> Pieces {
     let want = steps.ceil();
     if want.is_nan() || want > f64::from(MAX_PIECES) {
         // The cap is the documented fallback (NaN cannot occur for valid arcs).
-        return Pieces { n: MAX_PIECES, capped: true };
+        return Pieces {
+            n: MAX_PIECES,
+            capped: true,
+        };
     }
-    Pieces { n: (want as u32).max(1), capped: false }
+    Pieces {
+        n: (want as u32).max(1),
+        capped: false,
+    }
 }
 
 impl SplitRule {
@@ -167,9 +173,13 @@ impl SplitRule {
     /// ([`DomeProjection::theta_reach`]) has chord gap `tolerance_px` (D5),
     /// at most π (no split). 4K/180° and 0.5 px give Δ ≈ 2.53°.
     /// Errors: `tolerance_px` not finite and positive.
-    pub fn visual_angle_for_tolerance(proj: &DomeProjection, tolerance_px: f64) -> Result<Self, InvalidInput> {
+    pub fn visual_angle_for_tolerance(
+        proj: &DomeProjection,
+        tolerance_px: f64,
+    ) -> Result<Self, InvalidInput> {
         let tolerance_px = input::positive("pixel tolerance (px)", tolerance_px)?;
-        let max_piece_rad = max_tangential_piece_rad(proj.focal_px(), proj.theta_reach(), tolerance_px).min(PI);
+        let max_piece_rad =
+            max_tangential_piece_rad(proj.focal_px(), proj.theta_reach(), tolerance_px).min(PI);
         // A tolerance so small that Δ underflows to 0 gives n = ∞ pieces,
         // which the cap turns into MAX_PIECES: the documented fallback.
         Ok(Self(Rule::VisualAngle { max_piece_rad }))
@@ -205,7 +215,10 @@ impl SplitRule {
     /// Pieces of an arc built in canonical order.
     pub(crate) fn pieces_of_arc(&self, proj: &DomeProjection, arc: &Arc) -> Pieces {
         if arc.is_point() {
-            return Pieces { n: 1, capped: false };
+            return Pieces {
+                n: 1,
+                capped: false,
+            };
         }
         let range = arc.theta_range(proj.axis());
         // An arc leaving the guard cone (FOV > 180°, triangles: they are
@@ -214,12 +227,18 @@ impl SplitRule {
         // this, a radial arc through the antipode (N = 0) stays one piece and
         // its chord jumps across the image.
         let leaves = !proj.clips_at_view_plane() && range.max > proj.theta_clip();
-        let guard = if leaves { arc.alpha / (PI - proj.theta_clip()) } else { 0.0 };
+        let guard = if leaves {
+            arc.alpha / (PI - proj.theta_clip())
+        } else {
+            0.0
+        };
         let steps = match self.0 {
             Rule::VisualAngle { max_piece_rad } => arc.alpha / max_piece_rad,
             Rule::ChordGap { tolerance_px } => {
                 let at = |theta: f64| {
-                    arc.alpha * (arc_normal_acceleration_px(proj, arc, theta) / (8.0 * tolerance_px)).sqrt()
+                    arc.alpha
+                        * (arc_normal_acceleration_px(proj, arc, theta) / (8.0 * tolerance_px))
+                            .sqrt()
                 };
                 if leaves {
                     // Kept pieces end inside the guard cone and bulge past it
@@ -240,10 +259,16 @@ impl SplitRule {
 /// Largest N (D6) on an arc whose largest polar angle is `theta_max`,
 /// limited to [`DomeProjection::theta_reach`] (no kept piece goes further).
 pub(crate) fn arc_normal_acceleration_px(proj: &DomeProjection, arc: &Arc, theta_max: f64) -> f64 {
-    let theta = theta_max.min(proj.theta_reach()).min(PI - CURVATURE_ANTIPODE_GAP_RAD);
+    let theta = theta_max
+        .min(proj.theta_reach())
+        .min(PI - CURVATURE_ANTIPODE_GAP_RAD);
     let sin_theta0 = arc.pole().dot(proj.axis()).abs();
     let s = theta.sin();
-    let sin_psi = if s > 0.0 { (sin_theta0 / s).min(1.0) } else { 1.0 };
+    let sin_psi = if s > 0.0 {
+        (sin_theta0 / s).min(1.0)
+    } else {
+        1.0
+    };
     normal_acceleration_px(proj.focal_px(), theta, sin_psi)
 }
 
@@ -272,8 +297,12 @@ mod tests {
         assert!((d - 2.53).abs() < 0.01, "Δ = {d}°");
         // The two limits quoted: f·α²·θ/12 near the centre, (π/16)·f·α² at the rim.
         let a = 0.01;
-        assert!((tangential_chord_gap_px(f, a, 1e-3) / (f * a * a * 1e-3 / 12.0) - 1.0).abs() < 1e-6);
-        assert!((tangential_chord_gap_px(f, a, PI / 2.0) / (PI / 16.0 * f * a * a) - 1.0).abs() < 1e-12);
+        assert!(
+            (tangential_chord_gap_px(f, a, 1e-3) / (f * a * a * 1e-3 / 12.0) - 1.0).abs() < 1e-6
+        );
+        assert!(
+            (tangential_chord_gap_px(f, a, PI / 2.0) / (PI / 16.0 * f * a * a) - 1.0).abs() < 1e-12
+        );
     }
 
     #[test]
@@ -282,7 +311,10 @@ mod tests {
         for theta in [1e-5, 1e-3, 0.3, 1.0, PI / 2.0, 2.0, 2.8] {
             // Tangential: D6 reduces to D5.
             let n = normal_acceleration_px(f, theta, 1.0);
-            assert!((n / (f * tangential_factor(theta)) - 1.0).abs() < 1e-6, "θ = {theta}");
+            assert!(
+                (n / (f * tangential_factor(theta)) - 1.0).abs() < 1e-6,
+                "θ = {theta}"
+            );
             // Radial: straight image.
             assert_eq!(normal_acceleration_px(f, theta, 0.0), 0.0);
             // Tangential is the worst orientation.
@@ -309,11 +341,24 @@ mod tests {
         let a = DVec3::new(h.sin(), -h.cos(), 0.0) * 3.0;
         let b = DVec3::new(-h.sin(), -h.cos(), 0.0) * 7.0;
         let rule = chord_gap(0.5);
-        assert_eq!(rule.pieces(&p, a, b).unwrap(), Pieces { n: 4, capped: false });
+        assert_eq!(
+            rule.pieces(&p, a, b).unwrap(),
+            Pieces {
+                n: 4,
+                capped: false
+            }
+        );
         let paper = SplitRule::visual_angle_for_tolerance(&p, 0.5).unwrap();
         assert!((paper.max_piece_rad().unwrap().to_degrees() - 2.53).abs() < 0.01);
         assert_eq!(paper.pieces(&p, a, b).unwrap().n, 4);
-        assert_eq!(SplitRule::visual_angle(0.1).unwrap().pieces(&p, a, b).unwrap().n, 2);
+        assert_eq!(
+            SplitRule::visual_angle(0.1)
+                .unwrap()
+                .pieces(&p, a, b)
+                .unwrap()
+                .n,
+            2
+        );
     }
 
     #[test]
@@ -335,24 +380,60 @@ mod tests {
     fn bad_parameters_and_caps() {
         let p = dome(180.0);
         let err = SplitRule::chord_gap(0.0).unwrap_err();
-        assert_eq!((err.what, err.value, err.expected), ("pixel tolerance (px)", 0.0, Expected::Positive));
-        assert_eq!(SplitRule::chord_gap(f64::NAN).unwrap_err().what, "pixel tolerance (px)");
+        assert_eq!(
+            (err.what, err.value, err.expected),
+            ("pixel tolerance (px)", 0.0, Expected::Positive)
+        );
+        assert_eq!(
+            SplitRule::chord_gap(f64::NAN).unwrap_err().what,
+            "pixel tolerance (px)"
+        );
         let err = SplitRule::visual_angle(-1.0).unwrap_err();
         assert_eq!((err.what, err.value), ("maximum piece angle (rad)", -1.0));
-        assert_eq!(SplitRule::visual_angle_for_tolerance(&p, f64::INFINITY).unwrap_err().value, f64::INFINITY);
+        assert_eq!(
+            SplitRule::visual_angle_for_tolerance(&p, f64::INFINITY)
+                .unwrap_err()
+                .value,
+            f64::INFINITY
+        );
         // Accessors say which rule it is.
-        assert_eq!((chord_gap(2.0).tolerance_px(), chord_gap(2.0).max_piece_rad()), (Some(2.0), None));
+        assert_eq!(
+            (
+                chord_gap(2.0).tolerance_px(),
+                chord_gap(2.0).max_piece_rad()
+            ),
+            (Some(2.0), None)
+        );
         let paper = SplitRule::visual_angle(0.25).unwrap();
-        assert_eq!((paper.max_piece_rad(), paper.tolerance_px()), (Some(0.25), None));
+        assert_eq!(
+            (paper.max_piece_rad(), paper.tolerance_px()),
+            (Some(0.25), None)
+        );
         // A tolerance so large that Δ would exceed π: no split, Δ = π.
         let lax = SplitRule::visual_angle_for_tolerance(&p, f64::MAX).unwrap();
         assert_eq!(lax.max_piece_rad(), Some(PI));
         let tiny = chord_gap(1e-12);
-        let pc = tiny.pieces(&p, DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)).unwrap();
-        assert_eq!(pc, Pieces { n: MAX_PIECES, capped: true });
+        let pc = tiny
+            .pieces(&p, DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0))
+            .unwrap();
+        assert_eq!(
+            pc,
+            Pieces {
+                n: MAX_PIECES,
+                capped: true
+            }
+        );
         // Δ underflowing to 0 is capped too, not NaN.
         let zero = SplitRule::visual_angle_for_tolerance(&p, f64::from_bits(1)).unwrap();
-        let pc = zero.pieces(&p, DVec3::new(1.0, 0.0, -1.0), DVec3::new(0.0, 1.0, -1.0)).unwrap();
-        assert_eq!(pc, Pieces { n: MAX_PIECES, capped: true });
+        let pc = zero
+            .pieces(&p, DVec3::new(1.0, 0.0, -1.0), DVec3::new(0.0, 1.0, -1.0))
+            .unwrap();
+        assert_eq!(
+            pc,
+            Pieces {
+                n: MAX_PIECES,
+                capped: true
+            }
+        );
     }
 }

@@ -29,14 +29,24 @@ impl TriMesh {
             )
         };
         let positions = (0..8).map(corner).collect();
-        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
         let mut triangles = Vec::with_capacity(12);
         for q in quads {
             for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
                 triangles.push(if inside_out { [t[0], t[2], t[1]] } else { t });
             }
         }
-        Self { positions, triangles }
+        Self {
+            positions,
+            triangles,
+        }
     }
 }
 
@@ -57,8 +67,18 @@ pub fn random_edges(
     let mut rng = SplitMix64::seed_from_u64(seed);
     // Uniform in [lo, hi) for any lo ≤ hi (random_range panics on an empty range).
     let mut draw = |r: &Range<f64>| r.start + (r.end - r.start) * rng.random::<f64>();
-    let max_theta = if max_theta.is_nan() { 0.0 } else { max_theta.clamp(0.0, PI) };
-    let clamp_deg = |d: f64| if d.is_nan() { 0.0 } else { d.clamp(0.0, 180f64.next_down()) };
+    let max_theta = if max_theta.is_nan() {
+        0.0
+    } else {
+        max_theta.clamp(0.0, PI)
+    };
+    let clamp_deg = |d: f64| {
+        if d.is_nan() {
+            0.0
+        } else {
+            d.clamp(0.0, 180f64.next_down())
+        }
+    };
     let (lo, hi) = (clamp_deg(subtended_deg.start), clamp_deg(subtended_deg.end));
     let subtended = lo.min(hi)..lo.max(hi);
     (0..n)
@@ -105,7 +125,12 @@ mod tests {
         }
         // Degenerate and reversed ranges: no panic, clamped.
         assert_eq!(random_edges(&p, 3, f64::NAN, 10.0..10.0, 1).len(), 3);
-        assert!(random_edges(&p, 3, 9.0, 400.0..-5.0, 1).iter().flatten().all(|v| v.is_finite()));
+        assert!(
+            random_edges(&p, 3, 9.0, 400.0..-5.0, 1)
+                .iter()
+                .flatten()
+                .all(|v| v.is_finite())
+        );
     }
 
     #[test]

@@ -87,7 +87,10 @@ impl TriMesh {
         if let Some(&index) = triangles.iter().flatten().find(|&&i| i as usize >= len) {
             return Err(DomeError::IndexOutOfRange { index, len });
         }
-        Ok(Self { positions, triangles })
+        Ok(Self {
+            positions,
+            triangles,
+        })
     }
 
     /// Vertex positions.
@@ -206,7 +209,11 @@ pub(crate) fn subdivide_triangle(
     let mut tris = Vec::new();
     let mut lower = ab;
     for j in 1..rungs {
-        let (pi, qi) = if m >= k { (j, j * k / m) } else { (j * m / k, j) };
+        let (pi, qi) = if m >= k {
+            (j, j * k / m)
+        } else {
+            (j * m / k, j)
+        };
         let upper = split(&mut verts, side_p[pi], side_q[qi])?;
         stitch(&verts, &lower, &upper, &mut tris);
         lower = upper;
@@ -214,7 +221,10 @@ pub(crate) fn subdivide_triangle(
     for w in lower.windows(2) {
         push_tri(&mut tris, [w[0], w[1], 2]);
     }
-    let mut mesh = TriMesh { positions: verts, triangles: tris };
+    let mut mesh = TriMesh {
+        positions: verts,
+        triangles: tris,
+    };
     // Our addition: interior diagonals that still need pieces are bisected
     // (see interior.rs); the boundary is never touched.
     let needs_split = |p: DVec3, q: DVec3| {
@@ -293,7 +303,11 @@ fn covers_direction(t: &[DVec3; 3], d: DVec3) -> bool {
 /// antipode guard one triangle (see [`clip_segment`](super::clip_segment)
 /// docs). Errors: a non-finite vertex ([`DomeError::Input`]). Parts touching
 /// the origin or with an edge through the viewer are left out and counted.
-pub fn refine_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) -> Result<RefinedMesh, DomeError> {
+pub fn refine_triangle(
+    proj: &DomeProjection,
+    tri: [DVec3; 3],
+    rule: SplitRule,
+) -> Result<RefinedMesh, DomeError> {
     for v in tri {
         input::finite_vec3("vertex (view space)", v)?;
     }
@@ -302,8 +316,15 @@ pub fn refine_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) 
 
 /// [`refine_triangle`] for a triangle with finite vertices.
 fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) -> RefinedMesh {
-    let mut stats = RefineStats { input: 1, ..Default::default() };
-    let parts = if proj.clips_at_view_plane() { clip_triangle_plane(proj.axis(), tri) } else { vec![tri] };
+    let mut stats = RefineStats {
+        input: 1,
+        ..Default::default()
+    };
+    let parts = if proj.clips_at_view_plane() {
+        clip_triangle_plane(proj.axis(), tri)
+    } else {
+        vec![tri]
+    };
     if parts.is_empty() {
         stats.clipped_away = 1;
     }
@@ -345,7 +366,10 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
     stats.dropped_at_origin = dropped.dropped_at_origin.min(1);
     stats.dropped_through_viewer = dropped.dropped_through_viewer.min(1);
     stats.emitted = welder.mesh.triangles.len();
-    RefinedMesh { mesh: welder.mesh, stats }
+    RefinedMesh {
+        mesh: welder.mesh,
+        stats,
+    }
 }
 
 /// Refines every triangle of a mesh in parallel and welds the result by exact
@@ -360,8 +384,15 @@ pub fn refine_mesh(proj: &DomeProjection, mesh: &TriMesh, rule: SplitRule) -> Re
             if tri.iter().all(|v| v.is_finite()) {
                 refine_finite_triangle(proj, tri, rule)
             } else {
-                let stats = RefineStats { input: 1, dropped_nonfinite: 1, ..Default::default() };
-                RefinedMesh { mesh: TriMesh::default(), stats }
+                let stats = RefineStats {
+                    input: 1,
+                    dropped_nonfinite: 1,
+                    ..Default::default()
+                };
+                RefinedMesh {
+                    mesh: TriMesh::default(),
+                    stats,
+                }
             }
         })
         .collect();
@@ -372,7 +403,10 @@ pub fn refine_mesh(proj: &DomeProjection, mesh: &TriMesh, rule: SplitRule) -> Re
         stats = stats.merge(p.stats);
     }
     stats.emitted = welder.mesh.triangles.len();
-    RefinedMesh { mesh: welder.mesh, stats }
+    RefinedMesh {
+        mesh: welder.mesh,
+        stats,
+    }
 }
 
 #[cfg(test)]
@@ -404,7 +438,11 @@ mod tests {
         // crack-free refinement of a closed mesh is closed (every edge used
         // by exactly two triangles).
         let p = dome(180.0);
-        let m = box_mesh(DVec3::new(-3.0, -2.0, -6.0), DVec3::new(2.0, 3.0, -1.5), false);
+        let m = box_mesh(
+            DVec3::new(-3.0, -2.0, -6.0),
+            DVec3::new(2.0, 3.0, -1.5),
+            false,
+        );
         for tol in [4.0, 1.0, 0.3] {
             let r = refine_mesh(&p, &m, chord_gap(tol));
             assert!(r.mesh.triangles.len() > 12);
@@ -439,7 +477,11 @@ mod tests {
     #[test]
     fn winding_is_kept_and_area_conserved() {
         let p = dome(180.0);
-        let tri = [DVec3::new(-2.0, -1.0, -1.0), DVec3::new(3.0, -0.5, -0.6), DVec3::new(0.5, 4.0, -0.8)];
+        let tri = [
+            DVec3::new(-2.0, -1.0, -1.0),
+            DVec3::new(3.0, -0.5, -0.6),
+            DVec3::new(0.5, 4.0, -0.8),
+        ];
         let n0 = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
         let r = refine_triangle(&p, tri, chord_gap(0.5)).unwrap();
         let mut area = 0.0;
@@ -448,7 +490,11 @@ mod tests {
             assert!(n.dot(n0) > 0.0);
             area += n.length();
         }
-        assert!((area / n0.length() - 1.0).abs() < 1e-9, "area ratio {}", area / n0.length());
+        assert!(
+            (area / n0.length() - 1.0).abs() < 1e-9,
+            "area ratio {}",
+            area / n0.length()
+        );
     }
 
     #[test]
@@ -458,14 +504,32 @@ mod tests {
         let p = dome(180.0);
         let rule = chord_gap(0.5);
         for tri in [
-            [DVec3::new(-4.0, 0.0, -1.0), DVec3::new(4.0, 0.1, -1.0), DVec3::new(4.0, 0.6, -1.2)],
-            [DVec3::new(0.0, 0.0, -10.0), DVec3::new(0.01, 0.0, -10.0), DVec3::new(0.0, 0.01, -10.0)],
+            [
+                DVec3::new(-4.0, 0.0, -1.0),
+                DVec3::new(4.0, 0.1, -1.0),
+                DVec3::new(4.0, 0.6, -1.2),
+            ],
+            [
+                DVec3::new(0.0, 0.0, -10.0),
+                DVec3::new(0.01, 0.0, -10.0),
+                DVec3::new(0.0, 0.01, -10.0),
+            ],
         ] {
             let n0 = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
             let r = refine_triangle(&p, tri, rule).unwrap();
-            let area: f64 = r.mesh.triangles.iter().map(|&t| area_normal(&r.mesh, t).length()).sum();
+            let area: f64 = r
+                .mesh
+                .triangles
+                .iter()
+                .map(|&t| area_normal(&r.mesh, t).length())
+                .sum();
             assert!((area / n0.length() - 1.0).abs() < 1e-9);
-            assert!(r.mesh.triangles.iter().all(|&t| area_normal(&r.mesh, t).dot(n0) > 0.0));
+            assert!(
+                r.mesh
+                    .triangles
+                    .iter()
+                    .all(|&t| area_normal(&r.mesh, t).dot(n0) > 0.0)
+            );
             assert!(r.mesh.boundary_edges().len() >= 3);
         }
     }
@@ -476,14 +540,21 @@ mod tests {
         // floor (behind the viewer) is clipped away, walls are cut at z = 0;
         // the only open boundary lies on the view plane.
         let p = dome(180.0);
-        let m = box_mesh(DVec3::new(-4.0, -6.0, -3.0), DVec3::new(4.0, 3.0, 1.7), true);
+        let m = box_mesh(
+            DVec3::new(-4.0, -6.0, -3.0),
+            DVec3::new(4.0, 3.0, 1.7),
+            true,
+        );
         let r = refine_mesh(&p, &m, chord_gap(2.0));
         assert_eq!(r.stats.clipped_away, 2);
         assert!(r.mesh.positions.iter().all(|v| v.z <= 0.0));
         let b = r.mesh.boundary_edges();
         assert!(!b.is_empty());
         for [i, j] in b {
-            assert!(r.mesh.positions()[i as usize].z.abs() < 1e-12 && r.mesh.positions[j as usize].z.abs() < 1e-12);
+            assert!(
+                r.mesh.positions()[i as usize].z.abs() < 1e-12
+                    && r.mesh.positions[j as usize].z.abs() < 1e-12
+            );
         }
     }
 
@@ -495,7 +566,11 @@ mod tests {
         // the image circle (θ ≤ 125°) of the floor is kept: it is still
         // covered by sub-triangles (checked on a grid of floor points).
         let p = dome(250.0);
-        let m = box_mesh(DVec3::new(-4.0, -6.0, -3.0), DVec3::new(4.0, 3.0, 1.7), true);
+        let m = box_mesh(
+            DVec3::new(-4.0, -6.0, -3.0),
+            DVec3::new(4.0, 3.0, 1.7),
+            true,
+        );
         let r = refine_mesh(&p, &m, chord_gap(2.0));
         assert!(r.stats.culled > 0);
         assert!(r.mesh.positions.iter().all(|v| v.is_finite()));
@@ -517,7 +592,10 @@ mod tests {
                 // round-off could say "outside".
                 let q = DVec3::new(-3.75 + 0.5 * f64::from(i), -5.75 + 0.5 * f64::from(j), 1.7);
                 if p.theta(q) <= p.theta_max() {
-                    assert!(floor.iter().any(|v| covers_direction(v, q)), "{q} not covered");
+                    assert!(
+                        floor.iter().any(|v| covers_direction(v, q)),
+                        "{q} not covered"
+                    );
                 }
             }
         }
@@ -526,8 +604,14 @@ mod tests {
     #[test]
     fn out_of_range_index_is_refused_when_the_mesh_is_built() {
         let pos = vec![DVec3::X, DVec3::Y, DVec3::Z];
-        assert_eq!(TriMesh::new(pos.clone(), vec![[0, 1, 2], [0, 1, 3]]), Err(DomeError::IndexOutOfRange { index: 3, len: 3 }));
-        assert_eq!(TriMesh::new(vec![], vec![[0, 0, 0]]), Err(DomeError::IndexOutOfRange { index: 0, len: 0 }));
+        assert_eq!(
+            TriMesh::new(pos.clone(), vec![[0, 1, 2], [0, 1, 3]]),
+            Err(DomeError::IndexOutOfRange { index: 3, len: 3 })
+        );
+        assert_eq!(
+            TriMesh::new(vec![], vec![[0, 0, 0]]),
+            Err(DomeError::IndexOutOfRange { index: 0, len: 0 })
+        );
         let m = TriMesh::new(pos.clone(), vec![[2, 1, 0]]).unwrap();
         assert_eq!((m.positions(), m.triangles()), (&pos[..], &[[2, 1, 0]][..]));
         assert_eq!(m.into_parts(), (pos, vec![[2, 1, 0]]));
@@ -539,14 +623,22 @@ mod tests {
         let rule = chord_gap(1.0);
         // A box in front of the viewer with vertex 0 NaN: the triangles using
         // it are dropped as non-finite, the others refined.
-        let (mut positions, mut triangles) =
-            box_mesh(DVec3::splat(-1.0) - DVec3::Z * 3.0, DVec3::splat(1.0) - DVec3::Z * 3.0, false).into_parts();
+        let (mut positions, mut triangles) = box_mesh(
+            DVec3::splat(-1.0) - DVec3::Z * 3.0,
+            DVec3::splat(1.0) - DVec3::Z * 3.0,
+            false,
+        )
+        .into_parts();
         let uses_0 = triangles.iter().filter(|t| t.contains(&0)).count();
         positions[0] = DVec3::new(f64::NAN, 0.0, 0.0);
         // A triangle with a corner at the origin, and one with an edge
         // through the viewer, (−1, 0, 0) … (1, 0, 0), in the view plane.
         let n = positions.len() as u32;
-        positions.extend([DVec3::ZERO, DVec3::new(1.0, 0.0, -3.0), DVec3::new(0.0, 1.0, -3.0)]);
+        positions.extend([
+            DVec3::ZERO,
+            DVec3::new(1.0, 0.0, -3.0),
+            DVec3::new(0.0, 1.0, -3.0),
+        ]);
         positions.extend([DVec3::NEG_X, DVec3::X, DVec3::new(0.0, 1.0, -1.0)]);
         triangles.extend([[n, n + 1, n + 2], [n + 3, n + 4, n + 5]]);
         let r = refine_mesh(&p, &TriMesh::new(positions, triangles).unwrap(), rule);
@@ -558,25 +650,57 @@ mod tests {
         assert!(r.mesh.positions().iter().all(|v| v.is_finite()));
 
         // One triangle: a non-finite vertex is an error naming it ...
-        let nan = [DVec3::new(f64::NAN, 0.0, -1.0), DVec3::NEG_Z, DVec3::X - DVec3::Z];
+        let nan = [
+            DVec3::new(f64::NAN, 0.0, -1.0),
+            DVec3::NEG_Z,
+            DVec3::X - DVec3::Z,
+        ];
         match refine_triangle(&p, nan, rule) {
-            Err(DomeError::Input(e)) => assert_eq!((e.what, e.expected), ("vertex (view space)", Expected::FiniteVector)),
+            Err(DomeError::Input(e)) => assert_eq!(
+                (e.what, e.expected),
+                ("vertex (view space)", Expected::FiniteVector)
+            ),
             other => panic!("{other:?}"),
         }
         // ... while the singular places are counted. An edge through the
         // viewer: unclipped at 250°; at 180° the view plane cuts it at the
         // viewer, so its part in front has a corner at the origin.
-        let t = [DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 0.0, 1.0), DVec3::new(0.0, 1.0, -1.0)];
+        let t = [
+            DVec3::new(-1.0, 0.0, -1.0),
+            DVec3::new(1.0, 0.0, 1.0),
+            DVec3::new(0.0, 1.0, -1.0),
+        ];
         let r = refine_triangle(&dome(250.0), t, rule).unwrap();
-        assert_eq!((r.stats.dropped_through_viewer, r.stats.dropped_at_origin), (1, 0));
+        assert_eq!(
+            (r.stats.dropped_through_viewer, r.stats.dropped_at_origin),
+            (1, 0)
+        );
         let r = refine_triangle(&p, t, rule).unwrap();
-        assert_eq!((r.stats.dropped_through_viewer, r.stats.dropped_at_origin), (0, 1));
+        assert_eq!(
+            (r.stats.dropped_through_viewer, r.stats.dropped_at_origin),
+            (0, 1)
+        );
         assert!(r.mesh.positions().iter().all(|v| v.is_finite()));
-        let t = [DVec3::ZERO, DVec3::new(1.0, 0.0, -3.0), DVec3::new(0.0, 1.0, -3.0)];
+        let t = [
+            DVec3::ZERO,
+            DVec3::new(1.0, 0.0, -3.0),
+            DVec3::new(0.0, 1.0, -3.0),
+        ];
         let r = refine_triangle(&p, t, rule).unwrap();
-        assert_eq!((r.stats.dropped_through_viewer, r.stats.dropped_at_origin, r.stats.emitted), (0, 1, 0));
+        assert_eq!(
+            (
+                r.stats.dropped_through_viewer,
+                r.stats.dropped_at_origin,
+                r.stats.emitted
+            ),
+            (0, 1, 0)
+        );
         // Behind the viewer: clipped away, not dropped.
-        let t = [DVec3::new(0.0, 0.0, 1.0), DVec3::new(1.0, 0.0, 3.0), DVec3::new(0.0, 1.0, 3.0)];
+        let t = [
+            DVec3::new(0.0, 0.0, 1.0),
+            DVec3::new(1.0, 0.0, 3.0),
+            DVec3::new(0.0, 1.0, 3.0),
+        ];
         let r = refine_triangle(&p, t, rule).unwrap();
         assert_eq!((r.stats.clipped_away, r.stats.emitted), (1, 0));
     }

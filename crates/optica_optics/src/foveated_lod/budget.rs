@@ -11,7 +11,11 @@ pub(crate) const ROUND_SLACK: f64 = 1e-9;
 /// Clamps a level to [0, 1]; NaN becomes 1 (documented fallback: full quality).
 #[inline]
 pub(crate) fn sanitize_level(level: f64) -> f64 {
-    if level.is_nan() { 1.0 } else { level.clamp(0.0, 1.0) }
+    if level.is_nan() {
+        1.0
+    } else {
+        level.clamp(0.0, 1.0)
+    }
 }
 
 /// Eq. 9: the largest number of reflections a ray of this level may make,
@@ -33,7 +37,11 @@ pub fn reflect_limit(level: f64, reflect_max: u32) -> u32 {
 /// the two swapped; the level is clamped as in [`reflect_limit`].
 #[inline]
 pub fn polygon_budget(level: f64, n_min: usize, n_max: usize) -> f64 {
-    let (lo, hi) = if n_min <= n_max { (n_min, n_max) } else { (n_max, n_min) };
+    let (lo, hi) = if n_min <= n_max {
+        (n_min, n_max)
+    } else {
+        (n_max, n_min)
+    };
     sanitize_level(level) * (hi - lo) as f64 + lo as f64
 }
 
@@ -110,7 +118,10 @@ mod tests {
         // N_min = 528, N_max = 5624: level 0.5 → 3076 → 5624 (index 3);
         // 0.2 → 1547.2 → 2600; 0.1 → 1037.6 → 1224; 0 → 528.
         let chain = [528, 1224, 2600, 5624];
-        let got: Vec<usize> = [1.0, 0.5, 0.2, 0.1, 0.0].iter().map(|&l| lod_for_level(&chain, l)).collect();
+        let got: Vec<usize> = [1.0, 0.5, 0.2, 0.1, 0.0]
+            .iter()
+            .map(|&l| lod_for_level(&chain, l))
+            .collect();
         assert_eq!(got, vec![3, 3, 2, 1, 0]);
         assert_eq!(lod_for_level(&chain, f64::NAN), 3, "NaN is full quality");
         assert_eq!(lod_for_level(&[], 0.5), 0);

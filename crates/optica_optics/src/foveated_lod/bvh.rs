@@ -194,7 +194,13 @@ impl Bvh {
     /// [`Bvh::closest`] along any finite `dir`, unit or not (`t` is then in
     /// units of `|dir|`): the tests use power-of-two directions, whose
     /// reciprocals are exact.
-    pub(crate) fn closest_along<F>(&self, origin: DVec3, dir: DVec3, t_max: f64, mut test: F) -> Option<(usize, f64)>
+    pub(crate) fn closest_along<F>(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        t_max: f64,
+        mut test: F,
+    ) -> Option<(usize, f64)>
     where
         F: FnMut(usize, f64) -> Option<f64>,
     {
@@ -280,7 +286,11 @@ impl Bvh {
                 }
                 NodeKind::Inner { left, right } => {
                     for c in [left, right] {
-                        if self.nodes[c as usize].bounds.hit(origin, inv, t_max).is_some() {
+                        if self.nodes[c as usize]
+                            .bounds
+                            .hit(origin, inv, t_max)
+                            .is_some()
+                        {
                             stack.push(c);
                         }
                     }
@@ -301,7 +311,9 @@ fn build_node(
     nodes: &mut Vec<Node>,
 ) -> u32 {
     let slice = &indices[lo..hi];
-    let bounds = slice.iter().fold(Aabb::EMPTY, |b, &i| b.union(boxes[i as usize]));
+    let bounds = slice
+        .iter()
+        .fold(Aabb::EMPTY, |b, &i| b.union(boxes[i as usize]));
     let me = nodes.len() as u32;
     nodes.push(Node {
         bounds,
@@ -350,7 +362,14 @@ fn build_node(
 
 /// Binned SAH along `axis`: partitions `idx` in place and returns the split
 /// position, or `None` when a leaf is cheaper.
-fn sah_split(boxes: &[Aabb], centers: &[DVec3], idx: &mut [u32], axis: usize, cb: Aabb, bounds: Aabb) -> Option<usize> {
+fn sah_split(
+    boxes: &[Aabb],
+    centers: &[DVec3],
+    idx: &mut [u32],
+    axis: usize,
+    cb: Aabb,
+    bounds: Aabb,
+) -> Option<usize> {
     let lo = cb.min[axis];
     let scale = BINS as f64 / (cb.max[axis] - lo);
     let bin_of = |c: f64| (((c - lo) * scale) as usize).min(BINS - 1);
@@ -386,7 +405,12 @@ fn sah_split(boxes: &[Aabb], centers: &[DVec3], idx: &mut [u32], axis: usize, cb
     }
     let area = bounds.surface_area();
     let leaf_cost = idx.len() as f64;
-    let split_cost = TRAVERSAL_COST + if area > 0.0 { best.0 / area } else { f64::INFINITY };
+    let split_cost = TRAVERSAL_COST
+        + if area > 0.0 {
+            best.0 / area
+        } else {
+            f64::INFINITY
+        };
     if !(best.0.is_finite() && (split_cost < leaf_cost || idx.len() > MAX_SAH_LEAF)) {
         return None;
     }
@@ -432,7 +456,10 @@ mod tests {
             min: DVec3::new(1.0, -1.0, -1.0),
             max: DVec3::new(2.0, 1.0, 1.0),
         }]);
-        assert_eq!(one.closest(&r, f64::INFINITY, |_, _| Some(1.5)), Some((0, 1.5)));
+        assert_eq!(
+            one.closest(&r, f64::INFINITY, |_, _| Some(1.5)),
+            Some((0, 1.5))
+        );
     }
 
     #[test]
@@ -470,21 +497,46 @@ mod tests {
         // gave +∞ on the min plane and a miss on the max plane).
         for x in [-1.0, 1.0] {
             for dir in [DVec3::Y, DVec3::new(-0.0, 1.0, -0.0)] {
-                assert_eq!(b.hit(DVec3::new(x, -3.0, 0.0), dir.recip(), inf), Some(2.0), "x = {x}");
+                assert_eq!(
+                    b.hit(DVec3::new(x, -3.0, 0.0), dir.recip(), inf),
+                    Some(2.0),
+                    "x = {x}"
+                );
                 assert_eq!(b.hit(DVec3::new(x, -3.0, 0.0), dir.recip(), 1.5), None);
             }
-            assert_eq!(b.hit(DVec3::new(x, 3.0, 0.0), DVec3::NEG_Y.recip(), inf), Some(2.0));
+            assert_eq!(
+                b.hit(DVec3::new(x, 3.0, 0.0), DVec3::NEG_Y.recip(), inf),
+                Some(2.0)
+            );
             // On an edge (two planes), along the third axis.
-            assert_eq!(b.hit(DVec3::new(x, 1.0, 4.0), DVec3::NEG_Z.recip(), inf), Some(3.0));
+            assert_eq!(
+                b.hit(DVec3::new(x, 1.0, 4.0), DVec3::NEG_Z.recip(), inf),
+                Some(3.0)
+            );
         }
         // Inside with two zero components: entry 0.
-        assert_eq!(b.hit(DVec3::new(0.5, -1.0, 1.0), DVec3::X.recip(), inf), Some(0.0));
+        assert_eq!(
+            b.hit(DVec3::new(0.5, -1.0, 1.0), DVec3::X.recip(), inf),
+            Some(0.0)
+        );
         // The empty box is never hit; a flat box (min = max on one axis) is.
-        assert_eq!(Aabb::EMPTY.hit(DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0).recip(), inf), None);
+        assert_eq!(
+            Aabb::EMPTY.hit(DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0).recip(), inf),
+            None
+        );
         assert_eq!(Aabb::EMPTY.hit(DVec3::ZERO, DVec3::X.recip(), inf), None);
-        let flat = Aabb { min: DVec3::new(0.0, -1.0, -1.0), max: DVec3::new(0.0, 1.0, 1.0) };
-        assert_eq!(flat.hit(DVec3::new(0.0, -2.0, 0.0), DVec3::Y.recip(), inf), Some(1.0));
-        assert_eq!(flat.hit(DVec3::new(-2.0, 0.0, 0.0), DVec3::X.recip(), inf), Some(2.0));
+        let flat = Aabb {
+            min: DVec3::new(0.0, -1.0, -1.0),
+            max: DVec3::new(0.0, 1.0, 1.0),
+        };
+        assert_eq!(
+            flat.hit(DVec3::new(0.0, -2.0, 0.0), DVec3::Y.recip(), inf),
+            Some(1.0)
+        );
+        assert_eq!(
+            flat.hit(DVec3::new(-2.0, 0.0, 0.0), DVec3::X.recip(), inf),
+            Some(2.0)
+        );
     }
 
     #[test]
@@ -492,14 +544,24 @@ mod tests {
         // Boxes as primitives (exact closed-box test): a ray along +y lying
         // in the max-x plane of the whole set must still find box 1's face.
         let boxes = [
-            Aabb { min: DVec3::new(-1.0, 0.0, -1.0), max: DVec3::new(0.0, 1.0, 1.0) },
-            Aabb { min: DVec3::new(0.0, 2.0, -1.0), max: DVec3::new(1.0, 3.0, 1.0) },
+            Aabb {
+                min: DVec3::new(-1.0, 0.0, -1.0),
+                max: DVec3::new(0.0, 1.0, 1.0),
+            },
+            Aabb {
+                min: DVec3::new(0.0, 2.0, -1.0),
+                max: DVec3::new(1.0, 3.0, 1.0),
+            },
         ];
         let bvh = Bvh::build(&boxes);
         let ray = Ray::new(DVec3::new(1.0, -1.0, 0.0), DVec3::Y).unwrap();
-        let got = bvh.closest(&ray, f64::INFINITY, |i, tm| reference_box_t(&boxes[i], &ray).filter(|&t| t < tm));
+        let got = bvh.closest(&ray, f64::INFINITY, |i, tm| {
+            reference_box_t(&boxes[i], &ray).filter(|&t| t < tm)
+        });
         assert_eq!(got, Some((1, 3.0)));
-        assert!(bvh.any(&ray, 10.0, |i| reference_box_t(&boxes[i], &ray).is_some_and(|t| t < 10.0)));
+        assert!(bvh.any(&ray, 10.0, |i| {
+            reference_box_t(&boxes[i], &ray).is_some_and(|t| t < 10.0)
+        }));
         // And a ray parallel to x outside every y slab is culled at the root.
         let away = Ray::new(DVec3::new(-5.0, 10.0, 0.0), DVec3::X).unwrap();
         let mut tested = 0;
@@ -528,7 +590,10 @@ mod tests {
         let boxes: Vec<Aabb> = (0..12)
             .map(|k| {
                 let o = DVec3::new(1e-3 * k as f64, 0.0, 0.0);
-                Aabb { min: o - 5.0, max: o + 5.0 }
+                Aabb {
+                    min: o - 5.0,
+                    max: o + 5.0,
+                }
             })
             .collect();
         assert_eq!(leaf_sizes(&Bvh::build(&boxes)), vec![12]);
@@ -536,11 +601,17 @@ mod tests {
         let boxes: Vec<Aabb> = (0..40)
             .map(|k| {
                 let o = DVec3::new(1e-3 * k as f64, 0.0, 0.0);
-                Aabb { min: o - 5.0, max: o + 5.0 }
+                Aabb {
+                    min: o - 5.0,
+                    max: o + 5.0,
+                }
             })
             .collect();
         let sizes = leaf_sizes(&Bvh::build(&boxes));
-        assert!(sizes.iter().all(|&n| n <= MAX_SAH_LEAF) && sizes.iter().sum::<usize>() == 40, "{sizes:?}");
+        assert!(
+            sizes.iter().all(|&n| n <= MAX_SAH_LEAF) && sizes.iter().sum::<usize>() == 40,
+            "{sizes:?}"
+        );
     }
 
     /// Reference ray–box test for closed boxes, written out per axis with
@@ -559,7 +630,11 @@ mod tests {
                     return None;
                 }
             } else {
-                let (near, far) = if d > 0.0 { (b.min[a], b.max[a]) } else { (b.max[a], b.min[a]) };
+                let (near, far) = if d > 0.0 {
+                    (b.min[a], b.max[a])
+                } else {
+                    (b.max[a], b.min[a])
+                };
                 t0 = t0.max((near - o) / d);
                 t1 = t1.min((far - o) / d);
             }

@@ -75,7 +75,11 @@ impl CaveWall {
     /// non-finite corner; [`FoveatedError::DegenerateWall`] for a zero edge
     /// or edges that are not perpendicular (|cos| above 1e-9): the corners
     /// must form a rectangle.
-    pub fn new(lower_left: DVec3, lower_right: DVec3, upper_left: DVec3) -> Result<Self, FoveatedError> {
+    pub fn new(
+        lower_left: DVec3,
+        lower_right: DVec3,
+        upper_left: DVec3,
+    ) -> Result<Self, FoveatedError> {
         for c in [lower_left, lower_right, upper_left] {
             input::finite_vec3("CAVE wall corner (m)", c)?;
         }
@@ -126,7 +130,9 @@ impl CaveWall {
     /// The wall point at fractions (s, t) ∈ [0, 1]² from the lower-left corner
     /// (s to the right, t up).
     pub fn point_at(&self, s: f64, t: f64) -> DVec3 {
-        self.lower_left + (self.lower_right - self.lower_left) * s + (self.upper_left - self.lower_left) * t
+        self.lower_left
+            + (self.lower_right - self.lower_left) * s
+            + (self.upper_left - self.lower_left) * t
     }
 
     /// The eye–wall distance d (m) of an eye in front of the wall.
@@ -138,7 +144,8 @@ impl CaveWall {
     pub fn check_eye(&self, eye: DVec3) -> Result<f64, FoveatedError> {
         let eye = input::finite_vec3("eye position (m)", eye)?;
         let d = self.signed_distance(eye);
-        let size = (self.lower_right - self.lower_left).length() + (self.upper_left - self.lower_left).length();
+        let size = (self.lower_right - self.lower_left).length()
+            + (self.upper_left - self.lower_left).length();
         if !(d > MIN_EYE_DISTANCE_REL * size) {
             return Err(FoveatedError::EyeNotInFront { distance: d });
         }
@@ -209,9 +216,18 @@ impl CaveWall {
         }
         let d = self.check_eye(eye)?;
         let (vr, vu, vn) = self.basis();
-        let (va, vb, vc) = (self.lower_left - eye, self.lower_right - eye, self.upper_left - eye);
+        let (va, vb, vc) = (
+            self.lower_left - eye,
+            self.lower_right - eye,
+            self.upper_left - eye,
+        );
         let k = near / d;
-        let (l, r, b, t) = (vr.dot(va) * k, vr.dot(vb) * k, vu.dot(va) * k, vu.dot(vc) * k);
+        let (l, r, b, t) = (
+            vr.dot(va) * k,
+            vr.dot(vb) * k,
+            vu.dot(va) * k,
+            vu.dot(vc) * k,
+        );
         let projection = match depth {
             DepthConvention::ZeroToOne => DMat4::frustum_rh(l, r, b, t, near, far),
             DepthConvention::MinusOneToOne => DMat4::frustum_rh_gl(l, r, b, t, near, far),
@@ -259,8 +275,16 @@ pub fn front_right_floor(size: f64) -> Result<[CaveWall; 3], FoveatedError> {
             DVec3::new(h, 0.0, -h),
             DVec3::new(-h, size, -h),
         )?,
-        CaveWall::new(DVec3::new(h, 0.0, -h), DVec3::new(h, 0.0, h), DVec3::new(h, size, -h))?,
-        CaveWall::new(DVec3::new(-h, 0.0, h), DVec3::new(h, 0.0, h), DVec3::new(-h, 0.0, -h))?,
+        CaveWall::new(
+            DVec3::new(h, 0.0, -h),
+            DVec3::new(h, 0.0, h),
+            DVec3::new(h, size, -h),
+        )?,
+        CaveWall::new(
+            DVec3::new(-h, 0.0, h),
+            DVec3::new(h, 0.0, h),
+            DVec3::new(-h, 0.0, -h),
+        )?,
     ])
 }
 
@@ -280,7 +304,10 @@ mod tests {
         ];
         for (c, x, y) in cases {
             let n = p.to_ndc(c);
-            assert!((n.x - x).abs() < 1e-9 && (n.y - y).abs() < 1e-9, "{c} → {n}");
+            assert!(
+                (n.x - x).abs() < 1e-9 && (n.y - y).abs() < 1e-9,
+                "{c} → {n}"
+            );
             let z_ok = match depth {
                 DepthConvention::MinusOneToOne => (-1.0..=1.0).contains(&n.z),
                 _ => (0.0..=1.0).contains(&n.z),
@@ -317,7 +344,12 @@ mod tests {
         // Eye 1.5 m in front of the centre of a 3 m wall: fov_y = 2·atan(1.5/1.5) = 90°.
         let w = front_right_floor(3.0).unwrap()[0];
         let p = w
-            .off_axis(DVec3::new(0.0, 1.5, 0.0), 0.1, 50.0, DepthConvention::ZeroToOne)
+            .off_axis(
+                DVec3::new(0.0, 1.5, 0.0),
+                0.1,
+                50.0,
+                DepthConvention::ZeroToOne,
+            )
             .unwrap();
         let q = DMat4::perspective_rh(std::f64::consts::FRAC_PI_2, 1.0, 0.1, 50.0);
         assert!(p.projection.abs_diff_eq(q, 1e-12));
@@ -332,24 +364,52 @@ mod tests {
     #[test]
     fn eye_on_or_behind_a_wall_is_an_error() {
         let w = front_right_floor(3.0).unwrap()[0];
-        let on = w.off_axis(DVec3::new(0.3, 1.0, -1.5), 0.1, 10.0, DepthConvention::ZeroToOne);
-        assert!(matches!(on, Err(FoveatedError::EyeNotInFront { distance }) if distance.abs() < 1e-12));
-        let behind = w.off_axis(DVec3::new(0.0, 1.0, -2.0), 0.1, 10.0, DepthConvention::ZeroToOne);
+        let on = w.off_axis(
+            DVec3::new(0.3, 1.0, -1.5),
+            0.1,
+            10.0,
+            DepthConvention::ZeroToOne,
+        );
+        assert!(
+            matches!(on, Err(FoveatedError::EyeNotInFront { distance }) if distance.abs() < 1e-12)
+        );
+        let behind = w.off_axis(
+            DVec3::new(0.0, 1.0, -2.0),
+            0.1,
+            10.0,
+            DepthConvention::ZeroToOne,
+        );
         assert!(matches!(behind, Err(FoveatedError::EyeNotInFront { distance }) if distance < 0.0));
-        let nan = w.off_axis(DVec3::new(f64::NAN, 1.0, 0.0), 0.1, 10.0, DepthConvention::ZeroToOne);
+        let nan = w.off_axis(
+            DVec3::new(f64::NAN, 1.0, 0.0),
+            0.1,
+            10.0,
+            DepthConvention::ZeroToOne,
+        );
         assert!(matches!(nan, Err(FoveatedError::Input(e)) if e.what == "eye position (m)"));
         let inside = DVec3::new(0.0, 1.0, 0.0);
         assert_eq!(
             w.off_axis(inside, 0.0, 10.0, DepthConvention::ZeroToOne),
-            Err(FoveatedError::Input(InvalidInput::new("near clip distance (m)", 0.0, Expected::Positive)))
+            Err(FoveatedError::Input(InvalidInput::new(
+                "near clip distance (m)",
+                0.0,
+                Expected::Positive
+            )))
         );
         assert_eq!(
             w.off_axis(inside, 0.1, f64::INFINITY, DepthConvention::MinusOneToOne),
-            Err(FoveatedError::Input(InvalidInput::new("far clip distance (m)", f64::INFINITY, Expected::Finite)))
+            Err(FoveatedError::Input(InvalidInput::new(
+                "far clip distance (m)",
+                f64::INFINITY,
+                Expected::Finite
+            )))
         );
         assert_eq!(
             w.off_axis(inside, 0.1, 0.1, DepthConvention::ZeroToOne),
-            Err(FoveatedError::InvalidClipPlanes { near: 0.1, far: 0.1 })
+            Err(FoveatedError::InvalidClipPlanes {
+                near: 0.1,
+                far: 0.1
+            })
         );
         assert!(
             w.off_axis(
@@ -364,13 +424,18 @@ mod tests {
 
     #[test]
     fn degenerate_walls_are_rejected() {
-        assert_eq!(CaveWall::new(DVec3::ZERO, DVec3::ZERO, DVec3::Y), Err(FoveatedError::DegenerateWall("zero-length edge")));
+        assert_eq!(
+            CaveWall::new(DVec3::ZERO, DVec3::ZERO, DVec3::Y),
+            Err(FoveatedError::DegenerateWall("zero-length edge"))
+        );
         assert_eq!(
             CaveWall::new(DVec3::ZERO, DVec3::X, DVec3::new(0.1, 1.0, 0.0)),
             Err(FoveatedError::DegenerateWall("edges are not perpendicular"))
         );
         let nan = CaveWall::new(DVec3::ZERO, DVec3::X, DVec3::NAN).unwrap_err();
-        assert!(matches!(nan, FoveatedError::Input(e) if e.what == "CAVE wall corner (m)" && e.value.is_nan()));
+        assert!(
+            matches!(nan, FoveatedError::Input(e) if e.what == "CAVE wall corner (m)" && e.value.is_nan())
+        );
         assert_eq!(
             front_right_floor(-1.0).unwrap_err(),
             FoveatedError::Input(InvalidInput::new("CAVE side (m)", -1.0, Expected::Positive))
@@ -385,12 +450,21 @@ mod tests {
         let r = w.ray_through(eye, 0.5, 0.5).unwrap();
         let want = (DVec3::new(0.0, 1.5, -1.5) - eye).normalize();
         assert!((r.dir() - want).length() < 1e-15 && r.origin() == eye);
-        assert!(matches!(w.ray_through(DVec3::new(0.0, 1.0, -2.0), 0.5, 0.5), Err(FoveatedError::EyeNotInFront { .. })));
+        assert!(matches!(
+            w.ray_through(DVec3::new(0.0, 1.0, -2.0), 0.5, 0.5),
+            Err(FoveatedError::EyeNotInFront { .. })
+        ));
         assert_eq!(
             w.ray_through(eye, f64::INFINITY, 0.5).unwrap_err(),
-            FoveatedError::Input(InvalidInput::new("wall fraction s", f64::INFINITY, Expected::Finite))
+            FoveatedError::Input(InvalidInput::new(
+                "wall fraction s",
+                f64::INFINITY,
+                Expected::Finite
+            ))
         );
-        assert!(matches!(w.ray_through(eye, 0.5, f64::NAN), Err(FoveatedError::Input(e)) if e.what == "wall fraction t"));
+        assert!(
+            matches!(w.ray_through(eye, 0.5, f64::NAN), Err(FoveatedError::Input(e)) if e.what == "wall fraction t")
+        );
     }
 
     proptest! {

@@ -73,7 +73,11 @@ pub struct HysteresisParams {
 impl Default for HysteresisParams {
     /// [`DEFAULT_LEVEL_STEPS`], [`DEFAULT_DEAD_BAND`], [`DEFAULT_MIN_DWELL_S`].
     fn default() -> Self {
-        Self { steps: DEFAULT_LEVEL_STEPS, dead_band: DEFAULT_DEAD_BAND, min_dwell_s: DEFAULT_MIN_DWELL_S }
+        Self {
+            steps: DEFAULT_LEVEL_STEPS,
+            dead_band: DEFAULT_DEAD_BAND,
+            min_dwell_s: DEFAULT_MIN_DWELL_S,
+        }
     }
 }
 
@@ -86,17 +90,28 @@ impl HysteresisParams {
     /// dwell that is negative or not finite.
     pub fn new(steps: u32, dead_band: f64, min_dwell_s: f64) -> Result<Self, FoveatedError> {
         if steps == 0 {
-            return Err(InvalidInput::new("hysteresis level steps", 0.0, Expected::Positive).into());
+            return Err(
+                InvalidInput::new("hysteresis level steps", 0.0, Expected::Positive).into(),
+            );
         }
         let step = 1.0 / steps as f64;
         if !(dead_band >= 0.0 && dead_band < step) {
             // `Expected::Range` is inclusive and δ must stay below one step:
             // the largest accepted value is the float just below 1/S.
             let max = step.next_down();
-            return Err(InvalidInput::new("hysteresis dead band (level)", dead_band, Expected::Range { min: 0.0, max }).into());
+            return Err(InvalidInput::new(
+                "hysteresis dead band (level)",
+                dead_band,
+                Expected::Range { min: 0.0, max },
+            )
+            .into());
         }
         let min_dwell_s = input::non_negative("hysteresis minimum dwell (s)", min_dwell_s)?;
-        Ok(Self { steps, dead_band, min_dwell_s })
+        Ok(Self {
+            steps,
+            dead_band,
+            min_dwell_s,
+        })
     }
 
     /// The number of level steps S.
@@ -149,7 +164,11 @@ pub struct LodHysteresis {
 impl LodHysteresis {
     /// A state machine before its first update.
     pub fn new(params: HysteresisParams) -> Self {
-        Self { params, state: None, switches: 0 }
+        Self {
+            params,
+            state: None,
+            switches: 0,
+        }
     }
 
     /// Feeds the level of this frame at time `t_s` (seconds) and returns the
@@ -197,7 +216,8 @@ impl LodHysteresis {
 
     /// The current level k/S (1 before the first update: full quality).
     pub fn level(&self) -> f64 {
-        self.step().map_or(1.0, |k| k as f64 / self.params.steps as f64)
+        self.step()
+            .map_or(1.0, |k| k as f64 / self.params.steps as f64)
     }
 
     /// How many times the step changed (not counting the first frame).
@@ -216,7 +236,9 @@ pub struct PixelLodGrid {
 impl PixelLodGrid {
     /// A grid of `len` slots.
     pub fn new(len: usize, params: HysteresisParams) -> Self {
-        Self { slots: vec![LodHysteresis::new(params); len] }
+        Self {
+            slots: vec![LodHysteresis::new(params); len],
+        }
     }
 
     /// Updates every slot with its level at time `t_s` and returns the held
@@ -273,7 +295,10 @@ mod tests {
         for i in 0..=1000 {
             let l = i as f64 / 1000.0;
             for s in [1, 2, 4, 8, 16, 32] {
-                assert!(LevelQuantization::Steps(2 * s).apply(l) >= LevelQuantization::Steps(s).apply(l));
+                assert!(
+                    LevelQuantization::Steps(2 * s).apply(l)
+                        >= LevelQuantization::Steps(s).apply(l)
+                );
             }
         }
     }
@@ -334,10 +359,19 @@ mod tests {
             Err(FoveatedError::Input(e)) => (e.what, e.expected),
             other => panic!("expected an input error, got {other:?}"),
         };
-        assert_eq!(input(HysteresisParams::new(0, 0.0, 0.0)), ("hysteresis level steps", Expected::Positive));
+        assert_eq!(
+            input(HysteresisParams::new(0, 0.0, 0.0)),
+            ("hysteresis level steps", Expected::Positive)
+        );
         // δ must stay below one step, 1/4: the largest accepted value is the float below 0.25.
         let below_quarter = 0.25f64.next_down();
-        let band = ("hysteresis dead band (level)", Expected::Range { min: 0.0, max: below_quarter });
+        let band = (
+            "hysteresis dead band (level)",
+            Expected::Range {
+                min: 0.0,
+                max: below_quarter,
+            },
+        );
         assert_eq!(input(HysteresisParams::new(4, 0.3, 0.0)), band);
         assert_eq!(input(HysteresisParams::new(4, 0.25, 0.0)), band);
         assert_eq!(input(HysteresisParams::new(4, -0.01, 0.0)), band);
@@ -350,7 +384,10 @@ mod tests {
         assert_eq!((p.steps(), p.dead_band(), p.min_dwell_s()), (4, 0.05, 0.25));
         // The defaults are valid and are the named constants.
         let d = HysteresisParams::default();
-        assert_eq!(HysteresisParams::new(DEFAULT_LEVEL_STEPS, DEFAULT_DEAD_BAND, DEFAULT_MIN_DWELL_S), Ok(d));
+        assert_eq!(
+            HysteresisParams::new(DEFAULT_LEVEL_STEPS, DEFAULT_DEAD_BAND, DEFAULT_MIN_DWELL_S),
+            Ok(d)
+        );
     }
 
     #[test]
@@ -393,10 +430,17 @@ mod tests {
     #[test]
     fn grid_updates_every_pixel() {
         let mut g = PixelLodGrid::new(3, params());
-        assert_eq!(g.update(&[1.0, 0.5, 0.0], 0.0).unwrap(), vec![1.0, 0.5, 0.0]);
+        assert_eq!(
+            g.update(&[1.0, 0.5, 0.0], 0.0).unwrap(),
+            vec![1.0, 0.5, 0.0]
+        );
         assert_eq!(
             g.update(&[1.0], 0.0),
-            Err(FoveatedError::LengthMismatch { what: "levels for the pixel grid", expected: 3, got: 1 })
+            Err(FoveatedError::LengthMismatch {
+                what: "levels for the pixel grid",
+                expected: 3,
+                got: 1
+            })
         );
     }
 

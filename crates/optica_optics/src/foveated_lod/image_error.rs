@@ -22,9 +22,16 @@ pub fn rmse(a: &[DVec3], b: &[DVec3]) -> Result<f64, FoveatedError> {
 /// length from `a`; [`FoveatedError::Input`] for a negative or non-finite
 /// weight or a non-finite pixel.
 pub fn weighted_rmse(a: &[DVec3], b: &[DVec3], w: &[f64]) -> Result<f64, FoveatedError> {
-    for (what, len) in [("pixels of the second image", b.len()), ("pixel weights", w.len())] {
+    for (what, len) in [
+        ("pixels of the second image", b.len()),
+        ("pixel weights", w.len()),
+    ] {
         if len != a.len() {
-            return Err(FoveatedError::LengthMismatch { what, expected: a.len(), got: len });
+            return Err(FoveatedError::LengthMismatch {
+                what,
+                expected: a.len(),
+                got: len,
+            });
         }
     }
     for &x in w {
@@ -78,16 +85,28 @@ mod tests {
         assert_eq!(weight(-1.0), ("pixel weight", Expected::NonNegative));
         assert_eq!(
             rmse(&a, &b[1..]),
-            Err(FoveatedError::LengthMismatch { what: "pixels of the second image", expected: 4, got: 3 })
+            Err(FoveatedError::LengthMismatch {
+                what: "pixels of the second image",
+                expected: 4,
+                got: 3
+            })
         );
         assert_eq!(
             weighted_rmse(&a, &b, &[1.0]),
-            Err(FoveatedError::LengthMismatch { what: "pixel weights", expected: 4, got: 1 })
+            Err(FoveatedError::LengthMismatch {
+                what: "pixel weights",
+                expected: 4,
+                got: 1
+            })
         );
         b[0] = DVec3::new(0.0, f64::INFINITY, 0.0);
         assert_eq!(
             rmse(&a, &b),
-            Err(FoveatedError::Input(InvalidInput::new("pixel colour", f64::INFINITY, Expected::FiniteVector)))
+            Err(FoveatedError::Input(InvalidInput::new(
+                "pixel colour",
+                f64::INFINITY,
+                Expected::FiniteVector
+            )))
         );
     }
 }

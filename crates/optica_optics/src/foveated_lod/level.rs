@@ -44,11 +44,18 @@ impl GazeFrame {
         let up_hint = input::direction("gaze up hint", up_hint)?;
         let right = forward.cross(up_hint);
         if right.length() < MIN_GAZE_UP_SINE {
-            return Err(FoveatedError::DegenerateDirection("up hint parallel to the gaze"));
+            return Err(FoveatedError::DegenerateDirection(
+                "up hint parallel to the gaze",
+            ));
         }
         let right = right.normalize();
         let up = right.cross(forward);
-        Ok(Self { eye, forward, right, up })
+        Ok(Self {
+            eye,
+            forward,
+            right,
+            up,
+        })
     }
 
     /// A gaze frame from an eye position (m) and a head or eye orientation in
@@ -68,7 +75,12 @@ impl GazeFrame {
             .try_normalize()
             .map(DQuat::from_vec4)
             .ok_or(InvalidInput::new(WHAT, q.length(), Expected::Direction))?;
-        Ok(Self { eye, forward: q * DVec3::NEG_Z, right: q * DVec3::X, up: q * DVec3::Y })
+        Ok(Self {
+            eye,
+            forward: q * DVec3::NEG_Z,
+            right: q * DVec3::X,
+            up: q * DVec3::Y,
+        })
     }
 
     /// Eye position V (world, m).
@@ -99,7 +111,11 @@ impl GazeFrame {
     /// with d_f = E_f·D', d_r = E_r·D', d_u = E_u·D' (returned as x, y, z).
     #[inline]
     pub fn to_local(&self, dir_world: DVec3) -> DVec3 {
-        DVec3::new(self.forward.dot(dir_world), self.right.dot(dir_world), self.up.dot(dir_world))
+        DVec3::new(
+            self.forward.dot(dir_world),
+            self.right.dot(dir_world),
+            self.up.dot(dir_world),
+        )
     }
 
     /// The inverse of [`GazeFrame::to_local`]: (d_f, d_r, d_u) to a world direction.
@@ -274,7 +290,11 @@ impl VisualField {
 
     /// The paper's extents with an explicit eye model and boundary shape.
     pub const fn with_options(eye: EyeModel, boundary: BoundaryShape) -> Self {
-        Self { extents: FieldExtents::PAPER, eye, boundary }
+        Self {
+            extents: FieldExtents::PAPER,
+            eye,
+            boundary,
+        }
     }
 
     /// A field with its own extents. The central radius must lie in (0, π],
@@ -282,7 +302,11 @@ impl VisualField {
     /// eq. 8's fall runs outwards from the central field.
     ///
     /// Errors: [`FoveatedError::Input`] naming the first extent out of range.
-    pub fn new(extents: FieldExtents, eye: EyeModel, boundary: BoundaryShape) -> Result<Self, FoveatedError> {
+    pub fn new(
+        extents: FieldExtents,
+        eye: EyeModel,
+        boundary: BoundaryShape,
+    ) -> Result<Self, FoveatedError> {
         let central = input::positive("central field radius (rad)", extents.central)?;
         input::in_range("central field radius (rad)", central, 0.0, PI)?;
         for (what, v) in [
@@ -293,7 +317,11 @@ impl VisualField {
         ] {
             input::in_range(what, v, central, PI)?;
         }
-        Ok(Self { extents, eye, boundary })
+        Ok(Self {
+            extents,
+            eye,
+            boundary,
+        })
     }
 
     /// The extents, in radians.
@@ -346,7 +374,11 @@ impl VisualField {
     pub fn boundary(&self, angles: FieldAngles) -> f64 {
         let (ma, mb) = (angles.m_alpha, angles.m_beta);
         let a = self.horizontal_extent(ma);
-        let b = if mb >= 0.0 { self.extents.upper } else { self.extents.lower };
+        let b = if mb >= 0.0 {
+            self.extents.upper
+        } else {
+            self.extents.lower
+        };
         let l2 = ma * ma + mb * mb;
         if l2 == 0.0 {
             return a;
@@ -354,7 +386,9 @@ impl VisualField {
         match self.boundary {
             // Eq. 7 literally: √((a² m_α² + b² m_β²) / (m_α² + m_β²)).
             BoundaryShape::PaperEq7 => ((a * a * ma * ma + b * b * mb * mb) / l2).sqrt(),
-            BoundaryShape::TrueEllipse => a * b * l2.sqrt() / (b * b * ma * ma + a * a * mb * mb).sqrt(),
+            BoundaryShape::TrueEllipse => {
+                a * b * l2.sqrt() / (b * b * ma * ma + a * a * mb * mb).sqrt()
+            }
         }
     }
 
@@ -485,14 +519,22 @@ mod tests {
         assert!((r.level_local(dir_ab(50.0, 0.0)) - 5.0 / 7.0).abs() < 1e-12);
         assert!((l.level_local(dir_ab(50.0, 0.0)) - 1.0 / 3.0).abs() < 1e-12);
         // Mirror symmetry: the left eye at (f, r, u) is the right eye at (f, −r, u).
-        for &(a, b) in &[(10.0, 5.0), (50.0, -20.0), (70.0, 30.0), (-80.0, 10.0), (35.0, 35.0)] {
+        for &(a, b) in &[
+            (10.0, 5.0),
+            (50.0, -20.0),
+            (70.0, 30.0),
+            (-80.0, 10.0),
+            (35.0, 35.0),
+        ] {
             let d = dir_ab(a, b);
             let m = DVec3::new(d.x, -d.y, d.z);
             assert!((l.level_local(d) - r.level_local(m)).abs() < 1e-15);
         }
         // On the ear side the per-eye model equals the paper's.
         let p = VisualField::paper();
-        assert!((r.level_local(dir_ab(55.0, 20.0)) - p.level_local(dir_ab(55.0, 20.0))).abs() < 1e-15);
+        assert!(
+            (r.level_local(dir_ab(55.0, 20.0)) - p.level_local(dir_ab(55.0, 20.0))).abs() < 1e-15
+        );
     }
 
     #[test]
@@ -537,10 +579,22 @@ mod tests {
         assert_eq!(f.level_local(DVec3::new(f64::INFINITY, 0.0, 1.0)), 1.0);
         assert_eq!(f.level_local(DVec3::ZERO), 1.0);
         // Angles are plain data: non-finite ones are full quality, central.
-        let nan = FieldAngles { m_alpha: f64::NAN, m_beta: 0.3 };
-        assert_eq!((f.level_of_angles(nan), f.region(nan)), (1.0, FieldRegion::Central));
-        let inf = FieldAngles { m_alpha: 0.1, m_beta: f64::NEG_INFINITY };
-        assert_eq!((f.level_of_angles(inf), f.region(inf)), (1.0, FieldRegion::Central));
+        let nan = FieldAngles {
+            m_alpha: f64::NAN,
+            m_beta: 0.3,
+        };
+        assert_eq!(
+            (f.level_of_angles(nan), f.region(nan)),
+            (1.0, FieldRegion::Central)
+        );
+        let inf = FieldAngles {
+            m_alpha: 0.1,
+            m_beta: f64::NEG_INFINITY,
+        };
+        assert_eq!(
+            (f.level_of_angles(inf), f.region(inf)),
+            (1.0, FieldRegion::Central)
+        );
         // The gaze frame itself refuses such input (see
         // `gaze_frame_input_errors_name_the_input`); these are directions
         // handed to the level function directly.
@@ -642,7 +696,10 @@ mod tests {
                         let (a, b) = (angles(axis * DEG - eps), angles(axis * DEG + eps));
                         let dl = (f.boundary(a) - f.boundary(b)).abs();
                         let dv = (f.level_of_angles(a) - f.level_of_angles(b)).abs();
-                        assert!(dl <= 2.0 * eps && dv <= 2.0 * eps, "{eye:?} {shape:?} φ {axis}° l {l_deg}°: ΔL {dl}, Δlevel {dv}");
+                        assert!(
+                            dl <= 2.0 * eps && dv <= 2.0 * eps,
+                            "{eye:?} {shape:?} φ {axis}° l {l_deg}°: ΔL {dl}, Δlevel {dv}"
+                        );
                     }
                 }
             }
@@ -660,10 +717,16 @@ mod tests {
         // A quaternion of any length is normalised; a zero or NaN one is refused.
         let c = GazeFrame::from_rotation(DVec3::ONE, q * 3.0).unwrap();
         assert!((c.forward() - a.forward()).length() < 1e-12);
-        let zero = GazeFrame::from_rotation(DVec3::ONE, DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0)).unwrap_err();
-        assert!(matches!(zero, FoveatedError::Input(e) if e.expected == Expected::Direction && e.value == 0.0));
-        let nan = GazeFrame::from_rotation(DVec3::ONE, DQuat::from_xyzw(0.0, f64::NAN, 0.0, 1.0)).unwrap_err();
-        assert!(matches!(nan, FoveatedError::Input(e) if e.expected == Expected::FiniteVector && e.value.is_nan()));
+        let zero =
+            GazeFrame::from_rotation(DVec3::ONE, DQuat::from_xyzw(0.0, 0.0, 0.0, 0.0)).unwrap_err();
+        assert!(
+            matches!(zero, FoveatedError::Input(e) if e.expected == Expected::Direction && e.value == 0.0)
+        );
+        let nan = GazeFrame::from_rotation(DVec3::ONE, DQuat::from_xyzw(0.0, f64::NAN, 0.0, 1.0))
+            .unwrap_err();
+        assert!(
+            matches!(nan, FoveatedError::Input(e) if e.expected == Expected::FiniteVector && e.value.is_nan())
+        );
         let d = DVec3::new(0.3, -0.5, 0.8);
         assert!((a.to_world(a.to_local(d)) - d).length() < 1e-12);
     }
@@ -673,28 +736,64 @@ mod tests {
         let ok = |e: FieldExtents| VisualField::new(e, EyeModel::Paper, BoundaryShape::PaperEq7);
         assert_eq!(ok(P).unwrap(), VisualField::paper());
         let range = |what: &'static str, value: f64, min: f64| {
-            FoveatedError::Input(InvalidInput::new(what, value, Expected::Range { min, max: PI }))
+            FoveatedError::Input(InvalidInput::new(
+                what,
+                value,
+                Expected::Range { min, max: PI },
+            ))
         };
         // An outer extent inside the 30° central radius.
-        assert_eq!(ok(FieldExtents { upper: 0.4, ..P }), Err(range("upper field extent (rad)", 0.4, P.central)));
-        assert_eq!(ok(FieldExtents { ear: 4.0, ..P }), Err(range("ear-side field extent (rad)", 4.0, P.central)));
-        assert_eq!(ok(FieldExtents { nose: 0.1, ..P }), Err(range("nose-side field extent (rad)", 0.1, P.central)));
-        let lower = ok(FieldExtents { lower: f64::INFINITY, ..P }).unwrap_err();
-        assert_eq!(lower, range("lower field extent (rad)", f64::INFINITY, P.central));
+        assert_eq!(
+            ok(FieldExtents { upper: 0.4, ..P }),
+            Err(range("upper field extent (rad)", 0.4, P.central))
+        );
+        assert_eq!(
+            ok(FieldExtents { ear: 4.0, ..P }),
+            Err(range("ear-side field extent (rad)", 4.0, P.central))
+        );
+        assert_eq!(
+            ok(FieldExtents { nose: 0.1, ..P }),
+            Err(range("nose-side field extent (rad)", 0.1, P.central))
+        );
+        let lower = ok(FieldExtents {
+            lower: f64::INFINITY,
+            ..P
+        })
+        .unwrap_err();
+        assert_eq!(
+            lower,
+            range("lower field extent (rad)", f64::INFINITY, P.central)
+        );
         // The central radius: positive, then at most π.
-        let positive = |value| FoveatedError::Input(InvalidInput::new("central field radius (rad)", value, Expected::Positive));
+        let positive = |value| {
+            FoveatedError::Input(InvalidInput::new(
+                "central field radius (rad)",
+                value,
+                Expected::Positive,
+            ))
+        };
         assert_eq!(ok(FieldExtents { central: 0.0, ..P }), Err(positive(0.0)));
         assert!(matches!(ok(FieldExtents { central: f64::NAN, ..P }),
             Err(FoveatedError::Input(e)) if e.expected == Expected::Positive && e.value.is_nan()));
-        assert_eq!(ok(FieldExtents { central: 4.0, ..P }), Err(range("central field radius (rad)", 4.0, 0.0)));
+        assert_eq!(
+            ok(FieldExtents { central: 4.0, ..P }),
+            Err(range("central field radius (rad)", 4.0, 0.0))
+        );
         // An extent equal to the central radius is a step, not a ramp: legal,
         // and the level stays in [0, 1] across it.
-        let step = ok(FieldExtents { upper: P.central, ..P }).unwrap();
+        let step = ok(FieldExtents {
+            upper: P.central,
+            ..P
+        })
+        .unwrap();
         assert_eq!(step.level_local(dir_ab(0.0, 29.0)), 1.0);
         assert_eq!(step.level_local(dir_ab(0.0, 31.0)), 0.0);
         // Accessors give back what was built.
         let f = VisualField::new(P, EyeModel::LeftEye, BoundaryShape::TrueEllipse).unwrap();
-        assert_eq!((f.extents(), f.eye_model(), f.boundary_shape()), (P, EyeModel::LeftEye, BoundaryShape::TrueEllipse));
+        assert_eq!(
+            (f.extents(), f.eye_model(), f.boundary_shape()),
+            (P, EyeModel::LeftEye, BoundaryShape::TrueEllipse)
+        );
     }
 
     #[test]
@@ -702,16 +801,36 @@ mod tests {
         let e = GazeFrame::new(DVec3::new(0.0, f64::NAN, 0.0), DVec3::NEG_Z, DVec3::Y).unwrap_err();
         assert!(matches!(e, FoveatedError::Input(i) if i.what == "eye position (m)"));
         let e = GazeFrame::new(DVec3::ZERO, DVec3::ZERO, DVec3::Y).unwrap_err();
-        assert_eq!(e, FoveatedError::Input(InvalidInput::new("gaze direction", 0.0, Expected::Direction)));
+        assert_eq!(
+            e,
+            FoveatedError::Input(InvalidInput::new(
+                "gaze direction",
+                0.0,
+                Expected::Direction
+            ))
+        );
         let e = GazeFrame::new(DVec3::ZERO, DVec3::NEG_Z, DVec3::ZERO).unwrap_err();
-        assert_eq!(e, FoveatedError::Input(InvalidInput::new("gaze up hint", 0.0, Expected::Direction)));
+        assert_eq!(
+            e,
+            FoveatedError::Input(InvalidInput::new("gaze up hint", 0.0, Expected::Direction))
+        );
         assert_eq!(
             GazeFrame::new(DVec3::ZERO, DVec3::Y * 2.0, DVec3::Y),
-            Err(FoveatedError::DegenerateDirection("up hint parallel to the gaze"))
+            Err(FoveatedError::DegenerateDirection(
+                "up hint parallel to the gaze"
+            ))
         );
         // A gaze of any length is normalised; the frame is orthonormal.
-        let f = GazeFrame::new(DVec3::ONE, DVec3::new(0.0, 0.0, -5.0), DVec3::new(0.0, 3.0, 1.0)).unwrap();
-        assert_eq!((f.eye(), f.forward(), f.right()), (DVec3::ONE, DVec3::NEG_Z, DVec3::X));
+        let f = GazeFrame::new(
+            DVec3::ONE,
+            DVec3::new(0.0, 0.0, -5.0),
+            DVec3::new(0.0, 3.0, 1.0),
+        )
+        .unwrap();
+        assert_eq!(
+            (f.eye(), f.forward(), f.right()),
+            (DVec3::ONE, DVec3::NEG_Z, DVec3::X)
+        );
         assert!((f.up() - DVec3::Y).length() < 1e-15);
     }
 
@@ -723,11 +842,18 @@ mod tests {
         let f = VisualField::paper();
         for k in 0..50 {
             let (yaw, pitch) = (0.13 * k as f64, 0.05 * k as f64 - 1.2);
-            let gaze = DVec3::new(yaw.sin() * pitch.cos(), pitch.sin(), -yaw.cos() * pitch.cos());
+            let gaze = DVec3::new(
+                yaw.sin() * pitch.cos(),
+                pitch.sin(),
+                -yaw.cos() * pitch.cos(),
+            );
             let g = GazeFrame::new(DVec3::ZERO, gaze, DVec3::Y).unwrap();
             for d in [g.right(), -g.right()] {
                 let l = f.level(&g, d);
-                assert!(l.is_finite() && (0.0..=1.0 / 7.0 + 1e-12).contains(&l), "{gaze}: {l}");
+                assert!(
+                    l.is_finite() && (0.0..=1.0 / 7.0 + 1e-12).contains(&l),
+                    "{gaze}: {l}"
+                );
             }
         }
     }

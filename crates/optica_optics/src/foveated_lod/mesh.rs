@@ -78,12 +78,18 @@ impl TriangleMesh {
         }
         let n = positions.len();
         if let Some(bad) = triangles.iter().flatten().find(|&&i| i as usize >= n) {
-            return Err(FoveatedError::InvalidScene(format!("index {bad} out of {n} vertices")));
+            return Err(FoveatedError::InvalidScene(format!(
+                "index {bad} out of {n} vertices"
+            )));
         }
         let normals = match normals {
             Some(v) => {
                 if v.len() != n {
-                    return Err(FoveatedError::LengthMismatch { what: "mesh normals", expected: n, got: v.len() });
+                    return Err(FoveatedError::LengthMismatch {
+                        what: "mesh normals",
+                        expected: n,
+                        got: v.len(),
+                    });
                 }
                 for &p in &v {
                     input::finite_vec3("mesh normal", p)?;
@@ -120,7 +126,12 @@ impl TriangleMesh {
     /// `segments` longitude segments (≥ 3): 2·segments·(rings − 1)
     /// triangles, exact normals. Errors: [`FoveatedError::Input`] naming the
     /// number out of range.
-    pub fn uv_sphere(center: DVec3, radius: f64, rings: u32, segments: u32) -> Result<Self, FoveatedError> {
+    pub fn uv_sphere(
+        center: DVec3,
+        radius: f64,
+        rings: u32,
+        segments: u32,
+    ) -> Result<Self, FoveatedError> {
         input::finite_vec3("sphere centre (m)", center)?;
         input::positive("sphere radius (m)", radius)?;
         at_least("sphere rings", rings, 2)?;
@@ -149,7 +160,12 @@ impl TriangleMesh {
         }
         for i in 1..r - 1 {
             for j in 0..s {
-                let (a, b, c, d) = (ring(i, j), ring(i, j + 1), ring(i + 1, j), ring(i + 1, j + 1));
+                let (a, b, c, d) = (
+                    ring(i, j),
+                    ring(i, j + 1),
+                    ring(i + 1, j),
+                    ring(i + 1, j + 1),
+                );
                 tris.push([a, b, d]);
                 tris.push([a, d, c]);
             }
@@ -213,9 +229,16 @@ impl TriangleMesh {
         input::finite_vec3("quad edge (m)", edge_v)?;
         let n = edge_u.cross(edge_v);
         if !(n.length() > 0.0) {
-            return Err(FoveatedError::DegenerateDirection("quad edges parallel or zero"));
+            return Err(FoveatedError::DegenerateDirection(
+                "quad edges parallel or zero",
+            ));
         }
-        let p = vec![corner, corner + edge_u, corner + edge_u + edge_v, corner + edge_v];
+        let p = vec![
+            corner,
+            corner + edge_u,
+            corner + edge_u + edge_v,
+            corner + edge_v,
+        ];
         Self::new(p, Some(vec![n; 4]), vec![[0, 1, 2], [0, 2, 3]])
     }
 
@@ -231,7 +254,12 @@ impl TriangleMesh {
 
     /// Möller–Trumbore for triangle `i`: (t, u, v) with T_MIN < t < t_max.
     #[inline]
-    pub(crate) fn intersect_triangle(&self, i: usize, ray: &Ray, t_max: f64) -> Option<(f64, f64, f64)> {
+    pub(crate) fn intersect_triangle(
+        &self,
+        i: usize,
+        ray: &Ray,
+        t_max: f64,
+    ) -> Option<(f64, f64, f64)> {
         let [a, b, c] = self.triangles[i].map(|k| self.positions[k as usize]);
         let e1 = b - a;
         let e2 = c - a;
@@ -321,7 +349,14 @@ fn at_least(what: &'static str, n: u32, min: u32) -> Result<u32, InvalidInput> {
     if n >= min {
         Ok(n)
     } else {
-        Err(InvalidInput::new(what, n as f64, Expected::Range { min: min as f64, max: u32::MAX as f64 }))
+        Err(InvalidInput::new(
+            what,
+            n as f64,
+            Expected::Range {
+                min: min as f64,
+                max: u32::MAX as f64,
+            },
+        ))
     }
 }
 
@@ -359,27 +394,76 @@ mod tests {
             Err(FoveatedError::Input(e)) => e.what,
             other => panic!("expected an input error, got {other:?}"),
         };
-        assert_eq!(what(TriangleMesh::uv_sphere(DVec3::ZERO, 1.0, 1, 24)), "sphere rings");
-        assert_eq!(what(TriangleMesh::uv_sphere(DVec3::ZERO, 1.0, 12, 2)), "sphere segments");
-        assert_eq!(what(TriangleMesh::uv_sphere(DVec3::ZERO, f64::NAN, 12, 24)), "sphere radius (m)");
+        assert_eq!(
+            what(TriangleMesh::uv_sphere(DVec3::ZERO, 1.0, 1, 24)),
+            "sphere rings"
+        );
+        assert_eq!(
+            what(TriangleMesh::uv_sphere(DVec3::ZERO, 1.0, 12, 2)),
+            "sphere segments"
+        );
+        assert_eq!(
+            what(TriangleMesh::uv_sphere(DVec3::ZERO, f64::NAN, 12, 24)),
+            "sphere radius (m)"
+        );
         // A tube wider than its ring.
         let e = TriangleMesh::torus(DVec3::ZERO, DVec3::Y, 0.3, 1.0, 24, 12).unwrap_err();
-        assert_eq!(e, FoveatedError::Input(InvalidInput::new("torus tube radius (m)", 1.0, Expected::Range { min: 0.0, max: 0.3 })));
-        assert_eq!(what(TriangleMesh::torus(DVec3::ZERO, DVec3::ZERO, 1.0, 0.3, 24, 12)), "torus axis");
-        assert_eq!(what(TriangleMesh::torus(DVec3::ZERO, DVec3::Y, 1.0, 0.3, 24, 2)), "torus tube segments");
-        assert_eq!(what(TriangleMesh::new(vec![DVec3::NAN; 3], None, vec![[0, 1, 2]])), "mesh position (m)");
+        assert_eq!(
+            e,
+            FoveatedError::Input(InvalidInput::new(
+                "torus tube radius (m)",
+                1.0,
+                Expected::Range { min: 0.0, max: 0.3 }
+            ))
+        );
+        assert_eq!(
+            what(TriangleMesh::torus(
+                DVec3::ZERO,
+                DVec3::ZERO,
+                1.0,
+                0.3,
+                24,
+                12
+            )),
+            "torus axis"
+        );
+        assert_eq!(
+            what(TriangleMesh::torus(DVec3::ZERO, DVec3::Y, 1.0, 0.3, 24, 2)),
+            "torus tube segments"
+        );
+        assert_eq!(
+            what(TriangleMesh::new(
+                vec![DVec3::NAN; 3],
+                None,
+                vec![[0, 1, 2]]
+            )),
+            "mesh position (m)"
+        );
         assert!(matches!(
             TriangleMesh::new(vec![DVec3::ZERO; 3], None, vec![[0, 1, 3]]),
             Err(FoveatedError::InvalidScene(m)) if m == "index 3 out of 3 vertices"
         ));
-        assert!(matches!(TriangleMesh::new(vec![DVec3::ZERO; 3], None, vec![]), Err(FoveatedError::InvalidScene(_))));
+        assert!(matches!(
+            TriangleMesh::new(vec![DVec3::ZERO; 3], None, vec![]),
+            Err(FoveatedError::InvalidScene(_))
+        ));
         assert_eq!(
-            TriangleMesh::new(vec![DVec3::ZERO; 3], Some(vec![DVec3::Y; 2]), vec![[0, 1, 2]]),
-            Err(FoveatedError::LengthMismatch { what: "mesh normals", expected: 3, got: 2 })
+            TriangleMesh::new(
+                vec![DVec3::ZERO; 3],
+                Some(vec![DVec3::Y; 2]),
+                vec![[0, 1, 2]]
+            ),
+            Err(FoveatedError::LengthMismatch {
+                what: "mesh normals",
+                expected: 3,
+                got: 2
+            })
         );
         assert_eq!(
             TriangleMesh::quad(DVec3::ZERO, DVec3::X, DVec3::X * 2.0),
-            Err(FoveatedError::DegenerateDirection("quad edges parallel or zero"))
+            Err(FoveatedError::DegenerateDirection(
+                "quad edges parallel or zero"
+            ))
         );
     }
 
@@ -393,9 +477,15 @@ mod tests {
         // r(1 − cos(π/24)) ≈ 0.017 at this tessellation.
         let exact = 10.0 - (4.0f64 - 0.05).sqrt();
         assert!(h.t >= exact - 1e-9 && h.t < exact + 0.02, "{}", h.t);
-        assert!(m.face_normal(h.triangle).z < 0.0, "front face points at the viewer");
+        assert!(
+            m.face_normal(h.triangle).z < 0.0,
+            "front face points at the viewer"
+        );
         assert!(m.shading_normal(&h).z < -0.9);
-        assert!(n > 0 && n < m.triangle_count() as u64 / 4, "the BVH prunes: {n} tests");
+        assert!(
+            n > 0 && n < m.triangle_count() as u64 / 4,
+            "the BVH prunes: {n} tests"
+        );
     }
 
     proptest! {

@@ -115,10 +115,12 @@ pub use budget::{choose_lod, lod_for_level, polygon_budget, reflect_limit};
 pub use cave::{CaveWall, DepthConvention, OffAxisProjection, front_right_floor};
 pub use error::FoveatedError;
 pub use hysteresis::{
-    DEFAULT_DEAD_BAND, DEFAULT_LEVEL_STEPS, DEFAULT_MIN_DWELL_S, HysteresisParams, LevelQuantization, LodHysteresis,
-    PixelLodGrid,
+    DEFAULT_DEAD_BAND, DEFAULT_LEVEL_STEPS, DEFAULT_MIN_DWELL_S, HysteresisParams,
+    LevelQuantization, LodHysteresis, PixelLodGrid,
 };
-pub use level::{BoundaryShape, EyeModel, FieldAngles, FieldExtents, FieldRegion, GazeFrame, VisualField};
+pub use level::{
+    BoundaryShape, EyeModel, FieldAngles, FieldExtents, FieldRegion, GazeFrame, VisualField,
+};
 pub use tracker::{GazeEstimate, GazeTracker, TrackerSample};
 
 #[cfg(feature = "reference")]
@@ -129,5 +131,6 @@ pub use mesh::TriangleMesh;
 pub use scene::{DemoDetail, LodObject, TracerLight, TracerMaterial, TracerScene, demo_scene};
 #[cfg(feature = "reference")]
 pub use tracer::{
-    RenderedImage, TraceSettings, TraceStats, TracerCamera, pixel_levels, render, render_full_quality, trace_ray,
+    RenderedImage, TraceSettings, TraceStats, TracerCamera, pixel_levels, render,
+    render_full_quality, trace_ray,
 };

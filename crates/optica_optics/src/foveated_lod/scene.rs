@@ -83,7 +83,10 @@ impl LodObject {
     /// An object from its LOD meshes (any order; sorted here). Errors:
     /// [`FoveatedError::InvalidScene`] for no mesh; [`FoveatedError::Input`]
     /// for a non-finite material number or a reflectance outside [0, 1].
-    pub fn new(mut lods: Vec<TriangleMesh>, material: TracerMaterial) -> Result<Self, FoveatedError> {
+    pub fn new(
+        mut lods: Vec<TriangleMesh>,
+        material: TracerMaterial,
+    ) -> Result<Self, FoveatedError> {
         if lods.is_empty() {
             return Err(FoveatedError::InvalidScene("object without meshes".into()));
         }
@@ -206,13 +209,23 @@ impl TracerScene {
     /// The closest hit below `t_max` for a ray of this `level`: every object
     /// is tested at the mesh eq. 10 gives for the level. Adds triangle tests
     /// to `tests`.
-    pub(crate) fn intersect(&self, ray: &Ray, level: f64, t_max: f64, tests: &mut u64) -> Option<SceneHit> {
+    pub(crate) fn intersect(
+        &self,
+        ray: &Ray,
+        level: f64,
+        t_max: f64,
+        tests: &mut u64,
+    ) -> Option<SceneHit> {
         let mut found: Option<SceneHit> = None;
         self.top.closest(ray, t_max, |oi, tm| {
             let o = &self.objects[oi];
             let lod = o.lod_for_level(level);
             o.mesh(lod).intersect(ray, tm, tests).map(|hit| {
-                found = Some(SceneHit { object: oi, lod, hit });
+                found = Some(SceneHit {
+                    object: oi,
+                    lod,
+                    hit,
+                });
                 hit.t
             })
         });
@@ -263,7 +276,9 @@ impl DemoDetail {
 /// [`FoveatedError::Input`] for a ring count below 3.
 pub fn demo_scene(detail: &DemoDetail) -> Result<TracerScene, FoveatedError> {
     if detail.rings.is_empty() {
-        return Err(FoveatedError::InvalidScene("demo scene without LODs".into()));
+        return Err(FoveatedError::InvalidScene(
+            "demo scene without LODs".into(),
+        ));
     }
     // A torus of r tube segments needs r ≥ 3; the sphere's 2 would do.
     for &r in &detail.rings {
@@ -287,7 +302,11 @@ pub fn demo_scene(detail: &DemoDetail) -> Result<TracerScene, FoveatedError> {
     };
     let v = DVec3::new;
     let objects = vec![
-        sphere(v(0.0, 0.7, -3.5), 0.7, TracerMaterial::mirror(v(0.9, 0.9, 0.95), 0.7))?,
+        sphere(
+            v(0.0, 0.7, -3.5),
+            0.7,
+            TracerMaterial::mirror(v(0.9, 0.9, 0.95), 0.7),
+        )?,
         torus(
             v(-1.4, 0.75, -3.0),
             v(0.0, 0.3, 1.0),
@@ -298,15 +317,31 @@ pub fn demo_scene(detail: &DemoDetail) -> Result<TracerScene, FoveatedError> {
             v(0.3, 1.0, 0.2),
             TracerMaterial::mirror(v(0.95, 0.8, 0.3), 0.6),
         )?,
-        sphere(v(2.6, 0.5, -1.6), 0.5, TracerMaterial::diffuse(v(0.2, 0.7, 0.3)))?,
-        sphere(v(3.2, 0.8, 0.6), 0.8, TracerMaterial::mirror(v(0.8, 0.85, 0.9), 0.7))?,
-        sphere(v(-2.6, 0.5, -2.2), 0.5, TracerMaterial::diffuse(v(0.3, 0.4, 0.9)))?,
+        sphere(
+            v(2.6, 0.5, -1.6),
+            0.5,
+            TracerMaterial::diffuse(v(0.2, 0.7, 0.3)),
+        )?,
+        sphere(
+            v(3.2, 0.8, 0.6),
+            0.8,
+            TracerMaterial::mirror(v(0.8, 0.85, 0.9), 0.7),
+        )?,
+        sphere(
+            v(-2.6, 0.5, -2.2),
+            0.5,
+            TracerMaterial::diffuse(v(0.3, 0.4, 0.9)),
+        )?,
         torus(
             v(0.9, 0.6, -5.2),
             v(-0.5, 1.0, 0.3),
             TracerMaterial::diffuse(v(0.8, 0.8, 0.2)),
         )?,
-        sphere(v(-0.9, 0.9, -5.6), 0.9, TracerMaterial::mirror(v(0.9, 0.6, 0.7), 0.5))?,
+        sphere(
+            v(-0.9, 0.9, -5.6),
+            0.9,
+            TracerMaterial::mirror(v(0.9, 0.6, 0.7), 0.5),
+        )?,
         // Ground: one LOD (a quad is exact at any budget).
         LodObject::new(
             vec![TriangleMesh::quad(
@@ -351,10 +386,16 @@ mod tests {
         let eye = DVec3::new(0.0, 1.5, 0.0);
         for k in 0..200 {
             let a = k as f64 * 0.61;
-            let ray = Ray::new(eye, DVec3::new(a.cos(), -0.3 + 0.5 * (1.7 * a).sin(), a.sin() - 0.5)).unwrap();
+            let ray = Ray::new(
+                eye,
+                DVec3::new(a.cos(), -0.3 + 0.5 * (1.7 * a).sin(), a.sin() - 0.5),
+            )
+            .unwrap();
             for level in [1.0, 0.3, 0.0] {
                 let mut n = 0;
-                let got = s.intersect(&ray, level, f64::INFINITY, &mut n).map(|h| h.hit.t);
+                let got = s
+                    .intersect(&ray, level, f64::INFINITY, &mut n)
+                    .map(|h| h.hit.t);
                 let brute = s
                     .objects()
                     .iter()
@@ -378,19 +419,32 @@ mod tests {
         let q = TriangleMesh::quad(DVec3::ZERO, DVec3::X, DVec3::Y).unwrap();
         assert_eq!(
             LodObject::new(vec![q.clone()], TracerMaterial::mirror(DVec3::ONE, 1.5)),
-            Err(FoveatedError::Input(InvalidInput::new("material reflectance", 1.5, Expected::Range { min: 0.0, max: 1.0 })))
+            Err(FoveatedError::Input(InvalidInput::new(
+                "material reflectance",
+                1.5,
+                Expected::Range { min: 0.0, max: 1.0 }
+            )))
         );
-        let light = TracerLight { position: DVec3::NAN, intensity: DVec3::ONE };
+        let light = TracerLight {
+            position: DVec3::NAN,
+            intensity: DVec3::ONE,
+        };
         let o = LodObject::new(vec![q], TracerMaterial::diffuse(DVec3::ONE)).unwrap();
         let e = TracerScene::new(vec![o], vec![light], DVec3::ZERO, DVec3::ZERO).unwrap_err();
         assert!(matches!(e, FoveatedError::Input(i) if i.what == "light position (m)"));
-        assert!(matches!(demo_scene(&DemoDetail { rings: vec![] }), Err(FoveatedError::InvalidScene(_))));
+        assert!(matches!(
+            demo_scene(&DemoDetail { rings: vec![] }),
+            Err(FoveatedError::InvalidScene(_))
+        ));
         assert_eq!(
             demo_scene(&DemoDetail { rings: vec![4, 2] }).unwrap_err(),
             FoveatedError::Input(InvalidInput::new(
                 "demo tessellation rings",
                 2.0,
-                Expected::Range { min: 3.0, max: u32::MAX as f64 }
+                Expected::Range {
+                    min: 3.0,
+                    max: u32::MAX as f64
+                }
             ))
         );
     }

@@ -41,7 +41,10 @@ impl TraceSettings {
     /// that overflows `usize` or that no allocation could hold (one colour
     /// and one set of work counters per pixel).
     pub fn new(width: usize, height: usize, reflect_max: u32) -> Result<Self, FoveatedError> {
-        for (what, n) in [("image width (pixels)", width), ("image height (pixels)", height)] {
+        for (what, n) in [
+            ("image width (pixels)", width),
+            ("image height (pixels)", height),
+        ] {
             if n == 0 {
                 return Err(InvalidInput::new(what, 0.0, Expected::Positive).into());
             }
@@ -49,11 +52,18 @@ impl TraceSettings {
         let per_pixel = std::mem::size_of::<(DVec3, TraceStats)>();
         let max = isize::MAX as usize / per_pixel;
         match width.checked_mul(height) {
-            Some(n) if n <= max => Ok(Self { width, height, reflect_max }),
+            Some(n) if n <= max => Ok(Self {
+                width,
+                height,
+                reflect_max,
+            }),
             _ => Err(InvalidInput::new(
                 "image pixel count",
                 width as f64 * height as f64,
-                Expected::Range { min: 1.0, max: max as f64 },
+                Expected::Range {
+                    min: 1.0,
+                    max: max as f64,
+                },
             )
             .into()),
         }
@@ -133,7 +143,12 @@ pub struct TracerCamera(CameraKind);
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 enum CameraKind {
     /// A symmetric pinhole camera: unit forward, unit up ⟂ forward, fov_y ∈ (0, π).
-    Pinhole { eye: DVec3, forward: DVec3, up: DVec3, fov_y: f64 },
+    Pinhole {
+        eye: DVec3,
+        forward: DVec3,
+        up: DVec3,
+        fov_y: f64,
+    },
     /// A CAVE wall seen from an eye in front of it.
     Wall { wall: CaveWall, eye: DVec3 },
 }
@@ -146,20 +161,37 @@ impl TracerCamera {
     /// Errors: [`FoveatedError::Input`] for a non-finite eye, a zero or
     /// non-finite direction, or a field of view outside (0, π);
     /// [`FoveatedError::DegenerateDirection`] for `up` parallel to `forward`.
-    pub fn pinhole(eye: DVec3, forward: DVec3, up: DVec3, fov_y: f64) -> Result<Self, FoveatedError> {
+    pub fn pinhole(
+        eye: DVec3,
+        forward: DVec3,
+        up: DVec3,
+        fov_y: f64,
+    ) -> Result<Self, FoveatedError> {
         let eye = input::finite_vec3("camera position (m)", eye)?;
         let f = input::direction("camera forward", forward)?;
         let up = input::direction("camera up", up)?;
         let r = f
             .cross(up)
             .try_normalize()
-            .ok_or(FoveatedError::DegenerateDirection("camera up parallel to forward"))?;
+            .ok_or(FoveatedError::DegenerateDirection(
+                "camera up parallel to forward",
+            ))?;
         if !(fov_y > 0.0 && fov_y < std::f64::consts::PI) {
             // `Expected::Range` is inclusive; both ends are refused here.
-            let range = Expected::Range { min: 0.0, max: std::f64::consts::PI };
-            return Err(InvalidInput::new("camera vertical field of view (rad)", fov_y, range).into());
+            let range = Expected::Range {
+                min: 0.0,
+                max: std::f64::consts::PI,
+            };
+            return Err(
+                InvalidInput::new("camera vertical field of view (rad)", fov_y, range).into(),
+            );
         }
-        Ok(Self(CameraKind::Pinhole { eye, forward: f, up: r.cross(f), fov_y }))
+        Ok(Self(CameraKind::Pinhole {
+            eye,
+            forward: f,
+            up: r.cross(f),
+            fov_y,
+        }))
     }
 
     /// A CAVE wall seen from a tracked eye: pixel (x, y) is the ray from the
@@ -187,12 +219,18 @@ impl TracerCamera {
         let s = (x as f64 + 0.5) / w;
         let t = 1.0 - (y as f64 + 0.5) / h;
         match self.0 {
-            CameraKind::Pinhole { eye, forward, up, fov_y } => {
+            CameraKind::Pinhole {
+                eye,
+                forward,
+                up,
+                fov_y,
+            } => {
                 let right = forward.cross(up);
                 let half_h = (fov_y / 2.0).tan();
                 let half_w = half_h * w / h;
                 // The forward component is 1, so the sum is never zero.
-                let d = forward + right * ((2.0 * s - 1.0) * half_w) + up * ((2.0 * t - 1.0) * half_h);
+                let d =
+                    forward + right * ((2.0 * s - 1.0) * half_w) + up * ((2.0 * t - 1.0) * half_h);
                 Ray::from_unit(eye, d.normalize())
             }
             CameraKind::Wall { wall, eye } => wall.ray_from_checked_eye(eye, s, t),
@@ -208,7 +246,14 @@ fn offset(p: DVec3) -> f64 {
 
 /// Traces one ray of `level` with at most `limit` further reflections (eq. 9
 /// already applied); `depth` reflections have been made so far.
-fn trace(scene: &TracerScene, ray: &Ray, level: f64, depth: u32, limit: u32, st: &mut TraceStats) -> DVec3 {
+fn trace(
+    scene: &TracerScene,
+    ray: &Ray,
+    level: f64,
+    depth: u32,
+    limit: u32,
+    st: &mut TraceStats,
+) -> DVec3 {
     let Some(h) = scene.intersect(ray, level, f64::INFINITY, &mut st.triangle_tests) else {
         return scene.background();
     };
@@ -240,7 +285,12 @@ fn trace(scene: &TracerScene, ray: &Ray, level: f64, depth: u32, limit: u32, st:
             continue;
         }
         st.shadow_rays += 1;
-        if scene.occluded(&Ray::from_unit(origin, l), level, dist, &mut st.triangle_tests) {
+        if scene.occluded(
+            &Ray::from_unit(origin, l),
+            level,
+            dist,
+            &mut st.triangle_tests,
+        ) {
             continue;
         }
         let irr = light.intensity / (dist * dist);
@@ -280,14 +330,27 @@ fn trace(scene: &TracerScene, ray: &Ray, level: f64, depth: u32, limit: u32, st:
 /// Whitted's cut-off, so that every extra bounce only adds light and a deeper
 /// limit is never further from the full-quality image in that term.
 /// Refraction is not modelled: the demo scenes have no transparent objects.
-pub fn trace_ray(scene: &TracerScene, ray: &Ray, level: f64, reflect_max: u32, stats: &mut TraceStats) -> DVec3 {
+pub fn trace_ray(
+    scene: &TracerScene,
+    ray: &Ray,
+    level: f64,
+    reflect_max: u32,
+    stats: &mut TraceStats,
+) -> DVec3 {
     let level = sanitize_level(level);
     if level <= 0.0 {
         stats.background_pixels += 1;
         return scene.background();
     }
     stats.primary_rays += 1;
-    trace(scene, ray, level, 0, reflect_limit(level, reflect_max), stats)
+    trace(
+        scene,
+        ray,
+        level,
+        0,
+        reflect_limit(level, reflect_max),
+        stats,
+    )
 }
 
 /// Per-pixel levels of the primary rays, row-major: eq. 1–8 for the
@@ -323,14 +386,22 @@ pub fn render(
 ) -> Result<RenderedImage, FoveatedError> {
     let n = settings.pixel_count();
     if levels.len() != n {
-        return Err(FoveatedError::LengthMismatch { what: "levels for the image's pixels", expected: n, got: levels.len() });
+        return Err(FoveatedError::LengthMismatch {
+            what: "levels for the image's pixels",
+            expected: n,
+            got: levels.len(),
+        });
     }
     Ok(render_with(scene, camera, settings, |i| levels[i]))
 }
 
 /// The full-quality render (level 1 for every ray): the reference the report
 /// compares foveated renders with.
-pub fn render_full_quality(scene: &TracerScene, camera: &TracerCamera, settings: &TraceSettings) -> RenderedImage {
+pub fn render_full_quality(
+    scene: &TracerScene,
+    camera: &TracerCamera,
+    settings: &TraceSettings,
+) -> RenderedImage {
     render_with(scene, camera, settings, |_| 1.0)
 }
 
@@ -351,8 +422,15 @@ fn render_with(
             (c, st)
         })
         .collect();
-    let stats = out.iter().fold(TraceStats::default(), |a, (_, s)| a.add(*s));
-    RenderedImage { width: w, height: settings.height, pixels: out.into_iter().map(|(c, _)| c).collect(), stats }
+    let stats = out
+        .iter()
+        .fold(TraceStats::default(), |a, (_, s)| a.add(*s));
+    RenderedImage {
+        width: w,
+        height: settings.height,
+        pixels: out.into_iter().map(|(c, _)| c).collect(),
+        stats,
+    }
 }
 
 #[cfg(test)]
@@ -398,7 +476,13 @@ mod tests {
     fn gaze_behind_the_head_renders_background_only() {
         let (scene, cam, s) = setup(16);
         let behind = GazeEstimate::Tracked(GazeFrame::new(cam.eye(), DVec3::Z, DVec3::Y).unwrap());
-        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &behind, LevelQuantization::Continuous);
+        let lv = pixel_levels(
+            &cam,
+            &s,
+            &VisualField::paper(),
+            &behind,
+            LevelQuantization::Continuous,
+        );
         assert!(lv.iter().all(|&l| l == 0.0));
         let img = render(&scene, &cam, &s, &lv).unwrap();
         assert!(img.pixels.iter().all(|&p| p == scene.background()));
@@ -409,7 +493,13 @@ mod tests {
     fn full_quality_fallback_equals_the_reference() {
         let (scene, cam, s) = setup(12);
         let lost = GazeEstimate::FullQuality { last: None };
-        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &lost, LevelQuantization::Steps(4));
+        let lv = pixel_levels(
+            &cam,
+            &s,
+            &VisualField::paper(),
+            &lost,
+            LevelQuantization::Steps(4),
+        );
         let a = render(&scene, &cam, &s, &lv).unwrap();
         let b = render_full_quality(&scene, &cam, &s);
         assert_eq!(a, b);
@@ -433,8 +523,16 @@ mod tests {
     #[test]
     fn foveation_saves_work_and_stays_finite() {
         let (scene, cam, s) = setup(16);
-        let gaze = GazeEstimate::Tracked(GazeFrame::new(cam.eye(), DVec3::new(1.0, -0.2, -1.0), DVec3::Y).unwrap());
-        let lv = pixel_levels(&cam, &s, &VisualField::paper(), &gaze, LevelQuantization::Continuous);
+        let gaze = GazeEstimate::Tracked(
+            GazeFrame::new(cam.eye(), DVec3::new(1.0, -0.2, -1.0), DVec3::Y).unwrap(),
+        );
+        let lv = pixel_levels(
+            &cam,
+            &s,
+            &VisualField::paper(),
+            &gaze,
+            LevelQuantization::Continuous,
+        );
         let fov = render(&scene, &cam, &s, &lv).unwrap();
         let full = render_full_quality(&scene, &cam, &s);
         assert!(fov.pixels.iter().all(|p| p.is_finite()));
@@ -443,7 +541,11 @@ mod tests {
         assert!(fov.stats.background_pixels > 0);
         assert_eq!(
             render(&scene, &cam, &s, &lv[1..]),
-            Err(FoveatedError::LengthMismatch { what: "levels for the image's pixels", expected: 256, got: 255 })
+            Err(FoveatedError::LengthMismatch {
+                what: "levels for the image's pixels",
+                expected: 256,
+                got: 255
+            })
         );
     }
 
@@ -456,18 +558,40 @@ mod tests {
             other => panic!("expected an input error, got {other:?}"),
         };
         let per_pixel = std::mem::size_of::<(DVec3, TraceStats)>();
-        let too_many = ("image pixel count", Expected::Range { min: 1.0, max: (isize::MAX as usize / per_pixel) as f64 });
-        for (w, h) in [(usize::MAX, 2), (1 << (usize::BITS / 2), 1 << (usize::BITS / 2)), (usize::MAX / 8, 1)] {
+        let too_many = (
+            "image pixel count",
+            Expected::Range {
+                min: 1.0,
+                max: (isize::MAX as usize / per_pixel) as f64,
+            },
+        );
+        for (w, h) in [
+            (usize::MAX, 2),
+            (1 << (usize::BITS / 2), 1 << (usize::BITS / 2)),
+            (usize::MAX / 8, 1),
+        ] {
             assert_eq!(count(w, h), too_many, "{w} × {h}");
         }
         assert_eq!(count(0, 5), ("image width (pixels)", Expected::Positive));
         assert_eq!(count(5, 0), ("image height (pixels)", Expected::Positive));
         // Ordinary sizes are unaffected.
         let ok = TraceSettings::new(3, 2, 4).unwrap();
-        assert_eq!((ok.width(), ok.height(), ok.reflect_max(), ok.pixel_count()), (3, 2, 4, 6));
+        assert_eq!(
+            (ok.width(), ok.height(), ok.reflect_max(), ok.pixel_count()),
+            (3, 2, 4, 6)
+        );
         let (_, cam, _) = setup(4);
         let gaze = GazeEstimate::FullQuality { last: None };
-        assert_eq!(pixel_levels(&cam, &ok, &VisualField::paper(), &gaze, LevelQuantization::Continuous), vec![1.0; 6]);
+        assert_eq!(
+            pixel_levels(
+                &cam,
+                &ok,
+                &VisualField::paper(),
+                &gaze,
+                LevelQuantization::Continuous
+            ),
+            vec![1.0; 6]
+        );
     }
 
     #[test]
@@ -479,7 +603,9 @@ mod tests {
         ));
         assert_eq!(
             TracerCamera::pinhole(DVec3::ZERO, DVec3::Y, DVec3::Y * 2.0, 1.0),
-            Err(FoveatedError::DegenerateDirection("camera up parallel to forward"))
+            Err(FoveatedError::DegenerateDirection(
+                "camera up parallel to forward"
+            ))
         );
         let fov = |f: f64| match TracerCamera::pinhole(DVec3::ZERO, DVec3::NEG_Z, DVec3::Y, f) {
             Err(FoveatedError::Input(e)) => e.what,
@@ -489,7 +615,14 @@ mod tests {
             assert_eq!(fov(bad), "camera vertical field of view (rad)");
         }
         let zero = TracerCamera::pinhole(DVec3::ZERO, DVec3::ZERO, DVec3::Y, 1.0).unwrap_err();
-        assert_eq!(zero, FoveatedError::Input(InvalidInput::new("camera forward", 0.0, Expected::Direction)));
+        assert_eq!(
+            zero,
+            FoveatedError::Input(InvalidInput::new(
+                "camera forward",
+                0.0,
+                Expected::Direction
+            ))
+        );
     }
 
     #[test]

@@ -118,7 +118,10 @@ impl GazeTracker {
     /// Errors: [`FoveatedError::Input`] for a negative or non-finite timeout.
     pub fn new(timeout_s: f64) -> Result<Self, FoveatedError> {
         let timeout_s = input::non_negative("tracker hold timeout (s)", timeout_s)?;
-        Ok(Self { timeout_s, last: None })
+        Ok(Self {
+            timeout_s,
+            last: None,
+        })
     }
 
     /// Feeds the sample of time `t_s` (seconds) and returns the estimate to use.
@@ -133,7 +136,11 @@ impl GazeTracker {
             Some((frame, t0)) => {
                 // A NaN clock or a clock that went backwards counts as age 0
                 // for holding, but never extends the hold past the timeout.
-                let age = if t_s.is_finite() { (t_s - t0).max(0.0) } else { 0.0 };
+                let age = if t_s.is_finite() {
+                    (t_s - t0).max(0.0)
+                } else {
+                    0.0
+                };
                 if age <= self.timeout_s {
                     GazeEstimate::Held { frame, age_s: age }
                 } else {
@@ -188,30 +195,45 @@ mod tests {
     #[test]
     fn no_valid_sample_yet_is_full_quality() {
         let mut t = GazeTracker::new(0.2).unwrap();
-        assert_eq!(t.update(nan(), 0.0), GazeEstimate::FullQuality { last: None });
+        assert_eq!(
+            t.update(nan(), 0.0),
+            GazeEstimate::FullQuality { last: None }
+        );
         let degenerate = TrackerSample::Gaze {
             eye: DVec3::ZERO,
             gaze: DVec3::Y,
             up: DVec3::Y,
         };
-        assert_eq!(t.update(degenerate, 0.1), GazeEstimate::FullQuality { last: None });
+        assert_eq!(
+            t.update(degenerate, 0.1),
+            GazeEstimate::FullQuality { last: None }
+        );
         let bad_pose = TrackerSample::Pose {
             eye: DVec3::ZERO,
             rotation: DQuat::from_xyzw(f64::NAN, 0.0, 0.0, 1.0),
         };
-        assert_eq!(t.update(bad_pose, 0.2), GazeEstimate::FullQuality { last: None });
+        assert_eq!(
+            t.update(bad_pose, 0.2),
+            GazeEstimate::FullQuality { last: None }
+        );
     }
 
     #[test]
     fn nan_clock_is_a_missing_sample() {
         let mut t = GazeTracker::new(0.2).unwrap();
         t.update(good(), 0.0);
-        assert!(matches!(t.update(good(), f64::NAN), GazeEstimate::Held { .. }));
+        assert!(matches!(
+            t.update(good(), f64::NAN),
+            GazeEstimate::Held { .. }
+        ));
         for bad in [f64::NAN, -1.0, f64::INFINITY] {
             assert!(matches!(GazeTracker::new(bad),
                 Err(FoveatedError::Input(e)) if e.what == "tracker hold timeout (s)" && e.expected == Expected::NonNegative));
         }
-        assert_eq!(TrackerSample::Missing.frame(), Err(FoveatedError::MissingSample));
+        assert_eq!(
+            TrackerSample::Missing.frame(),
+            Err(FoveatedError::MissingSample)
+        );
     }
 
     #[test]

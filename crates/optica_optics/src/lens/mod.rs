@@ -143,9 +143,12 @@ mod trace;
 
 pub use paraxial::{Abcd, ParaxialError, ParaxialProperties, ParaxialRay};
 pub use parse::ParseError;
-pub use prescription::{INDEX_RANGE, LensPrescription, LensSurface, MAX_SURFACES, PrescriptionError};
+pub use prescription::{
+    INDEX_RANGE, LensPrescription, LensSurface, MAX_SURFACES, PrescriptionError,
+};
 pub use trace::{
-    MAX_STOP_CROSSINGS, Pass, PreparedLens, TraceError, TracePath, TraceResult, ghosts, trace, trace_to,
+    MAX_STOP_CROSSINGS, Pass, PreparedLens, TraceError, TracePath, TraceResult, ghosts, trace,
+    trace_to,
 };
 
 // The types this module's signatures use, so that `lens::*` is enough to call it.
@@ -158,9 +161,18 @@ pub use crate::ray::Ray;
 /// `(file name, text)`. [`builtin`] parses them; a plugin can write them out
 /// as assets, or parse them itself.
 pub const LENS_FILES: &[(&str, &str)] = &[
-    ("tessar-us2854889.lens", include_str!("../../lenses/tessar-us2854889.lens")),
-    ("double-gauss-us2701982.lens", include_str!("../../lenses/double-gauss-us2701982.lens")),
-    ("heliar-us2645156.lens", include_str!("../../lenses/heliar-us2645156.lens")),
+    (
+        "tessar-us2854889.lens",
+        include_str!("../../lenses/tessar-us2854889.lens"),
+    ),
+    (
+        "double-gauss-us2701982.lens",
+        include_str!("../../lenses/double-gauss-us2701982.lens"),
+    ),
+    (
+        "heliar-us2645156.lens",
+        include_str!("../../lenses/heliar-us2645156.lens"),
+    ),
 ];
 
 /// The shipped prescriptions, parsed from [`LENS_FILES`].
@@ -210,13 +222,30 @@ mod tests {
     #[test]
     fn shipped_files_parse_and_cite_their_patent() {
         for (name, p) in LENS_FILES.iter().zip(builtin::all()) {
-            let number = name.0.rsplit_once("-us").unwrap().1.trim_end_matches(".lens");
+            let number = name
+                .0
+                .rsplit_once("-us")
+                .unwrap()
+                .1
+                .trim_end_matches(".lens");
             // "2854889" must appear as "2,854,889" in the source citation.
             let cited = format!("{},{},{}", &number[..1], &number[1..4], &number[4..]);
-            assert!(p.source().contains(&cited), "{}: source `{}` does not cite {cited}", name.0, p.source());
+            assert!(
+                p.source().contains(&cited),
+                "{}: source `{}` does not cite {cited}",
+                name.0,
+                p.source()
+            );
             assert_eq!(p.design_focal_length_mm(), Some(100.0));
             // The file's comment header cites the same patent.
-            assert!(name.1.lines().take_while(|l| l.starts_with('#')).any(|l| l.contains(&cited)), "{}", name.0);
+            assert!(
+                name.1
+                    .lines()
+                    .take_while(|l| l.starts_with('#'))
+                    .any(|l| l.contains(&cited)),
+                "{}",
+                name.0
+            );
         }
     }
 
@@ -247,7 +276,11 @@ mod tests {
         for (k, (s, &(r, t, glass, semi))) in p.surfaces().iter().zip(rows).enumerate() {
             match r {
                 None => assert!(s.is_stop && s.curvature == 0.0, "{name} row {k}: the stop"),
-                Some(r) => assert!(!s.is_stop && s.curvature == 1.0 / r, "{name} row {k}: R {} vs {r}", s.radius_mm()),
+                Some(r) => assert!(
+                    !s.is_stop && s.curvature == 1.0 / r,
+                    "{name} row {k}: R {} vs {r}",
+                    s.radius_mm()
+                ),
             }
             assert_eq!(s.thickness_after_mm, t, "{name} row {k}: thickness");
             let want = glass.map_or(Glass::Air, |(nd, vd)| Glass::Abbe { nd, vd });
@@ -295,7 +328,15 @@ mod tests {
         // The stop semi-apertures give paraxial f/2.73 and f/1.14 (the
         // patents' f/2.8 and f/1.1 are the nominal marks).
         let f = |p: LensPrescription| p.paraxial(crate::glass::LAMBDA_D_NM).unwrap().f_number;
-        assert!((f(builtin::tessar()) - 2.73).abs() < 0.005, "{}", f(builtin::tessar()));
-        assert!((f(builtin::double_gauss()) - 1.14).abs() < 0.005, "{}", f(builtin::double_gauss()));
+        assert!(
+            (f(builtin::tessar()) - 2.73).abs() < 0.005,
+            "{}",
+            f(builtin::tessar())
+        );
+        assert!(
+            (f(builtin::double_gauss()) - 1.14).abs() < 0.005,
+            "{}",
+            f(builtin::double_gauss())
+        );
     }
 }

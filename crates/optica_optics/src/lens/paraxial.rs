@@ -99,7 +99,10 @@ const PUPIL_AT_INFINITY_A: f64 = 1e-12;
 /// index >= 1 there is an error naming the surface (`Err(k)`), not the
 /// fallback of [`crate::glass::Glass::index`] (which clamps the wavelength
 /// and turns a non-positive index into 1, i.e. air).
-pub(crate) fn indices(p: &LensPrescription, wavelength_nm: f64) -> Result<(Vec<f64>, Vec<f64>), usize> {
+pub(crate) fn indices(
+    p: &LensPrescription,
+    wavelength_nm: f64,
+) -> Result<(Vec<f64>, Vec<f64>), usize> {
     let surfaces = p.surfaces();
     let mut before = Vec::with_capacity(surfaces.len());
     let mut after = Vec::with_capacity(surfaces.len());
@@ -114,16 +117,28 @@ pub(crate) fn indices(p: &LensPrescription, wavelength_nm: f64) -> Result<(Vec<f
 }
 
 /// [`indices`] with the error of this module.
-fn indices_at(p: &LensPrescription, wavelength_nm: f64) -> Result<(Vec<f64>, Vec<f64>), ParaxialError> {
+fn indices_at(
+    p: &LensPrescription,
+    wavelength_nm: f64,
+) -> Result<(Vec<f64>, Vec<f64>), ParaxialError> {
     let wavelength_nm = input::positive("wavelength (nm)", wavelength_nm)?;
-    indices(p, wavelength_nm).map_err(|surface| ParaxialError::Index { surface, wavelength_nm })
+    indices(p, wavelength_nm).map_err(|surface| ParaxialError::Index {
+        surface,
+        wavelength_nm,
+    })
 }
 
 /// `a · b` for 2×2 matrices.
 fn mat_mul(a: Abcd, b: Abcd) -> Abcd {
     [
-        [a[0][0] * b[0][0] + a[0][1] * b[1][0], a[0][0] * b[0][1] + a[0][1] * b[1][1]],
-        [a[1][0] * b[0][0] + a[1][1] * b[1][0], a[1][0] * b[0][1] + a[1][1] * b[1][1]],
+        [
+            a[0][0] * b[0][0] + a[0][1] * b[1][0],
+            a[0][0] * b[0][1] + a[0][1] * b[1][1],
+        ],
+        [
+            a[1][0] * b[0][0] + a[1][1] * b[1][0],
+            a[1][0] * b[0][1] + a[1][1] * b[1][1],
+        ],
     ]
 }
 
@@ -131,7 +146,11 @@ impl LensPrescription {
     /// Traces a paraxial ray given just in front of the first vertex (in air)
     /// and returns its state just after each surface: the height at the
     /// surface and the reduced angle after refraction there.
-    pub fn trace_paraxial(&self, wavelength_nm: f64, start: ParaxialRay) -> Result<Vec<ParaxialRay>, ParaxialError> {
+    pub fn trace_paraxial(
+        &self,
+        wavelength_nm: f64,
+        start: ParaxialRay,
+    ) -> Result<Vec<ParaxialRay>, ParaxialError> {
         let (before, after) = indices_at(self, wavelength_nm)?;
         let surfaces = self.surfaces();
         let mut out = Vec::with_capacity(surfaces.len());
@@ -150,7 +169,12 @@ impl LensPrescription {
     /// after surface `to` (inclusive), refractions and the gaps between them
     /// included. [`ParaxialError::SurfaceRange`] unless
     /// `from <= to < surfaces().len()`.
-    pub fn abcd_between(&self, wavelength_nm: f64, from: usize, to: usize) -> Result<Abcd, ParaxialError> {
+    pub fn abcd_between(
+        &self,
+        wavelength_nm: f64,
+        from: usize,
+        to: usize,
+    ) -> Result<Abcd, ParaxialError> {
         let count = self.surfaces().len();
         let (before, after) = indices_at(self, wavelength_nm)?;
         if !(from <= to && to < count) {
@@ -188,7 +212,12 @@ impl LensPrescription {
         let last = surfaces.len() - 1; // a prescription has at least one surface
         let n_image = after[last];
         let [[a, _b], [c, d]] = self.abcd_with(&before, &after, 0, last);
-        let length = self.table_image_z().max(surfaces.iter().map(|s| s.semi_aperture_mm).fold(0.0, f64::max));
+        let length = self.table_image_z().max(
+            surfaces
+                .iter()
+                .map(|s| s.semi_aperture_mm)
+                .fold(0.0, f64::max),
+        );
         if !(c.is_finite()) || c.abs() * length < AFOCAL_RELATIVE_POWER {
             return Err(ParaxialError::Afocal);
         }
@@ -239,12 +268,25 @@ mod tests {
     fn tessar_and_double_gauss_focal_lengths_match_the_patents() {
         // US 2,854,889 and US 2,701,982 state f = 100 mm; the last row's
         // thickness is the back focal distance of each table.
-        for (p, bfd) in [(builtin::tessar(), 79.831), (builtin::double_gauss(), 55.742)] {
+        for (p, bfd) in [
+            (builtin::tessar(), 79.831),
+            (builtin::double_gauss(), 55.742),
+        ] {
             let q = p.paraxial(LAMBDA_D_NM).unwrap();
-            assert!((q.efl_mm / 100.0 - 1.0).abs() < 0.005, "{}: EFL {}", p.name(), q.efl_mm);
+            assert!(
+                (q.efl_mm / 100.0 - 1.0).abs() < 0.005,
+                "{}: EFL {}",
+                p.name(),
+                q.efl_mm
+            );
             // The tables round radii to 0.01 mm, which moves the focus by
             // ~0.1 mm; hold the BFL to 0.2 % of the tabulated back focus.
-            assert!((q.bfl_mm / bfd - 1.0).abs() < 0.002, "{}: BFL {} vs {bfd}", p.name(), q.bfl_mm);
+            assert!(
+                (q.bfl_mm / bfd - 1.0).abs() < 0.002,
+                "{}: BFL {} vs {bfd}",
+                p.name(),
+                q.bfl_mm
+            );
         }
     }
 
@@ -304,7 +346,9 @@ mod tests {
     #[test]
     fn y_nu_trace_and_abcd_agree() {
         let p = builtin::double_gauss();
-        let trace = p.trace_paraxial(LAMBDA_D_NM, ParaxialRay { y: 1.0, omega: 0.0 }).unwrap();
+        let trace = p
+            .trace_paraxial(LAMBDA_D_NM, ParaxialRay { y: 1.0, omega: 0.0 })
+            .unwrap();
         let [[a, _], [c, _]] = p.system_matrix(LAMBDA_D_NM).unwrap();
         let last = trace.last().unwrap();
         assert!((last.y - a).abs() < 1e-12 && (last.omega - c).abs() < 1e-15);
@@ -320,7 +364,10 @@ mod tests {
         let p = builtin::tessar();
         let f = p.paraxial(crate::glass::LAMBDA_F_NM).unwrap().efl_mm;
         let c = p.paraxial(crate::glass::LAMBDA_C_NM).unwrap().efl_mm;
-        assert!((f - c).abs() < 1.0, "achromat: EFL varies < 1 % over F–C, got {f} vs {c}");
+        assert!(
+            (f - c).abs() < 1.0,
+            "achromat: EFL varies < 1 % over F–C, got {f} vs {c}"
+        );
     }
 
     /// A singlet (stop, then one glass) with `glass`.
@@ -350,9 +397,15 @@ mod tests {
         // on; the paraxial code reports an index error there instead.
         let p = singlet_of(Glass::Abbe { nd: 1.5, vd: 1.2 }).unwrap();
         assert!(p.paraxial(780.0).is_ok());
-        let want = ParaxialError::Index { surface: 1, wavelength_nm: 1500.0 };
+        let want = ParaxialError::Index {
+            surface: 1,
+            wavelength_nm: 1500.0,
+        };
         assert_eq!(p.paraxial(1500.0), Err(want.clone()));
-        assert_eq!(p.trace_paraxial(1500.0, ParaxialRay { y: 1.0, omega: 0.0 }), Err(want.clone()));
+        assert_eq!(
+            p.trace_paraxial(1500.0, ParaxialRay { y: 1.0, omega: 0.0 }),
+            Err(want.clone())
+        );
         assert_eq!(p.system_matrix(1500.0), Err(want));
     }
 
@@ -361,9 +414,26 @@ mod tests {
         let p = builtin::tessar();
         let n = p.surfaces().len();
         assert!(p.abcd_between(LAMBDA_D_NM, 0, n - 1).is_ok());
-        assert_eq!(p.abcd_between(LAMBDA_D_NM, 0, n), Err(ParaxialError::SurfaceRange { from: 0, to: n, count: n }));
-        assert_eq!(p.abcd_between(LAMBDA_D_NM, 3, 1), Err(ParaxialError::SurfaceRange { from: 3, to: 1, count: n }));
-        assert!(matches!(p.abcd_between(LAMBDA_D_NM, usize::MAX, usize::MAX), Err(ParaxialError::SurfaceRange { .. })));
+        assert_eq!(
+            p.abcd_between(LAMBDA_D_NM, 0, n),
+            Err(ParaxialError::SurfaceRange {
+                from: 0,
+                to: n,
+                count: n
+            })
+        );
+        assert_eq!(
+            p.abcd_between(LAMBDA_D_NM, 3, 1),
+            Err(ParaxialError::SurfaceRange {
+                from: 3,
+                to: 1,
+                count: n
+            })
+        );
+        assert!(matches!(
+            p.abcd_between(LAMBDA_D_NM, usize::MAX, usize::MAX),
+            Err(ParaxialError::SurfaceRange { .. })
+        ));
         // A single surface: from = to = 0 is its refraction alone.
         let m = p.abcd_between(LAMBDA_D_NM, 0, 0).unwrap();
         assert_eq!((m[0][0], m[0][1], m[1][1]), (1.0, 0.0, 1.0));

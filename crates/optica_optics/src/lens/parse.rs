@@ -37,7 +37,9 @@ pub enum ParseError {
         text: String,
     },
     /// A header key the format does not have.
-    #[error("line {line}: unknown key `{key}` (known: name, source, focal_length, f_number, units)")]
+    #[error(
+        "line {line}: unknown key `{key}` (known: name, source, focal_length, f_number, units)"
+    )]
     UnknownKey {
         /// 1-based line number.
         line: usize,
@@ -121,7 +123,10 @@ impl LensPrescription {
         match std::str::from_utf8(bytes) {
             Ok(text) => Self::parse(text),
             Err(e) => {
-                let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
+                let line = 1 + bytes[..e.valid_up_to()]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count();
                 Err(ParseError::NotText { line })
             }
         }
@@ -130,7 +135,10 @@ impl LensPrescription {
     /// Reads and parses the lens file at `path`.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, ParseError> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|source| ParseError::Io { path: path.to_owned(), source })?;
+        let bytes = std::fs::read(path).map_err(|source| ParseError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
         Self::parse_bytes(&bytes)
     }
 
@@ -199,7 +207,11 @@ fn radius_text(c: f64) -> String {
         if back == c {
             return format!("{candidate}");
         }
-        candidate = if back > c { candidate.next_up() } else { candidate.next_down() };
+        candidate = if back > c {
+            candidate.next_up()
+        } else {
+            candidate.next_down()
+        };
     }
     format!("{r}")
 }
@@ -211,7 +223,10 @@ fn glass_text(g: &Glass) -> String {
         // would read back the same; `n/inf` says so explicitly).
         Glass::Constant(n) => format!("{n}/inf"),
         Glass::Abbe { nd, vd } => format!("{nd}/{vd}"),
-        Glass::Sellmeier { b, c } => format!("sellmeier:{},{},{},{},{},{}", b[0], b[1], b[2], c[0], c[1], c[2]),
+        Glass::Sellmeier { b, c } => format!(
+            "sellmeier:{},{},{},{},{},{}",
+            b[0], b[1], b[2], c[0], c[1], c[2]
+        ),
     }
 }
 
@@ -225,7 +240,13 @@ struct Header {
 }
 
 fn parse_lens_file(text: &str) -> Result<LensPrescription, ParseError> {
-    let mut header = Header { name: None, source: None, focal_length: None, f_number: None, units_seen: false };
+    let mut header = Header {
+        name: None,
+        source: None,
+        focal_length: None,
+        f_number: None,
+        units_seen: false,
+    };
     let mut surfaces = Vec::new();
     let mut rows = Vec::new(); // line of each surface, for errors
     for (i, raw) in text.lines().enumerate() {
@@ -249,18 +270,29 @@ fn parse_lens_file(text: &str) -> Result<LensPrescription, ParseError> {
     let name = header.name.ok_or(ParseError::MissingKey { key: "name" })?;
     LensPrescription::new(name, header.source.unwrap_or_default(), surfaces)
         .and_then(|p| p.with_design(header.focal_length, header.f_number))
-        .map_err(|source| ParseError::Invalid { line: source.surface().and_then(|k| rows.get(k).copied()), source })
+        .map_err(|source| ParseError::Invalid {
+            line: source.surface().and_then(|k| rows.get(k).copied()),
+            source,
+        })
 }
 
 fn header_line(h: &mut Header, line: usize, key: &str, value: &str) -> Result<(), ParseError> {
-    let dup = || ParseError::DuplicateKey { line, key: key.to_string() };
+    let dup = || ParseError::DuplicateKey {
+        line,
+        key: key.to_string(),
+    };
     match key {
         "name" => {
             if h.name.is_some() {
                 return Err(dup());
             }
             if value.is_empty() {
-                return Err(ParseError::Field { line, field: "name", expected: "a non-empty name", got: value.into() });
+                return Err(ParseError::Field {
+                    line,
+                    field: "name",
+                    expected: "a non-empty name",
+                    got: value.into(),
+                });
             }
             h.name = Some(value.to_string());
         }
@@ -287,11 +319,21 @@ fn header_line(h: &mut Header, line: usize, key: &str, value: &str) -> Result<()
                 return Err(dup());
             }
             if !value.eq_ignore_ascii_case("mm") {
-                return Err(ParseError::Field { line, field: "units", expected: "`mm`", got: value.into() });
+                return Err(ParseError::Field {
+                    line,
+                    field: "units",
+                    expected: "`mm`",
+                    got: value.into(),
+                });
             }
             h.units_seen = true;
         }
-        _ => return Err(ParseError::UnknownKey { line, key: key.to_string() }),
+        _ => {
+            return Err(ParseError::UnknownKey {
+                line,
+                key: key.to_string(),
+            });
+        }
     }
     Ok(())
 }
@@ -306,14 +348,23 @@ fn number(text: &str) -> Option<f64> {
 fn positive(line: usize, field: &'static str, text: &str) -> Result<f64, ParseError> {
     match number(text) {
         Some(v) if v > 0.0 => Ok(v),
-        _ => Err(ParseError::Field { line, field, expected: "a positive number", got: text.into() }),
+        _ => Err(ParseError::Field {
+            line,
+            field,
+            expected: "a positive number",
+            got: text.into(),
+        }),
     }
 }
 
 fn row(line: usize, content: &str) -> Result<LensSurface, ParseError> {
     let fields: Vec<&str> = content.split_whitespace().collect();
     if !(4..=5).contains(&fields.len()) {
-        return Err(ParseError::FieldCount { line, count: fields.len(), text: content.into() });
+        return Err(ParseError::FieldCount {
+            line,
+            count: fields.len(),
+            text: content.into(),
+        });
     }
     let (is_stop, curvature) = match fields[0].to_ascii_lowercase().as_str() {
         "stop" => (true, 0.0),
@@ -358,25 +409,38 @@ fn row(line: usize, content: &str) -> Result<LensSurface, ParseError> {
 }
 
 fn medium(line: usize, text: &str) -> Result<Glass, ParseError> {
-    let bad = |expected| ParseError::Field { line, field: "medium", expected, got: text.into() };
+    let bad = |expected| ParseError::Field {
+        line,
+        field: "medium",
+        expected,
+        got: text.into(),
+    };
     if text.eq_ignore_ascii_case("air") {
         return Ok(Glass::Air);
     }
     if let Some(list) = text.strip_prefix("sellmeier:") {
-        const SELLMEIER: &str = "`sellmeier:B1,B2,B3,C1,C2,C3` with six finite numbers >= 0 giving n_d >= 1";
-        let v: Vec<f64> = list.split(',').map(number).collect::<Option<_>>().ok_or_else(|| bad(SELLMEIER))?;
+        const SELLMEIER: &str =
+            "`sellmeier:B1,B2,B3,C1,C2,C3` with six finite numbers >= 0 giving n_d >= 1";
+        let v: Vec<f64> = list
+            .split(',')
+            .map(number)
+            .collect::<Option<_>>()
+            .ok_or_else(|| bad(SELLMEIER))?;
         if v.len() != 6 {
             return Err(bad(SELLMEIER));
         }
         // Checked: negative coefficients give curves no glass has.
-        return Glass::sellmeier_checked([v[0], v[1], v[2]], [v[3], v[4], v[5]]).map_err(|_| bad(SELLMEIER));
+        return Glass::sellmeier_checked([v[0], v[1], v[2]], [v[3], v[4], v[5]])
+            .map_err(|_| bad(SELLMEIER));
     }
     if let Some((nd, vd)) = text.split_once('/') {
         let no_dispersion = matches!(vd.to_ascii_lowercase().as_str(), "inf" | "infinity");
         return match (number(nd), number(vd)) {
             (Some(nd), _) if no_dispersion && nd >= 1.0 => Ok(Glass::Constant(nd)),
             (Some(nd), Some(vd)) if nd >= 1.0 && vd > 0.0 => Ok(Glass::Abbe { nd, vd }),
-            _ => Err(bad("`nd/vd` with nd >= 1 and vd > 0 (like `1.6910/54.8`), or `n/inf`")),
+            _ => Err(bad(
+                "`nd/vd` with nd >= 1 and vd > 0 (like `1.6910/54.8`), or `n/inf`",
+            )),
         };
     }
     // A number is always a constant index, never a catalog lookup (which
@@ -384,10 +448,13 @@ fn medium(line: usize, text: &str) -> Result<Glass, ParseError> {
     if let Ok(n) = text.parse::<f64>() {
         return match number(text) {
             Some(_) if n >= 1.0 => Ok(Glass::Constant(n)),
-            _ => Err(bad("`air`, a catalog glass name, `nd/vd`, `n/inf` or an index >= 1")),
+            _ => Err(bad(
+                "`air`, a catalog glass name, `nd/vd`, `n/inf` or an index >= 1",
+            )),
         };
     }
-    Glass::catalog(text).ok_or_else(|| bad("`air`, a catalog glass name, `nd/vd`, `n/inf` or an index >= 1"))
+    Glass::catalog(text)
+        .ok_or_else(|| bad("`air`, a catalog glass name, `nd/vd`, `n/inf` or an index >= 1"))
 }
 
 fn coating(line: usize, text: &str) -> Result<Option<Coating>, ParseError> {
@@ -403,15 +470,17 @@ fn coating(line: usize, text: &str) -> Result<Option<Coating>, ParseError> {
     if let Some(rest) = text.strip_prefix("qw:") {
         let (n, wl) = rest.split_once('@').ok_or_else(bad)?;
         return match (number(n), number(wl)) {
-            (Some(n), Some(wl)) if n >= 1.0 => Coating::quarter_wave(n, wl).map(Some).map_err(|_| bad()),
+            (Some(n), Some(wl)) if n >= 1.0 => {
+                Coating::quarter_wave(n, wl).map(Some).map_err(|_| bad())
+            }
             _ => Err(bad()),
         };
     }
     let (n, t) = text.split_once('/').ok_or_else(bad)?;
     match (number(n), number(t)) {
-        (Some(index), Some(thickness_nm)) if index >= 1.0 => {
-            Coating::new(index, thickness_nm).map(Some).map_err(|_| bad())
-        }
+        (Some(index), Some(thickness_nm)) if index >= 1.0 => Coating::new(index, thickness_nm)
+            .map(Some)
+            .map_err(|_| bad()),
         _ => Err(bad()),
     }
 }
@@ -441,7 +510,13 @@ stop   2.0   air          5.0
         SMALL
             .lines()
             .enumerate()
-            .map(|(i, l)| if i + 1 == line { with.to_string() } else { l.to_string() })
+            .map(|(i, l)| {
+                if i + 1 == line {
+                    with.to_string()
+                } else {
+                    l.to_string()
+                }
+            })
             .collect::<Vec<_>>()
             .join("\n")
     }
@@ -456,7 +531,13 @@ stop   2.0   air          5.0
         assert_eq!(p.surfaces().len(), 3);
         assert!(p.surfaces()[0].is_stop);
         assert_eq!(p.surfaces()[1].curvature, 1.0 / 50.0);
-        assert_eq!(p.surfaces()[1].glass_after, Glass::Abbe { nd: 1.5168, vd: 64.17 });
+        assert_eq!(
+            p.surfaces()[1].glass_after,
+            Glass::Abbe {
+                nd: 1.5168,
+                vd: 64.17
+            }
+        );
         assert_eq!(p.surfaces()[2].thickness_after_mm, 45.0);
         let q: LensPrescription = SMALL.parse().unwrap();
         assert_eq!(p, q);
@@ -476,7 +557,10 @@ stop   2.0   air          5.0
                     LensSurface::new(
                         f64::INFINITY,
                         1.0,
-                        Glass::Sellmeier { b: [1.03961212, 0.231792344, 1.01046945], c: [0.00600069867, 0.0200179144, 103.560653] },
+                        Glass::Sellmeier {
+                            b: [1.03961212, 0.231792344, 1.01046945],
+                            c: [0.00600069867, 0.0200179144, 103.560653],
+                        },
                         10.0,
                     ),
                 );
@@ -488,14 +572,22 @@ stop   2.0   air          5.0
         // And the shipped files round-trip too.
         for file in super::super::LENS_FILES {
             let p = LensPrescription::parse(file.1).unwrap();
-            assert_eq!(LensPrescription::parse(&p.to_lens_file()).unwrap(), p, "{}", file.0);
+            assert_eq!(
+                LensPrescription::parse(&p.to_lens_file()).unwrap(),
+                p,
+                "{}",
+                file.0
+            );
         }
     }
 
     #[test]
     fn error_names_line_and_field_of_a_bad_semi_aperture() {
         let e = err(&with_line(9, "-50.0  45.0  air  -3"));
-        assert_eq!(e.to_string(), "line 9, field `semi_aperture`: expected a positive number, got `-3`");
+        assert_eq!(
+            e.to_string(),
+            "line 9, field `semi_aperture`: expected a positive number, got `-3`"
+        );
     }
 
     #[test]
@@ -526,22 +618,66 @@ stop   2.0   air          5.0
         field(6, "units = inch", "units");
         field(2, "name =", "name");
 
-        assert!(matches!(err(&with_line(8, "50 4.0 1.5")), ParseError::FieldCount { line: 8, count: 3, .. }));
-        assert!(matches!(err(&with_line(8, "50 4 1.5 10 none extra")), ParseError::FieldCount { line: 8, count: 6, .. }));
-        assert!(matches!(err(&with_line(4, "focal = 100")), ParseError::UnknownKey { line: 4, .. }));
-        assert!(matches!(err(&with_line(4, "name = again")), ParseError::DuplicateKey { line: 4, .. }));
-        assert!(matches!(err(&format!("{SMALL}f_number = 2\n")), ParseError::HeaderAfterTable { line: 10, .. }));
-        assert!(matches!(err(&with_line(2, "# no name")), ParseError::MissingKey { key: "name" }));
+        assert!(matches!(
+            err(&with_line(8, "50 4.0 1.5")),
+            ParseError::FieldCount {
+                line: 8,
+                count: 3,
+                ..
+            }
+        ));
+        assert!(matches!(
+            err(&with_line(8, "50 4 1.5 10 none extra")),
+            ParseError::FieldCount {
+                line: 8,
+                count: 6,
+                ..
+            }
+        ));
+        assert!(matches!(
+            err(&with_line(4, "focal = 100")),
+            ParseError::UnknownKey { line: 4, .. }
+        ));
+        assert!(matches!(
+            err(&with_line(4, "name = again")),
+            ParseError::DuplicateKey { line: 4, .. }
+        ));
+        assert!(matches!(
+            err(&format!("{SMALL}f_number = 2\n")),
+            ParseError::HeaderAfterTable { line: 10, .. }
+        ));
+        assert!(matches!(
+            err(&with_line(2, "# no name")),
+            ParseError::MissingKey { key: "name" }
+        ));
 
         // Rows that parse but make an invalid lens name the row's line.
         let e = err(&with_line(7, "inf 2.0 air 5.0"));
-        assert!(matches!(e, ParseError::Invalid { line: None, source: PrescriptionError::StopCount { count: 0 } }), "{e}");
-        let e = err(&with_line(8, "5 4.0 1.5 10"));
         assert!(
-            matches!(e, ParseError::Invalid { line: Some(8), source: PrescriptionError::HemispherePlus { surface: 1, .. } }),
+            matches!(
+                e,
+                ParseError::Invalid {
+                    line: None,
+                    source: PrescriptionError::StopCount { count: 0 }
+                }
+            ),
             "{e}"
         );
-        assert!(e.to_string().starts_with("line 8: surface 1: |R| = 5 mm"), "{e}");
+        let e = err(&with_line(8, "5 4.0 1.5 10"));
+        assert!(
+            matches!(
+                e,
+                ParseError::Invalid {
+                    line: Some(8),
+                    source: PrescriptionError::HemispherePlus { surface: 1, .. }
+                }
+            ),
+            "{e}"
+        );
+        assert!(
+            e.to_string().starts_with("line 8: surface 1: |R| = 5 mm"),
+            "{e}"
+        );
         let e = err(&with_line(8, "50 4.0 3.2 10"));
         assert!(
             matches!(&e, ParseError::Invalid { line: Some(8), source: PrescriptionError::Surface { surface: 1, input } }
@@ -550,9 +686,21 @@ stop   2.0   air          5.0
         );
         assert_eq!(e.line(), Some(8));
         let e = err(&with_line(7, "stop 2.0 1.5 5.0"));
-        assert!(matches!(e, ParseError::Invalid { line: Some(7), source: PrescriptionError::StopChangesMedium { .. } }));
+        assert!(matches!(
+            e,
+            ParseError::Invalid {
+                line: Some(7),
+                source: PrescriptionError::StopChangesMedium { .. }
+            }
+        ));
         let e = err("name = empty\n");
-        assert!(matches!(e, ParseError::Invalid { source: PrescriptionError::SurfaceCount { count: 0 }, .. }));
+        assert!(matches!(
+            e,
+            ParseError::Invalid {
+                source: PrescriptionError::SurfaceCount { count: 0 },
+                ..
+            }
+        ));
     }
 
     #[test]
@@ -567,7 +715,13 @@ stop   2.0   air          5.0
             ("1.5", Glass::Constant(1.5)),
             ("index-1.67", Glass::Abbe { nd: 1.67, vd: 32.0 }),
             ("INDEX-1.60", Glass::Abbe { nd: 1.60, vd: 41.0 }),
-            ("CR-39", Glass::Abbe { nd: 1.498, vd: 58.0 }),
+            (
+                "CR-39",
+                Glass::Abbe {
+                    nd: 1.498,
+                    vd: 58.0,
+                },
+            ),
             ("n-bk7", Glass::n_bk7()),
         ] {
             let p = LensPrescription::parse(&with_line(8, &format!("50 4.0 {text} 10"))).unwrap();
@@ -575,30 +729,67 @@ stop   2.0   air          5.0
         }
         // Numbers Rust parses but the format does not take are errors, not lookups.
         for text in ["inf", "NaN", "0.9"] {
-            assert!(matches!(err(&with_line(8, &format!("50 4.0 {text} 10"))), ParseError::Field { line: 8, field: "medium", .. }), "{text}");
+            assert!(
+                matches!(
+                    err(&with_line(8, &format!("50 4.0 {text} 10"))),
+                    ParseError::Field {
+                        line: 8,
+                        field: "medium",
+                        ..
+                    }
+                ),
+                "{text}"
+            );
         }
     }
 
     #[test]
     fn bad_glass_data_is_rejected_with_line_and_field() {
         // Sellmeier coefficients must be finite and >= 0.
-        for text in ["sellmeier:-1,0,0,0,0,0", "sellmeier:1.04,0.23,1.01,-0.006,0.02,103.6", "sellmeier:1,2,3,4,5,nan"] {
+        for text in [
+            "sellmeier:-1,0,0,0,0,0",
+            "sellmeier:1.04,0.23,1.01,-0.006,0.02,103.6",
+            "sellmeier:1,2,3,4,5,nan",
+        ] {
             let e = err(&with_line(8, &format!("50 4.0 {text} 10")));
-            assert!(matches!(e, ParseError::Field { line: 8, field: "medium", .. }), "{text}: {e}");
+            assert!(
+                matches!(
+                    e,
+                    ParseError::Field {
+                        line: 8,
+                        field: "medium",
+                        ..
+                    }
+                ),
+                "{text}: {e}"
+            );
         }
         // 1.5/0.05 is 1.5 at the d line but −2.98 at 700 nm: the row is named.
         let e = err(&with_line(8, "50 4.0 1.5/0.05 10"));
         assert!(
-            matches!(e, ParseError::Invalid { line: Some(8), source: PrescriptionError::IndexOverVisible { surface: 1, .. } }),
+            matches!(
+                e,
+                ParseError::Invalid {
+                    line: Some(8),
+                    source: PrescriptionError::IndexOverVisible { surface: 1, .. }
+                }
+            ),
             "{e}"
         );
-        assert!(e.to_string().starts_with("line 8: surface 1: refractive index"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("line 8: surface 1: refractive index"),
+            "{e}"
+        );
     }
 
     #[test]
     fn bytes_that_are_not_text_name_their_line() {
         let mut bytes = SMALL.as_bytes().to_vec();
-        assert_eq!(LensPrescription::parse_bytes(&bytes).unwrap(), LensPrescription::parse(SMALL).unwrap());
+        assert_eq!(
+            LensPrescription::parse_bytes(&bytes).unwrap(),
+            LensPrescription::parse(SMALL).unwrap()
+        );
         // A byte 0xFF (never UTF-8) in the middle of line 8.
         let at = SMALL.lines().take(7).map(|l| l.len() + 1).sum::<usize>() + 3;
         bytes[at] = 0xFF;

@@ -57,7 +57,12 @@ pub struct LensSurface {
 impl LensSurface {
     /// A surface of radius `radius_mm` (`f64::INFINITY` for flat) followed by
     /// `thickness_after_mm` of `glass_after`.
-    pub fn new(radius_mm: f64, thickness_after_mm: f64, glass_after: Glass, semi_aperture_mm: f64) -> Self {
+    pub fn new(
+        radius_mm: f64,
+        thickness_after_mm: f64,
+        glass_after: Glass,
+        semi_aperture_mm: f64,
+    ) -> Self {
         Self {
             curvature: curvature_of_radius(radius_mm),
             thickness_after_mm,
@@ -89,7 +94,11 @@ impl LensSurface {
 
     /// Radius of curvature in mm; `f64::INFINITY` when flat.
     pub fn radius_mm(&self) -> f64 {
-        if self.curvature == 0.0 { f64::INFINITY } else { 1.0 / self.curvature }
+        if self.curvature == 0.0 {
+            f64::INFINITY
+        } else {
+            1.0 / self.curvature
+        }
     }
 
     /// `true` when the surface is flat (`c = 0`).
@@ -100,7 +109,11 @@ impl LensSurface {
 
 /// `1/R`, with any infinite radius (either sign) mapped to exactly 0 (flat).
 pub(crate) fn curvature_of_radius(radius_mm: f64) -> f64 {
-    if radius_mm.is_infinite() { 0.0 } else { 1.0 / radius_mm }
+    if radius_mm.is_infinite() {
+        0.0
+    } else {
+        1.0 / radius_mm
+    }
 }
 
 /// A validated sequential lens system: surfaces front to back, with where
@@ -200,7 +213,9 @@ pub enum PrescriptionError {
     },
     /// The medium after the stop differs from the one before it: the stop
     /// would refract and reflect, which the model says it does not.
-    #[error("surface {surface}: the aperture stop must not change the medium (index {before} before, {after} after)")]
+    #[error(
+        "surface {surface}: the aperture stop must not change the medium (index {before} before, {after} after)"
+    )]
     StopChangesMedium {
         /// Index of the stop.
         surface: usize,
@@ -256,13 +271,24 @@ impl LensPrescription {
                 return Err(PrescriptionError::Text { field });
             }
         }
-        Ok(Self { name, source, surfaces, design_focal_length_mm: None, design_f_number: None, stop })
+        Ok(Self {
+            name,
+            source,
+            surfaces,
+            design_focal_length_mm: None,
+            design_f_number: None,
+            stop,
+        })
     }
 
     /// The same lens with the focal length (mm) and f-number its source
     /// states (`None`: not stated). They are documentation, compared with the
     /// paraxial values by tests; nothing traces with them.
-    pub fn with_design(mut self, focal_length_mm: Option<f64>, f_number: Option<f64>) -> Result<Self, PrescriptionError> {
+    pub fn with_design(
+        mut self,
+        focal_length_mm: Option<f64>,
+        f_number: Option<f64>,
+    ) -> Result<Self, PrescriptionError> {
         if let Some(f) = focal_length_mm {
             input::positive("design focal length (mm)", f)?;
         }
@@ -311,7 +337,9 @@ impl LensPrescription {
 
     /// Indices of the Fresnel interfaces: every surface but the stop.
     pub fn interfaces(&self) -> Vec<usize> {
-        (0..self.surfaces.len()).filter(|&k| k != self.stop).collect()
+        (0..self.surfaces.len())
+            .filter(|&k| k != self.stop)
+            .collect()
     }
 
     /// z of every vertex: surface 0 at 0, then the running sum of thicknesses.
@@ -336,16 +364,27 @@ impl LensPrescription {
     /// Medium in front of surface `k`: air for `k = 0`, the image-space
     /// medium for `k = surfaces.len()`, `None` beyond.
     pub fn glass_before(&self, k: usize) -> Option<Glass> {
-        if k == 0 { Some(Glass::Air) } else { self.surfaces.get(k - 1).map(|s| s.glass_after) }
+        if k == 0 {
+            Some(Glass::Air)
+        } else {
+            self.surfaces.get(k - 1).map(|s| s.glass_after)
+        }
     }
 
     /// A copy with its surfaces changed by `edit` (name, source and design
     /// values kept), validated again.
-    pub fn edited(&self, edit: impl FnOnce(&mut Vec<LensSurface>)) -> Result<Self, PrescriptionError> {
+    pub fn edited(
+        &self,
+        edit: impl FnOnce(&mut Vec<LensSurface>),
+    ) -> Result<Self, PrescriptionError> {
         let mut surfaces = self.surfaces.clone();
         edit(&mut surfaces);
         let stop = check(&surfaces)?;
-        Ok(Self { surfaces, stop, ..self.clone() })
+        Ok(Self {
+            surfaces,
+            stop,
+            ..self.clone()
+        })
     }
 
     /// The same lens with `coating` on every interface (not on the stop), as
@@ -410,16 +449,36 @@ fn check(surfaces: &[LensSurface]) -> Result<usize, PrescriptionError> {
         // try_index: `index` would hide a bad glass behind its fallback of 1.
         let index = s.glass_after.try_index(LAMBDA_D_NM).unwrap_or(f64::NAN);
         let (lo, hi) = INDEX_RANGE;
-        input::in_range("refractive index after the surface at the d line", index, lo, hi).map_err(at)?;
-        if let Some((wavelength_nm, index)) = s.glass_after.first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, lo, hi) {
-            return Err(PrescriptionError::IndexOverVisible { surface: k, wavelength_nm, index });
+        input::in_range(
+            "refractive index after the surface at the d line",
+            index,
+            lo,
+            hi,
+        )
+        .map_err(at)?;
+        if let Some((wavelength_nm, index)) =
+            s.glass_after
+                .first_bad_index(VISIBLE_NM.0, VISIBLE_NM.1, lo, hi)
+        {
+            return Err(PrescriptionError::IndexOverVisible {
+                surface: k,
+                wavelength_nm,
+                index,
+            });
         }
         if s.is_stop {
             if s.curvature != 0.0 {
-                return Err(PrescriptionError::StopNotFlat { surface: k, curvature: s.curvature });
+                return Err(PrescriptionError::StopNotFlat {
+                    surface: k,
+                    curvature: s.curvature,
+                });
             }
             if (index - index_before).abs() > STOP_MEDIUM_TOLERANCE {
-                return Err(PrescriptionError::StopChangesMedium { surface: k, before: index_before, after: index });
+                return Err(PrescriptionError::StopChangesMedium {
+                    surface: k,
+                    before: index_before,
+                    after: index,
+                });
             }
             if s.coating.is_some() {
                 return Err(PrescriptionError::CoatedStop { surface: k });
@@ -432,7 +491,10 @@ fn check(surfaces: &[LensSurface]) -> Result<usize, PrescriptionError> {
         }
         index_before = index;
     }
-    Ok(surfaces.iter().position(|s| s.is_stop).expect("exactly one stop, counted above"))
+    Ok(surfaces
+        .iter()
+        .position(|s| s.is_stop)
+        .expect("exactly one stop, counted above"))
 }
 
 #[cfg(test)]
@@ -460,7 +522,10 @@ mod tests {
         assert_eq!(p.interfaces(), vec![1, 2]);
         assert_eq!(p.vertex_z(), vec![0.0, 2.0, 6.0]);
         assert_eq!(p.table_image_z(), 51.0);
-        assert_eq!((p.name(), p.source(), p.surfaces().len()), ("singlet", "test", 3));
+        assert_eq!(
+            (p.name(), p.source(), p.surfaces().len()),
+            ("singlet", "test", 3)
+        );
     }
 
     /// The error `LensPrescription::new` gives for the singlet changed by `f`.
@@ -473,7 +538,9 @@ mod tests {
     /// `(surface, what, expected)` of a `PrescriptionError::Surface`.
     fn surface_input(e: &PrescriptionError) -> Option<(usize, &'static str, Expected)> {
         match e {
-            PrescriptionError::Surface { surface, input } => Some((*surface, input.what, input.expected)),
+            PrescriptionError::Surface { surface, input } => {
+                Some((*surface, input.what, input.expected))
+            }
             _ => None,
         }
     }
@@ -487,19 +554,37 @@ mod tests {
                 let last = s[2].clone();
                 s.resize(MAX_SURFACES + 1, last);
             }),
-            E::SurfaceCount { count: MAX_SURFACES + 1 }
+            E::SurfaceCount {
+                count: MAX_SURFACES + 1
+            }
         );
-        assert_eq!(error_of(|s| s[0].is_stop = false), E::StopCount { count: 0 });
+        assert_eq!(
+            error_of(|s| s[0].is_stop = false),
+            E::StopCount { count: 0 }
+        );
         assert_eq!(error_of(|s| s[1].is_stop = true), E::StopCount { count: 2 });
-        let range = Expected::Range { min: INDEX_RANGE.0, max: INDEX_RANGE.1 };
+        let range = Expected::Range {
+            min: INDEX_RANGE.0,
+            max: INDEX_RANGE.1,
+        };
         for (edit, want) in [
             (
-                Box::new(|s: &mut Vec<LensSurface>| s[1].semi_aperture_mm = 0.0) as Box<dyn Fn(&mut Vec<LensSurface>)>,
+                Box::new(|s: &mut Vec<LensSurface>| s[1].semi_aperture_mm = 0.0)
+                    as Box<dyn Fn(&mut Vec<LensSurface>)>,
                 (1, "semi-aperture (mm)", Expected::Positive),
             ),
-            (Box::new(|s| s[2].thickness_after_mm = -1.0), (2, "thickness (mm)", Expected::NonNegative)),
-            (Box::new(|s| s[1].curvature = f64::NAN), (1, "curvature (1/mm)", Expected::Finite)),
-            (Box::new(|s| s[1].thickness_after_mm = f64::INFINITY), (1, "thickness (mm)", Expected::NonNegative)),
+            (
+                Box::new(|s| s[2].thickness_after_mm = -1.0),
+                (2, "thickness (mm)", Expected::NonNegative),
+            ),
+            (
+                Box::new(|s| s[1].curvature = f64::NAN),
+                (1, "curvature (1/mm)", Expected::Finite),
+            ),
+            (
+                Box::new(|s| s[1].thickness_after_mm = f64::INFINITY),
+                (1, "thickness (mm)", Expected::NonNegative),
+            ),
             (
                 Box::new(|s| s[1].glass_after = Glass::Constant(3.5)),
                 (1, "refractive index after the surface at the d line", range),
@@ -518,7 +603,10 @@ mod tests {
             assert_eq!(surface_input(&e), Some(want), "{e}");
             assert_eq!(e.surface(), Some(want.0));
         }
-        assert!(matches!(error_of(|s| s[1].curvature = 1.0 / 9.0), E::HemispherePlus { surface: 1, .. }));
+        assert!(matches!(
+            error_of(|s| s[1].curvature = 1.0 / 9.0),
+            E::HemispherePlus { surface: 1, .. }
+        ));
         // Fine at the d line (1.5), n(700 nm) = −2.98: rejected, naming the surface.
         assert!(matches!(
             error_of(|s| s[1].glass_after = Glass::Abbe { nd: 1.5, vd: 0.05 }),
@@ -528,22 +616,45 @@ mod tests {
             error_of(|s| s[1].glass_after = Glass::Sellmeier { b: [0.3, 0.0, 0.0], c: [0.25, 0.0, 0.0] }),
             E::IndexOverVisible { surface: 1, wavelength_nm, .. } if (wavelength_nm - 500.0).abs() < 1e-9
         ));
-        assert!(matches!(error_of(|s| s[0].curvature = 0.01), E::StopNotFlat { surface: 0, .. }));
-        assert!(matches!(error_of(|s| s[0].glass_after = Glass::Constant(1.5)), E::StopChangesMedium { surface: 0, .. }));
-        assert_eq!(error_of(|s| s[0].coating = Some(Coating::quarter_wave(1.38, 550.0).unwrap())), E::CoatedStop { surface: 0 });
-        assert_eq!(LensPrescription::new("a\nb", "y", singlet()), Err(E::Text { field: "name" }));
-        assert_eq!(LensPrescription::new("a", "#y", singlet()), Err(E::Text { field: "source" }));
+        assert!(matches!(
+            error_of(|s| s[0].curvature = 0.01),
+            E::StopNotFlat { surface: 0, .. }
+        ));
+        assert!(matches!(
+            error_of(|s| s[0].glass_after = Glass::Constant(1.5)),
+            E::StopChangesMedium { surface: 0, .. }
+        ));
+        assert_eq!(
+            error_of(|s| s[0].coating = Some(Coating::quarter_wave(1.38, 550.0).unwrap())),
+            E::CoatedStop { surface: 0 }
+        );
+        assert_eq!(
+            LensPrescription::new("a\nb", "y", singlet()),
+            Err(E::Text { field: "name" })
+        );
+        assert_eq!(
+            LensPrescription::new("a", "#y", singlet()),
+            Err(E::Text { field: "source" })
+        );
     }
 
     #[test]
     fn design_values_are_checked() {
         let p = LensPrescription::new("singlet", "test", singlet()).unwrap();
         let q = p.clone().with_design(Some(100.0), None).unwrap();
-        assert_eq!((q.design_focal_length_mm(), q.design_f_number()), (Some(100.0), None));
+        assert_eq!(
+            (q.design_focal_length_mm(), q.design_f_number()),
+            (Some(100.0), None)
+        );
         let e = p.clone().with_design(None, Some(-2.0)).unwrap_err();
-        assert!(matches!(e, PrescriptionError::Input(i) if i.what == "design f-number" && i.value == -2.0), "{e}");
+        assert!(
+            matches!(e, PrescriptionError::Input(i) if i.what == "design f-number" && i.value == -2.0),
+            "{e}"
+        );
         assert_eq!(e.surface(), None);
-        assert!(matches!(p.with_design(Some(f64::NAN), None), Err(PrescriptionError::Input(i)) if i.what == "design focal length (mm)"));
+        assert!(
+            matches!(p.with_design(Some(f64::NAN), None), Err(PrescriptionError::Input(i)) if i.what == "design focal length (mm)")
+        );
     }
 
     #[test]
@@ -566,25 +677,62 @@ mod tests {
 
     #[test]
     fn changed_copies_are_validated_again() {
-        let p = LensPrescription::new("s", "t", singlet()).unwrap().with_design(Some(50.0), None).unwrap();
+        let p = LensPrescription::new("s", "t", singlet())
+            .unwrap()
+            .with_design(Some(50.0), None)
+            .unwrap();
         let q = p.scaled(2.0).unwrap();
         assert_eq!(q.surfaces()[1].radius_mm(), 100.0);
         assert_eq!(q.surfaces()[1].thickness_after_mm, 8.0);
         assert_eq!(q.surfaces()[1].semi_aperture_mm, 20.0);
-        assert_eq!(q.surfaces()[1].glass_after, Glass::Constant(1.5), "indices are not lengths");
+        assert_eq!(
+            q.surfaces()[1].glass_after,
+            Glass::Constant(1.5),
+            "indices are not lengths"
+        );
         assert_eq!(q.design_focal_length_mm(), Some(100.0));
-        assert!(matches!(p.scaled(0.0), Err(PrescriptionError::Input(i)) if i.what == "scale factor"));
+        assert!(
+            matches!(p.scaled(0.0), Err(PrescriptionError::Input(i)) if i.what == "scale factor")
+        );
         // 1e308 × 45 mm overflows the thickness to +inf: refused, not stored.
-        assert!(matches!(p.scaled(1e308), Err(PrescriptionError::Surface { .. })));
+        assert!(matches!(
+            p.scaled(1e308),
+            Err(PrescriptionError::Surface { .. })
+        ));
         // Coating: everywhere but the stop; a bad layer is refused naming the first surface.
-        let c = p.with_coating_everywhere(Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap();
-        assert_eq!(c.surfaces().iter().map(|s| s.coating.is_some()).collect::<Vec<_>>(), [false, true, true]);
-        let bad = p.with_coating_everywhere(Coating::new(0.5, 100.0).unwrap()).unwrap_err();
-        assert_eq!(surface_input(&bad).map(|(k, what, _)| (k, what)), Some((1, "coating index")));
+        let c = p
+            .with_coating_everywhere(Coating::quarter_wave(1.38, 550.0).unwrap())
+            .unwrap();
+        assert_eq!(
+            c.surfaces()
+                .iter()
+                .map(|s| s.coating.is_some())
+                .collect::<Vec<_>>(),
+            [false, true, true]
+        );
+        let bad = p
+            .with_coating_everywhere(Coating::new(0.5, 100.0).unwrap())
+            .unwrap_err();
+        assert_eq!(
+            surface_input(&bad).map(|(k, what, _)| (k, what)),
+            Some((1, "coating index"))
+        );
         // edited keeps name and design values, and moves the stop index along.
         let e = p.edited(|s| s.swap(0, 1)).unwrap_err();
-        assert!(matches!(e, PrescriptionError::StopChangesMedium { surface: 1, .. }), "{e}");
-        let moved = p.edited(|s| s.insert(0, LensSurface::new(f64::INFINITY, 1.0, Glass::Air, 10.0))).unwrap();
-        assert_eq!((moved.stop_index(), moved.name(), moved.design_focal_length_mm()), (1, "s", Some(50.0)));
+        assert!(
+            matches!(e, PrescriptionError::StopChangesMedium { surface: 1, .. }),
+            "{e}"
+        );
+        let moved = p
+            .edited(|s| s.insert(0, LensSurface::new(f64::INFINITY, 1.0, Glass::Air, 10.0)))
+            .unwrap();
+        assert_eq!(
+            (
+                moved.stop_index(),
+                moved.name(),
+                moved.design_focal_length_mm()
+            ),
+            (1, "s", Some(50.0))
+        );
     }
 }

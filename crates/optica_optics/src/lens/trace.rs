@@ -11,7 +11,7 @@ use super::prescription::LensPrescription;
 use crate::fresnel::{Coating, fresnel_unpolarized};
 use crate::input::{self, InvalidInput};
 use crate::ray::Ray;
-use crate::surface::{Hit, Refraction, SphericalSurface, T_EPSILON, refract, reflect};
+use crate::surface::{Hit, Refraction, SphericalSurface, T_EPSILON, reflect, refract};
 
 /// Which sequence of surfaces a ray follows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -31,7 +31,10 @@ pub enum TracePath {
 impl TracePath {
     /// The ghost path `(i, j)` (reflect at `i`, then at `j < i`).
     pub fn ghost(i: usize, j: usize) -> Self {
-        TracePath::Ghost { first: i, second: j }
+        TracePath::Ghost {
+            first: i,
+            second: j,
+        }
     }
 }
 
@@ -221,7 +224,10 @@ impl PreparedLens {
     pub fn new(prescription: &LensPrescription, wavelength_nm: f64) -> Result<Self, TraceError> {
         let wavelength_nm = input::positive("wavelength (nm)", wavelength_nm)?;
         let (before, after) =
-            indices(prescription, wavelength_nm).map_err(|surface| TraceError::Index { surface, wavelength_nm })?;
+            indices(prescription, wavelength_nm).map_err(|surface| TraceError::Index {
+                surface,
+                wavelength_nm,
+            })?;
         let z = prescription.vertex_z();
         let surfaces = prescription
             .surfaces()
@@ -265,14 +271,24 @@ impl PreparedLens {
     }
 
     /// Traces many rays in parallel (rayon) to the table's sensor plane.
-    pub fn trace_many(&self, rays: &[Ray], path: TracePath) -> Vec<Result<TraceResult, TraceError>> {
+    pub fn trace_many(
+        &self,
+        rays: &[Ray],
+        path: TracePath,
+    ) -> Vec<Result<TraceResult, TraceError>> {
         rays.par_iter().map(|r| self.trace(*r, path)).collect()
     }
 
     /// Checks a path against this lens.
     pub fn check_path(&self, path: TracePath) -> Result<(), TraceError> {
         if let TracePath::Ghost { first, second } = path {
-            let bad = |reason| Err(TraceError::InvalidPath { first, second, reason });
+            let bad = |reason| {
+                Err(TraceError::InvalidPath {
+                    first,
+                    second,
+                    reason,
+                })
+            };
             if first >= self.surfaces.len() {
                 return bad("the first surface is past the last surface");
             }
@@ -291,7 +307,12 @@ impl PreparedLens {
     /// The sensor plane is met by the ray's line, so a sensor set inside the
     /// last element's sag still gets a continuous grid; only a ray leaving
     /// parallel to the plane or away from it fails ([`TraceError::MissedSensor`]).
-    pub fn trace_to(&self, ray: Ray, path: TracePath, sensor_z: f64) -> Result<TraceResult, TraceError> {
+    pub fn trace_to(
+        &self,
+        ray: Ray,
+        path: TracePath,
+        sensor_z: f64,
+    ) -> Result<TraceResult, TraceError> {
         self.trace_impl(ray, path, sensor_z, None)
     }
 
@@ -322,8 +343,14 @@ impl PreparedLens {
     ) -> Result<TraceResult, TraceError> {
         let sensor_z = input::finite("sensor z (mm)", sensor_z)?;
         self.check_path(path)?;
-        let mut st =
-            State { ray, r_rel: 0.0, throughput: 1.0, stop_xy: [DVec2::ZERO; MAX_STOP_CROSSINGS], stop_crossings: 0, points };
+        let mut st = State {
+            ray,
+            r_rel: 0.0,
+            throughput: 1.0,
+            stop_xy: [DVec2::ZERO; MAX_STOP_CROSSINGS],
+            stop_crossings: 0,
+            points,
+        };
         let last = self.surfaces.len() - 1;
         match path {
             TracePath::Primary => {
@@ -331,7 +358,10 @@ impl PreparedLens {
                     self.interact(&mut st, k, Pass::Forward, Event::Refract)?;
                 }
             }
-            TracePath::Ghost { first: i, second: j } => {
+            TracePath::Ghost {
+                first: i,
+                second: j,
+            } => {
                 for k in 0..i {
                     self.interact(&mut st, k, Pass::Forward, Event::Refract)?;
                 }
@@ -386,16 +416,26 @@ impl PreparedLens {
         // at t in [T_EPSILON, 2·tol + T_EPSILON] — `intersect` drops hits
         // closer than T_EPSILON — i.e. between tol behind the real origin and
         // just ahead of it, where the first `intersect` could not see it.
-        let back = Ray::from_unit(ray.origin() - ray.dir() * COINCIDENT_TOLERANCE_MM, ray.dir());
+        let back = Ray::from_unit(
+            ray.origin() - ray.dir() * COINCIDENT_TOLERANCE_MM,
+            ray.dir(),
+        );
         match geometry.intersect(&back) {
-            Some(h) if h.t <= 2.0 * COINCIDENT_TOLERANCE_MM + T_EPSILON => {
-                Ok(Hit { t: h.t - COINCIDENT_TOLERANCE_MM, ..h })
-            }
+            Some(h) if h.t <= 2.0 * COINCIDENT_TOLERANCE_MM + T_EPSILON => Ok(Hit {
+                t: h.t - COINCIDENT_TOLERANCE_MM,
+                ..h
+            }),
             _ => Err(TraceError::Missed { surface: k, pass }),
         }
     }
 
-    fn interact(&self, st: &mut State, k: usize, pass: Pass, event: Event) -> Result<(), TraceError> {
+    fn interact(
+        &self,
+        st: &mut State,
+        k: usize,
+        pass: Pass,
+        event: Event,
+    ) -> Result<(), TraceError> {
         let s = &self.surfaces[k];
         let hit = self.hit(k, &st.ray, pass)?;
         let p = hit.point;
@@ -462,7 +502,10 @@ mod tests {
         // origin, one hit per surface (8 with the stop), the sensor point
         assert_eq!(points.len(), lens.surfaces().len() + 2);
         assert_eq!(*points.last().unwrap(), result.position);
-        assert_eq!(prepared.trace_to(ray, TracePath::Primary, sensor).unwrap(), result);
+        assert_eq!(
+            prepared.trace_to(ray, TracePath::Primary, sensor).unwrap(),
+            result
+        );
         // z increases along a primary path
         assert!(points.windows(2).all(|w| w[1].z >= w[0].z));
         // a ghost path goes back: some step decreases z
@@ -478,7 +521,10 @@ mod tests {
         assert_eq!(ghosts(&builtin::double_gauss()).len(), 91);
         assert_eq!(ghosts(&builtin::heliar()).len(), 28);
         let g = ghosts(&builtin::tessar());
-        assert!(g.iter().all(|&(i, j)| i > j && i != 3 && j != 3), "stop (surface 3) excluded");
+        assert!(
+            g.iter().all(|&(i, j)| i > j && i != 3 && j != 3),
+            "stop (surface 3) excluded"
+        );
         assert_eq!(g[0], (1, 0));
     }
 
@@ -487,7 +533,11 @@ mod tests {
         // Small-angle limit: a ray at h = 1e-3 mm crosses the axis at the
         // paraxial focus and its sine-condition focal length h / sin(u') equals
         // the paraxial EFL (spherical aberration is O(h²) ~ 1e-10 here).
-        for p in [builtin::tessar(), builtin::double_gauss(), builtin::heliar()] {
+        for p in [
+            builtin::tessar(),
+            builtin::double_gauss(),
+            builtin::heliar(),
+        ] {
             let q = p.paraxial(LAMBDA_D_NM).unwrap();
             let h = 1e-3;
             let ray = Ray::new(DVec3::new(0.0, h, -20.0), DVec3::Z).unwrap();
@@ -496,9 +546,19 @@ mod tests {
             // Where the exit ray meets the axis.
             let z_cross = r.position.z - r.position.y * r.direction.z / r.direction.y;
             let bfl_real = z_cross - last_z;
-            assert!((bfl_real / q.bfl_mm - 1.0).abs() < 1e-6, "{}: {bfl_real} vs {}", p.name(), q.bfl_mm);
+            assert!(
+                (bfl_real / q.bfl_mm - 1.0).abs() < 1e-6,
+                "{}: {bfl_real} vs {}",
+                p.name(),
+                q.bfl_mm
+            );
             let efl_real = -h / r.direction.y;
-            assert!((efl_real / q.efl_mm - 1.0).abs() < 1e-6, "{}: {efl_real} vs {}", p.name(), q.efl_mm);
+            assert!(
+                (efl_real / q.efl_mm - 1.0).abs() < 1e-6,
+                "{}: {efl_real} vs {}",
+                p.name(),
+                q.efl_mm
+            );
             assert!(r.position.y.abs() < 1e-6 * h * 1e3);
             assert_eq!(r.stop_crossings, 1);
         }
@@ -525,7 +585,11 @@ mod tests {
         let p = slab(1.5);
         let ray = Ray::new(DVec3::new(1.0, 2.0, -1.0), DVec3::Z).unwrap();
         let r = trace(&p, ray, 550.0, TracePath::ghost(2, 1)).unwrap();
-        assert!((r.throughput - 0.96 * 0.96 * 0.04 * 0.04).abs() < 1e-15, "{}", r.throughput);
+        assert!(
+            (r.throughput - 0.96 * 0.96 * 0.04 * 0.04).abs() < 1e-15,
+            "{}",
+            r.throughput
+        );
         assert!((r.position - DVec3::new(1.0, 2.0, 45.0)).length() < 1e-12);
         assert_eq!(r.stop_xy, DVec2::new(1.0, 2.0));
         // Primary: T² = 0.9216.
@@ -542,13 +606,26 @@ mod tests {
         let big_r = 0.5 * (rs + rp); // same value from inside at the refracted angle
         let want = (1.0 - big_r) * big_r * big_r * (1.0 - big_r);
         let dir = DVec3::new(si, 0.0, ci);
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -1.0), dir).unwrap(), 550.0, TracePath::ghost(2, 1)).unwrap();
-        assert!((r.throughput - want).abs() < 1e-15, "{} vs {want}", r.throughput);
+        let r = trace(
+            &p,
+            Ray::new(DVec3::new(0.0, 0.0, -1.0), dir).unwrap(),
+            550.0,
+            TracePath::ghost(2, 1),
+        )
+        .unwrap();
+        assert!(
+            (r.throughput - want).abs() < 1e-15,
+            "{} vs {want}",
+            r.throughput
+        );
         // Lateral walk: 1 mm in air to the stop, 5 mm air, then three 10 mm glass
         // crossings at tan θt, then 30 mm air; all tangents by hand.
         let x = (1.0 + 5.0 + 30.0) * si / ci + 3.0 * 10.0 * st / ct;
         assert!((r.position.x - x).abs() < 1e-12, "{} vs {x}", r.position.x);
-        assert!((r.direction - dir).length() < 1e-12, "a slab ghost leaves parallel to the input");
+        assert!(
+            (r.direction - dir).length() < 1e-12,
+            "a slab ghost leaves parallel to the input"
+        );
     }
 
     #[test]
@@ -562,13 +639,33 @@ mod tests {
         let t = |k: usize| 1.0 - r(k);
         let want = t(0) * t(1) * t(2) * t(4) * t(5) * r(6) * r(5) * t(6) * t(7);
         let p = builtin::tessar();
-        let got = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::ghost(6, 5)).unwrap();
-        assert!((got.throughput / want - 1.0).abs() < 1e-12, "{} vs {want}", got.throughput);
+        let got = trace(
+            &p,
+            Ray::new(DVec3::new(0.0, 0.0, -10.0), DVec3::Z).unwrap(),
+            LAMBDA_D_NM,
+            TracePath::ghost(6, 5),
+        )
+        .unwrap();
+        assert!(
+            (got.throughput / want - 1.0).abs() < 1e-12,
+            "{} vs {want}",
+            got.throughput
+        );
         assert!(got.position.truncate().length() < 1e-12 && got.stop_crossings == 1);
         // Ghost (5, 2) straddles the stop: it crosses the stop plane three times.
-        let got = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::ghost(5, 2)).unwrap();
+        let got = trace(
+            &p,
+            Ray::new(DVec3::new(0.0, 0.0, -10.0), DVec3::Z).unwrap(),
+            LAMBDA_D_NM,
+            TracePath::ghost(5, 2),
+        )
+        .unwrap();
         let want = t(0) * t(1) * t(2) * t(4) * r(5) * t(4) * r(2) * t(4) * t(5) * t(6) * t(7);
-        assert!((got.throughput / want - 1.0).abs() < 1e-12, "{} vs {want}", got.throughput);
+        assert!(
+            (got.throughput / want - 1.0).abs() < 1e-12,
+            "{} vs {want}",
+            got.throughput
+        );
         assert_eq!(got.stop_crossings, 3);
     }
 
@@ -580,13 +677,21 @@ mod tests {
         use crate::fresnel::try_fresnel_sp;
         let (ci, si) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
         let (rs, rp) = try_fresnel_sp(ci, 1.0, 1.5).unwrap().unwrap();
-        assert!((rs - 0.0578).abs() < 5e-5 && (rp - 0.0252).abs() < 5e-5, "{rs} {rp}");
+        assert!(
+            (rs - 0.0578).abs() < 5e-5 && (rp - 0.0252).abs() < 5e-5,
+            "{rs} {rp}"
+        );
         let mean = 0.5 * (rs + rp);
         assert!((mean * mean - 1.72e-3).abs() < 5e-6);
         assert!((0.5 * (rs * rs + rp * rp) - 1.99e-3).abs() < 5e-6);
         // Slab ghost (2, 1): T R R T, every interface at the same angle pair.
-        let r = trace(&slab(1.5), Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::new(si, 0.0, ci)).unwrap(), 550.0, TracePath::ghost(2, 1))
-            .unwrap();
+        let r = trace(
+            &slab(1.5),
+            Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::new(si, 0.0, ci)).unwrap(),
+            550.0,
+            TracePath::ghost(2, 1),
+        )
+        .unwrap();
         let exact = 0.5 * ((1.0 - rs).powi(2) * rs * rs + (1.0 - rp).powi(2) * rp * rp);
         assert!((r.throughput - 1.58e-3).abs() < 5e-6, "{}", r.throughput);
         assert!((exact - 1.79e-3).abs() < 5e-6, "{exact}");
@@ -598,16 +703,24 @@ mod tests {
         // 1.5/1.2 is valid over 380–780 nm, but its Cauchy curve falls to
         // 0.965 at 1500 nm: `Glass::index` would have traced a lens of index
         // 0.965; try_index makes it an index error naming the surface.
-        let p = slab(1.5).edited(|s| s[1].glass_after = Glass::Abbe { nd: 1.5, vd: 1.2 }).unwrap();
+        let p = slab(1.5)
+            .edited(|s| s[1].glass_after = Glass::Abbe { nd: 1.5, vd: 1.2 })
+            .unwrap();
         let ray = Ray::new(DVec3::new(0.0, 1.0, -1.0), DVec3::Z).unwrap();
         assert!(trace(&p, ray, 780.0, TracePath::Primary).is_ok());
         assert_eq!(
             trace(&p, ray, 1500.0, TracePath::Primary),
-            Err(TraceError::Index { surface: 1, wavelength_nm: 1500.0 })
+            Err(TraceError::Index {
+                surface: 1,
+                wavelength_nm: 1500.0
+            })
         );
         assert_eq!(
             PreparedLens::new(&p, 1500.0).unwrap_err(),
-            TraceError::Index { surface: 1, wavelength_nm: 1500.0 }
+            TraceError::Index {
+                surface: 1,
+                wavelength_nm: 1500.0
+            }
         );
     }
 
@@ -621,12 +734,20 @@ mod tests {
         assert_eq!(r.stop_crossings, 3);
         assert_eq!(r.stop_xy_all[0], r.stop_xy);
         let [a, b, c] = r.stop_xy_all;
-        assert!((a - b).length() > 0.1 && (b - c).length() > 0.1 && (a - c).length() > 0.1, "{a} {b} {c}");
+        assert!(
+            (a - b).length() > 0.1 && (b - c).length() > 0.1 && (a - c).length() > 0.1,
+            "{a} {b} {c}"
+        );
         // The polyline shows the same three points on the stop plane (z = 4.16 + 2.10 + 9.80).
         let prepared = PreparedLens::new(&p, LAMBDA_D_NM).unwrap();
-        let (points, _) = prepared.trace_polyline(ray, TracePath::ghost(5, 2), prepared.table_sensor_z());
+        let (points, _) =
+            prepared.trace_polyline(ray, TracePath::ghost(5, 2), prepared.table_sensor_z());
         let stop_z = p.vertex_z()[3];
-        let on_stop: Vec<DVec2> = points.iter().filter(|q| (q.z - stop_z).abs() < 1e-9).map(|q| q.truncate()).collect();
+        let on_stop: Vec<DVec2> = points
+            .iter()
+            .filter(|q| (q.z - stop_z).abs() < 1e-9)
+            .map(|q| q.truncate())
+            .collect();
         assert_eq!(on_stop, vec![a, b, c]);
         // One crossing: every entry is that crossing.
         let r = trace(&p, ray, LAMBDA_D_NM, TracePath::ghost(6, 5)).unwrap();
@@ -642,9 +763,19 @@ mod tests {
         let coat = Coating::quarter_wave(nc, wl).unwrap();
         let p = slab(n).with_coating_everywhere(coat).unwrap();
         let rr = ((n - nc * nc) / (n + nc * nc)).powi(2);
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::Z).unwrap(), wl, TracePath::ghost(2, 1)).unwrap();
+        let r = trace(
+            &p,
+            Ray::new(DVec3::new(0.0, 0.0, -1.0), DVec3::Z).unwrap(),
+            wl,
+            TracePath::ghost(2, 1),
+        )
+        .unwrap();
         let want = (1.0 - rr) * rr * rr * (1.0 - rr);
-        assert!((r.throughput - want).abs() < 1e-14, "{} vs {want}", r.throughput);
+        assert!(
+            (r.throughput - want).abs() < 1e-14,
+            "{} vs {want}",
+            r.throughput
+        );
     }
 
     #[test]
@@ -652,12 +783,28 @@ mod tests {
         // Surface 0 of the Tessar has R = 42.97 mm: a ray 60 mm off axis,
         // parallel to it, has no intersection with that sphere.
         let p = builtin::tessar();
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 60.0, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::Primary);
-        assert_eq!(r, Err(TraceError::Missed { surface: 0, pass: Pass::Forward }));
+        let r = trace(
+            &p,
+            Ray::new(DVec3::new(0.0, 60.0, -10.0), DVec3::Z).unwrap(),
+            LAMBDA_D_NM,
+            TracePath::Primary,
+        );
+        assert_eq!(
+            r,
+            Err(TraceError::Missed {
+                surface: 0,
+                pass: Pass::Forward
+            })
+        );
         // A ray inside the sphere but outside the semi-aperture (19.2 mm)
         // keeps going to the sensor, flagged by r_rel > 1.
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 19.5, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::Primary)
-            .expect("a ray 0.3 mm outside the front semi-aperture is traced, not lost");
+        let r = trace(
+            &p,
+            Ray::new(DVec3::new(0.0, 19.5, -10.0), DVec3::Z).unwrap(),
+            LAMBDA_D_NM,
+            TracePath::Primary,
+        )
+        .expect("a ray 0.3 mm outside the front semi-aperture is traced, not lost");
         assert!(r.r_rel > 1.0 && r.position.is_finite(), "{r:?}");
     }
 
@@ -675,8 +822,19 @@ mod tests {
             ],
         )
         .unwrap();
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 9.0, -1.0), DVec3::Z).unwrap(), 550.0, TracePath::Primary);
-        assert_eq!(r, Err(TraceError::TotalInternalReflection { surface: 2, pass: Pass::Forward }));
+        let r = trace(
+            &p,
+            Ray::new(DVec3::new(0.0, 9.0, -1.0), DVec3::Z).unwrap(),
+            550.0,
+            TracePath::Primary,
+        );
+        assert_eq!(
+            r,
+            Err(TraceError::TotalInternalReflection {
+                surface: 2,
+                pass: Pass::Forward
+            })
+        );
     }
 
     #[test]
@@ -685,17 +843,29 @@ mod tests {
         let ok = Ray::new(DVec3::new(0.0, 1.0, -1.0), DVec3::Z).unwrap();
         for bad in [f64::NAN, 0.0, -550.0, f64::INFINITY] {
             let e = trace(&p, ok, bad, TracePath::Primary).unwrap_err();
-            assert!(matches!(&e, TraceError::Input(i) if i.what == "wavelength (nm)" && i.expected == Expected::Positive), "{e}");
+            assert!(
+                matches!(&e, TraceError::Input(i) if i.what == "wavelength (nm)" && i.expected == Expected::Positive),
+                "{e}"
+            );
         }
         // (4, 3): the Tessar's stop is surface 3; (2, 2): not in front; (8, 2): past the last surface.
         for (i, j) in [(4, 3), (2, 2), (8, 2)] {
             let e = trace(&p, ok, 550.0, TracePath::ghost(i, j)).unwrap_err();
-            assert!(matches!(e, TraceError::InvalidPath { first, second, .. } if (first, second) == (i, j)), "{e}");
+            assert!(
+                matches!(e, TraceError::InvalidPath { first, second, .. } if (first, second) == (i, j)),
+                "{e}"
+            );
         }
         let e = trace_to(&p, ok, 550.0, TracePath::Primary, f64::INFINITY).unwrap_err();
-        assert!(matches!(&e, TraceError::Input(i) if i.what == "sensor z (mm)" && i.value == f64::INFINITY), "{e}");
+        assert!(
+            matches!(&e, TraceError::Input(i) if i.what == "sensor z (mm)" && i.value == f64::INFINITY),
+            "{e}"
+        );
         // A ray with no direction cannot be built, so no tracer sees one.
-        assert_eq!(Ray::new(DVec3::ZERO, DVec3::ZERO).unwrap_err().expected, Expected::Direction);
+        assert_eq!(
+            Ray::new(DVec3::ZERO, DVec3::ZERO).unwrap_err().expected,
+            Expected::Direction
+        );
     }
 
     #[test]
@@ -714,7 +884,13 @@ mod tests {
             ],
         )
         .unwrap();
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 0.0, -5.0), DVec3::Z).unwrap(), 550.0, TracePath::Primary).unwrap();
+        let r = trace(
+            &p,
+            Ray::new(DVec3::new(0.0, 0.0, -5.0), DVec3::Z).unwrap(),
+            550.0,
+            TracePath::Primary,
+        )
+        .unwrap();
         assert!(r.position.is_finite() && r.position.x.abs() < 1e-12);
     }
 
@@ -723,8 +899,18 @@ mod tests {
         // The Heliar's plano surface (c = 0, not the stop) in the middle of a path.
         let p = builtin::heliar();
         assert!(p.surfaces()[6].is_flat() && !p.surfaces()[6].is_stop);
-        let r = trace(&p, Ray::new(DVec3::new(0.0, 5.0, -10.0), DVec3::Z).unwrap(), LAMBDA_D_NM, TracePath::Primary).unwrap();
-        assert!(r.position.y.abs() < 0.5, "f/3.5 Heliar focuses a 5 mm ray near the axis: {}", r.position.y);
+        let r = trace(
+            &p,
+            Ray::new(DVec3::new(0.0, 5.0, -10.0), DVec3::Z).unwrap(),
+            LAMBDA_D_NM,
+            TracePath::Primary,
+        )
+        .unwrap();
+        assert!(
+            r.position.y.abs() < 0.5,
+            "f/3.5 Heliar focuses a 5 mm ray near the axis: {}",
+            r.position.y
+        );
         assert_eq!(r.position.z, p.table_image_z());
     }
 

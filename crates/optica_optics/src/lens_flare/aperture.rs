@@ -51,18 +51,30 @@ impl Aperture {
     /// A round aperture of `radius_mm` (finite, >= 0; 0 is closed).
     pub fn circle(radius_mm: f64) -> Result<Self, InvalidInput> {
         let radius_mm = input::non_negative("aperture radius (mm)", radius_mm)?;
-        Ok(Self { shape: ApertureShape::Circle, radius_mm, arc_w: 0.0 })
+        Ok(Self {
+            shape: ApertureShape::Circle,
+            radius_mm,
+            arc_w: 0.0,
+        })
     }
 
     /// A closed iris: nothing passes.
     pub fn closed() -> Self {
-        Self { shape: ApertureShape::Circle, radius_mm: 0.0, arc_w: 0.0 }
+        Self {
+            shape: ApertureShape::Circle,
+            radius_mm: 0.0,
+            arc_w: 0.0,
+        }
     }
 
     /// The prescription's own stop, round (the shape `r_rel` already tests).
     pub fn of_stop(prescription: &LensPrescription) -> Self {
         // A prescription's semi-apertures are finite and > 0.
-        Self { shape: ApertureShape::Circle, radius_mm: prescription.stop_semi_aperture_mm(), arc_w: 0.0 }
+        Self {
+            shape: ApertureShape::Circle,
+            radius_mm: prescription.stop_semi_aperture_mm(),
+            arc_w: 0.0,
+        }
     }
 
     /// An iris of `blades` straight blades inscribed in `radius_mm`: a
@@ -75,10 +87,22 @@ impl Aperture {
     /// are arcs of roundness `roundness` (in [0, 1]; see
     /// [`ApertureShape::Blades`]), inscribed in `radius_mm` (finite, >= 0),
     /// one vertex at `rotation_rad` (finite) from +x.
-    pub fn blades(blades: u32, rotation_rad: f64, roundness: f64, radius_mm: f64) -> Result<Self, InvalidInput> {
+    pub fn blades(
+        blades: u32,
+        rotation_rad: f64,
+        roundness: f64,
+        radius_mm: f64,
+    ) -> Result<Self, InvalidInput> {
         if !(3..=MAX_APERTURE_BLADES).contains(&blades) {
-            let expected = Expected::Range { min: 3.0, max: MAX_APERTURE_BLADES as f64 };
-            return Err(InvalidInput::new("aperture blades", blades as f64, expected));
+            let expected = Expected::Range {
+                min: 3.0,
+                max: MAX_APERTURE_BLADES as f64,
+            };
+            return Err(InvalidInput::new(
+                "aperture blades",
+                blades as f64,
+                expected,
+            ));
         }
         let rotation_rad = input::finite("aperture rotation (rad)", rotation_rad)?;
         let roundness = input::in_range("aperture blade roundness", roundness, 0.0, 1.0)?;
@@ -90,7 +114,15 @@ impl Aperture {
         } else {
             0.0
         };
-        Ok(Self { shape: ApertureShape::Blades { blades, rotation_rad, roundness }, radius_mm, arc_w })
+        Ok(Self {
+            shape: ApertureShape::Blades {
+                blades,
+                rotation_rad,
+                roundness,
+            },
+            radius_mm,
+            arc_w,
+        })
     }
 
     /// Outline.
@@ -122,10 +154,17 @@ impl Aperture {
         }
         match self.shape {
             ApertureShape::Circle => p.length_squared() <= r * r,
-            ApertureShape::Blades { blades, rotation_rad, .. } => {
+            ApertureShape::Blades {
+                blades,
+                rotation_rad,
+                ..
+            } => {
                 let half = std::f64::consts::PI / blades as f64;
                 let (inradius, w) = (r * half.cos(), self.arc_w);
-                let (quadratic, bound) = (0.5 * w * p.length_squared(), inradius - 0.5 * w * r * r * (2.0 * half).cos());
+                let (quadratic, bound) = (
+                    0.5 * w * p.length_squared(),
+                    inradius - 0.5 * w * r * r * (2.0 * half).cos(),
+                );
                 let linear = 1.0 - w * inradius;
                 (0..blades).all(|k| {
                     let a = rotation_rad + (2 * k + 1) as f64 * half;
@@ -140,7 +179,10 @@ impl Aperture {
 /// (0, 1] — stopping the iris down. Done on the prescription (not only on the
 /// aperture test) so that `r_rel` clips every crossing of the stop, including
 /// the second and third crossings of a ghost that passes the stop three times.
-pub fn stopped_down(prescription: &LensPrescription, opening: f64) -> Result<LensPrescription, FlareError> {
+pub fn stopped_down(
+    prescription: &LensPrescription,
+    opening: f64,
+) -> Result<LensPrescription, FlareError> {
     input::positive("stop opening", opening)?;
     input::in_range("stop opening", opening, 0.0, 1.0)?;
     let stop = prescription.stop_index();
@@ -154,7 +196,10 @@ pub fn stopped_down(prescription: &LensPrescription, opening: f64) -> Result<Len
 /// `f_open / f_number`. A lens opens no further than its table's stop: an
 /// `f_number` below the paraxial f-number of the table (`f_open`, f/2.73 for
 /// the shipped Tessar) is an [`InvalidInput`].
-pub fn stopped_to_f_number(prescription: &LensPrescription, f_number: f64) -> Result<LensPrescription, FlareError> {
+pub fn stopped_to_f_number(
+    prescription: &LensPrescription,
+    f_number: f64,
+) -> Result<LensPrescription, FlareError> {
     let open = prescription.paraxial(LAMBDA_D_NM)?.f_number;
     let f_number = input::in_range("f-number", f_number, open, f64::INFINITY)?;
     stopped_down(prescription, open / f_number)
@@ -174,7 +219,10 @@ mod tests {
         let h = Aperture::polygon(6, 0.0, 2.0).unwrap();
         assert!(h.contains(DVec2::new(1.99, 0.0)), "near a vertex");
         assert!(h.contains(DVec2::new(0.0, 1.73)));
-        assert!(!h.contains(DVec2::new(0.0, 1.74)), "beyond the flat edge at y = 1.732");
+        assert!(
+            !h.contains(DVec2::new(0.0, 1.74)),
+            "beyond the flat edge at y = 1.732"
+        );
     }
 
     #[test]
@@ -194,7 +242,10 @@ mod tests {
         assert!((apex - 1.7947).abs() < 1e-4, "{apex}");
         for (roundness, edge) in [(0.0, 2.0 * half.cos()), (0.5, apex), (1.0, 2.0)] {
             let a = Aperture::blades(5, rot, roundness, r).unwrap();
-            assert!(a.contains(n(edge - 1e-9)) && !a.contains(n(edge + 1e-9)), "roundness {roundness}: edge at {edge}");
+            assert!(
+                a.contains(n(edge - 1e-9)) && !a.contains(n(edge + 1e-9)),
+                "roundness {roundness}: edge at {edge}"
+            );
         }
         // Every roundness keeps the vertices on the boundary, and nests:
         // polygon ⊂ rounded ⊂ circle, on a grid of points.
@@ -203,7 +254,12 @@ mod tests {
         for k in 0..5 {
             let a = rot + k as f64 * 2.0 * std::f64::consts::PI / 5.0;
             let v = DVec2::new(a.cos(), a.sin()) * r;
-            assert!(shapes.iter().all(|s| s.contains(v * (1.0 - 1e-9)) && !s.contains(v * (1.0 + 1e-9))), "vertex {k}");
+            assert!(
+                shapes
+                    .iter()
+                    .all(|s| s.contains(v * (1.0 - 1e-9)) && !s.contains(v * (1.0 + 1e-9))),
+                "vertex {k}"
+            );
         }
         for i in -25..=25 {
             for j in -25..=25 {
@@ -211,7 +267,11 @@ mod tests {
                 let inside = shapes.map(|s| s.contains(p));
                 assert!(!inside[0] || inside[1], "{p}");
                 assert!(!inside[1] || inside[2], "{p}");
-                assert_eq!(inside[2], circle.contains(p), "roundness 1 is the circle at {p}");
+                assert_eq!(
+                    inside[2],
+                    circle.contains(p),
+                    "roundness 1 is the circle at {p}"
+                );
             }
         }
     }
@@ -220,20 +280,50 @@ mod tests {
     fn closed_aperture_and_bad_points_pass_nothing() {
         assert!(!Aperture::circle(0.0).unwrap().contains(DVec2::ZERO));
         assert!(!Aperture::closed().contains(DVec2::ZERO));
-        assert!(!Aperture::polygon(6, 0.0, 0.0).unwrap().contains(DVec2::ZERO));
-        assert!(!Aperture::circle(1.0).unwrap().contains(DVec2::new(f64::NAN, 0.0)));
-        assert!(!Aperture::blades(7, 0.0, 0.4, 1.0).unwrap().contains(DVec2::new(0.0, f64::INFINITY)));
+        assert!(
+            !Aperture::polygon(6, 0.0, 0.0)
+                .unwrap()
+                .contains(DVec2::ZERO)
+        );
+        assert!(
+            !Aperture::circle(1.0)
+                .unwrap()
+                .contains(DVec2::new(f64::NAN, 0.0))
+        );
+        assert!(
+            !Aperture::blades(7, 0.0, 0.4, 1.0)
+                .unwrap()
+                .contains(DVec2::new(0.0, f64::INFINITY))
+        );
     }
 
     #[test]
     fn bad_apertures_are_refused_naming_the_number() {
         let what = |e: InvalidInput| e.what;
-        assert_eq!(Aperture::circle(f64::NAN).map_err(what), Err("aperture radius (mm)"));
-        assert_eq!(Aperture::circle(-1.0).map_err(what), Err("aperture radius (mm)"));
-        assert_eq!(Aperture::polygon(2, 0.0, 1.0).map_err(what), Err("aperture blades"));
-        assert_eq!(Aperture::polygon(MAX_APERTURE_BLADES + 1, 0.0, 1.0).map_err(what), Err("aperture blades"));
-        assert_eq!(Aperture::polygon(6, f64::INFINITY, 1.0).map_err(what), Err("aperture rotation (rad)"));
-        assert_eq!(Aperture::blades(6, 0.0, 1.5, 1.0).map_err(what), Err("aperture blade roundness"));
+        assert_eq!(
+            Aperture::circle(f64::NAN).map_err(what),
+            Err("aperture radius (mm)")
+        );
+        assert_eq!(
+            Aperture::circle(-1.0).map_err(what),
+            Err("aperture radius (mm)")
+        );
+        assert_eq!(
+            Aperture::polygon(2, 0.0, 1.0).map_err(what),
+            Err("aperture blades")
+        );
+        assert_eq!(
+            Aperture::polygon(MAX_APERTURE_BLADES + 1, 0.0, 1.0).map_err(what),
+            Err("aperture blades")
+        );
+        assert_eq!(
+            Aperture::polygon(6, f64::INFINITY, 1.0).map_err(what),
+            Err("aperture rotation (rad)")
+        );
+        assert_eq!(
+            Aperture::blades(6, 0.0, 1.5, 1.0).map_err(what),
+            Err("aperture blade roundness")
+        );
     }
 
     #[test]
@@ -244,7 +334,10 @@ mod tests {
         assert_eq!(q.surfaces()[0].semi_aperture_mm, 19.2);
         for bad in [0.0, -0.5, 1.5, f64::NAN] {
             let e = stopped_down(&p, bad).unwrap_err();
-            assert!(matches!(e, FlareError::Input(i) if i.what == "stop opening"), "{bad}: {e}");
+            assert!(
+                matches!(e, FlareError::Input(i) if i.what == "stop opening"),
+                "{bad}: {e}"
+            );
         }
     }
 
@@ -258,6 +351,9 @@ mod tests {
             assert!((q.paraxial(LAMBDA_D_NM).unwrap().f_number / f - 1.0).abs() < 1e-12);
         }
         let e = stopped_to_f_number(&p, 2.0).unwrap_err();
-        assert!(matches!(e, FlareError::Input(i) if i.what == "f-number" && i.value == 2.0), "{e}");
+        assert!(
+            matches!(e, FlareError::Input(i) if i.what == "f-number" && i.value == 2.0),
+            "{e}"
+        );
     }
 }

@@ -23,9 +23,15 @@ const AIR_INDEX_TOLERANCE: f64 = 1e-9;
 ///
 /// A coating with an index outside [`crate::lens::INDEX_RANGE`] or a
 /// negative thickness is refused ([`PrescriptionError::Surface`]).
-pub fn coat_air_interfaces(prescription: &LensPrescription, coating: Coating) -> Result<LensPrescription, PrescriptionError> {
+pub fn coat_air_interfaces(
+    prescription: &LensPrescription,
+    coating: Coating,
+) -> Result<LensPrescription, PrescriptionError> {
     // try_index: a glass without an index is not air (`index` would say 1).
-    let is_air = |g: &Glass| g.try_index(LAMBDA_D_NM).is_ok_and(|n| (n - 1.0).abs() < AIR_INDEX_TOLERANCE);
+    let is_air = |g: &Glass| {
+        g.try_index(LAMBDA_D_NM)
+            .is_ok_and(|n| (n - 1.0).abs() < AIR_INDEX_TOLERANCE)
+    };
     let stop = prescription.stop_index();
     let touches_air: Vec<bool> = (0..prescription.surfaces().len())
         .map(|k| {
@@ -51,10 +57,20 @@ mod tests {
     fn cemented_surfaces_stay_bare() {
         // US 2,854,889: surface 1 is cemented (n 1.691 | 1.5486), 3 is the
         // stop; 0, 2, 4, 5, 6, 7 touch air.
-        let p = coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap();
-        let coated: Vec<usize> = (0..8).filter(|&k| p.surfaces()[k].coating.is_some()).collect();
+        let p = coat_air_interfaces(
+            &builtin::tessar(),
+            Coating::quarter_wave(1.38, 550.0).unwrap(),
+        )
+        .unwrap();
+        let coated: Vec<usize> = (0..8)
+            .filter(|&k| p.surfaces()[k].coating.is_some())
+            .collect();
         assert_eq!(coated, vec![0, 2, 4, 5, 6, 7]);
-        let e = coat_air_interfaces(&builtin::tessar(), Coating::new(0.5, 100.0).unwrap()).unwrap_err();
-        assert!(matches!(e, PrescriptionError::Surface { surface: 0, ref input } if input.what == "coating index"), "{e}");
+        let e =
+            coat_air_interfaces(&builtin::tessar(), Coating::new(0.5, 100.0).unwrap()).unwrap_err();
+        assert!(
+            matches!(e, PrescriptionError::Surface { surface: 0, ref input } if input.what == "coating index"),
+            "{e}"
+        );
     }
 }

@@ -18,7 +18,9 @@ pub enum FlareError {
     /// The light travels away from the lens or parallel to it (its unit
     /// direction has `d_z <=` [`super::MIN_LIGHT_Z`]): a source behind the
     /// camera or beside it makes no flare.
-    #[error("the light does not travel into the lens (unit direction z = {dir_z}): it makes no flare")]
+    #[error(
+        "the light does not travel into the lens (unit direction z = {dir_z}): it makes no flare"
+    )]
     LightBehindLens {
         /// z component of the unit light direction.
         dir_z: f64,

@@ -110,9 +110,17 @@ pub fn estimate_ghost(
     options: &EstimateOptions,
 ) -> Result<GhostEstimate, FlareError> {
     // k + 1 rays per side, at most MAX_GRID.
-    let k = count_in("estimate cells per side", options.cells_per_side, 1, MAX_GRID - 1)?;
+    let k = count_in(
+        "estimate cells per side",
+        options.cells_per_side,
+        1,
+        MAX_GRID - 1,
+    )?;
     let floor = input::positive("minimum ghost image area (mm²)", options.min_spread_mm2)?;
-    let grid_options = GridOptions { sensor_z: options.sensor_z, max_gain: options.max_gain };
+    let grid_options = GridOptions {
+        sensor_z: options.sensor_z,
+        max_gain: options.max_gain,
+    };
     let grid = trace_grid(lens, path, beam, k + 1, &grid_options)?;
     let passes = |r: &GridRay| r.passes(aperture);
     let (mut w, mut m, mut passed) = (0.0, DVec2::ZERO, 0usize);
@@ -122,7 +130,10 @@ pub fn estimate_ghost(
         passed += 1;
     }
     let (mut power, mut area) = (0.0, 0.0);
-    for (cell, corners) in grid.cells_with_corners().filter(|(c, _)| c.kind != CellKind::Dead) {
+    for (cell, corners) in grid
+        .cells_with_corners()
+        .filter(|(c, _)| c.kind != CellKind::Dead)
+    {
         let f = corners.iter().filter(|r| passes(r)).count() as f64 / 4.0;
         // The cell's bounded power I_c · A_s (= A_p · T̄ unless clamped).
         power += f * cell.power();
@@ -131,7 +142,14 @@ pub fn estimate_ghost(
     let spread = area.max(floor);
     let centroid = if w > 0.0 { m / w } else { DVec2::ZERO };
     let intensity = if power > 0.0 { power / spread } else { 0.0 };
-    Ok(GhostEstimate { path, power, spread_mm2: spread, intensity, centroid, passed })
+    Ok(GhostEstimate {
+        path,
+        power,
+        spread_mm2: spread,
+        intensity,
+        centroid,
+        passed,
+    })
 }
 
 /// Estimates every ghost of `prescription` for light along `light` at
@@ -155,7 +173,11 @@ pub fn estimate_ghosts(
             estimate_ghost(&lens, path, &beam, aperture, options)
         })
         .collect::<Result<Vec<_>, _>>()?;
-    out.sort_by(|a, b| b.intensity.total_cmp(&a.intensity).then_with(|| key(a.path).cmp(&key(b.path))));
+    out.sort_by(|a, b| {
+        b.intensity
+            .total_cmp(&a.intensity)
+            .then_with(|| key(a.path).cmp(&key(b.path)))
+    });
     Ok(out)
 }
 
@@ -171,10 +193,17 @@ fn key(p: TracePath) -> (usize, usize) {
 /// brightest); ghosts with no light are always dropped. Keeps the input
 /// order, so for a ghost budget of `b` ghosts, truncate the result of
 /// sorted estimates ([`estimate_ghosts`]) to `b`.
-pub fn cull(estimates: &[GhostEstimate], relative_threshold: f64) -> Result<Vec<GhostEstimate>, FlareError> {
+pub fn cull(
+    estimates: &[GhostEstimate],
+    relative_threshold: f64,
+) -> Result<Vec<GhostEstimate>, FlareError> {
     input::in_range("relative cull threshold", relative_threshold, 0.0, 1.0)?;
     let max = estimates.iter().map(|e| e.intensity).fold(0.0, f64::max);
-    Ok(estimates.iter().filter(|e| e.intensity > 0.0 && e.intensity >= relative_threshold * max).copied().collect())
+    Ok(estimates
+        .iter()
+        .filter(|e| e.intensity > 0.0 && e.intensity >= relative_threshold * max)
+        .copied()
+        .collect())
 }
 
 #[cfg(test)]
@@ -190,11 +219,27 @@ mod tests {
     fn ghost_counts_tessar_21_double_gauss_91() {
         // C(n, 2): Tessar (US 2,854,889, 7 interfaces) 21 ghosts, double Gauss (US 2,701,982, 14) 91.
         for (p, n) in [(builtin::tessar(), 21), (builtin::double_gauss(), 91)] {
-            let o = EstimateOptions { cells_per_side: 4, ..Default::default() };
-            let e = estimate_ghosts(&p, light_from_field(5.0, 0.0), 550.0, &Aperture::of_stop(&p), &o).unwrap();
+            let o = EstimateOptions {
+                cells_per_side: 4,
+                ..Default::default()
+            };
+            let e = estimate_ghosts(
+                &p,
+                light_from_field(5.0, 0.0),
+                550.0,
+                &Aperture::of_stop(&p),
+                &o,
+            )
+            .unwrap();
             assert_eq!(e.len(), n);
-            assert!(e.windows(2).all(|w| w[0].intensity >= w[1].intensity), "sorted brightest first");
-            assert!(e.iter().all(|g| g.intensity.is_finite() && g.power.is_finite() && g.power >= 0.0));
+            assert!(
+                e.windows(2).all(|w| w[0].intensity >= w[1].intensity),
+                "sorted brightest first"
+            );
+            assert!(
+                e.iter()
+                    .all(|g| g.intensity.is_finite() && g.power.is_finite() && g.power >= 0.0)
+            );
         }
     }
 
@@ -202,25 +247,46 @@ mod tests {
     fn coating_dims_every_ghost_and_cull_keeps_the_brightest() {
         let p = builtin::tessar();
         let ap = Aperture::of_stop(&p);
-        let o = EstimateOptions { cells_per_side: 8, ..Default::default() };
+        let o = EstimateOptions {
+            cells_per_side: 8,
+            ..Default::default()
+        };
         let d = light_from_field(5.0, 0.0);
         let bare = estimate_ghosts(&p, d, 550.0, &ap, &o).unwrap();
-        let coated =
-            estimate_ghosts(&coat_air_interfaces(&p, Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap(), d, 550.0, &ap, &o).unwrap();
+        let coated = estimate_ghosts(
+            &coat_air_interfaces(&p, Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap(),
+            d,
+            550.0,
+            &ap,
+            &o,
+        )
+        .unwrap();
         // A quarter-wave MgF2 layer cuts each glass-air reflectance (~4–6 %
         // → ~1 %), so every ghost's power (two reflections, at least one on
         // a coated surface) drops by far more than 2×.
         for b in &bare {
             let c = coated.iter().find(|c| c.path == b.path).unwrap();
-            assert!(c.power < 0.5 * b.power || b.power == 0.0, "{:?}: {} vs {}", b.path, c.power, b.power);
+            assert!(
+                c.power < 0.5 * b.power || b.power == 0.0,
+                "{:?}: {} vs {}",
+                b.path,
+                c.power,
+                b.power
+            );
         }
         let kept = cull(&bare, 0.1).unwrap();
         assert!(!kept.is_empty() && kept.len() < bare.len());
         assert_eq!(kept[0], bare[0]);
-        assert_eq!(cull(&bare, 0.0).unwrap().len(), bare.iter().filter(|e| e.intensity > 0.0).count());
+        assert_eq!(
+            cull(&bare, 0.0).unwrap().len(),
+            bare.iter().filter(|e| e.intensity > 0.0).count()
+        );
         for bad in [1.5, -0.1, f64::NAN] {
             let e = cull(&bare, bad).unwrap_err();
-            assert!(matches!(e, FlareError::Input(i) if i.what == "relative cull threshold"), "{bad}: {e}");
+            assert!(
+                matches!(e, FlareError::Input(i) if i.what == "relative cull threshold"),
+                "{bad}: {e}"
+            );
         }
     }
 
@@ -230,15 +296,25 @@ mod tests {
         // against the power of a 300²-ray brute-force reference: within 10 %.
         use crate::lens::PreparedLens;
         use crate::lens_flare::{GridOptions, SensorWindow, reference_image};
-        let p = coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap();
+        let p = coat_air_interfaces(
+            &builtin::tessar(),
+            Coating::quarter_wave(1.38, 550.0).unwrap(),
+        )
+        .unwrap();
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let path = TracePath::ghost(4, 2);
         let beam = Beam::for_path(&p, path, DVec3::Z, 550.0).unwrap();
         let ap = Aperture::of_stop(&p);
         let e = estimate_ghost(&lens, path, &beam, &ap, &EstimateOptions::default()).unwrap();
         let w = SensorWindow::new(DVec2::splat(-1.0), 1.0, 2, 2).unwrap();
-        let r = reference_image(&lens, path, &beam, &ap, w, 300, 3, &GridOptions::default()).unwrap();
-        assert!((e.power / r.power - 1.0).abs() < 0.1, "{} vs {}", e.power, r.power);
+        let r =
+            reference_image(&lens, path, &beam, &ap, w, 300, 3, &GridOptions::default()).unwrap();
+        assert!(
+            (e.power / r.power - 1.0).abs() < 0.1,
+            "{} vs {}",
+            e.power,
+            r.power
+        );
         // On axis the ghost is centred on the axis.
         assert!(e.centroid.length() < 1e-6, "{:?}", e.centroid);
     }
@@ -251,21 +327,51 @@ mod tests {
         let beam = Beam::for_path(&p, path, DVec3::Z, 550.0).unwrap();
         let ap = Aperture::of_stop(&p);
         for k in [usize::MAX, usize::MAX - 1, MAX_GRID, 0] {
-            let o = EstimateOptions { cells_per_side: k, ..Default::default() };
+            let o = EstimateOptions {
+                cells_per_side: k,
+                ..Default::default()
+            };
             let e = estimate_ghost(&lens, path, &beam, &ap, &o).unwrap_err();
-            assert!(matches!(e, FlareError::Input(i) if i.what == "estimate cells per side" && i.value == k as f64), "k = {k}: {e}");
+            assert!(
+                matches!(e, FlareError::Input(i) if i.what == "estimate cells per side" && i.value == k as f64),
+                "k = {k}: {e}"
+            );
         }
-        assert!(estimate_ghost(&lens, path, &beam, &ap, &EstimateOptions { cells_per_side: MAX_GRID - 1, ..Default::default() }).is_ok());
+        assert!(
+            estimate_ghost(
+                &lens,
+                path,
+                &beam,
+                &ap,
+                &EstimateOptions {
+                    cells_per_side: MAX_GRID - 1,
+                    ..Default::default()
+                }
+            )
+            .is_ok()
+        );
         for g in [f64::NAN, 0.5] {
-            let o = EstimateOptions { max_gain: g, ..Default::default() };
+            let o = EstimateOptions {
+                max_gain: g,
+                ..Default::default()
+            };
             let e = estimate_ghost(&lens, path, &beam, &ap, &o).unwrap_err();
-            assert!(matches!(e, FlareError::Input(i) if i.what == "max gain"), "{g}: {e}");
+            assert!(
+                matches!(e, FlareError::Input(i) if i.what == "max gain"),
+                "{g}: {e}"
+            );
         }
         // A bad area floor is refused, not replaced by the default.
         for s in [0.0, f64::NAN] {
-            let o = EstimateOptions { min_spread_mm2: s, ..Default::default() };
+            let o = EstimateOptions {
+                min_spread_mm2: s,
+                ..Default::default()
+            };
             let e = estimate_ghost(&lens, path, &beam, &ap, &o).unwrap_err();
-            assert!(matches!(e, FlareError::Input(i) if i.what == "minimum ghost image area (mm²)"), "{s}: {e}");
+            assert!(
+                matches!(e, FlareError::Input(i) if i.what == "minimum ghost image area (mm²)"),
+                "{s}: {e}"
+            );
         }
     }
 
@@ -285,27 +391,63 @@ mod tests {
             let path = TracePath::ghost(i, j);
             let beam = Beam::for_path(&p, path, DVec3::Z, 550.0).unwrap();
             let grid = trace_grid(&lens, path, &beam, k + 1, &GridOptions::default()).unwrap();
-            let t_max = grid.rays().iter().filter(|r| r.alive).map(|r| r.throughput).fold(0.0, f64::max);
-            let free = estimate_ghost(&lens, path, &beam, &ap, &EstimateOptions::default()).unwrap();
-            let one = EstimateOptions { max_gain: 1.0, ..Default::default() };
+            let t_max = grid
+                .rays()
+                .iter()
+                .filter(|r| r.alive)
+                .map(|r| r.throughput)
+                .fold(0.0, f64::max);
+            let free =
+                estimate_ghost(&lens, path, &beam, &ap, &EstimateOptions::default()).unwrap();
+            let one = EstimateOptions {
+                max_gain: 1.0,
+                ..Default::default()
+            };
             let bound = estimate_ghost(&lens, path, &beam, &ap, &one).unwrap();
-            assert!(bound.intensity <= t_max * (1.0 + 1e-12), "({i},{j}): {} > {t_max}", bound.intensity);
+            assert!(
+                bound.intensity <= t_max * (1.0 + 1e-12),
+                "({i},{j}): {} > {t_max}",
+                bound.intensity
+            );
             assert!(bound.power <= free.power * (1.0 + 1e-12));
             focusing += (free.intensity > 10.0 * t_max) as usize;
             lit += (free.power > 0.0) as usize;
         }
-        assert!(focusing >= 3 && lit >= 40, "{focusing} focusing of {lit} lit ghosts");
+        assert!(
+            focusing >= 3 && lit >= 40,
+            "{focusing} focusing of {lit} lit ghosts"
+        );
     }
 
     #[test]
     fn closed_aperture_and_bad_light() {
         let p = builtin::tessar();
-        let e = estimate_ghosts(&p, DVec3::Z, 550.0, &Aperture::closed(), &EstimateOptions::default()).unwrap();
+        let e = estimate_ghosts(
+            &p,
+            DVec3::Z,
+            550.0,
+            &Aperture::closed(),
+            &EstimateOptions::default(),
+        )
+        .unwrap();
         assert!(e.len() == 21 && e.iter().all(|g| g.power == 0.0 && g.intensity == 0.0));
-        assert!(cull(&e, 0.0).unwrap().is_empty(), "a closed iris culls every ghost");
+        assert!(
+            cull(&e, 0.0).unwrap().is_empty(),
+            "a closed iris culls every ghost"
+        );
         let o = EstimateOptions::default();
-        let e = estimate_ghosts(&p, DVec3::new(f64::NAN, 0.0, 1.0), 550.0, &Aperture::of_stop(&p), &o).unwrap_err();
-        assert!(matches!(e, FlareError::Input(i) if i.what == "light direction"), "{e}");
+        let e = estimate_ghosts(
+            &p,
+            DVec3::new(f64::NAN, 0.0, 1.0),
+            550.0,
+            &Aperture::of_stop(&p),
+            &o,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(e, FlareError::Input(i) if i.what == "light direction"),
+            "{e}"
+        );
         let e = estimate_ghosts(&p, -DVec3::Z, 550.0, &Aperture::of_stop(&p), &o).unwrap_err();
         assert_eq!(e, FlareError::LightBehindLens { dir_z: -1.0 });
     }

@@ -29,7 +29,10 @@ pub struct GridOptions {
 
 impl Default for GridOptions {
     fn default() -> Self {
-        Self { sensor_z: None, max_gain: DEFAULT_MAX_GAIN }
+        Self {
+            sensor_z: None,
+            max_gain: DEFAULT_MAX_GAIN,
+        }
     }
 }
 
@@ -70,17 +73,33 @@ impl RayGrid {
     /// A grid of `n` rays per side from its `n²` rays, computing its cells
     /// (for the crate's own tests of the rasteriser and the estimates).
     #[cfg(test)]
-    pub(crate) fn from_rays(n: usize, path: TracePath, cell_pupil_mm2: f64, rays: Vec<GridRay>) -> Self {
+    pub(crate) fn from_rays(
+        n: usize,
+        path: TracePath,
+        cell_pupil_mm2: f64,
+        rays: Vec<GridRay>,
+    ) -> Self {
         assert_eq!(rays.len(), n * n);
         let m = n - 1;
         let cells = (0..m * m)
             .map(|k| {
                 let (i, j) = (k % m, k / m);
                 let at = |a: usize, b: usize| &rays[b * n + a];
-                cell_intensity([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)], cell_pupil_mm2, DEFAULT_MAX_GAIN)
+                cell_intensity(
+                    [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)],
+                    cell_pupil_mm2,
+                    DEFAULT_MAX_GAIN,
+                )
             })
             .collect();
-        Self { n, path, wavelength_nm: 550.0, cell_pupil_mm2, rays, cells }
+        Self {
+            n,
+            path,
+            wavelength_nm: 550.0,
+            cell_pupil_mm2,
+            rays,
+            cells,
+        }
     }
 
     /// Rays per side.
@@ -134,7 +153,10 @@ impl RayGrid {
     /// Every cell with its corners `[00, 10, 11, 01]`, row-major.
     pub fn cells_with_corners(&self) -> impl Iterator<Item = (&GridCell, [&GridRay; 4])> {
         let m = self.n - 1;
-        self.cells.iter().enumerate().map(move |(k, c)| (c, self.corners(k % m, k / m)))
+        self.cells
+            .iter()
+            .enumerate()
+            .map(move |(k, c)| (c, self.corners(k % m, k / m)))
     }
 
     /// Corners of cell `(i, j)`, which must be in the grid.
@@ -145,7 +167,10 @@ impl RayGrid {
 
     /// Counts and power sums.
     pub fn stats(&self) -> GridStats {
-        let mut s = GridStats { alive_rays: self.rays.iter().filter(|r| r.alive).count(), ..Default::default() };
+        let mut s = GridStats {
+            alive_rays: self.rays.iter().filter(|r| r.alive).count(),
+            ..Default::default()
+        };
         let (mut pos, mut neg) = (0usize, 0usize);
         for c in &self.cells {
             if c.kind == CellKind::Dead {
@@ -179,24 +204,45 @@ impl RayGrid {
 }
 
 /// `n` if it is in `min..=max`, else an [`InvalidInput`] naming `what`.
-pub(crate) fn count_in(what: &'static str, n: usize, min: usize, max: usize) -> Result<usize, InvalidInput> {
+pub(crate) fn count_in(
+    what: &'static str,
+    n: usize,
+    min: usize,
+    max: usize,
+) -> Result<usize, InvalidInput> {
     if (min..=max).contains(&n) {
         Ok(n)
     } else {
-        Err(InvalidInput::new(what, n as f64, Expected::Range { min: min as f64, max: max as f64 }))
+        Err(InvalidInput::new(
+            what,
+            n as f64,
+            Expected::Range {
+                min: min as f64,
+                max: max as f64,
+            },
+        ))
     }
 }
 
 /// Traces one ray of a grid; rays that die in the lens become [`GridRay::DEAD`].
-pub(crate) fn trace_one(lens: &PreparedLens, path: TracePath, beam: &Beam, u: f64, v: f64, sensor_z: f64) -> GridRay {
+pub(crate) fn trace_one(
+    lens: &PreparedLens,
+    path: TracePath,
+    beam: &Beam,
+    u: f64,
+    v: f64,
+    sensor_z: f64,
+) -> GridRay {
     match lens.trace_to(beam.grid_ray(u, v), path, sensor_z) {
-        Ok(r) if r.position.is_finite() && r.r_rel.is_finite() && r.throughput.is_finite() => GridRay {
-            alive: true,
-            sensor: r.position.truncate(),
-            r_rel: r.r_rel,
-            stop_xy: r.stop_xy_all,
-            throughput: r.throughput,
-        },
+        Ok(r) if r.position.is_finite() && r.r_rel.is_finite() && r.throughput.is_finite() => {
+            GridRay {
+                alive: true,
+                sensor: r.position.truncate(),
+                r_rel: r.r_rel,
+                stop_xy: r.stop_xy_all,
+                throughput: r.throughput,
+            }
+        }
         _ => GridRay::DEAD,
     }
 }
@@ -204,9 +250,16 @@ pub(crate) fn trace_one(lens: &PreparedLens, path: TracePath, beam: &Beam, u: f6
 /// Checks everything a trace needs that does not depend on the ray, once
 /// per grid: the path, the sensor z (finite) and the gain bound (finite,
 /// >= 1). Returns the sensor z.
-pub(crate) fn check_setup(lens: &PreparedLens, path: TracePath, options: &GridOptions) -> Result<f64, FlareError> {
+pub(crate) fn check_setup(
+    lens: &PreparedLens,
+    path: TracePath,
+    options: &GridOptions,
+) -> Result<f64, FlareError> {
     lens.check_path(path)?;
-    let sensor_z = input::finite("sensor z (mm)", options.sensor_z.unwrap_or(lens.table_sensor_z()))?;
+    let sensor_z = input::finite(
+        "sensor z (mm)",
+        options.sensor_z.unwrap_or(lens.table_sensor_z()),
+    )?;
     input::in_range("max gain", options.max_gain, 1.0, f64::INFINITY)?;
     Ok(sensor_z)
 }
@@ -235,7 +288,16 @@ pub fn trace_grid(
     let step = 1.0 / (n - 1) as f64;
     let rays: Vec<GridRay> = (0..n * n)
         .into_par_iter()
-        .map(|k| trace_one(lens, path, beam, (k % n) as f64 * step, (k / n) as f64 * step, sensor_z))
+        .map(|k| {
+            trace_one(
+                lens,
+                path,
+                beam,
+                (k % n) as f64 * step,
+                (k / n) as f64 * step,
+                sensor_z,
+            )
+        })
         .collect();
     let m = n - 1;
     let cell_pupil_mm2 = beam.cross_section_mm2() / (m * m) as f64;
@@ -244,10 +306,21 @@ pub fn trace_grid(
         .into_par_iter()
         .map(|k| {
             let (i, j) = (k % m, k / m);
-            cell_intensity([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)], cell_pupil_mm2, options.max_gain)
+            cell_intensity(
+                [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)],
+                cell_pupil_mm2,
+                options.max_gain,
+            )
         })
         .collect();
-    Ok(RayGrid { n, path, wavelength_nm: lens.wavelength_nm(), cell_pupil_mm2, rays, cells })
+    Ok(RayGrid {
+        n,
+        path,
+        wavelength_nm: lens.wavelength_nm(),
+        cell_pupil_mm2,
+        rays,
+        cells,
+    })
 }
 
 /// [`trace_grid`] at each of `wavelengths_nm` (dispersion: the glass indices
@@ -274,8 +347,8 @@ mod tests {
     use super::*;
     use crate::fresnel::Coating;
     use crate::glass::{Glass, LAMBDA_D_NM};
-    use crate::lens::{LensSurface, builtin, ghosts};
     use crate::lens::TraceError;
+    use crate::lens::{LensSurface, builtin, ghosts};
     use crate::lens_flare::pupil::{MIN_LIGHT_Z, PupilBounds, light_from_field};
     use glam::DVec3;
     use proptest::prelude::*;
@@ -303,7 +376,14 @@ mod tests {
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let bounds = PupilBounds::new(-1.0, DVec2::ZERO, 10.0).unwrap();
         let beam = Beam::new(&p, DVec3::Z, bounds).unwrap();
-        let g = trace_grid(&lens, TracePath::ghost(2, 1), &beam, 9, &GridOptions::default()).unwrap();
+        let g = trace_grid(
+            &lens,
+            TracePath::ghost(2, 1),
+            &beam,
+            9,
+            &GridOptions::default(),
+        )
+        .unwrap();
         let t = 0.96f64.powi(2) * 0.04f64.powi(2);
         for c in g.cells() {
             assert_eq!(c.kind, CellKind::Regular);
@@ -313,7 +393,14 @@ mod tests {
         // area A (a slab translates), so I = T(θ) cos θ.
         let d = light_from_field(30.0, 0.0);
         let beam = Beam::new(&p, d, bounds).unwrap();
-        let g = trace_grid(&lens, TracePath::ghost(2, 1), &beam, 5, &GridOptions::default()).unwrap();
+        let g = trace_grid(
+            &lens,
+            TracePath::ghost(2, 1),
+            &beam,
+            5,
+            &GridOptions::default(),
+        )
+        .unwrap();
         for c in g.cells() {
             assert!((c.intensity - c.mean_throughput * d.z).abs() < 1e-12);
         }
@@ -325,7 +412,11 @@ mod tests {
         // clamps, Σ I·A_s must equal Σ A_p·T̄ (the area factors cancel), and
         // that equals the beam cross-section of the live cells times their
         // mean throughput. Checked to 1e-9 relative.
-        let p = crate::lens_flare::coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap();
+        let p = crate::lens_flare::coat_air_interfaces(
+            &builtin::tessar(),
+            Coating::quarter_wave(1.38, 550.0).unwrap(),
+        )
+        .unwrap();
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let d = light_from_field(10.0, 0.0);
         let mut checked = 0;
@@ -334,13 +425,26 @@ mod tests {
             let beam = Beam::for_path(&p, path, d, 550.0).unwrap();
             let g = trace_grid(&lens, path, &beam, 17, &GridOptions::default()).unwrap();
             let s = g.stats();
-            if s.folded_cells > 0 || s.flipped_cells > 0 || s.clamped_cells > 0 || s.alive_cells == 0 {
+            if s.folded_cells > 0
+                || s.flipped_cells > 0
+                || s.clamped_cells > 0
+                || s.alive_cells == 0
+            {
                 continue;
             }
-            let mean_t = g.cells().iter().filter(|c| c.kind != CellKind::Dead).map(|c| c.mean_throughput).sum::<f64>()
+            let mean_t = g
+                .cells()
+                .iter()
+                .filter(|c| c.kind != CellKind::Dead)
+                .map(|c| c.mean_throughput)
+                .sum::<f64>()
                 / s.alive_cells as f64;
             let want = s.alive_cells as f64 * g.cell_pupil_mm2() * mean_t;
-            assert!((s.power / want - 1.0).abs() < 1e-9, "ghost ({i},{j}): {} vs {want}", s.power);
+            assert!(
+                (s.power / want - 1.0).abs() < 1e-9,
+                "ghost ({i},{j}): {} vs {want}",
+                s.power
+            );
             checked += 1;
         }
         assert!(checked >= 5, "only {checked} ghosts without folds");
@@ -358,7 +462,11 @@ mod tests {
         let opts = GridOptions::default();
         let grids = trace_grid_spectral(&p, path, &beam, 17, &opts, &[450.0, 650.0]).unwrap();
         let (a, b) = (grids[0].centroid().unwrap(), grids[1].centroid().unwrap());
-        assert!((a - b).length() > 1e-3, "dispersive ghost moved only {} mm", (a - b).length());
+        assert!(
+            (a - b).length() > 1e-3,
+            "dispersive ghost moved only {} mm",
+            (a - b).length()
+        );
 
         let flat = p
             .edited(|surfaces| {
@@ -385,21 +493,46 @@ mod tests {
             _ => None,
         };
         for n in [0, 1, MAX_GRID + 1] {
-            assert_eq!(input(trace_grid(&lens, TracePath::Primary, &beam, n, &o)), Some(("grid rays per side", n as f64)));
+            assert_eq!(
+                input(trace_grid(&lens, TracePath::Primary, &beam, n, &o)),
+                Some(("grid rays per side", n as f64))
+            );
         }
         // Surface 3 of the Tessar is the stop: no ghost reflects there.
         assert!(matches!(
             trace_grid(&lens, TracePath::ghost(3, 1), &beam, 4, &o),
-            Err(FlareError::Trace(TraceError::InvalidPath { first: 3, second: 1, .. }))
+            Err(FlareError::Trace(TraceError::InvalidPath {
+                first: 3,
+                second: 1,
+                ..
+            }))
         ));
         for g in [0.5, f64::INFINITY] {
             let bad = GridOptions { max_gain: g, ..o };
-            assert_eq!(input(trace_grid(&lens, TracePath::Primary, &beam, 4, &bad)), Some(("max gain", g)));
+            assert_eq!(
+                input(trace_grid(&lens, TracePath::Primary, &beam, 4, &bad)),
+                Some(("max gain", g))
+            );
         }
-        let bad = GridOptions { sensor_z: Some(f64::NEG_INFINITY), ..o };
-        assert_eq!(input(trace_grid(&lens, TracePath::Primary, &beam, 4, &bad)), Some(("sensor z (mm)", f64::NEG_INFINITY)));
-        let e = Beam::for_path(&p, TracePath::Primary, DVec3::new(f64::NAN, 0.0, 1.0), 550.0).unwrap_err();
-        assert!(matches!(e, FlareError::Input(i) if i.what == "light direction"), "{e}");
+        let bad = GridOptions {
+            sensor_z: Some(f64::NEG_INFINITY),
+            ..o
+        };
+        assert_eq!(
+            input(trace_grid(&lens, TracePath::Primary, &beam, 4, &bad)),
+            Some(("sensor z (mm)", f64::NEG_INFINITY))
+        );
+        let e = Beam::for_path(
+            &p,
+            TracePath::Primary,
+            DVec3::new(f64::NAN, 0.0, 1.0),
+            550.0,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(e, FlareError::Input(i) if i.what == "light direction"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -407,10 +540,23 @@ mod tests {
         let p = builtin::tessar();
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let beam = Beam::for_path(&p, TracePath::ghost(5, 4), DVec3::Z, 550.0).unwrap();
-        let g = trace_grid(&lens, TracePath::ghost(5, 4), &beam, 5, &GridOptions::default()).unwrap();
-        assert_eq!((g.n(), g.rays().len(), g.cells().len(), g.path()), (5, 25, 16, TracePath::ghost(5, 4)));
+        let g = trace_grid(
+            &lens,
+            TracePath::ghost(5, 4),
+            &beam,
+            5,
+            &GridOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(
+            (g.n(), g.rays().len(), g.cells().len(), g.path()),
+            (5, 25, 16, TracePath::ghost(5, 4))
+        );
         assert_eq!(g.ray(4, 4), Some(&g.rays()[24]));
-        assert_eq!((g.ray(5, 0), g.ray(0, 5), g.cell(4, 0), g.cell(0, 4)), (None, None, None, None));
+        assert_eq!(
+            (g.ray(5, 0), g.ray(0, 5), g.cell(4, 0), g.cell(0, 4)),
+            (None, None, None, None)
+        );
         assert!(g.cell_corners(4, 3).is_none() && g.cell_corners(usize::MAX, 0).is_none());
         // Cell (2, 1) is the 7th, row-major; its corners run 00, 10, 11, 01.
         let (cell, corners) = g.cells_with_corners().nth(4 + 2).unwrap(); // row 1 of 4 cells, column 2
@@ -430,7 +576,11 @@ mod tests {
         let beam = Beam::for_path(&p, path, light_from_field(80.0, 0.0), 550.0).unwrap();
         let g = trace_grid(&lens, path, &beam, 9, &GridOptions::default()).unwrap();
         assert!(g.rays().iter().any(|r| !r.alive));
-        assert!(g.cells().iter().all(|c| c.intensity.is_finite() && c.sensor_area_mm2.is_finite()));
+        assert!(
+            g.cells()
+                .iter()
+                .all(|c| c.intensity.is_finite() && c.sensor_area_mm2.is_finite())
+        );
     }
 
     proptest! {

@@ -39,8 +39,13 @@ pub struct GridRay {
 
 impl GridRay {
     /// A ray that died in the lens.
-    pub const DEAD: GridRay =
-        GridRay { alive: false, sensor: DVec2::ZERO, r_rel: 0.0, stop_xy: [DVec2::ZERO; MAX_STOP_CROSSINGS], throughput: 0.0 };
+    pub const DEAD: GridRay = GridRay {
+        alive: false,
+        sensor: DVec2::ZERO,
+        r_rel: 0.0,
+        stop_xy: [DVec2::ZERO; MAX_STOP_CROSSINGS],
+        throughput: 0.0,
+    };
 
     /// `true` when the ray reached the sensor, inside every semi-aperture
     /// (`r_rel <= 1`) and inside `aperture` at every stop crossing.
@@ -149,7 +154,11 @@ pub fn cell_intensity(corners: [&GridRay; 4], pupil_mm2: f64, max_gain: f64) -> 
     if corners.iter().any(|r| !r.alive) || !(pupil_mm2 > 0.0 && pupil_mm2.is_finite()) {
         return GridCell::DEAD;
     }
-    let g = if max_gain.is_finite() && max_gain >= 1.0 { max_gain } else { DEFAULT_MAX_GAIN };
+    let g = if max_gain.is_finite() && max_gain >= 1.0 {
+        max_gain
+    } else {
+        DEFAULT_MAX_GAIN
+    };
     let [a, b, c, d] = corners.map(|r| r.sensor);
     let s1 = triangle_signed_area(a, b, c);
     let s2 = triangle_signed_area(a, c, d);
@@ -168,7 +177,14 @@ pub fn cell_intensity(corners: [&GridRay; 4], pupil_mm2: f64, max_gain: f64) -> 
     let floor = pupil_mm2 / g;
     let clamped = area < floor;
     let intensity = mean_throughput * pupil_mm2 / area.max(floor);
-    GridCell { kind, clamped, intensity, sensor_area_mm2: area, signed_area_mm2: s1 + s2, mean_throughput }
+    GridCell {
+        kind,
+        clamped,
+        intensity,
+        sensor_area_mm2: area,
+        signed_area_mm2: s1 + s2,
+        mean_throughput,
+    }
 }
 
 /// Smooth-shading value at every grid vertex (the blog's *Smooth shading*:
@@ -178,7 +194,11 @@ pub fn cell_intensity(corners: [&GridRay; 4], pupil_mm2: f64, max_gain: f64) -> 
 /// alive cell touches. `cells` is `(n−1)²` row-major for `n` rays per side;
 /// any other length gives all zeros. `max_gain` as in [`cell_intensity`].
 pub fn vertex_intensities(cells: &[GridCell], n: usize, pupil_mm2: f64, max_gain: f64) -> Vec<f64> {
-    let g = if max_gain.is_finite() && max_gain >= 1.0 { max_gain } else { DEFAULT_MAX_GAIN };
+    let g = if max_gain.is_finite() && max_gain >= 1.0 {
+        max_gain
+    } else {
+        DEFAULT_MAX_GAIN
+    };
     let m = n.saturating_sub(1);
     let mut out = vec![0.0; n * n];
     if cells.len() != m * m {
@@ -187,9 +207,12 @@ pub fn vertex_intensities(cells: &[GridCell], n: usize, pupil_mm2: f64, max_gain
     for j in 0..n {
         for i in 0..n {
             let (mut p, mut a, mut k) = (0.0, 0.0, 0usize);
-            for (ci, cj) in
-                [(i.wrapping_sub(1), j.wrapping_sub(1)), (i, j.wrapping_sub(1)), (i.wrapping_sub(1), j), (i, j)]
-            {
+            for (ci, cj) in [
+                (i.wrapping_sub(1), j.wrapping_sub(1)),
+                (i, j.wrapping_sub(1)),
+                (i.wrapping_sub(1), j),
+                (i, j),
+            ] {
                 if ci < m && cj < m {
                     let c = &cells[cj * m + ci];
                     if c.kind != CellKind::Dead {
@@ -212,13 +235,24 @@ mod tests {
     use super::*;
 
     fn ray(x: f64, y: f64, t: f64) -> GridRay {
-        GridRay { alive: true, sensor: DVec2::new(x, y), r_rel: 0.5, stop_xy: [DVec2::ZERO; 3], throughput: t }
+        GridRay {
+            alive: true,
+            sensor: DVec2::new(x, y),
+            r_rel: 0.5,
+            stop_xy: [DVec2::ZERO; 3],
+            throughput: t,
+        }
     }
 
     #[test]
     fn halved_cell_quadruples_intensity() {
         // Unit pupil cell mapped to a 0.5 × 0.5 square: gain 4, T̄ = (1+2+3+2)/4 = 2 → 8.
-        let c = [ray(0.0, 0.0, 1.0), ray(0.5, 0.0, 2.0), ray(0.5, 0.5, 3.0), ray(0.0, 0.5, 2.0)];
+        let c = [
+            ray(0.0, 0.0, 1.0),
+            ray(0.5, 0.0, 2.0),
+            ray(0.5, 0.5, 3.0),
+            ray(0.0, 0.5, 2.0),
+        ];
         let cell = cell_intensity([&c[0], &c[1], &c[2], &c[3]], 1.0, DEFAULT_MAX_GAIN);
         assert_eq!(cell.kind, CellKind::Regular);
         assert!((cell.intensity - 8.0).abs() < 1e-15);
@@ -227,7 +261,12 @@ mod tests {
 
     #[test]
     fn mirrored_cell_is_regular_in_magnitude() {
-        let c = [ray(0.0, 0.0, 1.0), ray(-2.0, 0.0, 1.0), ray(-2.0, 2.0, 1.0), ray(0.0, 2.0, 1.0)];
+        let c = [
+            ray(0.0, 0.0, 1.0),
+            ray(-2.0, 0.0, 1.0),
+            ray(-2.0, 2.0, 1.0),
+            ray(0.0, 2.0, 1.0),
+        ];
         let cell = cell_intensity([&c[0], &c[1], &c[2], &c[3]], 1.0, DEFAULT_MAX_GAIN);
         assert_eq!(cell.kind, CellKind::Mirrored);
         assert!((cell.intensity - 0.25).abs() < 1e-15);
@@ -237,38 +276,63 @@ mod tests {
     #[test]
     fn folded_and_degenerate_cells_are_finite_and_bounded() {
         // Bow-tie: 11 and 01 swapped, the quad crosses itself; shoelace area 0.
-        let c = [ray(0.0, 0.0, 0.5), ray(1.0, 0.0, 0.5), ray(0.0, 1.0, 0.5), ray(1.0, 1.0, 0.5)];
+        let c = [
+            ray(0.0, 0.0, 0.5),
+            ray(1.0, 0.0, 0.5),
+            ray(0.0, 1.0, 0.5),
+            ray(1.0, 1.0, 0.5),
+        ];
         let cell = cell_intensity([&c[0], &c[1], &c[2], &c[3]], 1.0, 100.0);
         assert_eq!(cell.kind, CellKind::Folded);
         assert!(cell.intensity.is_finite() && cell.intensity <= 100.0 * 0.5);
-        assert!((cell.power() - 0.5).abs() < 1e-12, "folded cell keeps its energy");
+        assert!(
+            (cell.power() - 0.5).abs() < 1e-12,
+            "folded cell keeps its energy"
+        );
         // All four rays on one point: area 0 → the bound, G · T̄, and no energy.
         let p = [ray(3.0, 3.0, 0.5); 4];
         let cell = cell_intensity([&p[0], &p[1], &p[2], &p[3]], 1.0, 100.0);
         assert!(cell.clamped && cell.intensity == 50.0 && cell.power() == 0.0);
         // Nearly collinear: tiny area, clamped, power below A_p T̄.
-        let q = [ray(0.0, 0.0, 1.0), ray(1.0, 0.0, 1.0), ray(2.0, 1e-9, 1.0), ray(3.0, 0.0, 1.0)];
+        let q = [
+            ray(0.0, 0.0, 1.0),
+            ray(1.0, 0.0, 1.0),
+            ray(2.0, 1e-9, 1.0),
+            ray(3.0, 0.0, 1.0),
+        ];
         let cell = cell_intensity([&q[0], &q[1], &q[2], &q[3]], 1.0, 100.0);
         assert!(cell.clamped && cell.intensity <= 100.0 && cell.power() <= 1.0);
         // A dead corner or a NaN position kills the cell, never NaN.
         let mut dead = c;
         dead[2] = GridRay::DEAD;
-        assert_eq!(cell_intensity([&dead[0], &dead[1], &dead[2], &dead[3]], 1.0, 100.0), GridCell::DEAD);
+        assert_eq!(
+            cell_intensity([&dead[0], &dead[1], &dead[2], &dead[3]], 1.0, 100.0),
+            GridCell::DEAD
+        );
         let mut nan = c;
         nan[1].sensor.x = f64::NAN;
-        assert_eq!(cell_intensity([&nan[0], &nan[1], &nan[2], &nan[3]], 1.0, 100.0), GridCell::DEAD);
+        assert_eq!(
+            cell_intensity([&nan[0], &nan[1], &nan[2], &nan[3]], 1.0, 100.0),
+            GridCell::DEAD
+        );
     }
 
     #[test]
     fn vertex_intensity_of_a_uniform_grid_is_the_cell_intensity() {
         // 3×3 rays on a uniform 2× magnified lattice: every cell and vertex has 0.25·T.
         let n = 3;
-        let rays: Vec<GridRay> = (0..9).map(|k| ray(2.0 * (k % 3) as f64, 2.0 * (k / 3) as f64, 0.8)).collect();
+        let rays: Vec<GridRay> = (0..9)
+            .map(|k| ray(2.0 * (k % 3) as f64, 2.0 * (k / 3) as f64, 0.8))
+            .collect();
         let cells: Vec<GridCell> = (0..4)
             .map(|c| {
                 let (i, j) = (c % 2, c / 2);
                 let at = |a: usize, b: usize| &rays[b * n + a];
-                cell_intensity([at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)], 1.0, DEFAULT_MAX_GAIN)
+                cell_intensity(
+                    [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)],
+                    1.0,
+                    DEFAULT_MAX_GAIN,
+                )
             })
             .collect();
         for v in vertex_intensities(&cells, n, 1.0, DEFAULT_MAX_GAIN) {

@@ -135,24 +135,35 @@ mod raster;
 #[cfg(feature = "reference")]
 mod reference;
 
-pub use aperture::{Aperture, ApertureShape, MAX_APERTURE_BLADES, stopped_down, stopped_to_f_number};
+pub use aperture::{
+    Aperture, ApertureShape, MAX_APERTURE_BLADES, stopped_down, stopped_to_f_number,
+};
 pub use coating::coat_air_interfaces;
 pub use error::FlareError;
 pub use ghosts::{
-    DEFAULT_ESTIMATE_SIDE, DEFAULT_MIN_SPREAD_MM2, EstimateOptions, GhostEstimate, cull, estimate_ghost, estimate_ghosts,
+    DEFAULT_ESTIMATE_SIDE, DEFAULT_MIN_SPREAD_MM2, EstimateOptions, GhostEstimate, cull,
+    estimate_ghost, estimate_ghosts,
 };
 pub use grid_trace::{GridOptions, GridStats, MAX_GRID, RayGrid, trace_grid, trace_grid_spectral};
-pub use intensity::{CellKind, DEFAULT_MAX_GAIN, GridCell, GridRay, cell_intensity, vertex_intensities};
-pub use pupil::{Beam, ENTRANCE_PUPIL_MARGIN, MIN_LIGHT_Z, PupilBounds, light_direction, light_from_field};
+pub use intensity::{
+    CellKind, DEFAULT_MAX_GAIN, GridCell, GridRay, cell_intensity, vertex_intensities,
+};
+pub use pupil::{
+    Beam, ENTRANCE_PUPIL_MARGIN, MIN_LIGHT_Z, PupilBounds, light_direction, light_from_field,
+};
 #[cfg(feature = "reference")]
 pub use raster::{MAX_PIXELS, SensorImage, SensorWindow, rasterise, rasterise_into};
 #[cfg(feature = "reference")]
-pub use reference::{ImageError, MAX_REFERENCE_SIDE, ReferenceImage, compare, downsample, reference_image};
+pub use reference::{
+    ImageError, MAX_REFERENCE_SIDE, ReferenceImage, compare, downsample, reference_image,
+};
 
 // The types this module's signatures use, so that `lens_flare::*` is enough to call it.
 pub use crate::fresnel::Coating;
 pub use crate::input::InvalidInput;
-pub use crate::lens::{LensPrescription, ParaxialError, PreparedLens, PrescriptionError, TraceError, TracePath};
+pub use crate::lens::{
+    LensPrescription, ParaxialError, PreparedLens, PrescriptionError, TraceError, TracePath,
+};
 pub use crate::ray::Ray;
 
 #[cfg(test)]
@@ -170,21 +181,44 @@ mod tests {
         // root in every one of these cases.)
         let vertex_z = 2.0;
         for (r, origin, dir) in [
-            (40.0, DVec3::new(0.0, 5.0, -10.0), DVec3::new(0.0, 0.05, 1.0)),
-            (-40.0, DVec3::new(0.0, 5.0, -10.0), DVec3::new(0.0, -0.05, 1.0)),
+            (
+                40.0,
+                DVec3::new(0.0, 5.0, -10.0),
+                DVec3::new(0.0, 0.05, 1.0),
+            ),
+            (
+                -40.0,
+                DVec3::new(0.0, 5.0, -10.0),
+                DVec3::new(0.0, -0.05, 1.0),
+            ),
             (40.0, DVec3::new(0.0, 5.0, 4.0), DVec3::new(0.0, 0.05, -1.0)),
-            (-40.0, DVec3::new(0.0, 5.0, 12.0), DVec3::new(0.0, 0.05, -1.0)),
+            (
+                -40.0,
+                DVec3::new(0.0, 5.0, 12.0),
+                DVec3::new(0.0, 0.05, -1.0),
+            ),
         ] {
             let ray = Ray::new(origin, dir).unwrap();
             let d = ray.dir();
             let q = ray.origin() - DVec3::new(0.0, 0.0, vertex_z + r);
             let (b, c) = (q.dot(d), q.length_squared() - r * r);
             let root = |sign: f64| (b * b - c).sqrt() * sign - b;
-            let hit = SphericalSurface::new(vertex_z, 1.0 / r).unwrap().intersect(&ray).unwrap();
+            let hit = SphericalSurface::new(vertex_z, 1.0 / r)
+                .unwrap()
+                .intersect(&ray)
+                .unwrap();
             let ours = root((-r * d.z).signum());
-            assert!((ours - hit.t).abs() < 1e-9, "R = {r}, d_z = {}: {ours} vs {}", d.z, hit.t);
+            assert!(
+                (ours - hit.t).abs() < 1e-9,
+                "R = {r}, d_z = {}: {ours} vs {}",
+                d.z,
+                hit.t
+            );
             let blogs = root((r * d.z).signum());
-            assert!((blogs - hit.t).abs() > 1.0, "R = {r}: the blog's sign in +z travel is the far root");
+            assert!(
+                (blogs - hit.t).abs() > 1.0,
+                "R = {r}: the blog's sign in +z travel is the far root"
+            );
         }
     }
 }

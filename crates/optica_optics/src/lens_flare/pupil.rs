@@ -72,7 +72,10 @@ impl PupilBounds {
     /// the lateral walk `|sag|/2 · tan θ` of oblique rays over that depth.
     /// Use it for ghosts that reflect before reaching the stop, whose light is
     /// not limited by the entrance pupil.
-    pub fn front_aperture(prescription: &LensPrescription, light: DVec3) -> Result<Self, FlareError> {
+    pub fn front_aperture(
+        prescription: &LensPrescription,
+        light: DVec3,
+    ) -> Result<Self, FlareError> {
         let d = light_direction(light)?;
         let s = &prescription.surfaces()[0];
         let h = s.semi_aperture_mm;
@@ -80,7 +83,11 @@ impl PupilBounds {
         // Stable sag c h² / (1 + √(1 − c² h²)); a prescription has |c h| <= 1.
         let sag = c * h * h / (1.0 + (1.0 - (c * h).powi(2)).max(0.0).sqrt());
         let tan = d.truncate().length() / d.z;
-        Ok(Self::new(0.5 * sag, DVec2::ZERO, h + 0.5 * sag.abs() * tan)?)
+        Ok(Self::new(
+            0.5 * sag,
+            DVec2::ZERO,
+            h + 0.5 * sag.abs() * tan,
+        )?)
     }
 
     /// The paraxial entrance pupil at `wavelength_nm` (its plane and radius)
@@ -97,9 +104,16 @@ impl PupilBounds {
     /// noise, summed to 1 %, at 30° (Tessar) and 20° (double Gauss). For
     /// other lenses, stronger pupil aberration or wider fields, compare with
     /// [`PupilBounds::front_aperture`] (always safe, coarser).
-    pub fn entrance_pupil(prescription: &LensPrescription, wavelength_nm: f64) -> Result<Self, FlareError> {
+    pub fn entrance_pupil(
+        prescription: &LensPrescription,
+        wavelength_nm: f64,
+    ) -> Result<Self, FlareError> {
         let q = prescription.paraxial(wavelength_nm)?;
-        Ok(Self::new(q.entrance_pupil_z_mm, DVec2::ZERO, q.entrance_pupil_radius_mm * ENTRANCE_PUPIL_MARGIN)?)
+        Ok(Self::new(
+            q.entrance_pupil_z_mm,
+            DVec2::ZERO,
+            q.entrance_pupil_radius_mm * ENTRANCE_PUPIL_MARGIN,
+        )?)
     }
 
     /// Bounds for `path`: the entrance pupil when the path crosses the stop
@@ -120,7 +134,9 @@ impl PupilBounds {
             match Self::entrance_pupil(prescription, wavelength_nm) {
                 Ok(b) => return Ok(b),
                 // A bad wavelength is the caller's; no pupil is the lens's.
-                Err(FlareError::Paraxial(crate::lens::ParaxialError::Input(e))) => return Err(e.into()),
+                Err(FlareError::Paraxial(crate::lens::ParaxialError::Input(e))) => {
+                    return Err(e.into());
+                }
                 Err(_) => {}
             }
         }
@@ -139,7 +155,11 @@ impl PupilBounds {
 /// ([`FlareError::LightBehindLens`] otherwise).
 pub fn light_direction(light: DVec3) -> Result<DVec3, FlareError> {
     let d = input::direction("light direction", light)?;
-    if d.z > MIN_LIGHT_Z { Ok(d) } else { Err(FlareError::LightBehindLens { dir_z: d.z }) }
+    if d.z > MIN_LIGHT_Z {
+        Ok(d)
+    } else {
+        Err(FlareError::LightBehindLens { dir_z: d.z })
+    }
 }
 
 /// Direction of travel of light arriving `field_deg` off axis, tilted
@@ -172,16 +192,28 @@ impl Beam {
     /// A beam along `light` (normalised; must travel towards +z) over `bounds`.
     /// Rays start in front of the first surface's whole cap so every ray meets
     /// surface 0 from the front.
-    pub fn new(prescription: &LensPrescription, light: DVec3, bounds: PupilBounds) -> Result<Self, FlareError> {
+    pub fn new(
+        prescription: &LensPrescription,
+        light: DVec3,
+        bounds: PupilBounds,
+    ) -> Result<Self, FlareError> {
         let direction = light_direction(light)?;
         let c0 = prescription.surfaces()[0].curvature.abs();
-        let widest = prescription.surfaces().iter().map(|s| s.semi_aperture_mm).fold(0.0, f64::max);
+        let widest = prescription
+            .surfaces()
+            .iter()
+            .map(|s| s.semi_aperture_mm)
+            .fold(0.0, f64::max);
         // |sag(r)| <= r on a cap, so backing off by the largest radius a grid
         // ray can have (capped by |R|) clears the cap.
         let reach = bounds.center.length() + std::f64::consts::SQRT_2 * bounds.half_width + widest;
         let depth = if c0 > 0.0 { reach.min(1.0 / c0) } else { 0.0 };
         let start_z = bounds.plane_z.min(0.0) - depth - BEAM_START_CLEARANCE_MM;
-        Ok(Self { direction, bounds, start_z })
+        Ok(Self {
+            direction,
+            bounds,
+            start_z,
+        })
     }
 
     /// [`Beam::new`] with [`PupilBounds::for_path`].
@@ -243,12 +275,25 @@ mod tests {
 
     #[test]
     fn light_validation() {
-        for bad in [DVec3::new(f64::NAN, 0.0, 1.0), DVec3::ZERO, light_from_field(f64::INFINITY, 0.0)] {
+        for bad in [
+            DVec3::new(f64::NAN, 0.0, 1.0),
+            DVec3::ZERO,
+            light_from_field(f64::INFINITY, 0.0),
+        ] {
             let e = light_direction(bad).unwrap_err();
-            assert!(matches!(e, FlareError::Input(i) if i.what == "light direction"), "{bad}: {e}");
+            assert!(
+                matches!(e, FlareError::Input(i) if i.what == "light direction"),
+                "{bad}: {e}"
+            );
         }
-        assert_eq!(light_direction(DVec3::new(1.0, 0.0, 0.0)), Err(FlareError::LightBehindLens { dir_z: 0.0 }));
-        assert_eq!(light_direction(DVec3::new(0.0, 0.0, -2.0)), Err(FlareError::LightBehindLens { dir_z: -1.0 }));
+        assert_eq!(
+            light_direction(DVec3::new(1.0, 0.0, 0.0)),
+            Err(FlareError::LightBehindLens { dir_z: 0.0 })
+        );
+        assert_eq!(
+            light_direction(DVec3::new(0.0, 0.0, -2.0)),
+            Err(FlareError::LightBehindLens { dir_z: -1.0 })
+        );
         let d = light_direction(DVec3::new(0.0, 3.0, 4.0)).unwrap();
         assert!((d - DVec3::new(0.0, 0.6, 0.8)).length() < 1e-15);
         let f = light_from_field(30.0, 90.0);
@@ -289,14 +334,30 @@ mod tests {
                 let front = Beam::new(&p, d, PupilBounds::front_aperture(&p, d).unwrap()).unwrap();
                 let ep = PupilBounds::entrance_pupil(&p, 550.0).unwrap();
                 for (i, j) in ghosts(&p).into_iter().filter(|&(i, _)| i > stop) {
-                    let g = trace_grid(&lens, TracePath::ghost(i, j), &front, 33, &GridOptions::default()).unwrap();
+                    let g = trace_grid(
+                        &lens,
+                        TracePath::ghost(i, j),
+                        &front,
+                        33,
+                        &GridOptions::default(),
+                    )
+                    .unwrap();
                     for (k, r) in g.rays().iter().enumerate() {
                         if !(r.alive && r.r_rel <= 1.0) {
                             continue;
                         }
-                        let ray = front.ray_at((k % 33) as f64 / 32.0, (k / 33) as f64 / 32.0).unwrap();
-                        let q = ray.at((ep.plane_z - ray.origin().z) / ray.dir().z).truncate() - ep.center;
-                        assert!(q.abs().max_element() <= ep.half_width, "{}: ({i},{j}) at {field}°", p.name());
+                        let ray = front
+                            .ray_at((k % 33) as f64 / 32.0, (k / 33) as f64 / 32.0)
+                            .unwrap();
+                        let q = ray
+                            .at((ep.plane_z - ray.origin().z) / ray.dir().z)
+                            .truncate()
+                            - ep.center;
+                        assert!(
+                            q.abs().max_element() <= ep.half_width,
+                            "{}: ({i},{j}) at {field}°",
+                            p.name()
+                        );
                     }
                 }
             }
@@ -341,7 +402,11 @@ mod tests {
                 sum_ep += b.power;
                 lit += (a.passed > 0) as usize;
             }
-            assert!(lit >= 8 && (sum_ep / sum_front - 1.0).abs() < 0.01, "{}: {sum_ep} vs {sum_front}, {lit} lit", p.name());
+            assert!(
+                lit >= 8 && (sum_ep / sum_front - 1.0).abs() < 0.01,
+                "{}: {sum_ep} vs {sum_front}, {lit} lit",
+                p.name()
+            );
         }
     }
 
@@ -352,23 +417,43 @@ mod tests {
         let q = p.paraxial(550.0).unwrap();
         let behind = PupilBounds::for_path(&p, TracePath::ghost(5, 4), DVec3::Z, 550.0).unwrap();
         assert_eq!(behind.plane_z, q.entrance_pupil_z_mm);
-        assert!((behind.half_width - ENTRANCE_PUPIL_MARGIN * q.entrance_pupil_radius_mm).abs() < 1e-12);
+        assert!(
+            (behind.half_width - ENTRANCE_PUPIL_MARGIN * q.entrance_pupil_radius_mm).abs() < 1e-12
+        );
         let front = PupilBounds::for_path(&p, TracePath::ghost(2, 0), DVec3::Z, 550.0).unwrap();
-        assert_eq!(front.half_width, 19.2, "on axis: the front semi-aperture of US 2,854,889");
+        assert_eq!(
+            front.half_width, 19.2,
+            "on axis: the front semi-aperture of US 2,854,889"
+        );
         // A bad wavelength is refused, not hidden behind the front-aperture fallback.
         let e = PupilBounds::for_path(&p, TracePath::ghost(5, 4), DVec3::Z, f64::NAN).unwrap_err();
-        assert!(matches!(e, FlareError::Input(i) if i.what == "wavelength (nm)"), "{e}");
+        assert!(
+            matches!(e, FlareError::Input(i) if i.what == "wavelength (nm)"),
+            "{e}"
+        );
     }
 
     #[test]
     fn bounds_and_rays_are_checked() {
         let what = |e: InvalidInput| e.what;
-        assert_eq!(PupilBounds::new(f64::NAN, DVec2::ZERO, 1.0).map_err(what), Err("pupil plane z (mm)"));
-        assert_eq!(PupilBounds::new(0.0, DVec2::new(0.0, f64::INFINITY), 1.0).map_err(what), Err("pupil centre (mm)"));
-        assert_eq!(PupilBounds::new(0.0, DVec2::ZERO, 0.0).map_err(what), Err("pupil half-width (mm)"));
+        assert_eq!(
+            PupilBounds::new(f64::NAN, DVec2::ZERO, 1.0).map_err(what),
+            Err("pupil plane z (mm)")
+        );
+        assert_eq!(
+            PupilBounds::new(0.0, DVec2::new(0.0, f64::INFINITY), 1.0).map_err(what),
+            Err("pupil centre (mm)")
+        );
+        assert_eq!(
+            PupilBounds::new(0.0, DVec2::ZERO, 0.0).map_err(what),
+            Err("pupil half-width (mm)")
+        );
         let p = builtin::tessar();
         let b = PupilBounds::new(-1.0, DVec2::new(1.0, 2.0), 3.0).unwrap();
-        assert_eq!((b.plane_z(), b.center(), b.half_width(), b.area_mm2()), (-1.0, DVec2::new(1.0, 2.0), 3.0, 36.0));
+        assert_eq!(
+            (b.plane_z(), b.center(), b.half_width(), b.area_mm2()),
+            (-1.0, DVec2::new(1.0, 2.0), 3.0, 36.0)
+        );
         let beam = Beam::new(&p, DVec3::Z, b).unwrap();
         assert_eq!(beam.ray_at(f64::NAN, 0.5).unwrap_err().what, "ray origin");
         assert_eq!(beam.ray_at(1e308, 0.5).unwrap_err().what, "ray origin");

@@ -5,10 +5,10 @@ use glam::DVec2;
 
 use super::FlareError;
 use super::aperture::Aperture;
-use super::grid_trace::count_in;
-use crate::input;
 use super::grid_trace::RayGrid;
+use super::grid_trace::count_in;
 use super::intensity::{CellKind, GridRay};
+use crate::input;
 use crate::lens::MAX_STOP_CROSSINGS;
 
 /// Most pixels a window may have: 4096², a 4K frame with room, 134 MB of
@@ -37,7 +37,12 @@ impl SensorWindow {
         let pixel_mm = input::positive("pixel size (mm)", pixel_mm)?;
         count_in("window width (pixels)", width, 1, MAX_PIXELS)?;
         count_in("window pixels", width.saturating_mul(height), 1, MAX_PIXELS)?;
-        Ok(Self { min, pixel_mm, width, height })
+        Ok(Self {
+            min,
+            pixel_mm,
+            width,
+            height,
+        })
     }
 
     /// A square window of `pixels × pixels` around the points `pts`
@@ -45,7 +50,11 @@ impl SensorWindow {
     /// the side, >= 0) on each side; the side is at least 1 µm, so a single
     /// point gets a 1 µm window, and no point at all a 1 µm window at the
     /// origin.
-    pub fn around(pts: impl IntoIterator<Item = DVec2>, margin: f64, pixels: usize) -> Result<Self, FlareError> {
+    pub fn around(
+        pts: impl IntoIterator<Item = DVec2>,
+        margin: f64,
+        pixels: usize,
+    ) -> Result<Self, FlareError> {
         let margin = input::non_negative("window margin", margin)?;
         count_in("window pixels per side", pixels, 1, MAX_PIXELS)?;
         let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
@@ -59,7 +68,12 @@ impl SensorWindow {
         }
         let full = (hi - lo).max_element().max(MIN_AROUND_SIDE_MM) * (1.0 + 2.0 * margin);
         let center = 0.5 * (lo + hi);
-        Self::new(center - DVec2::splat(0.5 * full), full / pixels as f64, pixels, pixels)
+        Self::new(
+            center - DVec2::splat(0.5 * full),
+            full / pixels as f64,
+            pixels,
+            pixels,
+        )
     }
 
     /// Lower-left corner (x, y) on the sensor, mm.
@@ -114,7 +128,10 @@ pub struct SensorImage {
 impl SensorImage {
     /// A black image.
     pub fn new(window: SensorWindow) -> Self {
-        Self { power: vec![0.0; window.width * window.height], window }
+        Self {
+            power: vec![0.0; window.width * window.height],
+            window,
+        }
     }
 
     /// An image of `power` per pixel, which must have one value per pixel
@@ -216,7 +233,10 @@ impl Poly {
 
     /// Keeps the part with `s·(p[axis]) <= s·bound` (s = ±1).
     fn clip(&self, axis: usize, bound: f64, s: f64) -> Poly {
-        let mut out = Poly { v: [DVec2::ZERO; 8], n: 0 };
+        let mut out = Poly {
+            v: [DVec2::ZERO; 8],
+            n: 0,
+        };
         let inside = |p: DVec2| s * p[axis] <= s * bound;
         for k in 0..self.n {
             let (p, q) = (self.v[k], self.v[(k + 1) % self.n]);
@@ -248,8 +268,23 @@ fn triangle(image: &mut SensorImage, v: [&GridRay; 3], intensity: f64, aperture:
         return;
     }
     let (x0, y0) = (lo.x.max(0.0) as usize, lo.y.max(0.0) as usize);
-    let (x1, y1) = ((hi.x.min(w.width as f64 - 1.0)) as usize, (hi.y.min(w.height as f64 - 1.0)) as usize);
-    let tri = Poly { v: [p[0], p[1], p[2], DVec2::ZERO, DVec2::ZERO, DVec2::ZERO, DVec2::ZERO, DVec2::ZERO], n: 3 };
+    let (x1, y1) = (
+        (hi.x.min(w.width as f64 - 1.0)) as usize,
+        (hi.y.min(w.height as f64 - 1.0)) as usize,
+    );
+    let tri = Poly {
+        v: [
+            p[0],
+            p[1],
+            p[2],
+            DVec2::ZERO,
+            DVec2::ZERO,
+            DVec2::ZERO,
+            DVec2::ZERO,
+            DVec2::ZERO,
+        ],
+        n: 3,
+    };
     let inv = 1.0 / area2;
     let pass = |q: DVec2| {
         // Barycentric weights of q, then linear interpolation of the attributes.
@@ -260,17 +295,24 @@ fn triangle(image: &mut SensorImage, v: [&GridRay; 3], intensity: f64, aperture:
         // Every stop crossing (three for a ghost straddling the stop).
         r_rel <= 1.0
             && (0..MAX_STOP_CROSSINGS).all(|k| {
-                aperture.contains(l0 * v[0].stop_xy[k] + l1 * v[1].stop_xy[k] + l2 * v[2].stop_xy[k])
+                aperture
+                    .contains(l0 * v[0].stop_xy[k] + l1 * v[1].stop_xy[k] + l2 * v[2].stop_xy[k])
             })
     };
     for iy in y0..=y1 {
-        let (ya, yb) = (w.min.y + iy as f64 * w.pixel_mm, w.min.y + (iy + 1) as f64 * w.pixel_mm);
+        let (ya, yb) = (
+            w.min.y + iy as f64 * w.pixel_mm,
+            w.min.y + (iy + 1) as f64 * w.pixel_mm,
+        );
         let row = tri.clip(1, ya, -1.0).clip(1, yb, 1.0);
         if row.n < 3 {
             continue;
         }
         for ix in x0..=x1 {
-            let (xa, xb) = (w.min.x + ix as f64 * w.pixel_mm, w.min.x + (ix + 1) as f64 * w.pixel_mm);
+            let (xa, xb) = (
+                w.min.x + ix as f64 * w.pixel_mm,
+                w.min.x + (ix + 1) as f64 * w.pixel_mm,
+            );
             let frag = row.clip(0, xa, -1.0).clip(0, xb, 1.0);
             if frag.n < 3 {
                 continue;
@@ -289,7 +331,13 @@ mod tests {
     use crate::lens::TracePath;
 
     fn ray(x: f64, y: f64, r_rel: f64) -> GridRay {
-        GridRay { alive: true, sensor: DVec2::new(x, y), r_rel, stop_xy: [DVec2::ZERO; 3], throughput: 1.0 }
+        GridRay {
+            alive: true,
+            sensor: DVec2::new(x, y),
+            r_rel,
+            stop_xy: [DVec2::ZERO; 3],
+            throughput: 1.0,
+        }
     }
 
     /// One cell with corners `[00, 10, 11, 01]` and a unit pupil area.
@@ -302,12 +350,22 @@ mod tests {
     fn exact_coverage_conserves_power() {
         // A unit pupil cell drawn as a skewed quad over a 10×10 window of
         // 0.37 mm pixels: the image total is exactly A_p · T = 1.
-        let g = one_cell([ray(0.1, 0.2, 0.0), ray(2.3, 0.5, 0.0), ray(2.0, 2.9, 0.0), ray(0.4, 1.7, 0.0)]);
+        let g = one_cell([
+            ray(0.1, 0.2, 0.0),
+            ray(2.3, 0.5, 0.0),
+            ray(2.0, 2.9, 0.0),
+            ray(0.4, 1.7, 0.0),
+        ]);
         let w = SensorWindow::new(DVec2::ZERO, 0.37, 10, 10).unwrap();
         let img = rasterise(&g, &Aperture::circle(1.0).unwrap(), w);
         assert!((img.total() - 1.0).abs() < 1e-12, "{}", img.total());
         // A sub-pixel cell inside one pixel puts everything there.
-        let g = one_cell([ray(1.01, 1.01, 0.0), ray(1.02, 1.01, 0.0), ray(1.02, 1.02, 0.0), ray(1.01, 1.02, 0.0)]);
+        let g = one_cell([
+            ray(1.01, 1.01, 0.0),
+            ray(1.02, 1.01, 0.0),
+            ray(1.02, 1.02, 0.0),
+            ray(1.01, 1.02, 0.0),
+        ]);
         let img = rasterise(&g, &Aperture::circle(1.0).unwrap(), w);
         assert!((img.power()[2 * 10 + 2] - 1.0).abs() < 1e-9);
     }
@@ -315,7 +373,12 @@ mod tests {
     #[test]
     fn clip_by_interpolated_r_rel() {
         // r_rel runs 0 → 2 along x over a 2 mm cell: the half x < 1 passes.
-        let g = one_cell([ray(0.0, 0.0, 0.0), ray(2.0, 0.0, 2.0), ray(2.0, 2.0, 2.0), ray(0.0, 2.0, 0.0)]);
+        let g = one_cell([
+            ray(0.0, 0.0, 0.0),
+            ray(2.0, 0.0, 2.0),
+            ray(2.0, 2.0, 2.0),
+            ray(0.0, 2.0, 0.0),
+        ]);
         let w = SensorWindow::new(DVec2::ZERO, 0.1, 20, 20).unwrap();
         let img = rasterise(&g, &Aperture::circle(1.0).unwrap(), w);
         assert!((img.total() - 0.5).abs() < 1e-9, "{}", img.total());
@@ -329,22 +392,54 @@ mod tests {
             Err(FlareError::Input(i)) => Some(i.what),
             _ => None,
         };
-        assert_eq!(what(SensorWindow::new(DVec2::ZERO, 0.0, 4, 4)), Some("pixel size (mm)"));
-        assert_eq!(what(SensorWindow::new(DVec2::ZERO, 1.0, 0, 4)), Some("window width (pixels)"));
-        assert_eq!(what(SensorWindow::new(DVec2::ZERO, 1.0, 4, 0)), Some("window pixels"));
-        assert_eq!(what(SensorWindow::new(DVec2::ZERO, 1.0, 4097, 4096)), Some("window pixels"));
-        assert_eq!(what(SensorWindow::new(DVec2::new(f64::NAN, 0.0), 1.0, 4, 4)), Some("window corner (mm)"));
-        assert_eq!(what(SensorWindow::around([DVec2::ZERO], f64::NAN, 4)), Some("window margin"));
-        assert_eq!(what(SensorWindow::around([DVec2::ZERO], 0.1, 0)), Some("window pixels per side"));
+        assert_eq!(
+            what(SensorWindow::new(DVec2::ZERO, 0.0, 4, 4)),
+            Some("pixel size (mm)")
+        );
+        assert_eq!(
+            what(SensorWindow::new(DVec2::ZERO, 1.0, 0, 4)),
+            Some("window width (pixels)")
+        );
+        assert_eq!(
+            what(SensorWindow::new(DVec2::ZERO, 1.0, 4, 0)),
+            Some("window pixels")
+        );
+        assert_eq!(
+            what(SensorWindow::new(DVec2::ZERO, 1.0, 4097, 4096)),
+            Some("window pixels")
+        );
+        assert_eq!(
+            what(SensorWindow::new(DVec2::new(f64::NAN, 0.0), 1.0, 4, 4)),
+            Some("window corner (mm)")
+        );
+        assert_eq!(
+            what(SensorWindow::around([DVec2::ZERO], f64::NAN, 4)),
+            Some("window margin")
+        );
+        assert_eq!(
+            what(SensorWindow::around([DVec2::ZERO], 0.1, 0)),
+            Some("window pixels per side")
+        );
         // No finite point: a 1 µm window at the origin.
         let empty = SensorWindow::around([DVec2::NAN], 0.0, 2).unwrap();
-        assert_eq!((empty.min(), empty.pixel_mm(), empty.width(), empty.height()), (DVec2::splat(-5e-4), 5e-4, 2, 2));
+        assert_eq!(
+            (empty.min(), empty.pixel_mm(), empty.width(), empty.height()),
+            (DVec2::splat(-5e-4), 5e-4, 2, 2)
+        );
         let w = SensorWindow::new(DVec2::new(-2.0, -2.0), 1.0, 4, 4).unwrap();
         assert_eq!(w.pixel_of(DVec2::new(-1.5, 1.5)), Some((0, 3)));
         assert_eq!(w.pixel_of(DVec2::new(2.0, 0.0)), None);
         assert_eq!(w.pixel_of(DVec2::new(f64::NAN, 0.0)), None);
-        let a = SensorWindow::around([DVec2::new(0.0, 0.0), DVec2::new(4.0, 2.0), DVec2::new(f64::NAN, 1.0)], 0.25, 8)
-            .unwrap();
+        let a = SensorWindow::around(
+            [
+                DVec2::new(0.0, 0.0),
+                DVec2::new(4.0, 2.0),
+                DVec2::new(f64::NAN, 1.0),
+            ],
+            0.25,
+            8,
+        )
+        .unwrap();
         assert!((a.pixel_mm() - 6.0 / 8.0).abs() < 1e-15 && a.min() == DVec2::new(-1.0, -2.0));
     }
 }

@@ -77,7 +77,12 @@ pub fn reference_image(
     seed: u64,
     options: &GridOptions,
 ) -> Result<ReferenceImage, FlareError> {
-    let k = count_in("reference rays per side", rays_per_side, 1, MAX_REFERENCE_SIDE)?;
+    let k = count_in(
+        "reference rays per side",
+        rays_per_side,
+        1,
+        MAX_REFERENCE_SIDE,
+    )?;
     let sensor_z = check_setup(lens, path, options)?;
     let w = beam.cross_section_mm2() / (k * k) as f64;
     let npix = window.width() * window.height();
@@ -117,7 +122,12 @@ pub fn reference_image(
         passed += p;
         total += t;
     }
-    Ok(ReferenceImage { image: SensorImage::from_power(window, power), rays: k * k, passed, power: total })
+    Ok(ReferenceImage {
+        image: SensorImage::from_power(window, power),
+        rays: k * k,
+        passed,
+        power: total,
+    })
 }
 
 /// Errors of an image against a reference over the same window.
@@ -148,7 +158,11 @@ pub fn compare(test: &SensorImage, reference: &SensorImage) -> Option<ImageError
     if !(r1 > 0.0 && r2 > 0.0 && l1.is_finite() && l2.is_finite()) {
         return None;
     }
-    Some(ImageError { rel_l1: l1 / r1, rel_l2: (l2 / r2).sqrt(), rel_energy: (t1 - r1) / r1 })
+    Some(ImageError {
+        rel_l1: l1 / r1,
+        rel_l2: (l2 / r2).sqrt(),
+        rel_energy: (t1 - r1) / r1,
+    })
 }
 
 /// The same image on a coarser window: `factor × factor` pixels summed into one
@@ -160,11 +174,18 @@ pub fn downsample(image: &SensorImage, factor: usize) -> Option<SensorImage> {
     if factor == 0 || !width.is_multiple_of(factor) || !height.is_multiple_of(factor) {
         return None;
     }
-    let win = SensorWindow::new(w.min(), w.pixel_mm() * factor as f64, width / factor, height / factor).ok()?;
+    let win = SensorWindow::new(
+        w.min(),
+        w.pixel_mm() * factor as f64,
+        width / factor,
+        height / factor,
+    )
+    .ok()?;
     let mut out = SensorImage::new(win);
     for iy in 0..height {
         for ix in 0..width {
-            out.power_mut()[(iy / factor) * win.width() + ix / factor] += image.power()[iy * width + ix];
+            out.power_mut()[(iy / factor) * win.width() + ix / factor] +=
+                image.power()[iy * width + ix];
         }
     }
     Some(out)
@@ -180,14 +201,21 @@ mod tests {
     use crate::lens_flare::raster::rasterise;
 
     fn coated_tessar() -> LensPrescription {
-        crate::lens_flare::coat_air_interfaces(&builtin::tessar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap()
+        crate::lens_flare::coat_air_interfaces(
+            &builtin::tessar(),
+            Coating::quarter_wave(1.38, 550.0).unwrap(),
+        )
+        .unwrap()
     }
 
     #[test]
     fn rows_draw_different_jitter_and_the_image_depends_only_on_the_seed() {
         // Neighbouring rows and seeds start far apart: no two of the first
         // draws of 64 rows × 2 seeds coincide.
-        let mut firsts: Vec<u64> = (0..64).flat_map(|j| [row_rng(1, j), row_rng(2, j)]).map(|mut r| r.random()).collect();
+        let mut firsts: Vec<u64> = (0..64)
+            .flat_map(|j| [row_rng(1, j), row_rng(2, j)])
+            .map(|mut r| r.random())
+            .collect();
         firsts.sort_unstable();
         firsts.dedup();
         assert_eq!(firsts.len(), 128);
@@ -199,11 +227,22 @@ mod tests {
         let (ap, o) = (Aperture::of_stop(&p), GridOptions::default());
         let w = SensorWindow::new(glam::DVec2::splat(-20.0), 2.0, 20, 20).unwrap();
         let a = reference_image(&lens, path, &beam, &ap, w, 40, 3, &o).unwrap();
-        assert_eq!(a, reference_image(&lens, path, &beam, &ap, w, 40, 3, &o).unwrap());
-        assert_ne!(a.image, reference_image(&lens, path, &beam, &ap, w, 40, 4, &o).unwrap().image);
+        assert_eq!(
+            a,
+            reference_image(&lens, path, &beam, &ap, w, 40, 3, &o).unwrap()
+        );
+        assert_ne!(
+            a.image,
+            reference_image(&lens, path, &beam, &ap, w, 40, 4, &o)
+                .unwrap()
+                .image
+        );
         for n in [0, MAX_REFERENCE_SIDE + 1] {
             let e = reference_image(&lens, path, &beam, &ap, w, n, 3, &o).unwrap_err();
-            assert!(matches!(e, FlareError::Input(i) if i.what == "reference rays per side"), "{n}: {e}");
+            assert!(
+                matches!(e, FlareError::Input(i) if i.what == "reference rays per side"),
+                "{n}: {e}"
+            );
         }
     }
 
@@ -234,9 +273,15 @@ mod tests {
         let opts = GridOptions::default();
         let ap = Aperture::of_stop(&p);
         let fine = trace_grid(&lens, path, &beam, 65, &opts).unwrap();
-        let window =
-            SensorWindow::around(fine.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
-                .unwrap();
+        let window = SensorWindow::around(
+            fine.rays()
+                .iter()
+                .filter(|r| r.alive && r.r_rel <= 1.0)
+                .map(|r| r.sensor),
+            0.05,
+            24,
+        )
+        .unwrap();
         let reference = reference_image(&lens, path, &beam, &ap, window, 400, 1, &opts).unwrap();
         let errs: Vec<ImageError> = [5, 9, 17, 33]
             .iter()
@@ -270,7 +315,14 @@ mod tests {
         let w = beam.cross_section_mm2() / (n * n) as f64;
         let (mut all, mut first) = (0.0, 0.0);
         for k in 0..n * n {
-            let r = trace_one(&lens, path, &beam, ((k % n) as f64 + 0.5) / n as f64, ((k / n) as f64 + 0.5) / n as f64, sensor_z);
+            let r = trace_one(
+                &lens,
+                path,
+                &beam,
+                ((k % n) as f64 + 0.5) / n as f64,
+                ((k / n) as f64 + 0.5) / n as f64,
+                sensor_z,
+            );
             if r.alive && r.r_rel <= 1.0 && ap.contains(r.stop_xy[0]) {
                 first += w * r.throughput;
                 if r.passes(&ap) {
@@ -278,13 +330,26 @@ mod tests {
                 }
             }
         }
-        assert!(all < 0.9 * first, "later crossings cut little here: {all} vs {first}");
+        assert!(
+            all < 0.9 * first,
+            "later crossings cut little here: {all} vs {first}"
+        );
         let g = trace_grid(&lens, path, &beam, 65, &opts).unwrap();
-        let window =
-            SensorWindow::around(g.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
-                .unwrap();
+        let window = SensorWindow::around(
+            g.rays()
+                .iter()
+                .filter(|r| r.alive && r.r_rel <= 1.0)
+                .map(|r| r.sensor),
+            0.05,
+            24,
+        )
+        .unwrap();
         let reference = reference_image(&lens, path, &beam, &ap, window, 300, 9, &opts).unwrap();
-        assert!((reference.power / all - 1.0).abs() < 0.02, "reference {} vs every-crossing {all} (first only {first})", reference.power);
+        assert!(
+            (reference.power / all - 1.0).abs() < 0.02,
+            "reference {} vs every-crossing {all} (first only {first})",
+            reference.power
+        );
         let e = compare(&rasterise(&g, &ap, window), &reference.image).unwrap();
         assert!(e.rel_l1 < 0.2 && e.rel_energy.abs() < 0.03, "{e:?}");
     }
@@ -296,7 +361,11 @@ mod tests {
         // once (where the blade shape is tested). With a 6-blade stop the per-pixel clip
         // by the interpolated stop position must agree with the exact per-ray
         // clip: N = 33 within 20 % L1 and 3 % energy of a 300² reference.
-        let p = crate::lens_flare::coat_air_interfaces(&builtin::heliar(), Coating::quarter_wave(1.38, 550.0).unwrap()).unwrap();
+        let p = crate::lens_flare::coat_air_interfaces(
+            &builtin::heliar(),
+            Coating::quarter_wave(1.38, 550.0).unwrap(),
+        )
+        .unwrap();
         assert!(p.surfaces()[6].is_flat() && !p.surfaces()[6].is_stop);
         let lens = PreparedLens::new(&p, 550.0).unwrap();
         let path = TracePath::ghost(8, 6);
@@ -305,9 +374,15 @@ mod tests {
         let stop_r = p.stop_semi_aperture_mm();
         let ap = Aperture::polygon(6, 0.3, stop_r).unwrap();
         let g = trace_grid(&lens, path, &beam, 33, &opts).unwrap();
-        let window =
-            SensorWindow::around(g.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor), 0.05, 24)
-                .unwrap();
+        let window = SensorWindow::around(
+            g.rays()
+                .iter()
+                .filter(|r| r.alive && r.r_rel <= 1.0)
+                .map(|r| r.sensor),
+            0.05,
+            24,
+        )
+        .unwrap();
         let reference = reference_image(&lens, path, &beam, &ap, window, 300, 5, &opts).unwrap();
         let img = rasterise(&g, &ap, window);
         assert!(img.power().iter().all(|p| p.is_finite() && *p >= 0.0));
@@ -315,7 +390,12 @@ mod tests {
         assert!(e.rel_l1 < 0.2 && e.rel_energy.abs() < 0.03, "{e:?}");
         // The bladed stop passes less than the round one it is inscribed in.
         let round = rasterise(&g, &Aperture::circle(stop_r).unwrap(), window);
-        assert!(img.total() < round.total(), "{} vs {} ref {}", img.total(), round.total(), reference.image.total());
+        assert!(
+            img.total() < round.total(),
+            "{} vs {} ref {}",
+            img.total(),
+            round.total(),
+            reference.image.total()
+        );
     }
 }
-

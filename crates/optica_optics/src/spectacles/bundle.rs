@@ -44,7 +44,10 @@ impl Default for EyePlacement {
     /// figures of ophthalmic optics (lens back vertex to centre of rotation
     /// ≈ 25.5 mm at a 12 mm vertex distance).
     fn default() -> Self {
-        Self { centre_of_rotation: DVec3::new(0.0, 0.0, -0.0135), pupil_offset_m: 0.0105 }
+        Self {
+            centre_of_rotation: DVec3::new(0.0, 0.0, -0.0135),
+            pupil_offset_m: 0.0105,
+        }
     }
 }
 
@@ -57,7 +60,10 @@ impl EyePlacement {
     pub fn new(centre_of_rotation: DVec3, pupil_offset_m: f64) -> Result<Self, InvalidInput> {
         Ok(Self {
             centre_of_rotation: input::finite_vec3("centre of rotation (m)", centre_of_rotation)?,
-            pupil_offset_m: input::non_negative("pupil offset from the centre of rotation (m)", pupil_offset_m)?,
+            pupil_offset_m: input::non_negative(
+                "pupil offset from the centre of rotation (m)",
+                pupil_offset_m,
+            )?,
         })
     }
 
@@ -65,7 +71,10 @@ impl EyePlacement {
     /// does not move; here it is placed 3 mm behind the cornea, at the
     /// entrance pupil of [`EyePlacement::default`].
     pub fn paper() -> Self {
-        Self { centre_of_rotation: DVec3::new(0.0, 0.0, -0.003), pupil_offset_m: 0.0 }
+        Self {
+            centre_of_rotation: DVec3::new(0.0, 0.0, -0.003),
+            pupil_offset_m: 0.0,
+        }
     }
 
     /// Centre of rotation of the eye (m), in the eye's frame.
@@ -102,7 +111,10 @@ pub fn pupil_samples(count: usize) -> Vec<DVec2> {
 /// for `ŷ` when `a` is nearly vertical), so that clone `i` of neighbouring
 /// bundles points the same way and averaging per voxel keeps the set's shape.
 pub(crate) fn perpendicular_frame(a: DVec3) -> (DVec3, DVec3) {
-    let e1 = DVec3::Y.cross(a).try_normalize().unwrap_or_else(|| DVec3::X.cross(a).normalize_or(DVec3::X));
+    let e1 = DVec3::Y
+        .cross(a)
+        .try_normalize()
+        .unwrap_or_else(|| DVec3::X.cross(a).normalize_or(DVec3::X));
     (e1, a.cross(e1))
 }
 
@@ -148,7 +160,10 @@ impl TracedBundle {
     /// Displacements `rᵢ + s·uᵢ` of the clones in the plane ⟂ the chief at
     /// distance `s` (m) along it, one per pupil sample.
     pub fn displacements(&self, s: f64) -> impl ExactSizeIterator<Item = DVec3> + '_ {
-        self.heights.iter().zip(&self.slopes).map(move |(r, u)| *r + *u * s)
+        self.heights
+            .iter()
+            .zip(&self.slopes)
+            .map(move |(r, u)| *r + *u * s)
     }
 }
 
@@ -240,7 +255,8 @@ pub(crate) fn trace_bundle_counted(
     };
     let chief = match lens {
         None => Ray::from_unit(pupil, aim),
-        Some(_) => exit(Ray::from_unit(placement.centre_of_rotation, aim)).ok_or(SpectaclesError::BundleBlocked(BlockedRay::Reference))?,
+        Some(_) => exit(Ray::from_unit(placement.centre_of_rotation, aim))
+            .ok_or(SpectaclesError::BundleBlocked(BlockedRay::Reference))?,
     };
     let a = chief.dir();
     let blocked = SpectaclesError::BundleBlocked(BlockedRay::Pupil);
@@ -272,7 +288,12 @@ pub(crate) fn trace_bundle_counted(
     if !vergence_d.is_finite() || heights.iter().chain(&slopes).any(|v| !v.is_finite()) {
         return Err(SpectaclesError::Degenerate("bundle fit overflowed"));
     }
-    Ok(TracedBundle { chief, heights, slopes, vergence_d })
+    Ok(TracedBundle {
+        chief,
+        heights,
+        slopes,
+        vergence_d,
+    })
 }
 
 /// Which part of space a point on a chief ray is in, for a bundle pair.
@@ -305,7 +326,11 @@ pub(crate) fn region(s: f64, w_near: f64, w_far: f64) -> Region {
 /// always lies on the side of pupil point `i`: the set is still the same disc,
 /// and averaging across the focal plane never cancels.
 #[cfg(feature = "reference")]
-pub(crate) fn displacement_set(near: &TracedBundle, far: &TracedBundle, s: f64) -> (Region, Vec<DVec3>) {
+pub(crate) fn displacement_set(
+    near: &TracedBundle,
+    far: &TracedBundle,
+    s: f64,
+) -> (Region, Vec<DVec3>) {
     match region(s, near.vergence_d, far.vergence_d) {
         Region::Near => (Region::Near, near.displacements(s).collect()),
         Region::Far => (Region::Far, far.displacements(s).map(|v| -v).collect()),
@@ -336,9 +361,17 @@ impl Spread {
             sum += v;
         }
         if n == 0 {
-            return Self { rms_radius_m: 0.0, max_radius_m: 0.0, centroid: DVec3::ZERO };
+            return Self {
+                rms_radius_m: 0.0,
+                max_radius_m: 0.0,
+                centroid: DVec3::ZERO,
+            };
         }
-        Self { rms_radius_m: (ss / n as f64).sqrt(), max_radius_m: mx, centroid: sum / n as f64 }
+        Self {
+            rms_radius_m: (ss / n as f64).sqrt(),
+            max_radius_m: mx,
+            centroid: sum / n as f64,
+        }
     }
 
     /// Blur disc diameter of a uniform disc with this RMS radius: `2√2·rms`.
@@ -379,13 +412,21 @@ mod tests {
         let a2 = 0.5 * eye.pupil_diameter_m();
         let near = trace_bundle(None, &pl, aim, a2, eye.near_point_vergence_d(), &samples).unwrap();
         let far = trace_bundle(None, &pl, aim, a2, eye.far_point_vergence_d(), &samples).unwrap();
-        assert!((near.vergence_d - 2.0).abs() < 1e-12 && (far.vergence_d - 1.0 / 1.3).abs() < 1e-12);
+        assert!(
+            (near.vergence_d - 2.0).abs() < 1e-12 && (far.vergence_d - 1.0 / 1.3).abs() < 1e-12
+        );
         for z in [0.1, 0.3, 0.8, 2.0, 6.0] {
             let (_, set) = displacement_set(&near, &far, z);
             let want = eye.blur_disc_diameter_m(z).unwrap();
-            assert!((Spread::of(set).disc_diameter_m() - want).abs() < 1e-12, "{z}");
+            assert!(
+                (Spread::of(set).disc_diameter_m() - want).abs() < 1e-12,
+                "{z}"
+            );
         }
-        assert_eq!(region(0.8, near.vergence_d, far.vergence_d), Region::InFocus);
+        assert_eq!(
+            region(0.8, near.vergence_d, far.vergence_d),
+            Region::InFocus
+        );
     }
 
     #[test]
@@ -399,8 +440,21 @@ mod tests {
         let pl = EyePlacement::paper();
         let samples = pupil_samples(16);
         let w = |s: f64| {
-            let lens = design_lens(&Prescription::sphere(s).unwrap(), &LensDesignParams::default()).unwrap();
-            trace_bundle(Some(&lens), &pl, DVec3::Z, 0.002, eye.far_point_vergence_d(), &samples).unwrap().vergence_d
+            let lens = design_lens(
+                &Prescription::sphere(s).unwrap(),
+                &LensDesignParams::default(),
+            )
+            .unwrap();
+            trace_bundle(
+                Some(&lens),
+                &pl,
+                DVec3::Z,
+                0.002,
+                eye.far_point_vergence_d(),
+                &samples,
+            )
+            .unwrap()
+            .vergence_d
         };
         let full = -1.0 / (0.5 - 0.015);
         assert!(w(full).abs() < 0.01, "{}", w(full));
@@ -422,24 +476,43 @@ mod tests {
             Err(SpectaclesError::Input(e)) => e.what,
             other => panic!("{other:?}"),
         };
-        assert_eq!(input_error(trace_bundle(None, &pl, DVec3::ZERO, 0.002, 1.0, &samples)), "bundle aim");
-        assert_eq!(input_error(trace_bundle(None, &pl, DVec3::Z, -0.002, 1.0, &samples)), "pupil radius (m)");
-        assert_eq!(input_error(trace_bundle(None, &pl, DVec3::Z, 0.002, f64::NAN, &samples)), "bundle vergence (D)");
-        assert_eq!(input_error(trace_bundle(None, &pl, DVec3::Z, 0.002, 1.0, &[DVec2::NAN])), "pupil sample");
+        assert_eq!(
+            input_error(trace_bundle(None, &pl, DVec3::ZERO, 0.002, 1.0, &samples)),
+            "bundle aim"
+        );
+        assert_eq!(
+            input_error(trace_bundle(None, &pl, DVec3::Z, -0.002, 1.0, &samples)),
+            "pupil radius (m)"
+        );
+        assert_eq!(
+            input_error(trace_bundle(None, &pl, DVec3::Z, 0.002, f64::NAN, &samples)),
+            "bundle vergence (D)"
+        );
+        assert_eq!(
+            input_error(trace_bundle(None, &pl, DVec3::Z, 0.002, 1.0, &[DVec2::NAN])),
+            "pupil sample"
+        );
         // A non-unit aim is normalised, not refused.
         let b = trace_bundle(None, &pl, DVec3::new(0.0, 0.0, 5.0), 0.002, 1.0, &samples).unwrap();
         assert_eq!(b.chief().dir(), DVec3::Z);
         // Through a lens: a reference ray 60° off axis misses the blank; one
         // through the back surface 21 mm off axis gets through, but pupil
         // rays 4 mm off it pass outside the 25 mm blank.
-        let lens = design_lens(&Prescription::sphere(-2.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let lens = design_lens(
+            &Prescription::sphere(-2.0).unwrap(),
+            &LensDesignParams::default(),
+        )
+        .unwrap();
         let steep = DVec3::new(60f64.to_radians().sin(), 0.0, 60f64.to_radians().cos());
         assert_eq!(
             trace_bundle(Some(&lens), &pl, steep, 0.002, 1.0, &samples),
             Err(SpectaclesError::BundleBlocked(BlockedRay::Reference))
         );
         let rim = lens.back().point(0.021, 0.0).unwrap() - pl.centre_of_rotation();
-        assert_eq!(trace_bundle(Some(&lens), &pl, rim, 0.004, 1.0, &samples), Err(SpectaclesError::BundleBlocked(BlockedRay::Pupil)));
+        assert_eq!(
+            trace_bundle(Some(&lens), &pl, rim, 0.004, 1.0, &samples),
+            Err(SpectaclesError::BundleBlocked(BlockedRay::Pupil))
+        );
         assert!(trace_bundle(Some(&lens), &pl, rim, 0.0, 1.0, &samples).is_ok());
     }
 
@@ -447,12 +520,18 @@ mod tests {
     fn eye_placement_is_checked() {
         let e = EyePlacement::new(DVec3::new(0.0, f64::NAN, 0.0), 0.01).unwrap_err();
         assert_eq!(e.what, "centre of rotation (m)");
-        assert_eq!(EyePlacement::new(DVec3::ZERO, -0.01).unwrap_err().what, "pupil offset from the centre of rotation (m)");
+        assert_eq!(
+            EyePlacement::new(DVec3::ZERO, -0.01).unwrap_err().what,
+            "pupil offset from the centre of rotation (m)"
+        );
         let pl = EyePlacement::new(DVec3::new(0.0, 0.0, -0.0135), 0.0105).unwrap();
         assert_eq!(pl, EyePlacement::default());
         assert!((pl.pupil_centre(DVec3::Z) - DVec3::new(0.0, 0.0, -0.003)).length() < 1e-15);
         let mut v = serde_json::to_value(pl).unwrap();
-        assert_eq!(serde_json::from_value::<EyePlacement>(v.clone()).unwrap(), pl);
+        assert_eq!(
+            serde_json::from_value::<EyePlacement>(v.clone()).unwrap(),
+            pl
+        );
         v["pupil_offset_m"] = serde_json::json!(-1.0);
         assert!(serde_json::from_value::<EyePlacement>(v).is_err());
     }

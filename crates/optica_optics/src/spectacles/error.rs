@@ -64,7 +64,9 @@ pub enum SpectaclesError {
     /// negative number — the surface closes before it reaches the rim.
     /// (For example +20 D in CR-39 with Vogel's base curve: F1 = 26 D,
     /// R1 = 0.498/26 = 19.2 mm, smaller than a 25 mm blank radius.)
-    #[error("{side} surface radius {radius_m} m is smaller than the blank radius {blank_radius_m} m (sag would need the square root of a negative number)")]
+    #[error(
+        "{side} surface radius {radius_m} m is smaller than the blank radius {blank_radius_m} m (sag would need the square root of a negative number)"
+    )]
     SurfaceTooSteep {
         /// Which surface.
         side: LensSide,
@@ -75,7 +77,9 @@ pub enum SpectaclesError {
     },
     /// The thick-lens relation `F2 = Fv − F1/(1 − t·F1/n)` has its pole
     /// (`t·F1/n >= 1`): the front surface focuses inside the lens.
-    #[error("thickness {thickness_m} m and front power {front_power_d} D put the front surface's focus inside the lens")]
+    #[error(
+        "thickness {thickness_m} m and front power {front_power_d} D put the front surface's focus inside the lens"
+    )]
     ThickLensPole {
         /// Centre thickness in metres.
         thickness_m: f64,

@@ -169,18 +169,41 @@ impl Eye {
     /// Errors: non-finite numbers, `|R|` above [`MAX_REFRACTIVE_ERROR_D`],
     /// `Amp` outside `0..=`[`MAX_ACCOMMODATION_D`], `A` outside
     /// `0..=`[`MAX_PUPIL_DIAMETER_M`].
-    pub fn new(refractive_error_d: f64, accommodation_d: f64, pupil_diameter_m: f64) -> Result<Self, InvalidInput> {
+    pub fn new(
+        refractive_error_d: f64,
+        accommodation_d: f64,
+        pupil_diameter_m: f64,
+    ) -> Result<Self, InvalidInput> {
         let r = MAX_REFRACTIVE_ERROR_D;
         Ok(Self {
             refractive_error_d: input::in_range("refractive error (D)", refractive_error_d, -r, r)?,
-            accommodation_d: input::in_range("accommodation amplitude (D)", accommodation_d, 0.0, MAX_ACCOMMODATION_D)?,
-            pupil_diameter_m: input::in_range("pupil diameter (m)", pupil_diameter_m, 0.0, MAX_PUPIL_DIAMETER_M)?,
+            accommodation_d: input::in_range(
+                "accommodation amplitude (D)",
+                accommodation_d,
+                0.0,
+                MAX_ACCOMMODATION_D,
+            )?,
+            pupil_diameter_m: input::in_range(
+                "pupil diameter (m)",
+                pupil_diameter_m,
+                0.0,
+                MAX_PUPIL_DIAMETER_M,
+            )?,
         })
     }
 
     /// An eye of `age_years` whose amplitude is Hofstetter's `bound`.
-    pub fn from_age(refractive_error_d: f64, age_years: f64, bound: HofstetterBound, pupil_diameter_m: f64) -> Result<Self, InvalidInput> {
-        Self::new(refractive_error_d, hofstetter_amplitude_d(age_years, bound)?, pupil_diameter_m)
+    pub fn from_age(
+        refractive_error_d: f64,
+        age_years: f64,
+        bound: HofstetterBound,
+        pupil_diameter_m: f64,
+    ) -> Result<Self, InvalidInput> {
+        Self::new(
+            refractive_error_d,
+            hofstetter_amplitude_d(age_years, bound)?,
+            pupil_diameter_m,
+        )
     }
 
     /// The paper's eye from its near and far point distances (m, from the
@@ -190,10 +213,21 @@ impl Eye {
     ///
     /// Errors: a non-positive or non-finite near point, a far point nearer
     /// than the near point or NaN, and [`Eye::new`]'s ranges.
-    pub fn from_near_far(near_m: f64, far_m: f64, pupil_diameter_m: f64) -> Result<Self, InvalidInput> {
+    pub fn from_near_far(
+        near_m: f64,
+        far_m: f64,
+        pupil_diameter_m: f64,
+    ) -> Result<Self, InvalidInput> {
         let near = input::positive("near point (m)", near_m)?;
         if !(far_m >= near) {
-            return Err(InvalidInput::new("far point (m)", far_m, Expected::Range { min: near, max: f64::INFINITY }));
+            return Err(InvalidInput::new(
+                "far point (m)",
+                far_m,
+                Expected::Range {
+                    min: near,
+                    max: f64::INFINITY,
+                },
+            ));
         }
         let p_far = 1.0 / far_m;
         Self::new(-p_far, 1.0 / near - p_far, pupil_diameter_m)
@@ -241,7 +275,10 @@ impl Eye {
     /// Errors: a non-finite `V`.
     pub fn defocus_at_vergence_d(&self, vergence_d: f64) -> Result<f64, InvalidInput> {
         let v = input::finite("object vergence (D)", vergence_d)?;
-        Ok((self.far_point_vergence_d() - v).max(0.0) + (v - self.near_point_vergence_d()).max(0.0))
+        Ok(
+            (self.far_point_vergence_d() - v).max(0.0)
+                + (v - self.near_point_vergence_d()).max(0.0),
+        )
     }
 
     /// Defocus (D) of a point at distance `z_m` (m) in front of the pupil;
@@ -270,7 +307,11 @@ impl Eye {
 fn vergence_of_distance(z_m: f64) -> Result<f64, InvalidInput> {
     // `+∞` is accepted (vergence 0), so this is not `input::positive`.
     if !(z_m > 0.0) {
-        return Err(InvalidInput::new("distance in front of the pupil (m)", z_m, Expected::Positive));
+        return Err(InvalidInput::new(
+            "distance in front of the pupil (m)",
+            z_m,
+            Expected::Positive,
+        ));
     }
     Ok(1.0 / z_m)
 }
@@ -292,12 +333,24 @@ mod tests {
         assert!((hofstetter_amplitude_d(40.0, HofstetterBound::Min).unwrap() - 5.0).abs() < 1e-12);
         assert!((hofstetter_amplitude_d(40.0, HofstetterBound::Max).unwrap() - 9.0).abs() < 1e-12);
         // At 70 all three are negative and clamp to 0.
-        for b in [HofstetterBound::Min, HofstetterBound::Mean, HofstetterBound::Max] {
+        for b in [
+            HofstetterBound::Min,
+            HofstetterBound::Mean,
+            HofstetterBound::Max,
+        ] {
             assert_eq!(hofstetter_amplitude_d(70.0, b).unwrap(), 0.0);
         }
         let nan = hofstetter_amplitude_d(f64::NAN, HofstetterBound::Mean).unwrap_err();
-        assert_eq!((nan.what, nan.expected), ("age (years)", Expected::NonNegative));
-        assert_eq!(hofstetter_amplitude_d(-1.0, HofstetterBound::Mean).unwrap_err().value, -1.0);
+        assert_eq!(
+            (nan.what, nan.expected),
+            ("age (years)", Expected::NonNegative)
+        );
+        assert_eq!(
+            hofstetter_amplitude_d(-1.0, HofstetterBound::Mean)
+                .unwrap_err()
+                .value,
+            -1.0
+        );
         // The accommodation cap lies above Hofstetter's maximum at birth.
         assert!(hofstetter_amplitude_d(0.0, HofstetterBound::Max).unwrap() < MAX_ACCOMMODATION_D);
     }
@@ -318,10 +371,19 @@ mod tests {
         // Darkness: F = 0 gives Stanley & Davies' maximum, 7.75 mm.
         assert_eq!(pupil_diameter_stanley_davies_mm(0.0), 7.75);
         // Bad input names the quantity.
-        assert_eq!(wy(f64::NAN, 60.0, 60.0, AdaptedEyes::One).unwrap_err().what, "adapting luminance (cd/m²)");
+        assert_eq!(
+            wy(f64::NAN, 60.0, 60.0, AdaptedEyes::One).unwrap_err().what,
+            "adapting luminance (cd/m²)"
+        );
         let field = wy(1.0, 0.0, 60.0, AdaptedEyes::One).unwrap_err();
-        assert_eq!((field.what, field.expected), ("adapting field diameter (deg)", Expected::Positive));
-        assert_eq!(wy(1.0, 60.0, -3.0, AdaptedEyes::One).unwrap_err().what, "age (years)");
+        assert_eq!(
+            (field.what, field.expected),
+            ("adapting field diameter (deg)", Expected::Positive)
+        );
+        assert_eq!(
+            wy(1.0, 60.0, -3.0, AdaptedEyes::One).unwrap_err().what,
+            "age (years)"
+        );
     }
 
     #[test]
@@ -330,7 +392,8 @@ mod tests {
         // smaller in bright light.
         let mut prev = f64::INFINITY;
         for k in -4..=4 {
-            let d = pupil_diameter_watson_yellott_mm(10f64.powi(k), 60.0, 30.0, AdaptedEyes::Both).unwrap();
+            let d = pupil_diameter_watson_yellott_mm(10f64.powi(k), 60.0, 30.0, AdaptedEyes::Both)
+                .unwrap();
             assert!((2.0..=8.0).contains(&d), "{k}: {d}");
             assert!(d < prev);
             prev = d;
@@ -344,7 +407,14 @@ mod tests {
         let e = Eye::new(-2.0, 3.0, 0.004).unwrap();
         assert!((e.far_point_m() - 0.5).abs() < 1e-15);
         assert!((e.near_point_m() - 0.2).abs() < 1e-15);
-        assert_eq!((e.refractive_error_d(), e.accommodation_d(), e.pupil_diameter_m()), (-2.0, 3.0, 0.004));
+        assert_eq!(
+            (
+                e.refractive_error_d(),
+                e.accommodation_d(),
+                e.pupil_diameter_m()
+            ),
+            (-2.0, 3.0, 0.004)
+        );
         // Emmetrope: far point at infinity, no special case.
         let e = Eye::new(0.0, 5.0, 0.004).unwrap();
         assert_eq!(e.far_point_m(), f64::INFINITY);
@@ -358,15 +428,38 @@ mod tests {
         let e = Eye::from_near_far(0.5, 1.3, 0.012).unwrap();
         assert!((e.near_point_m() - 0.5).abs() < 1e-12 && (e.far_point_m() - 1.3).abs() < 1e-12);
         // Fig. 8(a)'s emmetrope with an infinite far point.
-        assert_eq!(Eye::from_near_far(0.2, f64::INFINITY, 0.012).unwrap().refractive_error_d(), 0.0);
+        assert_eq!(
+            Eye::from_near_far(0.2, f64::INFINITY, 0.012)
+                .unwrap()
+                .refractive_error_d(),
+            0.0
+        );
         let swapped = Eye::from_near_far(1.0, 0.5, 0.01).unwrap_err();
         assert_eq!((swapped.what, swapped.value), ("far point (m)", 0.5));
-        assert_eq!(Eye::from_near_far(0.0, 1.0, 0.01).unwrap_err().what, "near point (m)");
-        assert_eq!(Eye::new(f64::NAN, 1.0, 0.004).unwrap_err().what, "refractive error (D)");
+        assert_eq!(
+            Eye::from_near_far(0.0, 1.0, 0.01).unwrap_err().what,
+            "near point (m)"
+        );
+        assert_eq!(
+            Eye::new(f64::NAN, 1.0, 0.004).unwrap_err().what,
+            "refractive error (D)"
+        );
         let r = Eye::new(-40.0, 1.0, 0.004).unwrap_err();
-        assert_eq!(r.expected, Expected::Range { min: -30.0, max: 30.0 });
-        assert_eq!(Eye::new(-1.0, -1.0, 0.004).unwrap_err().what, "accommodation amplitude (D)");
-        assert_eq!(Eye::new(-1.0, 1.0, 0.06).unwrap_err().what, "pupil diameter (m)");
+        assert_eq!(
+            r.expected,
+            Expected::Range {
+                min: -30.0,
+                max: 30.0
+            }
+        );
+        assert_eq!(
+            Eye::new(-1.0, -1.0, 0.004).unwrap_err().what,
+            "accommodation amplitude (D)"
+        );
+        assert_eq!(
+            Eye::new(-1.0, 1.0, 0.06).unwrap_err().what,
+            "pupil diameter (m)"
+        );
     }
 
     #[test]
@@ -376,7 +469,12 @@ mod tests {
         assert_eq!(serde_json::from_value::<Eye>(v.clone()).unwrap(), e);
         let mut bad = v;
         bad["pupil_diameter_m"] = serde_json::json!(-0.004);
-        assert!(serde_json::from_value::<Eye>(bad).unwrap_err().to_string().contains("pupil diameter (m)"));
+        assert!(
+            serde_json::from_value::<Eye>(bad)
+                .unwrap_err()
+                .to_string()
+                .contains("pupil diameter (m)")
+        );
     }
 
     #[test]
@@ -417,10 +515,20 @@ mod tests {
         assert!((e.defocus_at_vergence_d(3.5).unwrap() - 0.5).abs() < 1e-15);
         for z in [0.0, -1.0, f64::NAN] {
             let err = e.defocus_d(z).unwrap_err();
-            assert_eq!((err.what, err.expected), ("distance in front of the pupil (m)", Expected::Positive), "{z}");
+            assert_eq!(
+                (err.what, err.expected),
+                ("distance in front of the pupil (m)", Expected::Positive),
+                "{z}"
+            );
         }
-        assert_eq!(e.defocus_at_vergence_d(f64::INFINITY).unwrap_err().expected, Expected::Finite);
-        assert_eq!(e.blur_disc_diameter_m(f64::INFINITY).unwrap_err().value, f64::INFINITY);
+        assert_eq!(
+            e.defocus_at_vergence_d(f64::INFINITY).unwrap_err().expected,
+            Expected::Finite
+        );
+        assert_eq!(
+            e.blur_disc_diameter_m(f64::INFINITY).unwrap_err().value,
+            f64::INFINITY
+        );
     }
 
     proptest! {

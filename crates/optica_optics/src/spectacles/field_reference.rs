@@ -78,7 +78,9 @@ fn aim_of(slopes: DVec2) -> DVec3 {
 fn exit_chief(lens: Option<&SpectacleLens>, placement: &EyePlacement, aim: DVec3) -> Option<Ray> {
     match lens {
         None => Some(Ray::from_unit(placement.pupil_centre(aim), aim)),
-        Some(l) => l.trace_from_eye(&Ray::from_unit(placement.centre_of_rotation(), aim)).exit_ray(),
+        Some(l) => l
+            .trace_from_eye(&Ray::from_unit(placement.centre_of_rotation(), aim))
+            .exit_ray(),
     }
 }
 
@@ -89,14 +91,20 @@ fn miss(ray: &Ray, p: DVec3) -> DVec2 {
 }
 
 /// Solves for the aim whose refracted reference ray passes through `p`.
-fn solve_aim(lens: Option<&SpectacleLens>, placement: &EyePlacement, p: DVec3) -> Result<(DVec3, Ray), SpectaclesError> {
+fn solve_aim(
+    lens: Option<&SpectacleLens>,
+    placement: &EyePlacement,
+    p: DVec3,
+) -> Result<(DVec3, Ray), SpectaclesError> {
     let straight = p - placement.centre_of_rotation();
     if !(straight.z > 0.0) {
         let what = "point depth in front of the centre of rotation (m)";
         return Err(InvalidInput::new(what, straight.z, Expected::Positive).into());
     }
     let mut x = DVec2::new(straight.x / straight.z, straight.y / straight.z);
-    let blocked = SpectaclesError::NotThroughLens("the reference ray towards it is blocked by the rim, total reflection or the blank's edge");
+    let blocked = SpectaclesError::NotThroughLens(
+        "the reference ray towards it is blocked by the rim, total reflection or the blank's edge",
+    );
     if lens.is_none() {
         let aim = aim_of(x);
         return Ok((aim, exit_chief(lens, placement, aim).ok_or(blocked)?));
@@ -108,11 +116,16 @@ fn solve_aim(lens: Option<&SpectacleLens>, placement: &EyePlacement, p: DVec3) -
             break;
         }
         let h = AIM_JACOBIAN_STEP;
-        let col = |d: DVec2| -> Option<DVec2> { Some((resid(x + d)?.0 - resid(x - d)?.0) / (2.0 * h)) };
-        let (Some(jx), Some(jy)) = (col(DVec2::new(h, 0.0)), col(DVec2::new(0.0, h))) else { return Err(blocked) };
+        let col =
+            |d: DVec2| -> Option<DVec2> { Some((resid(x + d)?.0 - resid(x - d)?.0) / (2.0 * h)) };
+        let (Some(jx), Some(jy)) = (col(DVec2::new(h, 0.0)), col(DVec2::new(0.0, h))) else {
+            return Err(blocked);
+        };
         let det = jx.x * jy.y - jy.x * jx.y;
         if !(det.abs() > AIM_SINGULAR_DETERMINANT) || !det.is_finite() {
-            return Err(SpectaclesError::Degenerate("singular aim Jacobian (a caustic of the lens)"));
+            return Err(SpectaclesError::Degenerate(
+                "singular aim Jacobian (a caustic of the lens)",
+            ));
         }
         let step = DVec2::new(e.x * jy.y - jy.x * e.y, jx.x * e.y - e.x * jx.y) / det;
         // Backtrack until the residual shrinks (and the ray still gets through).
@@ -134,7 +147,9 @@ fn solve_aim(lens: Option<&SpectacleLens>, placement: &EyePlacement, p: DVec3) -
         }
     }
     if !(e.length() < AIM_ACCEPT_MISS_M) {
-        return Err(SpectaclesError::NotThroughLens("no reference ray through the lens reaches it"));
+        return Err(SpectaclesError::NotThroughLens(
+            "no reference ray through the lens reaches it",
+        ));
     }
     Ok((aim_of(x), chief))
 }
@@ -176,18 +191,37 @@ pub fn reference_at(
 ) -> Result<PointReference, SpectaclesError> {
     let point = input::finite_vec3("reference point (m)", point)?;
     if !(1..=MAX_DENSE_SAMPLES).contains(&dense_samples) {
-        let range = Expected::Range { min: 1.0, max: MAX_DENSE_SAMPLES as f64 };
+        let range = Expected::Range {
+            min: 1.0,
+            max: MAX_DENSE_SAMPLES as f64,
+        };
         return Err(InvalidInput::new("dense samples", dense_samples as f64, range).into());
     }
     let (aim, chief) = solve_aim(lens, placement, point)?;
     let s = (point - chief.origin()).dot(chief.dir());
     if !(s > 0.0) {
-        return Err(SpectaclesError::NotThroughLens("it lies between the eye and the lens exit"));
+        return Err(SpectaclesError::NotThroughLens(
+            "it lies between the eye and the lens exit",
+        ));
     }
     let samples = pupil_samples(dense_samples);
     let rho = 0.5 * eye.pupil_diameter_m();
-    let near = trace_bundle(lens, placement, aim, rho, eye.near_point_vergence_d(), &samples)?;
-    let far = trace_bundle(lens, placement, aim, rho, eye.far_point_vergence_d(), &samples)?;
+    let near = trace_bundle(
+        lens,
+        placement,
+        aim,
+        rho,
+        eye.near_point_vergence_d(),
+        &samples,
+    )?;
+    let far = trace_bundle(
+        lens,
+        placement,
+        aim,
+        rho,
+        eye.far_point_vergence_d(),
+        &samples,
+    )?;
     let (region, set) = displacement_set(&near, &far, s);
     Ok(PointReference {
         aim,
@@ -212,7 +246,11 @@ mod tests {
         // distance from the pupil, for any direction.
         let eye = Eye::from_near_far(0.5, 1.3, 0.012).unwrap();
         let pl = EyePlacement::default();
-        for p in [DVec3::new(0.05, 0.02, 0.2), DVec3::new(-0.3, 0.1, 3.0), DVec3::new(0.0, 0.0, 0.9)] {
+        for p in [
+            DVec3::new(0.05, 0.02, 0.2),
+            DVec3::new(-0.3, 0.1, 3.0),
+            DVec3::new(0.0, 0.0, 0.9),
+        ] {
             let r = reference_at(&eye, &pl, None, p, 128).unwrap();
             let z = (p - pl.pupil_centre(r.aim)).length();
             assert!((r.distance_m - z).abs() < 1e-12);
@@ -225,8 +263,16 @@ mod tests {
     fn field_reference_chief_goes_through_the_point() {
         let eye = Eye::new(-4.0, 1.0, 0.004).unwrap();
         let pl = EyePlacement::default();
-        let lens = design_lens(&Prescription::new(-4.0, -1.0, 45.0).unwrap(), &LensDesignParams::default()).unwrap();
-        for p in [DVec3::new(0.2, -0.1, 0.5), DVec3::new(-0.6, 0.3, 1.5), DVec3::new(0.0, 0.0, 2.0)] {
+        let lens = design_lens(
+            &Prescription::new(-4.0, -1.0, 45.0).unwrap(),
+            &LensDesignParams::default(),
+        )
+        .unwrap();
+        for p in [
+            DVec3::new(0.2, -0.1, 0.5),
+            DVec3::new(-0.6, 0.3, 1.5),
+            DVec3::new(0.0, 0.0, 2.0),
+        ] {
             let r = reference_at(&eye, &pl, Some(&lens), p, 64).unwrap();
             assert!(r.miss_m < 1e-9, "{}", r.miss_m);
             assert!(r.spread.rms_radius_m.is_finite());
@@ -234,7 +280,11 @@ mod tests {
             // every point blurs less than with the naked eye (e.g. at 1.5 m
             // naked ΔD = 4 − 0.67 = 3.3 D, a 20 mm disc).
             let naked = reference_at(&eye, &pl, None, p, 64).unwrap();
-            assert!(r.spread.disc_diameter_m() < 0.7 * naked.spread.disc_diameter_m(), "{p}: {:?}", r.spread);
+            assert!(
+                r.spread.disc_diameter_m() < 0.7 * naked.spread.disc_diameter_m(),
+                "{p}: {:?}",
+                r.spread
+            );
         }
         // A point far outside the lens's cone cannot be seen through it.
         assert!(matches!(
@@ -246,9 +296,18 @@ mod tests {
             other => panic!("{other:?}"),
         };
         let behind = reference_at(&eye, &pl, None, DVec3::new(0.0, 0.0, -1.0), 16);
-        assert_eq!(input_error(behind), "point depth in front of the centre of rotation (m)");
-        assert_eq!(input_error(reference_at(&eye, &pl, None, DVec3::NAN, 16)), "reference point (m)");
-        assert_eq!(input_error(reference_at(&eye, &pl, None, DVec3::Z, 0)), "dense samples");
+        assert_eq!(
+            input_error(behind),
+            "point depth in front of the centre of rotation (m)"
+        );
+        assert_eq!(
+            input_error(reference_at(&eye, &pl, None, DVec3::NAN, 16)),
+            "reference point (m)"
+        );
+        assert_eq!(
+            input_error(reference_at(&eye, &pl, None, DVec3::Z, 0)),
+            "dense samples"
+        );
         // In front of the eye but inside the lens (z = 13 mm, lens 12–14 mm).
         assert!(matches!(
             reference_at(&eye, &pl, Some(&lens), DVec3::new(0.0, 0.0, 0.013), 16),

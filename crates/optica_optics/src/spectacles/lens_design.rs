@@ -58,7 +58,11 @@ impl Prescription {
         let cylinder_d = input::finite("cylinder (D)", cylinder_d)?;
         input::in_range("sphere + cylinder (D)", sphere_d + cylinder_d, -m, m)?;
         let axis_deg = input::finite("cylinder axis (deg)", axis_deg)?;
-        Ok(Self { sphere_d, cylinder_d, axis_deg })
+        Ok(Self {
+            sphere_d,
+            cylinder_d,
+            axis_deg,
+        })
     }
 
     /// A spherical prescription.
@@ -96,7 +100,11 @@ impl Prescription {
 /// Vogel's rule for the front (base) curve: `F + 6` for plus, `F/2 + 6` for
 /// minus powers `F` (D).
 pub fn vogel_base_curve_d(power_d: f64) -> f64 {
-    if power_d >= 0.0 { power_d + 6.0 } else { 0.5 * power_d + 6.0 }
+    if power_d >= 0.0 {
+        power_d + 6.0
+    } else {
+        0.5 * power_d + 6.0
+    }
 }
 
 /// Refractive indices (at the d line) a lens material may have. 1.3 lies
@@ -153,7 +161,10 @@ impl Default for LensDesignParams {
     /// plastic lens as dispensed.
     fn default() -> Self {
         Self {
-            material: Glass::Abbe { nd: 1.498, vd: 58.0 },
+            material: Glass::Abbe {
+                nd: 1.498,
+                vd: 58.0,
+            },
             vertex_distance_m: 0.012,
             blank_diameter_m: 0.050,
             min_centre_thickness_m: 0.002,
@@ -167,7 +178,10 @@ impl LensDesignParams {
     /// The paper's lens material: n = 1.66 (Fig. 8, "glass"), without
     /// dispersion; the other choices as [`LensDesignParams::default`].
     pub fn paper() -> Self {
-        Self { material: Glass::Constant(1.66), ..Self::default() }
+        Self {
+            material: Glass::Constant(1.66),
+            ..Self::default()
+        }
     }
 
     /// These choices with a catalog material (names of
@@ -177,39 +191,60 @@ impl LensDesignParams {
     /// does not know, [`SpectaclesError::Input`] for one whose index is
     /// outside [`LENS_INDEX_RANGE`] ("air").
     pub fn with_material(self, name: &str) -> Result<Self, SpectaclesError> {
-        let glass = Glass::catalog(name).ok_or_else(|| SpectaclesError::UnknownMaterial(name.to_string()))?;
+        let glass = Glass::catalog(name)
+            .ok_or_else(|| SpectaclesError::UnknownMaterial(name.to_string()))?;
         Ok(self.with_glass(glass)?)
     }
 
     /// These choices with lens material `glass`; its index at the d line is
     /// used. Errors: an index outside [`LENS_INDEX_RANGE`].
     pub fn with_glass(self, glass: Glass) -> Result<Self, InvalidInput> {
-        input::in_range("lens index n_d", glass.nd(), LENS_INDEX_RANGE.0, LENS_INDEX_RANGE.1)?;
-        Ok(Self { material: glass, ..self })
+        input::in_range(
+            "lens index n_d",
+            glass.nd(),
+            LENS_INDEX_RANGE.0,
+            LENS_INDEX_RANGE.1,
+        )?;
+        Ok(Self {
+            material: glass,
+            ..self
+        })
     }
 
     /// These choices with the cornea-to-back-vertex distance `d` (m; 0.012–0.014
     /// is usual). Errors: a negative or non-finite distance.
     pub fn with_vertex_distance_m(self, d: f64) -> Result<Self, InvalidInput> {
-        Ok(Self { vertex_distance_m: input::non_negative("vertex distance (m)", d)?, ..self })
+        Ok(Self {
+            vertex_distance_m: input::non_negative("vertex distance (m)", d)?,
+            ..self
+        })
     }
 
     /// These choices with a round blank of diameter `diameter` (m). Errors:
     /// a diameter that is not finite and positive.
     pub fn with_blank_diameter_m(self, diameter: f64) -> Result<Self, InvalidInput> {
-        Ok(Self { blank_diameter_m: input::positive("blank diameter (m)", diameter)?, ..self })
+        Ok(Self {
+            blank_diameter_m: input::positive("blank diameter (m)", diameter)?,
+            ..self
+        })
     }
 
     /// These choices with the thinnest centre allowed (m); minus lenses get
     /// exactly this. Errors: a thickness that is not finite and positive.
     pub fn with_min_centre_thickness_m(self, t: f64) -> Result<Self, InvalidInput> {
-        Ok(Self { min_centre_thickness_m: input::positive("minimum centre thickness (m)", t)?, ..self })
+        Ok(Self {
+            min_centre_thickness_m: input::positive("minimum centre thickness (m)", t)?,
+            ..self
+        })
     }
 
     /// These choices with the thinnest edge allowed (m); it sets the centre
     /// of plus lenses. Errors: a thickness that is not finite and positive.
     pub fn with_min_edge_thickness_m(self, e: f64) -> Result<Self, InvalidInput> {
-        Ok(Self { min_edge_thickness_m: input::positive("minimum edge thickness (m)", e)?, ..self })
+        Ok(Self {
+            min_edge_thickness_m: input::positive("minimum edge thickness (m)", e)?,
+            ..self
+        })
     }
 
     /// These choices with front surface power `F1` (D), or `None` for
@@ -221,7 +256,10 @@ impl LensDesignParams {
         if let Some(f1) = base_curve_d {
             input::finite("base curve (D)", f1)?;
         }
-        Ok(Self { base_curve_d, ..self })
+        Ok(Self {
+            base_curve_d,
+            ..self
+        })
     }
 
     /// Lens material.
@@ -338,12 +376,21 @@ const PARAXIAL_PROBE_START_M: f64 = 0.1;
 /// F1 = 26 D, R1 = 19.2 mm < 25 mm), [`SpectaclesError::ThickLensPole`],
 /// [`SpectaclesError::SurfacesCross`], and [`SpectaclesError::Degenerate`]
 /// if the thickness iteration does not settle.
-pub fn design_lens(rx: &Prescription, params: &LensDesignParams) -> Result<SpectacleLens, SpectaclesError> {
+pub fn design_lens(
+    rx: &Prescription,
+    params: &LensDesignParams,
+) -> Result<SpectacleLens, SpectaclesError> {
     let n = params.material.nd();
-    let f1 = params.base_curve_d.unwrap_or_else(|| vogel_base_curve_d(rx.spherical_equivalent_d()));
+    let f1 = params
+        .base_curve_d
+        .unwrap_or_else(|| vogel_base_curve_d(rx.spherical_equivalent_d()));
     let r = 0.5 * params.blank_diameter_m;
     let c1 = f1 / (n - 1.0);
-    let sag1 = sphere_sag(c1, r).ok_or(SpectaclesError::SurfaceTooSteep { side: LensSide::Front, radius_m: 1.0 / c1.abs(), blank_radius_m: r })?;
+    let sag1 = sphere_sag(c1, r).ok_or(SpectaclesError::SurfaceTooSteep {
+        side: LensSide::Front,
+        radius_m: 1.0 / c1.abs(),
+        blank_radius_m: r,
+    })?;
     let axis = rx.axis_deg.to_radians();
     let fv = [rx.sphere_d, rx.sphere_d + rx.cylinder_d];
 
@@ -351,24 +398,37 @@ pub fn design_lens(rx: &Prescription, params: &LensDesignParams) -> Result<Spect
     let back_for = |t: f64| -> Result<([f64; 2], [f64; 2]), SpectaclesError> {
         let fac = 1.0 - t * f1 / n;
         if !(fac > 0.0) {
-            return Err(SpectaclesError::ThickLensPole { thickness_m: t, front_power_d: f1 });
+            return Err(SpectaclesError::ThickLensPole {
+                thickness_m: t,
+                front_power_d: f1,
+            });
         }
         let f2 = [fv[0] - f1 / fac, fv[1] - f1 / fac];
         let c2 = [f2[0] / (1.0 - n), f2[1] / (1.0 - n)];
         let cmax = c2[0].abs().max(c2[1].abs());
         if !(cmax * r < 1.0) {
-            return Err(SpectaclesError::SurfaceTooSteep { side: LensSide::Back, radius_m: 1.0 / cmax, blank_radius_m: r });
+            return Err(SpectaclesError::SurfaceTooSteep {
+                side: LensSide::Back,
+                radius_m: 1.0 / cmax,
+                blank_radius_m: r,
+            });
         }
         Ok((f2, c2))
     };
     // min over the rim of sag2 − sag1 (optician's frame).
     let min_rim_gap = |c2: [f64; 2]| -> Result<f64, SpectaclesError> {
-        let too_steep = SpectaclesError::SurfaceTooSteep { side: LensSide::Back, radius_m: 1.0 / c2[0].abs().max(c2[1].abs()), blank_radius_m: r };
+        let too_steep = SpectaclesError::SurfaceTooSteep {
+            side: LensSide::Back,
+            radius_m: 1.0 / c2[0].abs().max(c2[1].abs()),
+            blank_radius_m: r,
+        };
         let torus = ToricSurface::new(0.0, c2[0], c2[1], axis)?;
         let mut m = f64::INFINITY;
         for k in 0..RIM_SAMPLES {
             let phi = 2.0 * PI * k as f64 / RIM_SAMPLES as f64;
-            let (s2, _) = torus.sag_and_gradient(r * phi.cos(), r * phi.sin()).ok_or(too_steep.clone())?;
+            let (s2, _) = torus
+                .sag_and_gradient(r * phi.cos(), r * phi.sin())
+                .ok_or(too_steep.clone())?;
             m = m.min(s2 - sag1);
         }
         Ok(m)
@@ -377,9 +437,13 @@ pub fn design_lens(rx: &Prescription, params: &LensDesignParams) -> Result<Spect
     let mut converged = false;
     for _ in 0..THICKNESS_MAX_STEPS {
         let (_, c2) = back_for(t)?;
-        let t_new = params.min_centre_thickness_m.max(params.min_edge_thickness_m - min_rim_gap(c2)?);
+        let t_new = params
+            .min_centre_thickness_m
+            .max(params.min_edge_thickness_m - min_rim_gap(c2)?);
         if !t_new.is_finite() {
-            return Err(SpectaclesError::Degenerate("centre thickness iteration diverged"));
+            return Err(SpectaclesError::Degenerate(
+                "centre thickness iteration diverged",
+            ));
         }
         let done = (t_new - t).abs() <= THICKNESS_TOLERANCE_M;
         t = t_new;
@@ -389,12 +453,16 @@ pub fn design_lens(rx: &Prescription, params: &LensDesignParams) -> Result<Spect
         }
     }
     if !converged {
-        return Err(SpectaclesError::Degenerate("centre thickness iteration did not converge"));
+        return Err(SpectaclesError::Degenerate(
+            "centre thickness iteration did not converge",
+        ));
     }
     let (f2, c2) = back_for(t)?;
     let edge = t + min_rim_gap(c2)?;
     if !(edge > 0.0) {
-        return Err(SpectaclesError::SurfacesCross { edge_thickness_m: edge });
+        return Err(SpectaclesError::SurfacesCross {
+            edge_thickness_m: edge,
+        });
     }
     let d = params.vertex_distance_m;
     // Mirror into the eye's frame: curvatures change sign.
@@ -475,8 +543,13 @@ impl SpectacleLens {
     pub fn edge_thickness_m(&self, phi: f64) -> Result<f64, SpectaclesError> {
         let phi = input::finite("rim angle (rad)", phi)?;
         let (x, y) = (self.rim_radius_m * phi.cos(), self.rim_radius_m * phi.sin());
-        let zf = self.front.vertex_z() + self.front.sag(self.rim_radius_m).ok_or(self.not_to_rim(LensSide::Front))?;
-        let zb = self.back.vertex_z() + self.back.sag(x, y).ok_or(self.not_to_rim(LensSide::Back))?;
+        let zf = self.front.vertex_z()
+            + self
+                .front
+                .sag(self.rim_radius_m)
+                .ok_or(self.not_to_rim(LensSide::Front))?;
+        let zb =
+            self.back.vertex_z() + self.back.sag(x, y).ok_or(self.not_to_rim(LensSide::Back))?;
         Ok(zf - zb)
     }
 
@@ -490,7 +563,11 @@ impl SpectacleLens {
                 lo.abs().max(hi.abs())
             }
         };
-        SpectaclesError::SurfaceTooSteep { side, radius_m: 1.0 / c, blank_radius_m: self.rim_radius_m }
+        SpectaclesError::SurfaceTooSteep {
+            side,
+            radius_m: 1.0 / c,
+            blank_radius_m: self.rim_radius_m,
+        }
     }
 
     /// Back-vertex power (D) in meridian `theta_deg`, measured as a
@@ -507,13 +584,24 @@ impl SpectacleLens {
         let theta = input::finite("meridian (deg)", theta_deg)?;
         let h = PARAXIAL_PROBE_HEIGHT_M;
         let m = DVec2::from_angle(theta.to_radians());
-        let start = DVec3::new(h * m.x, h * m.y, self.front.vertex_z() + PARAXIAL_PROBE_START_M);
+        let start = DVec3::new(
+            h * m.x,
+            h * m.y,
+            self.front.vertex_z() + PARAXIAL_PROBE_START_M,
+        );
         let ray = Ray::from_unit(start, DVec3::NEG_Z);
         let fail = SpectaclesError::Degenerate("paraxial probe ray did not get through the lens");
         let h1 = self.front.intersect(&ray).ok_or(fail.clone())?;
-        let d1 = refract(ray.dir(), h1.normal, 1.0, self.index).direction().ok_or(fail.clone())?;
-        let h2 = self.back.intersect(&Ray::from_unit(h1.point, d1)).ok_or(fail.clone())?;
-        let d2 = refract(d1, h2.normal, self.index, 1.0).direction().ok_or(fail)?;
+        let d1 = refract(ray.dir(), h1.normal, 1.0, self.index)
+            .direction()
+            .ok_or(fail.clone())?;
+        let h2 = self
+            .back
+            .intersect(&Ray::from_unit(h1.point, d1))
+            .ok_or(fail.clone())?;
+        let d2 = refract(d1, h2.normal, self.index, 1.0)
+            .direction()
+            .ok_or(fail)?;
         // Optician's frame: z′ = −z, so the slope is (dx/dz′) = d_xy / (−d_z).
         let slope = d2.truncate() / (-d2.z);
         let delta = self.vertex_distance_m() - h2.point.z; // z′_E − z′_vertex
@@ -537,7 +625,11 @@ mod tests {
                 let lens = design_lens(&Prescription::sphere(s).unwrap(), &params).unwrap();
                 for theta in [0.0, 45.0, 90.0] {
                     let fv = lens.measured_back_vertex_power_d(theta).unwrap();
-                    assert!((fv - s).abs() < 0.01, "n {} S {s}: traced {fv}", lens.index());
+                    assert!(
+                        (fv - s).abs() < 0.01,
+                        "n {} S {s}: traced {fv}",
+                        lens.index()
+                    );
                 }
             }
         }
@@ -549,12 +641,26 @@ mod tests {
         // per-vertex tests): Vogel F1 = −5 + 6 = 1 D,
         // R1 = 0.66 m; t = 2 mm: F2 = −10 − 1/(1 − 0.002/1.66) = −11.0012 D,
         // R2 = 0.66/11.0012 = 59.99 mm (≈ 60 mm).
-        let lens = design_lens(&Prescription::sphere(-10.0).unwrap(), &LensDesignParams::paper()).unwrap();
+        let lens = design_lens(
+            &Prescription::sphere(-10.0).unwrap(),
+            &LensDesignParams::paper(),
+        )
+        .unwrap();
         assert!((lens.front_power_d() - 1.0).abs() < 1e-15);
         assert!((lens.centre_thickness_m() - 0.002).abs() < 1e-15);
-        assert!((lens.back_power_d()[0] + 11.001_206).abs() < 1e-5, "{:?}", lens.back_power_d());
-        let LensSurface::Spherical(b) = *lens.back() else { panic!() };
-        assert!((-1.0 / b.curvature() - 0.059_993).abs() < 1e-5, "{}", 1.0 / b.curvature());
+        assert!(
+            (lens.back_power_d()[0] + 11.001_206).abs() < 1e-5,
+            "{:?}",
+            lens.back_power_d()
+        );
+        let LensSurface::Spherical(b) = *lens.back() else {
+            panic!()
+        };
+        assert!(
+            (-1.0 / b.curvature() - 0.059_993).abs() < 1e-5,
+            "{}",
+            1.0 / b.curvature()
+        );
         // Eye frame: back vertex at the vertex distance, front t further out;
         // a minus lens's back surface is concave to the eye: its centre of
         // curvature lies 60 mm towards −z, behind the eye (negative curvature).
@@ -571,11 +677,19 @@ mod tests {
     #[test]
     fn lens_design_plus_lens_keeps_min_edge() {
         // +6 D CR-39: Vogel F1 = 12 D; the centre is whatever gives a 1 mm edge.
-        let lens = design_lens(&Prescription::sphere(6.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let lens = design_lens(
+            &Prescription::sphere(6.0).unwrap(),
+            &LensDesignParams::default(),
+        )
+        .unwrap();
         assert!((lens.front_power_d() - 12.0).abs() < 1e-15);
         let e = lens.edge_thickness_m(1.0).unwrap();
         assert!((e - 0.001).abs() < 1e-9, "{e}");
-        assert!(lens.centre_thickness_m() > 0.005, "{}", lens.centre_thickness_m());
+        assert!(
+            lens.centre_thickness_m() > 0.005,
+            "{}",
+            lens.centre_thickness_m()
+        );
     }
 
     #[test]
@@ -585,7 +699,13 @@ mod tests {
         let rx = Prescription::new(-2.0, -1.5, 30.0).unwrap();
         let lens = design_lens(&rx, &LensDesignParams::default()).unwrap();
         assert!(matches!(lens.back(), LensSurface::Toric(_)));
-        for (theta, want) in [(30.0, -2.0), (120.0, -3.5), (75.0, -2.75), (90.0, -3.125), (210.0, -2.0)] {
+        for (theta, want) in [
+            (30.0, -2.0),
+            (120.0, -3.5),
+            (75.0, -2.75),
+            (90.0, -3.125),
+            (210.0, -2.0),
+        ] {
             assert!((rx.meridian_power_d(theta) - want).abs() < 1e-12);
             let fv = lens.measured_back_vertex_power_d(theta).unwrap();
             assert!((fv - want).abs() < 0.01, "θ {theta}: {fv} vs {want}");
@@ -593,7 +713,9 @@ mod tests {
         // A plus toric: edge minimum holds on the strongest meridian.
         let rx = Prescription::new(3.0, 2.0, 100.0).unwrap();
         let lens = design_lens(&rx, &LensDesignParams::default()).unwrap();
-        let min_edge = (0..360).map(|k| lens.edge_thickness_m((k as f64).to_radians()).unwrap()).fold(f64::INFINITY, f64::min);
+        let min_edge = (0..360)
+            .map(|k| lens.edge_thickness_m((k as f64).to_radians()).unwrap())
+            .fold(f64::INFINITY, f64::min);
         assert!((min_edge - 0.001).abs() < 2e-5, "{min_edge}");
         for (theta, want) in [(100.0, 3.0), (10.0, 5.0)] {
             assert!((lens.measured_back_vertex_power_d(theta).unwrap() - want).abs() < 0.01);
@@ -606,7 +728,11 @@ mod tests {
         // +20 D in CR-39 on a 50 mm blank: F1 = 26 D, R1 = 0.498/26 = 19.15 mm
         // < 25 mm — the rim sag would need √(R² − r²) of a negative number.
         match design_lens(&Prescription::sphere(20.0).unwrap(), &p) {
-            Err(SpectaclesError::SurfaceTooSteep { side: LensSide::Front, radius_m, blank_radius_m }) => {
+            Err(SpectaclesError::SurfaceTooSteep {
+                side: LensSide::Front,
+                radius_m,
+                blank_radius_m,
+            }) => {
                 assert!((radius_m - 0.498 / 26.0).abs() < 1e-12 && blank_radius_m == 0.025);
             }
             other => panic!("{other:?}"),
@@ -625,35 +751,93 @@ mod tests {
             .and_then(|p| p.with_min_centre_thickness_m(0.01))
             .and_then(|p| p.with_blank_diameter_m(0.001))
             .unwrap();
-        assert!(matches!(design_lens(&Prescription::sphere(1.0).unwrap(), &pole), Err(SpectaclesError::ThickLensPole { .. })));
+        assert!(matches!(
+            design_lens(&Prescription::sphere(1.0).unwrap(), &pole),
+            Err(SpectaclesError::ThickLensPole { .. })
+        ));
     }
 
     #[test]
     fn lens_design_bad_input_is_refused_where_it_enters() {
         // Beyond ±20 D, in the sphere or in sphere + cylinder.
         let e = Prescription::sphere(-21.0).unwrap_err();
-        assert_eq!((e.what, e.expected), ("sphere (D)", Expected::Range { min: -20.0, max: 20.0 }));
-        assert_eq!(Prescription::new(-19.0, -2.0, 0.0).unwrap_err().what, "sphere + cylinder (D)");
-        assert_eq!(Prescription::new(f64::NAN, 0.0, 0.0).unwrap_err().what, "sphere (D)");
-        assert_eq!(Prescription::new(-1.0, 0.0, f64::INFINITY).unwrap_err().what, "cylinder axis (deg)");
+        assert_eq!(
+            (e.what, e.expected),
+            (
+                "sphere (D)",
+                Expected::Range {
+                    min: -20.0,
+                    max: 20.0
+                }
+            )
+        );
+        assert_eq!(
+            Prescription::new(-19.0, -2.0, 0.0).unwrap_err().what,
+            "sphere + cylinder (D)"
+        );
+        assert_eq!(
+            Prescription::new(f64::NAN, 0.0, 0.0).unwrap_err().what,
+            "sphere (D)"
+        );
+        assert_eq!(
+            Prescription::new(-1.0, 0.0, f64::INFINITY)
+                .unwrap_err()
+                .what,
+            "cylinder axis (deg)"
+        );
         let rx = Prescription::new(-2.0, -0.5, 170.0).unwrap();
-        assert_eq!((rx.sphere_d(), rx.cylinder_d(), rx.axis_deg()), (-2.0, -0.5, 170.0));
+        assert_eq!(
+            (rx.sphere_d(), rx.cylinder_d(), rx.axis_deg()),
+            (-2.0, -0.5, 170.0)
+        );
         // Design parameters.
         let p = LensDesignParams::default();
-        assert!(matches!(p.with_material("unobtainium"), Err(SpectaclesError::UnknownMaterial(name)) if name == "unobtainium"));
-        assert!(matches!(p.with_material("air"), Err(SpectaclesError::Input(e)) if e.what == "lens index n_d"));
-        assert_eq!(p.with_material("polycarbonate").unwrap().material().nd(), 1.586);
-        assert_eq!(p.with_glass(Glass::Constant(f64::NAN)).unwrap_err().what, "lens index n_d");
-        assert_eq!(p.with_blank_diameter_m(0.0).unwrap_err().expected, Expected::Positive);
-        assert_eq!(p.with_vertex_distance_m(-0.01).unwrap_err().what, "vertex distance (m)");
-        assert_eq!(p.with_min_centre_thickness_m(f64::NAN).unwrap_err().what, "minimum centre thickness (m)");
-        assert_eq!(p.with_min_edge_thickness_m(0.0).unwrap_err().what, "minimum edge thickness (m)");
-        assert_eq!(p.with_base_curve_d(Some(f64::INFINITY)).unwrap_err().what, "base curve (D)");
-        assert_eq!(p.with_base_curve_d(Some(4.0)).unwrap().base_curve_d(), Some(4.0));
+        assert!(
+            matches!(p.with_material("unobtainium"), Err(SpectaclesError::UnknownMaterial(name)) if name == "unobtainium")
+        );
+        assert!(
+            matches!(p.with_material("air"), Err(SpectaclesError::Input(e)) if e.what == "lens index n_d")
+        );
+        assert_eq!(
+            p.with_material("polycarbonate").unwrap().material().nd(),
+            1.586
+        );
+        assert_eq!(
+            p.with_glass(Glass::Constant(f64::NAN)).unwrap_err().what,
+            "lens index n_d"
+        );
+        assert_eq!(
+            p.with_blank_diameter_m(0.0).unwrap_err().expected,
+            Expected::Positive
+        );
+        assert_eq!(
+            p.with_vertex_distance_m(-0.01).unwrap_err().what,
+            "vertex distance (m)"
+        );
+        assert_eq!(
+            p.with_min_centre_thickness_m(f64::NAN).unwrap_err().what,
+            "minimum centre thickness (m)"
+        );
+        assert_eq!(
+            p.with_min_edge_thickness_m(0.0).unwrap_err().what,
+            "minimum edge thickness (m)"
+        );
+        assert_eq!(
+            p.with_base_curve_d(Some(f64::INFINITY)).unwrap_err().what,
+            "base curve (D)"
+        );
+        assert_eq!(
+            p.with_base_curve_d(Some(4.0)).unwrap().base_curve_d(),
+            Some(4.0)
+        );
         // The edge and the meridian of a designed lens.
         let lens = design_lens(&rx, &p).unwrap();
-        assert!(matches!(lens.edge_thickness_m(f64::NAN), Err(SpectaclesError::Input(e)) if e.what == "rim angle (rad)"));
-        assert!(matches!(lens.measured_back_vertex_power_d(f64::NAN), Err(SpectaclesError::Input(e)) if e.what == "meridian (deg)"));
+        assert!(
+            matches!(lens.edge_thickness_m(f64::NAN), Err(SpectaclesError::Input(e)) if e.what == "rim angle (rad)")
+        );
+        assert!(
+            matches!(lens.measured_back_vertex_power_d(f64::NAN), Err(SpectaclesError::Input(e)) if e.what == "meridian (deg)")
+        );
     }
 
     #[test]
@@ -663,12 +847,25 @@ mod tests {
         let v = serde_json::to_value(rx).unwrap();
         assert_eq!(serde_json::from_value::<Prescription>(v).unwrap(), rx);
         let too_strong = json!({ "sphere_d": -25.0, "cylinder_d": 0.0, "axis_deg": 0.0 });
-        assert!(serde_json::from_value::<Prescription>(too_strong).unwrap_err().to_string().contains("sphere (D)"));
+        assert!(
+            serde_json::from_value::<Prescription>(too_strong)
+                .unwrap_err()
+                .to_string()
+                .contains("sphere (D)")
+        );
         let p = LensDesignParams::paper();
         let mut v = serde_json::to_value(p).unwrap();
-        assert_eq!(serde_json::from_value::<LensDesignParams>(v.clone()).unwrap(), p);
+        assert_eq!(
+            serde_json::from_value::<LensDesignParams>(v.clone()).unwrap(),
+            p
+        );
         v["blank_diameter_m"] = json!(-0.05);
-        assert!(serde_json::from_value::<LensDesignParams>(v).unwrap_err().to_string().contains("blank diameter (m)"));
+        assert!(
+            serde_json::from_value::<LensDesignParams>(v)
+                .unwrap_err()
+                .to_string()
+                .contains("blank diameter (m)")
+        );
     }
 
     proptest! {

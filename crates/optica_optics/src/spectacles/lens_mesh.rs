@@ -84,14 +84,24 @@ pub const MAX_POLAR_POINTS: usize = 1 << 22;
 /// `1 + rings × segments`, the number of points of the polar layout, or
 /// `None` when it overflows or exceeds [`MAX_POLAR_POINTS`].
 pub(crate) fn polar_point_count(rings: usize, segments: usize) -> Option<usize> {
-    rings.checked_mul(segments)?.checked_add(1).filter(|&n| n <= MAX_POLAR_POINTS)
+    rings
+        .checked_mul(segments)?
+        .checked_add(1)
+        .filter(|&n| n <= MAX_POLAR_POINTS)
 }
 
 /// The error for a polar layout of more than [`MAX_POLAR_POINTS`] points.
 pub(crate) fn too_many_points(what: &'static str, rings: usize, segments: usize) -> InvalidInput {
     // The product in f64 cannot overflow; it is only reported.
     let value = 1.0 + rings as f64 * segments as f64;
-    InvalidInput::new(what, value, Expected::Range { min: 1.0, max: MAX_POLAR_POINTS as f64 })
+    InvalidInput::new(
+        what,
+        value,
+        Expected::Range {
+            min: 1.0,
+            max: MAX_POLAR_POINTS as f64,
+        },
+    )
 }
 
 /// Polar sample points `(x, y)` of a disc of radius `radius`: the centre,
@@ -99,8 +109,13 @@ pub(crate) fn too_many_points(what: &'static str, rings: usize, segments: usize)
 ///
 /// Errors: more than [`MAX_POLAR_POINTS`] points (checked before anything is
 /// multiplied or allocated).
-pub(crate) fn polar_points(radius: f64, rings: usize, segments: usize) -> Result<Vec<(f64, f64)>, InvalidInput> {
-    let n = polar_point_count(rings, segments).ok_or_else(|| too_many_points("polar points 1 + rings × segments", rings, segments))?;
+pub(crate) fn polar_points(
+    radius: f64,
+    rings: usize,
+    segments: usize,
+) -> Result<Vec<(f64, f64)>, InvalidInput> {
+    let n = polar_point_count(rings, segments)
+        .ok_or_else(|| too_many_points("polar points 1 + rings × segments", rings, segments))?;
     let mut v = Vec::with_capacity(n);
     v.push((0.0, 0.0));
     for k in 1..=rings {
@@ -127,14 +142,30 @@ impl SpectacleLens {
     /// [`MAX_POLAR_POINTS`] vertices per surface (checked before any size
     /// is computed; it keeps every index within `u32`).
     pub fn mesh(&self, rings: usize, segments: usize) -> Result<LensMesh, SpectaclesError> {
-        let unbounded = |min: usize| Expected::Range { min: min as f64, max: f64::INFINITY };
+        let unbounded = |min: usize| Expected::Range {
+            min: min as f64,
+            max: f64::INFINITY,
+        };
         if rings < MIN_MESH_RINGS {
-            return Err(InvalidInput::new("mesh rings", rings as f64, unbounded(MIN_MESH_RINGS)).into());
+            return Err(
+                InvalidInput::new("mesh rings", rings as f64, unbounded(MIN_MESH_RINGS)).into(),
+            );
         }
         if segments < MIN_MESH_SEGMENTS {
-            return Err(InvalidInput::new("mesh segments", segments as f64, unbounded(MIN_MESH_SEGMENTS)).into());
+            return Err(InvalidInput::new(
+                "mesh segments",
+                segments as f64,
+                unbounded(MIN_MESH_SEGMENTS),
+            )
+            .into());
         }
-        let too_many = || too_many_points("mesh vertices per surface 1 + rings × segments", rings, segments);
+        let too_many = || {
+            too_many_points(
+                "mesh vertices per surface 1 + rings × segments",
+                rings,
+                segments,
+            )
+        };
         let per_surface = polar_point_count(rings, segments).ok_or_else(too_many)?;
         // per_surface <= 2^22 and segments < per_surface: no overflow, and
         // total < 2^24 fits u32.
@@ -145,13 +176,18 @@ impl SpectacleLens {
         // Back: outward is towards the eye (−z), the surfaces' own normal.
         let (back, front) = (self.back(), self.front());
         for &(x, y) in &pts {
-            let p = back.point(x, y).ok_or_else(|| self.not_to_rim(LensSide::Back))?;
+            let p = back
+                .point(x, y)
+                .ok_or_else(|| self.not_to_rim(LensSide::Back))?;
             positions.push(p);
             normals.push(back.normal_at(p));
         }
         // Front: outward is into the scene (+z), minus the surface normal.
         for &(x, y) in &pts {
-            let z = front.vertex_z() + front.sag((x * x + y * y).sqrt()).ok_or_else(|| self.not_to_rim(LensSide::Front))?;
+            let z = front.vertex_z()
+                + front
+                    .sag((x * x + y * y).sqrt())
+                    .ok_or_else(|| self.not_to_rim(LensSide::Front))?;
             let p = DVec3::new(x, y, z);
             positions.push(p);
             normals.push(-front.normal_at(p));
@@ -170,7 +206,11 @@ impl SpectacleLens {
         }
         let mut triangles = Vec::with_capacity(4 * rings * segments + 2 * segments);
         let ring_vertex = |base: usize, k: usize, j: usize| -> usize {
-            if k == 0 { base } else { base + 1 + (k - 1) * segments + j % segments }
+            if k == 0 {
+                base
+            } else {
+                base + 1 + (k - 1) * segments + j % segments
+            }
         };
         for (base, outward) in [(0, -1.0), (per_surface, 1.0)] {
             for k in 0..rings {
@@ -223,8 +263,14 @@ mod tests {
 
     #[test]
     fn lens_mesh_counts_and_orientation() {
-        let lens = design_lens(&Prescription::new(-3.0, -1.0, 20.0).unwrap(), &LensDesignParams::default()).unwrap();
-        let m = lens.mesh(LensMesh::PAPER_RINGS, LensMesh::PAPER_SEGMENTS).unwrap();
+        let lens = design_lens(
+            &Prescription::new(-3.0, -1.0, 20.0).unwrap(),
+            &LensDesignParams::default(),
+        )
+        .unwrap();
+        let m = lens
+            .mesh(LensMesh::PAPER_RINGS, LensMesh::PAPER_SEGMENTS)
+            .unwrap();
         // 1 + 24·64 = 1,537 vertices per surface (the paper: ~1,500).
         assert_eq!(m.back().len(), 1537);
         assert_eq!(m.front().len(), 1537);
@@ -258,8 +304,12 @@ mod tests {
             .sum();
         let disc = PI * 0.025f64.powi(2);
         assert!(vol > disc * 0.002 && vol < disc * 0.006, "{vol}");
-        assert!(matches!(lens.mesh(0, 8), Err(SpectaclesError::Input(e)) if e.what == "mesh rings"));
-        assert!(matches!(lens.mesh(4, 2), Err(SpectaclesError::Input(e)) if e.what == "mesh segments"));
+        assert!(
+            matches!(lens.mesh(0, 8), Err(SpectaclesError::Input(e)) if e.what == "mesh rings")
+        );
+        assert!(
+            matches!(lens.mesh(4, 2), Err(SpectaclesError::Input(e)) if e.what == "mesh segments")
+        );
         // The rim band: the outermost rings again, with radial normals.
         assert_eq!(m.rim(), 2 * 1537..m.positions().len());
         for i in m.rim() {
@@ -273,17 +323,35 @@ mod tests {
         // Sizes whose product overflows usize, or is merely huge, are
         // rejected before any arithmetic or allocation (no overflow panic,
         // no multi-gigabyte allocation).
-        let lens = design_lens(&Prescription::sphere(-2.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let lens = design_lens(
+            &Prescription::sphere(-2.0).unwrap(),
+            &LensDesignParams::default(),
+        )
+        .unwrap();
         let too_big = |r: Result<LensMesh, SpectaclesError>| matches!(r, Err(SpectaclesError::Input(e)) if e.what.starts_with("mesh vertices per surface"));
         assert!(too_big(lens.mesh(usize::MAX, 3)));
         assert!(too_big(lens.mesh(3, usize::MAX)));
         assert!(too_big(lens.mesh(1 << 32, 1 << 32)));
         assert!(too_big(lens.mesh(1 << 20, 64)));
-        assert_eq!(polar_points(0.025, usize::MAX, usize::MAX).unwrap_err().expected, Expected::Range { min: 1.0, max: MAX_POLAR_POINTS as f64 });
-        assert_eq!(polar_points(0.025, MAX_POLAR_POINTS, 1).unwrap_err().value, 1.0 + MAX_POLAR_POINTS as f64);
+        assert_eq!(
+            polar_points(0.025, usize::MAX, usize::MAX)
+                .unwrap_err()
+                .expected,
+            Expected::Range {
+                min: 1.0,
+                max: MAX_POLAR_POINTS as f64
+            }
+        );
+        assert_eq!(
+            polar_points(0.025, MAX_POLAR_POINTS, 1).unwrap_err().value,
+            1.0 + MAX_POLAR_POINTS as f64
+        );
         assert_eq!(polar_point_count(usize::MAX, 2), None);
         assert_eq!(polar_point_count(usize::MAX, 1), None);
-        assert_eq!(polar_point_count(MAX_POLAR_POINTS - 1, 1), Some(MAX_POLAR_POINTS));
+        assert_eq!(
+            polar_point_count(MAX_POLAR_POINTS - 1, 1),
+            Some(MAX_POLAR_POINTS)
+        );
         assert_eq!(polar_points(0.025, 24, 64).unwrap().len(), 1537);
     }
 }

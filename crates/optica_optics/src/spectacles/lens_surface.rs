@@ -99,7 +99,12 @@ impl ToricSurface {
     /// axis at `axis_rad` from +x towards +y.
     ///
     /// Errors: a non-finite number.
-    pub fn new(vertex_z: f64, c_axis: f64, c_cross: f64, axis_rad: f64) -> Result<Self, InvalidInput> {
+    pub fn new(
+        vertex_z: f64,
+        c_axis: f64,
+        c_cross: f64,
+        axis_rad: f64,
+    ) -> Result<Self, InvalidInput> {
         Ok(Self {
             vertex_z: input::finite("toric vertex z (m)", vertex_z)?,
             c_axis: input::finite("toric curvature along the axis (1/m)", c_axis)?,
@@ -161,7 +166,8 @@ impl ToricSurface {
     /// surface or does not converge in 50 steps,
     /// or the hit is behind the origin (`t <= T_EPSILON`).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let mean = SphericalSurface::from_checked(self.vertex_z, 0.5 * (self.c_axis + self.c_cross));
+        let mean =
+            SphericalSurface::from_checked(self.vertex_z, 0.5 * (self.c_axis + self.c_cross));
         let mut t = match mean.intersect(ray) {
             Some(h) => h.t,
             None if ray.dir().z != 0.0 => (self.vertex_z - ray.origin().z) / ray.dir().z,
@@ -193,7 +199,11 @@ impl ToricSurface {
         if (point.z - self.vertex_z - sag).abs() > TORIC_HIT_TOLERANCE * scale || t <= T_EPSILON {
             return None;
         }
-        Some(Hit { t, point, normal: DVec3::new(g.x, g.y, -1.0).normalize() })
+        Some(Hit {
+            t,
+            point,
+            normal: DVec3::new(g.x, g.y, -1.0).normalize(),
+        })
     }
 }
 
@@ -232,7 +242,8 @@ impl LensSurface {
 
     /// The point of the surface above `(x, y)`.
     pub fn point(&self, x: f64, y: f64) -> Option<DVec3> {
-        self.sag(x, y).map(|s| DVec3::new(x, y, self.vertex_z() + s))
+        self.sag(x, y)
+            .map(|s| DVec3::new(x, y, self.vertex_z() + s))
     }
 
     /// Unit normal at a surface point, towards −z (fallbacks as
@@ -273,7 +284,12 @@ mod tests {
         let c = -1.0 / 0.06;
         let t = ToricSurface::new(0.012, c, c, 0.7).unwrap();
         let s = SphericalSurface::new(0.012, c).unwrap();
-        for (x, y) in [(0.0f64, 0.0f64), (0.01, 0.0), (0.007, -0.013), (0.02, 0.015)] {
+        for (x, y) in [
+            (0.0f64, 0.0f64),
+            (0.01, 0.0),
+            (0.007, -0.013),
+            (0.02, 0.015),
+        ] {
             let r = (x * x + y * y).sqrt();
             let (z, _) = t.sag_and_gradient(x, y).unwrap();
             assert!((z - s.sag(r).unwrap()).abs() < 1e-16, "{x} {y}");
@@ -306,8 +322,19 @@ mod tests {
     #[test]
     fn toric_new_refuses_non_finite() {
         let e = ToricSurface::new(0.0, f64::NAN, 1.0, 0.0).unwrap_err();
-        assert_eq!((e.what, e.expected), ("toric curvature along the axis (1/m)", crate::input::Expected::Finite));
-        assert_eq!(ToricSurface::new(0.0, 1.0, 1.0, f64::INFINITY).unwrap_err().what, "toric axis (rad)");
+        assert_eq!(
+            (e.what, e.expected),
+            (
+                "toric curvature along the axis (1/m)",
+                crate::input::Expected::Finite
+            )
+        );
+        assert_eq!(
+            ToricSurface::new(0.0, 1.0, 1.0, f64::INFINITY)
+                .unwrap_err()
+                .what,
+            "toric axis (rad)"
+        );
         let t = ToricSurface::new(0.012, -20.0, -25.0, 0.3).unwrap();
         let v = serde_json::to_value(t).unwrap();
         assert_eq!(serde_json::from_value::<ToricSurface>(v).unwrap(), t);

@@ -162,18 +162,25 @@ mod voxel_field;
 pub use bundle::{EyePlacement, Region, Spread, TracedBundle, pupil_samples, trace_bundle};
 pub use error::{BlockedRay, LensSide, SpectaclesError};
 pub use eye::{
-    AdaptedEyes, Eye, HofstetterBound, MAX_ACCOMMODATION_D, MAX_PUPIL_DIAMETER_M, MAX_REFRACTIVE_ERROR_D, WATSON_YELLOTT_AGE_RANGE,
-    WATSON_YELLOTT_REFERENCE_AGE, hofstetter_amplitude_d, pupil_diameter_watson_yellott_mm,
+    AdaptedEyes, Eye, HofstetterBound, MAX_ACCOMMODATION_D, MAX_PUPIL_DIAMETER_M,
+    MAX_REFRACTIVE_ERROR_D, WATSON_YELLOTT_AGE_RANGE, WATSON_YELLOTT_REFERENCE_AGE,
+    hofstetter_amplitude_d, pupil_diameter_watson_yellott_mm,
 };
 #[cfg(feature = "reference")]
 pub use field_reference::{DEFAULT_DENSE_SAMPLES, MAX_DENSE_SAMPLES, PointReference, reference_at};
-pub use lens_design::{LENS_INDEX_RANGE, LensDesignParams, MAX_LENS_POWER_D, Prescription, SpectacleLens, design_lens, vogel_base_curve_d};
+pub use lens_design::{
+    LENS_INDEX_RANGE, LensDesignParams, MAX_LENS_POWER_D, Prescription, SpectacleLens, design_lens,
+    vogel_base_curve_d,
+};
 pub use lens_mesh::{LensMesh, MAX_POLAR_POINTS};
 pub use lens_surface::{LensSurface, ToricSurface};
 pub use per_vertex::{LensTrace, refract_vertices};
-pub use viewpoint::{DEFAULT_VIEWPOINT_REGULARISATION, ViewpointFit, virtual_viewpoint, virtual_viewpoint_of_traces};
+pub use viewpoint::{
+    DEFAULT_VIEWPOINT_REGULARISATION, ViewpointFit, virtual_viewpoint, virtual_viewpoint_of_traces,
+};
 pub use voxel_field::{
-    DisplacementField, FieldSettings, FieldStats, MAX_AIMS, MAX_CLONES, MAX_FIELD_VECTORS, MAX_WALK_CROSSINGS, VoxelAverage, precompute_field,
+    DisplacementField, FieldSettings, FieldStats, MAX_AIMS, MAX_CLONES, MAX_FIELD_VECTORS,
+    MAX_WALK_CROSSINGS, VoxelAverage, precompute_field,
 };
 
 // The crate's types that the signatures above use, so that this module is

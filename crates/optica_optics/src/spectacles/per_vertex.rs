@@ -88,7 +88,11 @@ fn rim_crossing(p: DVec3, d: DVec3, r: f64) -> Option<f64> {
     // The larger root (−b + √disc)/a, in the cancellation-free form: when
     // b > 0 it is c/q with q = −(b + √disc) (product of the roots is c/a).
     let sq = disc.sqrt();
-    let s = if b > 0.0 { c / (-(b + sq)) } else { (sq - b) / a };
+    let s = if b > 0.0 {
+        c / (-(b + sq))
+    } else {
+        (sq - b) / a
+    };
     (s.is_finite() && s >= 0.0).then_some(s)
 }
 
@@ -98,9 +102,12 @@ impl SpectacleLens {
     /// surface (glass → air). Every outcome is a [`LensTrace`] variant; a
     /// [`Ray`] is always traceable, so there is no error.
     pub fn trace_from_eye(&self, ray: &Ray) -> LensTrace {
-        let (rim, index, back_surface, front_surface) = (self.rim_radius_m(), self.index(), self.back(), self.front());
+        let (rim, index, back_surface, front_surface) =
+            (self.rim_radius_m(), self.index(), self.back(), self.front());
         let r2 = rim * rim;
-        let Some(h1) = back_surface.intersect(ray) else { return LensTrace::Missed };
+        let Some(h1) = back_surface.intersect(ray) else {
+            return LensTrace::Missed;
+        };
         if h1.point.truncate().length_squared() > r2 {
             return LensTrace::Missed;
         }
@@ -108,20 +115,33 @@ impl SpectacleLens {
         let d1 = match refract(ray.dir(), h1.normal, 1.0, index) {
             Refraction::Transmitted(d) => d,
             // Cannot happen from air into glass (n > 1); reported, not hidden.
-            Refraction::TotalInternalReflection => return LensTrace::TotalInternalReflection { back, at: back },
+            Refraction::TotalInternalReflection => {
+                return LensTrace::TotalInternalReflection { back, at: back };
+            }
         };
         let inside = Ray::from_unit(back, d1);
         let edge = || {
             let s = rim_crossing(back, d1, rim).unwrap_or(0.0);
-            LensTrace::EdgeExit { back, at: inside.at(s) }
+            LensTrace::EdgeExit {
+                back,
+                at: inside.at(s),
+            }
         };
-        let Some(h2) = front_surface.intersect(&inside) else { return edge() };
+        let Some(h2) = front_surface.intersect(&inside) else {
+            return edge();
+        };
         if h2.point.truncate().length_squared() > r2 {
             return edge();
         }
         match refract(d1, h2.normal, index, 1.0) {
-            Refraction::Transmitted(dir) => LensTrace::Exit { back, front: h2.point, dir },
-            Refraction::TotalInternalReflection => LensTrace::TotalInternalReflection { back, at: h2.point },
+            Refraction::Transmitted(dir) => LensTrace::Exit {
+                back,
+                front: h2.point,
+                dir,
+            },
+            Refraction::TotalInternalReflection => {
+                LensTrace::TotalInternalReflection { back, at: h2.point }
+            }
         }
     }
 
@@ -131,10 +151,17 @@ impl SpectacleLens {
     ///
     /// Errors: a non-finite eye point or vertex, or a vertex at the eye
     /// point (no direction).
-    pub fn trace_through_vertex(&self, eye_point: DVec3, vertex: DVec3) -> Result<LensTrace, InvalidInput> {
+    pub fn trace_through_vertex(
+        &self,
+        eye_point: DVec3,
+        vertex: DVec3,
+    ) -> Result<LensTrace, InvalidInput> {
         let eye_point = input::finite_vec3("eye point (m)", eye_point)?;
         let vertex = input::finite_vec3("lens vertex (m)", vertex)?;
-        let ray = Ray::new(eye_point, vertex - eye_point).map_err(|e| InvalidInput { what: "eye point to lens vertex (m)", ..e })?;
+        let ray = Ray::new(eye_point, vertex - eye_point).map_err(|e| InvalidInput {
+            what: "eye point to lens vertex (m)",
+            ..e
+        })?;
         Ok(self.trace_from_eye(&ray))
     }
 }
@@ -145,9 +172,16 @@ impl SpectacleLens {
 ///
 /// Errors: a bad eye point, or any vertex that
 /// [`SpectacleLens::trace_through_vertex`] refuses; no partial result.
-pub fn refract_vertices(lens: &SpectacleLens, eye_point: DVec3, vertices: &[DVec3]) -> Result<Vec<LensTrace>, InvalidInput> {
+pub fn refract_vertices(
+    lens: &SpectacleLens,
+    eye_point: DVec3,
+    vertices: &[DVec3],
+) -> Result<Vec<LensTrace>, InvalidInput> {
     let eye_point = input::finite_vec3("eye point (m)", eye_point)?;
-    vertices.par_iter().map(|v| lens.trace_through_vertex(eye_point, *v)).collect()
+    vertices
+        .par_iter()
+        .map(|v| lens.trace_through_vertex(eye_point, *v))
+        .collect()
 }
 
 #[cfg(test)]
@@ -168,7 +202,9 @@ mod tests {
     fn per_vertex_axial_ray_is_undeviated() {
         let l = lens(-4.0, LensDesignParams::default());
         let t = l.trace_from_eye(&Ray::new(CR, DVec3::Z).unwrap());
-        let LensTrace::Exit { back, front, dir } = t else { panic!("{t:?}") };
+        let LensTrace::Exit { back, front, dir } = t else {
+            panic!("{t:?}")
+        };
         assert!((back - DVec3::new(0.0, 0.0, 0.012)).length() < 1e-15);
         assert!((front.z - l.front().vertex_z()).abs() < 1e-15);
         assert!((dir - DVec3::Z).length() < 1e-15);
@@ -178,10 +214,14 @@ mod tests {
     fn per_vertex_plano_lens_is_a_plate() {
         // A zero-power lens with flat surfaces is a plane-parallel plate: the
         // exit direction equals the entry direction, the ray is shifted.
-        let p = LensDesignParams::default().with_base_curve_d(Some(0.0)).unwrap();
+        let p = LensDesignParams::default()
+            .with_base_curve_d(Some(0.0))
+            .unwrap();
         let l = lens(0.0, p);
         let d = DVec3::new(0.3, 0.1, 1.0).normalize();
-        let LensTrace::Exit { dir, .. } = l.trace_from_eye(&Ray::new(CR, d).unwrap()) else { panic!() };
+        let LensTrace::Exit { dir, .. } = l.trace_from_eye(&Ray::new(CR, d).unwrap()) else {
+            panic!()
+        };
         assert!((dir - d).length() < 1e-14);
     }
 
@@ -192,7 +232,9 @@ mod tests {
         let d = DVec3::new(0.2, 0.0, 1.0).normalize();
         for (s, away) in [(-4.0, true), (4.0, false)] {
             let l = lens(s, LensDesignParams::default());
-            let LensTrace::Exit { dir, .. } = l.trace_from_eye(&Ray::new(CR, d).unwrap()) else { panic!() };
+            let LensTrace::Exit { dir, .. } = l.trace_from_eye(&Ray::new(CR, d).unwrap()) else {
+                panic!()
+            };
             assert_eq!(dir.x / dir.z > d.x / d.z, away, "S {s}");
         }
     }
@@ -212,7 +254,12 @@ mod tests {
         let n = 1.66;
         let critical = (1.0f64 / n).asin();
         assert!((critical.to_degrees() - 37.04).abs() < 0.01);
-        let l = lens(-10.0, LensDesignParams::default().with_glass(Glass::Constant(n)).unwrap());
+        let l = lens(
+            -10.0,
+            LensDesignParams::default()
+                .with_glass(Glass::Constant(n))
+                .unwrap(),
+        );
         // The front surface is the sphere of curvature c through the vertex
         // v: centre (0, 0, v + 1/c). c·(p − centre) = (c x, c y, c(z − v) − 1)
         // is its unit normal at p up to sign (no division; |·| = 1 exactly
@@ -221,7 +268,10 @@ mod tests {
         assert!(c != 0.0);
         let incidence = |back: DVec3, at: DVec3| {
             let g = DVec3::new(c * at.x, c * at.y, c * (at.z - l.front().vertex_z()) - 1.0);
-            assert!((g.length() - 1.0).abs() < 1e-9, "{at} not on the front surface");
+            assert!(
+                (g.length() - 1.0).abs() < 1e-9,
+                "{at} not on the front surface"
+            );
             let d = (at - back).normalize();
             d.dot(g.normalize()).abs().min(1.0).acos()
         };
@@ -230,17 +280,26 @@ mod tests {
             for k in 0..=800 {
                 let deg = k as f64 * 0.1;
                 let a = deg.to_radians();
-                match l.trace_from_eye(&Ray::new(from, DVec3::new(a.sin(), 0.0, a.cos())).unwrap()) {
+                match l.trace_from_eye(&Ray::new(from, DVec3::new(a.sin(), 0.0, a.cos())).unwrap())
+                {
                     LensTrace::Exit { back, front, dir } => {
                         assert!(dir.is_finite() && front.is_finite());
                         let i = incidence(back, front);
-                        assert!(i < critical, "{deg}°: exit at incidence {}° ≥ critical", i.to_degrees());
+                        assert!(
+                            i < critical,
+                            "{deg}°: exit at incidence {}° ≥ critical",
+                            i.to_degrees()
+                        );
                         exits += 1;
                     }
                     LensTrace::TotalInternalReflection { back, at } => {
                         assert!(at.is_finite());
                         let i = incidence(back, at);
-                        assert!(i > critical, "{deg}°: TIR at incidence {}° ≤ critical", i.to_degrees());
+                        assert!(
+                            i > critical,
+                            "{deg}°: TIR at incidence {}° ≤ critical",
+                            i.to_degrees()
+                        );
                         tir += 1;
                     }
                     LensTrace::EdgeExit { at, .. } => {
@@ -259,7 +318,10 @@ mod tests {
         assert!(edge.is_some());
         // From the centre of rotation: every exit and TIR checked the same way.
         let (tir_cr, exits_cr, edge_cr) = sweep(CR);
-        assert!(exits_cr > 0 && edge_cr.is_some(), "{tir_cr} {exits_cr} {edge_cr:?}");
+        assert!(
+            exits_cr > 0 && edge_cr.is_some(),
+            "{tir_cr} {exits_cr} {edge_cr:?}"
+        );
     }
 
     #[test]
@@ -267,16 +329,39 @@ mod tests {
         // A ray aimed outside the blank misses; the rim-crossing root is on
         // the cylinder.
         let l = lens(-6.0, LensDesignParams::default());
-        assert_eq!(l.trace_from_eye(&Ray::new(CR, DVec3::new(0.9, 0.0, 0.3)).unwrap()), LensTrace::Missed);
+        assert_eq!(
+            l.trace_from_eye(&Ray::new(CR, DVec3::new(0.9, 0.0, 0.3)).unwrap()),
+            LensTrace::Missed
+        );
         assert!(Ray::new(CR, DVec3::new(f64::NAN, 0.0, 1.0)).is_err());
         // A bad eye point or vertex is an error naming it, never a silent miss.
         let v = DVec3::new(0.01, 0.0, 0.012);
-        assert_eq!(l.trace_through_vertex(DVec3::NAN, v).unwrap_err().what, "eye point (m)");
-        assert_eq!(l.trace_through_vertex(CR, DVec3::new(0.0, f64::INFINITY, 0.0)).unwrap_err().what, "lens vertex (m)");
+        assert_eq!(
+            l.trace_through_vertex(DVec3::NAN, v).unwrap_err().what,
+            "eye point (m)"
+        );
+        assert_eq!(
+            l.trace_through_vertex(CR, DVec3::new(0.0, f64::INFINITY, 0.0))
+                .unwrap_err()
+                .what,
+            "lens vertex (m)"
+        );
         let same = l.trace_through_vertex(v, v).unwrap_err();
-        assert_eq!((same.what, same.expected), ("eye point to lens vertex (m)", crate::input::Expected::Direction));
-        assert_eq!(refract_vertices(&l, CR, &[v, DVec3::NAN]).unwrap_err().what, "lens vertex (m)");
-        assert_eq!(refract_vertices(&l, DVec3::NAN, &[]).unwrap_err().what, "eye point (m)");
+        assert_eq!(
+            (same.what, same.expected),
+            (
+                "eye point to lens vertex (m)",
+                crate::input::Expected::Direction
+            )
+        );
+        assert_eq!(
+            refract_vertices(&l, CR, &[v, DVec3::NAN]).unwrap_err().what,
+            "lens vertex (m)"
+        );
+        assert_eq!(
+            refract_vertices(&l, DVec3::NAN, &[]).unwrap_err().what,
+            "eye point (m)"
+        );
         let both = refract_vertices(&l, CR, &[v, DVec3::new(0.05, 0.0, 0.012)]).unwrap();
         assert!(both[0].is_exit() && both[1] == LensTrace::Missed);
         let p = DVec3::new(0.02, 0.0, 0.01);

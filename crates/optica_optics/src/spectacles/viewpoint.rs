@@ -55,7 +55,11 @@ pub struct ViewpointFit {
 /// prior or a `λ` that is not finite and positive
 /// ([`SpectaclesError::Input`]); [`SpectaclesError::Degenerate`] if the
 /// solve overflows (rays millions of kilometres away).
-pub fn virtual_viewpoint(rays: &[Ray], prior: DVec3, regularisation: f64) -> Result<ViewpointFit, SpectaclesError> {
+pub fn virtual_viewpoint(
+    rays: &[Ray],
+    prior: DVec3,
+    regularisation: f64,
+) -> Result<ViewpointFit, SpectaclesError> {
     let prior = input::finite_vec3("viewpoint prior (m)", prior)?;
     let regularisation = input::positive("viewpoint regularisation λ", regularisation)?;
     if rays.is_empty() {
@@ -72,7 +76,9 @@ pub fn virtual_viewpoint(rays: &[Ray], prior: DVec3, regularisation: f64) -> Res
     }
     let x = prior + m.inverse() * b;
     if !x.is_finite() {
-        return Err(SpectaclesError::Degenerate("virtual viewpoint solve overflowed"));
+        return Err(SpectaclesError::Degenerate(
+            "virtual viewpoint solve overflowed",
+        ));
     }
     let ss: f64 = rays
         .iter()
@@ -81,7 +87,11 @@ pub fn virtual_viewpoint(rays: &[Ray], prior: DVec3, regularisation: f64) -> Res
             (v - r.dir() * v.dot(r.dir())).length_squared()
         })
         .sum();
-    Ok(ViewpointFit { point: x, rms_distance_m: (ss / n).sqrt(), rays_used: rays.len() })
+    Ok(ViewpointFit {
+        point: x,
+        rms_distance_m: (ss / n).sqrt(),
+        rays_used: rays.len(),
+    })
 }
 
 /// The virtual viewpoint of the rays that got through the lens (the paper,
@@ -91,7 +101,11 @@ pub fn virtual_viewpoint(rays: &[Ray], prior: DVec3, regularisation: f64) -> Res
 ///
 /// Errors: as [`virtual_viewpoint`]; [`SpectaclesError::NoRays`] when no
 /// trace got through.
-pub fn virtual_viewpoint_of_traces(traces: &[LensTrace], prior: DVec3, regularisation: f64) -> Result<ViewpointFit, SpectaclesError> {
+pub fn virtual_viewpoint_of_traces(
+    traces: &[LensTrace],
+    prior: DVec3,
+    regularisation: f64,
+) -> Result<ViewpointFit, SpectaclesError> {
     let rays: Vec<Ray> = traces.iter().filter_map(|t| t.exit_ray()).collect();
     virtual_viewpoint(&rays, prior, regularisation)
 }
@@ -106,13 +120,19 @@ mod tests {
         // Rays through (0.01, −0.02, −0.3): the point is recovered to the
         // regularisation's bias (λ = 1e-8, spread ~0.3 rad: bias ~1e-8·0.3).
         let c = DVec3::new(0.01, -0.02, -0.3);
-        let rays: Vec<Ray> = [(0.1, 0.0), (-0.1, 0.05), (0.0, -0.2), (0.2, 0.2), (-0.15, -0.1)]
-            .iter()
-            .map(|&(x, y)| {
-                let d = DVec3::new(x, y, 1.0).normalize();
-                Ray::new(c + d * 0.35, d).unwrap()
-            })
-            .collect();
+        let rays: Vec<Ray> = [
+            (0.1, 0.0),
+            (-0.1, 0.05),
+            (0.0, -0.2),
+            (0.2, 0.2),
+            (-0.15, -0.1),
+        ]
+        .iter()
+        .map(|&(x, y)| {
+            let d = DVec3::new(x, y, 1.0).normalize();
+            Ray::new(c + d * 0.35, d).unwrap()
+        })
+        .collect();
         let fit = virtual_viewpoint(&rays, DVec3::ZERO, DEFAULT_VIEWPOINT_REGULARISATION).unwrap();
         assert!((fit.point - c).length() < 1e-7, "{:?}", fit.point);
         assert!(fit.rms_distance_m < 1e-7);
@@ -125,14 +145,31 @@ mod tests {
         // Exactly parallel rays: along the direction nothing is known, so the
         // prior's z is kept; across it, the rays' centroid (here x = 0.01).
         let prior = DVec3::new(0.0, 0.0, -0.0135);
-        let rays: Vec<Ray> = (0..5).map(|k| Ray::new(DVec3::new(0.01 + 0.0 * k as f64, 0.0, 0.02 + 0.001 * k as f64), DVec3::Z).unwrap()).collect();
+        let rays: Vec<Ray> = (0..5)
+            .map(|k| {
+                Ray::new(
+                    DVec3::new(0.01 + 0.0 * k as f64, 0.0, 0.02 + 0.001 * k as f64),
+                    DVec3::Z,
+                )
+                .unwrap()
+            })
+            .collect();
         let fit = virtual_viewpoint(&rays, prior, DEFAULT_VIEWPOINT_REGULARISATION).unwrap();
         assert!(fit.point.is_finite());
         assert!((fit.point.z - prior.z).abs() < 1e-12);
         assert!((fit.point.x - 0.01).abs() < 1e-9);
         // Nearly parallel rays (1e-6 rad) converging 1 km away are not
         // resolvable against λ: the answer stays finite and near the prior's depth.
-        let rays: Vec<Ray> = [-1.0, 1.0].iter().map(|&s| Ray::new(DVec3::new(s * 1e-3, 0.0, 0.0), DVec3::new(-s * 1e-6, 0.0, 1.0)).unwrap()).collect();
+        let rays: Vec<Ray> = [-1.0, 1.0]
+            .iter()
+            .map(|&s| {
+                Ray::new(
+                    DVec3::new(s * 1e-3, 0.0, 0.0),
+                    DVec3::new(-s * 1e-6, 0.0, 1.0),
+                )
+                .unwrap()
+            })
+            .collect();
         let fit = virtual_viewpoint(&rays, prior, DEFAULT_VIEWPOINT_REGULARISATION).unwrap();
         assert!(fit.point.is_finite() && fit.point.z.abs() < 1.0);
     }
@@ -146,9 +183,20 @@ mod tests {
             let p = LensDesignParams::default().with_base_curve_d(base).unwrap();
             let lens = design_lens(&Prescription::sphere(s).unwrap(), &p).unwrap();
             // Paraxial zone: back-surface vertices within 2 mm of the axis.
-            let verts: Vec<DVec3> = lens.mesh(40, 16).unwrap().back_positions().iter().copied().filter(|v| v.truncate().length() < 0.002).collect();
+            let verts: Vec<DVec3> = lens
+                .mesh(40, 16)
+                .unwrap()
+                .back_positions()
+                .iter()
+                .copied()
+                .filter(|v| v.truncate().length() < 0.002)
+                .collect();
             let traces = refract_vertices(&lens, eye, &verts).unwrap();
-            (lens, virtual_viewpoint_of_traces(&traces, eye, DEFAULT_VIEWPOINT_REGULARISATION).unwrap())
+            (
+                lens,
+                virtual_viewpoint_of_traces(&traces, eye, DEFAULT_VIEWPOINT_REGULARISATION)
+                    .unwrap(),
+            )
         };
         // A flat plate of thickness t = 2 mm, n = 1.498 shows the eye moved
         // towards it by t(1 − 1/n) = 0.6649 mm (hand: 0.002·0.498/1.498).
@@ -172,17 +220,32 @@ mod tests {
 
     #[test]
     fn viewpoint_bad_input_is_typed() {
-        assert_eq!(virtual_viewpoint(&[], DVec3::ZERO, 1e-8), Err(SpectaclesError::NoRays));
+        assert_eq!(
+            virtual_viewpoint(&[], DVec3::ZERO, 1e-8),
+            Err(SpectaclesError::NoRays)
+        );
         let ok = Ray::new(DVec3::ZERO, DVec3::Z).unwrap();
         let input_error = |r: Result<ViewpointFit, SpectaclesError>| match r {
             Err(SpectaclesError::Input(e)) => e.what,
             other => panic!("{other:?}"),
         };
-        assert_eq!(input_error(virtual_viewpoint(&[ok], DVec3::NAN, 1e-8)), "viewpoint prior (m)");
-        assert_eq!(input_error(virtual_viewpoint(&[ok], DVec3::ZERO, 0.0)), "viewpoint regularisation λ");
-        assert_eq!(input_error(virtual_viewpoint(&[ok], DVec3::ZERO, f64::NAN)), "viewpoint regularisation λ");
+        assert_eq!(
+            input_error(virtual_viewpoint(&[ok], DVec3::NAN, 1e-8)),
+            "viewpoint prior (m)"
+        );
+        assert_eq!(
+            input_error(virtual_viewpoint(&[ok], DVec3::ZERO, 0.0)),
+            "viewpoint regularisation λ"
+        );
+        assert_eq!(
+            input_error(virtual_viewpoint(&[ok], DVec3::ZERO, f64::NAN)),
+            "viewpoint regularisation λ"
+        );
         // Traces none of which got through: no rays.
-        assert_eq!(virtual_viewpoint_of_traces(&[LensTrace::Missed], DVec3::ZERO, 1e-8), Err(SpectaclesError::NoRays));
+        assert_eq!(
+            virtual_viewpoint_of_traces(&[LensTrace::Missed], DVec3::ZERO, 1e-8),
+            Err(SpectaclesError::NoRays)
+        );
     }
 
     proptest! {

@@ -4,7 +4,9 @@ use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::bundle::{EyePlacement, Region, Spread, TracedBundle, pupil_samples, region, trace_bundle_counted};
+use super::bundle::{
+    EyePlacement, Region, Spread, TracedBundle, pupil_samples, region, trace_bundle_counted,
+};
 use super::error::{LensSide, SpectaclesError};
 use super::eye::Eye;
 use super::lens_design::SpectacleLens;
@@ -169,7 +171,12 @@ impl FieldSettings {
     /// `rings < 1`, `segments < 3`, more aims than [`MAX_AIMS`] or a walk
     /// bound beyond [`MAX_WALK_CROSSINGS`].
     pub fn with_aims(self, rings: usize, segments: usize) -> Result<Self, InvalidInput> {
-        Self { aim_rings: rings, aim_segments: segments, ..self }.checked()
+        Self {
+            aim_rings: rings,
+            aim_segments: segments,
+            ..self
+        }
+        .checked()
     }
 
     /// These settings with, for the naked eye (no lens), the aims through a
@@ -178,7 +185,12 @@ impl FieldSettings {
     /// in front of the eye's centre of rotation, which
     /// [`precompute_field`] checks.)
     pub fn with_naked_eye_window(self, radius_m: f64, z_m: f64) -> Result<Self, InvalidInput> {
-        Self { window_radius_m: radius_m, window_z_m: z_m, ..self }.checked()
+        Self {
+            window_radius_m: radius_m,
+            window_z_m: z_m,
+            ..self
+        }
+        .checked()
     }
 
     /// These settings with hole filling on or off (step 5 of the module
@@ -202,7 +214,11 @@ impl FieldSettings {
         // `as usize` saturates: a huge k gives usize::MAX, which the caps refuse.
         let sc = |n: usize, lo: usize| ((n as f64 * k).round() as usize).max(lo);
         Self {
-            dims: [sc(self.dims[0], 1), sc(self.dims[1], 1), sc(self.dims[2], 1)],
+            dims: [
+                sc(self.dims[0], 1),
+                sc(self.dims[1], 1),
+                sc(self.dims[2], 1),
+            ],
             aim_rings: sc(self.aim_rings, 1),
             aim_segments: sc(self.aim_segments, MIN_AIM_SEGMENTS),
             ..*self
@@ -278,31 +294,75 @@ impl FieldSettings {
         input::positive("naked-eye window radius (m)", self.window_radius_m)?;
         input::finite("naked-eye window z (m)", self.window_z_m)?;
         let at_least = |what, n: usize, min: usize| {
-            if n < min { Err(InvalidInput::new(what, n as f64, Expected::Range { min: min as f64, max: f64::INFINITY })) } else { Ok(()) }
+            if n < min {
+                Err(InvalidInput::new(
+                    what,
+                    n as f64,
+                    Expected::Range {
+                        min: min as f64,
+                        max: f64::INFINITY,
+                    },
+                ))
+            } else {
+                Ok(())
+            }
         };
         for n in self.dims {
             at_least("voxels per axis", n, 1)?;
         }
         at_least("aim rings", self.aim_rings, 1)?;
         at_least("aim segments", self.aim_segments, MIN_AIM_SEGMENTS)?;
-        let capped = |what, value: f64, max: usize| InvalidInput::new(what, value, Expected::Range { min: 1.0, max: max as f64 });
+        let capped = |what, value: f64, max: usize| {
+            InvalidInput::new(
+                what,
+                value,
+                Expected::Range {
+                    min: 1.0,
+                    max: max as f64,
+                },
+            )
+        };
         if !(1..=MAX_CLONES).contains(&self.clones) {
             return Err(capped("clones", self.clones as f64, MAX_CLONES));
         }
         let aims = polar_point_count(self.aim_rings, self.aim_segments)
             .filter(|&n| n <= MAX_AIMS)
-            .ok_or_else(|| too_many_points("aims 1 + aim rings × aim segments", self.aim_rings, self.aim_segments))?;
+            .ok_or_else(|| {
+                too_many_points(
+                    "aims 1 + aim rings × aim segments",
+                    self.aim_rings,
+                    self.aim_segments,
+                )
+            })?;
         let dims_f = self.dims.iter().map(|&n| n as f64).product::<f64>();
         // Cells index as u32 in the walk.
-        let cells = self.dims.iter().try_fold(1usize, |a, &n| a.checked_mul(n)).filter(|&c| c <= u32::MAX as usize);
-        let vectors = cells.and_then(|c| c.checked_mul(self.clones)).filter(|&n| n <= MAX_FIELD_VECTORS);
+        let cells = self
+            .dims
+            .iter()
+            .try_fold(1usize, |a, &n| a.checked_mul(n))
+            .filter(|&c| c <= u32::MAX as usize);
+        let vectors = cells
+            .and_then(|c| c.checked_mul(self.clones))
+            .filter(|&n| n <= MAX_FIELD_VECTORS);
         if vectors.is_none() {
-            return Err(capped("voxels × clones", dims_f * self.clones as f64, MAX_FIELD_VECTORS));
+            return Err(capped(
+                "voxels × clones",
+                dims_f * self.clones as f64,
+                MAX_FIELD_VECTORS,
+            ));
         }
-        let walk = self.dims.iter().try_fold(3usize, |a, &n| a.checked_add(n)).and_then(|w| w.checked_mul(aims));
+        let walk = self
+            .dims
+            .iter()
+            .try_fold(3usize, |a, &n| a.checked_add(n))
+            .and_then(|w| w.checked_mul(aims));
         if walk.is_none_or(|w| w > MAX_WALK_CROSSINGS) {
             let w = self.dims.iter().map(|&n| n as f64).sum::<f64>() + 3.0;
-            return Err(capped("aims × (nx + ny + nz + 3) (bound on voxel crossings)", w * aims as f64, MAX_WALK_CROSSINGS));
+            return Err(capped(
+                "aims × (nx + ny + nz + 3) (bound on voxel crossings)",
+                w * aims as f64,
+                MAX_WALK_CROSSINGS,
+            ));
         }
         Ok(self)
     }
@@ -366,18 +426,30 @@ impl TryFrom<RawDisplacementField> for DisplacementField {
     type Error = InvalidInput;
 
     fn try_from(r: RawDisplacementField) -> Result<Self, InvalidInput> {
-        let clones = Expected::Range { min: 1.0, max: MAX_CLONES as f64 };
+        let clones = Expected::Range {
+            min: 1.0,
+            max: MAX_CLONES as f64,
+        };
         if !(1..=MAX_CLONES).contains(&r.clones) {
             return Err(InvalidInput::new("field clones", r.clones as f64, clones));
         }
         if r.counts.len().checked_mul(r.clones) != Some(r.vectors.len()) {
             let n = r.counts.len() as f64 * r.clones as f64;
-            return Err(InvalidInput::new("field vectors (voxels × clones)", r.vectors.len() as f64, Expected::Range { min: n, max: n }));
+            return Err(InvalidInput::new(
+                "field vectors (voxels × clones)",
+                r.vectors.len() as f64,
+                Expected::Range { min: n, max: n },
+            ));
         }
         for v in &r.vectors {
             input::finite_vec3("field vector (m)", v.as_dvec3())?;
         }
-        Ok(Self { counts: r.counts, vectors: r.vectors, clones: r.clones, stats: r.stats })
+        Ok(Self {
+            counts: r.counts,
+            vectors: r.vectors,
+            clones: r.clones,
+            stats: r.stats,
+        })
     }
 }
 
@@ -391,13 +463,20 @@ struct Crossing {
 }
 
 /// The aims (unit directions from the centre of rotation).
-fn aims(lens: Option<&SpectacleLens>, placement: &EyePlacement, st: &FieldSettings) -> Result<Vec<DVec3>, SpectaclesError> {
+fn aims(
+    lens: Option<&SpectacleLens>,
+    placement: &EyePlacement,
+    st: &FieldSettings,
+) -> Result<Vec<DVec3>, SpectaclesError> {
     let centre = placement.centre_of_rotation();
     let radius = match lens {
         Some(l) => l.rim_radius_m() * (1.0 - RIM_AIM_INSET),
         None => {
             let ahead = st.window_z_m - centre.z;
-            input::positive("naked-eye window z in front of the centre of rotation (m)", ahead)?;
+            input::positive(
+                "naked-eye window z in front of the centre of rotation (m)",
+                ahead,
+            )?;
             st.window_radius_m
         }
     };
@@ -405,10 +484,16 @@ fn aims(lens: Option<&SpectacleLens>, placement: &EyePlacement, st: &FieldSettin
         .into_iter()
         .map(|(x, y)| {
             let p = match lens {
-                Some(l) => l.back().point(x, y).ok_or_else(|| l.not_to_rim(LensSide::Back))?,
+                Some(l) => l
+                    .back()
+                    .point(x, y)
+                    .ok_or_else(|| l.not_to_rim(LensSide::Back))?,
                 None => DVec3::new(x, y, st.window_z_m),
             };
-            Ok(input::direction("aim from the centre of rotation", p - centre)?)
+            Ok(input::direction(
+                "aim from the centre of rotation",
+                p - centre,
+            )?)
         })
         .collect()
 }
@@ -421,14 +506,18 @@ fn trace_pair(
     eye: &Eye,
     aim: DVec3,
     samples: &[DVec2],
-) -> (Result<Option<(TracedBundle, TracedBundle)>, SpectaclesError>, usize) {
+) -> (
+    Result<Option<(TracedBundle, TracedBundle)>, SpectaclesError>,
+    usize,
+) {
     let rho = 0.5 * eye.pupil_diameter_m();
     let mut traced = 0;
-    let mut trace = |v: f64| match trace_bundle_counted(lens, placement, aim, rho, v, samples, &mut traced) {
-        Ok(b) => Ok(Some(b)),
-        Err(SpectaclesError::BundleBlocked(_)) => Ok(None),
-        Err(e) => Err(e),
-    };
+    let mut trace =
+        |v: f64| match trace_bundle_counted(lens, placement, aim, rho, v, samples, &mut traced) {
+            Ok(b) => Ok(Some(b)),
+            Err(SpectaclesError::BundleBlocked(_)) => Ok(None),
+            Err(e) => Err(e),
+        };
     let pair = match trace(eye.near_point_vergence_d()) {
         Ok(Some(near)) => trace(eye.far_point_vergence_d()).map(|far| far.map(|far| (near, far))),
         other => other.map(|_| None),
@@ -494,8 +583,12 @@ pub fn precompute_field(
     let aim_dirs = aims(lens, placement, st)?;
 
     // Step 2: bundles, in parallel, counting the rays actually traced.
-    let (bundles, traced): (Vec<_>, Vec<usize>) = aim_dirs.par_iter().map(|&a| trace_pair(lens, placement, eye, a, &samples)).unzip();
-    let bundles: Vec<Option<(TracedBundle, TracedBundle)>> = bundles.into_iter().collect::<Result<_, _>>()?;
+    let (bundles, traced): (Vec<_>, Vec<usize>) = aim_dirs
+        .par_iter()
+        .map(|&a| trace_pair(lens, placement, eye, a, &samples))
+        .unzip();
+    let bundles: Vec<Option<(TracedBundle, TracedBundle)>> =
+        bundles.into_iter().collect::<Result<_, _>>()?;
     // Some aims fail at the rim; if all do, the eye does not look through
     // the lens at all, and an all-sharp field would hide that.
     if bundles.iter().all(Option::is_none) {
@@ -513,7 +606,12 @@ pub fn precompute_field(
                 counts.traverse(&chief).filter_map(move |(cell, t0, t1)| {
                     let s = 0.5 * (t0 + t1);
                     let idx = cell[0] + st.dims[0] * (cell[1] + st.dims[1] * cell[2]);
-                    (s > 0.0).then(|| Crossing { cell: idx as u32, aim: k as u32, region: region(s, wn, wf), s })
+                    (s > 0.0).then(|| Crossing {
+                        cell: idx as u32,
+                        aim: k as u32,
+                        region: region(s, wn, wf),
+                        s,
+                    })
                 })
             });
             walk.into_iter().flatten()
@@ -524,36 +622,51 @@ pub fn precompute_field(
     // Step 4: average per voxel, in parallel over voxels.
     let mut vectors = vec![Vec3::ZERO; n_cells * s_clones];
     let mut cnt = vec![0u32; n_cells];
-    vectors.par_chunks_mut(s_clones).zip(cnt.par_iter_mut()).enumerate().for_each(|(cell, (out, count))| {
-        let lo = crossings.partition_point(|c| (c.cell as usize) < cell);
-        let hi = crossings.partition_point(|c| (c.cell as usize) <= cell);
-        if lo == hi {
-            return;
-        }
-        let mut sum = vec![DVec3::ZERO; s_clones];
-        let mut recorded = 0usize;
-        for c in &crossings[lo..hi] {
-            let Some((near, far)) = &bundles[c.aim as usize] else { continue };
-            match c.region {
-                Region::Near => sum.iter_mut().zip(near.displacements(c.s)).for_each(|(v, d)| *v += d),
-                Region::Far => sum.iter_mut().zip(far.displacements(c.s)).for_each(|(v, d)| *v -= d),
-                Region::InFocus => continue,
+    vectors
+        .par_chunks_mut(s_clones)
+        .zip(cnt.par_iter_mut())
+        .enumerate()
+        .for_each(|(cell, (out, count))| {
+            let lo = crossings.partition_point(|c| (c.cell as usize) < cell);
+            let hi = crossings.partition_point(|c| (c.cell as usize) <= cell);
+            if lo == hi {
+                return;
             }
-            recorded += 1;
-        }
-        let n = match st.average {
-            VoxelAverage::RecordedSets => recorded,
-            VoxelAverage::AllCrossings => hi - lo,
-        };
-        // No set recorded (crossed only in focus): zero, sharp.
-        if n > 0 {
-            for (o, v) in out.iter_mut().zip(&sum) {
-                *o = (*v / n as f64).as_vec3();
+            let mut sum = vec![DVec3::ZERO; s_clones];
+            let mut recorded = 0usize;
+            for c in &crossings[lo..hi] {
+                let Some((near, far)) = &bundles[c.aim as usize] else {
+                    continue;
+                };
+                match c.region {
+                    Region::Near => sum
+                        .iter_mut()
+                        .zip(near.displacements(c.s))
+                        .for_each(|(v, d)| *v += d),
+                    Region::Far => sum
+                        .iter_mut()
+                        .zip(far.displacements(c.s))
+                        .for_each(|(v, d)| *v -= d),
+                    Region::InFocus => continue,
+                }
+                recorded += 1;
             }
-        }
-        *count = (hi - lo) as u32;
-    });
-    let sets_recorded = crossings.iter().filter(|c| c.region != Region::InFocus).count();
+            let n = match st.average {
+                VoxelAverage::RecordedSets => recorded,
+                VoxelAverage::AllCrossings => hi - lo,
+            };
+            // No set recorded (crossed only in focus): zero, sharp.
+            if n > 0 {
+                for (o, v) in out.iter_mut().zip(&sum) {
+                    *o = (*v / n as f64).as_vec3();
+                }
+            }
+            *count = (hi - lo) as u32;
+        });
+    let sets_recorded = crossings
+        .iter()
+        .filter(|c| c.region != Region::InFocus)
+        .count();
     let voxels_crossed = cnt.iter().filter(|&&c| c > 0).count();
     let counts = VoxelGrid::from_vec(st.min, counts.cell_size(), st.dims, cnt)?;
 
@@ -573,7 +686,12 @@ pub fn precompute_field(
         stats.voxels_filled = filled;
         stats.fill_passes = passes;
     }
-    Ok(DisplacementField { counts, vectors, clones: s_clones, stats })
+    Ok(DisplacementField {
+        counts,
+        vectors,
+        clones: s_clones,
+        stats,
+    })
 }
 
 /// Step 5: every voxel with no crossing takes the mean of its face
@@ -611,16 +729,21 @@ fn fill_empty(counts: &VoxelGrid<u32>, vectors: &mut [Vec3], s: usize) -> (usize
     while !front.is_empty() {
         // Means of the known neighbours, computed in parallel from a frozen state.
         let mut means = vec![Vec3::ZERO; front.len() * s];
-        means.par_chunks_mut(s).zip(front.par_iter()).for_each(|(out, &i)| {
-            let mut n = 0.0f32;
-            for j in neighbours(i).into_iter().flatten() {
-                if state[j] == 1 {
-                    n += 1.0;
-                    out.iter_mut().zip(&vectors[j * s..(j + 1) * s]).for_each(|(a, b)| *a += *b);
+        means
+            .par_chunks_mut(s)
+            .zip(front.par_iter())
+            .for_each(|(out, &i)| {
+                let mut n = 0.0f32;
+                for j in neighbours(i).into_iter().flatten() {
+                    if state[j] == 1 {
+                        n += 1.0;
+                        out.iter_mut()
+                            .zip(&vectors[j * s..(j + 1) * s])
+                            .for_each(|(a, b)| *a += *b);
+                    }
                 }
-            }
-            out.iter_mut().for_each(|v| *v /= n);
-        });
+                out.iter_mut().for_each(|v| *v /= n);
+            });
         for (k, &i) in front.iter().enumerate() {
             vectors[i * s..(i + 1) * s].copy_from_slice(&means[k * s..(k + 1) * s]);
             state[i] = 1;
@@ -676,7 +799,8 @@ impl DisplacementField {
 
     /// Spread of the set at `point`.
     pub fn spread_at(&self, point: DVec3) -> Option<Spread> {
-        self.displacements_at(point).map(|v| Spread::of(v.iter().map(|x| x.as_dvec3())))
+        self.displacements_at(point)
+            .map(|v| Spread::of(v.iter().map(|x| x.as_dvec3())))
     }
 
     /// Fraction of voxels crossed by a reference ray.
@@ -705,7 +829,10 @@ mod tests {
         let (a, n, far) = (0.012, 0.5, 1.3);
         let eye = Eye::from_near_far(n, far, a).unwrap();
         let pl = EyePlacement::paper();
-        let st = FieldSettings::paper().scaled(0.5).unwrap().with_fill_empty(false);
+        let st = FieldSettings::paper()
+            .scaled(0.5)
+            .unwrap()
+            .with_fill_empty(false);
         let f = precompute_field(&eye, &pl, None, &st).unwrap();
         assert_eq!(f.stats().aims_failed, 0);
         let h = f.counts().cell_size().z;
@@ -717,10 +844,18 @@ mod tests {
             let got = f.spread_at(p).unwrap().disc_diameter_m();
             let want = eye.blur_disc_diameter_m(zc).unwrap();
             let tol = (a / n).max(a / far) * h / 2.0;
-            assert!((got - want).abs() <= tol, "z {z}: {got} vs {want} (tolerance {tol})");
+            assert!(
+                (got - want).abs() <= tol,
+                "z {z}: {got} vs {want} (tolerance {tol})"
+            );
         }
         // In focus between 0.5 and 1.3 m: zero.
-        assert_eq!(f.spread_at(DVec3::new(0.001, 0.001, 0.8)).unwrap().rms_radius_m, 0.0);
+        assert_eq!(
+            f.spread_at(DVec3::new(0.001, 0.001, 0.8))
+                .unwrap()
+                .rms_radius_m,
+            0.0
+        );
     }
 
     #[test]
@@ -732,7 +867,11 @@ mod tests {
         let pl = EyePlacement::default();
         // Full correction at 15 mm from the pupil (lens at 12 mm, pupil 3 mm
         // behind the cornea): F = −1/(1/3 − 0.015) = −3.14 D.
-        let lens = design_lens(&Prescription::sphere(-1.0 / (1.0 / 3.0 - 0.015)).unwrap(), &LensDesignParams::default()).unwrap();
+        let lens = design_lens(
+            &Prescription::sphere(-1.0 / (1.0 / 3.0 - 0.015)).unwrap(),
+            &LensDesignParams::default(),
+        )
+        .unwrap();
         let st = small();
         let naked = precompute_field(&eye, &pl, None, &st).unwrap();
         let corrected = precompute_field(&eye, &pl, Some(&lens), &st).unwrap();
@@ -754,7 +893,10 @@ mod tests {
         // columns, the one `cell_of` names (the half-open rule).
         let eye = Eye::new(-2.0, 1.0, 0.004).unwrap();
         let pl = EyePlacement::paper();
-        let st = FieldSettings::paper().with_fill_empty(false).with_aims(2, 4).unwrap();
+        let st = FieldSettings::paper()
+            .with_fill_empty(false)
+            .with_aims(2, 4)
+            .unwrap();
         let f = precompute_field(&eye, &pl, None, &st).unwrap();
         let cx = f.counts().cell_of(DVec3::new(0.0, 0.0, 1.0)).unwrap()[0];
         assert!(cx == 54 || cx == 55);
@@ -776,14 +918,31 @@ mod tests {
         let what = |r: Result<FieldSettings, InvalidInput>| r.unwrap_err().what;
         assert_eq!(what(small().with_clones(0)), "clones");
         assert_eq!(what(small().with_dims([0, 1, 1])), "voxels per axis");
-        assert_eq!(what(small().with_box(DVec3::NAN, DVec3::ONE)), "field box min corner (m)");
-        assert_eq!(what(small().with_box(DVec3::ZERO, DVec3::new(1.0, f64::INFINITY, 1.0))), "field box max corner (m)");
-        let inverted = small().with_box(DVec3::new(-2.75, -1.0, 0.0), DVec3::new(-10.0, 1.0, 1.0)).unwrap_err();
-        assert_eq!((inverted.what, inverted.value), ("field box size (m)", -7.25));
+        assert_eq!(
+            what(small().with_box(DVec3::NAN, DVec3::ONE)),
+            "field box min corner (m)"
+        );
+        assert_eq!(
+            what(small().with_box(DVec3::ZERO, DVec3::new(1.0, f64::INFINITY, 1.0))),
+            "field box max corner (m)"
+        );
+        let inverted = small()
+            .with_box(DVec3::new(-2.75, -1.0, 0.0), DVec3::new(-10.0, 1.0, 1.0))
+            .unwrap_err();
+        assert_eq!(
+            (inverted.what, inverted.value),
+            ("field box size (m)", -7.25)
+        );
         assert_eq!(what(small().with_aims(0, 8)), "aim rings");
         assert_eq!(what(small().with_aims(2, 2)), "aim segments");
-        assert_eq!(what(small().with_naked_eye_window(0.0, 0.012)), "naked-eye window radius (m)");
-        assert_eq!(what(small().with_naked_eye_window(0.02, f64::NAN)), "naked-eye window z (m)");
+        assert_eq!(
+            what(small().with_naked_eye_window(0.0, 0.012)),
+            "naked-eye window radius (m)"
+        );
+        assert_eq!(
+            what(small().with_naked_eye_window(0.02, f64::NAN)),
+            "naked-eye window z (m)"
+        );
         assert_eq!(what(small().scaled(0.0)), "field resolution scale");
         assert_eq!(what(small().scaled(f64::NAN)), "field resolution scale");
         // Where the eye is only known at precompute: a naked-eye window
@@ -791,18 +950,36 @@ mod tests {
         let eye = Eye::new(-2.0, 1.0, 0.004).unwrap();
         let behind = small().with_naked_eye_window(0.02, -0.02).unwrap();
         match precompute_field(&eye, &EyePlacement::default(), None, &behind) {
-            Err(SpectaclesError::Input(e)) => assert_eq!(e.what, "naked-eye window z in front of the centre of rotation (m)"),
+            Err(SpectaclesError::Input(e)) => assert_eq!(
+                e.what,
+                "naked-eye window z in front of the centre of rotation (m)"
+            ),
             other => panic!("{other:?}"),
         }
         // An eye in front of the lens looks through it with no aim.
-        let lens = design_lens(&Prescription::sphere(-2.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let lens = design_lens(
+            &Prescription::sphere(-2.0).unwrap(),
+            &LensDesignParams::default(),
+        )
+        .unwrap();
         let beyond = EyePlacement::new(DVec3::new(0.0, 0.0, 0.05), 0.0).unwrap();
-        assert_eq!(precompute_field(&eye, &beyond, Some(&lens), &small()), Err(SpectaclesError::NoRays));
+        assert_eq!(
+            precompute_field(&eye, &beyond, Some(&lens), &small()),
+            Err(SpectaclesError::NoRays)
+        );
         // Deserialised settings are checked the same way.
         let mut v = serde_json::to_value(small()).unwrap();
-        assert_eq!(serde_json::from_value::<FieldSettings>(v.clone()).unwrap(), small());
+        assert_eq!(
+            serde_json::from_value::<FieldSettings>(v.clone()).unwrap(),
+            small()
+        );
         v["clones"] = serde_json::json!(0);
-        assert!(serde_json::from_value::<FieldSettings>(v).unwrap_err().to_string().contains("clones"));
+        assert!(
+            serde_json::from_value::<FieldSettings>(v)
+                .unwrap_err()
+                .to_string()
+                .contains("clones")
+        );
     }
 
     #[test]
@@ -820,28 +997,55 @@ mod tests {
         assert!(capped(small().with_aims(usize::MAX, usize::MAX), aims));
         assert!(capped(small().with_aims(1 << 20, 64), aims));
         // A million clones on one voxel (old cap: voxels × clones <= u32::MAX).
-        assert!(capped(small().with_dims([1, 1, 1]).unwrap().with_clones(1 << 20), "clones"));
+        assert!(capped(
+            small().with_dims([1, 1, 1]).unwrap().with_clones(1 << 20),
+            "clones"
+        ));
         assert!(capped(small().with_clones(usize::MAX), "clones"));
         // Voxel counts that overflow, or whose walk would be 10^11 crossings.
-        assert!(capped(small().with_dims([usize::MAX, 2, 1]), "voxels × clones"));
-        assert!(capped(small().with_dims([1 << 40, 1 << 40, 1]), "voxels × clones"));
+        assert!(capped(
+            small().with_dims([usize::MAX, 2, 1]),
+            "voxels × clones"
+        ));
+        assert!(capped(
+            small().with_dims([1 << 40, 1 << 40, 1]),
+            "voxels × clones"
+        ));
         let walk = "aims × (nx + ny + nz + 3) (bound on voxel crossings)";
-        assert!(capped(small().with_clones(1).unwrap().with_dims([1 << 26, 1, 1]), walk));
+        assert!(capped(
+            small().with_clones(1).unwrap().with_dims([1 << 26, 1, 1]),
+            walk
+        ));
         // A scale whose sizes saturate.
         assert!(capped(small().scaled(1e30), aims));
         assert_eq!(FieldSettings::paper().aims(), 1537);
         // The caps' largest sizes are accepted (settings only; nothing is built).
-        assert_eq!(small().with_dims([1, 1, 1]).unwrap().with_clones(MAX_CLONES).unwrap().clones(), MAX_CLONES);
+        assert_eq!(
+            small()
+                .with_dims([1, 1, 1])
+                .unwrap()
+                .with_clones(MAX_CLONES)
+                .unwrap()
+                .clones(),
+            MAX_CLONES
+        );
     }
 
     #[test]
     fn voxel_field_deserialisation_is_validated() {
         use serde_json::{Value, json};
         let eye = Eye::new(-2.0, 1.0, 0.004).unwrap();
-        let st = small().with_dims([3, 2, 4]).unwrap().with_clones(4).unwrap();
+        let st = small()
+            .with_dims([3, 2, 4])
+            .unwrap()
+            .with_clones(4)
+            .unwrap();
         let f = precompute_field(&eye, &EyePlacement::default(), None, &st).unwrap();
         let good = serde_json::to_value(&f).unwrap();
-        assert_eq!(serde_json::from_value::<DisplacementField>(good.clone()).unwrap(), f);
+        assert_eq!(
+            serde_json::from_value::<DisplacementField>(good.clone()).unwrap(),
+            f
+        );
         let parse = |edit: &dyn Fn(&mut Value)| {
             let mut v = good.clone();
             edit(&mut v);
@@ -852,23 +1056,36 @@ mod tests {
         let short = refusal(&|v| {
             v["vectors"].as_array_mut().unwrap().pop();
         });
-        assert!(short.starts_with("field vectors (voxels × clones) = 95"), "{short}");
+        assert!(
+            short.starts_with("field vectors (voxels × clones) = 95"),
+            "{short}"
+        );
         // Zero clones, and more clones than the vectors hold.
         assert!(refusal(&|v| v["clones"] = json!(0)).starts_with("field clones = 0"));
-        assert!(refusal(&|v| v["clones"] = json!(5)).starts_with("field vectors (voxels × clones) = 96"));
+        assert!(
+            refusal(&|v| v["clones"] = json!(5))
+                .starts_with("field vectors (voxels × clones) = 96")
+        );
         // A grid with a zero dimension (underflow in `trilinear`) or whose
         // counts do not match its dims (panic in `get`): the grid's own errors.
-        assert!(refusal(&|v| v["counts"]["dims"] = json!([0, 2, 4])).contains("grid dimensions [0, 2, 4]"));
-        assert!(refusal(&|v| v["counts"]["dims"] = json!([4, 2, 4])).contains("needs 32 cells, got 24"));
+        assert!(
+            refusal(&|v| v["counts"]["dims"] = json!([0, 2, 4]))
+                .contains("grid dimensions [0, 2, 4]")
+        );
+        assert!(
+            refusal(&|v| v["counts"]["dims"] = json!([4, 2, 4])).contains("needs 32 cells, got 24")
+        );
         let cells = refusal(&|v| {
             v["counts"]["cells"].as_array_mut().unwrap().pop();
         });
         assert!(cells.contains("needs 24 cells, got 23"), "{cells}");
         // Old files without the newer stats counter still load.
-        assert!(parse(&|v| {
-            v["stats"].as_object_mut().unwrap().remove("sets_recorded");
-        })
-        .is_ok());
+        assert!(
+            parse(&|v| {
+                v["stats"].as_object_mut().unwrap().remove("sets_recorded");
+            })
+            .is_ok()
+        );
     }
 
     #[test]
@@ -896,32 +1113,58 @@ mod tests {
         let mut want = vec![DVec3::ZERO; st.clones()];
         let (mut near_n, mut total) = (0usize, 0usize);
         for a in aims(None, &pl, &st).unwrap() {
-            let b = trace_bundle_counted(None, &pl, a, rho, eye.near_point_vergence_d(), &samples, &mut 0).unwrap();
+            let b = trace_bundle_counted(
+                None,
+                &pl,
+                a,
+                rho,
+                eye.near_point_vergence_d(),
+                &samples,
+                &mut 0,
+            )
+            .unwrap();
             let z0 = b.chief().origin().z;
             let s = 0.5 * ((0.3 - z0) + (0.6 - z0)) / a.z;
             total += 1;
             if s < 0.5 {
                 near_n += 1;
-                want.iter_mut().zip(b.displacements(s)).for_each(|(w, d)| *w += d);
+                want.iter_mut()
+                    .zip(b.displacements(s))
+                    .for_each(|(w, d)| *w += d);
             } else {
                 assert!(s <= 1.3, "{s}: no far crossings in this set-up");
             }
         }
-        assert!(near_n > 0 && near_n < total, "{near_n} of {total}: the voxel must straddle the near point");
+        assert!(
+            near_n > 0 && near_n < total,
+            "{near_n} of {total}: the voxel must straddle the near point"
+        );
         let got = f.displacements([0, 0, 0]).unwrap();
         for (g, w) in got.iter().zip(&want) {
             let w = *w / near_n as f64;
             assert!((g.as_dvec3() - w).length() < 1e-8, "{g} vs {w}");
         }
-        assert_eq!((f.stats().crossings, f.stats().sets_recorded), (total, near_n));
+        assert_eq!(
+            (f.stats().crossings, f.stats().sets_recorded),
+            (total, near_n)
+        );
         assert_eq!(*f.counts().get([0, 0, 0]).unwrap() as usize, total);
         // The option: every crossing counts, the in-focus ones as zeros.
-        let all = precompute_field(&eye, &pl, None, &st.with_average(VoxelAverage::AllCrossings)).unwrap();
+        let all = precompute_field(
+            &eye,
+            &pl,
+            None,
+            &st.with_average(VoxelAverage::AllCrossings),
+        )
+        .unwrap();
         for (g, p) in all.displacements([0, 0, 0]).unwrap().iter().zip(got) {
             assert!((g.as_dvec3() - p.as_dvec3() * (near_n as f64 / total as f64)).length() < 1e-8);
         }
         // A voxel crossed only in focus is zero, not filled.
-        let in_focus = st.with_box(DVec3::new(-1.0, -1.0, 0.7), DVec3::new(1.0, 1.0, 1.0)).unwrap().with_fill_empty(true);
+        let in_focus = st
+            .with_box(DVec3::new(-1.0, -1.0, 0.7), DVec3::new(1.0, 1.0, 1.0))
+            .unwrap()
+            .with_fill_empty(true);
         let f = precompute_field(&eye, &pl, None, &in_focus).unwrap();
         assert_eq!((f.stats().sets_recorded, f.stats().voxels_filled), (0, 0));
         assert!(f.stats().crossings > 0 && f.vectors().iter().all(|v| *v == Vec3::ZERO));
@@ -937,24 +1180,39 @@ mod tests {
         // A good aim traces 2(S + 1) rays; a failed one at least its
         // reference ray and fewer than 2(S + 1).
         let eye = Eye::new(-10.0, 1.0, 0.004).unwrap();
-        let lens = design_lens(&Prescription::sphere(-10.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let lens = design_lens(
+            &Prescription::sphere(-10.0).unwrap(),
+            &LensDesignParams::default(),
+        )
+        .unwrap();
         let f = precompute_field(&eye, &EyePlacement::default(), Some(&lens), &small()).unwrap();
         let s = f.stats();
         let per = 2 * (f.clones() + 1);
         let good = s.aims - s.aims_failed;
         assert!(s.aims_failed > 0 && good > 0, "{s:?}");
         assert!(s.rays_traced >= good * per + s.aims_failed, "{s:?}");
-        assert!(s.rays_traced <= good * per + s.aims_failed * (per - 1), "{s:?}");
+        assert!(
+            s.rays_traced <= good * per + s.aims_failed * (per - 1),
+            "{s:?}"
+        );
     }
 
     #[test]
     fn voxel_field_fill_covers_every_voxel() {
         let eye = Eye::new(-2.0, 1.0, 0.004).unwrap();
         let pl = EyePlacement::default();
-        let lens = design_lens(&Prescription::sphere(-2.0).unwrap(), &LensDesignParams::default()).unwrap();
+        let lens = design_lens(
+            &Prescription::sphere(-2.0).unwrap(),
+            &LensDesignParams::default(),
+        )
+        .unwrap();
         let f = precompute_field(&eye, &pl, Some(&lens), &small()).unwrap();
         let s = f.stats();
-        assert_eq!(s.voxels_crossed + s.voxels_filled, f.counts().len(), "{s:?}");
+        assert_eq!(
+            s.voxels_crossed + s.voxels_filled,
+            f.counts().len(),
+            "{s:?}"
+        );
         assert!(s.fill_passes >= 1 && f.coverage() > 0.0 && f.coverage() < 1.0);
     }
 }

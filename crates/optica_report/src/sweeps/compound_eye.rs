@@ -21,11 +21,13 @@
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use image::RgbaImage;
-use optica_compound_eye::{CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyeLattice, EyeOutput};
+use optica_compound_eye::{
+    CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyeLattice, EyeOutput,
+};
 use optica_harness::{FrameTimings, TimeSource};
 use optica_optics::compound_eye::{
-    CompoundEyeError, DarkCentre, Lattice, LensParams, MAX_LENSES, Ray, Shade, ShadeFallback, TextureAxes,
-    dark_patch_centroid, shade, trace_exact,
+    CompoundEyeError, DarkCentre, Lattice, LensParams, MAX_LENSES, Ray, Shade, ShadeFallback,
+    TextureAxes, dark_patch_centroid, shade, trace_exact,
 };
 use optica_optics::glam::{DVec2, DVec3};
 
@@ -42,7 +44,10 @@ fn camera() -> Transform {
     // Looking 20° from straight down: the foot of the perpendicular (the
     // pseudopupil) sits below the image centre with its patch whole, and the
     // top of the image sees the eye at about 66°.
-    Transform::from_xyz(0.0, -1.0, 1.4).looking_at(Vec3::new(0.0, -1.0 + 1.4 * 20f32.to_radians().tan(), 0.0), Vec3::Z)
+    Transform::from_xyz(0.0, -1.0, 1.4).looking_at(
+        Vec3::new(0.0, -1.0 + 1.4 * 20f32.to_radians().tan(), 0.0),
+        Vec3::Z,
+    )
 }
 
 /// The point on the eye where the surface normal faces the camera.
@@ -51,7 +56,12 @@ fn foot() -> DVec3 {
     DVec3::new(c.x, c.y, 0.0)
 }
 
-fn eye_settings(facets_per_uv: f32, slices: u32, neighbours: bool, output: EyeOutput) -> CompoundEye {
+fn eye_settings(
+    facets_per_uv: f32,
+    slices: u32,
+    neighbours: bool,
+    output: EyeOutput,
+) -> CompoundEye {
     CompoundEye {
         facets_per_uv,
         lattice: EyeLattice::Hexagonal,
@@ -75,19 +85,33 @@ fn scene(eye: Option<CompoundEye>) -> impl FnOnce(&mut App) {
                   mut eyes: ResMut<Assets<CompoundEyeMaterial>>,
                   mut plain: ResMut<Assets<StandardMaterial>>| {
                 let mesh = Mesh3d(meshes.add(Rectangle::new(EYE_SIDE, EYE_SIDE)));
-                let base = StandardMaterial { base_color: Color::srgb(0.55, 0.16, 0.1), perceptual_roughness: 0.45, ..default() };
+                let base = StandardMaterial {
+                    base_color: Color::srgb(0.55, 0.16, 0.1),
+                    perceptual_roughness: 0.45,
+                    ..default()
+                };
                 match eye.clone() {
-                    Some(extension) => commands.spawn((mesh, MeshMaterial3d(eyes.add(CompoundEyeMaterial { base, extension })))),
+                    Some(extension) => commands.spawn((
+                        mesh,
+                        MeshMaterial3d(eyes.add(CompoundEyeMaterial { base, extension })),
+                    )),
                     None => commands.spawn((mesh, MeshMaterial3d(plain.add(base)))),
                 };
                 commands.spawn((
-                    DirectionalLight { illuminance: 6_000.0, shadow_maps_enabled: false, ..default() },
+                    DirectionalLight {
+                        illuminance: 6_000.0,
+                        shadow_maps_enabled: false,
+                        ..default()
+                    },
                     Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
                 ));
                 commands.spawn((
                     Camera3d::default(),
                     Msaa::Off,
-                    Projection::Perspective(PerspectiveProjection { fov: FOV, ..default() }),
+                    Projection::Perspective(PerspectiveProjection {
+                        fov: FOV,
+                        ..default()
+                    }),
                     camera(),
                 ));
             },
@@ -105,19 +129,34 @@ fn cpu_eye(eye: &CompoundEye) -> Result<Cpu, CompoundEyeError> {
     // Bevy's Rectangle: u along +x, v along −y, one UV unit over the side.
     let facet = (EYE_SIDE / eye.facets_per_uv) as f64;
     let h = 0.5 * EYE_SIDE as f64;
-    let axes = TextureAxes::from_axes(DVec3::new(-h, h, 0.0), DVec3::X * facet, -DVec3::Y * facet, DVec3::Z)?;
+    let axes = TextureAxes::from_axes(
+        DVec3::new(-h, h, 0.0),
+        DVec3::X * facet,
+        -DVec3::Y * facet,
+        DVec3::Z,
+    )?;
     let kind = eye.lattice_kind();
     let r = eye.lens_radius as f64 * kind.cell_inradius(axes.u(), axes.v());
     let lens = LensParams::new(r, eye.lens_index as f64, eye.pigment_depth as f64 * r)?;
-    let pigment = DarkCentre::new(eye.pigment.radius as f64, eye.pigment.softness as f64, eye.pigment.darkness as f64)?;
-    Ok(Cpu { lattice: Lattice::with_kind(axes, lens, kind)?, pigment })
+    let pigment = DarkCentre::new(
+        eye.pigment.radius as f64,
+        eye.pigment.softness as f64,
+        eye.pigment.darkness as f64,
+    )?;
+    Ok(Cpu {
+        lattice: Lattice::with_kind(axes, lens, kind)?,
+        pigment,
+    })
 }
 
 /// The ray through the centre of pixel (x, y) of a `size`² frame.
 fn pixel_ray(x: u32, y: u32, size: u32) -> Ray {
     let cam = camera();
     let t = (FOV / 2.0).tan();
-    let ndc = Vec2::new((x as f32 + 0.5) / size as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / size as f32 * 2.0);
+    let ndc = Vec2::new(
+        (x as f32 + 0.5) / size as f32 * 2.0 - 1.0,
+        1.0 - (y as f32 + 0.5) / size as f32 * 2.0,
+    );
     let dir = cam.rotation * Vec3::new(ndc.x * t, ndc.y * t, -1.0);
     Ray::new(cam.translation.as_dvec3(), dir.as_dvec3()).expect("a finite camera ray")
 }
@@ -134,7 +173,19 @@ fn factor(cpu: &Cpu, s: Shade) -> f64 {
 /// The reference image: the exact tracer through every pixel.
 fn reference(cpu: &Cpu, size: u32, max_lenses: u32) -> Vec<f64> {
     use rayon::prelude::*;
-    (0..size * size).into_par_iter().map(|k| factor(cpu, trace_exact(&cpu.lattice, &pixel_ray(k % size, k / size, size), max_lenses))).collect()
+    (0..size * size)
+        .into_par_iter()
+        .map(|k| {
+            factor(
+                cpu,
+                trace_exact(
+                    &cpu.lattice,
+                    &pixel_ray(k % size, k / size, size),
+                    max_lenses,
+                ),
+            )
+        })
+        .collect()
 }
 
 /// A linear factor image as an 8-bit sRGB grey image.
@@ -156,16 +207,27 @@ fn pixels_per_facet(eye: &CompoundEye, size: u32) -> f64 {
 /// The centroid of the dark patch of a factor image.
 fn centroid(values: &[f64], size: u32, facet_px: f64) -> Option<DVec2> {
     let darkness: Vec<f64> = values.iter().map(|v| 1.0 - v.clamp(0.0, 1.0)).collect();
-    dark_patch_centroid(&darkness, size as usize, size as usize, (facet_px / 2.0).round() as usize)
+    dark_patch_centroid(
+        &darkness,
+        size as usize,
+        size as usize,
+        (facet_px / 2.0).round() as usize,
+    )
 }
 
 /// Where the foot of the perpendicular lands in the image, pixels.
 fn foot_pixel(size: u32) -> DVec2 {
     let cam = camera();
-    let v = cam.compute_affine().inverse().transform_point3(foot().as_vec3());
+    let v = cam
+        .compute_affine()
+        .inverse()
+        .transform_point3(foot().as_vec3());
     let t = (FOV / 2.0).tan();
     let ndc = Vec2::new(v.x / (-v.z * t), v.y / (-v.z * t));
-    DVec2::new(((ndc.x + 1.0) / 2.0 * size as f32) as f64, ((1.0 - ndc.y) / 2.0 * size as f32) as f64)
+    DVec2::new(
+        ((ndc.x + 1.0) / 2.0 * size as f32) as f64,
+        ((1.0 - ndc.y) / 2.0 * size as f32) as f64,
+    )
 }
 
 /// Runs the sweep.
@@ -174,7 +236,10 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
     let facets_per_uv = ctx.pick(50.0, 128.0);
     let slices: Vec<u32> = ctx.pick(vec![0, 2, 8, 32], vec![0, 1, 2, 4, 8, 16, 32, 64]);
     let (warmup, frames) = ctx.pick((1, 4), (4, 20));
-    let facet_px = pixels_per_facet(&eye_settings(facets_per_uv, 8, false, EyeOutput::Shaded), size);
+    let facet_px = pixels_per_facet(
+        &eye_settings(facets_per_uv, 8, false, EyeOutput::Shaded),
+        size,
+    );
 
     ctx.progress(0, 2 * slices.len() + 1, "plain StandardMaterial baseline");
     let headless = ctx.headless(size, size);
@@ -194,26 +259,48 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
     let expected_foot = foot_pixel(size);
     let mut step = 0;
     for (series, neighbours) in [("one lens", false), ("neighbours", true)] {
-        let cpu = cpu_eye(&eye_settings(facets_per_uv, 0, neighbours, EyeOutput::PigmentOnly))
-            .map_err(|e| SweepError::Setup(e.to_string()))?;
+        let cpu = cpu_eye(&eye_settings(
+            facets_per_uv,
+            0,
+            neighbours,
+            EyeOutput::PigmentOnly,
+        ))
+        .map_err(|e| SweepError::Setup(e.to_string()))?;
         let reference = reference(&cpu, size, if neighbours { MAX_LENSES } else { 1 });
         let reference_grey = grey(&reference, size);
         let reference_centroid = centroid(&reference, size, facet_px);
         for &k in &slices {
             step += 1;
             ctx.progress(step, 2 * slices.len() + 1, &format!("{series}, K = {k}"));
-            let frame = headless.clone().hdr(true).render(scene(Some(eye_settings(facets_per_uv, k, neighbours, EyeOutput::PigmentOnly))))?;
-            let img = frame.hdr().ok_or(SweepError::Setup("no HDR frame".into()))?;
+            let frame = headless.clone().hdr(true).render(scene(Some(eye_settings(
+                facets_per_uv,
+                k,
+                neighbours,
+                EyeOutput::PigmentOnly,
+            ))))?;
+            let img = frame
+                .hdr()
+                .ok_or(SweepError::Setup("no HDR frame".into()))?;
             let gpu: Vec<f64> = img.pixels().map(|p| p.0[0] as f64).collect();
             let m = optica_harness::metrics::compare(&reference_grey, &grey(&gpu, size))
                 .map_err(|e| SweepError::Setup(e.to_string()))?;
-            let timings = headless.time_frames(warmup, frames, scene(Some(eye_settings(facets_per_uv, k, neighbours, EyeOutput::Shaded))))?;
+            let timings = headless.time_frames(
+                warmup,
+                frames,
+                scene(Some(eye_settings(
+                    facets_per_uv,
+                    k,
+                    neighbours,
+                    EyeOutput::Shaded,
+                ))),
+            )?;
             let gpu_centroid = centroid(&gpu, size, facet_px);
             let centroid_facets = match (gpu_centroid, reference_centroid) {
                 (Some(g), Some(r)) => (g - r).length() / facet_px,
                 _ => f64::NAN,
             };
-            let foot_facets = gpu_centroid.map_or(f64::NAN, |g| (g - expected_foot).length() / facet_px);
+            let foot_facets =
+                gpu_centroid.map_or(f64::NAN, |g| (g - expected_foot).length() / facet_px);
             let mut row = Row::new(f64::from(k), timings.frame_ms.median, base.frame_ms.median)
                 .series(series)
                 .err("psnr_db", m.psnr_db)
@@ -233,9 +320,15 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
 /// Adds the main pass's GPU time of both frames, where the adapter has
 /// timestamp queries.
 fn with_pass_times(row: Row, eye: &FrameTimings, plain: &FrameTimings) -> Row {
-    let gpu = |t: &FrameTimings| t.pass(OPAQUE_PASS).filter(|p| p.source == TimeSource::GpuTimestamps).map(|p| p.ms.median);
+    let gpu = |t: &FrameTimings| {
+        t.pass(OPAQUE_PASS)
+            .filter(|p| p.source == TimeSource::GpuTimestamps)
+            .map(|p| p.ms.median)
+    };
     match (gpu(eye), gpu(plain)) {
-        (Some(e), Some(p)) => row.timing("opaque_gpu_ms", e).timing("baseline_opaque_gpu_ms", p),
+        (Some(e), Some(p)) => row
+            .timing("opaque_gpu_ms", e)
+            .timing("baseline_opaque_gpu_ms", p),
         _ => row,
     }
 }
@@ -249,11 +342,20 @@ fn stability(ctx: &SweepContext, report: &mut Report, size: u32) -> Result<(), S
     // 64 samples a pixel, about 16 a facet).
     let ss = 8;
     let tiny = ctx.pick(533.0, 1365.0);
-    let eye = |prefilter: bool| CompoundEye { prefilter, ..eye_settings(tiny, 8, true, EyeOutput::PigmentOnly) };
-    let factor_image = |frame: &optica_harness::RenderedFrame| -> Vec<f64> {
-        frame.hdr().map(|img| img.pixels().map(|p| p.0[0] as f64).collect()).unwrap_or_default()
+    let eye = |prefilter: bool| CompoundEye {
+        prefilter,
+        ..eye_settings(tiny, 8, true, EyeOutput::PigmentOnly)
     };
-    let fine = ctx.headless(size * ss, size * ss).hdr(true).render(scene(Some(eye(false))))?;
+    let factor_image = |frame: &optica_harness::RenderedFrame| -> Vec<f64> {
+        frame
+            .hdr()
+            .map(|img| img.pixels().map(|p| p.0[0] as f64).collect())
+            .unwrap_or_default()
+    };
+    let fine = ctx
+        .headless(size * ss, size * ss)
+        .hdr(true)
+        .render(scene(Some(eye(false))))?;
     let fine = factor_image(&fine);
     let supersampled: Vec<f64> = (0..size * size)
         .map(|k| {
@@ -270,7 +372,10 @@ fn stability(ctx: &SweepContext, report: &mut Report, size: u32) -> Result<(), S
     let target = grey(&supersampled, size);
     let mut flips = Vec::new();
     for prefilter in [true, false] {
-        let frame = ctx.headless(size, size).hdr(true).render(scene(Some(eye(prefilter))))?;
+        let frame = ctx
+            .headless(size, size)
+            .hdr(true)
+            .render(scene(Some(eye(prefilter))))?;
         let m = optica_harness::metrics::compare(&target, &grey(&factor_image(&frame), size))
             .map_err(|e| SweepError::Setup(e.to_string()))?;
         flips.push((m.flip_mean, m.psnr_db));
@@ -288,33 +393,53 @@ fn stability(ctx: &SweepContext, report: &mut Report, size: u32) -> Result<(), S
 
     // Degenerate UV triangle: a typed error, and the fallback frame traces finitely.
     let lens = LensParams::thesis(0.4, 1.5).map_err(|e| SweepError::Setup(e.to_string()))?;
-    let p = [DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
+    let p = [
+        DVec3::ZERO,
+        DVec3::new(2.0, 0.0, 0.0),
+        DVec3::new(0.0, 1.0, 0.0),
+    ];
     let t = [DVec2::ZERO, DVec2::new(1.0, 1.0), DVec2::new(2.0, 2.0)];
     let err = TextureAxes::from_triangle(p, t);
     let axes = TextureAxes::from_triangle_or_fallback(p, t, 1.0);
     let probe: Vec<Ray> = (0..64)
         .map(|k| {
             let (a, b) = ((k as f64 * 0.37).sin() * 1.4, k as f64 * 0.41);
-            Ray::new(DVec3::new(0.3 * (k % 8) as f64, 0.2 * (k / 8) as f64, 1.0), DVec3::new(a.sin() * b.cos(), a.sin() * b.sin(), -a.cos()))
-                .expect("finite probe rays")
+            Ray::new(
+                DVec3::new(0.3 * (k % 8) as f64, 0.2 * (k / 8) as f64, 1.0),
+                DVec3::new(a.sin() * b.cos(), a.sin() * b.sin(), -a.cos()),
+            )
+            .expect("finite probe rays")
         })
         .collect();
-    let finite = |s: &Shade| s.hit().is_none_or(|h| h.uv.is_finite() && h.point.is_finite());
-    let all_finite = Lattice::new(axes, lens)
-        .is_ok_and(|l| probe.iter().all(|r| finite(&shade(&l, r, 8)) && finite(&trace_exact(&l, r, MAX_LENSES))));
+    let finite = |s: &Shade| {
+        s.hit()
+            .is_none_or(|h| h.uv.is_finite() && h.point.is_finite())
+    };
+    let all_finite = Lattice::new(axes, lens).is_ok_and(|l| {
+        probe
+            .iter()
+            .all(|r| finite(&shade(&l, r, 8)) && finite(&trace_exact(&l, r, MAX_LENSES)))
+    });
     report.case(
         "degenerate UV triangle",
         matches!(err, Err(CompoundEyeError::DegenerateUv { .. })) && all_finite,
-        format!("from_triangle: {err:?}; the fallback frame traces 64 probe rays finitely: {all_finite}"),
+        format!(
+            "from_triangle: {err:?}; the fallback frame traces 64 probe rays finitely: {all_finite}"
+        ),
     );
 
     // A ray skimming the surface along a cell edge: the exact tracer's walk
     // reaches its cap, the shading path finds the lens it grazes far away;
     // both finite.
-    let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z).map_err(|e| SweepError::Setup(e.to_string()))?;
-    let l = Lattice::new(axes, LensParams::thesis(0.5, 1.5).map_err(|e| SweepError::Setup(e.to_string()))?)
+    let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z)
         .map_err(|e| SweepError::Setup(e.to_string()))?;
-    let skim = Ray::new(DVec3::new(0.3, 0.0, 0.0), DVec3::new(1.0, 0.0, -1e-9)).expect("a finite ray");
+    let l = Lattice::new(
+        axes,
+        LensParams::thesis(0.5, 1.5).map_err(|e| SweepError::Setup(e.to_string()))?,
+    )
+    .map_err(|e| SweepError::Setup(e.to_string()))?;
+    let skim =
+        Ray::new(DVec3::new(0.3, 0.0, 0.0), DVec3::new(1.0, 0.0, -1e-9)).expect("a finite ray");
     let (a, b) = (shade(&l, &skim, 8), trace_exact(&l, &skim, 1));
     report.case(
         "skimming ray",
@@ -330,16 +455,32 @@ mod tests {
 
     #[test]
     fn quick_sweep_renders_converges_and_finds_the_pseudopupil() {
-        let r = run(&SweepContext::new("compound_eye", true, true)).expect("compound-eye sweep on lavapipe");
-        assert!(r.adapter.as_ref().is_some_and(|a| a.name.contains("llvmpipe")));
+        let r = run(&SweepContext::new("compound_eye", true, true))
+            .expect("compound-eye sweep on lavapipe");
+        assert!(
+            r.adapter
+                .as_ref()
+                .is_some_and(|a| a.name.contains("llvmpipe"))
+        );
         let problems = r.problems();
         assert!(problems.is_empty(), "{problems:#?}");
         for series in ["one lens", "neighbours"] {
             let rows: Vec<&Row> = r.rows.iter().filter(|row| row.series == series).collect();
             let (first, last) = (&rows[0].error, &rows[rows.len() - 1].error);
-            assert!(last["flip_mean"] < first["flip_mean"], "{series}: {first:?} -> {last:?}");
-            assert!(last["psnr_db"] > 28.0, "{series}: K = 32 only {} dB from the exact tracer", last["psnr_db"]);
-            assert!(last["centroid_facets"] <= 0.25, "{series}: pseudopupil {} facets off", last["centroid_facets"]);
+            assert!(
+                last["flip_mean"] < first["flip_mean"],
+                "{series}: {first:?} -> {last:?}"
+            );
+            assert!(
+                last["psnr_db"] > 28.0,
+                "{series}: K = 32 only {} dB from the exact tracer",
+                last["psnr_db"]
+            );
+            assert!(
+                last["centroid_facets"] <= 0.25,
+                "{series}: pseudopupil {} facets off",
+                last["centroid_facets"]
+            );
         }
     }
 }

@@ -25,8 +25,9 @@
 use std::f64::consts::PI;
 
 use optica_optics::dome::{
-    DomeSettings, DomeError, DomeProjection, EdgeErrors, Projected, RefinedSegment, SplitRule, TriMesh, chord_error_px,
-    clip_segment, polyline_error_px, random_edges, refine_mesh, refine_segment, refine_segments,
+    DomeError, DomeProjection, DomeSettings, EdgeErrors, Projected, RefinedSegment, SplitRule,
+    TriMesh, chord_error_px, clip_segment, polyline_error_px, random_edges, refine_mesh,
+    refine_segment, refine_segments,
 };
 use optica_optics::glam::DVec3;
 
@@ -34,12 +35,21 @@ use crate::{Report, Row, SweepContext, time_ms};
 
 /// The inside-out room seen by a zenith camera 1.7 m above its floor.
 fn room() -> TriMesh {
-    TriMesh::cuboid(DVec3::new(-4.0, -6.0, -3.0), DVec3::new(4.0, 3.0, 1.7), true)
+    TriMesh::cuboid(
+        DVec3::new(-4.0, -6.0, -3.0),
+        DVec3::new(4.0, 3.0, 1.7),
+        true,
+    )
 }
 
 /// A 4K dome of `fov_deg`, untilted.
 fn dome(fov_deg: f64) -> DomeProjection {
-    DomeProjection::new(&DomeSettings { fov_deg, tilt_deg: 0.0, size_px: 4096 }).expect("valid dome")
+    DomeProjection::new(&DomeSettings {
+        fov_deg,
+        tilt_deg: 0.0,
+        size_px: 4096,
+    })
+    .expect("valid dome")
 }
 
 /// The chord-gap rule at `tolerance_px`.
@@ -49,15 +59,25 @@ fn chord_gap(tolerance_px: f64) -> SplitRule {
 
 /// Per input edge: the worst chord error of its refined pieces. Edges that
 /// fail to refine or measure are skipped (none in the sweep's scene).
-fn per_edge_errors(proj: &DomeProjection, edges: &[[DVec3; 2]], rule: SplitRule) -> (f64, f64, usize) {
+fn per_edge_errors(
+    proj: &DomeProjection,
+    edges: &[[DVec3; 2]],
+    rule: SplitRule,
+) -> (f64, f64, usize) {
     let (mut max, mut sum, mut segments, mut n) = (0.0f64, 0.0, 0, 0);
     for &[a, b] in edges {
-        let Ok(r) = refine_segment(proj, a, b, rule) else { continue };
+        let Ok(r) = refine_segment(proj, a, b, rule) else {
+            continue;
+        };
         segments += r.segment_count();
         if r.strips.is_empty() {
             continue;
         }
-        let e = r.strips.iter().filter_map(|s| polyline_error_px(proj, s).ok()).fold(0.0, f64::max);
+        let e = r
+            .strips
+            .iter()
+            .filter_map(|s| polyline_error_px(proj, s).ok())
+            .fold(0.0, f64::max);
         max = max.max(e);
         sum += e;
         n += 1;
@@ -69,7 +89,9 @@ fn per_edge_errors(proj: &DomeProjection, edges: &[[DVec3; 2]], rule: SplitRule)
 fn unrefined_errors(proj: &DomeProjection, edges: &[[DVec3; 2]]) -> (f64, f64) {
     let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0);
     for &[a, b] in edges {
-        let Ok(parts) = clip_segment(proj, a, b) else { continue };
+        let Ok(parts) = clip_segment(proj, a, b) else {
+            continue;
+        };
         for [p, q] in parts {
             if let Ok(e) = chord_error_px(proj, p, q) {
                 max = max.max(e);
@@ -84,14 +106,19 @@ fn unrefined_errors(proj: &DomeProjection, edges: &[[DVec3; 2]]) -> (f64, f64) {
 /// Whether every vertex of a refinement is finite and every piece within `tol`.
 fn pieces_within(proj: &DomeProjection, r: &RefinedSegment, tol: f64) -> (bool, f64) {
     let finite = r.strips.iter().flatten().all(|v| v.is_finite());
-    let e = r.strips.iter().map(|s| polyline_error_px(proj, s).unwrap_or(f64::INFINITY)).fold(0.0, f64::max);
+    let e = r
+        .strips
+        .iter()
+        .map(|s| polyline_error_px(proj, s).unwrap_or(f64::INFINITY))
+        .fold(0.0, f64::max);
     (finite && e <= tol, e)
 }
 
 /// Runs the sweep.
 pub fn run(ctx: &SweepContext) -> Report {
     let mut report = Report::cpu("dome", "tolerance_px");
-    report.baseline = "projecting both endpoints of every random edge (one unrefined chord per edge)".into();
+    report.baseline =
+        "projecting both endpoints of every random edge (one unrefined chord per edge)".into();
     report.reference = "exact chord error D8: largest pixel distance between the equidistant image of the \
                         great-circle arc an edge subtends and the drawn chord (sampling + golden-section search)"
         .into();
@@ -170,7 +197,11 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
             let (ok, e) = pieces_within(&p250, &r, tol);
             (
                 ok && r.strips.len() == 2,
-                format!("{} strips, {} segments, max error {e:.3} px", r.strips.len(), r.segment_count()),
+                format!(
+                    "{} strips, {} segments, max error {e:.3} px",
+                    r.strips.len(),
+                    r.segment_count()
+                ),
             )
         }
         Err(e) => (false, format!("error {e}")),
@@ -178,15 +209,27 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     report.case("segment passing the antipode (FOV 250°)", case.0, case.1);
 
     // Behind the viewer at 180°: dropped; crossing the view plane: clipped.
-    let behind = refine_segment(&p180, polar(120.0, 10.0, 2.0), polar(150.0, 80.0, 3.0), rule);
+    let behind = refine_segment(
+        &p180,
+        polar(120.0, 10.0, 2.0),
+        polar(150.0, 80.0, 3.0),
+        rule,
+    );
     let crossing = refine_segment(&p180, polar(60.0, 10.0, 2.0), polar(130.0, 80.0, 3.0), rule);
     let case = match (behind, crossing) {
         (Ok(bh), Ok(cr)) => {
             let (ok, e) = pieces_within(&p180, &cr, tol);
-            let end = cr.strips.first().and_then(|s| s.last()).map_or(f64::NAN, |v| p180.theta(*v).to_degrees());
+            let end = cr
+                .strips
+                .first()
+                .and_then(|s| s.last())
+                .map_or(f64::NAN, |v| p180.theta(*v).to_degrees());
             (
                 ok && bh.strips.is_empty() && cr.strips.len() == 1 && (end - 90.0).abs() < 1e-9,
-                format!("behind: {} strips; crossing: ends at θ = {end:.9}°, max error {e:.3} px", bh.strips.len()),
+                format!(
+                    "behind: {} strips; crossing: ends at θ = {end:.9}°, max error {e:.3} px",
+                    bh.strips.len()
+                ),
             )
         }
         (b, c) => (false, format!("{b:?} {c:?}")),
@@ -225,12 +268,19 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
         report.case(
             &format!("FOV {fov}°: random edges all around"),
             finite && worst <= tol && capped == 0,
-            format!("{} edges, max error {worst:.3} px, {capped} capped", edges.len()),
+            format!(
+                "{} edges, max error {worst:.3} px, {capped} capped",
+                edges.len()
+            ),
         );
     }
     let r = refine_mesh(&p250, &room(), rule);
     let e = EdgeErrors::of_mesh(&p250, &r.mesh);
-    let inside = r.mesh.positions().iter().all(|v| v.is_finite() && p250.theta(*v) <= p250.theta_clip() + 1e-12);
+    let inside = r
+        .mesh
+        .positions()
+        .iter()
+        .all(|v| v.is_finite() && p250.theta(*v) <= p250.theta_clip() + 1e-12);
     report.case(
         "FOV 250°: room with the floor around the antipode",
         inside && e.failed == 0 && e.max_px <= tol && r.stats.capped_edges == 0,
@@ -245,8 +295,18 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
 
     // Edges spanning ≥ 180° (through the viewer) and nearly 180°.
     let through = refine_segment(&p180, polar(40.0, 0.0, 2.0), polar(140.0, 180.0, 3.0), rule);
-    let nearly = refine_segment(&p180, polar(40.0, 0.0, 2.0), polar(140.0, 180.02, 3.0), rule);
-    let nearly250 = refine_segment(&p250, polar(40.0, 0.0, 2.0), polar(140.0, 180.02, 3.0), rule);
+    let nearly = refine_segment(
+        &p180,
+        polar(40.0, 0.0, 2.0),
+        polar(140.0, 180.02, 3.0),
+        rule,
+    );
+    let nearly250 = refine_segment(
+        &p250,
+        polar(40.0, 0.0, 2.0),
+        polar(140.0, 180.02, 3.0),
+        rule,
+    );
     let case = match (&through, &nearly, &nearly250) {
         (Err(DomeError::ThroughViewer), Ok(n1), Ok(n2)) => {
             let (ok1, e1) = pieces_within(&p180, n1, tol);
@@ -326,7 +386,10 @@ mod tests {
             let (prev, cur) = (&r.rows[i - 1], &r.rows[i]);
             assert!(cur.knob < prev.knob);
             for k in ["max_px", "mean_px", "mesh_max_px"] {
-                assert!(cur.error[k] < prev.error[k], "{k} must fall as the tolerance tightens");
+                assert!(
+                    cur.error[k] < prev.error[k],
+                    "{k} must fall as the tolerance tightens"
+                );
             }
             assert!(cur.work["segments"] > prev.work["segments"]);
         }

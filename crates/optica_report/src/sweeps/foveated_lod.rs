@@ -21,9 +21,9 @@
 //!   full-quality trace (level 1 for every ray) of the same scene.
 
 use optica_optics::foveated_lod::{
-    DemoDetail, GazeEstimate, GazeFrame, GazeTracker, HysteresisParams, LevelQuantization, PixelLodGrid,
-    TraceSettings, TracerCamera, TracerScene, TrackerSample, VisualField, demo_scene, front_right_floor,
-    pixel_levels, render, render_full_quality, rmse, weighted_rmse,
+    DemoDetail, GazeEstimate, GazeFrame, GazeTracker, HysteresisParams, LevelQuantization,
+    PixelLodGrid, TraceSettings, TracerCamera, TracerScene, TrackerSample, VisualField, demo_scene,
+    front_right_floor, pixel_levels, render, render_full_quality, rmse, weighted_rmse,
 };
 use optica_optics::glam::DVec3;
 
@@ -32,17 +32,23 @@ use crate::{Report, Row, SweepContext, time_ms};
 /// The gaze of the sweep: 35° right and 15° down of −z (the front wall's view axis).
 fn sweep_gaze(eye: DVec3) -> GazeFrame {
     let (yaw, pitch) = (35f64.to_radians(), -15f64.to_radians());
-    let dir = DVec3::new(yaw.sin() * pitch.cos(), pitch.sin(), -yaw.cos() * pitch.cos());
+    let dir = DVec3::new(
+        yaw.sin() * pitch.cos(),
+        pitch.sin(),
+        -yaw.cos() * pitch.cos(),
+    );
     GazeFrame::new(eye, dir, DVec3::Y).expect("a finite gaze off the vertical")
 }
 
 /// Runs the sweep.
 pub fn run(ctx: &SweepContext) -> Report {
     let mut report = Report::cpu("foveated_lod", "level_steps_S");
-    report.baseline = "full-quality Whitted trace (level 1 for every ray: Reflect_max = 3, finest meshes)".into();
-    report.reference = "the same full-quality trace; errors are linear-RGB RMSE and gaze-weighted RMSE \
+    report.baseline =
+        "full-quality Whitted trace (level 1 for every ray: Reflect_max = 3, finest meshes)".into();
+    report.reference =
+        "the same full-quality trace; errors are linear-RGB RMSE and gaze-weighted RMSE \
                         (weights = continuous eq. 8 level per pixel)"
-        .into();
+            .into();
 
     let n = ctx.pick(32, 128);
     let detail = ctx.pick(DemoDetail::small(), DemoDetail::paper());
@@ -56,11 +62,19 @@ pub fn run(ctx: &SweepContext) -> Report {
     let settings = TraceSettings::new(n, n, 3).expect("a small image");
     let field = VisualField::paper();
     let gaze = GazeEstimate::Tracked(sweep_gaze(eye));
-    let weights = pixel_levels(&cam, &settings, &field, &gaze, LevelQuantization::Continuous);
+    let weights = pixel_levels(
+        &cam,
+        &settings,
+        &field,
+        &gaze,
+        LevelQuantization::Continuous,
+    );
 
     let total = steps.len() + 1;
     ctx.progress(0, total, "full-quality baseline");
-    let (t_full, full) = time_ms(runs, budget, || render_full_quality(&scene, &cam, &settings));
+    let (t_full, full) = time_ms(runs, budget, || {
+        render_full_quality(&scene, &cam, &settings)
+    });
 
     for (i, &s) in steps.iter().enumerate() {
         ctx.progress(i + 1, total, &format!("S = {s}"));
@@ -143,7 +157,13 @@ fn stability(
         tr.update(good, 0.0);
         let held = tr.update(nan, 0.05);
         let lost = tr.update(nan, 0.2);
-        let tracked_lv = pixel_levels(cam, settings, field, &GazeEstimate::Tracked(g), LevelQuantization::Continuous);
+        let tracked_lv = pixel_levels(
+            cam,
+            settings,
+            field,
+            &GazeEstimate::Tracked(g),
+            LevelQuantization::Continuous,
+        );
         let held_lv = pixel_levels(cam, settings, field, &held, LevelQuantization::Continuous);
         let lost_lv = pixel_levels(cam, settings, field, &lost, LevelQuantization::Continuous);
         let lost_img = render(scene, cam, settings, &lost_lv);
@@ -166,8 +186,9 @@ fn stability(
     {
         // A gaze 70° to the right puts the boundary across the wall's left half.
         let yaw = 70f64.to_radians();
-        let g =
-            GazeEstimate::Tracked(GazeFrame::new(eye, DVec3::new(yaw.sin(), 0.0, -yaw.cos()), DVec3::Y).expect("gaze"));
+        let g = GazeEstimate::Tracked(
+            GazeFrame::new(eye, DVec3::new(yaw.sin(), 0.0, -yaw.cos()), DVec3::Y).expect("gaze"),
+        );
         let lv = pixel_levels(cam, settings, field, &g, LevelQuantization::Continuous);
         let img = render(scene, cam, settings, &lv);
         let outside = lv.iter().filter(|&&l| l == 0.0).count();
@@ -211,18 +232,23 @@ fn stability(
         let (mut lo, mut hi) = (vec![f64::INFINITY; npx], vec![f64::NEG_INFINITY; npx]);
         for i in 0..frames {
             let jitter = DVec3::new(rnd(), rnd(), rnd()) * (1f64.to_radians());
-            let g = GazeEstimate::Tracked(GazeFrame::new(eye, base + jitter, DVec3::Y).expect("gaze"));
+            let g =
+                GazeEstimate::Tracked(GazeFrame::new(eye, base + jitter, DVec3::Y).expect("gaze"));
             let lv = pixel_levels(cam, settings, field, &g, LevelQuantization::Continuous);
             for (k, &l) in lv.iter().enumerate() {
                 lo[k] = lo[k].min(l);
                 hi[k] = hi[k].max(l);
             }
-            let q: Vec<f64> = lv.iter().map(|&l| LevelQuantization::Steps(params.steps()).apply(l)).collect();
+            let q: Vec<f64> = lv
+                .iter()
+                .map(|&l| LevelQuantization::Steps(params.steps()).apply(l))
+                .collect();
             if let Some(p) = &naive_prev {
                 naive += p.iter().zip(&q).filter(|(a, b)| a != b).count() as u64;
             }
             naive_prev = Some(q);
-            grid.update(&lv, i as f64 / 90.0).expect("one level per pixel");
+            grid.update(&lv, i as f64 / 90.0)
+                .expect("one level per pixel");
         }
         let held = grid.switches();
         let swing: Vec<f64> = hi.iter().zip(&lo).map(|(h, l)| h - l).collect();
@@ -276,7 +302,10 @@ mod tests {
         for k in ["rmse", "gaze_weighted_rmse"] {
             assert!(err(3, k) < err(0, k), "{k} must fall from S = 1 to S = 8");
             for i in 1..4 {
-                assert!(err(i, k) <= err(i - 1, k) * 1.02 + 1e-12, "{k} rises at row {i}");
+                assert!(
+                    err(i, k) <= err(i - 1, k) * 1.02 + 1e-12,
+                    "{k} rises at row {i}"
+                );
             }
         }
         // Foveation does less work than the baseline.

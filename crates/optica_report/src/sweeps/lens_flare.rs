@@ -36,8 +36,9 @@ use optica_optics::fresnel::Coating;
 use optica_optics::glam::{DVec2, DVec3};
 use optica_optics::lens::{LensPrescription, PreparedLens, TracePath, builtin};
 use optica_optics::lens_flare::{
-    Aperture, Beam, CellKind, EstimateOptions, FlareError, GridOptions, SensorWindow, coat_air_interfaces, compare,
-    estimate_ghosts, light_from_field, rasterise, reference_image, trace_grid,
+    Aperture, Beam, CellKind, EstimateOptions, FlareError, GridOptions, SensorWindow,
+    coat_air_interfaces, compare, estimate_ghosts, light_from_field, rasterise, reference_image,
+    trace_grid,
 };
 
 use crate::{Report, Row, SweepContext, time_ms};
@@ -57,7 +58,10 @@ pub const NOISE_FLOOR_MAX_ENERGY: f64 = 0.01;
 
 /// `p` with a quarter-wave MgF₂ layer (n 1.38 at 550 nm) on its glass–air surfaces.
 fn coated(p: &LensPrescription) -> Result<LensPrescription, FlareError> {
-    Ok(coat_air_interfaces(p, Coating::quarter_wave(1.38, WAVELENGTH_NM).expect("a valid coating"))?)
+    Ok(coat_air_interfaces(
+        p,
+        Coating::quarter_wave(1.38, WAVELENGTH_NM).expect("a valid coating"),
+    )?)
 }
 
 /// Largest accepted relative L1 of the N = 64 grid of the folding
@@ -77,9 +81,18 @@ const WINDOW_GRID: usize = 129;
 const WINDOW_MARGIN: f64 = 0.05;
 
 /// A square window around the unclipped rays of a fine grid of the ghost.
-fn window_for(lens: &PreparedLens, path: TracePath, beam: &Beam, pixels: usize) -> Result<SensorWindow, FlareError> {
+fn window_for(
+    lens: &PreparedLens,
+    path: TracePath,
+    beam: &Beam,
+    pixels: usize,
+) -> Result<SensorWindow, FlareError> {
     let fine = trace_grid(lens, path, beam, WINDOW_GRID, &GridOptions::default())?;
-    let unclipped = fine.rays().iter().filter(|r| r.alive && r.r_rel <= 1.0).map(|r| r.sensor);
+    let unclipped = fine
+        .rays()
+        .iter()
+        .filter(|r| r.alive && r.r_rel <= 1.0)
+        .map(|r| r.sensor);
     SensorWindow::around(unclipped, WINDOW_MARGIN, pixels)
 }
 
@@ -89,7 +102,9 @@ pub fn run(ctx: &SweepContext) -> Report {
     let sizes: Vec<usize> = ctx.pick(vec![4, 8, 16, 32], vec![4, 8, 16, 32, 64, 128]);
     let k = ctx.pick(200, 1000);
     let pixels = ctx.pick(24, 64);
-    report.baseline = format!("brute-force reference image: {k}² stratified random rays traced, clipped and binned");
+    report.baseline = format!(
+        "brute-force reference image: {k}² stratified random rays traced, clipped and binned"
+    );
     report.reference = format!(
         "brute-force image of ghost {GHOST:?} of the coated Tessar (US 2,854,889), {FIELD_DEG}° field, \
          {WAVELENGTH_NM} nm: {k}² rays clipped per ray, {pixels}² px histogram"
@@ -114,7 +129,9 @@ pub fn run(ctx: &SweepContext) -> Report {
     let opts = GridOptions::default();
     let total = sizes.len() + 1;
     ctx.progress(0, total, "reference");
-    let (t_ref, reference) = time_ms(1, 0.0, || reference_image(&lens, path, &beam, &ap, window, k, 1, &opts));
+    let (t_ref, reference) = time_ms(1, 0.0, || {
+        reference_image(&lens, path, &beam, &ap, window, k, 1, &opts)
+    });
     let reference = match reference {
         Ok(r) => r,
         Err(e) => {
@@ -140,10 +157,13 @@ pub fn run(ctx: &SweepContext) -> Report {
         ctx.progress(step + 1, total, &format!("N = {n}"));
         let budget = ctx.pick(50.0, 300.0);
         let (t, out) = time_ms(3, budget, || {
-            trace_grid(&lens, path, &beam, n, &opts).map(|g| (rasterise(&g, &ap, window), g.stats()))
+            trace_grid(&lens, path, &beam, n, &opts)
+                .map(|g| (rasterise(&g, &ap, window), g.stats()))
         });
         let Ok((img, stats)) = out else { continue };
-        let Some(e) = compare(&img, &reference.image) else { continue };
+        let Some(e) = compare(&img, &reference.image) else {
+            continue;
+        };
         report.rows.push(
             Row::new(n as f64, t, t_ref)
                 .err("rel_l1", e.rel_l1)
@@ -174,17 +194,20 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
         let beam = Beam::for_path(&p, path, DVec3::Z, WAVELENGTH_NM)?;
         let g = trace_grid(&lens, path, &beam, 64, &opts)?;
         let s = g.stats();
-        let bounded = g
-            .cells()
-            .iter()
-            .all(|c| c.intensity.is_finite() && c.intensity <= opts.max_gain * c.mean_throughput * (1.0 + 1e-12));
+        let bounded = g.cells().iter().all(|c| {
+            c.intensity.is_finite()
+                && c.intensity <= opts.max_gain * c.mean_throughput * (1.0 + 1e-12)
+        });
         let ap = Aperture::of_stop(&p);
         let window = window_for(&lens, path, &beam, 32)?;
         let reference = reference_image(&lens, path, &beam, &ap, window, k, 1, &opts)?;
         let Some(e) = compare(&rasterise(&g, &ap, window), &reference.image) else {
             return Ok("FAILED: the reference image is black".into());
         };
-        let ok = s.folded_cells > 0 && bounded && s.power <= s.unclamped_power * (1.0 + 1e-12) && e.rel_l1 < CAUSTIC_MAX_L1;
+        let ok = s.folded_cells > 0
+            && bounded
+            && s.power <= s.unclamped_power * (1.0 + 1e-12)
+            && e.rel_l1 < CAUSTIC_MAX_L1;
         Ok(format!(
             "{}N = 64: {} folded + {} flipped of {} live cells, all finite and <= G·T̄; rel_l1 {:.3}, rel_energy {:+.4} vs {k}² reference",
             if ok { "" } else { "FAILED: " },
@@ -198,14 +221,24 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     push(report, "caustic folding", r);
 
     // Grazing light: 89° off axis on the Tessar: only has to stay finite.
-    let r = grid_case(&builtin::tessar(), TracePath::ghost(7, 5), light_from_field(89.0, 0.0), Alive::Any);
+    let r = grid_case(
+        &builtin::tessar(),
+        TracePath::ghost(7, 5),
+        light_from_field(89.0, 0.0),
+        Alive::Any,
+    );
     push(report, "grazing light angle (89°)", r);
 
     // Light outside the field (the Tessar covers ±12° on a 36 × 24 mm
     // sensor): at 40° part of the grid misses the front sphere or meets TIR
     // (dead cells next to live ones); at 75° every ray dies.
     for (deg, alive) in [(40.0, Alive::Partly), (75.0, Alive::None)] {
-        let r = grid_case(&builtin::tessar(), TracePath::ghost(4, 2), light_from_field(deg, 0.0), alive);
+        let r = grid_case(
+            &builtin::tessar(),
+            TracePath::ghost(4, 2),
+            light_from_field(deg, 0.0),
+            alive,
+        );
         push(report, &format!("light outside the field ({deg}°)"), r);
     }
 
@@ -220,7 +253,13 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
         let closed = Aperture::closed();
         let w = SensorWindow::new(DVec2::new(-25.0, -25.0), 0.5, 100, 100)?;
         let img = rasterise(&g, &closed, w);
-        let est = estimate_ghosts(&p, light, WAVELENGTH_NM, &closed, &EstimateOptions::default())?;
+        let est = estimate_ghosts(
+            &p,
+            light,
+            WAVELENGTH_NM,
+            &closed,
+            &EstimateOptions::default(),
+        )?;
         let ok = img.total() == 0.0 && est.iter().all(|e| e.power == 0.0 && e.intensity == 0.0);
         Ok(format!(
             "{}image total {}, all {} ghost estimates 0",
@@ -271,7 +310,12 @@ enum Alive {
 
 /// Trace, rasterise, check for NaN and that the rays reaching the sensor
 /// are as `alive` says.
-fn grid_case(p: &LensPrescription, path: TracePath, light: DVec3, alive: Alive) -> Result<String, FlareError> {
+fn grid_case(
+    p: &LensPrescription,
+    path: TracePath,
+    light: DVec3,
+    alive: Alive,
+) -> Result<String, FlareError> {
     let p = coated(p)?;
     let lens = PreparedLens::new(&p, WAVELENGTH_NM)?;
     let beam = Beam::for_path(&p, path, light, WAVELENGTH_NM)?;
@@ -280,7 +324,9 @@ fn grid_case(p: &LensPrescription, path: TracePath, light: DVec3, alive: Alive) 
     let img = rasterise(&g, &Aperture::of_stop(&p), w);
     let s = g.stats();
     let finite = img.power().iter().all(|v| v.is_finite() && *v >= 0.0)
-        && g.cells().iter().all(|c| c.intensity.is_finite() || c.kind == CellKind::Dead);
+        && g.cells()
+            .iter()
+            .all(|c| c.intensity.is_finite() || c.kind == CellKind::Dead);
     let as_expected = match alive {
         Alive::Any => true,
         Alive::Partly => s.alive_rays > 0 && s.alive_rays < g.rays().len(),
@@ -288,7 +334,11 @@ fn grid_case(p: &LensPrescription, path: TracePath, light: DVec3, alive: Alive) 
     };
     Ok(format!(
         "{}{} of {} rays reach the sensor (expected: {alive:?}), {} live cells, image total {:.3e} (finite, no NaN)",
-        if finite && as_expected { "" } else { "FAILED: " },
+        if finite && as_expected {
+            ""
+        } else {
+            "FAILED: "
+        },
         s.alive_rays,
         g.rays().len(),
         s.alive_cells,
@@ -314,11 +364,23 @@ mod tests {
         assert_eq!(r.rows.len(), 4, "{:?}", r.stability);
         let problems = r.problems();
         assert!(problems.is_empty(), "{problems:#?}");
-        for case in ["reference noise floor", "light outside the field (40°)", "light outside the field (75°)"] {
-            assert!(r.stability.iter().any(|c| c.case == case && c.ok), "{case}: {:?}", r.stability);
+        for case in [
+            "reference noise floor",
+            "light outside the field (40°)",
+            "light outside the field (75°)",
+        ] {
+            assert!(
+                r.stability.iter().any(|c| c.case == case && c.ok),
+                "{case}: {:?}",
+                r.stability
+            );
         }
         let (first, last) = (&r.rows[0], &r.rows[r.rows.len() - 1]);
-        assert!(last.error["rel_l1"] < 0.5 * first.error["rel_l1"], "{:?}", r.rows);
+        assert!(
+            last.error["rel_l1"] < 0.5 * first.error["rel_l1"],
+            "{:?}",
+            r.rows
+        );
         assert!(last.error["rel_l2"] < first.error["rel_l2"]);
     }
 }

@@ -22,7 +22,8 @@ use optica_optics::fresnel::Coating;
 use optica_optics::glam::{DVec2, DVec3};
 use optica_optics::glass::{Glass, LAMBDA_D_NM};
 use optica_optics::lens::{
-    LensPrescription, LensSurface, Pass, PreparedLens, TraceError, TracePath, TraceResult, builtin, ghosts, trace,
+    LensPrescription, LensSurface, Pass, PreparedLens, TraceError, TracePath, TraceResult, builtin,
+    ghosts, trace,
 };
 use optica_optics::ray::Ray;
 
@@ -56,7 +57,11 @@ pub struct GhostStats {
 /// half-width `half` around the axis in the entrance-pupil plane `pupil_z`.
 /// Returns the rays and the area of one cell.
 pub fn pupil_grid(n: usize, half: f64, pupil_z: f64, field_deg: f64) -> (Vec<Ray>, f64) {
-    let dir = DVec3::new(field_deg.to_radians().sin(), 0.0, field_deg.to_radians().cos());
+    let dir = DVec3::new(
+        field_deg.to_radians().sin(),
+        0.0,
+        field_deg.to_radians().cos(),
+    );
     let cell = 2.0 * half / n as f64;
     let mut rays = Vec::with_capacity(n * n);
     for iy in 0..n {
@@ -91,21 +96,40 @@ pub fn ghost_stats(results: &[Result<TraceResult, TraceError>], cell_area: f64) 
         }
     }
     if e <= 0.0 {
-        return GhostStats { energy: 0.0, centroid: DVec2::ZERO, rms_radius: 0.0, passed, died };
+        return GhostStats {
+            energy: 0.0,
+            centroid: DVec2::ZERO,
+            rms_radius: 0.0,
+            passed,
+            died,
+        };
     }
     let c = DVec2::new(sx / e, sy / e);
     let rms = (sxx / e - c.length_squared()).max(0.0).sqrt();
-    GhostStats { energy: e, centroid: c, rms_radius: rms, passed, died }
+    GhostStats {
+        energy: e,
+        centroid: c,
+        rms_radius: rms,
+        passed,
+        died,
+    }
 }
 
 /// Runs the sweep.
 pub fn run(ctx: &SweepContext) -> Report {
     let mut report = Report::cpu("optics", "rays_per_side");
     let lens = builtin::tessar();
-    let (prepared, para) = match (PreparedLens::new(&lens, LAMBDA_D_NM), lens.paraxial(LAMBDA_D_NM)) {
+    let (prepared, para) = match (
+        PreparedLens::new(&lens, LAMBDA_D_NM),
+        lens.paraxial(LAMBDA_D_NM),
+    ) {
         (Ok(p), Ok(q)) => (p, q),
         (a, b) => {
-            report.case("prepare the Tessar", false, format!("{:?} / {:?}", a.err(), b.err()));
+            report.case(
+                "prepare the Tessar",
+                false,
+                format!("{:?} / {:?}", a.err(), b.err()),
+            );
             return report;
         }
     };
@@ -120,14 +144,30 @@ pub fn run(ctx: &SweepContext) -> Report {
     let (ghost, _) = ghosts(&lens)
         .into_iter()
         .filter(|&(_, j)| j > stop)
-        .map(|(i, j)| ((i, j), ghost_stats(&prepared.trace_many(&probe, TracePath::ghost(i, j)), probe_area).energy))
-        .fold(((0, 0), -1.0), |best, g| if g.1 > best.1 { g } else { best });
+        .map(|(i, j)| {
+            (
+                (i, j),
+                ghost_stats(
+                    &prepared.trace_many(&probe, TracePath::ghost(i, j)),
+                    probe_area,
+                )
+                .energy,
+            )
+        })
+        .fold(
+            ((0, 0), -1.0),
+            |best, g| if g.1 > best.1 { g } else { best },
+        );
     let path = TracePath::ghost(ghost.0, ghost.1);
 
     let reference_n = ctx.pick(128, 512);
     let knobs: Vec<usize> = ctx.pick(vec![4, 8, 16, 32], vec![4, 8, 16, 32, 64, 128]);
     let total = knobs.len() + 1;
-    ctx.progress(0, total, &format!("reference {reference_n}² rays, ghost {ghost:?}"));
+    ctx.progress(
+        0,
+        total,
+        &format!("reference {reference_n}² rays, ghost {ghost:?}"),
+    );
     let (ref_rays, ref_area) = pupil_grid(reference_n, half, pupil_z, FIELD_DEG);
     let reference = ghost_stats(&prepared.trace_many(&ref_rays, path), ref_area);
     report.reference = format!(
@@ -147,15 +187,26 @@ pub fn run(ctx: &SweepContext) -> Report {
     for (step, &n) in knobs.iter().enumerate() {
         let (rays, area) = pupil_grid(n, half, pupil_z, FIELD_DEG);
         let (t_ghost, results) = time_ms(min_runs, budget, || prepared.trace_many(&rays, path));
-        let (t_primary, _) = time_ms(min_runs, budget, || prepared.trace_many(&rays, TracePath::Primary));
+        let (t_primary, _) = time_ms(min_runs, budget, || {
+            prepared.trace_many(&rays, TracePath::Primary)
+        });
         let s = ghost_stats(&results, area);
-        let rel = |a: f64, b: f64| if b != 0.0 { (a - b).abs() / b.abs() } else { (a - b).abs() };
+        let rel = |a: f64, b: f64| {
+            if b != 0.0 {
+                (a - b).abs() / b.abs()
+            } else {
+                (a - b).abs()
+            }
+        };
         let rho = reference.rms_radius.max(1e-12);
         report.rows.push(
             Row::new(n as f64, t_ghost, t_primary)
                 .err("energy_rel", rel(s.energy, reference.energy))
                 .err("rms_radius_rel", rel(s.rms_radius, reference.rms_radius))
-                .err("centroid_over_rms", (s.centroid - reference.centroid).length() / rho)
+                .err(
+                    "centroid_over_rms",
+                    (s.centroid - reference.centroid).length() / rho,
+                )
                 .work("rays", (n * n) as f64)
                 .work("rays_passed", s.passed as f64)
                 .work("rays_died", s.died as f64),
@@ -185,9 +236,15 @@ fn stability(report: &mut Report, tessar: &LensPrescription) {
     let mut ok = graze.is_ok();
     if let Ok(p) = &graze {
         for y in [20.0 * (1.0 - 1e-12), 20.0, 20.0 * (1.0 - 1e-6)] {
-            let r = trace(p, Ray::new(DVec3::new(0.0, y, -5.0), DVec3::Z).expect("the sweep's rays are finite"), wl, TracePath::Primary);
+            let r = trace(
+                p,
+                Ray::new(DVec3::new(0.0, y, -5.0), DVec3::Z).expect("the sweep's rays are finite"),
+                wl,
+                TracePath::Primary,
+            );
             // Finite with a throughput falling to 0 at the rim (R -> 1 as cos i -> 0).
-            ok &= matches!(&r, Ok(t) if t.position.is_finite() && (0.0..0.5).contains(&t.throughput));
+            ok &=
+                matches!(&r, Ok(t) if t.position.is_finite() && (0.0..0.5).contains(&t.throughput));
             detail.push_str(&format!("y = {y}: {:?}; ", r.map(|t| t.throughput)));
         }
     }
@@ -210,10 +267,28 @@ fn stability(report: &mut Report, tessar: &LensPrescription) {
         LensSurface::new(50.0, 0.0, Glass::Constant(1.5), 10.0),
         LensSurface::new(-50.0, 50.0, Glass::Air, 10.0),
     ]);
-    let a = touching.as_ref().map(|p| trace(p, Ray::new(DVec3::new(0.0, 0.0, -5.0), DVec3::Z).expect("the sweep's rays are finite"), wl, TracePath::Primary));
-    let b = thin.as_ref().map(|p| trace(p, Ray::new(DVec3::new(0.0, 5.0, -5.0), DVec3::Z).expect("the sweep's rays are finite"), wl, TracePath::Primary));
+    let a = touching.as_ref().map(|p| {
+        trace(
+            p,
+            Ray::new(DVec3::new(0.0, 0.0, -5.0), DVec3::Z).expect("the sweep's rays are finite"),
+            wl,
+            TracePath::Primary,
+        )
+    });
+    let b = thin.as_ref().map(|p| {
+        trace(
+            p,
+            Ray::new(DVec3::new(0.0, 5.0, -5.0), DVec3::Z).expect("the sweep's rays are finite"),
+            wl,
+            TracePath::Primary,
+        )
+    });
     let on_axis_ok = matches!(a, Ok(Ok(ref t)) if t.position.is_finite());
-    let off_axis_typed = b == Ok(Err(TraceError::Missed { surface: 2, pass: Pass::Forward }));
+    let off_axis_typed = b
+        == Ok(Err(TraceError::Missed {
+            surface: 2,
+            pass: Pass::Forward,
+        }));
     report.case(
         "zero-thickness element",
         on_axis_ok && off_axis_typed,
@@ -225,10 +300,16 @@ fn stability(report: &mut Report, tessar: &LensPrescription) {
     );
 
     // Every ghost of the Tessar on a coated lens: finite or typed, never NaN.
-    let coated = match tessar.with_coating_everywhere(Coating::quarter_wave(1.38, 550.0).expect("a valid coating")) {
+    let coated = match tessar
+        .with_coating_everywhere(Coating::quarter_wave(1.38, 550.0).expect("a valid coating"))
+    {
         Ok(p) => p,
         Err(e) => {
-            report.case("all 21 ghosts, coated, 10° off axis", false, format!("coating: {e}"));
+            report.case(
+                "all 21 ghosts, coated, 10° off axis",
+                false,
+                format!("coating: {e}"),
+            );
             return;
         }
     };
@@ -251,7 +332,10 @@ fn stability(report: &mut Report, tessar: &LensPrescription) {
     report.case(
         "all 21 ghosts, coated, 10° off axis",
         all.len() == 21 && bad == 0,
-        format!("{} ghosts x 64 rays at 450 nm: {bad} non-finite results", all.len()),
+        format!(
+            "{} ghosts x 64 rays at 450 nm: {bad} non-finite results",
+            all.len()
+        ),
     );
 }
 
@@ -273,16 +357,39 @@ mod tests {
         let first = &r.rows[0].error;
         let last = &r.rows[r.rows.len() - 1].error;
         for key in ["energy_rel", "rms_radius_rel", "centroid_over_rms"] {
-            assert!(last[key] < first[key], "{key}: {} -> {}", first[key], last[key]);
+            assert!(
+                last[key] < first[key],
+                "{key}: {} -> {}",
+                first[key],
+                last[key]
+            );
         }
-        assert!(last["energy_rel"] < 0.05, "32x32 against 128x128: {}", last["energy_rel"]);
+        assert!(
+            last["energy_rel"] < 0.05,
+            "32x32 against 128x128: {}",
+            last["energy_rel"]
+        );
         assert_eq!(
-            r.stability.iter().map(|c| c.case.as_str()).collect::<Vec<_>>(),
-            ["grazing incidence", "zero-thickness element", "all 21 ghosts, coated, 10° off axis"]
+            r.stability
+                .iter()
+                .map(|c| c.case.as_str())
+                .collect::<Vec<_>>(),
+            [
+                "grazing incidence",
+                "zero-thickness element",
+                "all 21 ghosts, coated, 10° off axis"
+            ]
         );
         // The zero-centre biconvex's 5 mm ray must die at surface 2 (typed), not reach the sensor.
-        let zero = r.stability.iter().find(|c| c.case == "zero-thickness element").unwrap();
-        assert!(zero.ok && zero.detail.contains("Missed { surface: 2, pass: Forward }"), "{zero:?}");
+        let zero = r
+            .stability
+            .iter()
+            .find(|c| c.case == "zero-thickness element")
+            .unwrap();
+        assert!(
+            zero.ok && zero.detail.contains("Missed { surface: 2, pass: Forward }"),
+            "{zero:?}"
+        );
     }
 
     #[test]

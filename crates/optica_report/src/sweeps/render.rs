@@ -39,7 +39,9 @@ pub fn scene(app: &mut App, samples: u32) {
     };
     app.add_systems(
         Startup,
-        move |mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>| {
+        move |mut commands: Commands,
+              mut meshes: ResMut<Assets<Mesh>>,
+              mut materials: ResMut<Assets<StandardMaterial>>| {
             let cube = meshes.add(Cuboid::new(0.6, 0.6, 0.6));
             for i in 0..9 {
                 let (x, z) = ((i % 3) as f32 - 1.0, (i / 3) as f32 - 1.0);
@@ -60,12 +62,19 @@ pub fn scene(app: &mut App, samples: u32) {
                 Transform::from_xyz(0.0, 0.65, 0.0),
             ));
             commands.spawn((
-                DirectionalLight { illuminance: 8_000.0, shadow_maps_enabled: false, ..default() },
+                DirectionalLight {
+                    illuminance: 8_000.0,
+                    shadow_maps_enabled: false,
+                    ..default()
+                },
                 Transform::from_xyz(2.0, 4.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
             ));
             commands.spawn((
                 Camera3d::default(),
-                Camera { clear_color: ClearColorConfig::Custom(Color::srgb(0.08, 0.09, 0.12)), ..default() },
+                Camera {
+                    clear_color: ClearColorConfig::Custom(Color::srgb(0.08, 0.09, 0.12)),
+                    ..default()
+                },
                 msaa,
                 Transform::from_xyz(2.2, 2.0, 2.6).looking_at(Vec3::new(0.0, 0.1, 0.0), Vec3::Y),
             ));
@@ -83,7 +92,12 @@ pub fn downsample_linear(image: &RgbaImage, factor: u32) -> RgbaImage {
             for dx in 0..factor {
                 let p = image.get_pixel(x * factor + dx, y * factor + dy).0;
                 let c = LinearRgba::from(Srgba::rgba_u8(p[0], p[1], p[2], p[3]));
-                sum = LinearRgba::new(sum.red + c.red, sum.green + c.green, sum.blue + c.blue, sum.alpha + c.alpha);
+                sum = LinearRgba::new(
+                    sum.red + c.red,
+                    sum.green + c.green,
+                    sum.blue + c.blue,
+                    sum.alpha + c.alpha,
+                );
             }
         }
         let n = (factor * factor) as f32;
@@ -99,7 +113,9 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
     let knobs = [1u32, 2, 4, 8];
 
     ctx.progress(0, knobs.len() + 1, "reference");
-    let reference = ctx.headless(size * SUPERSAMPLE, size * SUPERSAMPLE).render(|app| scene(app, 1))?;
+    let reference = ctx
+        .headless(size * SUPERSAMPLE, size * SUPERSAMPLE)
+        .render(|app| scene(app, 1))?;
     let reference_image = downsample_linear(&reference.to_rgba8(), SUPERSAMPLE);
     let mut report = Report::rendered("render", "msaa_samples", reference.adapter.clone());
     report.reference = format!(
@@ -121,33 +137,54 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
             // A sample count the adapter's formats do not support fails
             // validation; the row is left out, not faked.
             Err(HarnessError::Wgpu(e)) | Err(HarnessError::Exited(e)) if samples > 1 => {
-                skipped.push(format!("{samples} ({})", e.lines().next().unwrap_or_default()));
+                skipped.push(format!(
+                    "{samples} ({})",
+                    e.lines().next().unwrap_or_default()
+                ));
                 continue;
             }
             Err(e) => return Err(e.into()),
         };
         let timings = headless.time_frames(warmup, frames, |app| scene(app, samples))?;
-        let base = baseline.get_or_insert_with(|| timings.clone()).frame_ms.median;
-        let m = optica_harness::metrics::compare(&reference_image, &frame.to_rgba8())
-            .map_err(|e| SweepError::Harness(HarnessError::Golden { path: "reference".into(), message: e.to_string() }))?;
+        let base = baseline
+            .get_or_insert_with(|| timings.clone())
+            .frame_ms
+            .median;
+        let m =
+            optica_harness::metrics::compare(&reference_image, &frame.to_rgba8()).map_err(|e| {
+                SweepError::Harness(HarnessError::Golden {
+                    path: "reference".into(),
+                    message: e.to_string(),
+                })
+            })?;
         let mut row = Row::new(samples as f64, timings.frame_ms.median, base)
             .err("psnr_db", m.psnr_db)
             .err("flip_mean", m.flip_mean)
             .err("one_minus_ssim", 1.0 - m.ssim)
             .timing("frame_iqr_ms", timings.frame_ms.iqr());
-        if let Some(pass) = timings.pass(OPAQUE_PASS).filter(|p| p.source == TimeSource::GpuTimestamps) {
+        if let Some(pass) = timings
+            .pass(OPAQUE_PASS)
+            .filter(|p| p.source == TimeSource::GpuTimestamps)
+        {
             row = row.timing("opaque_gpu_ms", pass.ms.median);
         }
         report.rows.push(row);
     }
     if !skipped.is_empty() {
-        report.reference.push_str(&format!("; sample counts this adapter refused: {}", skipped.join(", ")));
+        report.reference.push_str(&format!(
+            "; sample counts this adapter refused: {}",
+            skipped.join(", ")
+        ));
     }
 
     // Stability: the whole path on extreme inputs.
     let tiny = ctx.headless(1, 1).render(|app| scene(app, 1))?;
     let px = tiny.to_rgba8().get_pixel(0, 0).0;
-    report.case("1×1 target", px[3] == 255, format!("one pixel rendered: {px:?}"));
+    report.case(
+        "1×1 target",
+        px[3] == 255,
+        format!("one pixel rendered: {px:?}"),
+    );
     let hot = ctx.headless(32, 32).hdr(true).render(|app| {
         scene(app, 1);
         app.add_systems(PostStartup, |mut lights: Query<&mut DirectionalLight>| {
@@ -156,9 +193,17 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
             }
         });
     })?;
-    let finite = hot.hdr().is_some_and(|img| img.as_raw().iter().all(|v| v.is_finite()));
-    let peak = hot.hdr().map_or(0.0, |img| img.as_raw().iter().cloned().fold(0.0f32, f32::max));
-    report.case("1e9 lux light, HDR", finite, format!("all pixels finite: {finite}, brightest {peak:.3e}"));
+    let finite = hot
+        .hdr()
+        .is_some_and(|img| img.as_raw().iter().all(|v| v.is_finite()));
+    let peak = hot.hdr().map_or(0.0, |img| {
+        img.as_raw().iter().cloned().fold(0.0f32, f32::max)
+    });
+    report.case(
+        "1e9 lux light, HDR",
+        finite,
+        format!("all pixels finite: {finite}, brightest {peak:.3e}"),
+    );
     Ok(report)
 }
 
@@ -169,7 +214,13 @@ mod tests {
     #[test]
     fn downsampling_averages_in_linear_light() {
         // Black and white pixels average to linear 0.5, which is sRGB 188, not 128.
-        let img = RgbaImage::from_fn(2, 2, |x, _| if x == 0 { image::Rgba([0, 0, 0, 255]) } else { image::Rgba([255; 4]) });
+        let img = RgbaImage::from_fn(2, 2, |x, _| {
+            if x == 0 {
+                image::Rgba([0, 0, 0, 255])
+            } else {
+                image::Rgba([255; 4])
+            }
+        });
         let out = downsample_linear(&img, 2);
         assert_eq!(out.dimensions(), (1, 1));
         assert_eq!(out.get_pixel(0, 0).0, [188, 188, 188, 255]);
@@ -178,21 +229,36 @@ mod tests {
     #[test]
     fn quick_sweep_renders_and_records_the_adapter() {
         let r = run(&SweepContext::new("render", true, true)).expect("render sweep on lavapipe");
-        let adapter = r.adapter.as_ref().expect("a rendering sweep records its adapter");
+        let adapter = r
+            .adapter
+            .as_ref()
+            .expect("a rendering sweep records its adapter");
         assert!(adapter.name.contains("llvmpipe"), "{adapter:?}");
         assert!(r.problems().is_empty(), "{:#?}", r.problems());
         // MSAA off and 4× are Vulkan's required sample counts: always there.
         let knobs: Vec<f64> = r.rows.iter().map(|row| row.knob).collect();
         assert!(knobs.contains(&1.0) && knobs.contains(&4.0), "{knobs:?}");
         let flip = |k: f64| r.rows.iter().find(|row| row.knob == k).unwrap().error["flip_mean"];
-        assert!(flip(4.0) < flip(1.0), "4× MSAA is not closer to the supersampled reference: {} vs {}", flip(4.0), flip(1.0));
+        assert!(
+            flip(4.0) < flip(1.0),
+            "4× MSAA is not closer to the supersampled reference: {} vs {}",
+            flip(4.0),
+            flip(1.0)
+        );
         // lavapipe has timestamp queries: the opaque pass has a GPU time.
-        assert!(r.rows.iter().all(|row| row.timings.contains_key("opaque_gpu_ms")), "{:?}", r.rows);
+        assert!(
+            r.rows
+                .iter()
+                .all(|row| row.timings.contains_key("opaque_gpu_ms")),
+            "{:?}",
+            r.rows
+        );
     }
 
     #[test]
     fn a_missing_adapter_fails_the_sweep() {
-        let ctx = SweepContext::new("render", true, true).with_adapter(optica_harness::Adapter::Named("no-such-gpu".into()));
+        let ctx = SweepContext::new("render", true, true)
+            .with_adapter(optica_harness::Adapter::Named("no-such-gpu".into()));
         match run(&ctx) {
             Err(SweepError::Harness(HarnessError::WrongAdapter { .. })) => {}
             other => panic!("expected WrongAdapter, got {:?}", other.map(|r| r.adapter)),

@@ -34,8 +34,9 @@
 
 use optica_optics::glam::{DVec3, Vec3};
 use optica_optics::spectacles::{
-    DEFAULT_DENSE_SAMPLES, DisplacementField, Eye, EyePlacement, FieldSettings, LensDesignParams, LensMesh, Prescription,
-    SpectacleLens, SpectaclesError, design_lens, precompute_field, reference_at, refract_vertices,
+    DEFAULT_DENSE_SAMPLES, DisplacementField, Eye, EyePlacement, FieldSettings, LensDesignParams,
+    LensMesh, Prescription, SpectacleLens, SpectaclesError, design_lens, precompute_field,
+    reference_at, refract_vertices,
 };
 
 use crate::{Report, Row, SweepContext, time_ms};
@@ -60,7 +61,12 @@ struct RefPoint {
 }
 
 /// Quasi-random points seen through the lens, with their references.
-fn reference_points(eye: &Eye, pl: &EyePlacement, lens: &SpectacleLens, want: usize) -> (Vec<RefPoint>, usize) {
+fn reference_points(
+    eye: &Eye,
+    pl: &EyePlacement,
+    lens: &SpectacleLens,
+    want: usize,
+) -> (Vec<RefPoint>, usize) {
     let mut out = Vec::new();
     let mut skipped = 0;
     let mut i = 0;
@@ -70,12 +76,19 @@ fn reference_points(eye: &Eye, pl: &EyePlacement, lens: &SpectacleLens, want: us
         let r = 0.85 * lens.rim_radius_m() * halton(i, 2).sqrt();
         let phi = std::f64::consts::TAU * halton(i, 3);
         let z = 0.1 * 20f64.powf(halton(i, 5)); // 0.1–2 m, log-uniform
-        let Some(on_lens) = lens.back().point(r * phi.cos(), r * phi.sin()) else { continue };
+        let Some(on_lens) = lens.back().point(r * phi.cos(), r * phi.sin()) else {
+            continue;
+        };
         let centre = pl.centre_of_rotation();
         let dir = (on_lens - centre).normalize();
         let p = centre + dir * ((z - centre.z) / dir.z);
         match reference_at(eye, pl, Some(lens), p, DEFAULT_DENSE_SAMPLES) {
-            Ok(rf) => out.push(RefPoint { p, dist: rf.distance_m, rms: rf.spread.rms_radius_m, edge: rf.spread.max_radius_m }),
+            Ok(rf) => out.push(RefPoint {
+                p,
+                dist: rf.distance_m,
+                rms: rf.spread.rms_radius_m,
+                edge: rf.spread.max_radius_m,
+            }),
             Err(_) => skipped += 1,
         }
     }
@@ -100,13 +113,18 @@ fn errors(field: &DisplacementField, pts: &[RefPoint]) -> (f64, f64, f64, f64) {
 
 /// The lens of the sweep: +1.5 D reading lens at n = 1.66 (the paper's index).
 fn sweep_lens() -> SpectacleLens {
-    design_lens(&Prescription::sphere(1.5).expect("valid"), &LensDesignParams::paper()).expect("+1.5 D is a lens")
+    design_lens(
+        &Prescription::sphere(1.5).expect("valid"),
+        &LensDesignParams::paper(),
+    )
+    .expect("+1.5 D is a lens")
 }
 
 /// Runs the sweep.
 pub fn run(ctx: &SweepContext) -> Report {
     let mut report = Report::cpu("spectacles", "resolution_scale");
-    report.baseline = "per-vertex refraction of one lens mesh (1,537 back-surface vertices, rayon)".into();
+    report.baseline =
+        "per-vertex refraction of one lens mesh (1,537 back-surface vertices, rayon)".into();
     report.reference = "direct per-point displacement set: chief ray solved through the point, near/far bundles of \
                         256 pupil rays; errors on the set's RMS radius (mm, mrad) and longest vector (edge, mm)"
         .into();
@@ -117,20 +135,32 @@ pub fn run(ctx: &SweepContext) -> Report {
     let scales: Vec<f64> = ctx.pick(vec![0.25, 0.5, 1.0], vec![0.25, 0.5, 0.75, 1.0, 1.25, 1.5]);
     let series: Vec<(usize, Vec<f64>)> = ctx.pick(
         vec![(10, scales.clone()), (4, vec![0.5]), (20, vec![0.5])],
-        vec![(10, scales.clone()), (4, scales.clone()), (20, scales.clone())],
+        vec![
+            (10, scales.clone()),
+            (4, scales.clone()),
+            (20, scales.clone()),
+        ],
     );
     let n_points = ctx.pick(60, 300);
     let (runs, budget) = ctx.pick((1, 0.0), (3, 2000.0));
     let total: usize = series.iter().map(|(_, s)| s.len()).sum::<usize>() + 1;
 
     ctx.progress(0, total, "baseline and reference points");
-    let mesh = lens.mesh(LensMesh::PAPER_RINGS, LensMesh::PAPER_SEGMENTS).expect("mesh");
+    let mesh = lens
+        .mesh(LensMesh::PAPER_RINGS, LensMesh::PAPER_SEGMENTS)
+        .expect("mesh");
     let back = mesh.back_positions().to_vec();
-    let (t_base, traces) = time_ms(3, ctx.pick(20.0, 500.0), || refract_vertices(&lens, pl.centre_of_rotation(), &back));
+    let (t_base, traces) = time_ms(3, ctx.pick(20.0, 500.0), || {
+        refract_vertices(&lens, pl.centre_of_rotation(), &back)
+    });
     let exits = match &traces {
         Ok(t) => t.iter().filter(|t| t.is_exit()).count(),
         Err(e) => {
-            report.case("per-vertex refraction of the lens mesh", false, e.to_string());
+            report.case(
+                "per-vertex refraction of the lens mesh",
+                false,
+                e.to_string(),
+            );
             0
         }
     };
@@ -138,22 +168,39 @@ pub fn run(ctx: &SweepContext) -> Report {
 
     let mut step = 0;
     for (clones, ks) in &series {
-        let suffix = if *clones == 10 { String::new() } else { format!("_s{clones}") };
+        let suffix = if *clones == 10 {
+            String::new()
+        } else {
+            format!("_s{clones}")
+        };
         for &k in ks {
             step += 1;
             ctx.progress(step, total, &format!("S = {clones}, scale {k}"));
-            let st = match FieldSettings::paper().scaled(k).and_then(|st| st.with_clones(*clones)) {
+            let st = match FieldSettings::paper()
+                .scaled(k)
+                .and_then(|st| st.with_clones(*clones))
+            {
                 Ok(st) => st,
                 Err(e) => {
-                    report.case(&format!("settings S = {clones}, scale {k}"), false, e.to_string());
+                    report.case(
+                        &format!("settings S = {clones}, scale {k}"),
+                        false,
+                        e.to_string(),
+                    );
                     continue;
                 }
             };
-            let (t, field) = time_ms(runs, budget, || precompute_field(&eye, &pl, Some(&lens), &st));
+            let (t, field) = time_ms(runs, budget, || {
+                precompute_field(&eye, &pl, Some(&lens), &st)
+            });
             let field = match field {
                 Ok(f) => f,
                 Err(e) => {
-                    report.case(&format!("precompute S = {clones}, scale {k}"), false, e.to_string());
+                    report.case(
+                        &format!("precompute S = {clones}, scale {k}"),
+                        false,
+                        e.to_string(),
+                    );
                     continue;
                 }
             };
@@ -187,20 +234,39 @@ pub fn run(ctx: &SweepContext) -> Report {
 /// Extreme cases through the whole path: designing the lens, tracing the
 /// bundles, precomputing the field and the direct reference together.
 fn stability(report: &mut Report) {
-    let small = FieldSettings::paper().scaled(0.25).expect("a quarter of the paper's setting is within the caps");
+    let small = FieldSettings::paper()
+        .scaled(0.25)
+        .expect("a quarter of the paper's setting is within the caps");
     let finite = |f: &DisplacementField| f.vectors().iter().all(|v| v.is_finite());
 
     // ±20 D.
-    let plus20 = design_lens(&Prescription::sphere(20.0).expect("valid"), &LensDesignParams::default());
-    let minus20 = design_lens(&Prescription::sphere(-20.0).expect("valid"), &LensDesignParams::default());
+    let plus20 = design_lens(
+        &Prescription::sphere(20.0).expect("valid"),
+        &LensDesignParams::default(),
+    );
+    let minus20 = design_lens(
+        &Prescription::sphere(-20.0).expect("valid"),
+        &LensDesignParams::default(),
+    );
     let eye20 = Eye::new(20.0, 1.0, 0.004).expect("valid");
     let ok_plus = matches!(plus20, Err(SpectaclesError::SurfaceTooSteep { .. }));
     let (ok_minus, detail_minus) = match &minus20 {
         Ok(l) => {
             let fv = l.measured_back_vertex_power_d(0.0).unwrap_or(f64::NAN);
-            let f = precompute_field(&Eye::new(-20.0, 1.0, 0.004).expect("valid"), &EyePlacement::default(), Some(l), &small);
+            let f = precompute_field(
+                &Eye::new(-20.0, 1.0, 0.004).expect("valid"),
+                &EyePlacement::default(),
+                Some(l),
+                &small,
+            );
             let ok = (fv + 20.0).abs() < 0.01 && f.as_ref().is_ok_and(finite);
-            (ok, format!("−20 D designed (edge {:.1} mm), traced Fv = {fv:.4} D, field finite", l.edge_thickness_m(0.0).unwrap_or(f64::NAN) * 1e3))
+            (
+                ok,
+                format!(
+                    "−20 D designed (edge {:.1} mm), traced Fv = {fv:.4} D, field finite",
+                    l.edge_thickness_m(0.0).unwrap_or(f64::NAN) * 1e3
+                ),
+            )
         }
         Err(e) => (false, e.to_string()),
     };
@@ -221,21 +287,49 @@ fn stability(report: &mut Report) {
     let eye0 = Eye::new(-2.0, 1.0, 0.0).expect("valid");
     let lens = sweep_lens();
     let f0 = precompute_field(&eye0, &EyePlacement::default(), Some(&lens), &small);
-    let r0 = reference_at(&eye0, &EyePlacement::default(), Some(&lens), DVec3::new(0.0, 0.0, 1.0), 64);
-    let ok = f0.as_ref().is_ok_and(|f| f.vectors().iter().all(|v| *v == Vec3::ZERO))
+    let r0 = reference_at(
+        &eye0,
+        &EyePlacement::default(),
+        Some(&lens),
+        DVec3::new(0.0, 0.0, 1.0),
+        64,
+    );
+    let ok = f0
+        .as_ref()
+        .is_ok_and(|f| f.vectors().iter().all(|v| *v == Vec3::ZERO))
         && r0.as_ref().is_ok_and(|r| r.spread.rms_radius_m == 0.0);
-    report.case("zero pupil", ok, "A = 0: every displacement set is exactly zero (a pinhole), reference 0");
+    report.case(
+        "zero pupil",
+        ok,
+        "A = 0: every displacement set is exactly zero (a pinhole), reference 0",
+    );
 
     // Near point = far point (Amp = 0).
     let eye_a0 = Eye::new(-2.0, 0.0, 0.004).expect("valid");
-    let corr = design_lens(&Prescription::sphere(-1.0 / (0.5 - 0.015)).expect("valid"), &LensDesignParams::default()).expect("lens");
+    let corr = design_lens(
+        &Prescription::sphere(-1.0 / (0.5 - 0.015)).expect("valid"),
+        &LensDesignParams::default(),
+    )
+    .expect("lens");
     let fa = precompute_field(&eye_a0, &EyePlacement::default(), Some(&corr), &small);
-    let ra = reference_at(&eye_a0, &EyePlacement::default(), Some(&corr), DVec3::new(0.0, 0.0, 2.0), 256);
+    let ra = reference_at(
+        &eye_a0,
+        &EyePlacement::default(),
+        Some(&corr),
+        DVec3::new(0.0, 0.0, 2.0),
+        256,
+    );
     let (ok, detail) = match (&fa, &ra) {
         (Ok(f), Ok(r)) => {
             // Fully corrected, focus at infinity: at 2 m, ΔD ≈ 0.5 D, disc ≈ A·z·ΔD = 4 mm.
             let d = r.spread.disc_diameter_m();
-            (finite(f) && (d - 0.004).abs() < 0.0008, format!("−2 D, Amp 0, fully corrected: disc at 2 m {:.2} mm (A·z·ΔD = 4 mm), field finite", d * 1e3))
+            (
+                finite(f) && (d - 0.004).abs() < 0.0008,
+                format!(
+                    "−2 D, Amp 0, fully corrected: disc at 2 m {:.2} mm (A·z·ΔD = 4 mm), field finite",
+                    d * 1e3
+                ),
+            )
         }
         _ => (false, format!("{:?} {:?}", fa.err(), ra.err())),
     };
@@ -243,9 +337,25 @@ fn stability(report: &mut Report) {
 
     // Hyperope: virtual far point behind the eye.
     let hyp = Eye::new(2.0, 0.5, 0.004).expect("valid");
-    let plus = design_lens(&Prescription::sphere(2.0).expect("valid"), &LensDesignParams::default()).expect("lens");
-    let naked = reference_at(&hyp, &EyePlacement::default(), None, DVec3::new(0.0, 0.0, 1.0), 256);
-    let through = reference_at(&hyp, &EyePlacement::default(), Some(&plus), DVec3::new(0.0, 0.0, 1.0), 256);
+    let plus = design_lens(
+        &Prescription::sphere(2.0).expect("valid"),
+        &LensDesignParams::default(),
+    )
+    .expect("lens");
+    let naked = reference_at(
+        &hyp,
+        &EyePlacement::default(),
+        None,
+        DVec3::new(0.0, 0.0, 1.0),
+        256,
+    );
+    let through = reference_at(
+        &hyp,
+        &EyePlacement::default(),
+        Some(&plus),
+        DVec3::new(0.0, 0.0, 1.0),
+        256,
+    );
     let fh = precompute_field(&hyp, &EyePlacement::default(), Some(&plus), &small);
     let (ok, detail) = match (&naked, &through) {
         (Ok(n), Ok(t)) => {
@@ -256,7 +366,12 @@ fn stability(report: &mut Report) {
             let dt = t.spread.disc_diameter_m();
             (
                 (dn - want).abs() < 1e-9 && dt < 0.5 * dn && fh.as_ref().is_ok_and(finite),
-                format!("+2 D, Amp 0.5, point at 1 m: naked disc {:.2} mm (A·z·ΔD = {:.2} mm), through +2 D {:.2} mm", dn * 1e3, want * 1e3, dt * 1e3),
+                format!(
+                    "+2 D, Amp 0.5, point at 1 m: naked disc {:.2} mm (A·z·ΔD = {:.2} mm), through +2 D {:.2} mm",
+                    dn * 1e3,
+                    want * 1e3,
+                    dt * 1e3
+                ),
             )
         }
         _ => (false, format!("{:?} {:?}", naked.err(), through.err())),
@@ -279,7 +394,10 @@ mod tests {
         let err = |i: usize, k: &str| r.rows[i].error[k];
         for k in ["mean_mm", "max_mm", "mean_mrad"] {
             assert!(err(2, k) < err(0, k), "{k} must fall from scale 0.25 to 1");
-            assert!(err(1, k) <= err(0, k) * 1.05 && err(2, k) <= err(1, k) * 1.05, "{k} rises");
+            assert!(
+                err(1, k) <= err(0, k) * 1.05 && err(2, k) <= err(1, k) * 1.05,
+                "{k} rises"
+            );
         }
         assert!(r.rows[0].work["points"] >= 50.0);
     }

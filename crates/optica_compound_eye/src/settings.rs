@@ -109,9 +109,11 @@ pub struct CompoundEye {
     pub lens_radius: f32,
     /// Refractive index of the lenses relative to the outside, `> 0`.
     pub lens_index: f32,
-    /// Depth of the pigment plane below the surface in lens radii, `≥ 2`
-    /// (2 = the thesis's `d = 2r`, eq. 6.29; the paraxial focus of a ball
-    /// lens lies at `1 + n/(2(n−1))`, 2.5 for `n = 1.5`).
+    /// Depth of the pigment plane below the surface in lens radii, `≥ 2`.
+    /// The default 2 is the thesis's `d = 2r` (eq. 6.29): the plane touches
+    /// the bottom of the sphere. It is independent of the index; the
+    /// paraxial focus of a ball lens lies at `1 + n/(2(n−1))` radii, 2.5 for
+    /// `n = 1.5`, which the presets use.
     pub pigment_depth: f32,
     /// Slice planes of the lens search (`K`, §6.4), clamped to 64: the
     /// quality knob. 0 looks only at the surface; 8 finds the right lens for
@@ -132,7 +134,9 @@ pub struct CompoundEye {
     /// A greyscale pigment texture (red channel; 1 = transparent, 0 =
     /// absorbing), tiled over the pigment plane: its own UV space, set by
     /// `pigment_uv_scale` and `pigment_uv_offset`, independent of the lens
-    /// lattice (thesis §6.2). Sampled with mipmaps when it has them.
+    /// lattice (thesis §6.2). Sampled with mipmaps when it has them, with
+    /// the image's own sampler: give it `ImageAddressMode::Repeat` to tile
+    /// it (Bevy's default sampler clamps at the edge).
     #[texture(101)]
     #[sampler(102)]
     pub pigment_texture: Option<Handle<Image>>,
@@ -145,16 +149,16 @@ pub struct CompoundEye {
 }
 
 impl Default for CompoundEye {
-    /// Hexagonal touching lenses of index 1.5 focused on the pigment, 16
-    /// slices, neighbours, Fresnel and the prefilter on, 40 facets per UV
-    /// unit.
+    /// Hexagonal touching lenses of index 1.5 with the pigment at the
+    /// thesis's `d = 2r`, 16 slices, neighbours, Fresnel and the prefilter
+    /// on, 40 facets per UV unit.
     fn default() -> Self {
         Self {
             facets_per_uv: 40.0,
             lattice: EyeLattice::Hexagonal,
             lens_radius: 1.0,
             lens_index: 1.5,
-            pigment_depth: 2.5,
+            pigment_depth: 2.0,
             slices: 16,
             follow_neighbours: true,
             fresnel: true,
@@ -176,7 +180,6 @@ impl CompoundEye {
             facets_per_uv,
             lattice: EyeLattice::Square,
             lens_index,
-            pigment_depth: 2.0,
             slices,
             follow_neighbours: false,
             fresnel: false,

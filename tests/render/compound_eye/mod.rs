@@ -7,6 +7,7 @@ mod parity;
 mod pipelines;
 mod pseudopupil;
 mod stability;
+mod texture;
 
 use bevy::camera::ScalingMode;
 use bevy::prelude::*;

@@ -54,8 +54,11 @@
 //!   That needs no mesh preprocessing and no custom vertex shader, so any
 //!   UV-mapped mesh works and the prepass and shadow passes stay Bevy's own.
 //!   The lattice plane is the triangle's (flat) plane, as in the thesis.
-//! - **Degenerate UVs** (a triangle whose UV edges are parallel to within
+//! - **Degenerate UVs** (a triangle whose UVs collapse onto a line or a
+//!   point: the facet coordinate's screen-space gradients parallel to within
 //!   `1e-4` in sine) get no lattice: they render as the plain base material.
+//!   The lattice is computed in a frame scaled to one facet, so tiny and
+//!   huge facets (in world units) keep f32 precision.
 //!   **Mirrored UVs** work: the axes follow the UVs and the lenses are put on
 //!   the side away from the viewer. **Stretched UVs** make cells
 //!   rectangles (or stretched hexagons): the lenses stay spheres, sized to
@@ -95,7 +98,8 @@ mod settings;
 pub use panel::{CompoundEyePanel, CompoundEyePanelPlugin, compound_eye_ui};
 pub use presets::EyePreset;
 pub use settings::{
-    CompoundEye, CompoundEyeMaterial, CompoundEyeUniform, EyeLattice, EyeOutput, PigmentDisc,
+    CompoundEye, CompoundEyeMaterial, CompoundEyeUniform, EyeLattice, EyeOutput, MAX_DEPTH,
+    MAX_INDEX, PigmentDisc,
 };
 
 /// Where `embedded_asset!` puts the material shader.

@@ -95,6 +95,7 @@ pub fn compound_eye_ui(ui: &mut egui::Ui, eye: &mut CompoundEye) -> bool {
         {
             *eye = CompoundEye {
                 output: eye.output,
+                pigment_texture: eye.pigment_texture.take(),
                 ..CompoundEye::thesis(eye.facets_per_uv, 1.5, eye.slices)
             };
         }

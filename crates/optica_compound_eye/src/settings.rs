@@ -84,6 +84,12 @@ impl Default for PigmentDisc {
     }
 }
 
+/// The largest lens index [`CompoundEye::validate`] accepts (germanium, the
+/// densest optical material in use, has `n ≈ 4`).
+pub const MAX_INDEX: f32 = 16.0;
+/// The deepest pigment plane [`CompoundEye::validate`] accepts, in lens radii.
+pub const MAX_DEPTH: f32 = 1000.0;
+
 /// The compound-eye extension of `StandardMaterial`: the lens lattice, its
 /// optics, the pigment and the quality knobs. Use it as
 /// [`CompoundEyeMaterial`]`{ base, extension }`.
@@ -92,8 +98,9 @@ impl Default for PigmentDisc {
 /// the lens radius is a fraction of the cell's inradius (half a facet on
 /// undistorted UVs), the pigment depth a multiple of the lens radius.
 ///
-/// Invalid values (NaN, a radius outside `(0, 1]`, a depth below 2 radii,
-/// a non-positive index or `facets_per_uv`) switch the lattice off: the mesh
+/// Invalid values (NaN, a radius outside `(0, 1]`, a depth outside
+/// `[2, MAX_DEPTH]` radii, an index outside `(0, MAX_INDEX]`, a non-positive
+/// `facets_per_uv`) switch the lattice off: the mesh
 /// renders as its plain `StandardMaterial`, and the plugin logs a warning
 /// naming the value (once per change of the material).
 #[derive(Asset, AsBindGroup, Reflect, Debug, Clone, PartialEq)]
@@ -107,9 +114,11 @@ pub struct CompoundEye {
     /// Lens (sphere) radius as a fraction of the cell's inradius, `(0, 1]`;
     /// 1 = neighbouring lenses touch.
     pub lens_radius: f32,
-    /// Refractive index of the lenses relative to the outside, `> 0`.
+    /// Refractive index of the lenses relative to the outside, in
+    /// `(0, MAX_INDEX]`.
     pub lens_index: f32,
-    /// Depth of the pigment plane below the surface in lens radii, `≥ 2`.
+    /// Depth of the pigment plane below the surface in lens radii, in
+    /// `[2, MAX_DEPTH]`.
     /// The default 2 is the thesis's `d = 2r` (eq. 6.29): the plane touches
     /// the bottom of the sphere. It is independent of the index; the
     /// paraxial focus of a ball lens lies at `1 + n/(2(n−1))` radii, 2.5 for
@@ -196,6 +205,20 @@ impl CompoundEye {
             self.lens_radius as f64,
             f64::MIN_POSITIVE,
             1.0,
+        )?;
+        // Beyond these bounds f32 overflows inside the refraction; no real
+        // lens comes near them (germanium, n ≈ 4, is the densest optics).
+        input::in_range(
+            "lens refractive index",
+            self.lens_index as f64,
+            f64::MIN_POSITIVE,
+            MAX_INDEX as f64,
+        )?;
+        input::in_range(
+            "pigment depth (lens radii)",
+            self.pigment_depth as f64,
+            0.0,
+            MAX_DEPTH as f64,
         )?;
         // A unit lens checks index and depth ≥ 2r as the CPU twin does.
         LensParams::new(1.0, self.lens_index as f64, self.pigment_depth as f64).map_err(

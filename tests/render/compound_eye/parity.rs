@@ -16,6 +16,7 @@ use optica_compound_eye::{CompoundEye, EyeLattice, EyeOutput};
 use optica_harness::Headless;
 use optica_optics::compound_eye::{
     DarkCentre, Lattice, LensParams, Ray, ShadeOptions, TextureAxes, facet_response,
+    facet_response_prefiltered,
 };
 use optica_optics::glam::{DVec2, DVec3};
 
@@ -106,14 +107,42 @@ struct Agreement {
     escaping: usize,
 }
 
+/// The plain quad, its UVs as Bevy makes them.
+fn quad() -> Mesh {
+    Mesh::from(Rectangle::new(2.0, 2.0))
+}
+
+/// `compare_on` the plain quad, without the prefilter.
 fn compare(eye: CompoundEye) -> Agreement {
+    compare_on(
+        quad(),
+        CompoundEye {
+            prefilter: false,
+            ..eye
+        },
+    )
+}
+
+/// The facet footprint of pixel (i, j), in facets per pixel, as the shader
+/// takes it from its derivatives: the larger of the facet-coordinate steps
+/// to the next pixel right and down.
+fn footprint(axes: &TextureAxes, i: u32, j: u32) -> Option<f64> {
+    let at = |i, j| cpu_fragment(i, j).map(|r| axes.uv_of(r.origin()));
+    let here = at(i, j)?;
+    Some(
+        (at(i + 1, j)? - here)
+            .length()
+            .max((at(i, j + 1)? - here).length()),
+    )
+}
+
+fn compare_on(quad: Mesh, eye: CompoundEye) -> Agreement {
     let eye = CompoundEye {
         output: EyeOutput::PigmentOnly,
-        prefilter: false,
         ..eye
     };
-    let quad = Mesh::from(Rectangle::new(2.0, 2.0));
     let setup = cpu_setup(&eye, &quad);
+    let prefilter = eye.prefilter;
     let frame = Headless::new(SIZE, SIZE)
         .hdr(true)
         .render(scene(
@@ -125,20 +154,34 @@ fn compare(eye: CompoundEye) -> Agreement {
         ))
         .expect("render");
     let gpu = frame.hdr().expect("an HDR frame");
-    let (mut n, mut within, mut sum, mut counts, mut escaping) =
-        (0usize, 0usize, 0.0, 0usize, 0usize);
+    let (mut n, mut within, mut sum, mut escaping) = (0usize, 0usize, 0.0, 0usize);
+    let (mut hits, mut counts) = (0usize, 0usize);
     for j in 0..SIZE {
         for i in 0..SIZE {
             let Some(ray) = cpu_fragment(i, j) else {
                 continue;
             };
-            let cpu = facet_response(
-                &setup.lattice,
-                &ray,
-                &setup.options,
-                &setup.pigment,
-                setup.fresnel,
-            );
+            let cpu = if prefilter {
+                let Some(footprint) = footprint(setup.lattice.axes(), i, j) else {
+                    continue;
+                };
+                facet_response_prefiltered(
+                    &setup.lattice,
+                    &ray,
+                    &setup.options,
+                    &setup.pigment,
+                    setup.fresnel,
+                    footprint,
+                )
+            } else {
+                facet_response(
+                    &setup.lattice,
+                    &ray,
+                    &setup.options,
+                    &setup.pigment,
+                    setup.fresnel,
+                )
+            };
             let [m, e, lenses, _] = gpu.get_pixel(i, j).0;
             let cpu_e = cpu.escape.map_or(0.0, |(_, w)| w);
             let d = (m as f64 - cpu.multiplier)
@@ -148,22 +191,25 @@ fn compare(eye: CompoundEye) -> Agreement {
             sum += d;
             within += usize::from(d <= 0.02);
             escaping += usize::from(cpu_e > 0.0);
-            // The lens count: the CPU hit's, 0 for a ray that found no lens.
-            let cpu_lenses = optica_optics::compound_eye::shade_fragment_with(
+            // The lens count of the rays that reach the pigment (the shader
+            // writes the count of the fragment's own ray, not the average).
+            if let Some(hit) = optica_optics::compound_eye::shade_fragment_with(
                 &setup.lattice,
                 &ray,
                 &setup.options,
             )
             .hit()
-            .map_or(lenses, |h| h.lenses as f32 / 4.0);
-            counts += usize::from((lenses - cpu_lenses).abs() < 0.01);
+            {
+                hits += 1;
+                counts += usize::from((lenses - hit.lenses as f32 / 4.0).abs() < 0.01);
+            }
         }
     }
     Agreement {
         pixels: n,
         within: within as f64 / n as f64,
         mean: sum / n as f64,
-        lens_count_agree: counts as f64 / n as f64,
+        lens_count_agree: counts as f64 / hits.max(1) as f64,
         escaping,
     }
 }
@@ -225,4 +271,40 @@ fn low_index_lenses_send_rays_back_out_on_the_cpu_and_the_gpu_alike() {
     let a = compare(eye);
     assert_agrees("n = 0.8", &a);
     assert!(a.escaping > 0, "no ray escaped: the case tests nothing");
+}
+
+/// Mirrored, sheared and stretched UVs (one affine map over the quad): the
+/// derivative-built axes are the CPU's `TextureAxes::from_triangle`.
+#[test]
+fn mirrored_and_sheared_uvs_match_the_cpu_axes() {
+    let mut mesh = quad();
+    if let Some(VertexAttributeValues::Float32x2(uv)) = mesh.attribute_mut(Mesh::ATTRIBUTE_UV_0) {
+        for t in uv.iter_mut() {
+            *t = [-1.3 * t[0] + 0.4 * t[1], 0.8 * t[1] + 0.1 * t[0]];
+        }
+    }
+    let eye = CompoundEye {
+        facets_per_uv: 7.0,
+        lattice: EyeLattice::Hexagonal,
+        slices: 12,
+        prefilter: false,
+        ..default()
+    };
+    let a = compare_on(mesh, eye);
+    assert_agrees("hexagonal, mirrored and sheared UVs", &a);
+}
+
+/// Facets well below a pixel: the shader's prefilter (the facet average of
+/// nine rays, blended in by the footprint) against `facet_response_prefiltered`.
+#[test]
+fn prefiltered_small_facets_match_their_cpu_twin() {
+    let eye = CompoundEye {
+        facets_per_uv: 120.0,
+        lattice: EyeLattice::Hexagonal,
+        slices: 12,
+        prefilter: true,
+        ..default()
+    };
+    let a = compare_on(quad(), eye);
+    assert_agrees("prefiltered, 1.5–1.9 facets per pixel", &a);
 }

@@ -114,6 +114,15 @@ fn extreme_views_and_settings_give_finite_pixels() {
             front(),
         ),
         (
+            "R_t = 1e9 (f32 loses the facet's fraction)",
+            quad(),
+            CompoundEye {
+                facets_per_uv: 1e9,
+                ..default()
+            },
+            grazing(),
+        ),
+        (
             "mirrored UVs",
             quad_with_uvs(|[u, v]| [-u, v]),
             CompoundEye::default(),
@@ -182,6 +191,20 @@ fn degenerate_uvs_and_invalid_numbers_fall_back_to_the_base_material() {
             },
         ),
         (
+            "index 1e20 (overflows f32 in the refraction)",
+            CompoundEye {
+                lens_index: 1e20,
+                ..default()
+            },
+        ),
+        (
+            "depth 1e30 radii",
+            CompoundEye {
+                pigment_depth: 1e30,
+                ..default()
+            },
+        ),
+        (
             "NaN darkness",
             CompoundEye {
                 pigment: optica_compound_eye::PigmentDisc {
@@ -217,4 +240,49 @@ fn degenerate_uvs_and_invalid_numbers_fall_back_to_the_base_material() {
     );
     let centre = off.hdr().unwrap().get_pixel(SIZE / 2, SIZE / 2).0;
     assert_eq!(centre[0], 1.0, "{centre:?}");
+}
+
+/// The lattice is scale-free: the same eye on a quad from 1e-9 to 1e9 times
+/// the size (camera zoomed to match) gives the same optics, in f32, without
+/// a NaN (the shader works in a frame scaled to one facet).
+#[test]
+fn tiny_and_huge_meshes_give_the_same_optics() {
+    let eye = pigment(CompoundEye {
+        facets_per_uv: 6.0,
+        prefilter: false,
+        ..default()
+    });
+    let at = |scale: f32| {
+        let frame = Headless::new(SIZE, SIZE)
+            .hdr(true)
+            .render(scene(
+                quad_with_uvs(|t| t),
+                Transform::from_scale(Vec3::splat(scale)),
+                eye.clone(),
+                front(),
+                ortho(2.4 * scale),
+            ))
+            .expect("render");
+        assert!(finite(&frame), "scale {scale}: a non-finite pixel");
+        frame
+            .hdr()
+            .unwrap()
+            .pixels()
+            .map(|p| p.0[0])
+            .collect::<Vec<f32>>()
+    };
+    let unit = at(1.0);
+    for scale in [1e-9, 1e-6, 1e6, 1e9] {
+        let other = at(scale);
+        let mean = unit
+            .iter()
+            .zip(&other)
+            .map(|(a, b)| (a - b).abs())
+            .sum::<f32>()
+            / unit.len() as f32;
+        assert!(
+            mean < 0.01,
+            "scale {scale}: mean |Δc_t| {mean} against scale 1"
+        );
+    }
 }

@@ -25,7 +25,7 @@ struct CompoundEyeUniform {
     flags: u32,
 }
 
-// settings.rs `CompoundEyeFlags`.
+// settings.rs `mod flags`.
 const FLAG_ENABLED: u32 = 1u;
 const FLAG_HEXAGONAL: u32 = 2u;
 const FLAG_FRESNEL: u32 = 4u;
@@ -33,8 +33,9 @@ const FLAG_PREFILTER: u32 = 8u;
 const FLAG_TEXTURE: u32 = 16u;
 const FLAG_PIGMENT_ONLY: u32 = 32u;
 
-// texture_axes.rs UV_DET_REL_EPS for f32 derivatives: UV edges closer to
-// parallel than this (the sine of their angle) have no lattice.
+// texture_axes.rs UV_DET_REL_EPS for f32 derivatives: a triangle whose
+// facet-coordinate gradients (or world axes U, V) are closer to parallel than
+// this (the sine of their angle) has no lattice.
 const UV_DET_REL_EPS: f32 = 1e-4;
 
 // pigment.rs PREFILTER_OFFSETS: a 3×3 stratified pattern.
@@ -105,12 +106,21 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
     let dty = dpdy(facet);
     let det = dtx.x * dty.y - dty.x * dtx.y;
     let footprint = max(length(dtx), length(dty)); // facets per pixel
-    let lod = log2(max(footprint * max(material.pigment_scale.x, material.pigment_scale.y)
-        * f32(textureDimensions(pigment_texture).x), 1.0));
+    let texels = vec2<f32>(textureDimensions(pigment_texture));
+    let texel_rate = abs(material.pigment_scale) * texels; // texels per facet
+    let lod = log2(max(footprint * max(texel_rate.x, texel_rate.y), 1.0));
 
-    if (material.flags & FLAG_ENABLED) != 0u && abs(det) > UV_DET_REL_EPS * length(dtx) * length(dty) {
-        let u = (dpx * dty.y - dpy * dtx.y) / det;
-        let v = (dpy * dtx.x - dpx * dty.x) / det;
+    // U and V in world units per facet. The trace is scale-free (every
+    // length is a multiple of the cell), so it runs in a frame scaled to a
+    // facet of about one unit: f32 keeps its precision and |U|⁴ neither
+    // underflows nor overflows, whether a facet is 1e-9 or 1e9 units.
+    var u = (dpx * dty.y - dpy * dtx.y) / det;
+    var v = (dpy * dtx.x - dpx * dty.x) / det;
+    let scale = max(length(u), length(v));
+    u /= scale;
+    v /= scale;
+    let frame_ok = scale > 0.0 && scale < 3.0e38 && length(cross(u, v)) > UV_DET_REL_EPS;
+    if (material.flags & FLAG_ENABLED) != 0u && abs(det) > UV_DET_REL_EPS * length(dtx) * length(dty) && frame_ok {
         var n = normalize(cross(u, v));
         // Lenses lie on the far side from the viewer.
         if dot(n, pbr_input.V) < 0.0 {

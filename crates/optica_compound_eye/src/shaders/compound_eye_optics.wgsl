@@ -219,7 +219,8 @@ fn refract_dir(d: vec3<f32>, normal: vec3<f32>, n1: f32, n2: f32) -> vec3<f32> {
     cos_i = min(cos_i, 1.0);
     let eta = n1 / n2;
     let cos2_t = cos_sq_refracted(cos_i, n1, n2);
-    if cos2_t < 0.0 {
+    // `!(≥ 0)` also turns a NaN (from an overflowing index) into "no ray".
+    if !(cos2_t >= 0.0) {
         return vec3<f32>(0.0);
     }
     return normalize(eta * d + (eta * cos_i - sqrt(cos2_t)) * n);
@@ -232,7 +233,7 @@ fn fresnel_unpolarized(cos_in: f32, n1: f32, n2: f32) -> f32 {
         return 0.0;
     }
     let cos2_t = cos_sq_refracted(cos_i, n1, n2);
-    if cos2_t < 0.0 || cos_i == 0.0 {
+    if !(cos2_t >= 0.0) || cos_i == 0.0 {
         return 1.0;
     }
     let cos_t = sqrt(cos2_t);

@@ -18,8 +18,8 @@ use crate::surface::intersect_sphere;
 
 /// Most slice planes the shading path takes: the bound of the WGSL loop,
 /// which must be a constant. Larger slice counts are clamped to it. The
-/// report sweep `compound_eye` finds the wrong-lens fraction at its floor
-/// from `K = 32` on (see [`super::shade`]); 64 is twice that.
+/// wrong-lens fraction against the exact tracer reaches its floor from
+/// `K = 32` on (see [`super::shade`]); 64 is twice that.
 pub const MAX_SLICES: u32 = 64;
 
 /// Relative slack of the `d ≥ 2r` and `r ≤ ½·cell height` checks, so that a

@@ -129,7 +129,7 @@
 //! let ray = Ray::new(DVec3::new(2.5, 3.5, 1.0), -DVec3::Z)?;
 //! let hit = *shade(&lattice, &ray, 8).hit().expect("reaches the pigment");
 //! assert_eq!(hit.lens, Some([2, 3]));
-//! assert!(hit.on_own_centre(0.1));
+//! assert!(hit.on_own_centre(lattice.kind(), 0.1));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 

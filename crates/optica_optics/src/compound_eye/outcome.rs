@@ -2,6 +2,8 @@
 
 use glam::{DVec2, DVec3};
 
+use super::LatticeKind;
+
 /// Where a view ray reached the pigment plane. Every number in a hit returned
 /// by this module is finite.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -24,11 +26,11 @@ pub struct PigmentHit {
 }
 
 impl PigmentHit {
-    /// The hit's offset from the centre of the first lens's own cell, in
-    /// facets (`None` without a lens). `(0, 0)` is the ommatidium's rhabdom.
-    pub fn offset_from_lens(&self) -> Option<DVec2> {
-        self.lens
-            .map(|[i, j]| self.uv - DVec2::new(i as f64 + 0.5, j as f64 + 0.5))
+    /// The hit's offset from the centre of the first lens's own cell on a
+    /// lattice of `kind`, in facets (`None` without a lens). `(0, 0)` is the
+    /// ommatidium's rhabdom.
+    pub fn offset_from_lens(&self, kind: LatticeKind) -> Option<DVec2> {
+        self.lens.map(|index| self.uv - kind.centre_of_index(index))
     }
 
     /// `true` when the ray went through a lens and landed within
@@ -37,8 +39,8 @@ impl PigmentHit {
     /// viewer (D. G. Stavenga, "Pseudopupils of compound eyes", in *Handbook
     /// of Sensory Physiology* VII/6A, Springer, 1979). (A texture tiled per cell, as in the thesis, also darkens
     /// hits near a *neighbour's* centre: the secondary pseudopupils.)
-    pub fn on_own_centre(&self, dark_radius: f64) -> bool {
-        self.offset_from_lens()
+    pub fn on_own_centre(&self, kind: LatticeKind, dark_radius: f64) -> bool {
+        self.offset_from_lens(kind)
             .is_some_and(|o| o.length() < dark_radius)
     }
 
@@ -114,5 +116,34 @@ impl Shade {
     pub(crate) fn is_finite(&self) -> bool {
         self.hit()
             .is_none_or(|h| h.uv.is_finite() && h.point.is_finite())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Lattice, LensParams, TextureAxes, shade};
+    use super::*;
+    use crate::ray::Ray;
+
+    /// A ray straight down through a lens centre lands on that lens's own
+    /// centre, on either lattice (the hexagonal centres are not at
+    /// `index + ½`).
+    #[test]
+    fn a_ray_down_a_lens_axis_lands_on_its_own_centre() {
+        let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z).unwrap();
+        for kind in [LatticeKind::Square, LatticeKind::Hexagonal] {
+            let r = 0.5 * kind.cell_inradius(DVec3::X, DVec3::Y);
+            let lattice =
+                Lattice::with_kind(axes, LensParams::thesis(r, 1.5).unwrap(), kind).unwrap();
+            let centre = kind.centre_of_index([2, 1]);
+            let ray = Ray::new(DVec3::new(centre.x, centre.y, 1.0), -DVec3::Z).unwrap();
+            let hit = *shade(&lattice, &ray, 8).hit().expect("reaches the pigment");
+            assert_eq!(hit.lens, Some([2, 1]), "{kind:?}");
+            assert!(
+                hit.offset_from_lens(kind).unwrap().length() < 1e-9,
+                "{kind:?}: {hit:?}"
+            );
+            assert!(hit.on_own_centre(kind, 0.01), "{kind:?}");
+        }
     }
 }

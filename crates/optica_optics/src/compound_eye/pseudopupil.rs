@@ -1,6 +1,6 @@
 //! The pseudopupil on a curved eye: facet frames and the dark-centre test.
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 
 use super::error::CompoundEyeError;
 use super::lattice::{Lattice, LensParams};
@@ -42,7 +42,9 @@ pub fn facet_lattice(
 /// centre of cell `(0, 0)` on the polygon), or `None` when the viewer is at
 /// the apex, on or behind the facet's plane.
 pub fn ray_to_facet(lattice: &Lattice, viewer: DVec3) -> Option<Ray> {
-    let apex = lattice.axes().point_of(DVec2::splat(0.5));
+    let apex = lattice
+        .axes()
+        .point_of(lattice.kind().centre_of_index([0, 0]));
     let ray = Ray::new(viewer, apex - viewer).ok()?;
     (ray.dir().dot(lattice.axes().normal()) < 0.0).then_some(ray)
 }
@@ -64,7 +66,7 @@ pub fn shows_dark_centre(lattice: &Lattice, viewer: DVec3, dark_radius: f64) -> 
     ray_to_facet(lattice, viewer).is_some_and(|ray| {
         shade(lattice, &ray, 0)
             .hit()
-            .is_some_and(|h| h.on_own_centre(dark_radius))
+            .is_some_and(|h| h.on_own_centre(lattice.kind(), dark_radius))
     })
 }
 
@@ -257,7 +259,7 @@ mod tests {
         let lens = LensParams::thesis(0.5, 1.5).unwrap();
         let axis = DVec3::new(0.2, -0.3, 1.0).normalize();
         let l = facet_lattice(5.0 * axis, axis, 1.0, lens).unwrap();
-        let s = l.lens_centre(DVec2::splat(0.5));
+        let s = l.lens_centre(glam::DVec2::splat(0.5));
         assert!((s - (5.0 * axis - 0.5 * axis)).length() < 1e-14);
         assert_eq!(l.axes().handedness(), 1.0);
         assert!(ray_to_facet(&l, -10.0 * axis).is_none());

@@ -35,8 +35,9 @@ pub(crate) fn polygon_entry(lattice: &Lattice, ray: &Ray) -> Result<Ray, ShadeFa
 /// Most lenses the shading path follows one view ray through: the bound of
 /// the WGSL loop. Beyond the first lens, each further one is a neighbour the
 /// exit ray enters on its way to the pigment plane; with touching lenses of
-/// `n = 1.5` the sweep `compound_eye` finds no ray that passes more than
-/// three lenses before the pigment at any angle up to 89°.
+/// `n = 1.5` the exact tracer (rays from 0° to 89°, 16 azimuths, 12×12
+/// points per cell) finds no ray that passes more than three lenses before
+/// the pigment.
 pub const MAX_LENSES: u32 = 4;
 
 /// How far along an exit ray the neighbour search looks when the ray runs
@@ -127,7 +128,7 @@ pub fn shade(lattice: &Lattice, ray: &Ray, slices: u32) -> Shade {
 /// above depth `r` is found even when it enters the sphere below its
 /// equator.
 ///
-/// Measured (report sweep `compound_eye`, square lattice: unit facets,
+/// Measured against the exact lattice tracer (square lattice: unit facets,
 /// touching lenses `r = ½`, `n = 1.5`, `d = 2r`, rays from 0° to 89°): the
 /// wrong-lens fraction falls from 42 % at `K = 0` to 4.3 % at `K = 8` and to
 /// its floor of 0.05 % from `K = 32` on; a single extra slice at `h = r`

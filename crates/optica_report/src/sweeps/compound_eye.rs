@@ -247,7 +247,7 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
     let mut report = Report::rendered("compound_eye", "slices", base.adapter.clone());
     report.reference = format!(
         "optica_optics::compound_eye::trace_exact through every pixel centre ({size}², the same hexagonal lattice of \
-         touching lenses, n = 1.5, pigment at the paraxial focus, dark-centre pigment, Fresnel), one lens for the \
+         touching lenses, n = 1.5, pigment at d = 2r (the thesis's depth and the material's default), dark-centre pigment, Fresnel), one lens for the \
          `one lens` series and up to {MAX_LENSES} for `neighbours`; a flat eye seen at 0–66° incidence, facets \
          {facet_px:.1} px wide at the pseudopupil"
     );
@@ -313,6 +313,14 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
             report.rows.push(row);
         }
     }
+    costs(
+        ctx,
+        &mut report,
+        size,
+        facets_per_uv,
+        (warmup, frames),
+        &base,
+    )?;
     stability(ctx, &mut report, size)?;
     Ok(report)
 }
@@ -333,6 +341,63 @@ fn with_pass_times(row: Row, eye: &FrameTimings, plain: &FrameTimings) -> Row {
     }
 }
 
+/// Facets per UV unit that make facets ~0.5 px wide at the pseudopupil.
+fn sub_pixel_facets_per_uv(ctx: &SweepContext) -> f32 {
+    ctx.pick(533.0, 1365.0)
+}
+
+/// What the settings the table leaves out cost: the material's defaults
+/// (prefilter on, 16 slices, neighbours, Fresnel) at the sweep's facet size,
+/// and the prefilter where facets are ~0.5 px (all of the eye blended into
+/// the nine-ray facet average), each as a ratio to the plain material.
+fn costs(
+    ctx: &SweepContext,
+    report: &mut Report,
+    size: u32,
+    facets_per_uv: f32,
+    (warmup, frames): (u32, u32),
+    base: &FrameTimings,
+) -> Result<(), SweepError> {
+    let headless = ctx.headless(size, size);
+    let time = |eye: CompoundEye| -> Result<f64, SweepError> {
+        Ok(headless
+            .time_frames(warmup, frames, scene(Some(eye)))?
+            .frame_ms
+            .median)
+    };
+    let base_ms = base.frame_ms.median;
+    let defaults = time(CompoundEye {
+        facets_per_uv,
+        ..default()
+    })?;
+    report.case(
+        "cost at the material's defaults",
+        defaults.is_finite(),
+        format!(
+            "prefilter on, K = 16, neighbours, Fresnel, {facets_per_uv} facets per UV: frame {defaults:.2} ms, \
+             {:.2}× the plain material ({base_ms:.2} ms)",
+            defaults / base_ms
+        ),
+    );
+    let tiny = sub_pixel_facets_per_uv(ctx);
+    let sub_pixel = |prefilter| CompoundEye {
+        prefilter,
+        ..eye_settings(tiny, 8, true, EyeOutput::Shaded)
+    };
+    let (on, off) = (time(sub_pixel(true))?, time(sub_pixel(false))?);
+    report.case(
+        "cost of the prefilter at sub-pixel facets",
+        on.is_finite() && off.is_finite(),
+        format!(
+            "~0.5 px per facet, K = 8, neighbours: prefiltered {on:.2} ms ({:.2}× plain), unfiltered {off:.2} ms \
+             ({:.2}× plain)",
+            on / base_ms,
+            off / base_ms
+        ),
+    );
+    Ok(())
+}
+
 /// Stiff cases through the whole path: sub-pixel facets (moiré, with and
 /// without the prefilter, against a supersampled render), a degenerate UV
 /// triangle, grazing and skimming rays on the CPU twin.
@@ -341,7 +406,7 @@ fn stability(ctx: &SweepContext, report: &mut Report, size: u32) -> Result<(), S
     // an 8× supersampled one (prefilter off, box-filtered in linear light;
     // 64 samples a pixel, about 16 a facet).
     let ss = 8;
-    let tiny = ctx.pick(533.0, 1365.0);
+    let tiny = sub_pixel_facets_per_uv(ctx);
     let eye = |prefilter: bool| CompoundEye {
         prefilter,
         ..eye_settings(tiny, 8, true, EyeOutput::PigmentOnly)

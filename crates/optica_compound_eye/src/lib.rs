@@ -80,7 +80,14 @@
 //! The knob is [`CompoundEye::slices`]; the report sweep `compound_eye` of
 //! `optica_report` measures image and pseudopupil error against the CPU
 //! exact lattice tracer and the frame time against a plain
-//! `StandardMaterial`.
+//! `StandardMaterial`. On a CPU Vulkan device (lavapipe, 256², a flat eye
+//! seen at 0–66°, 5.5 px facets at the pseudopupil) the slice search
+//! reaches its error floor at `K = 2`–`8` (PSNR 32.5 dB one lens, 30.7 dB
+//! with neighbours; the pseudopupil within 0.01–0.02 facet of the exact
+//! tracer's) for 1.4–1.7× the plain material's frame; `K = 0` leaves the
+//! pseudopupil 0.2 facet off. The prefilter adds up to nine rays a fragment
+//! where facets are smaller than about 4 px: 3.3× the plain frame at 0.5 px
+//! facets, against 2.1× without it (which aliases into moiré).
 
 #![warn(missing_docs)]
 

@@ -55,7 +55,9 @@ pub enum EyeOutput {
     /// The optics alone, unlit, as linear values: red = the factor on the
     /// surface colour (`c_t`, times the lenses' transmittance with Fresnel
     /// on), green = the weight of the environment seen by escaping rays,
-    /// blue = lenses passed / 4. For tests, reports and debugging; read it
+    /// blue = lenses passed / 4 by the fragment's own ray (0 where the
+    /// prefilter replaces that ray by the facet average). For tests,
+    /// reports and debugging; read it
     /// from an HDR target with tonemapping off.
     PigmentOnly,
 }
@@ -125,8 +127,9 @@ pub struct CompoundEye {
     /// `n = 1.5`, which the presets use.
     pub pigment_depth: f32,
     /// Slice planes of the lens search (`K`, §6.4), clamped to 64: the
-    /// quality knob. 0 looks only at the surface; 8 finds the right lens for
-    /// all but grazing rays; 32 reaches the method's floor.
+    /// quality knob. 0 looks only at the surface; 8 (the default) finds the
+    /// right lens for all but grazing rays; 32 reaches the method's floor at
+    /// every angle. Raise it for eyes mostly seen edge-on.
     pub slices: u32,
     /// Follow a ray that leaves one lens into its neighbours (up to 4
     /// lenses); off is the thesis's model (one lens).
@@ -159,7 +162,7 @@ pub struct CompoundEye {
 
 impl Default for CompoundEye {
     /// Hexagonal touching lenses of index 1.5 with the pigment at the
-    /// thesis's `d = 2r`, 16 slices, neighbours, Fresnel and the prefilter
+    /// thesis's `d = 2r`, 8 slices, neighbours, Fresnel and the prefilter
     /// on, 40 facets per UV unit.
     fn default() -> Self {
         Self {
@@ -168,7 +171,7 @@ impl Default for CompoundEye {
             lens_radius: 1.0,
             lens_index: 1.5,
             pigment_depth: 2.0,
-            slices: 16,
+            slices: 8,
             follow_neighbours: true,
             fresnel: true,
             prefilter: true,

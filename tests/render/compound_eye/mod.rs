@@ -2,6 +2,7 @@
 //! the moving pseudopupil, goldens, stability, and no pipeline for a scene
 //! without it.
 
+mod environment;
 mod goldens;
 mod parity;
 mod pipelines;

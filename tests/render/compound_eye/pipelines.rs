@@ -94,3 +94,66 @@ fn no_material_no_pipeline_and_the_material_compiles_on_noop() {
         with_material.labels
     );
 }
+
+/// The material in Bevy's other passes: it casts a shadow onto a plain
+/// ground, and a camera with depth and normal prepasses draws it (the
+/// prepass and shadow pipelines compile; the harness fails on any that
+/// does not).
+#[test]
+fn the_material_casts_shadows_and_works_with_prepasses() {
+    use bevy::core_pipeline::prepass::{DepthPrepass, NormalPrepass};
+    const SIZE: u32 = 64;
+    const SPAN: f32 = 2.4;
+    let frame = Headless::new(SIZE, SIZE)
+        .render(|app: &mut App| {
+            app.add_plugins(optica_compound_eye::CompoundEyePlugin);
+            app.add_systems(
+                Startup,
+                |mut commands: Commands,
+                 mut meshes: ResMut<Assets<Mesh>>,
+                 mut eyes: ResMut<Assets<optica_compound_eye::CompoundEyeMaterial>>,
+                 mut plain: ResMut<Assets<StandardMaterial>>| {
+                    let eye = optica_compound_eye::CompoundEyeMaterial {
+                        base: base(),
+                        extension: CompoundEye::default(),
+                    };
+                    commands.spawn((Mesh3d(meshes.add(sphere())), MeshMaterial3d(eyes.add(eye))));
+                    commands.spawn((
+                        Mesh3d(meshes.add(Plane3d::default().mesh().size(4.0, 4.0))),
+                        MeshMaterial3d(plain.add(StandardMaterial::from_color(Color::WHITE))),
+                        Transform::from_xyz(0.0, -0.6, 0.0),
+                    ));
+                    // From +x, 45° up: the shadow falls towards −x.
+                    commands.spawn((
+                        DirectionalLight {
+                            illuminance: 8_000.0,
+                            shadow_maps_enabled: true,
+                            ..default()
+                        },
+                        Transform::from_xyz(1.0, 1.0, 0.0).looking_at(Vec3::ZERO, Vec3::Y),
+                    ));
+                    // Straight down, screen right = +x.
+                    commands.spawn((
+                        Camera3d::default(),
+                        Msaa::Off,
+                        DepthPrepass,
+                        NormalPrepass,
+                        ortho(SPAN),
+                        Transform::from_xyz(0.0, 5.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z),
+                    ));
+                },
+            );
+        })
+        .expect("render");
+    let img = frame.to_rgba8();
+    let px = |x: f32| ((0.5 + x / SPAN) * SIZE as f32) as u32;
+    let luma = |x: f32| {
+        let p = img.get_pixel(px(x), SIZE / 2).0;
+        p[0] as f32 + p[1] as f32 + p[2] as f32
+    };
+    let (shadowed, lit) = (luma(-0.85), luma(0.85));
+    assert!(
+        shadowed < 0.6 * lit,
+        "ground in the eye's shadow {shadowed}, in the light {lit}"
+    );
+}

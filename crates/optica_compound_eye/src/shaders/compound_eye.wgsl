@@ -145,21 +145,27 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
         l.index = material.lens_index;
         l.depth = material.pigment_depth * l.r;
         let d = -pbr_input.V;
-        response = facet_response(l, vec3<f32>(0.0), d, shift, lod);
+        // pigment.rs `facet_response_prefiltered`: the fragment's own ray,
+        // blended by `w` into the facet average. Where the average replaces
+        // it entirely (`w = 1`), the own ray is not traced (its lens count
+        // in the optics-only output is then 0).
+        var w = 0.0;
         if (material.flags & FLAG_PREFILTER) != 0u {
-            // pigment.rs `facet_response_prefiltered`.
-            let w = smoothstep(eye::PREFILTER_START, eye::PREFILTER_FULL, footprint);
-            if w > 0.0 {
-                let centre = eye::cell_of(kind, t).centre_uv;
-                var sum = 0.0;
-                for (var i = 0u; i < PREFILTER_SAMPLES; i++) {
-                    let offset = vec2<f32>(f32(i % 3u) - 1.0, f32(i / 3u) - 1.0) / 3.0;
-                    let q = eye::point_of(l, centre + offset);
-                    sum += facet_response(l, q, d, shift, lod).multiplier;
-                }
-                response.multiplier = mix(response.multiplier, sum / f32(PREFILTER_SAMPLES), w);
-                response.escape_weight *= 1.0 - w;
+            w = smoothstep(eye::PREFILTER_START, eye::PREFILTER_FULL, footprint);
+        }
+        if w < 1.0 {
+            response = facet_response(l, vec3<f32>(0.0), d, shift, lod);
+        }
+        if w > 0.0 {
+            let centre = eye::cell_of(kind, t).centre_uv;
+            var sum = 0.0;
+            for (var i = 0u; i < PREFILTER_SAMPLES; i++) {
+                let offset = vec2<f32>(f32(i % 3u) - 1.0, f32(i / 3u) - 1.0) / 3.0;
+                let q = eye::point_of(l, centre + offset);
+                sum += facet_response(l, q, d, shift, lod).multiplier;
             }
+            response.multiplier = mix(response.multiplier, sum / f32(PREFILTER_SAMPLES), w);
+            response.escape_weight *= 1.0 - w;
         }
     }
 #endif

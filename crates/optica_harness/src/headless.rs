@@ -68,7 +68,7 @@ pub struct Headless {
     height: u32,
     frames: u32,
     hdr: bool,
-    adapter: Adapter,
+    pub(crate) adapter: Adapter,
     time_step: Option<Duration>,
     plugins: Option<PluginsHook>,
 }
@@ -328,7 +328,7 @@ impl Headless {
         Ok((app, handle))
     }
 
-    fn build_app(&self, timing: bool) -> Result<App, HarnessError> {
+    pub(crate) fn build_app(&self, timing: bool) -> Result<App, HarnessError> {
         let render_creation = match &self.adapter {
             Adapter::Noop => crate::noop::render_creation()?,
             Adapter::Auto => RenderCreation::Automatic(Box::default()),
@@ -393,7 +393,7 @@ impl Headless {
 /// Runs one headless app at a time per process: test threads would otherwise
 /// start several renderers on the same cores and share Bevy's global task
 /// pools. A panic in one run must not poison the others.
-fn lock() -> std::sync::MutexGuard<'static, ()> {
+pub(crate) fn lock() -> std::sync::MutexGuard<'static, ()> {
     static LOCK: Mutex<()> = Mutex::new(());
     LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
 }
@@ -437,7 +437,7 @@ fn retarget_cameras(
 /// starts in about a second; a missing driver never finishes.
 const ADAPTER_TIMEOUT: Duration = Duration::from_secs(60);
 
-fn finish(app: &mut App) -> Result<(), HarnessError> {
+pub(crate) fn finish(app: &mut App) -> Result<(), HarnessError> {
     // Renderer creation is asynchronous: wait for it like `App::run` would,
     // but not forever: with no adapter at all Bevy's creation task panics on
     // its own thread and the plugins never leave `Adding`.
@@ -459,7 +459,7 @@ fn finish(app: &mut App) -> Result<(), HarnessError> {
 
 /// Bevy falls back to any adapter when the named one is missing; a golden
 /// image or a timing from the wrong device must fail instead.
-fn check_adapter(wanted: &Adapter, got: &AdapterInfo) -> Result<(), HarnessError> {
+pub(crate) fn check_adapter(wanted: &Adapter, got: &AdapterInfo) -> Result<(), HarnessError> {
     let ok = match wanted {
         Adapter::Software => got.name.to_lowercase().contains("llvmpipe"),
         Adapter::Named(name) => got.name.to_lowercase().contains(&name.to_lowercase()),
@@ -579,7 +579,7 @@ fn pipeline_label(descriptor: &bevy::render::render_resource::PipelineDescriptor
     label.map_or_else(|| "(unlabelled)".into(), |l| l.to_string())
 }
 
-fn adapter_info(app: &mut App) -> Result<AdapterInfo, HarnessError> {
+pub(crate) fn adapter_info(app: &mut App) -> Result<AdapterInfo, HarnessError> {
     let info = app
         .get_sub_app(RenderApp)
         .and_then(|r| r.world().get_resource::<RenderAdapterInfo>())

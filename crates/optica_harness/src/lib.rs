@@ -72,6 +72,7 @@ mod error;
 mod frame;
 pub mod golden;
 mod headless;
+mod kernel;
 pub mod metrics;
 mod noop;
 mod timing;
@@ -84,6 +85,7 @@ pub use headless::{
     DEFAULT_TIME_STEP, HarnessTarget, Headless, MAX_SETTLE_FRAMES, MAX_SIDE, PipelineReport,
     PluginsHook,
 };
+pub use kernel::KERNEL_WORKGROUP;
 pub use timing::{
     FrameTimings, MAX_DIAGNOSTIC_LAG_FRAMES, PassTime, SpanTiming, Stats, TimeSource,
 };

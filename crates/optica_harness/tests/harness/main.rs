@@ -5,6 +5,7 @@
 
 mod golden_workflow;
 mod headless;
+mod kernel;
 mod metrics;
 mod timing;
 mod user_scene;

@@ -11,10 +11,11 @@
 //! | feature | what it adds |
 //! |---|---|
 //! | `compound_eye` | [`compound_eye`]: a material for insect compound eyes (Sagawa 2014), `CompoundEyePlugin` |
+//! | `dome` | [`dome`]: a fisheye dome camera, equidistant projection per vertex (Johjima and Fujimura), `DomePlugin`; work in progress |
 //! | `egui` | settings panels (bevy_egui) of the plugins that are on |
 //! | `window` | opens a real window in the examples (winit + X11); without it, or without a display, they render to PNG |
 //!
-//! The other plugins (`spectacles`, `foveated_lod`, `lens_flare`, `dome`)
+//! The other plugins (`spectacles`, `foveated_lod`, `lens_flare`)
 //! join this table as they land.
 //!
 //! ```
@@ -29,6 +30,8 @@ pub use optica_optics as optics;
 
 #[cfg(feature = "compound_eye")]
 pub use optica_compound_eye as compound_eye;
+#[cfg(feature = "dome")]
+pub use optica_dome as dome;
 
 /// The usual imports: the optics and each enabled plugin's plugin and
 /// user-facing types.
@@ -39,4 +42,6 @@ pub mod prelude {
     pub use optica_compound_eye::{
         CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyeLattice, EyeOutput,
     };
+    #[cfg(feature = "dome")]
+    pub use optica_dome::{DomeCamera, DomePlugin};
 }

@@ -5,3 +5,4 @@
 //! for the update workflow: `OPTICA_GOLDEN=pending|missing|overwrite`).
 
 mod compound_eye;
+mod dome;

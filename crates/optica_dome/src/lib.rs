@@ -1,0 +1,115 @@
+//! # optica_dome — a fisheye dome camera for Bevy
+//!
+//! Renders an **equidistant (f-θ) domemaster** for planetarium domes, after
+//! Yuna Johjima and Masao Fujimura, *Fragment refinement for real-time
+//! equidistant projection* (Osaka Institute of Technology): every vertex is
+//! projected equidistantly in the vertex shader, so ordinary lit meshes
+//! (`StandardMaterial`, Bevy's lights and shadows) appear on the dome.
+//!
+//! ```no_run
+//! use bevy::prelude::*;
+//! use optica_dome::{DomeCamera, DomePlugin};
+//!
+//! App::new()
+//!     .add_plugins((DefaultPlugins, DomePlugin))
+//!     .add_systems(Startup, |mut commands: Commands| {
+//!         commands.spawn((
+//!             // A fisheye looking at the zenith; the audience front is −Y
+//!             // of the camera, here world −Z.
+//!             Transform::from_xyz(0.0, 1.6, 0.0).looking_to(Vec3::Y, Vec3::Z),
+//!             DomeCamera::default(),
+//!         ));
+//!     })
+//!     .run();
+//! ```
+//!
+//! ## How meshes reach the dome
+//!
+//! A [`DomeCamera`] gets a custom `Projection` ([`DomeClip`]). Bevy's mesh
+//! pipeline marks views with custom projections by the shader def
+//! `VIEW_PROJECTION_NONSTANDARD`; the plugin adds to Bevy's
+//! `position_world_to_clip` (the one function every mesh, prepass and
+//! material vertex shader reaches clip space through) a branch that
+//! projects equidistantly for dome views. So a user's own material takes
+//! part as long as its vertex shader goes through
+//! `bevy_pbr::view_transformations` (or `mesh_functions`), as Bevy's do;
+//! other cameras in the same app render as before. The branch is added
+//! when the first `DomeCamera` appears; a scene without one keeps Bevy's
+//! shader untouched.
+//!
+//! Clip space: NDC radius `θ/θ_max` along the point's azimuth (the image
+//! circle is the inscribed circle of the square target), depth `near/|p|`
+//! (radial, reverse-Z) and `w = |p|`, so attributes interpolate by radial
+//! distance. The shader twin is tested against
+//! `optica_optics::dome::DomeProjection::project` by readback.
+//!
+//! ## Status and limits
+//!
+//! Vertex projection only. Straight edges are drawn straight between their
+//! projected ends, so large triangles bow away from their true curved
+//! image; the adaptive refinement of the paper, the clipping of geometry
+//! behind the viewer, the cube-map mode and the masking of the square's
+//! corners outside the image circle are not in this crate yet. Light
+//! clusters use one cluster per dome view (`ClusterConfig::Single`): Bevy's
+//! clustering assumes a planar projection. Screen-space effects that
+//! rebuild positions from depth (SSAO, SSR, TAA, depth of field) assume a
+//! planar projection too and do not work on a dome camera.
+
+#![warn(missing_docs)]
+
+use bevy::light::cluster::ClusterConfig;
+use bevy::prelude::*;
+use bevy::shader::load_shader_library;
+
+mod projection;
+mod settings;
+mod shader_hook;
+
+pub use projection::DomeClip;
+pub use settings::{DomeCamera, MAX_FOV_DEG};
+
+/// Adds [`DomeCamera`]: keeps each dome camera's projection in step with
+/// its settings and, once a dome camera exists, puts the equidistant
+/// branch into Bevy's vertex path.
+pub struct DomePlugin;
+
+impl Plugin for DomePlugin {
+    fn build(&self, app: &mut App) {
+        load_shader_library!(app, "shaders/equidistant.wgsl");
+        app.register_type::<DomeCamera>()
+            .add_systems(
+                PostUpdate,
+                sync_projection.before(bevy::camera::CameraUpdateSystems),
+            )
+            .add_systems(
+                Update,
+                shader_hook::patch_view_transformations
+                    .run_if(shader_hook::patch_pending)
+                    .run_if(any_with_component::<DomeCamera>),
+            );
+    }
+}
+
+/// Gives every new or changed [`DomeCamera`] its projection and a single
+/// light cluster; invalid settings keep the last good projection and log
+/// why.
+fn sync_projection(
+    mut commands: Commands,
+    cameras: Query<(Entity, &DomeCamera), Changed<DomeCamera>>,
+) {
+    for (entity, dome) in &cameras {
+        if let Err(why) = dome.validate() {
+            warn!("optica_dome: {why}; the camera keeps its last projection");
+            continue;
+        }
+        let clip = DomeClip {
+            theta_max: 0.5 * dome.fov_deg.to_radians(),
+            tilt: dome.tilt_deg.to_radians(),
+            near: dome.near,
+            far: dome.far,
+        };
+        commands
+            .entity(entity)
+            .insert((Projection::custom(clip), ClusterConfig::Single));
+    }
+}

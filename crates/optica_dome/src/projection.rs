@@ -1,0 +1,137 @@
+//! The dome camera's `Projection`: what Bevy's CPU side (culling, light
+//! clusters, shadow cascades) sees, and the parameters the vertex shader
+//! reads back from `clip_from_view` (`shaders/equidistant.wgsl`).
+
+use bevy::camera::CameraProjection;
+use bevy::camera::primitives::Frustum;
+use bevy::math::primitives::{HalfSpace, ViewFrustum};
+use bevy::math::{Mat4, Vec3, Vec3A, Vec4};
+use bevy::prelude::*;
+
+/// Focal length of the perspective part of `clip_from_view`: any non-zero
+/// value works; 1 keeps the matrix well conditioned. The shader checks it.
+pub(crate) const FOCAL: f32 = 1.0;
+/// `clip_from_view[2][2] = THETA_SCALE·θ_max`: small, so that Bevy's CPU
+/// code, which reads the matrix as an infinite reverse-Z perspective, sees
+/// depths off by at most 3e-4 in NDC.
+pub(crate) const THETA_SCALE: f32 = 1.0e-4;
+
+/// The projection of a [`crate::DomeCamera`], kept in the camera's
+/// `Projection::custom` by the plugin. Not meant to be built by hand.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DomeClip {
+    /// Half the field of view, radians, in `(0, π)`.
+    pub theta_max: f32,
+    /// Forward tilt of the dome axis, radians.
+    pub tilt: f32,
+    /// Nearest drawn distance from the camera.
+    pub near: f32,
+    /// Farthest distance culling and shadows look at.
+    pub far: f32,
+}
+
+impl DomeClip {
+    /// The dome frame in view space: (image right, image up, axis), as in
+    /// `optica_optics::dome::DomeProjection` (tilt leans the axis forward,
+    /// from −Z towards −Y).
+    pub fn frame(&self) -> (Vec3, Vec3, Vec3) {
+        let (s, c) = self.tilt.sin_cos();
+        (Vec3::X, Vec3::new(0.0, c, -s), Vec3::new(0.0, -s, -c))
+    }
+
+    /// `clip_from_view` = S·R: R rotates view space into the dome frame
+    /// with the axis along −Z, S is the infinite reverse-Z perspective of
+    /// focal 1 and near plane `near`, with `S[2][2]` carrying θ_max.
+    pub fn clip_from_view(&self) -> Mat4 {
+        let (right, up, axis) = self.frame();
+        // Rows of R: right, up, −axis.
+        let r = Mat4::from_cols(
+            Vec4::new(right.x, up.x, -axis.x, 0.0),
+            Vec4::new(right.y, up.y, -axis.y, 0.0),
+            Vec4::new(right.z, up.z, -axis.z, 0.0),
+            Vec4::W,
+        );
+        let s = Mat4::from_cols(
+            Vec4::new(FOCAL, 0.0, 0.0, 0.0),
+            Vec4::new(0.0, FOCAL, 0.0, 0.0),
+            Vec4::new(0.0, 0.0, THETA_SCALE * self.theta_max, -1.0),
+            Vec4::new(0.0, 0.0, self.near, 0.0),
+        );
+        s * r
+    }
+
+    /// Whether the visible set lies in front of the dome's view plane
+    /// (FOV ≤ 180°).
+    pub fn hemisphere(&self) -> bool {
+        self.theta_max <= std::f32::consts::FRAC_PI_2
+    }
+}
+
+impl CameraProjection for DomeClip {
+    fn get_clip_from_view(&self) -> Mat4 {
+        self.clip_from_view()
+    }
+
+    fn get_clip_from_view_for_sub(&self, _sub_view: &bevy::camera::SubCameraView) -> Mat4 {
+        // A domemaster is one image; sub-views (tiles) are not supported.
+        self.clip_from_view()
+    }
+
+    fn update(&mut self, _width: f32, _height: f32) {
+        // The domemaster is square and its scale is the field of view alone.
+    }
+
+    fn far(&self) -> f32 {
+        self.far
+    }
+
+    /// A box around what the dome sees up to `z_far`: the half-space in
+    /// front of the view plane for FOV ≤ 180°, all around otherwise. Shadow
+    /// cascades fit their maps to it.
+    fn get_frustum_corners(&self, z_near: f32, z_far: f32) -> [Vec3A; 8] {
+        let (right, up, axis) = self.frame();
+        let behind = if self.hemisphere() { 0.0 } else { z_far };
+        let corner = |x: f32, y: f32, z: f32| Vec3A::from(x * right + y * up + z * axis);
+        let r = z_far;
+        let near = z_near.max(0.0) - behind;
+        [
+            corner(r, -r, near),
+            corner(r, r, near),
+            corner(-r, r, near),
+            corner(-r, -r, near),
+            corner(r, -r, z_far),
+            corner(r, r, z_far),
+            corner(-r, r, z_far),
+            corner(-r, -r, z_far),
+        ]
+    }
+
+    /// Culling for a fisheye: the view plane through the camera (FOV ≤ 180°;
+    /// wider domes see all around) and a box of half-size `far` around it.
+    fn compute_frustum(&self, camera_transform: &GlobalTransform) -> Frustum {
+        let (_, _, axis) = self.frame();
+        let world_axis = camera_transform
+            .affine()
+            .transform_vector3(axis)
+            .normalize_or(Vec3::NEG_Z);
+        let origin = camera_transform.translation();
+        // Inside: normal·p + d > 0.
+        let facing = |n: Vec3, d: f32| HalfSpace::new(n.extend(d));
+        let box_side = |n: Vec3| facing(n, -n.dot(origin) + self.far);
+        let front = if self.hemisphere() {
+            facing(world_axis, -world_axis.dot(origin))
+        } else {
+            box_side(Vec3::NEG_Z)
+        };
+        Frustum(ViewFrustum {
+            half_spaces: [
+                box_side(Vec3::X),
+                box_side(Vec3::NEG_X),
+                box_side(Vec3::Y),
+                box_side(Vec3::NEG_Y),
+                front,
+                box_side(Vec3::Z),
+            ],
+        })
+    }
+}

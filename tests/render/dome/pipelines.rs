@@ -1,0 +1,71 @@
+//! Leave out what a scene does not need: with the plugin but no dome
+//! camera, no pipeline is built that the same scene without the plugin
+//! does not build.
+
+use bevy::prelude::*;
+use bevy::render::view::Msaa;
+use optica_dome::DomePlugin;
+use optica_harness::{Adapter, Headless, PipelineReport};
+
+fn pipelines(setup: impl FnOnce(&mut App)) -> PipelineReport {
+    Headless::new(32, 32)
+        .adapter(Adapter::Noop)
+        .frames(2)
+        .check_pipelines(setup)
+        .expect("pipelines compile")
+}
+
+fn scene(app: &mut App) {
+    app.add_systems(
+        Startup,
+        |mut commands: Commands,
+         mut meshes: ResMut<Assets<Mesh>>,
+         mut materials: ResMut<Assets<StandardMaterial>>| {
+            commands.spawn((
+                Mesh3d(meshes.add(Cuboid::default())),
+                MeshMaterial3d(materials.add(StandardMaterial::default())),
+            ));
+            commands.spawn((
+                DirectionalLight::default(),
+                Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+            commands.spawn((
+                Camera3d::default(),
+                Msaa::Off,
+                Transform::from_xyz(0.0, 0.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y),
+            ));
+        },
+    );
+}
+
+#[test]
+fn no_dome_camera_no_pipeline_and_a_dome_view_compiles_on_noop() {
+    let plain = pipelines(scene);
+    let plugin = pipelines(|app| {
+        app.add_plugins(DomePlugin);
+        scene(app);
+    });
+    assert_eq!(
+        plugin.ok, plain.ok,
+        "{:?}\n{:?}",
+        plugin.labels, plain.labels
+    );
+    // A dome camera beside the perspective one: its view's pipelines (the
+    // patched vertex path, VIEW_PROJECTION_NONSTANDARD) compile.
+    let dome = pipelines(|app| {
+        app.add_plugins(DomePlugin);
+        scene(app);
+        app.add_systems(Startup, |mut commands: Commands| {
+            commands.spawn((
+                optica_dome::DomeCamera::default(),
+                Msaa::Off,
+                Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z),
+            ));
+        });
+    });
+    assert!(
+        dome.ok > plain.ok,
+        "the dome view built no pipeline of its own: {:?}",
+        dome.labels
+    );
+}

@@ -1,0 +1,193 @@
+//! A room seen through the dome: an inside-out box of five unlit,
+//! differently coloured faces around a zenith-looking 180° dome camera.
+//! Every pixel inside the image circle must show the face that the CPU
+//! twin's inverse projection of its centre hits.
+
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::prelude::*;
+use bevy::render::view::Msaa;
+use optica_dome::{DomeCamera, DomePlugin};
+use optica_harness::Headless;
+use optica_optics::glam::{DVec2, DVec3};
+
+const SIZE: u32 = 128;
+
+/// The faces of the box [−1, 1]³ (the floor left out: it lies behind a
+/// 180° dome, and geometry behind the viewer is not clipped yet): outward
+/// axis and colour.
+const FACES: [(Vec3, [f32; 3]); 5] = [
+    (Vec3::Y, [1.0, 0.0, 0.0]),
+    (Vec3::NEG_Z, [0.0, 1.0, 0.0]),
+    (Vec3::Z, [0.0, 0.0, 1.0]),
+    (Vec3::X, [1.0, 1.0, 0.0]),
+    (Vec3::NEG_X, [1.0, 0.0, 1.0]),
+];
+
+/// Looking at the zenith (+Y), the back of the theatre towards +Z: the
+/// audience front (bottom of the domemaster) is −Z.
+fn camera() -> Transform {
+    Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z)
+}
+
+fn room(app: &mut App) {
+    app.add_plugins(DomePlugin);
+    app.add_systems(
+        Startup,
+        |mut commands: Commands,
+         mut meshes: ResMut<Assets<Mesh>>,
+         mut materials: ResMut<Assets<StandardMaterial>>| {
+            // 16×16 quads a face: each edge subtends at most ~7°.
+            let plane = meshes.add(Plane3d::default().mesh().size(2.0, 2.0).subdivisions(15));
+            for (axis, [r, g, b]) in FACES {
+                let material = materials.add(StandardMaterial {
+                    base_color: Color::srgb(r, g, b),
+                    unlit: true,
+                    cull_mode: None,
+                    ..default()
+                });
+                // The plane's normal (+Y) turned to point into the room.
+                let rotation = Quat::from_rotation_arc(Vec3::Y, -axis);
+                commands.spawn((
+                    Mesh3d(plane.clone()),
+                    MeshMaterial3d(material),
+                    Transform::from_translation(axis).with_rotation(rotation),
+                ));
+            }
+            commands.spawn((
+                DomeCamera::default(),
+                Camera {
+                    clear_color: ClearColorConfig::Custom(Color::BLACK),
+                    ..default()
+                },
+                Tonemapping::None,
+                Msaa::Off,
+                camera(),
+            ));
+        },
+    );
+}
+
+/// The face the ray from the room's centre along `dir` meets.
+fn face_of(dir: DVec3) -> usize {
+    let a = dir.abs();
+    let axis = if a.x >= a.y && a.x >= a.z {
+        Vec3::X * dir.x.signum() as f32
+    } else if a.y >= a.z {
+        Vec3::Y * dir.y.signum() as f32
+    } else {
+        Vec3::Z * dir.z.signum() as f32
+    };
+    FACES
+        .iter()
+        .position(|(f, _)| *f == axis)
+        .unwrap_or(usize::MAX)
+}
+
+#[test]
+fn every_pixel_shows_the_face_its_direction_meets() {
+    let frame = Headless::new(SIZE, SIZE).render(room).expect("render");
+    let img = frame.to_rgba8();
+    let dome = DomeCamera::default()
+        .projection(SIZE)
+        .expect("a valid dome");
+    let rotation = camera().rotation.as_dquat();
+    let (mut inside, mut matching) = (0usize, 0usize);
+    let mut misses = Vec::new();
+    for y in 0..SIZE {
+        for x in 0..SIZE {
+            let pixel = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+            // Well inside the image circle (its rim is not masked yet).
+            if (pixel - dome.centre_px()).length() > 0.95 * dome.rim_radius_px() {
+                continue;
+            }
+            let view = dome.unproject(pixel).expect("inside the circle");
+            let want = face_of(rotation * view);
+            let got = img.get_pixel(x, y).0;
+            inside += 1;
+            let colour = FACES.get(want).map(|(_, c)| c.map(|v| (v * 255.0) as u8));
+            if colour.is_some_and(|c| c == [got[0], got[1], got[2]]) {
+                matching += 1;
+            } else if misses.len() < 8 {
+                misses.push((x, y, want, got));
+            }
+        }
+    }
+    let fraction = matching as f64 / inside as f64;
+    eprintln!(
+        "{matching} of {inside} pixels show their face ({:.2} %)",
+        100.0 * fraction
+    );
+    assert!(
+        fraction > 0.97,
+        "{:.4} of the pixels match; first misses {misses:?}",
+        fraction
+    );
+}
+
+/// Culling fit for a fisheye: a small cube 85° from the zenith, outside any
+/// perspective frustum narrower than 170° (the 90° one Bevy would build from
+/// the dome's matrix included), is drawn where the CPU twin projects it.
+#[test]
+fn a_cube_near_the_rim_is_drawn_where_the_cpu_twin_puts_it() {
+    let theta = 85f32.to_radians();
+    // Towards the audience's right (+X), 85° down from the zenith (+Y).
+    let centre = 3.0 * Vec3::new(theta.sin(), theta.cos(), 0.0);
+    let frame = Headless::new(SIZE, SIZE)
+        .render(move |app: &mut App| {
+            app.add_plugins(DomePlugin);
+            app.add_systems(
+                Startup,
+                move |mut commands: Commands,
+                      mut meshes: ResMut<Assets<Mesh>>,
+                      mut materials: ResMut<Assets<StandardMaterial>>| {
+                    commands.spawn((
+                        Mesh3d(meshes.add(Cuboid::from_length(0.5))),
+                        MeshMaterial3d(materials.add(StandardMaterial {
+                            base_color: Color::WHITE,
+                            unlit: true,
+                            ..default()
+                        })),
+                        Transform::from_translation(centre),
+                    ));
+                    commands.spawn((
+                        DomeCamera::default(),
+                        Camera {
+                            clear_color: ClearColorConfig::Custom(Color::BLACK),
+                            ..default()
+                        },
+                        Tonemapping::None,
+                        Msaa::Off,
+                        camera(),
+                    ));
+                },
+            );
+        })
+        .expect("render");
+    let img = frame.to_rgba8();
+    let dome = DomeCamera::default()
+        .projection(SIZE)
+        .expect("a valid dome");
+    let view = camera().rotation.inverse() * centre;
+    let expected = dome
+        .project(view.as_dvec3())
+        .visible_pixel()
+        .expect("inside the circle");
+    let lit: Vec<DVec2> = img
+        .enumerate_pixels()
+        .filter(|(_, _, p)| p.0[0] > 128)
+        .map(|(x, y, _)| DVec2::new(x as f64 + 0.5, y as f64 + 0.5))
+        .collect();
+    assert!(
+        !lit.is_empty(),
+        "the cube near the rim was culled or not drawn"
+    );
+    let mean = lit.iter().copied().sum::<DVec2>() / lit.len() as f64;
+    eprintln!(
+        "cube near the rim: {} px, centroid {mean}, CPU twin {expected}",
+        lit.len()
+    );
+    assert!(
+        (mean - expected).length() < 2.0,
+        "drawn at {mean}, the CPU twin puts it at {expected}"
+    );
+}

@@ -48,8 +48,9 @@
 //! Vertex projection only. Straight edges are drawn straight between their
 //! projected ends, so large triangles bow away from their true curved
 //! image; the adaptive refinement of the paper, the clipping of geometry
-//! behind the viewer, the cube-map mode and the masking of the square's
-//! corners outside the image circle are not in this crate yet. Light
+//! behind the viewer and the cube-map mode are not in this crate yet. The
+//! square's corners outside the image circle are painted by a full-screen
+//! pass ([`DomeRimMask`], black by default). Light
 //! clusters use one cluster per dome view (`ClusterConfig::Single`): Bevy's
 //! clustering assumes a planar projection. Screen-space effects that
 //! rebuild positions from depth (SSAO, SSR, TAA, depth of field) assume a
@@ -57,14 +58,18 @@
 
 #![warn(missing_docs)]
 
+use bevy::asset::embedded_asset;
+use bevy::core_pipeline::fullscreen_material::FullscreenMaterialPlugin;
 use bevy::light::cluster::ClusterConfig;
 use bevy::prelude::*;
 use bevy::shader::load_shader_library;
 
+mod mask;
 mod projection;
 mod settings;
 mod shader_hook;
 
+pub use mask::DomeRimMask;
 pub use projection::DomeClip;
 pub use settings::{DomeCamera, MAX_FOV_DEG};
 
@@ -76,7 +81,10 @@ pub struct DomePlugin;
 impl Plugin for DomePlugin {
     fn build(&self, app: &mut App) {
         load_shader_library!(app, "shaders/equidistant.wgsl");
-        app.register_type::<DomeCamera>()
+        embedded_asset!(app, "shaders/rim_mask.wgsl");
+        app.add_plugins(FullscreenMaterialPlugin::<DomeRimMask>::default())
+            .register_type::<DomeCamera>()
+            .register_type::<DomeRimMask>()
             .add_systems(
                 PostUpdate,
                 sync_projection.before(bevy::camera::CameraUpdateSystems),
@@ -91,13 +99,16 @@ impl Plugin for DomePlugin {
 }
 
 /// Gives every new or changed [`DomeCamera`] its projection and a single
-/// light cluster; invalid settings keep the last good projection and log
-/// why.
+/// light cluster, and a new one its [`DomeRimMask`]; invalid settings keep
+/// the last good projection and log why.
 fn sync_projection(
     mut commands: Commands,
-    cameras: Query<(Entity, &DomeCamera), Changed<DomeCamera>>,
+    cameras: Query<(Entity, &DomeCamera, Has<DomeRimMask>), Changed<DomeCamera>>,
 ) {
-    for (entity, dome) in &cameras {
+    for (entity, dome, has_mask) in &cameras {
+        if !has_mask {
+            commands.entity(entity).insert(DomeRimMask::default());
+        }
         if let Err(why) = dome.validate() {
             warn!("optica_dome: {why}; the camera keeps its last projection");
             continue;

@@ -1,7 +1,7 @@
 //! A room seen through the dome: an inside-out box of five unlit,
 //! differently coloured faces around a zenith-looking 180° dome camera.
 //! Every pixel inside the image circle must show the face that the CPU
-//! twin's inverse projection of its centre hits.
+//! twin's inverse projection of its centre hits; outside it, the rim mask.
 
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
@@ -91,13 +91,26 @@ fn every_pixel_shows_the_face_its_direction_meets() {
         .projection(SIZE)
         .expect("a valid dome");
     let rotation = camera().rotation.as_dquat();
-    let (mut inside, mut matching) = (0usize, 0usize);
+    let (mut inside, mut matching, mut outside) = (0usize, 0usize, 0usize);
     let mut misses = Vec::new();
     for y in 0..SIZE {
         for x in 0..SIZE {
             let pixel = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
-            // Well inside the image circle (its rim is not masked yet).
-            if (pixel - dome.centre_px()).length() > 0.95 * dome.rim_radius_px() {
+            let r = (pixel - dome.centre_px()).length();
+            // Outside the circle the rim mask paints black, though the
+            // walls beyond 90° from the zenith project there.
+            if r > dome.rim_radius_px() + 1.0 {
+                let got = img.get_pixel(x, y).0;
+                assert_eq!(
+                    [got[0], got[1], got[2]],
+                    [0, 0, 0],
+                    "pixel ({x}, {y}) outside the circle"
+                );
+                outside += 1;
+                continue;
+            }
+            // The anti-aliased rim itself is neither.
+            if r > dome.rim_radius_px() - 1.0 {
                 continue;
             }
             let view = dome.unproject(pixel).expect("inside the circle");
@@ -112,6 +125,7 @@ fn every_pixel_shows_the_face_its_direction_meets() {
             }
         }
     }
+    assert!(outside > 3000, "only {outside} pixels outside the circle");
     let fraction = matching as f64 / inside as f64;
     eprintln!(
         "{matching} of {inside} pixels show their face ({:.2} %)",

@@ -59,6 +59,7 @@
 #![warn(missing_docs)]
 
 use bevy::asset::embedded_asset;
+use bevy::camera::visibility::RenderLayers;
 use bevy::core_pipeline::fullscreen_material::FullscreenMaterialPlugin;
 use bevy::light::cluster::ClusterConfig;
 use bevy::prelude::*;
@@ -66,11 +67,13 @@ use bevy::shader::load_shader_library;
 
 mod mask;
 mod projection;
+mod refine;
 mod settings;
 mod shader_hook;
 
 pub use mask::DomeRimMask;
 pub use projection::DomeClip;
+pub use refine::{DOME_LAYER, DomeMaterialPlugin, DomeTwin, DomeTwinOf, refine_mesh_asset};
 pub use settings::{DomeCamera, MAX_FOV_DEG};
 
 /// Adds [`DomeCamera`]: keeps each dome camera's projection in step with
@@ -85,9 +88,17 @@ impl Plugin for DomePlugin {
         app.add_plugins(FullscreenMaterialPlugin::<DomeRimMask>::default())
             .register_type::<DomeCamera>()
             .register_type::<DomeRimMask>()
+            .add_plugins(DomeMaterialPlugin::<StandardMaterial>::default())
             .add_systems(
                 PostUpdate,
                 sync_projection.before(bevy::camera::CameraUpdateSystems),
+            )
+            .add_systems(
+                PostUpdate,
+                (refine::refine_twins, refine::light_the_dome_layer)
+                    .after(bevy::transform::TransformSystems::Propagate)
+                    .after(bevy::camera::CameraUpdateSystems)
+                    .run_if(any_with_component::<DomeCamera>),
             )
             .add_systems(
                 Update,
@@ -119,8 +130,10 @@ fn sync_projection(
             near: dome.near,
             far: dome.far,
         };
-        commands
-            .entity(entity)
-            .insert((Projection::custom(clip), ClusterConfig::Single));
+        commands.entity(entity).insert((
+            Projection::custom(clip),
+            ClusterConfig::Single,
+            RenderLayers::layer(DOME_LAYER),
+        ));
     }
 }

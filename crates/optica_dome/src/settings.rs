@@ -35,6 +35,11 @@ pub struct DomeCamera {
     pub fov_deg: f32,
     /// Forward tilt of the dome axis in degrees (tilted domes: 10–30).
     pub tilt_deg: f32,
+    /// How far, in domemaster pixels, a drawn edge may lie from the true
+    /// curved image of the 3D edge: triangles are split until their edges'
+    /// chords are within it (the paper's refinement). Smaller is more
+    /// exact and costs more triangles.
+    pub tolerance_px: f32,
     /// Nearest distance drawn, in world units.
     pub near: f32,
     /// Farthest distance culling and shadows consider, in world units.
@@ -46,11 +51,13 @@ pub struct DomeCamera {
 pub const MAX_FOV_DEG: f32 = 350.0;
 
 impl Default for DomeCamera {
-    /// A 180° untilted dome, drawing from 0.1 to 1000 units.
+    /// A 180° untilted dome, edges within 0.5 px of their true image,
+    /// drawing from 0.1 to 1000 units.
     fn default() -> Self {
         Self {
             fov_deg: 180.0,
             tilt_deg: 0.0,
+            tolerance_px: 0.5,
             near: 0.1,
             far: 1000.0,
         }
@@ -79,6 +86,12 @@ impl DomeCamera {
         }
         if !self.tilt_deg.is_finite() {
             return Err(format!("dome tilt {} deg is not finite", self.tilt_deg));
+        }
+        if !(self.tolerance_px > 0.0 && self.tolerance_px.is_finite()) {
+            return Err(format!(
+                "dome tolerance {} px is not positive",
+                self.tolerance_px
+            ));
         }
         if !(self.near > 0.0 && self.near.is_finite()) {
             return Err(format!("dome near distance {} is not positive", self.near));

@@ -12,15 +12,15 @@ use optica_optics::glam::{DVec2, DVec3};
 
 const SIZE: u32 = 128;
 
-/// The faces of the box [−1, 1]³ (the floor left out: it lies behind a
-/// 180° dome, and geometry behind the viewer is not clipped yet): outward
-/// axis and colour.
-const FACES: [(Vec3, [f32; 3]); 5] = [
+/// The faces of the box [−1, 1]³: outward axis and colour. The floor lies
+/// behind a 180° dome: clipped, it must not show.
+const FACES: [(Vec3, [f32; 3]); 6] = [
     (Vec3::Y, [1.0, 0.0, 0.0]),
     (Vec3::NEG_Z, [0.0, 1.0, 0.0]),
     (Vec3::Z, [0.0, 0.0, 1.0]),
     (Vec3::X, [1.0, 1.0, 0.0]),
     (Vec3::NEG_X, [1.0, 0.0, 1.0]),
+    (Vec3::NEG_Y, [0.0, 1.0, 1.0]),
 ];
 
 /// Looking at the zenith (+Y), the back of the theatre towards +Z: the
@@ -29,42 +29,53 @@ fn camera() -> Transform {
     Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z)
 }
 
-fn room(app: &mut App) {
-    app.add_plugins(DomePlugin);
-    app.add_systems(
-        Startup,
-        |mut commands: Commands,
-         mut meshes: ResMut<Assets<Mesh>>,
-         mut materials: ResMut<Assets<StandardMaterial>>| {
-            // 16×16 quads a face: each edge subtends at most ~7°.
-            let plane = meshes.add(Plane3d::default().mesh().size(2.0, 2.0).subdivisions(15));
-            for (axis, [r, g, b]) in FACES {
-                let material = materials.add(StandardMaterial {
-                    base_color: Color::srgb(r, g, b),
-                    unlit: true,
-                    cull_mode: None,
-                    ..default()
-                });
-                // The plane's normal (+Y) turned to point into the room.
-                let rotation = Quat::from_rotation_arc(Vec3::Y, -axis);
+/// The room, each face `quads`×`quads` quads, seen by a dome camera with
+/// `tolerance_px`.
+fn room(quads: u32, tolerance_px: f32) -> impl FnOnce(&mut App) {
+    move |app: &mut App| {
+        app.add_plugins(DomePlugin);
+        app.add_systems(
+            Startup,
+            move |mut commands: Commands,
+                  mut meshes: ResMut<Assets<Mesh>>,
+                  mut materials: ResMut<Assets<StandardMaterial>>| {
+                let plane = meshes.add(
+                    Plane3d::default()
+                        .mesh()
+                        .size(2.0, 2.0)
+                        .subdivisions(quads - 1),
+                );
+                for (axis, [r, g, b]) in FACES {
+                    let material = materials.add(StandardMaterial {
+                        base_color: Color::srgb(r, g, b),
+                        unlit: true,
+                        cull_mode: None,
+                        ..default()
+                    });
+                    // The plane's normal (+Y) turned to point into the room.
+                    let rotation = Quat::from_rotation_arc(Vec3::Y, -axis);
+                    commands.spawn((
+                        Mesh3d(plane.clone()),
+                        MeshMaterial3d(material),
+                        Transform::from_translation(axis).with_rotation(rotation),
+                    ));
+                }
                 commands.spawn((
-                    Mesh3d(plane.clone()),
-                    MeshMaterial3d(material),
-                    Transform::from_translation(axis).with_rotation(rotation),
+                    DomeCamera {
+                        tolerance_px,
+                        ..default()
+                    },
+                    Camera {
+                        clear_color: ClearColorConfig::Custom(Color::BLACK),
+                        ..default()
+                    },
+                    Tonemapping::None,
+                    Msaa::Off,
+                    camera(),
                 ));
-            }
-            commands.spawn((
-                DomeCamera::default(),
-                Camera {
-                    clear_color: ClearColorConfig::Custom(Color::BLACK),
-                    ..default()
-                },
-                Tonemapping::None,
-                Msaa::Off,
-                camera(),
-            ));
-        },
-    );
+            },
+        );
+    }
 }
 
 /// The face the ray from the room's centre along `dir` meets.
@@ -83,9 +94,13 @@ fn face_of(dir: DVec3) -> usize {
         .unwrap_or(usize::MAX)
 }
 
-#[test]
-fn every_pixel_shows_the_face_its_direction_meets() {
-    let frame = Headless::new(SIZE, SIZE).render(room).expect("render");
+/// The fraction of pixels inside the image circle that show the face the
+/// CPU twin's inverse projection of their centre meets; asserts that the
+/// square's corners are black.
+fn faces_right(quads: u32, tolerance_px: f32) -> f64 {
+    let frame = Headless::new(SIZE, SIZE)
+        .render(room(quads, tolerance_px))
+        .expect("render");
     let img = frame.to_rgba8();
     let dome = DomeCamera::default()
         .projection(SIZE)
@@ -128,13 +143,31 @@ fn every_pixel_shows_the_face_its_direction_meets() {
     assert!(outside > 3000, "only {outside} pixels outside the circle");
     let fraction = matching as f64 / inside as f64;
     eprintln!(
-        "{matching} of {inside} pixels show their face ({:.2} %)",
+        "{quads}×{quads} quads a face, tolerance {tolerance_px} px: {matching} of {inside} pixels show their face \
+         ({:.2} %); first misses {misses:?}",
         100.0 * fraction
     );
+    fraction
+}
+
+/// One quad a face: the walls' edges span up to 90°, so only the
+/// refinement (and the clipping of the floor, behind the viewer) puts them
+/// where they belong.
+#[test]
+fn every_pixel_shows_the_face_its_direction_meets() {
+    let refined = faces_right(1, 0.5);
+    assert!(refined > 0.99, "{refined:.4} of the pixels match at 0.5 px");
+    // Already subdivided faces come out the same.
+    let fine = faces_right(16, 0.5);
     assert!(
-        fraction > 0.97,
-        "{:.4} of the pixels match; first misses {misses:?}",
-        fraction
+        fine > 0.99,
+        "{fine:.4} of the pixels match with 16×16 quads"
+    );
+    // A loose tolerance lets the chords sag: more pixels are wrong.
+    let loose = faces_right(1, 40.0);
+    assert!(
+        loose < refined - 0.005,
+        "40 px: {loose:.4}, 0.5 px: {refined:.4}"
     );
 }
 

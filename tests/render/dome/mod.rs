@@ -4,3 +4,4 @@
 mod pipelines;
 mod projection;
 mod scene;
+mod stability;

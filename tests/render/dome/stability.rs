@@ -1,0 +1,165 @@
+//! Stiff cases for the vertex projection: a huge ground plane behind a 180°
+//! dome and around a 250° one (whose antipode lies in it), tilt 90°, a NaN
+//! vertex, tiny triangles at the zenith. No NaN pixel, no panic, and no
+//! wrap-around: geometry appears only where its directions do.
+
+use bevy::asset::RenderAssetUsages;
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::mesh::{Indices, PrimitiveTopology};
+use bevy::prelude::*;
+use bevy::render::view::Msaa;
+use optica_dome::{DomeCamera, DomePlugin};
+use optica_harness::{Headless, RenderedFrame};
+
+const SIZE: u32 = 96;
+
+/// Unlit, both sides drawn.
+fn flat(
+    materials: &mut Assets<StandardMaterial>,
+    colour: Color,
+) -> MeshMaterial3d<StandardMaterial> {
+    MeshMaterial3d(materials.add(StandardMaterial {
+        base_color: colour,
+        unlit: true,
+        cull_mode: None,
+        ..default()
+    }))
+}
+
+/// A triangle with a NaN corner and a good one 5 units above the camera.
+fn nan_mesh() -> Mesh {
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_POSITION,
+        vec![
+            [f32::NAN, 5.0, 0.0],
+            [1.0, 5.0, 0.0],
+            [0.0, 5.0, 1.0],
+            [-0.5, 5.0, -0.5],
+            [0.5, 5.0, -0.5],
+            [0.0, 5.0, 0.5],
+        ],
+    )
+    .with_inserted_indices(Indices::U32(vec![0, 1, 2, 3, 4, 5]))
+}
+
+/// A zenith-looking dome camera 1.6 above a ground plane 1e5 wide (green),
+/// a NaN triangle beside a good one overhead (red) and 400 tiny triangles
+/// (0.5 mm) at the zenith (blue).
+fn render(dome: DomeCamera) -> RenderedFrame {
+    Headless::new(SIZE, SIZE)
+        .hdr(true)
+        .render(move |app: &mut App| {
+            app.add_plugins(DomePlugin);
+            app.add_systems(
+                Startup,
+                move |mut commands: Commands,
+                      mut meshes: ResMut<Assets<Mesh>>,
+                      mut materials: ResMut<Assets<StandardMaterial>>| {
+                    commands.spawn((
+                        Mesh3d(meshes.add(Plane3d::default().mesh().size(1e5, 1e5))),
+                        flat(&mut materials, Color::srgb(0.0, 1.0, 0.0)),
+                    ));
+                    commands.spawn((
+                        Mesh3d(meshes.add(nan_mesh())),
+                        flat(&mut materials, Color::srgb(1.0, 0.0, 0.0)),
+                    ));
+                    commands.spawn((
+                        Mesh3d(
+                            meshes.add(Plane3d::default().mesh().size(0.01, 0.01).subdivisions(19)),
+                        ),
+                        flat(&mut materials, Color::srgb(0.0, 0.0, 1.0)),
+                        Transform::from_xyz(0.0, 50.0, 0.0),
+                    ));
+                    commands.spawn((
+                        dome,
+                        Camera {
+                            clear_color: ClearColorConfig::Custom(Color::BLACK),
+                            ..default()
+                        },
+                        Tonemapping::None,
+                        Msaa::Off,
+                        Transform::from_xyz(0.0, 1.6, 0.0).looking_to(Vec3::Y, Vec3::Z),
+                    ));
+                },
+            );
+        })
+        .expect("render")
+}
+
+/// Pixels by their distance from the centre in rim radii: (green share
+/// among those in `band`).
+fn green_share(
+    frame: &RenderedFrame,
+    band: std::ops::Range<f32>,
+    keep: impl Fn(u32, u32) -> bool,
+) -> (f32, usize) {
+    let img = frame.hdr().expect("an HDR frame");
+    assert!(
+        img.as_raw().iter().all(|v| v.is_finite()),
+        "a non-finite pixel"
+    );
+    let c = SIZE as f32 / 2.0;
+    let (mut green, mut n) = (0usize, 0usize);
+    for (x, y, p) in img.enumerate_pixels() {
+        let r = (Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - Vec2::splat(c)).length() / c;
+        if band.contains(&r) && keep(x, y) {
+            n += 1;
+            green += usize::from(p.0[1] > 0.5 && p.0[0] < 0.5);
+        }
+    }
+    (green as f32 / n.max(1) as f32, n)
+}
+
+#[test]
+fn a_ground_behind_a_180_degree_dome_does_not_show() {
+    let frame = render(DomeCamera::default());
+    let (share, n) = green_share(&frame, 0.0..0.97, |_, _| true);
+    assert!(n > 5000);
+    assert_eq!(
+        share, 0.0,
+        "the ground behind the view plane shows on {share} of the disk"
+    );
+    // The good triangle overhead and the tiny ones at the zenith are drawn.
+    let img = frame.hdr().unwrap();
+    let centre = img.get_pixel(SIZE / 2, SIZE / 2).0;
+    assert!(
+        centre[0] > 0.5 || centre[2] > 0.5,
+        "nothing at the zenith: {centre:?}"
+    );
+}
+
+#[test]
+fn a_250_degree_dome_sees_the_ground_as_a_ring_without_wrapping_round() {
+    let frame = render(DomeCamera {
+        fov_deg: 250.0,
+        ..default()
+    });
+    // The horizon is 90° from the zenith: 0.72 of the rim radius.
+    let (inner, _) = green_share(&frame, 0.0..0.68, |_, _| true);
+    let (ring, n) = green_share(&frame, 0.76..0.97, |_, _| true);
+    assert_eq!(
+        inner, 0.0,
+        "the ground (and its antipode) wrapped into the disk: {inner}"
+    );
+    assert!(n > 1000 && ring > 0.98, "the ground ring: {ring} of {n} px");
+}
+
+#[test]
+fn a_dome_tilted_90_degrees_sees_the_horizon_across_its_middle() {
+    let frame = render(DomeCamera {
+        tilt_deg: 90.0,
+        ..default()
+    });
+    let half = SIZE / 2;
+    let (above, _) = green_share(&frame, 0.0..0.95, |_, y| y + 2 < half);
+    let (below, n) = green_share(&frame, 0.0..0.95, |_, y| y > half + 2);
+    assert_eq!(above, 0.0, "ground above the horizon: {above}");
+    assert!(
+        n > 1000 && below > 0.98,
+        "ground below the horizon: {below} of {n} px"
+    );
+}

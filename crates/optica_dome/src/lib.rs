@@ -25,7 +25,9 @@
 //!
 //! ## How meshes reach the dome
 //!
-//! A [`DomeCamera`] gets a custom `Projection` ([`DomeClip`]). Bevy's mesh
+//! A [`DomeCamera`] gets a custom `Projection` ([`DomeClip`]) whose
+//! frustum culling suits a fisheye (the view plane for FOV ≤ 180°, none
+//! beyond). Bevy's mesh
 //! pipeline marks views with custom projections by the shader def
 //! `VIEW_PROJECTION_NONSTANDARD`; the plugin adds to Bevy's
 //! `position_world_to_clip` (the one function every mesh, prepass and
@@ -43,18 +45,33 @@
 //! distance. The shader twin is tested against
 //! `optica_optics::dome::DomeProjection::project` by readback.
 //!
+//! ## Refinement (the paper's §3.3) on the CPU
+//!
+//! Straight edges drawn between projected vertices sag away from the true
+//! curved image of a 3D edge (the paper's fig. 1): a 10° edge at the rim of
+//! a 4K, 180° dome is ~8 px off. WGSL has no geometry shader, so every mesh
+//! a dome camera sees gets a refined *twin* on the CPU
+//! (`optica_optics::dome::refine_triangle`): clipped behind the viewer
+//! (FOV ≤ 180°) or culled at the antipode guard (wider), and split until
+//! every chord is within [`DomeCamera::tolerance_px`]; neighbours split
+//! their shared edges identically, so no crack opens. A twin is rebuilt only
+//! when its mesh, its placement relative to the camera or the camera's
+//! settings change. Twins live on the render layer [`DOME_LAYER`], which
+//! only dome cameras see (every light is given it too); they carry their
+//! original's material for `StandardMaterial`, and for any material `M`
+//! whose [`DomeMaterialPlugin<M>`] is added.
+//!
 //! ## Status and limits
 //!
-//! Vertex projection only. Straight edges are drawn straight between their
-//! projected ends, so large triangles bow away from their true curved
-//! image; the adaptive refinement of the paper, the clipping of geometry
-//! behind the viewer and the cube-map mode are not in this crate yet. The
-//! square's corners outside the image circle are painted by a full-screen
-//! pass ([`DomeRimMask`], black by default). Light
-//! clusters use one cluster per dome view (`ClusterConfig::Single`): Bevy's
-//! clustering assumes a planar projection. Screen-space effects that
-//! rebuild positions from depth (SSAO, SSR, TAA, depth of field) assume a
-//! planar projection too and do not work on a dome camera.
+//! One dome camera per app (the first one refines). Not in this crate yet:
+//! the cube-map mode, first-class lines, the PNG-sequence export. Skinned
+//! and morphed meshes are refined in their rest pose. The square's corners
+//! outside the image circle are painted by a full-screen pass
+//! ([`DomeRimMask`], black by default). Light clusters use one cluster per
+//! dome view (`ClusterConfig::Single`): Bevy's clustering assumes a planar
+//! projection. Screen-space effects that rebuild positions from depth
+//! (SSAO, SSR, TAA, depth of field) assume a planar projection too and do
+//! not work on a dome camera.
 
 #![warn(missing_docs)]
 

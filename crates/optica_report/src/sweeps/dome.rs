@@ -19,6 +19,9 @@
 //! * Work: segments emitted (chord-gap and paper rules), room triangles.
 //! * time_ms: clip + refine (chord-gap) + project every output vertex of the
 //!   random edges; baseline_time_ms: project both endpoints of every edge.
+//! * Series `vertex mode, rendered`: the plugin itself on the adapter, a
+//!   room of single-quad faces measured from the pixels (see
+//!   `dome_render.rs`).
 //! * Stability: cases that run the whole path (clip, refine, measure) on
 //!   scenes the unit tests do not cover end to end.
 
@@ -115,7 +118,7 @@ fn pieces_within(proj: &DomeProjection, r: &RefinedSegment, tol: f64) -> (bool, 
 }
 
 /// Runs the sweep.
-pub fn run(ctx: &SweepContext) -> Report {
+pub fn run(ctx: &SweepContext) -> Result<Report, super::SweepError> {
     let mut report = Report::cpu("dome", "tolerance_px");
     report.baseline =
         "projecting both endpoints of every random edge (one unrefined chord per edge)".into();
@@ -175,8 +178,9 @@ pub fn run(ctx: &SweepContext) -> Report {
         debug_assert_eq!(segments, emitted.0);
     }
 
+    super::dome_render::rendered_rows(ctx, &mut report)?;
     stability(&mut report, ctx);
-    report
+    Ok(report)
 }
 
 fn stability(report: &mut Report, ctx: &SweepContext) {
@@ -372,10 +376,24 @@ mod tests {
     #[test]
     fn quick_sweep_is_finite_and_error_falls_with_tolerance() {
         let ctx = SweepContext::new("dome", true, true);
-        let r = run(&ctx);
-        assert_eq!(r.rows.len(), 3);
+        let r = run(&ctx).expect("the sweep runs on lavapipe");
         let problems = r.problems();
         assert!(problems.is_empty(), "{problems:#?}");
+        let (cpu, rendered): (Vec<&Row>, Vec<&Row>) =
+            r.rows.iter().partition(|row| row.series.is_empty());
+        assert_eq!(cpu.len(), 3);
+        assert_eq!(rendered.len(), 3);
+        // Rendered: the drawn edges stay within the tolerance (plus the
+        // half pixel a pixel-centre sample can miss by), and loosening the
+        // tolerance shows in the pixels.
+        for row in &rendered {
+            assert!(row.error["pixel_max_px"] <= row.knob + 0.75, "{row:?}");
+        }
+        assert!(rendered[0].error["pixel_wrong_frac"] > rendered[2].error["pixel_wrong_frac"]);
+        let r = Report {
+            rows: cpu.into_iter().cloned().collect(),
+            ..r
+        };
         for row in &r.rows {
             // The rule holds its tolerance on edges and on the room mesh.
             assert!(row.error["max_px"] <= row.knob, "{row:?}");

@@ -7,6 +7,7 @@ use crate::{Report, SweepContext};
 
 pub mod compound_eye;
 pub mod dome;
+pub mod dome_render;
 pub mod foveated_lod;
 pub mod lens_flare;
 pub mod optics;
@@ -35,5 +36,5 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
     ("compound_eye", compound_eye::run),
     ("lens_flare", |ctx| Ok(lens_flare::run(ctx))),
     ("spectacles", |ctx| Ok(spectacles::run(ctx))),
-    ("dome", |ctx| Ok(dome::run(ctx))),
+    ("dome", dome::run),
 ];

@@ -12,7 +12,10 @@
 //!   promises to bound, up to the sampling of pixel centres),
 //!   `pixel_wrong_frac` the share of wrong pixels. A background pixel inside
 //!   the circle (the rim, clipped at the view plane, drawn as a polyline
-//!   that sags inside the circle) counts its distance to the true rim.
+//!   that sags inside the circle) counts its distance to the true rim; one
+//!   deeper inside is a crack between two of the room's separate meshes
+//!   (their shared edge reaches the GPU with different rounding, as it
+//!   would through any camera), counted in `crack_pixels`.
 //! * Time: the frame, against the same room through a 90° perspective
 //!   camera in the same run; `refine_ms`: building the twins on the CPU
 //!   (done once for a static camera, each frame for a moving one).
@@ -132,8 +135,9 @@ fn true_face(dome: &DomeProjection, pixel: DVec2) -> Option<usize> {
     dome.unproject(pixel).map(|view| face_of(rotation * view))
 }
 
-/// (largest overshoot in px, share of wrong pixels) of a rendered room.
-fn edge_errors(img: &image::RgbaImage, dome: &DomeProjection) -> (f64, f64) {
+/// (largest overshoot in px, share of wrong pixels, crack pixels) of a
+/// room rendered at `tolerance` px.
+fn edge_errors(img: &image::RgbaImage, dome: &DomeProjection, tolerance: f64) -> (f64, f64, usize) {
     let size = img.width() as i64;
     let drawn = |x: i64, y: i64| {
         let p = img.get_pixel(x as u32, y as u32).0;
@@ -141,7 +145,7 @@ fn edge_errors(img: &image::RgbaImage, dome: &DomeProjection) -> (f64, f64) {
     };
     let centre = |x: i64, y: i64| DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
     let rim = dome.rim_radius_px() - 1.0;
-    let (mut inside, mut wrong, mut worst) = (0usize, 0usize, 0f64);
+    let (mut inside, mut wrong, mut worst, mut cracks) = (0usize, 0usize, 0f64, 0usize);
     for y in 0..size {
         for x in 0..size {
             let p = centre(x, y);
@@ -157,11 +161,18 @@ fn edge_errors(img: &image::RgbaImage, dome: &DomeProjection) -> (f64, f64) {
                 continue;
             }
             wrong += 1;
-            // Background inside the circle: the rim drawn as a polyline
-            // that sags inside it (geometry is clipped at the view plane);
-            // the overshoot is the distance to the true rim.
+            // Background inside the circle: near the rim, the rim drawn as
+            // a polyline that sags inside it (geometry is clipped at the
+            // view plane), whose overshoot is the distance to the true rim;
+            // deeper inside, a crack between two separate meshes whose
+            // shared edge the GPU sees with different rounding.
             let Some(got) = got else {
-                worst = worst.max(dome.rim_radius_px() - (p - dome.centre_px()).length());
+                let depth = dome.rim_radius_px() - (p - dome.centre_px()).length();
+                if depth > 2.0 * tolerance + 2.0 {
+                    cracks += 1;
+                } else {
+                    worst = worst.max(depth);
+                }
                 continue;
             };
             // The nearest pixel centre that truly shows the drawn face.
@@ -201,7 +212,7 @@ fn edge_errors(img: &image::RgbaImage, dome: &DomeProjection) -> (f64, f64) {
             worst = worst.max((b - p).length());
         }
     }
-    (worst, wrong as f64 / inside.max(1) as f64)
+    (worst, wrong as f64 / inside.max(1) as f64, cracks)
 }
 
 /// Appends the rendered rows (series `vertex mode, rendered`).
@@ -225,7 +236,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         );
         let frame = headless.render(scene(Some(tolerance)))?;
         report.adapter.get_or_insert(frame.adapter.clone());
-        let (max_px, wrong) = edge_errors(&frame.to_rgba8(), &dome);
+        let (max_px, wrong, cracks) = edge_errors(&frame.to_rgba8(), &dome, f64::from(tolerance));
         let timed = headless.time_frames(warmup, frames, scene(Some(tolerance)))?;
         let plain = headless.time_frames(warmup, frames, scene(None))?;
         let rule = SplitRule::chord_gap(f64::from(tolerance))
@@ -256,6 +267,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             .err("pixel_wrong_frac", wrong)
             .timing("refine_ms", refine_ms)
             .work("triangles", triangles as f64)
+            .work("crack_pixels", cracks as f64)
             .work("size_px", f64::from(size)),
         );
     }

@@ -166,7 +166,7 @@ pub use refine::{
 };
 pub use rule::{MAX_PIECES, Pieces, SplitRule};
 #[cfg(feature = "reference")]
-pub use scenes::{RANDOM_EDGE_DISTANCE_M, random_edges};
+pub use scenes::{RANDOM_EDGE_DISTANCE_M, cube_face_axis, random_edges};
 pub use triangle::{RefinedMesh, TriMesh, refine_mesh, refine_triangle};
 
 /// The types in this module's signatures that come from the crate's core:

@@ -1,5 +1,6 @@
 //! Test scenes for the dome's tests and report (feature `reference`): a box
-//! mesh and seeded random edges around the viewer.
+//! mesh, the face of a box a view ray meets, and seeded random edges around
+//! the viewer.
 
 use std::f64::consts::{PI, TAU};
 use std::ops::Range;
@@ -15,6 +16,21 @@ use super::triangle::TriMesh;
 /// arm's length to across a large room, so that edges of one subtended angle
 /// come in many 3D lengths and tilts.
 pub const RANDOM_EDGE_DISTANCE_M: Range<f64> = 1.0..20.0;
+
+/// The face of a cube centred on the viewer that the ray along `dir` meets,
+/// as its outward unit axis (±X, ±Y or ±Z; ties go to x, then y). The
+/// oracle of the dome's rendered room tests: a pixel shows the face its
+/// inverse-projected direction meets.
+pub fn cube_face_axis(dir: DVec3) -> DVec3 {
+    let a = dir.abs();
+    if a.x >= a.y && a.x >= a.z {
+        DVec3::X * dir.x.signum()
+    } else if a.y >= a.z {
+        DVec3::Y * dir.y.signum()
+    } else {
+        DVec3::Z * dir.z.signum()
+    }
+}
 
 impl TriMesh {
     /// An axis-aligned box as 8 shared vertices and 12 triangles (two per
@@ -106,6 +122,16 @@ pub fn random_edges(
 mod tests {
     use super::*;
     use crate::dome::arc::subtended_angle;
+
+    #[test]
+    fn a_ray_meets_the_face_of_its_dominant_axis() {
+        assert_eq!(cube_face_axis(DVec3::new(0.2, -0.9, 0.1)), DVec3::NEG_Y);
+        assert_eq!(cube_face_axis(DVec3::new(0.5, 0.1, -0.7)), DVec3::NEG_Z);
+        assert_eq!(cube_face_axis(DVec3::new(3.0, 2.9, -2.9)), DVec3::X);
+        // Ties: x before y before z.
+        assert_eq!(cube_face_axis(DVec3::new(1.0, 1.0, 1.0)), DVec3::X);
+        assert_eq!(cube_face_axis(DVec3::new(0.0, -1.0, 1.0)), DVec3::NEG_Y);
+    }
 
     #[test]
     fn random_edges_are_seeded_and_within_their_ranges() {

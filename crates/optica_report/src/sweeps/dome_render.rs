@@ -25,7 +25,7 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_dome::{DomeCamera, DomePlugin, refine_mesh_asset};
-use optica_optics::dome::{DomeProjection, SplitRule};
+use optica_optics::dome::{DomeProjection, SplitRule, cube_face_axis};
 use optica_optics::glam::{DVec2, DVec3};
 
 use super::SweepError;
@@ -115,14 +115,7 @@ fn scene(dome: Option<f32>) -> impl FnOnce(&mut App) {
 
 /// The face the ray from the room's centre along `dir` meets.
 fn face_of(dir: DVec3) -> usize {
-    let a = dir.abs();
-    let axis = if a.x >= a.y && a.x >= a.z {
-        Vec3::X * dir.x.signum() as f32
-    } else if a.y >= a.z {
-        Vec3::Y * dir.y.signum() as f32
-    } else {
-        Vec3::Z * dir.z.signum() as f32
-    };
+    let axis = cube_face_axis(dir).as_vec3();
     FACES
         .iter()
         .position(|(f, _)| *f == axis)

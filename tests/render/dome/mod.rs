@@ -5,3 +5,36 @@ mod pipelines;
 mod projection;
 mod scene;
 mod stability;
+
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::prelude::*;
+use bevy::render::view::Msaa;
+use optica_dome::DomeCamera;
+
+/// `dome` at `transform`, drawing on black, untonemapped (colours come out
+/// as given), one sample per pixel.
+pub fn dome_camera(dome: DomeCamera, transform: Transform) -> impl Bundle {
+    (
+        dome,
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::BLACK),
+            ..default()
+        },
+        Tonemapping::None,
+        Msaa::Off,
+        transform,
+    )
+}
+
+/// An unlit material of `colour`, both sides drawn.
+pub fn flat(
+    materials: &mut Assets<StandardMaterial>,
+    colour: Color,
+) -> MeshMaterial3d<StandardMaterial> {
+    MeshMaterial3d(materials.add(StandardMaterial {
+        base_color: colour,
+        unlit: true,
+        cull_mode: None,
+        ..default()
+    }))
+}

@@ -3,11 +3,11 @@
 //! Every pixel inside the image circle must show the face that the CPU
 //! twin's inverse projection of its centre hits; outside it, the rim mask.
 
-use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use optica_dome::{DomeCamera, DomePlugin};
 use optica_harness::Headless;
+
+use super::{dome_camera, flat};
 use optica_optics::dome::cube_face_axis;
 use optica_optics::glam::{DVec2, DVec3};
 
@@ -47,31 +47,19 @@ fn room(quads: u32, tolerance_px: f32) -> impl FnOnce(&mut App) {
                         .subdivisions(quads - 1),
                 );
                 for (axis, [r, g, b]) in FACES {
-                    let material = materials.add(StandardMaterial {
-                        base_color: Color::srgb(r, g, b),
-                        unlit: true,
-                        cull_mode: None,
-                        ..default()
-                    });
                     // The plane's normal (+Y) turned to point into the room.
                     let rotation = Quat::from_rotation_arc(Vec3::Y, -axis);
                     commands.spawn((
                         Mesh3d(plane.clone()),
-                        MeshMaterial3d(material),
+                        flat(&mut materials, Color::srgb(r, g, b)),
                         Transform::from_translation(axis).with_rotation(rotation),
                     ));
                 }
-                commands.spawn((
+                commands.spawn(dome_camera(
                     DomeCamera {
                         tolerance_px,
                         ..default()
                     },
-                    Camera {
-                        clear_color: ClearColorConfig::Custom(Color::BLACK),
-                        ..default()
-                    },
-                    Tonemapping::None,
-                    Msaa::Off,
                     camera(),
                 ));
             },
@@ -183,23 +171,10 @@ fn a_cube_near_the_rim_is_drawn_where_the_cpu_twin_puts_it() {
                       mut materials: ResMut<Assets<StandardMaterial>>| {
                     commands.spawn((
                         Mesh3d(meshes.add(Cuboid::from_length(0.5))),
-                        MeshMaterial3d(materials.add(StandardMaterial {
-                            base_color: Color::WHITE,
-                            unlit: true,
-                            ..default()
-                        })),
+                        flat(&mut materials, Color::WHITE),
                         Transform::from_translation(centre),
                     ));
-                    commands.spawn((
-                        DomeCamera::default(),
-                        Camera {
-                            clear_color: ClearColorConfig::Custom(Color::BLACK),
-                            ..default()
-                        },
-                        Tonemapping::None,
-                        Msaa::Off,
-                        camera(),
-                    ));
+                    commands.spawn(dome_camera(DomeCamera::default(), camera()));
                 },
             );
         })

@@ -4,27 +4,14 @@
 //! wrap-around: geometry appears only where its directions do.
 
 use bevy::asset::RenderAssetUsages;
-use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use optica_dome::{DomeCamera, DomePlugin};
 use optica_harness::{Headless, RenderedFrame};
 
-const SIZE: u32 = 96;
+use super::{dome_camera, flat};
 
-/// Unlit, both sides drawn.
-fn flat(
-    materials: &mut Assets<StandardMaterial>,
-    colour: Color,
-) -> MeshMaterial3d<StandardMaterial> {
-    MeshMaterial3d(materials.add(StandardMaterial {
-        base_color: colour,
-        unlit: true,
-        cull_mode: None,
-        ..default()
-    }))
-}
+const SIZE: u32 = 96;
 
 /// A triangle with a NaN corner and a good one 5 units above the camera.
 fn nan_mesh() -> Mesh {
@@ -74,14 +61,8 @@ fn render(dome: DomeCamera) -> RenderedFrame {
                         flat(&mut materials, Color::srgb(0.0, 0.0, 1.0)),
                         Transform::from_xyz(0.0, 50.0, 0.0),
                     ));
-                    commands.spawn((
+                    commands.spawn(dome_camera(
                         dome,
-                        Camera {
-                            clear_color: ClearColorConfig::Custom(Color::BLACK),
-                            ..default()
-                        },
-                        Tonemapping::None,
-                        Msaa::Off,
                         Transform::from_xyz(0.0, 1.6, 0.0).looking_to(Vec3::Y, Vec3::Z),
                     ));
                 },

@@ -35,6 +35,10 @@ pub const DOME_LAYER: usize = 29;
 pub struct DomeTwin {
     /// The twin entity (a child of the original).
     pub twin: Entity,
+    /// The twin's mesh, rewritten in place when it is refined again: a new
+    /// handle every frame would make Bevy re-specialise the twin each frame
+    /// and never draw it while the camera moves.
+    twin_mesh: Handle<Mesh>,
     view_from_local: Affine3A,
     mesh: AssetId<Mesh>,
     camera: DomeCamera,
@@ -142,8 +146,14 @@ pub(crate) fn refine_twins(
         };
         match twin {
             Some(mut twin) => {
-                let handle = meshes.add(refined);
-                commands.entity(twin.twin).insert(Mesh3d(handle));
+                if let Some(mut mesh) = meshes.get_mut(&twin.twin_mesh) {
+                    *mesh = refined;
+                } else {
+                    twin.twin_mesh = meshes.add(refined);
+                    commands
+                        .entity(twin.twin)
+                        .insert(Mesh3d(twin.twin_mesh.clone()));
+                }
                 twin.view_from_local = view_from_local;
                 twin.mesh = mesh3d.id();
                 twin.camera = *camera;
@@ -153,7 +163,7 @@ pub(crate) fn refine_twins(
                 let handle = meshes.add(refined);
                 let twin = commands
                     .spawn((
-                        Mesh3d(handle),
+                        Mesh3d(handle.clone()),
                         Transform::IDENTITY,
                         // Right from the first frame (propagation has run).
                         *transform,
@@ -165,6 +175,7 @@ pub(crate) fn refine_twins(
                     .id();
                 commands.entity(entity).insert(DomeTwin {
                     twin,
+                    twin_mesh: handle,
                     view_from_local,
                     mesh: mesh3d.id(),
                     camera: *camera,

@@ -207,3 +207,43 @@ fn a_cube_near_the_rim_is_drawn_where_the_cpu_twin_puts_it() {
         "drawn at {mean}, the CPU twin puts it at {expected}"
     );
 }
+
+/// A moving camera: the twins are refined again every frame (in place, so
+/// that Bevy keeps drawing them) and the room still fills the circle.
+#[test]
+fn a_turning_dome_camera_keeps_drawing_the_room() {
+    let frame = Headless::new(SIZE, SIZE)
+        .frames(6)
+        .render(|app: &mut App| {
+            room(1, 0.5)(app);
+            app.add_systems(
+                Update,
+                |mut cameras: Query<&mut Transform, With<DomeCamera>>| {
+                    for mut t in &mut cameras {
+                        t.rotate_y(0.05);
+                    }
+                },
+            );
+        })
+        .expect("render");
+    let img = frame.to_rgba8();
+    let dome = DomeCamera::default()
+        .projection(SIZE)
+        .expect("a valid dome");
+    let (mut inside, mut coloured) = (0usize, 0usize);
+    for (x, y, p) in img.enumerate_pixels() {
+        let c = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+        if (c - dome.centre_px()).length() < dome.rim_radius_px() - 2.0 {
+            inside += 1;
+            coloured += usize::from(
+                FACES
+                    .iter()
+                    .any(|(_, f)| f.map(|v| (v * 255.0) as u8) == [p.0[0], p.0[1], p.0[2]]),
+            );
+        }
+    }
+    assert!(
+        coloured as f64 > 0.99 * inside as f64,
+        "{coloured} of {inside} pixels show a face"
+    );
+}

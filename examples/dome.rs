@@ -11,7 +11,7 @@
 //! With the `window` feature and a display it opens a window (an egui panel
 //! for field of view, tilt and tolerance with the `egui` feature); otherwise
 //! (or with `--out`) it renders headlessly and writes `dome_0.png` …
-//! `dome_3.png` (a quarter turn apart) to `DIR`, by default `target/optica/`.
+//! `dome_3.png` (6° of turn apart) to `DIR`, by default `target/optica/`.
 
 use bevy::prelude::*;
 use optica::dome::{DomeCamera, DomePlugin};

@@ -126,9 +126,10 @@ impl Plugin for DomePlugin {
     }
 }
 
-/// Gives every new or changed [`DomeCamera`] its projection and a single
-/// light cluster, and a new one its [`DomeRimMask`]; invalid settings keep
-/// the last good projection and log why.
+/// Gives every new or changed [`DomeCamera`] its projection, a single
+/// light cluster, the dome's render layer (replacing the camera's own
+/// `RenderLayers`) and, when it has none, a [`DomeRimMask`]; invalid
+/// settings keep the last good projection and log why.
 fn sync_projection(
     mut commands: Commands,
     cameras: Query<(Entity, &DomeCamera, Has<DomeRimMask>), Changed<DomeCamera>>,

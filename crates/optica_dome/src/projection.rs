@@ -26,7 +26,7 @@ pub struct DomeClip {
     pub tilt: f32,
     /// Nearest drawn distance from the camera.
     pub near: f32,
-    /// Farthest distance culling and shadows look at.
+    /// Farthest distance culling considers.
     pub far: f32,
 }
 
@@ -85,15 +85,21 @@ impl CameraProjection for DomeClip {
         self.far
     }
 
-    /// A box around what the dome sees up to `z_far`: the half-space in
-    /// front of the view plane for FOV ≤ 180°, all around otherwise. Shadow
-    /// cascades fit their maps to it.
-    fn get_frustum_corners(&self, z_near: f32, z_far: f32) -> [Vec3A; 8] {
+    /// A box around what the dome sees up to `|z_far|` (Bevy passes view
+    /// z, negative in front): the half-space in front of the view plane for
+    /// FOV ≤ 180°, all around otherwise. Shadow cascades fit their maps to
+    /// it.
+    fn get_frustum_corners(&self, _z_near: f32, z_far: f32) -> [Vec3A; 8] {
         let (right, up, axis) = self.frame();
-        let behind = if self.hemisphere() { 0.0 } else { z_far };
-        let corner = |x: f32, y: f32, z: f32| Vec3A::from(x * right + y * up + z * axis);
-        let r = z_far;
-        let near = z_near.max(0.0) - behind;
+        let r = z_far.abs();
+        let behind = if self.hemisphere() { 0.0 } else { r };
+        // Distances along the dome axis (in front is positive).
+        let corner = |x: f32, y: f32, d: f32| Vec3A::from(x * right + y * up + d * axis);
+        // A slice of distances [near, far] of a fisheye reaches sideways to
+        // the view plane (and behind it beyond 180°), so every slice's box
+        // starts there.
+        let z_far = r;
+        let near = -behind;
         [
             corner(r, -r, near),
             corner(r, r, near),
@@ -107,7 +113,8 @@ impl CameraProjection for DomeClip {
     }
 
     /// Culling for a fisheye: the view plane through the camera (FOV ≤ 180°;
-    /// wider domes see all around) and a box of half-size `far` around it.
+    /// wider domes see all around) and a box of half-size `far` around it
+    /// (Bevy's mesh culling leaves out its sixth side, +Z).
     fn compute_frustum(&self, camera_transform: &GlobalTransform) -> Frustum {
         let (_, _, axis) = self.frame();
         let world_axis = camera_transform

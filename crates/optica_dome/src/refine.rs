@@ -13,7 +13,9 @@
 //! see (and which every light is given), so other cameras keep drawing the
 //! originals. A twin carries its original's material when that material's
 //! type has a [`crate::DomeMaterialPlugin`] (`StandardMaterial` has one by
-//! default); it casts no shadow (its original does).
+//! default); it casts no shadow (its original does). A twin is seen by the
+//! dome whatever the original's own `RenderLayers`; float vertex attributes
+//! (`Float32x2/3/4`) are carried, others (joints, integer data) are not.
 
 use std::marker::PhantomData;
 
@@ -113,10 +115,22 @@ pub(crate) fn refine_twins(
         Without<DomeTwinOf>,
     >,
     mut meshes: ResMut<Assets<Mesh>>,
+    mut mesh_events: MessageReader<AssetEvent<Mesh>>,
 ) {
+    // Meshes edited in place keep their id: their twins are stale too.
+    let edited: Vec<AssetId<Mesh>> = mesh_events
+        .read()
+        .filter_map(|e| match e {
+            AssetEvent::Modified { id } => Some(*id),
+            _ => None,
+        })
+        .collect();
     let Some((camera, render, camera_transform)) = cameras.iter().next() else {
         return;
     };
+    if camera.validate().is_err() {
+        return;
+    }
     let size_px = render
         .physical_target_size()
         .map_or(DEFAULT_SIZE_PX, |s| s.x.max(s.y).max(1));
@@ -131,6 +145,7 @@ pub(crate) fn refine_twins(
         let view_from_local = view_from_world * transform.affine();
         let fresh = twin.as_ref().is_some_and(|t| {
             t.mesh == mesh3d.id()
+                && !edited.contains(&t.mesh)
                 && t.camera == *camera
                 && t.size_px == size_px
                 && t.view_from_local == view_from_local
@@ -220,9 +235,11 @@ pub fn refine_mesh_asset(
         .map(|p| view_from_local.transform_point3(DVec3::from(p.map(f64::from))))
         .collect();
     // Attributes to carry, besides the position.
+    // (An attribute of another length than the positions is malformed;
+    // it is left out rather than read out of bounds.)
     let carried: Vec<_> = source
         .attributes()
-        .filter(|(a, _)| a.id != Mesh::ATTRIBUTE_POSITION.id)
+        .filter(|(a, v)| a.id != Mesh::ATTRIBUTE_POSITION.id && v.len() == positions.len())
         .filter_map(|(a, values)| Interpolated::of(values).map(|v| (*a, v)))
         .collect();
     let mut out_positions: Vec<[f32; 3]> = Vec::new();

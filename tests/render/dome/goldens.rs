@@ -83,3 +83,64 @@ fn lit_room_through_a_tilted_dome() {
     let frame = Headless::new(128, 128).render(lit_room).expect("render");
     assert_golden!(&frame);
 }
+
+/// Shadow cascades fit what the dome sees (in front of its view plane):
+/// a sun shining upwards past a small box casts the box's shadow onto a
+/// ceiling right above the camera.
+#[test]
+fn shadows_fall_where_the_dome_looks() {
+    let frame = Headless::new(96, 96)
+        .render(|app: &mut App| {
+            app.add_plugins(DomePlugin);
+            app.add_systems(
+                Startup,
+                |mut commands: Commands,
+                 mut meshes: ResMut<Assets<Mesh>>,
+                 mut materials: ResMut<Assets<StandardMaterial>>| {
+                    let white = materials.add(StandardMaterial {
+                        base_color: Color::WHITE,
+                        cull_mode: None,
+                        ..default()
+                    });
+                    // The ceiling, 6 up, facing down.
+                    commands.spawn((
+                        Mesh3d(meshes.add(Plane3d::new(Vec3::NEG_Y, Vec2::splat(10.0)).mesh())),
+                        MeshMaterial3d(white.clone()),
+                        Transform::from_xyz(0.0, 6.0, 0.0),
+                    ));
+                    // A box to one side, 3 up: with the sun going up and
+                    // towards +x (1 across for 2 up), its shadow lands on
+                    // the ceiling straight above the camera.
+                    commands.spawn((
+                        Mesh3d(meshes.add(Cuboid::from_length(1.0))),
+                        MeshMaterial3d(white),
+                        Transform::from_xyz(-1.5, 3.0, 0.0),
+                    ));
+                    commands.spawn((
+                        DirectionalLight {
+                            illuminance: 10_000.0,
+                            shadow_maps_enabled: true,
+                            ..default()
+                        },
+                        Transform::IDENTITY.looking_to(Vec3::new(0.5, 1.0, 0.0), Vec3::Z),
+                    ));
+                    commands.spawn(dome_camera(
+                        DomeCamera::default(),
+                        Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z),
+                    ));
+                },
+            );
+        })
+        .expect("render");
+    let img = frame.to_rgba8();
+    let luma = |x: u32, y: u32| {
+        img.get_pixel(x, y).0[..3]
+            .iter()
+            .map(|&v| v as f32)
+            .sum::<f32>()
+    };
+    // The zenith (image centre) is in the box's shadow; the ceiling towards
+    // the audience's front (below the centre in the image) is lit.
+    let (shadowed, lit) = (luma(48, 48), luma(48, 70));
+    assert!(shadowed < 0.5 * lit, "zenith {shadowed}, lit ceiling {lit}");
+}

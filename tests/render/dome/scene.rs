@@ -1,4 +1,4 @@
-//! A room seen through the dome: an inside-out box of five unlit,
+//! A room seen through the dome: an inside-out box of six unlit,
 //! differently coloured faces around a zenith-looking 180° dome camera.
 //! Every pixel inside the image circle must show the face that the CPU
 //! twin's inverse projection of its centre hits; outside it, the rim mask.
@@ -94,8 +94,8 @@ fn faces_right(quads: u32, tolerance_px: f32) -> f64 {
         for x in 0..SIZE {
             let pixel = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
             let r = (pixel - dome.centre_px()).length();
-            // Outside the circle the rim mask paints black, though the
-            // walls beyond 90° from the zenith project there.
+            // Outside the circle the rim mask paints black (the walls are
+            // clipped at the view plane; their refined rim may overshoot).
             if r > dome.rim_radius_px() + 1.0 {
                 let got = img.get_pixel(x, y).0;
                 assert_eq!(

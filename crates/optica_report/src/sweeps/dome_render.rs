@@ -16,8 +16,8 @@
 //!   deeper inside is a crack between two of the room's separate meshes
 //!   (their shared edge reaches the GPU with different rounding, as it
 //!   would through any camera), counted in `crack_pixels`.
-//! * Time: the frame, against the same room through a 90° perspective
-//!   camera in the same run; `refine_ms`: building the twins on the CPU
+//! * Time: the frame, against the same room through Bevy's default
+//!   (45°) perspective camera in the same run; `refine_ms`: building the twins on the CPU
 //!   (done once for a static camera, each frame for a moving one).
 
 use bevy::camera::visibility::RenderLayers;
@@ -62,8 +62,8 @@ fn face_meshes() -> Vec<(Mesh, Transform, [u8; 3])> {
         .collect()
 }
 
-/// The room and a camera: a dome camera of `tolerance_px`, or (None) a 90°
-/// perspective camera looking at the ceiling.
+/// The room and a camera: a dome camera of `tolerance_px`, or (None)
+/// Bevy's default perspective camera looking at the ceiling.
 fn scene(dome: Option<f32>) -> impl FnOnce(&mut App) {
     move |app: &mut App| {
         app.add_plugins(DomePlugin);

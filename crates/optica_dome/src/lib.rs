@@ -82,16 +82,18 @@ use bevy::light::cluster::ClusterConfig;
 use bevy::prelude::*;
 use bevy::shader::load_shader_library;
 
+mod cube;
 mod mask;
 mod projection;
 mod refine;
 mod settings;
 mod shader_hook;
 
+pub use cube::{CubeLayout, DomeCubeFace, DomeCubeFaces, FIVE_FACE_MAX_FOV_DEG, guarded_tan_half};
 pub use mask::DomeRimMask;
 pub use projection::DomeClip;
 pub use refine::{DOME_LAYER, DomeMaterialPlugin, DomeTwin, DomeTwinOf, refine_mesh_asset};
-pub use settings::{DomeCamera, MAX_FOV_DEG};
+pub use settings::{DomeCamera, DomeMode, FACE_PX_RANGE, MAX_FOV_DEG};
 
 /// Adds [`DomeCamera`]: keeps each dome camera's projection in step with
 /// its settings and, once a dome camera exists, puts the equidistant
@@ -102,13 +104,22 @@ impl Plugin for DomePlugin {
     fn build(&self, app: &mut App) {
         load_shader_library!(app, "shaders/equidistant.wgsl");
         embedded_asset!(app, "shaders/rim_mask.wgsl");
+        embedded_asset!(app, "shaders/cube_resample.wgsl");
         app.add_plugins(FullscreenMaterialPlugin::<DomeRimMask>::default())
+            .add_plugins(cube::CubeResamplePlugin)
             .register_type::<DomeCamera>()
+            .register_type::<DomeMode>()
             .register_type::<DomeRimMask>()
             .add_plugins(DomeMaterialPlugin::<StandardMaterial>::default())
             .add_systems(
                 PostUpdate,
                 sync_projection.before(bevy::camera::CameraUpdateSystems),
+            )
+            .add_systems(
+                PostUpdate,
+                (cube::sync_cube_faces, cube::follow_dome_camera)
+                    .after(sync_projection)
+                    .before(bevy::transform::TransformSystems::Propagate),
             )
             .add_systems(
                 PostUpdate,
@@ -148,10 +159,14 @@ fn sync_projection(
             near: dome.near,
             far: dome.far,
         };
-        commands.entity(entity).insert((
-            Projection::custom(clip),
-            ClusterConfig::Single,
-            RenderLayers::layer(DOME_LAYER),
-        ));
+        // A cube-mode camera draws nothing itself (its faces do): no layer,
+        // so no mesh, light or shadow work for its view.
+        let layers = match dome.mode {
+            DomeMode::Vertex => RenderLayers::layer(DOME_LAYER),
+            DomeMode::CubeMap { .. } => RenderLayers::none(),
+        };
+        commands
+            .entity(entity)
+            .insert((Projection::custom(clip), ClusterConfig::Single, layers));
     }
 }

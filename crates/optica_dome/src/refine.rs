@@ -125,7 +125,17 @@ pub(crate) fn refine_twins(
             _ => None,
         })
         .collect();
-    let Some((camera, render, camera_transform)) = cameras.iter().next() else {
+    let Some((camera, render, camera_transform)) = cameras
+        .iter()
+        .find(|(camera, ..)| camera.mode == crate::DomeMode::Vertex)
+    else {
+        // No vertex-mode camera: twins are not needed.
+        for (entity, _, _, twin) in &originals {
+            if let Some(twin) = twin {
+                commands.entity(twin.twin).despawn();
+                commands.entity(entity).remove::<DomeTwin>();
+            }
+        }
         return;
     };
     if camera.validate().is_err() {

@@ -44,7 +44,35 @@ pub struct DomeCamera {
     pub near: f32,
     /// Farthest distance culling and shadows consider, in world units.
     pub far: f32,
+    /// How the domemaster is made: by projecting vertices (the paper) or by
+    /// resampling a cube of ordinary cameras.
+    pub mode: DomeMode,
 }
+
+/// How a [`DomeCamera`] makes its image.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq, Default)]
+pub enum DomeMode {
+    /// The paper's method: every vertex projected equidistantly, triangles
+    /// refined on the CPU to [`DomeCamera::tolerance_px`]. Ordinary lit
+    /// meshes and materials whose vertex shader goes through Bevy's
+    /// `view_transformations`; the cheaper mode at equal error.
+    #[default]
+    Vertex,
+    /// The scene drawn by 4, 5 or 6 perspective cameras (by field of view:
+    /// ≤ 180°, ≤ 250°, wider), each into a square image of `face_px`,
+    /// resampled into the domemaster. Works with any material and any
+    /// screen-space effect of the faces; costs one scene draw per face.
+    /// The faces see render layer 0 only.
+    CubeMap {
+        /// Side of each face image in pixels, `[8, 16384]`. About 0.64× the
+        /// domemaster's size matches its pixels at the zenith of a 180°
+        /// dome.
+        face_px: u32,
+    },
+}
+
+/// The face sizes the cube mode accepts.
+pub const FACE_PX_RANGE: std::ops::RangeInclusive<u32> = 8..=16384;
 
 /// The widest field of view the vertex projection accepts: beyond it the
 /// antipode, where the projection is singular, comes within 5° of the rim.
@@ -60,6 +88,7 @@ impl Default for DomeCamera {
             tolerance_px: 0.5,
             near: 0.1,
             far: 1000.0,
+            mode: DomeMode::Vertex,
         }
     }
 }
@@ -100,6 +129,15 @@ impl DomeCamera {
             return Err(format!(
                 "dome far distance {} is not beyond near ({})",
                 self.far, self.near
+            ));
+        }
+        if let DomeMode::CubeMap { face_px } = self.mode
+            && !FACE_PX_RANGE.contains(&face_px)
+        {
+            return Err(format!(
+                "dome cube face size {face_px} px is outside {}..={}",
+                FACE_PX_RANGE.start(),
+                FACE_PX_RANGE.end()
             ));
         }
         Ok(())

@@ -68,4 +68,27 @@ fn no_dome_camera_no_pipeline_and_a_dome_view_compiles_on_noop() {
         "the dome view built no pipeline of its own: {:?}",
         dome.labels
     );
+    let resample = |r: &PipelineReport| r.labels.iter().any(|l| l.contains("cube_resample"));
+    assert!(
+        !resample(&dome),
+        "a vertex-mode dome built the cube pass: {:?}",
+        dome.labels
+    );
+    // A cube-mode dome camera: its resampling pass compiles, and only then
+    // is it built.
+    let cube = pipelines(|app| {
+        app.add_plugins(DomePlugin);
+        scene(app);
+        app.add_systems(Startup, |mut commands: Commands| {
+            commands.spawn((
+                optica_dome::DomeCamera {
+                    mode: optica_dome::DomeMode::CubeMap { face_px: 16 },
+                    ..default()
+                },
+                Msaa::Off,
+                Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z),
+            ));
+        });
+    });
+    assert!(resample(&cube), "no cube pass: {:?}", cube.labels);
 }

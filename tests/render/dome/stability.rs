@@ -144,3 +144,34 @@ fn a_dome_tilted_90_degrees_sees_the_horizon_across_its_middle() {
         "ground below the horizon: {below} of {n} px"
     );
 }
+
+/// The cube-map mode on the same stiff scene: the ground stays behind a
+/// 180° dome, makes a ring round a 250° one with no wrap-around, and lies
+/// below the horizon at tilt 90°; no non-finite pixel. A face size the
+/// mode cannot take is refused (no face camera, no panic).
+#[test]
+fn the_cube_mode_on_the_stiff_scene() {
+    let cube = |fov_deg: f32, tilt_deg: f32, face_px: u32| DomeCamera {
+        fov_deg,
+        tilt_deg,
+        mode: optica_dome::DomeMode::CubeMap { face_px },
+        ..default()
+    };
+    let (behind, _) = green_share(&render(cube(180.0, 0.0, 64)), 0.0..0.97, |_, _| true);
+    assert_eq!(behind, 0.0, "the ground behind a 180° cube dome: {behind}");
+    let wide = render(cube(250.0, 0.0, 64));
+    let (inner, _) = green_share(&wide, 0.0..0.68, |_, _| true);
+    let (ring, n) = green_share(&wide, 0.76..0.97, |_, _| true);
+    assert_eq!(inner, 0.0, "the ground wrapped into the disk: {inner}");
+    assert!(n > 1000 && ring > 0.98, "the ground ring: {ring} of {n} px");
+    let tilted = render(cube(180.0, 90.0, 64));
+    let half = SIZE / 2;
+    let (above, _) = green_share(&tilted, 0.0..0.95, |_, y| y + 2 < half);
+    let (below, n) = green_share(&tilted, 0.0..0.95, |_, y| y > half + 2);
+    assert_eq!(above, 0.0, "ground above the horizon: {above}");
+    assert!(n > 1000 && below > 0.98, "ground below: {below} of {n} px");
+    assert!(cube(180.0, 0.0, 4).validate().is_err());
+    // Refused: the camera keeps Bevy's projection, and nothing breaks.
+    let refused = render(cube(180.0, 0.0, 4));
+    green_share(&refused, 0.0..1.0, |_, _| true);
+}

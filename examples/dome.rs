@@ -1,53 +1,108 @@
 //! Dome: a planetarium domemaster — a starry sky with constellation lines
 //! and an altitude graticule over a landscape with large buildings near the
 //! horizon (big triangles at the rim), seen by a slowly turning fisheye dome
-//! camera. Every straight edge is refined until it lies within the camera's
-//! pixel tolerance of its true curved image.
+//! camera. In the vertex mode every straight edge is refined until it lies
+//! within the camera's pixel tolerance of its true curved image; the cube
+//! mode resamples four to six ordinary cameras instead.
 //!
 //! ```sh
-//! cargo run --example dome --features dome,egui,window -- [--fov 180] [--tilt 0] [--tolerance 0.5] [--out DIR]
+//! cargo run --example dome --features dome,egui,window -- [--fov 180] [--tilt 0] [--tolerance 0.5] [--cube FACE_PX] [--out DIR]
+//! # A render farm's job: frames 0..240 of the show, 4K, to ./show
+//! cargo run --release --example dome --features dome -- --export show --frames 0..240 --size 4096
 //! ```
 //!
 //! With the `window` feature and a display it opens a window (an egui panel
-//! for field of view, tilt and tolerance with the `egui` feature); otherwise
-//! (or with `--out`) it renders headlessly and writes `dome_0.png` …
-//! `dome_3.png` (6° of turn apart) to `DIR`, by default `target/optica/`.
+//! for mode, field of view, tilt and tolerance with the `egui` feature);
+//! otherwise (or with `--out`) it renders headlessly and writes
+//! `dome_0.png` … `dome_3.png` (2 s of show apart) to `DIR`, by default
+//! `target/optica/`. `--export DIR` writes the domemaster PNG sequence
+//! `DIR/domemaster_NNNNNN.png` of `--frames A..B` (B excluded; `A..=B` and a
+//! single `A` work too) at `--size` px (default 2048, up to 8192) and
+//! `--fps` (default 30): every frame depends on its number alone, so a farm
+//! manager (Flamenco, OpenCue, a Slurm array job) can give each machine its
+//! own range.
 
 use bevy::prelude::*;
-use optica::dome::{DomeCamera, DomePlugin};
+use optica::dome::{
+    DomeCamera, DomeExport, DomeExportPlugin, DomeMode, DomePlugin, DomeShowClock,
+    parse_frame_range,
+};
 
-/// The domemaster's side in pixels.
+/// The domemaster's side in pixels (window and snapshots).
 const SIZE: u32 = 1024;
-/// Turn rate of the camera about the zenith, radians per second.
+/// Turn rate of the camera about the zenith, radians per second of show.
 const TURN: f32 = 0.1;
-/// Frames of 1/60 s between the headless snapshots.
+/// Show frames (at 30 fps) between the headless snapshots.
 const SNAPSHOT_FRAMES: u32 = 60;
+/// The largest export size.
+const MAX_EXPORT_PX: u32 = 8192;
 
-fn parse_args() -> Result<(DomeCamera, Option<String>), String> {
+/// What the command line asks for.
+struct Args {
+    dome: DomeCamera,
+    out: Option<String>,
+    export: Option<(DomeExport, u32)>,
+}
+
+fn parse_args() -> Result<Args, String> {
     let mut args = std::env::args().skip(1);
-    let (mut dome, mut out) = (DomeCamera::default(), None);
+    let mut dome = DomeCamera::default();
+    let (mut out, mut export_dir, mut frames, mut size, mut fps) =
+        (None, None, None, 2048u32, 30.0f32);
     while let Some(a) = args.next() {
-        let mut number = || -> Result<f32, String> {
-            let v = args.next().ok_or(format!("{a} needs a value"))?;
-            v.parse().map_err(|_| format!("{a}: `{v}` is not a number"))
+        let mut value = || args.next().ok_or(format!("{a} needs a value"));
+        let number = |v: String| -> Result<f32, String> {
+            v.parse().map_err(|_| format!("`{v}` is not a number"))
         };
         match a.as_str() {
-            "--fov" => dome.fov_deg = number()?,
-            "--tilt" => dome.tilt_deg = number()?,
-            "--tolerance" => dome.tolerance_px = number()?,
-            "--out" => out = Some(args.next().ok_or("--out needs a folder")?),
+            "--fov" => dome.fov_deg = number(value()?)?,
+            "--tilt" => dome.tilt_deg = number(value()?)?,
+            "--tolerance" => dome.tolerance_px = number(value()?)?,
+            "--cube" => {
+                let face_px = value()?;
+                let face_px = face_px
+                    .parse()
+                    .map_err(|_| format!("--cube: `{face_px}` is not a size in px"))?;
+                dome.mode = DomeMode::CubeMap { face_px };
+            }
+            "--out" => out = Some(value()?),
+            "--export" => export_dir = Some(value()?),
+            "--frames" => frames = Some(parse_frame_range(&value()?)?),
+            "--size" => {
+                let v = value()?;
+                size = v
+                    .parse()
+                    .map_err(|_| format!("--size: `{v}` is not a size"))?;
+            }
+            "--fps" => fps = number(value()?)?,
             _ => return Err(format!("unknown argument {a}")),
         }
     }
     dome.validate()?;
-    Ok((dome, out))
+    let export = match export_dir {
+        Some(dir) => {
+            if !(16..=MAX_EXPORT_PX).contains(&size) {
+                return Err(format!("--size {size} is outside 16..={MAX_EXPORT_PX}"));
+            }
+            let export = DomeExport::new(dir, frames.unwrap_or(0..1), fps);
+            export.validate()?;
+            Some((export, size))
+        }
+        None if frames.is_some() => return Err("--frames needs --export DIR".into()),
+        None => None,
+    };
+    Ok(Args { dome, out, export })
 }
 
 fn main() {
-    let (dome, out) = parse_args().unwrap_or_else(|e| {
+    let Args { dome, out, export } = parse_args().unwrap_or_else(|e| {
         eprintln!("dome: {e}");
         std::process::exit(2);
     });
+    if let Some((export, size)) = export {
+        export_sequence(dome, export, size);
+        return;
+    }
     let has_display = std::env::var_os("DISPLAY").is_some();
     if cfg!(feature = "window") && has_display && out.is_none() {
         let mut app = App::new();
@@ -60,6 +115,7 @@ fn main() {
             ..default()
         }));
         setup_app(&mut app, dome);
+        app.add_systems(First, run_show_clock);
         #[cfg(feature = "egui")]
         app.add_plugins(bevy_egui::EguiPlugin::default())
             .add_systems(bevy_egui::EguiPrimaryContextPass, panel);
@@ -70,8 +126,13 @@ fn main() {
         for k in 0..4 {
             let frame = optica_harness::Headless::new(SIZE, SIZE)
                 .adapter(optica_harness::Adapter::Auto)
-                .frames(1 + k * SNAPSHOT_FRAMES)
-                .render(|app| setup_app(app, dome))
+                .render(|app| {
+                    setup_app(app, dome);
+                    app.insert_resource(DomeShowClock {
+                        frame: k * SNAPSHOT_FRAMES,
+                        ..default()
+                    });
+                })
                 .unwrap_or_else(|e| {
                     eprintln!("dome: headless render failed: {e}");
                     std::process::exit(1);
@@ -84,6 +145,65 @@ fn main() {
             println!("rendered on {} -> {path}", frame.adapter);
         }
     }
+}
+
+/// Writes the PNG sequence without a window: the dome camera draws into an
+/// image of `size`², each frame is captured and saved, then the app exits.
+fn export_sequence(dome: DomeCamera, export: DomeExport, size: u32) {
+    use bevy::camera::RenderTarget;
+    use bevy::render::RenderPlugin;
+    use bevy::render::render_resource::TextureFormat;
+    use bevy::window::ExitCondition;
+
+    let frames = export.frames.clone();
+    let plugins = DefaultPlugins
+        .set(WindowPlugin {
+            primary_window: None,
+            exit_condition: ExitCondition::DontExit,
+            ..default()
+        })
+        .set(RenderPlugin {
+            // Every frame drawn complete: no frame waits on a pipeline.
+            synchronous_pipeline_compilation: true,
+            ..default()
+        });
+    // No event loop: the schedule runner drives the app.
+    #[cfg(feature = "window")]
+    let plugins = plugins.disable::<bevy::winit::WinitPlugin>();
+    let mut app = App::new();
+    app.add_plugins(plugins)
+        .add_plugins(bevy::app::ScheduleRunnerPlugin::run_loop(
+            std::time::Duration::ZERO,
+        ));
+    setup_app(&mut app, dome);
+    app.add_plugins(DomeExportPlugin(export)).add_systems(
+        PostStartup,
+        move |mut commands: Commands,
+              mut images: ResMut<Assets<Image>>,
+              cameras: Query<Entity, With<DomeCamera>>| {
+            let mut image =
+                Image::new_target_texture(size, size, TextureFormat::Rgba8UnormSrgb, None);
+            image.texture_descriptor.usage |=
+                bevy::render::render_resource::TextureUsages::COPY_SRC;
+            let handle = images.add(image);
+            for camera in &cameras {
+                commands
+                    .entity(camera)
+                    .insert(RenderTarget::Image(handle.clone().into()));
+            }
+        },
+    );
+    let start = std::time::Instant::now();
+    app.run();
+    println!(
+        "dome: frames {frames:?} at {size}² in {:.1} s",
+        start.elapsed().as_secs_f64()
+    );
+}
+
+/// In a window, the show clock follows real time.
+fn run_show_clock(time: Res<Time>, mut clock: ResMut<DomeShowClock>) {
+    clock.frame = (time.elapsed_secs() * clock.fps) as u32;
 }
 
 fn setup_app(app: &mut App, dome: DomeCamera) {
@@ -258,15 +378,17 @@ fn spawn_planetarium(
     ));
 }
 
-/// Turns the dome camera about the zenith (the twins follow: refined again
-/// as the scene moves relative to the camera).
-fn turn(time: Res<Time>, mut cameras: Query<&mut Transform, With<DomeCamera>>) {
+/// Turns the dome camera about the zenith with the show clock (the twins
+/// follow: refined again as the scene moves relative to the camera).
+fn turn(clock: Res<DomeShowClock>, mut cameras: Query<&mut Transform, With<DomeCamera>>) {
+    let rotation = Quat::from_rotation_y(TURN * clock.seconds())
+        * Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z).rotation;
     for mut transform in &mut cameras {
-        transform.rotate_y(TURN * time.delta_secs());
+        transform.rotation = rotation;
     }
 }
 
-/// The dome camera's field of view, tilt and tolerance.
+/// The dome camera's mode, field of view, tilt and tolerance.
 #[cfg(feature = "egui")]
 fn panel(mut contexts: bevy_egui::EguiContexts, mut cameras: Query<&mut DomeCamera>) -> Result {
     use bevy_egui::egui;
@@ -275,6 +397,24 @@ fn panel(mut contexts: bevy_egui::EguiContexts, mut cameras: Query<&mut DomeCame
     };
     let mut edit = *dome;
     egui::Window::new("Dome").show(contexts.ctx_mut()?, |ui| {
+        let mut cube = matches!(edit.mode, DomeMode::CubeMap { .. });
+        ui.horizontal(|ui| {
+            ui.radio_value(&mut cube, false, "vertex projection");
+            ui.radio_value(&mut cube, true, "cube map");
+        });
+        edit.mode = match (cube, edit.mode) {
+            (false, _) => DomeMode::Vertex,
+            (true, DomeMode::CubeMap { face_px }) => {
+                let mut face_px = face_px;
+                ui.add(
+                    egui::Slider::new(&mut face_px, 64..=4096)
+                        .logarithmic(true)
+                        .text("face size (px)"),
+                );
+                DomeMode::CubeMap { face_px }
+            }
+            (true, DomeMode::Vertex) => DomeMode::CubeMap { face_px: 768 },
+        };
         ui.add(egui::Slider::new(&mut edit.fov_deg, 60.0..=250.0).text("field of view (°)"));
         ui.add(egui::Slider::new(&mut edit.tilt_deg, -30.0..=90.0).text("tilt (°)"));
         ui.add(

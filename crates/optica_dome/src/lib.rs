@@ -61,17 +61,37 @@
 //! original's material for `StandardMaterial`, and for any material `M`
 //! whose [`DomeMaterialPlugin<M>`] is added.
 //!
+//! ## The cube-map mode
+//!
+//! [`DomeMode::CubeMap`] draws the scene with 4, 5 or 6 ordinary
+//! perspective cameras (children of the dome camera; 4 up to 180°, 5 up to
+//! 250°, 6 beyond, the cube turned as SGCT turns it) into linear HDR images
+//! and resamples them per output pixel (bilinear, one guard texel per face
+//! edge so filtering is seamless across the cube's edges). Any material and
+//! any effect of a perspective camera works; the faces see render layer 0.
+//! It costs one scene draw per face: at equal edge error the vertex mode is
+//! cheaper (see the `dome` report). Modes can be switched at run time.
+//!
+//! ## Exporting a show
+//!
+//! [`DomeExportPlugin`] writes a domemaster PNG sequence of a frame range
+//! (`domemaster_NNNNNN.png`); animate from [`DomeShowClock`] so that every
+//! frame is a function of its number and a render farm can split the show
+//! into ranges ([`parse_frame_range`] reads `A..B`). The `dome` example
+//! does it from the command line (`--export DIR --frames A..B --size N`).
+//!
 //! ## Status and limits
 //!
-//! One dome camera per app (the first one refines). Not in this crate yet:
-//! the cube-map mode, first-class lines, the PNG-sequence export. Skinned
-//! and morphed meshes are refined in their rest pose. The square's corners
-//! outside the image circle are painted by a full-screen pass
+//! One dome camera per app refines (the first in the vertex mode; any
+//! number may use the cube mode). Not in this crate yet: first-class lines
+//! (draw lines as thin meshes: they are refined like any triangle).
+//! Skinned and morphed meshes are refined in their rest pose. The square's
+//! corners outside the image circle are painted by a full-screen pass
 //! ([`DomeRimMask`], black by default). Light clusters use one cluster per
 //! dome view (`ClusterConfig::Single`): Bevy's clustering assumes a planar
 //! projection. Screen-space effects that rebuild positions from depth
 //! (SSAO, SSR, TAA, depth of field) assume a planar projection too and do
-//! not work on a dome camera.
+//! not work on a vertex-mode dome camera (they do on the cube mode's faces).
 
 #![warn(missing_docs)]
 
@@ -83,6 +103,7 @@ use bevy::prelude::*;
 use bevy::shader::load_shader_library;
 
 mod cube;
+mod export;
 mod mask;
 mod projection;
 mod refine;
@@ -90,6 +111,7 @@ mod settings;
 mod shader_hook;
 
 pub use cube::{CubeLayout, DomeCubeFace, DomeCubeFaces, FIVE_FACE_MAX_FOV_DEG, guarded_tan_half};
+pub use export::{DomeExport, DomeExportPlugin, DomeShowClock, parse_frame_range};
 pub use mask::DomeRimMask;
 pub use projection::DomeClip;
 pub use refine::{DOME_LAYER, DomeMaterialPlugin, DomeTwin, DomeTwinOf, refine_mesh_asset};
@@ -109,6 +131,8 @@ impl Plugin for DomePlugin {
             .add_plugins(cube::CubeResamplePlugin)
             .register_type::<DomeCamera>()
             .register_type::<DomeMode>()
+            .register_type::<DomeShowClock>()
+            .init_resource::<DomeShowClock>()
             .register_type::<DomeRimMask>()
             .add_plugins(DomeMaterialPlugin::<StandardMaterial>::default())
             .add_systems(

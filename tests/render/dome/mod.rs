@@ -2,6 +2,7 @@
 //! a scene seen through the dome, and nothing built without a dome camera.
 
 mod cube;
+mod export;
 mod goldens;
 mod line;
 mod pipelines;

@@ -34,7 +34,7 @@ use bevy::render::render_resource::{
     CachedRenderPipelineId, ColorTargetState, ColorWrites, FilterMode, FragmentState, Operations,
     PipelineCache, RenderPassColorAttachment, RenderPassDescriptor, RenderPipelineDescriptor,
     Sampler, SamplerBindingType, SamplerDescriptor, ShaderStages, ShaderType, TextureFormat,
-    TextureSampleType, TextureUsages, UniformBuffer,
+    TextureSampleType, TextureUsages, TextureViewId, UniformBuffer,
 };
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
 use bevy::render::texture::GpuImage;
@@ -42,7 +42,7 @@ use bevy::render::view::{ExtractedView, Msaa, ViewTarget};
 use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use bevy::shader::Shader;
 
-use crate::{DomeCamera, DomeMode, DomeRimMask};
+use crate::{DomeCamera, DomeClip, DomeMode, DomeRimMask};
 
 /// Where `embedded_asset!` puts the resampling shader.
 const SHADER_PATH: &str = "embedded://optica_dome/shaders/cube_resample.wgsl";
@@ -77,13 +77,7 @@ impl CubeLayout {
     /// The layout for `camera`'s field of view and tilt (the counts of
     /// SGCT: 4 faces up to 180°, 5 up to 250°, 6 beyond).
     pub fn of(camera: &DomeCamera) -> Self {
-        let (right, up, axis) = crate::projection::DomeClip {
-            theta_max: 0.5 * camera.fov_deg.to_radians(),
-            tilt: camera.tilt_deg.to_radians(),
-            near: camera.near,
-            far: camera.far,
-        }
-        .frame();
+        let (right, up, axis) = DomeClip::of(camera).frame();
         if camera.fov_deg <= 180.0 {
             // The axis between the cube's +Y and −Z faces: directions with
             // d·axis ≥ 0 have y ≥ z, so −Y and +Z are never the nearest.
@@ -151,7 +145,7 @@ pub(crate) struct DomeCubeSampling {
 }
 
 /// The resampling pass's uniform (`shaders/cube_resample.wgsl`).
-#[derive(ShaderType, Clone, Copy, Debug)]
+#[derive(ShaderType, Clone, Copy, Debug, PartialEq)]
 struct CubeParams {
     /// Dome coordinates (image right, image up, along the axis) to the
     /// cube's frame.
@@ -183,27 +177,24 @@ pub(crate) fn sync_cube_faces(
 ) {
     for (entity, dome, camera, msaa, faces) in &cameras {
         let face_px = match dome.mode {
-            DomeMode::CubeMap { face_px } if dome.validate().is_ok() => face_px,
-            _ => {
-                if let Some(faces) = faces {
-                    for &face in &faces.cameras {
-                        commands.entity(face).despawn();
-                    }
-                    commands
-                        .entity(entity)
-                        .remove::<(DomeCubeFaces, DomeCubeSampling)>();
-                }
-                continue;
-            }
+            DomeMode::CubeMap { face_px } if dome.validate().is_ok() => Some(face_px),
+            _ => None,
         };
-        if faces.is_some_and(|f| f.built_for == *dome) {
+        if face_px.is_some() && faces.is_some_and(|f| f.built_for == *dome) {
             continue;
         }
+        // Out of the cube mode, or rebuilt: the old faces go.
         if let Some(faces) = faces {
             for &face in &faces.cameras {
                 commands.entity(face).despawn();
             }
+            commands
+                .entity(entity)
+                .remove::<(DomeCubeFaces, DomeCubeSampling)>();
         }
+        let Some(face_px) = face_px else {
+            continue;
+        };
         let layout = CubeLayout::of(dome);
         let tan_half = guarded_tan_half(face_px);
         let mut face_images = Vec::new();
@@ -259,13 +250,7 @@ pub(crate) fn sync_cube_faces(
             table_images[face] = face_images[slot].clone();
             forward[face].w = 1.0;
         }
-        let (right, up_axis, axis) = crate::projection::DomeClip {
-            theta_max: 0.0,
-            tilt: dome.tilt_deg.to_radians(),
-            near: dome.near,
-            far: dome.far,
-        }
-        .frame();
+        let (right, up_axis, axis) = DomeClip::of(dome).frame();
         let view_from_dome = Mat3::from_cols(right, up_axis, axis);
         let params = CubeParams {
             cube_from_dome: layout.view_from_cube.transpose() * view_from_dome,
@@ -376,17 +361,24 @@ fn init_resample(
     });
 }
 
-/// The resampling pass's bind group and pipeline for one view.
+/// The resampling pass's bind group and pipeline for one view, and what
+/// they were made from (rebuilt only when that changes).
 #[derive(Component)]
 struct ResampleBinding {
     bind_group: BindGroup,
     pipeline: CachedRenderPipelineId,
+    made_from: ([TextureViewId; 6], CubeParams),
 }
 
 #[allow(clippy::too_many_arguments)]
 fn prepare_resample(
     mut commands: Commands,
-    views: Query<(Entity, &ExtractedView, Option<&DomeCubeSampling>)>,
+    views: Query<(
+        Entity,
+        &ExtractedView,
+        Option<&DomeCubeSampling>,
+        Option<&ResampleBinding>,
+    )>,
     mut shared: ResMut<ResampleShared>,
     pipeline_cache: Res<PipelineCache>,
     fullscreen: Res<FullscreenShader>,
@@ -394,7 +386,7 @@ fn prepare_resample(
     render_device: Res<RenderDevice>,
     render_queue: Res<RenderQueue>,
 ) {
-    for (entity, view, sampling) in &views {
+    for (entity, view, sampling, binding) in &views {
         let Some(sampling) = sampling else {
             commands.entity(entity).remove::<ResampleBinding>();
             continue;
@@ -429,6 +421,10 @@ fn prepare_resample(
                 ..default()
             })
         });
+        let made_from = (std::array::from_fn(|k| textures[k].id()), sampling.params);
+        if binding.is_some_and(|b| b.pipeline == pipeline && b.made_from == made_from) {
+            continue;
+        }
         let mut uniform = UniformBuffer::from(sampling.params);
         uniform.write_buffer(&render_device, &render_queue);
         let Some(params) = uniform.binding() else {
@@ -451,6 +447,7 @@ fn prepare_resample(
         commands.entity(entity).insert(ResampleBinding {
             bind_group,
             pipeline,
+            made_from,
         });
     }
 }

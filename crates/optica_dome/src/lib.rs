@@ -177,12 +177,7 @@ fn sync_projection(
             warn!("optica_dome: {why}; the camera keeps its last projection");
             continue;
         }
-        let clip = DomeClip {
-            theta_max: 0.5 * dome.fov_deg.to_radians(),
-            tilt: dome.tilt_deg.to_radians(),
-            near: dome.near,
-            far: dome.far,
-        };
+        let clip = DomeClip::of(dome);
         // A cube-mode camera draws nothing itself (its faces do): no layer,
         // so no mesh, light or shadow work for its view.
         let layers = match dome.mode {

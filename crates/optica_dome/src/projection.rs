@@ -31,6 +31,16 @@ pub struct DomeClip {
 }
 
 impl DomeClip {
+    /// The projection of `camera`'s settings.
+    pub fn of(camera: &crate::DomeCamera) -> Self {
+        Self {
+            theta_max: 0.5 * camera.fov_deg.to_radians(),
+            tilt: camera.tilt_deg.to_radians(),
+            near: camera.near,
+            far: camera.far,
+        }
+    }
+
     /// The dome frame in view space: (image right, image up, axis), as in
     /// `optica_optics::dome::DomeProjection` (tilt leans the axis forward,
     /// from −Z towards −Y).

@@ -8,7 +8,8 @@ use bevy::prelude::*;
 use optica_dome::{DomeCamera, DomeExport, DomeExportPlugin, DomeShowClock, parse_frame_range};
 use optica_harness::Headless;
 
-use super::scene::{camera, room_seen_by};
+use super::scene::room_seen_by;
+use super::zenith;
 
 /// A fresh folder under the system's temporary one.
 fn scratch(name: &str) -> PathBuf {
@@ -34,7 +35,7 @@ fn export(dir: &Path, frames: std::ops::Range<u32>) {
                 |clock: Res<DomeShowClock>,
                  mut cameras: Query<&mut Transform, With<DomeCamera>>| {
                     for mut t in &mut cameras {
-                        t.rotation = Quat::from_rotation_y(clock.seconds()) * camera().rotation;
+                        t.rotation = Quat::from_rotation_y(clock.seconds()) * zenith().rotation;
                     }
                 },
             );

@@ -149,10 +149,7 @@ fn shadows_fall_where_the_dome_looks() {
                         },
                         Transform::IDENTITY.looking_to(Vec3::new(0.5, 1.0, 0.0), Vec3::Z),
                     ));
-                    commands.spawn(dome_camera(
-                        DomeCamera::default(),
-                        Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z),
-                    ));
+                    commands.spawn(dome_camera(DomeCamera::default(), super::zenith()));
                 },
             );
         })

@@ -9,17 +9,12 @@ use optica_dome::{DomeCamera, DomePlugin};
 use optica_harness::Headless;
 use optica_optics::glam::DVec2;
 
-use super::{dome_camera, flat};
+use super::{dome_camera, flat, zenith};
 
 const SIZE: u32 = 256;
 /// The bar's cross-section, world units.
 const THICKNESS: f32 = 0.05;
 const CENTRE: Vec3 = Vec3::new(0.0, 3.0, -2.0);
-
-/// Zenith-looking, the back of the theatre towards +Z.
-fn camera() -> Transform {
-    Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z)
-}
 
 /// The largest distance, in px, from a lit pixel centre to the analytic
 /// arc, and the number of lit pixels.
@@ -42,7 +37,7 @@ fn farthest_lit_pixel(tolerance_px: f32) -> (f64, usize) {
                             tolerance_px,
                             ..default()
                         },
-                        camera(),
+                        zenith(),
                     ));
                 },
             );
@@ -52,7 +47,7 @@ fn farthest_lit_pixel(tolerance_px: f32) -> (f64, usize) {
         .projection(SIZE)
         .expect("a valid dome");
     // The analytic image: the segment's axis, finely sampled, projected.
-    let view_from_world = camera().compute_affine().inverse();
+    let view_from_world = zenith().compute_affine().inverse();
     let arc: Vec<DVec2> = (0..=20_000)
         .filter_map(|k| {
             let x = -10.0 + 20.0 * k as f32 / 20_000.0;

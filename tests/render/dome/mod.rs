@@ -15,6 +15,12 @@ use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_dome::DomeCamera;
 
+/// A dome camera's mount looking at the zenith (+Y), the back of the
+/// theatre towards +Z: the audience front (bottom of the domemaster) is −Z.
+pub fn zenith() -> Transform {
+    Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z)
+}
+
 /// `dome` at `transform`, drawing on black, untonemapped (colours come out
 /// as given), one sample per pixel.
 pub fn dome_camera(dome: DomeCamera, transform: Transform) -> impl Bundle {

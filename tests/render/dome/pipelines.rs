@@ -59,7 +59,7 @@ fn no_dome_camera_no_pipeline_and_a_dome_view_compiles_on_noop() {
             commands.spawn((
                 optica_dome::DomeCamera::default(),
                 Msaa::Off,
-                Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z),
+                super::zenith(),
             ));
         });
     });
@@ -86,7 +86,7 @@ fn no_dome_camera_no_pipeline_and_a_dome_view_compiles_on_noop() {
                     ..default()
                 },
                 Msaa::Off,
-                Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z),
+                super::zenith(),
             ));
         });
     });

@@ -7,7 +7,7 @@ use bevy::prelude::*;
 use optica_dome::{DomeCamera, DomePlugin};
 use optica_harness::{Headless, RenderedFrame};
 
-use super::{dome_camera, flat};
+use super::{dome_camera, flat, zenith};
 use optica_optics::dome::cube_face_axis;
 use optica_optics::glam::{DVec2, DVec3};
 
@@ -23,12 +23,6 @@ const FACES: [(Vec3, [f32; 3]); 6] = [
     (Vec3::NEG_X, [1.0, 0.0, 1.0]),
     (Vec3::NEG_Y, [0.0, 1.0, 1.0]),
 ];
-
-/// Looking at the zenith (+Y), the back of the theatre towards +Z: the
-/// audience front (bottom of the domemaster) is −Z.
-pub(super) fn camera() -> Transform {
-    Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z)
-}
 
 /// The room, each face `quads`×`quads` quads, seen by a dome camera with
 /// `tolerance_px`.
@@ -66,7 +60,7 @@ pub(super) fn room_seen_by(quads: u32, dome: DomeCamera) -> impl FnOnce(&mut App
                         Transform::from_translation(axis).with_rotation(rotation),
                     ));
                 }
-                commands.spawn(dome_camera(dome, camera()));
+                commands.spawn(dome_camera(dome, zenith()));
             },
         );
     }
@@ -123,7 +117,7 @@ pub(super) fn nearest_face(p: [u8; 4]) -> usize {
 pub(super) fn faces_shown(frame: &RenderedFrame, dome_settings: DomeCamera) -> f64 {
     let img = frame.to_rgba8();
     let dome = dome_settings.projection(SIZE).expect("a valid dome");
-    let rotation = camera().rotation.as_dquat();
+    let rotation = zenith().rotation.as_dquat();
     let (mut inside, mut matching, mut outside) = (0usize, 0usize, 0usize);
     let mut misses = Vec::new();
     for y in 0..SIZE {
@@ -208,7 +202,7 @@ fn a_cube_near_the_rim_is_drawn_where_the_cpu_twin_puts_it() {
                         flat(&mut materials, Color::WHITE),
                         Transform::from_translation(centre),
                     ));
-                    commands.spawn(dome_camera(DomeCamera::default(), camera()));
+                    commands.spawn(dome_camera(DomeCamera::default(), zenith()));
                 },
             );
         })
@@ -217,7 +211,7 @@ fn a_cube_near_the_rim_is_drawn_where_the_cpu_twin_puts_it() {
     let dome = DomeCamera::default()
         .projection(SIZE)
         .expect("a valid dome");
-    let view = camera().rotation.inverse() * centre;
+    let view = zenith().rotation.inverse() * centre;
     let expected = dome
         .project(view.as_dvec3())
         .visible_pixel()

@@ -33,6 +33,11 @@ use crate::input;
 /// ~5·10¹⁷ px/rad, finite, and so is every projected pixel (≤ f·π).
 pub const MIN_FOV_DEG: f64 = 1e-6;
 
+/// How far outside the rim, at least, geometry is clipped or culled, in
+/// degrees of polar angle (see [`DomeProjection::clips_at_view_plane`]):
+/// 23 px at 4K/180°, 1.4 px at 256 px.
+pub const RIM_MARGIN_DEG: f64 = 1.0;
+
 /// Fields of view must be below this, in degrees: at 360° the antipode of the
 /// dome axis, where the projection is singular, would lie on the rim.
 const FOV_LIMIT_DEG: f64 = 360.0;
@@ -168,37 +173,64 @@ impl DomeProjection {
     }
 
     /// Whether geometry is clipped against the view plane z = 0 of the dome
-    /// frame before projection (FOV ≤ 180°; the visible set is then inside
-    /// the convex half-space in front of that plane).
+    /// frame before projection: FOV ≤ 180° − 2·[`RIM_MARGIN_DEG`], where the
+    /// visible set lies inside the convex half-space in front of that plane
+    /// and the plane is at least [`RIM_MARGIN_DEG`] outside the rim.
+    ///
+    /// Closer to 180° the plane would meet the rim itself: its cut, drawn as
+    /// chords between points on the rim, sags inside the image circle by up
+    /// to the pixel tolerance and leaves an uncovered ring. Those FOVs take
+    /// the guard-cone path of wider ones instead, with the cone a little
+    /// outside the rim ([`Self::theta_clip`]).
     pub fn clips_at_view_plane(&self) -> bool {
-        self.theta_max <= 0.5 * PI
+        self.theta_max <= 0.5 * PI - RIM_MARGIN_DEG.to_radians()
     }
 
     /// Polar angle beyond which geometry is removed before or after
-    /// refinement: 90° (the view plane) for FOV ≤ 180°, else the guard cone
-    /// halfway between the rim and the antipode, (θ_max + π)/2. Between the
-    /// rim and this angle geometry is kept and lands outside the image circle,
-    /// where a renderer discards its fragments.
+    /// refinement: 90° (the view plane) when [`Self::clips_at_view_plane`];
+    /// for FOV > 180° the guard cone halfway between the rim and the
+    /// antipode, (θ_max + π)/2; for FOVs next to 180° the cone
+    /// 2·[`RIM_MARGIN_DEG`] outside the rim. Between the rim and this angle
+    /// geometry is kept and lands outside the image circle, where a renderer
+    /// discards its fragments.
     pub fn theta_clip(&self) -> f64 {
         if self.clips_at_view_plane() {
             0.5 * PI
-        } else {
+        } else if self.theta_max > 0.5 * PI {
             0.5 * (self.theta_max + PI)
+        } else {
+            self.theta_max + 2.0 * RIM_MARGIN_DEG.to_radians()
+        }
+    }
+
+    /// Largest angle subtended by a piece of an edge that leaves the guard
+    /// cone (`None` when clipping at the view plane): triangles are culled
+    /// per sub-triangle there, so a culled piece must start outside the
+    /// rim. For FOV > 180° it is π − θ_clip (the gap between rim and guard,
+    /// which also keeps kept pieces off the antipode); next to 180° half the
+    /// gap, [`RIM_MARGIN_DEG`], so culled pieces start at least that far
+    /// outside the rim and their chords cannot sag into the image circle.
+    pub fn guard_piece_rad(&self) -> Option<f64> {
+        if self.clips_at_view_plane() {
+            None
+        } else if self.theta_max > 0.5 * PI {
+            Some(PI - self.theta_clip())
+        } else {
+            Some(RIM_MARGIN_DEG.to_radians())
         }
     }
 
     /// Largest polar angle a kept piece of geometry can reach: the clip angle
-    /// for FOV ≤ 180° (everything is clipped there), else halfway between the
-    /// guard cone and the antipode, (θ_clip + π)/2. For FOV > 180° triangles
-    /// are culled per sub-triangle at the guard cone, so a kept piece ends
-    /// inside it but its arc may bulge past it; the rule caps pieces that
-    /// leave the guard cone at π − θ_clip, which keeps every kept arc within
-    /// this angle, away from the antipode.
+    /// when clipping at the view plane (everything is clipped there), else
+    /// θ_clip plus half a guard piece. Triangles are then culled per
+    /// sub-triangle at the guard cone, so a kept piece ends inside it but its
+    /// arc may bulge past it, by at most half its length; the rule caps
+    /// pieces that leave the guard cone at [`Self::guard_piece_rad`]. For
+    /// FOV > 180° this is (θ_clip + π)/2, away from the antipode.
     pub fn theta_reach(&self) -> f64 {
-        if self.clips_at_view_plane() {
-            self.theta_clip()
-        } else {
-            0.5 * (self.theta_clip() + PI)
+        match self.guard_piece_rad() {
+            None => self.theta_clip(),
+            Some(piece) => self.theta_clip() + 0.5 * piece,
         }
     }
 

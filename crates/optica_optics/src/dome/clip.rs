@@ -1,21 +1,24 @@
 //! Removing geometry the projection cannot draw, before refinement.
 //!
-//! * FOV ≤ 180°: everything visible lies in front of the view plane of the
-//!   dome frame (`p·axis ≥ 0`, z = 0 in dome coordinates), a convex half-space,
-//!   so segments and triangles are clipped against that plane in 3D before
+//! * FOV ≤ 178° (see [`DomeProjection::clips_at_view_plane`]): everything
+//!   visible lies in front of the view plane of the dome frame
+//!   (`p·axis ≥ 0`, z = 0 in dome coordinates), a convex half-space, so
+//!   segments and triangles are clipped against that plane in 3D before
 //!   projection. Without it a floor under a zenith camera has vertices behind
 //!   the viewer and near the antipode, and its projected triangles cover the
 //!   whole disk (seen on a software rasteriser, lavapipe, with a camera
 //!   inside a room). What lies between the rim and the plane projects outside
 //!   the image circle and is discarded per fragment.
-//! * FOV > 180°: the visible set θ ≤ FOV/2 is not convex (its complement is a
-//!   cone around the antipode). Segments are clipped exactly to the cone
-//!   θ ≤ θ_guard = (θ_max + π)/2 along their great-circle arc (at most two
-//!   pieces remain). Triangles are not clipped: they are refined whole and the
-//!   refined sub-triangles reaching past θ_guard, or covering the antipode,
-//!   are culled (see [`refine_triangle`](super::refine_triangle)); the gap
-//!   between rim and guard keeps the culled pieces outside the image circle as
-//!   long as refined pieces are smaller than that gap.
+//! * Wider: the visible set θ ≤ FOV/2 is not convex (FOV > 180°: its
+//!   complement is a cone around the antipode), or the view plane would cut
+//!   at the rim itself (next to 180°). Segments are clipped exactly to the
+//!   cone θ ≤ θ_clip ([`DomeProjection::theta_clip`]) along their
+//!   great-circle arc (at most two pieces remain). Triangles are not
+//!   clipped: they are refined whole and the refined sub-triangles reaching
+//!   past θ_clip, or covering the antipode, are culled (see
+//!   [`refine_triangle`](super::refine_triangle)); pieces leaving the cone
+//!   are capped ([`DomeProjection::guard_piece_rad`]) so that culled ones
+//!   start outside the image circle.
 //!
 //! Cut points are computed with the edge's endpoints in canonical order, so
 //! two triangles sharing an edge cut it at the same bits.
@@ -181,7 +184,8 @@ mod tests {
 
     #[test]
     fn plane_clip_of_segments() {
-        let p = dome(180.0);
+        // 170°: the plane clip (next to 180° the guard cone takes over).
+        let p = dome(170.0);
         // Entirely behind the viewer (z > 0 in view space, axis −Z).
         assert!(
             clip_segment(&p, DVec3::new(1.0, 0.0, 1.0), DVec3::new(-1.0, 2.0, 3.0))

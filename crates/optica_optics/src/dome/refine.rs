@@ -211,7 +211,7 @@ mod tests {
 
     #[test]
     fn polyline_across_the_view_plane_is_cut_and_joined() {
-        let p = dome(180.0);
+        let p = dome(170.0);
         let rule = chord_gap(1.0);
         // Square loop around the viewer at z = -1 then dipping behind it.
         let pts = [

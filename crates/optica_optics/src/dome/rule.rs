@@ -35,8 +35,9 @@
 //!   maximum on an arc is at the arc's largest θ. Then
 //!   `n = ⌈α·√(N_max/(8·tol))⌉`.
 //!
-//! For FOV > 180° an arc that leaves the guard cone also gets pieces of at
-//! most π − θ_clip (see [`DomeProjection::theta_reach`]). Both rules cap n at
+//! Where triangles are culled at a guard cone (FOV ≥ 180°), an arc that
+//! leaves it also gets pieces of at most
+//! [`DomeProjection::guard_piece_rad`] (see [`DomeProjection::theta_reach`]). Both rules cap n at
 //! [`MAX_PIECES`] (reported as `capped`).
 
 use std::f64::consts::PI;
@@ -221,17 +222,17 @@ impl SplitRule {
             };
         }
         let range = arc.theta_range(proj.axis());
-        // An arc leaving the guard cone (FOV > 180°, triangles: they are
-        // culled per sub-triangle, not clipped) gets pieces of at most
-        // π − θ_clip, so a kept piece cannot reach the antipode. Without
+        // An arc leaving the guard cone (FOV ≥ 180°, triangles: they are
+        // culled per sub-triangle, not clipped) gets pieces of at most the
+        // guard piece, so a kept piece cannot reach the antipode and a
+        // culled one starts outside the rim. Without
         // this, a radial arc through the antipode (N = 0) stays one piece and
         // its chord jumps across the image.
-        let leaves = !proj.clips_at_view_plane() && range.max > proj.theta_clip();
-        let guard = if leaves {
-            arc.alpha / (PI - proj.theta_clip())
-        } else {
-            0.0
-        };
+        let guard_piece = proj
+            .guard_piece_rad()
+            .filter(|_| range.max > proj.theta_clip());
+        let leaves = guard_piece.is_some();
+        let guard = guard_piece.map_or(0.0, |piece| arc.alpha / piece);
         let steps = match self.0 {
             Rule::VisualAngle { max_piece_rad } => arc.alpha / max_piece_rad,
             Rule::ChordGap { tolerance_px } => {
@@ -348,9 +349,15 @@ mod tests {
                 capped: false
             }
         );
+        // The paper's step at the rim is 2.53°; calibrated where kept pieces
+        // can reach (92.5°: the guard cone 2° outside the rim plus half a
+        // guard piece) it is 2.46°, and the edge takes 5 pieces.
+        let at_rim = max_tangential_piece_rad(p.focal_px(), 0.5 * PI, 0.5);
+        assert!((at_rim.to_degrees() - 2.53).abs() < 0.01);
+        assert!((p.theta_reach().to_degrees() - 92.5).abs() < 1e-12);
         let paper = SplitRule::visual_angle_for_tolerance(&p, 0.5).unwrap();
-        assert!((paper.max_piece_rad().unwrap().to_degrees() - 2.53).abs() < 0.01);
-        assert_eq!(paper.pieces(&p, a, b).unwrap().n, 4);
+        assert!((paper.max_piece_rad().unwrap().to_degrees() - 2.46).abs() < 0.01);
+        assert_eq!(paper.pieces(&p, a, b).unwrap().n, 5);
         assert_eq!(
             SplitRule::visual_angle(0.1)
                 .unwrap()

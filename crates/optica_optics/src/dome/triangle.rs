@@ -538,8 +538,9 @@ mod tests {
     fn inside_out_room_clipped_at_view_plane() {
         // The case that broke an unclipped lavapipe render: a zenith camera inside a box. The
         // floor (behind the viewer) is clipped away, walls are cut at z = 0;
-        // the only open boundary lies on the view plane.
-        let p = dome(180.0);
+        // the only open boundary lies on the view plane (170°: next to 180°
+        // the guard cone takes over, see the next test).
+        let p = dome(170.0);
         let m = box_mesh(
             DVec3::new(-4.0, -6.0, -3.0),
             DVec3::new(4.0, 3.0, 1.7),
@@ -556,6 +557,50 @@ mod tests {
                     && r.mesh.positions[j as usize].z.abs() < 1e-12
             );
         }
+    }
+
+    #[test]
+    fn the_rim_of_a_180_degree_dome_is_covered() {
+        // The same room at 180° and 0.5 px. Cut at the view plane, the walls
+        // ended in chords between points on the rim, sagging up to the
+        // tolerance inside the image circle: an uncovered ring. With the
+        // guard cone 2° outside the rim, the drawn triangles (straight in
+        // the image) cover every point of the circle just inside the rim.
+        let p = dome(180.0);
+        assert!(!p.clips_at_view_plane());
+        assert!((p.theta_clip().to_degrees() - 92.0).abs() < 1e-12);
+        let m = box_mesh(
+            DVec3::new(-4.0, -6.0, -3.0),
+            DVec3::new(4.0, 3.0, 1.7),
+            true,
+        );
+        let r = refine_mesh(&p, &m, chord_gap(0.5));
+        assert!(r.stats.culled > 0);
+        let px = |v: DVec3| p.project(v).image_point().unwrap().pixel;
+        let tris: Vec<[glam::DVec2; 3]> = r
+            .mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| px(r.mesh.positions()[i as usize])))
+            .collect();
+        let inside = |t: &[glam::DVec2; 3], q: glam::DVec2| {
+            let s = |a: glam::DVec2, b: glam::DVec2| (b - a).perp_dot(q - a);
+            let (d0, d1, d2) = (s(t[0], t[1]), s(t[1], t[2]), s(t[2], t[0]));
+            (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0)
+        };
+        let (c, rim) = (p.centre_px(), p.rim_radius_px());
+        for k in 0..2000 {
+            let phi = std::f64::consts::TAU * f64::from(k) / 2000.0;
+            let q = c + (rim - 0.05) * glam::DVec2::from_angle(phi);
+            assert!(tris.iter().any(|t| inside(t, q)), "{q} uncovered");
+        }
+        // Every kept vertex is inside the guard cone.
+        assert!(
+            r.mesh
+                .positions()
+                .iter()
+                .all(|&v| p.theta(v) <= p.theta_clip() + 1e-12)
+        );
     }
 
     #[test]
@@ -619,7 +664,7 @@ mod tests {
 
     #[test]
     fn bad_triangles_are_counted_per_cause() {
-        let p = dome(180.0);
+        let p = dome(170.0);
         let rule = chord_gap(1.0);
         // A box in front of the viewer with vertex 0 NaN: the triangles using
         // it are dropped as non-finite, the others refined.
@@ -663,7 +708,7 @@ mod tests {
             other => panic!("{other:?}"),
         }
         // ... while the singular places are counted. An edge through the
-        // viewer: unclipped at 250°; at 180° the view plane cuts it at the
+        // viewer: unclipped at 250°; at 170° the view plane cuts it at the
         // viewer, so its part in front has a corner at the origin.
         let t = [
             DVec3::new(-1.0, 0.0, -1.0),

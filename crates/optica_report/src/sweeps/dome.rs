@@ -232,9 +232,11 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
                 .and_then(|s| s.last())
                 .map_or(f64::NAN, |v| p180.theta(*v).to_degrees());
             (
-                ok && bh.strips.is_empty() && cr.strips.len() == 1 && (end - 90.0).abs() < 1e-9,
+                ok && bh.strips.is_empty()
+                    && cr.strips.len() == 1
+                    && (end - p180.theta_clip().to_degrees()).abs() < 1e-9,
                 format!(
-                    "behind: {} strips; crossing: ends at θ = {end:.9}°, max error {e:.3} px",
+                    "behind: {} strips; crossing: ends at θ = {end:.9}° (the guard cone, 2° outside the rim), max error {e:.3} px",
                     bh.strips.len()
                 ),
             )
@@ -244,16 +246,38 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     report.case("points behind the viewer (FOV 180°)", case.0, case.1);
 
     // The floor under a zenith camera: unclipped, its vertices lie near the
-    // antipode and its triangles cover the whole disk.
-    let r = refine_mesh(&p180, &room(), rule);
-    let e = EdgeErrors::of_mesh(&p180, &r.mesh);
+    // antipode and its triangles cover the whole disk. At 170° it is clipped
+    // at the view plane; at 180° its sub-triangles past the guard cone (2°
+    // outside the rim, so that the rim is covered) are culled.
+    let p170 = dome(170.0);
+    let r = refine_mesh(&p170, &room(), rule);
+    let e = EdgeErrors::of_mesh(&p170, &r.mesh);
     let behind = r.mesh.positions().iter().filter(|v| v.z > 1e-12).count();
     report.case(
-        "floor under a zenith camera (FOV 180°)",
+        "floor under a zenith camera (FOV 170°)",
         r.stats.clipped_away == 2 && behind == 0 && e.failed == 0 && e.max_px <= tol,
         format!(
             "{} of 12 triangles (the floor) clipped away, walls cut at z = 0; {} triangles, max edge error {:.3} px",
             r.stats.clipped_away,
+            r.mesh.triangles().len(),
+            e.max_px
+        ),
+    );
+    let r = refine_mesh(&p180, &room(), rule);
+    let e = EdgeErrors::of_mesh(&p180, &r.mesh);
+    let beyond = r
+        .mesh
+        .positions()
+        .iter()
+        .filter(|v| p180.theta(**v) > p180.theta_clip() + 1e-12)
+        .count();
+    report.case(
+        "floor under a zenith camera (FOV 180°)",
+        r.stats.culled > 0 && beyond == 0 && e.failed == 0 && e.max_px <= tol,
+        format!(
+            "{} sub-triangles culled past the guard cone at {:.0}°, none kept beyond; {} triangles, max edge error {:.3} px",
+            r.stats.culled,
+            p180.theta_clip().to_degrees(),
             r.mesh.triangles().len(),
             e.max_px
         ),

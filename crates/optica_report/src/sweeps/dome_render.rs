@@ -15,8 +15,9 @@
 //!   `pixel_max_px` is the largest such distance (what the tolerance
 //!   promises to bound, up to the sampling of pixel centres),
 //!   `pixel_wrong_frac` the share of wrong pixels. A background pixel inside
-//!   the circle (the rim, clipped at the view plane, drawn as a polyline
-//!   that sags inside the circle) counts its distance to the true rim; one
+//!   the circle near the rim (the rim drawn as a polyline that sags inside
+//!   the circle, as it did when geometry was clipped at the view plane)
+//!   counts its distance to the true rim; one
 //!   deeper inside is a crack between two of the room's separate meshes
 //!   (their shared edge reaches the GPU with different rounding, as it
 //!   would through any camera), counted in `crack_pixels`.
@@ -272,8 +273,8 @@ fn edge_errors(img: &image::RgbaImage, dome: &DomeProjection, tolerance: f64) ->
             }
             wrong += 1;
             // Background inside the circle: near the rim, the rim drawn as
-            // a polyline that sags inside it (geometry is clipped at the
-            // view plane), whose overshoot is the distance to the true rim;
+            // a polyline that sags inside it (were geometry clipped at the
+            // rim), whose overshoot is the distance to the true rim;
             // deeper inside, a crack between two separate meshes whose
             // shared edge the GPU sees with different rounding.
             let Some(got) = got else {

@@ -39,14 +39,14 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
     )
 }
 
-/// Points all around the camera, up to 170° from the dome axis, at
+/// Points all around the camera, up to 179.9° from the dome axis, at
 /// distances from 0.3 to 300: a fixed spiral, so the test is reproducible.
 fn points(dome: &optica_optics::dome::DomeProjection) -> Vec<DVec3> {
     let n = 500;
     (0..n)
         .map(|k| {
             let t = (k as f64 + 0.5) / n as f64;
-            let theta = t * 170f64.to_radians();
+            let theta = t * 179.9f64.to_radians();
             let phi = k as f64 * 2.399_963; // golden angle
             let distance = 0.3 * 1000f64.powf((k * 7 % n) as f64 / n as f64);
             let q = DVec3::new(
@@ -92,13 +92,28 @@ fn the_shader_projects_like_its_cpu_twin() {
         let out = Headless::new(1, 1)
             .run_kernel(&kernel(), "main", &input, 4 * points.len())
             .expect("kernel");
-        let mut worst = (0.0f64, 0.0f64);
+        let (mut worst, mut beyond) = ((0.0f64, 0.0f64), 0);
         for (i, p) in points.iter().enumerate() {
             let got = &out[4 * i..4 * i + 4];
             assert_eq!(
                 got[3], 1.0,
                 "fov {fov}, tilt {tilt}: the matrix is not recognised as a dome's"
             );
+            // Past the draw limit the vertex is dropped (depth < 0); next
+            // to it f32 may round either way.
+            let theta = cpu.theta(*p);
+            let limit = cpu.theta_draw_limit();
+            if theta > limit + 1e-4 {
+                assert!(
+                    got[2] < 0.0,
+                    "fov {fov}, point {p} at θ = {theta}: not dropped"
+                );
+                beyond += 1;
+                continue;
+            }
+            if theta > limit - 1e-4 {
+                continue;
+            }
             let image = cpu.project(*p).image_point().expect("not at the antipode");
             let want = ((image.pixel.x - half) / half, (half - image.pixel.y) / half);
             let d_ndc = (got[0] as f64 - want.0).hypot(got[1] as f64 - want.1);
@@ -115,8 +130,9 @@ fn the_shader_projects_like_its_cpu_twin() {
             );
             worst = (worst.0.max(d_ndc), worst.1.max(d_depth));
         }
+        assert!(beyond > 0, "fov {fov}: no point past the draw limit");
         eprintln!(
-            "fov {fov}°, tilt {tilt}°: {} points, worst NDC error {:.2e} of the image radius, depth {:.2e} relative",
+            "fov {fov}°, tilt {tilt}°: {} points ({beyond} dropped past the draw limit), worst NDC error {:.2e} of the image radius, depth {:.2e} relative",
             points.len(),
             worst.0,
             worst.1

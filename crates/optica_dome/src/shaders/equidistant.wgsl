@@ -35,10 +35,25 @@ fn is_dome(m: mat4x4<f32>) -> bool {
     return m[0][0] == FOCAL && m[3][3] == 0.0 && theta_max > 0.0 && theta_max < 3.1416;
 }
 
+const PI: f32 = 3.14159265358979;
+
+// Polar angle past which vertices are dropped: 7/8 of the way from the rim
+// to the antipode (the CPU twin's `DomeProjection::theta_draw_limit`).
+fn theta_draw_limit(theta_max: f32) -> f32 {
+    return theta_max + 0.875 * (PI - theta_max);
+}
+
 // Clip position of dome coordinates `q` (right, up, along the axis): NDC
 // radius θ/θ_max along the point's azimuth (D1–D3 of the CPU twin, with the
 // image circle at NDC radius 1), radial reverse-Z depth n/|q|, and w = |q|
 // so that attributes interpolate by radial distance.
+//
+// A vertex past the draw limit gets depth −1 (z = −w), outside the clip
+// volume: a triangle with all its vertices there (around the antipode,
+// where its image would wrap across the disk) is dropped whole, one
+// straddling the limit is cut short far outside the image circle. Refined
+// twins never reach the limit (they are clipped or culled nearer the rim);
+// it guards geometry drawn without clipping (pre-subdivided meshes).
 fn dome_clip(q: vec3<f32>, near: f32, theta_max: f32) -> vec4<f32> {
     let rho = length(q.xy);
     let theta = atan2(rho, q.z);
@@ -48,7 +63,8 @@ fn dome_clip(q: vec3<f32>, near: f32, theta_max: f32) -> vec4<f32> {
     }
     let w = max(length(q), 1.0e-30);
     let ndc = dir * (theta / theta_max);
-    return vec4<f32>(ndc * w, near, w);
+    let z = select(near, -w, theta > theta_draw_limit(theta_max));
+    return vec4<f32>(ndc * w, z, w);
 }
 
 // Clip position of the view-space point `p` under the dome camera whose

@@ -234,6 +234,25 @@ impl DomeProjection {
         }
     }
 
+    /// Polar angle beyond which a renderer drops the vertices of geometry
+    /// drawn without clipping (pre-subdivided primitives, see
+    /// [`pre_subdivide`](super::pre_subdivide)): 7/8 of the way from the
+    /// rim to the antipode. It lies past [`Self::theta_reach`], so clipped
+    /// or culled geometry never meets it; pieces of at most
+    /// [`Self::max_unclipped_piece_rad`] straddling it lie far outside the
+    /// image circle and cannot wrap around the antipode. The vertex shader
+    /// (`equidistant.wgsl`) applies it.
+    pub fn theta_draw_limit(&self) -> f64 {
+        self.theta_max + 0.875 * (PI - self.theta_max)
+    }
+
+    /// Largest piece of geometry drawn without clipping: half the gap
+    /// between [`Self::theta_draw_limit`] and the antipode, so a piece with
+    /// a vertex inside the limit keeps the antipode out of reach.
+    pub fn max_unclipped_piece_rad(&self) -> f64 {
+        0.5 * (PI - self.theta_draw_limit())
+    }
+
     /// View-space point in dome coordinates: (along image right, along image
     /// up, along the axis). The third component is positive in front.
     pub fn to_dome(&self, p: DVec3) -> DVec3 {
@@ -258,6 +277,31 @@ mod tests {
             tilt_deg,
             size_px,
         })
+    }
+
+    #[test]
+    fn clip_angles_are_ordered_for_every_fov() {
+        // rim < clip (a margin outside) ≤ reach < draw limit < π,
+        // and the guard piece fits between rim and clip, for FOVs from 1° to
+        // next to 360°, across the switch from plane to cone at 178°.
+        let margin = RIM_MARGIN_DEG.to_radians();
+        for fov in [
+            1.0, 90.0, 170.0, 178.0, 178.001, 179.0, 180.0, 181.0, 250.0, 359.9,
+        ] {
+            let p = frame(fov, 0.0, 4096).unwrap();
+            let (rim, clip, reach) = (p.theta_max(), p.theta_clip(), p.theta_reach());
+            let limit = p.theta_draw_limit();
+            // (Next to 360° the rim is closer than that to the antipode:
+            // the cone halves the gap.)
+            let gap = margin.min(0.5 * (PI - rim));
+            assert!(clip - rim >= gap * (1.0 - 1e-12), "{fov}");
+            assert!(clip <= reach && reach < limit && limit < PI, "{fov}");
+            assert!(p.max_unclipped_piece_rad() > 0.0, "{fov}");
+            assert_eq!(p.clips_at_view_plane(), fov <= 178.0, "{fov}");
+            if let Some(piece) = p.guard_piece_rad() {
+                assert!(piece <= clip - rim && piece > 0.0, "{fov}");
+            }
+        }
     }
 
     #[test]

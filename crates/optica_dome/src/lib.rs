@@ -105,18 +105,23 @@ use bevy::shader::load_shader_library;
 
 mod cube;
 mod export;
+pub mod lines;
 mod mask;
 mod projection;
 mod refine;
 mod settings;
 mod shader_hook;
+mod twin_mesh;
 
 pub use cube::{CubeLayout, DomeCubeFace, DomeCubeFaces, FIVE_FACE_MAX_FOV_DEG, guarded_tan_half};
 pub use export::{DomeExport, DomeExportPlugin, DomeShowClock, parse_frame_range};
 pub use mask::DomeRimMask;
 pub use projection::DomeClip;
-pub use refine::{DOME_LAYER, DomeMaterialPlugin, DomeTwin, DomeTwinOf, refine_mesh_asset};
+pub use refine::{
+    DOME_LAYER, DomeApparentSize, DomeMaterialPlugin, DomeRefineStats, DomeTwin, DomeTwinOf,
+};
 pub use settings::{DomeCamera, DomeMode, FACE_PX_RANGE, MAX_FOV_DEG};
+pub use twin_mesh::{pre_subdivide_mesh_asset, refine_mesh_asset};
 
 /// Adds [`DomeCamera`]: keeps each dome camera's projection in step with
 /// its settings and, once a dome camera exists, puts the equidistant
@@ -132,6 +137,9 @@ impl Plugin for DomePlugin {
             .add_plugins(cube::CubeResamplePlugin)
             .register_type::<DomeCamera>()
             .register_type::<DomeMode>()
+            .register_type::<DomeApparentSize>()
+            .register_type::<DomeRefineStats>()
+            .init_resource::<DomeRefineStats>()
             .register_type::<DomeShowClock>()
             .init_resource::<DomeShowClock>()
             .register_type::<DomeRimMask>()

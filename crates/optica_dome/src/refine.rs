@@ -1,13 +1,17 @@
 //! The paper's refinement on the CPU: each mesh a dome camera sees gets a
-//! *twin*, its triangles clipped behind the viewer and split until every
-//! edge's projected chord lies within the camera's pixel tolerance of the
-//! true curved image (`optica_optics::dome::refine_triangle`, §3.3 with
-//! neighbours sharing their split edges, so no crack opens).
+//! *twin*, refined for the camera (see `twin_mesh.rs`): its triangles
+//! clipped behind the viewer and split until every edge's projected chord
+//! lies within the camera's pixel tolerance of the true curved image
+//! (`optica_optics::dome::refine_triangle`, §3.3 with neighbours sharing
+//! their split edges, so no crack opens), its lines split likewise.
 //!
 //! Why the CPU: WGSL has no geometry shader, and the split depends on the
 //! camera only through the mesh's placement in view space, which for most
 //! scenes changes rarely; so a twin is rebuilt only when its mesh, its
-//! placement relative to the camera or the camera's settings change.
+//! placement relative to the camera or the camera's settings change. The
+//! paper's classification (§3.1) saves more: a mesh marked
+//! [`DomeApparentSize::NearlyConstant`] (stars, sky art) is split once for
+//! every view direction and rebuilt only when the viewer moves in its space.
 //!
 //! Twins live on the render layer [`DOME_LAYER`], which only dome cameras
 //! see (and which every light is given), so other cameras keep drawing the
@@ -19,18 +23,61 @@
 
 use std::marker::PhantomData;
 
-use bevy::asset::RenderAssetUsages;
 use bevy::camera::visibility::RenderLayers;
 use bevy::light::NotShadowCaster;
-use bevy::math::{Affine3A, DAffine3, DVec3};
-use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
+use bevy::math::{Affine3A, Vec3A};
 use bevy::prelude::*;
-use optica_optics::dome::{DomeProjection, SplitRule, refine_triangle};
+use optica_optics::dome::{
+    ApparentSize, SplitRule, Treatment, classify, pre_subdivision_piece_rad,
+};
 
 use crate::DomeCamera;
+use crate::twin_mesh::{pre_subdivide_mesh_asset, primitive_kind, refine_mesh_asset};
 
 /// The render layer of the refined twins and of dome cameras.
 pub const DOME_LAYER: usize = 29;
+
+/// How a mesh's apparent size changes while the app runs: the paper's
+/// classification (§3.1), which decides how its dome twin is refined. Put
+/// it on a mesh entity; without it a mesh is [`Self::Changing`].
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use optica_dome::DomeApparentSize;
+///
+/// fn spawn_sky_art(mut commands: Commands, art: Handle<Mesh>) {
+///     // A constellation figure on the sky sphere around the viewer:
+///     // split once, not each time the camera or the sky turns.
+///     commands.spawn((Mesh3d(art), DomeApparentSize::NearlyConstant));
+/// }
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Component, Default)]
+pub enum DomeApparentSize {
+    /// It moves relative to the viewer (buildings, vehicles, scenery, large
+    /// stars passing by): refined from the current view whenever it moves
+    /// relative to the camera or the camera turns.
+    #[default]
+    Changing,
+    /// It keeps its distance to the viewer and only turns about it (stars,
+    /// constellation art, a sky sphere centred on the camera, diurnal
+    /// motion): its triangles are split once with the paper's
+    /// rotation-invariant step for the camera's tolerance, and split again
+    /// only when its mesh, the camera's settings or the viewer's position
+    /// in the mesh's own space change — not when it or the camera turns.
+    /// Not clipped: the vertex shader drops what lies near the antipode.
+    /// Lines are always refined from the view (the paper's classification).
+    NearlyConstant,
+}
+
+impl From<DomeApparentSize> for ApparentSize {
+    fn from(size: DomeApparentSize) -> Self {
+        match size {
+            DomeApparentSize::Changing => ApparentSize::Changing,
+            DomeApparentSize::NearlyConstant => ApparentSize::NearlyConstant,
+        }
+    }
+}
 
 /// On an original mesh entity: its twin and what the twin was built for.
 #[derive(Component, Debug)]
@@ -41,10 +88,100 @@ pub struct DomeTwin {
     /// handle every frame would make Bevy re-specialise the twin each frame
     /// and never draw it while the camera moves.
     twin_mesh: Handle<Mesh>,
-    view_from_local: Affine3A,
+    built_for: BuiltFor,
+    /// The original mesh's size (largest distance of a vertex from its
+    /// origin), for [`BuiltFor::serves`].
+    extent: f32,
+}
+
+impl DomeTwin {
+    /// How the twin was refined: from the view ([`Treatment::Dynamic`]) or
+    /// once for every view direction ([`Treatment::PreSubdivided`]).
+    pub fn treatment(&self) -> Treatment {
+        match self.built_for.placement {
+            Placement::View(_) => Treatment::Dynamic,
+            Placement::Viewer { .. } => Treatment::PreSubdivided,
+        }
+    }
+}
+
+/// What a twin depends on: when any of it changes, it is built again.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct BuiltFor {
     mesh: AssetId<Mesh>,
     camera: DomeCamera,
     size_px: u32,
+    placement: Placement,
+}
+
+/// The part of the mesh's placement relative to the camera a twin depends
+/// on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Placement {
+    /// Refined from the view: all of it.
+    View(Affine3A),
+    /// Split once: the viewer's position in the mesh's space and the
+    /// mesh's scale (angles at the viewer do not change under rotation).
+    Viewer { eye: Vec3A, scale: Vec3A },
+}
+
+/// How far the viewer may drift in a pre-subdivided mesh's space, relative
+/// to its distance from the mesh's origin plus the mesh's size, before the
+/// mesh is split again; and the relative change of scale allowed. Turning
+/// the camera recomposes its transform and moves the computed eye by
+/// rounding (~1e-7 relative); a real move of 1e-5 changes the angles the
+/// split was made for by about as much, far below any tolerance.
+const VIEWER_DRIFT_REL: f32 = 1e-5;
+
+impl BuiltFor {
+    /// Whether a twin built for `self` still serves `now`; `extent` is the
+    /// mesh's size (largest distance of a vertex from its origin).
+    fn serves(&self, now: &BuiltFor, extent: f32) -> bool {
+        let same =
+            self.mesh == now.mesh && self.camera == now.camera && self.size_px == now.size_px;
+        same && match (self.placement, now.placement) {
+            (Placement::View(a), Placement::View(b)) => a == b,
+            (
+                Placement::Viewer { eye: e0, scale: s0 },
+                Placement::Viewer { eye: e1, scale: s1 },
+            ) => {
+                (e1 - e0).length() <= VIEWER_DRIFT_REL * (e0.length() + extent)
+                    && ((s1 - s0).abs()).max_element() <= VIEWER_DRIFT_REL * s0.max_element()
+            }
+            _ => false,
+        }
+    }
+}
+
+impl Placement {
+    fn of(treatment: Treatment, view_from_local: Affine3A) -> Self {
+        match treatment {
+            Treatment::Dynamic => Self::View(view_from_local),
+            Treatment::PreSubdivided => {
+                let m = view_from_local.matrix3;
+                Self::Viewer {
+                    eye: view_from_local.inverse().translation,
+                    scale: Vec3A::new(m.x_axis.length(), m.y_axis.length(), m.z_axis.length()),
+                }
+            }
+        }
+    }
+}
+
+/// What the last refinement pass did: how many twins it built or rebuilt,
+/// how many it kept as they were, and the CPU time it took. Shown by the
+/// `dome` example's panel; a static scene rebuilds nothing.
+#[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Resource, Default)]
+pub struct DomeRefineStats {
+    /// Twins built or rebuilt in the last pass.
+    pub rebuilt: usize,
+    /// Twins still right for the camera, kept.
+    pub kept: usize,
+    /// Vertices of the twins rebuilt in the last pass.
+    pub vertices: usize,
+    /// CPU time of the last pass, in milliseconds.
+    pub cpu_ms: f32,
 }
 
 /// On a twin: the original it refines.
@@ -104,19 +241,27 @@ pub(crate) fn light_the_dome_layer(
 }
 
 /// Builds or rebuilds the twin of every mesh the (first) dome camera may
-/// see, when its mesh, its placement relative to the camera or the camera's
-/// settings changed.
+/// see, when what it was built for changed (see [`BuiltFor`]).
 #[allow(clippy::type_complexity)]
 pub(crate) fn refine_twins(
     mut commands: Commands,
     cameras: Query<(&DomeCamera, &Camera, &GlobalTransform)>,
     mut originals: Query<
-        (Entity, &Mesh3d, &GlobalTransform, Option<&mut DomeTwin>),
+        (
+            Entity,
+            &Mesh3d,
+            &GlobalTransform,
+            Option<&DomeApparentSize>,
+            Option<&mut DomeTwin>,
+        ),
         Without<DomeTwinOf>,
     >,
     mut meshes: ResMut<Assets<Mesh>>,
     mut mesh_events: MessageReader<AssetEvent<Mesh>>,
+    mut stats: ResMut<DomeRefineStats>,
 ) {
+    let start = std::time::Instant::now();
+    let mut pass = DomeRefineStats::default();
     // Meshes edited in place keep their id: their twins are stale too.
     let edited: Vec<AssetId<Mesh>> = mesh_events
         .read()
@@ -130,7 +275,7 @@ pub(crate) fn refine_twins(
         .find(|(camera, ..)| camera.mode == crate::DomeMode::Vertex)
     else {
         // No vertex-mode camera: twins are not needed.
-        for (entity, _, _, twin) in &originals {
+        for (entity, _, _, _, twin) in &originals {
             if let Some(twin) = twin {
                 commands.entity(twin.twin).despawn();
                 commands.entity(entity).remove::<DomeTwin>();
@@ -147,28 +292,46 @@ pub(crate) fn refine_twins(
     let Ok(projection) = camera.projection(size_px) else {
         return;
     };
-    let Ok(rule) = SplitRule::chord_gap(f64::from(camera.tolerance_px)) else {
+    let tolerance = f64::from(camera.tolerance_px);
+    let (Ok(rule), Ok(piece)) = (
+        SplitRule::chord_gap(tolerance),
+        pre_subdivision_piece_rad(&projection, tolerance),
+    ) else {
         return;
     };
     let view_from_world = camera_transform.affine().inverse();
-    for (entity, mesh3d, transform, twin) in &mut originals {
-        let view_from_local = view_from_world * transform.affine();
-        let fresh = twin.as_ref().is_some_and(|t| {
-            t.mesh == mesh3d.id()
-                && !edited.contains(&t.mesh)
-                && t.camera == *camera
-                && t.size_px == size_px
-                && t.view_from_local == view_from_local
-        });
-        if fresh {
-            continue;
-        }
+    for (entity, mesh3d, transform, size, twin) in &mut originals {
         let Some(source) = meshes.get(&mesh3d.0) else {
             continue;
         };
-        let Some(refined) = refine_mesh_asset(source, view_from_local, &projection, rule) else {
+        let Some(kind) = primitive_kind(source) else {
             continue;
         };
+        let treatment = classify(kind, size.copied().unwrap_or_default().into());
+        let view_from_local = view_from_world * transform.affine();
+        let built_for = BuiltFor {
+            mesh: mesh3d.id(),
+            camera: *camera,
+            size_px,
+            placement: Placement::of(treatment, view_from_local),
+        };
+        let fresh = twin.as_ref().is_some_and(|t| {
+            t.built_for.serves(&built_for, t.extent) && !edited.contains(&built_for.mesh)
+        });
+        if fresh {
+            pass.kept += 1;
+            continue;
+        }
+        let refined = match treatment {
+            Treatment::Dynamic => refine_mesh_asset(source, view_from_local, &projection, rule),
+            Treatment::PreSubdivided => pre_subdivide_mesh_asset(source, view_from_local, piece),
+        };
+        let Some(refined) = refined else {
+            continue;
+        };
+        let extent = extent_of(source);
+        pass.rebuilt += 1;
+        pass.vertices += refined.count_vertices();
         match twin {
             Some(mut twin) => {
                 if let Some(mut mesh) = meshes.get_mut(&twin.twin_mesh) {
@@ -179,10 +342,8 @@ pub(crate) fn refine_twins(
                         .entity(twin.twin)
                         .insert(Mesh3d(twin.twin_mesh.clone()));
                 }
-                twin.view_from_local = view_from_local;
-                twin.mesh = mesh3d.id();
-                twin.camera = *camera;
-                twin.size_px = size_px;
+                twin.built_for = built_for;
+                twin.extent = extent;
             }
             None => {
                 let handle = meshes.add(refined);
@@ -201,173 +362,28 @@ pub(crate) fn refine_twins(
                 commands.entity(entity).insert(DomeTwin {
                     twin,
                     twin_mesh: handle,
-                    view_from_local,
-                    mesh: mesh3d.id(),
-                    camera: *camera,
-                    size_px,
+                    built_for,
+                    extent,
                 });
             }
         }
+    }
+    pass.cpu_ms = start.elapsed().as_secs_f32() * 1000.0;
+    *stats = pass;
+}
+
+/// The largest distance of a vertex of `mesh` from its origin (0 without
+/// positions).
+fn extent_of(mesh: &Mesh) -> f32 {
+    match mesh.attribute(Mesh::ATTRIBUTE_POSITION) {
+        Some(bevy::mesh::VertexAttributeValues::Float32x3(p)) => p
+            .iter()
+            .map(|v| Vec3::from_array(*v).length())
+            .filter(|d| d.is_finite())
+            .fold(0.0, f32::max),
+        _ => 0.0,
     }
 }
 
 /// The domemaster size assumed before the camera's target is known.
 const DEFAULT_SIZE_PX: u32 = 2048;
-
-/// `source` (a triangle list in its local space) refined for a dome camera
-/// that sees it through `view_from_local`: clipped behind the viewer and
-/// split by `rule`, in the same local space, with every `Float32x2/3/4`
-/// vertex attribute interpolated (normals and tangents renormalised).
-/// `None` for other topologies or a mesh without positions.
-pub fn refine_mesh_asset(
-    source: &Mesh,
-    view_from_local: Affine3A,
-    projection: &DomeProjection,
-    rule: SplitRule,
-) -> Option<Mesh> {
-    if source.primitive_topology() != PrimitiveTopology::TriangleList {
-        return None;
-    }
-    let Some(VertexAttributeValues::Float32x3(positions)) =
-        source.attribute(Mesh::ATTRIBUTE_POSITION)
-    else {
-        return None;
-    };
-    let indices: Vec<u32> = match source.indices() {
-        Some(Indices::U16(i)) => i.iter().map(|&v| u32::from(v)).collect(),
-        Some(Indices::U32(i)) => i.clone(),
-        None => (0..positions.len() as u32).collect(),
-    };
-    let view_from_local = DAffine3::from_mat4(Mat4::from(view_from_local).as_dmat4());
-    let local_from_view = view_from_local.inverse();
-    let view: Vec<DVec3> = positions
-        .iter()
-        .map(|p| view_from_local.transform_point3(DVec3::from(p.map(f64::from))))
-        .collect();
-    // Attributes to carry, besides the position.
-    // (An attribute of another length than the positions is malformed;
-    // it is left out rather than read out of bounds.)
-    let carried: Vec<_> = source
-        .attributes()
-        .filter(|(a, v)| a.id != Mesh::ATTRIBUTE_POSITION.id && v.len() == positions.len())
-        .filter_map(|(a, values)| Interpolated::of(values).map(|v| (*a, v)))
-        .collect();
-    let mut out_positions: Vec<[f32; 3]> = Vec::new();
-    let mut out_carried: Vec<Interpolated> = carried.iter().map(|(_, v)| v.empty()).collect();
-    let mut out_indices: Vec<u32> = Vec::new();
-    for t in indices.chunks_exact(3) {
-        let ids = [t[0] as usize, t[1] as usize, t[2] as usize];
-        if ids.iter().any(|&i| i >= view.len()) {
-            continue;
-        }
-        let corners = ids.map(|i| view[i]);
-        let Ok(refined) = refine_triangle(projection, corners, rule) else {
-            continue;
-        };
-        let (points, triangles) = refined.mesh.into_parts();
-        let base = out_positions.len() as u32;
-        for p in &points {
-            let local = local_from_view.transform_point3(*p);
-            out_positions.push(local.as_vec3().to_array());
-            let weights = barycentric(corners, *p);
-            for (out, (_, values)) in out_carried.iter_mut().zip(&carried) {
-                out.push_mix(values, ids, weights);
-            }
-        }
-        out_indices.extend(triangles.iter().flatten().map(|i| base + i));
-    }
-    let mut mesh = Mesh::new(
-        PrimitiveTopology::TriangleList,
-        RenderAssetUsages::default(),
-    );
-    mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, out_positions);
-    for ((attribute, _), values) in carried.iter().zip(out_carried) {
-        let normalise =
-            attribute.id == Mesh::ATTRIBUTE_NORMAL.id || attribute.id == Mesh::ATTRIBUTE_TANGENT.id;
-        mesh.insert_attribute(*attribute, values.finish(normalise));
-    }
-    mesh.insert_indices(Indices::U32(out_indices));
-    Some(mesh)
-}
-
-/// Barycentric weights of `p` (on the triangle's plane) in `t`, by areas
-/// projected on the triangle's normal; the centroid's for a degenerate
-/// triangle.
-fn barycentric(t: [DVec3; 3], p: DVec3) -> [f64; 3] {
-    let n = (t[1] - t[0]).cross(t[2] - t[0]);
-    let area = n.length_squared();
-    // Also catches a NaN area.
-    if area.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-        return [1.0 / 3.0; 3];
-    }
-    let w0 = (t[1] - p).cross(t[2] - p).dot(n) / area;
-    let w1 = (t[2] - p).cross(t[0] - p).dot(n) / area;
-    [w0, w1, 1.0 - w0 - w1]
-}
-
-/// A float vertex attribute being interpolated.
-enum Interpolated {
-    X2(Vec<[f32; 2]>),
-    X3(Vec<[f32; 3]>),
-    X4(Vec<[f32; 4]>),
-}
-
-impl Interpolated {
-    /// A copy of `values` when it is a float attribute this can mix.
-    fn of(values: &VertexAttributeValues) -> Option<Self> {
-        match values {
-            VertexAttributeValues::Float32x2(v) => Some(Self::X2(v.clone())),
-            VertexAttributeValues::Float32x3(v) => Some(Self::X3(v.clone())),
-            VertexAttributeValues::Float32x4(v) => Some(Self::X4(v.clone())),
-            _ => None,
-        }
-    }
-
-    fn empty(&self) -> Self {
-        match self {
-            Self::X2(_) => Self::X2(Vec::new()),
-            Self::X3(_) => Self::X3(Vec::new()),
-            Self::X4(_) => Self::X4(Vec::new()),
-        }
-    }
-
-    /// Appends `Σ w_k · source[ids_k]`.
-    fn push_mix(&mut self, source: &Self, ids: [usize; 3], w: [f64; 3]) {
-        fn mix<const N: usize>(v: &[[f32; N]], ids: [usize; 3], w: [f64; 3]) -> [f32; N] {
-            std::array::from_fn(|c| {
-                (0..3).map(|k| w[k] * f64::from(v[ids[k]][c])).sum::<f64>() as f32
-            })
-        }
-        match (self, source) {
-            (Self::X2(out), Self::X2(v)) => out.push(mix(v, ids, w)),
-            (Self::X3(out), Self::X3(v)) => out.push(mix(v, ids, w)),
-            (Self::X4(out), Self::X4(v)) => out.push(mix(v, ids, w)),
-            _ => {}
-        }
-    }
-
-    /// The attribute values; with `normalise`, the xyz part made unit
-    /// length (normals, tangents; a tangent keeps its handedness w).
-    fn finish(self, normalise: bool) -> VertexAttributeValues {
-        let unit = |v: Vec3| v.try_normalize().unwrap_or(Vec3::Z);
-        match self {
-            Self::X2(v) => VertexAttributeValues::Float32x2(v),
-            Self::X3(v) if normalise => VertexAttributeValues::Float32x3(
-                v.into_iter()
-                    .map(|a| unit(Vec3::from(a)).to_array())
-                    .collect(),
-            ),
-            Self::X3(v) => VertexAttributeValues::Float32x3(v),
-            Self::X4(v) if normalise => VertexAttributeValues::Float32x4(
-                v.into_iter()
-                    .map(|a| {
-                        unit(Vec3::new(a[0], a[1], a[2]))
-                            .extend(a[3].signum())
-                            .to_array()
-                    })
-                    .collect(),
-            ),
-            Self::X4(v) => VertexAttributeValues::Float32x4(v),
-        }
-    }
-}

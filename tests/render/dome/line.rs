@@ -1,9 +1,13 @@
-//! A straight 3D line on the dome: a thin bar 20 units long, passing 3 units
+//! A straight 3D line on the dome: a segment 20 units long, passing 3 units
 //! above and 2 in front of the viewer, covers 160° of the sky and projects to
-//! a curved arc. Every pixel it lights must lie within the tolerance (plus
-//! the bar's own half-width and pixel sampling) of the analytic image of the
-//! 3D segment — and, refined at a loose tolerance, it visibly does not.
+//! a curved arc. Drawn as a thin bar (triangles) or as a line mesh (the
+//! GPU's one-pixel lines), every pixel it lights must lie within the
+//! tolerance (plus the bar's own half-width and pixel sampling) of the
+//! analytic image of the 3D segment — and, refined at a loose tolerance, it
+//! visibly does not.
 
+use bevy::asset::RenderAssetUsages;
+use bevy::mesh::PrimitiveTopology;
 use bevy::prelude::*;
 use optica_dome::{DomeCamera, DomePlugin};
 use optica_harness::Headless;
@@ -16,9 +20,18 @@ const SIZE: u32 = 256;
 const THICKNESS: f32 = 0.05;
 const CENTRE: Vec3 = Vec3::new(0.0, 3.0, -2.0);
 
+/// How the segment is drawn.
+#[derive(Clone, Copy)]
+enum Drawn {
+    /// A box of cross-section `THICKNESS`.
+    Bar,
+    /// A line-list mesh of one segment, or the same as a two-point strip.
+    Line(PrimitiveTopology),
+}
+
 /// The largest distance, in px, from a lit pixel centre to the analytic
 /// arc, and the number of lit pixels.
-fn farthest_lit_pixel(tolerance_px: f32) -> (f64, usize) {
+fn farthest_lit_pixel(tolerance_px: f32, drawn: Drawn) -> (f64, usize) {
     let frame = Headless::new(SIZE, SIZE)
         .render(move |app: &mut App| {
             app.add_plugins(DomePlugin);
@@ -27,8 +40,16 @@ fn farthest_lit_pixel(tolerance_px: f32) -> (f64, usize) {
                 move |mut commands: Commands,
                       mut meshes: ResMut<Assets<Mesh>>,
                       mut materials: ResMut<Assets<StandardMaterial>>| {
+                    let mesh = match drawn {
+                        Drawn::Bar => Cuboid::new(20.0, THICKNESS, THICKNESS).into(),
+                        Drawn::Line(topology) => Mesh::new(topology, RenderAssetUsages::default())
+                            .with_inserted_attribute(
+                                Mesh::ATTRIBUTE_POSITION,
+                                vec![[-10.0f32, 0.0, 0.0], [10.0, 0.0, 0.0]],
+                            ),
+                    };
                     commands.spawn((
-                        Mesh3d(meshes.add(Cuboid::new(20.0, THICKNESS, THICKNESS))),
+                        Mesh3d(meshes.add(mesh)),
                         flat(&mut materials, Color::WHITE),
                         Transform::from_translation(CENTRE),
                     ));
@@ -74,7 +95,7 @@ fn farthest_lit_pixel(tolerance_px: f32) -> (f64, usize) {
 
 #[test]
 fn a_straight_line_lies_on_its_analytic_arc() {
-    let (refined, lit) = farthest_lit_pixel(0.5);
+    let (refined, lit) = farthest_lit_pixel(0.5, Drawn::Bar);
     eprintln!("tolerance 0.5 px: {lit} lit pixels, farthest {refined:.2} px from the arc");
     // The bar is < 0.3 px thick here; a lit pixel centre may lie up to
     // ~0.75 px from the line it covers.
@@ -83,10 +104,33 @@ fn a_straight_line_lies_on_its_analytic_arc() {
         refined <= 0.5 + 0.3 + 0.75,
         "a lit pixel {refined:.2} px off the arc"
     );
-    let (loose, _) = farthest_lit_pixel(30.0);
+    let (loose, _) = farthest_lit_pixel(30.0, Drawn::Bar);
     eprintln!("tolerance 30 px: farthest {loose:.2} px from the arc");
     assert!(
         loose > 3.0,
         "a 30 px tolerance drew the line within {loose:.2} px: the test cannot tell"
     );
+}
+
+/// The same segment as a line mesh (list and strip): refined like a
+/// triangle's edge, its one-pixel line lies on the arc; unrefined (a loose
+/// tolerance) it does not.
+#[test]
+fn a_line_mesh_lies_on_its_analytic_arc() {
+    for topology in [PrimitiveTopology::LineList, PrimitiveTopology::LineStrip] {
+        let (refined, lit) = farthest_lit_pixel(0.5, Drawn::Line(topology));
+        eprintln!(
+            "{topology:?} at 0.5 px: {lit} lit pixels, farthest {refined:.2} px from the arc"
+        );
+        // The arc is ~190 px long; a one-pixel line lights about as many.
+        assert!(lit > 150, "the line is missing: {lit} px");
+        // A lit pixel centre lies within ~0.75 px of the line it covers.
+        assert!(
+            refined <= 0.5 + 0.75,
+            "a lit pixel {refined:.2} px off the arc"
+        );
+    }
+    let (loose, _) = farthest_lit_pixel(30.0, Drawn::Line(PrimitiveTopology::LineList));
+    eprintln!("line at 30 px: farthest {loose:.2} px from the arc");
+    assert!(loose > 3.0, "30 px drew the line within {loose:.2} px");
 }

@@ -18,9 +18,12 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use std::f64::consts::PI;
+
 use super::arc::Arc;
+use super::camera::DomeProjection;
 use super::refine::RefineStats;
-use super::rule::count_pieces;
+use super::rule::{SplitRule, count_pieces};
 use super::triangle::{RefinedMesh, TriMesh, Welder, subdivide_triangle};
 use crate::input::{self, InvalidInput};
 
@@ -61,6 +64,23 @@ pub fn classify(kind: PrimitiveKind, size: ApparentSize) -> Treatment {
         (PrimitiveKind::Triangle, ApparentSize::NearlyConstant) => Treatment::PreSubdivided,
         _ => Treatment::Dynamic,
     }
+}
+
+/// The piece size for [`pre_subdivide`] that serves every view direction of
+/// `proj` at `tolerance_px`: the paper's calibrated step
+/// ([`SplitRule::visual_angle_for_tolerance`]), at most
+/// [`DomeProjection::max_unclipped_piece_rad`] (pre-subdivided geometry is
+/// not clipped; a renderer drops its vertices past
+/// [`DomeProjection::theta_draw_limit`], and pieces that small cannot wrap
+/// around the antipode). Errors: `tolerance_px` not finite and positive.
+pub fn pre_subdivision_piece_rad(
+    proj: &DomeProjection,
+    tolerance_px: f64,
+) -> Result<f64, InvalidInput> {
+    let step = SplitRule::visual_angle_for_tolerance(proj, tolerance_px)?
+        .max_piece_rad()
+        .unwrap_or(PI);
+    Ok(step.min(proj.max_unclipped_piece_rad()))
 }
 
 /// Splits a mesh once with the paper's rule, pieces of at most
@@ -157,6 +177,25 @@ mod tests {
             let err = EdgeErrors::of_edges(&proj, &edges);
             prop_assert!(err.max_px <= 1.0, "{:?}", err);
         }
+    }
+
+    #[test]
+    fn pre_subdivision_piece_is_the_paper_step_or_the_antipode_cap() {
+        // 4K/180° at 0.5 px: the calibrated step, 2.46°. A 1000 px
+        // tolerance would allow pieces of tens of degrees: capped at half
+        // the gap between the draw limit and the antipode (5.6° at 180°).
+        let p = crate::dome::test_dome(180.0, 0.0, 4096);
+        let fine = pre_subdivision_piece_rad(&p, 0.5).unwrap();
+        assert!(
+            (fine.to_degrees() - 2.46).abs() < 0.01,
+            "{}",
+            fine.to_degrees()
+        );
+        let coarse = pre_subdivision_piece_rad(&p, 1000.0).unwrap();
+        assert_eq!(coarse, p.max_unclipped_piece_rad());
+        assert!((coarse.to_degrees() - 5.625).abs() < 1e-9);
+        let e = pre_subdivision_piece_rad(&p, f64::NAN).unwrap_err();
+        assert_eq!(e.what, "pixel tolerance (px)");
     }
 
     #[test]

@@ -159,7 +159,9 @@ mod triangle;
 
 pub use arc::split_segment;
 pub use camera::{DomeProjection, DomeSettings, MIN_FOV_DEG, RIM_MARGIN_DEG};
-pub use classify::{ApparentSize, PrimitiveKind, Treatment, classify, pre_subdivide};
+pub use classify::{
+    ApparentSize, PrimitiveKind, Treatment, classify, pre_subdivide, pre_subdivision_piece_rad,
+};
 pub use clip::clip_segment;
 pub use error::DomeError;
 #[cfg(feature = "reference")]

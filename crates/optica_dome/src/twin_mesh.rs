@@ -1,0 +1,317 @@
+//! Building a twin's mesh asset: a user's mesh refined for one dome camera.
+//!
+//! * Triangles, dynamic (the paper's default class): clipped behind the
+//!   viewer or culled past the guard cone and split until every edge's
+//!   chord is within the tolerance, from the current view
+//!   ([`refine_mesh_asset`]).
+//! * Triangles of nearly constant apparent size (§3.1: stars, sky art):
+//!   split once with the paper's rotation-invariant step, not clipped
+//!   ([`pre_subdivide_mesh_asset`]); the vertex shader drops what lies near
+//!   the antipode.
+//! * Lines (`LineList`, `LineStrip`; always dynamic in the paper): each
+//!   segment clipped and split like a triangle's edge, drawn as a line list.
+//!
+//! Every `Float32x2/3/4` vertex attribute is carried, interpolated linearly
+//! (normals and tangents renormalised); other attributes are left out.
+
+use bevy::asset::RenderAssetUsages;
+use bevy::math::{Affine3A, DAffine3, DVec3};
+use bevy::mesh::{Indices, MeshVertexAttribute, PrimitiveTopology, VertexAttributeValues};
+use bevy::prelude::*;
+use optica_optics::dome::{
+    DomeProjection, PrimitiveKind, SplitRule, TriMesh, pre_subdivide, refine_segment,
+    refine_triangle,
+};
+
+/// The kind of primitive a mesh is made of, for the paper's classification;
+/// `None` for points.
+pub(crate) fn primitive_kind(mesh: &Mesh) -> Option<PrimitiveKind> {
+    match mesh.primitive_topology() {
+        PrimitiveTopology::TriangleList => Some(PrimitiveKind::Triangle),
+        PrimitiveTopology::LineList | PrimitiveTopology::LineStrip => Some(PrimitiveKind::Line),
+        _ => None,
+    }
+}
+
+/// `source` refined for a dome camera that sees it through
+/// `view_from_local`, in the same local space: a triangle list clipped
+/// behind the viewer (or culled past the guard cone) and split by `rule`,
+/// so that neighbours share their split edges; a line list or strip clipped
+/// and split segment by segment into a line list. Float vertex attributes
+/// are interpolated (see the module docs). `None` for other topologies
+/// (triangle strips, points) or a mesh without `Float32x3` positions.
+pub fn refine_mesh_asset(
+    source: &Mesh,
+    view_from_local: Affine3A,
+    projection: &DomeProjection,
+    rule: SplitRule,
+) -> Option<Mesh> {
+    let source = Source::of(source, view_from_local)?;
+    match source.topology {
+        PrimitiveTopology::TriangleList => Some(source.triangles(|corners| {
+            refine_triangle(projection, corners, rule)
+                .ok()
+                .map(|r| r.mesh.into_parts())
+        })),
+        PrimitiveTopology::LineList | PrimitiveTopology::LineStrip => {
+            Some(source.lines(projection, rule))
+        }
+        _ => None,
+    }
+}
+
+/// `source`, a triangle list of nearly constant apparent size, split once
+/// so that no edge subtends more than `max_piece_rad` at the viewer (the
+/// paper's pre-subdivision, §3.1; take the piece from
+/// `optica_optics::dome::pre_subdivision_piece_rad`). Only the viewer's
+/// position in the mesh's space matters, not the view's direction: the
+/// result serves every rotation of the camera or of the mesh about the
+/// viewer. Not clipped. `None` for other topologies, a mesh without
+/// positions or a piece angle that is not finite and positive.
+pub fn pre_subdivide_mesh_asset(
+    source: &Mesh,
+    view_from_local: Affine3A,
+    max_piece_rad: f64,
+) -> Option<Mesh> {
+    if !(max_piece_rad.is_finite() && max_piece_rad > 0.0) {
+        return None;
+    }
+    let source = Source::of(source, view_from_local)?;
+    if source.topology != PrimitiveTopology::TriangleList {
+        return None;
+    }
+    Some(source.triangles(|corners| {
+        let one = TriMesh::new(corners.to_vec(), vec![[0, 1, 2]]).ok()?;
+        pre_subdivide(&one, max_piece_rad)
+            .ok()
+            .map(|r| r.mesh.into_parts())
+    }))
+}
+
+/// A user's mesh read for refinement: positions in view space, indices,
+/// and the attributes to carry.
+struct Source {
+    topology: PrimitiveTopology,
+    local_from_view: DAffine3,
+    view: Vec<DVec3>,
+    indices: Vec<u32>,
+    carried: Vec<(MeshVertexAttribute, Interpolated)>,
+}
+
+impl Source {
+    fn of(source: &Mesh, view_from_local: Affine3A) -> Option<Self> {
+        let Some(VertexAttributeValues::Float32x3(positions)) =
+            source.attribute(Mesh::ATTRIBUTE_POSITION)
+        else {
+            return None;
+        };
+        let indices: Vec<u32> = match source.indices() {
+            Some(Indices::U16(i)) => i.iter().map(|&v| u32::from(v)).collect(),
+            Some(Indices::U32(i)) => i.clone(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        let view_from_local = DAffine3::from_mat4(Mat4::from(view_from_local).as_dmat4());
+        let view = positions
+            .iter()
+            .map(|p| view_from_local.transform_point3(DVec3::from(p.map(f64::from))))
+            .collect();
+        // (An attribute of another length than the positions is malformed;
+        // it is left out rather than read out of bounds.)
+        let carried = source
+            .attributes()
+            .filter(|(a, v)| a.id != Mesh::ATTRIBUTE_POSITION.id && v.len() == positions.len())
+            .filter_map(|(a, values)| Interpolated::of(values).map(|v| (*a, v)))
+            .collect();
+        Some(Self {
+            topology: source.primitive_topology(),
+            local_from_view: view_from_local.inverse(),
+            view,
+            indices,
+            carried,
+        })
+    }
+
+    /// A triangle list: each triangle of the source replaced by what
+    /// `refine` makes of its view-space corners (points and triangles;
+    /// `None` drops it), attributes mixed by barycentric weights.
+    fn triangles(
+        &self,
+        refine: impl Fn([DVec3; 3]) -> Option<(Vec<DVec3>, Vec<[u32; 3]>)>,
+    ) -> Mesh {
+        let mut out = Output::new(self);
+        for t in self.indices.chunks_exact(3) {
+            let ids = [t[0] as usize, t[1] as usize, t[2] as usize];
+            if ids.iter().any(|&i| i >= self.view.len()) {
+                continue;
+            }
+            let corners = ids.map(|i| self.view[i]);
+            let Some((points, triangles)) = refine(corners) else {
+                continue;
+            };
+            let base = out.positions.len() as u32;
+            for p in &points {
+                out.push(self, *p, ids, barycentric(corners, *p));
+            }
+            out.indices
+                .extend(triangles.iter().flatten().map(|i| base + i));
+        }
+        out.finish(self, PrimitiveTopology::TriangleList)
+    }
+
+    /// A line list: each segment clipped and split by `rule`, attributes
+    /// mixed along the segment.
+    fn lines(&self, projection: &DomeProjection, rule: SplitRule) -> Mesh {
+        let pairs: Vec<[u32; 2]> = match self.topology {
+            PrimitiveTopology::LineStrip => self.indices.windows(2).map(|w| [w[0], w[1]]).collect(),
+            _ => self.indices.chunks_exact(2).map(|w| [w[0], w[1]]).collect(),
+        };
+        let mut out = Output::new(self);
+        for [i, j] in pairs {
+            let (i, j) = (i as usize, j as usize);
+            if i >= self.view.len() || j >= self.view.len() {
+                continue;
+            }
+            let (a, b) = (self.view[i], self.view[j]);
+            // Non-finite ends, a segment through the viewer: left out.
+            let Ok(refined) = refine_segment(projection, a, b, rule) else {
+                continue;
+            };
+            let d = b - a;
+            for strip in refined.strips {
+                let base = out.positions.len() as u32;
+                for p in &strip {
+                    let t = if d.length_squared() > 0.0 {
+                        ((*p - a).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    out.push(self, *p, [i, j, j], [1.0 - t, t, 0.0]);
+                }
+                let n = strip.len() as u32;
+                out.indices
+                    .extend((1..n).flat_map(|k| [base + k - 1, base + k]));
+            }
+        }
+        out.finish(self, PrimitiveTopology::LineList)
+    }
+}
+
+/// A twin mesh being written.
+struct Output {
+    positions: Vec<[f32; 3]>,
+    carried: Vec<Interpolated>,
+    indices: Vec<u32>,
+}
+
+impl Output {
+    fn new(source: &Source) -> Self {
+        Self {
+            positions: Vec::new(),
+            carried: source.carried.iter().map(|(_, v)| v.empty()).collect(),
+            indices: Vec::new(),
+        }
+    }
+
+    /// Appends the view-space point `p`, its attributes `Σ w_k · a[ids_k]`.
+    fn push(&mut self, source: &Source, p: DVec3, ids: [usize; 3], weights: [f64; 3]) {
+        let local = source.local_from_view.transform_point3(p);
+        self.positions.push(local.as_vec3().to_array());
+        for (out, (_, values)) in self.carried.iter_mut().zip(&source.carried) {
+            out.push_mix(values, ids, weights);
+        }
+    }
+
+    fn finish(self, source: &Source, topology: PrimitiveTopology) -> Mesh {
+        let mut mesh = Mesh::new(topology, RenderAssetUsages::default());
+        mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, self.positions);
+        for ((attribute, _), values) in source.carried.iter().zip(self.carried) {
+            let normalise = attribute.id == Mesh::ATTRIBUTE_NORMAL.id
+                || attribute.id == Mesh::ATTRIBUTE_TANGENT.id;
+            mesh.insert_attribute(*attribute, values.finish(normalise));
+        }
+        mesh.insert_indices(Indices::U32(self.indices));
+        mesh
+    }
+}
+
+/// Barycentric weights of `p` (on the triangle's plane) in `t`, by areas
+/// projected on the triangle's normal; the centroid's for a degenerate
+/// triangle.
+fn barycentric(t: [DVec3; 3], p: DVec3) -> [f64; 3] {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let area = n.length_squared();
+    // Also catches a NaN area.
+    if area.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return [1.0 / 3.0; 3];
+    }
+    let w0 = (t[1] - p).cross(t[2] - p).dot(n) / area;
+    let w1 = (t[2] - p).cross(t[0] - p).dot(n) / area;
+    [w0, w1, 1.0 - w0 - w1]
+}
+
+/// A float vertex attribute being interpolated.
+enum Interpolated {
+    X2(Vec<[f32; 2]>),
+    X3(Vec<[f32; 3]>),
+    X4(Vec<[f32; 4]>),
+}
+
+impl Interpolated {
+    /// A copy of `values` when it is a float attribute this can mix.
+    fn of(values: &VertexAttributeValues) -> Option<Self> {
+        match values {
+            VertexAttributeValues::Float32x2(v) => Some(Self::X2(v.clone())),
+            VertexAttributeValues::Float32x3(v) => Some(Self::X3(v.clone())),
+            VertexAttributeValues::Float32x4(v) => Some(Self::X4(v.clone())),
+            _ => None,
+        }
+    }
+
+    fn empty(&self) -> Self {
+        match self {
+            Self::X2(_) => Self::X2(Vec::new()),
+            Self::X3(_) => Self::X3(Vec::new()),
+            Self::X4(_) => Self::X4(Vec::new()),
+        }
+    }
+
+    /// Appends `Σ w_k · source[ids_k]`.
+    fn push_mix(&mut self, source: &Self, ids: [usize; 3], w: [f64; 3]) {
+        fn mix<const N: usize>(v: &[[f32; N]], ids: [usize; 3], w: [f64; 3]) -> [f32; N] {
+            std::array::from_fn(|c| {
+                (0..3).map(|k| w[k] * f64::from(v[ids[k]][c])).sum::<f64>() as f32
+            })
+        }
+        match (self, source) {
+            (Self::X2(out), Self::X2(v)) => out.push(mix(v, ids, w)),
+            (Self::X3(out), Self::X3(v)) => out.push(mix(v, ids, w)),
+            (Self::X4(out), Self::X4(v)) => out.push(mix(v, ids, w)),
+            _ => {}
+        }
+    }
+
+    /// The attribute values; with `normalise`, the xyz part made unit
+    /// length (normals, tangents; a tangent keeps its handedness w).
+    fn finish(self, normalise: bool) -> VertexAttributeValues {
+        let unit = |v: Vec3| v.try_normalize().unwrap_or(Vec3::Z);
+        match self {
+            Self::X2(v) => VertexAttributeValues::Float32x2(v),
+            Self::X3(v) if normalise => VertexAttributeValues::Float32x3(
+                v.into_iter()
+                    .map(|a| unit(Vec3::from(a)).to_array())
+                    .collect(),
+            ),
+            Self::X3(v) => VertexAttributeValues::Float32x3(v),
+            Self::X4(v) if normalise => VertexAttributeValues::Float32x4(
+                v.into_iter()
+                    .map(|a| {
+                        unit(Vec3::new(a[0], a[1], a[2]))
+                            .extend(a[3].signum())
+                            .to_array()
+                    })
+                    .collect(),
+            ),
+            Self::X4(v) => VertexAttributeValues::Float32x4(v),
+        }
+    }
+}

@@ -1,0 +1,101 @@
+//! The paper's classification (§3.1) in the plugin: a mesh marked
+//! `DomeApparentSize::NearlyConstant` is split once with the
+//! rotation-invariant step, drawn unclipped (the vertex shader drops what
+//! lies near the antipode), and not split again while the camera turns;
+//! a mesh of changing size is refined again every frame it moves relative
+//! to the camera.
+
+use std::sync::{Arc, Mutex};
+
+use bevy::prelude::*;
+use optica_dome::{DomeApparentSize, DomeCamera, DomeRefineStats, DomeTwin};
+use optica_harness::Headless;
+use optica_optics::dome::Treatment;
+
+use super::scene::{SIZE, faces_shown, room_seen_by};
+
+/// The room of `scene.rs` (one quad a face, the floor behind the viewer)
+/// with `size` on every face, the camera turning 0.05 rad about the zenith
+/// and back, moving 1 cm and back, then resting; the fraction of pixels
+/// showing their face, and the refinement stats (of the frame before) and
+/// the twins' treatments at the start of each frame.
+fn turning_room(size: DomeApparentSize) -> (f64, Vec<(DomeRefineStats, Vec<Treatment>)>) {
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let log = seen.clone();
+    let camera = DomeCamera::default();
+    let frame = Headless::new(SIZE, SIZE)
+        .frames(6)
+        .render(move |app: &mut App| {
+            room_seen_by(1, camera)(app);
+            app.add_systems(
+                PostStartup,
+                move |mut commands: Commands, faces: Query<Entity, With<Mesh3d>>| {
+                    for face in &faces {
+                        commands.entity(face).insert(size);
+                    }
+                },
+            );
+            app.add_systems(
+                Update,
+                move |mut cameras: Query<&mut Transform, With<DomeCamera>>,
+                      stats: Res<DomeRefineStats>,
+                      twins: Query<&DomeTwin>| {
+                    let mut log = log.lock().expect("log");
+                    log.push((*stats, twins.iter().map(DomeTwin::treatment).collect()));
+                    // Frame 1 turns, frame 2 turns back and moves (the
+                    // viewer's place in the room changes), frame 3 moves
+                    // back; then the camera rests where it started.
+                    let (turn, step) = match log.len() {
+                        2 => (0.05, 0.0),
+                        3 => (-0.05, 0.01),
+                        4 => (0.0, -0.01),
+                        _ => (0.0, 0.0),
+                    };
+                    for mut t in &mut cameras {
+                        t.rotate_y(turn);
+                        t.translation.x += step;
+                    }
+                },
+            );
+        })
+        .expect("render");
+    let shown = faces_shown(&frame, camera);
+    let seen = seen.lock().expect("log").clone();
+    (shown, seen)
+}
+
+#[test]
+fn sky_objects_are_split_once_and_kept_while_the_camera_turns() {
+    let (shown, seen) = turning_room(DomeApparentSize::NearlyConstant);
+    for (k, (stats, _)) in seen.iter().enumerate() {
+        eprintln!("nearly constant, frame {k}: {stats:?}");
+    }
+    // Built on frame 0, kept when the camera turns (frame 1), split again
+    // when it moves (2, 3), kept while it rests.
+    assert_eq!(seen[1].1, vec![Treatment::PreSubdivided; 6]);
+    let passes: Vec<(usize, usize)> = seen.iter().map(|(s, _)| (s.rebuilt, s.kept)).collect();
+    assert_eq!(
+        passes[1..6],
+        [(6, 0), (0, 6), (6, 0), (6, 0), (0, 6)],
+        "{seen:?}"
+    );
+    // Unclipped, the floor behind the viewer stays out of the circle (no
+    // streak across it from pieces near the antipode) and every pixel
+    // shows its face.
+    assert!(shown > 0.99, "{shown:.4} of the pixels show their face");
+}
+
+#[test]
+fn scenery_is_refined_again_every_frame_the_camera_turns() {
+    let (shown, seen) = turning_room(DomeApparentSize::Changing);
+    assert_eq!(seen[1].1, vec![Treatment::Dynamic; 6]);
+    // Built on frame 0, split again whenever the camera turns or moves
+    // (frames 1–3), kept while it rests.
+    let passes: Vec<(usize, usize)> = seen.iter().map(|(s, _)| (s.rebuilt, s.kept)).collect();
+    assert_eq!(
+        passes[1..6],
+        [(6, 0), (6, 0), (6, 0), (6, 0), (0, 6)],
+        "{seen:?}"
+    );
+    assert!(shown > 0.99, "{shown:.4} of the pixels show their face");
+}

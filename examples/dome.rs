@@ -1,9 +1,12 @@
-//! Dome: a planetarium domemaster — a starry sky with constellation lines
-//! and an altitude graticule over a landscape with large buildings near the
-//! horizon (big triangles at the rim), seen by a slowly turning fisheye dome
-//! camera. In the vertex mode every straight edge is refined until it lies
-//! within the camera's pixel tolerance of its true curved image; the cube
-//! mode resamples four to six ordinary cameras instead.
+//! Dome: a planetarium domemaster — a starry sky turning about the pole
+//! with constellation lines, an altitude–azimuth graticule, and a landscape
+//! with large buildings near the horizon (big triangles at the rim), seen by
+//! a slowly turning fisheye dome camera. In the vertex mode every straight
+//! edge is refined until it lies within the camera's pixel tolerance of its
+//! true curved image: the stars once (the paper's pre-subdivided class, they
+//! only turn about the viewer), the lines and the landscape whenever they
+//! move relative to the camera. The cube mode resamples four to six
+//! ordinary cameras instead.
 //!
 //! ```sh
 //! cargo run --example dome --features dome,egui,window -- [--fov 180] [--tilt 0] [--tolerance 0.5] [--cube FACE_PX] [--out DIR]
@@ -23,15 +26,19 @@
 //! own range.
 
 use bevy::prelude::*;
+use optica::dome::lines::{self, Graticule};
 use optica::dome::{
-    DomeCamera, DomeExport, DomeExportPlugin, DomeMode, DomePlugin, DomeShowClock,
-    parse_frame_range,
+    DomeApparentSize, DomeCamera, DomeExport, DomeExportPlugin, DomeMode, DomePlugin,
+    DomeRefineStats, DomeShowClock, parse_frame_range,
 };
 
 /// The domemaster's side in pixels (window and snapshots).
 const SIZE: u32 = 1024;
 /// Turn rate of the camera about the zenith, radians per second of show.
 const TURN: f32 = 0.1;
+/// Turn rate of the sky about the celestial pole, radians per second of
+/// show (a day in two minutes).
+const SKY_TURN: f32 = std::f32::consts::TAU / 120.0;
 /// Show frames (at 30 fps) between the headless snapshots.
 const SNAPSHOT_FRAMES: u32 = 60;
 /// The largest export size.
@@ -221,7 +228,7 @@ fn setup_app(app: &mut App, dome: DomeCamera) {
                 spawn_planetarium(commands, meshes, materials, dome)
             },
         )
-        .add_systems(Update, turn);
+        .add_systems(Update, (turn, turn_sky));
 }
 
 /// A small deterministic generator, so the sky is the same on every run.
@@ -239,18 +246,20 @@ impl Lcg {
 
 /// A direction at altitude `alt` and azimuth `az` (radians; azimuth 0 is
 /// −Z, the audience front).
-fn sky(alt: f32, az: f32) -> Vec3 {
+fn sky_dir(alt: f32, az: f32) -> Vec3 {
     Vec3::new(alt.cos() * az.sin(), alt.sin(), -alt.cos() * az.cos())
 }
 
-/// A thin bar from `a` to `b`: a straight 3D segment the dome refines into
-/// its curved image.
-fn bar(a: Vec3, b: Vec3, width: f32) -> (Cuboid, Transform) {
-    let d = b - a;
-    (
-        Cuboid::new(width, width, d.length()),
-        Transform::from_translation((a + b) / 2.0).looking_to(d, Vec3::Y),
-    )
+/// The sky: stars and constellation lines, turning about the celestial
+/// pole with the show clock (diurnal motion) around the viewer.
+#[derive(Component)]
+struct Sky;
+
+/// The celestial pole seen from latitude 35° north, the audience facing
+/// south (−Z): 35° above the northern horizon (+Z).
+fn pole() -> Vec3 {
+    let lat = 35f32.to_radians();
+    Vec3::new(0.0, lat.sin(), lat.cos())
 }
 
 fn spawn_planetarium(
@@ -271,61 +280,69 @@ fn spawn_planetarium(
         glow(Color::srgb(0.35, 0.55, 1.0)),
         glow(Color::srgb(0.6, 0.25, 0.25)),
     );
-    // Stars: small cubes 300 units out, uniform over the upper sky.
+    let sky = commands
+        .spawn((Sky, Transform::IDENTITY, Visibility::default()))
+        .id();
+    // Stars: small cubes 300 units out over the whole sphere (the ground
+    // hides those below the horizon), one mesh. Their apparent size never
+    // changes (they keep their distance and only turn about the viewer):
+    // the paper's pre-subdivided class, split once and never again.
     const R: f32 = 300.0;
     let mut rng = Lcg(0x5EED);
-    let star_mesh = meshes.add(Cuboid::from_length(1.0));
     let mut stars = Vec::new();
-    for _ in 0..600 {
-        let alt = rng.next().asin().max(0.03);
+    let mut field: Option<Mesh> = None;
+    for _ in 0..1200 {
+        let alt = (2.0 * rng.next() - 1.0).asin();
         let az = rng.next() * std::f32::consts::TAU;
         let size = 0.4 + 1.6 * rng.next().powi(4);
-        let p = R * sky(alt, az);
+        let p = R * sky_dir(alt, az);
         stars.push(p);
+        let cube = Mesh::from(Cuboid::from_length(size)).translated_by(p);
+        match field.as_mut() {
+            Some(f) => f.merge(&cube).expect("cubes share their attributes"),
+            None => field = Some(cube),
+        }
+    }
+    if let Some(field) = field {
         commands.spawn((
-            Mesh3d(star_mesh.clone()),
-            MeshMaterial3d(star.clone()),
-            Transform::from_translation(p).with_scale(Vec3::splat(size)),
+            Mesh3d(meshes.add(field)),
+            MeshMaterial3d(star),
+            DomeApparentSize::NearlyConstant,
+            ChildOf(sky),
         ));
     }
-    // Constellation lines: chains of nearby stars.
-    for k in 0..40 {
-        let (a, b) = (stars[k * 7], stars[k * 7 + 1]);
-        for (p, q) in [(a, b), (b, stars[k * 7 + 2])] {
-            if p.distance(q) < 0.6 * R {
-                let (shape, place) = bar(p, q, 0.5);
-                commands.spawn((
-                    Mesh3d(meshes.add(shape)),
-                    MeshMaterial3d(line.clone()),
-                    place,
-                ));
-            }
-        }
+    // Constellation lines: chains of nearby stars, one line mesh. A
+    // segment between two stars on the sphere is seen along the great
+    // circle through them; the dome refines it into that exact arc.
+    let mut pairs = Vec::new();
+    for k in 0..80 {
+        let (a, b, c) = (stars[k * 7], stars[k * 7 + 1], stars[k * 7 + 2]);
+        pairs.extend(
+            [[a, b], [b, c]]
+                .into_iter()
+                .filter(|[p, q]| p.distance(*q) < 0.6 * R),
+        );
     }
-    // The graticule: altitude circles every 30° and eight meridians.
-    let bars = |commands: &mut Commands, meshes: &mut Assets<Mesh>, points: Vec<Vec3>| {
-        for w in points.windows(2) {
-            let (shape, place) = bar(w[0], w[1], 0.4);
-            commands.spawn((
-                Mesh3d(meshes.add(shape)),
-                MeshMaterial3d(grid.clone()),
-                place,
-            ));
-        }
-    };
-    for alt in [30f32, 60.0] {
-        let points = (0..=24)
-            .map(|i| 0.9 * R * sky(alt.to_radians(), i as f32 * 15f32.to_radians()))
-            .collect();
-        bars(&mut commands, &mut meshes, points);
-    }
-    for m in 0..8 {
-        let az = m as f32 * 45f32.to_radians();
-        let points = (0..=6)
-            .map(|i| 0.9 * R * sky((i as f32 * 15.0).to_radians(), az))
-            .collect();
-        bars(&mut commands, &mut meshes, points);
-    }
+    commands.spawn((
+        Mesh3d(meshes.add(lines::segments(&pairs))),
+        MeshMaterial3d(line),
+        ChildOf(sky),
+    ));
+    // The altitude–azimuth graticule, fixed to the horizon.
+    commands.spawn((
+        Mesh3d(
+            meshes.add(
+                Graticule {
+                    radius: 0.9 * R,
+                    altitude_step_deg: 30.0,
+                    azimuth_step_deg: 45.0,
+                    ..default()
+                }
+                .mesh(),
+            ),
+        ),
+        MeshMaterial3d(grid),
+    ));
     // The landscape: a ground plane and large buildings near the horizon.
     commands.spawn((
         Mesh3d(meshes.add(Plane3d::default().mesh().size(2000.0, 2000.0))),
@@ -352,7 +369,7 @@ fn spawn_planetarium(
     .enumerate()
     {
         let az = (i as f32 * 72.0 + 20.0).to_radians();
-        let p = 120.0 * sky(0.0, az);
+        let p = 120.0 * sky_dir(0.0, az);
         commands.spawn((
             Mesh3d(meshes.add(Cuboid::new(w, h, w))),
             MeshMaterial3d(building.clone()),
@@ -388,9 +405,22 @@ fn turn(clock: Res<DomeShowClock>, mut cameras: Query<&mut Transform, With<DomeC
     }
 }
 
+/// Turns the sky about the celestial pole with the show clock: the stars
+/// (pre-subdivided) keep their twin, the constellation lines are refined
+/// again.
+fn turn_sky(clock: Res<DomeShowClock>, mut skies: Query<&mut Transform, With<Sky>>) {
+    for mut transform in &mut skies {
+        transform.rotation = Quat::from_axis_angle(pole(), SKY_TURN * clock.seconds());
+    }
+}
+
 /// The dome camera's mode, field of view, tilt and tolerance.
 #[cfg(feature = "egui")]
-fn panel(mut contexts: bevy_egui::EguiContexts, mut cameras: Query<&mut DomeCamera>) -> Result {
+fn panel(
+    mut contexts: bevy_egui::EguiContexts,
+    mut cameras: Query<&mut DomeCamera>,
+    stats: Res<DomeRefineStats>,
+) -> Result {
     use bevy_egui::egui;
     let Ok(mut dome) = cameras.single_mut() else {
         return Ok(());
@@ -424,6 +454,12 @@ fn panel(mut contexts: bevy_egui::EguiContexts, mut cameras: Query<&mut DomeCame
         );
         if let Err(e) = edit.validate() {
             ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e);
+        }
+        if edit.mode == DomeMode::Vertex {
+            ui.label(format!(
+                "refinement: {} meshes split again ({} vertices), {} kept, {:.1} ms",
+                stats.rebuilt, stats.vertices, stats.kept, stats.cpu_ms
+            ));
         }
     });
     if edit != *dome {

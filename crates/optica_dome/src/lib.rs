@@ -60,7 +60,27 @@
 //! settings change. Twins live on the render layer [`DOME_LAYER`], which
 //! only dome cameras see (every light is given it too); they carry their
 //! original's material for `StandardMaterial`, and for any material `M`
-//! whose [`DomeMaterialPlugin<M>`] is added.
+//! whose [`DomeMaterialPlugin<M>`] is added. [`DomeRefineStats`] says what
+//! the last pass rebuilt and what it cost.
+//!
+//! ## The paper's classification (§3.1)
+//!
+//! Mark meshes that keep their distance to the viewer and only turn about
+//! it (stars, constellation art, a sky sphere centred on the camera, the
+//! diurnal motion) [`DomeApparentSize::NearlyConstant`]: they are split
+//! once with the paper's rotation-invariant step and not again while the
+//! camera or the sky turns; the vertex shader drops what of them lies near
+//! the antipode. Everything else is refined from the view whenever it moves
+//! relative to the camera.
+//!
+//! ## Lines
+//!
+//! `LineList` and `LineStrip` meshes are refined like triangle edges
+//! (clipped, split until their chords are within the tolerance) and drawn
+//! as the GPU's one-pixel lines; [`lines`] builds constellation lines, a
+//! graticule and polylines. A segment between two points on a sphere
+//! around the viewer is seen along the great circle through them, so one
+//! segment per arc draws it exactly.
 //!
 //! ## The cube-map mode
 //!
@@ -84,9 +104,9 @@
 //! ## Status and limits
 //!
 //! One dome camera per app refines (the first in the vertex mode; any
-//! number may use the cube mode). Not in this crate yet: first-class lines
-//! (draw lines as thin meshes: they are refined like any triangle).
-//! Skinned and morphed meshes are refined in their rest pose. The square's
+//! number may use the cube mode). Lines are one pixel wide whatever the
+//! domemaster's size (draw wide lines as thin meshes, refined like any
+//! triangle). Skinned and morphed meshes are refined in their rest pose. The square's
 //! corners outside the image circle are painted by a full-screen pass
 //! ([`DomeRimMask`], black by default). Light clusters use one cluster per
 //! dome view (`ClusterConfig::Single`): Bevy's clustering assumes a planar

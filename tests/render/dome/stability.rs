@@ -1,12 +1,14 @@
 //! Stiff cases for the vertex projection: a huge ground plane behind a 180°
-//! dome and around a 250° one (whose antipode lies in it), tilt 90°, a NaN
-//! vertex, tiny triangles at the zenith. No NaN pixel, no panic, and no
-//! wrap-around: geometry appears only where its directions do.
+//! dome and around a 250° one (whose antipode lies in it), refined from the
+//! view or split once (unclipped), tilt 90°, a NaN vertex, tiny triangles at
+//! the zenith, lines with a NaN end, through the viewer and behind it. No
+//! NaN pixel, no panic, and no wrap-around: geometry appears only where its
+//! directions do.
 
 use bevy::asset::RenderAssetUsages;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
-use optica_dome::{DomeCamera, DomePlugin};
+use optica_dome::{DomeApparentSize, DomeCamera, DomePlugin};
 use optica_harness::{Headless, RenderedFrame};
 
 use super::{dome_camera, flat};
@@ -33,10 +35,25 @@ fn nan_mesh() -> Mesh {
     .with_inserted_indices(Indices::U32(vec![0, 1, 2, 3, 4, 5]))
 }
 
-/// A zenith-looking dome camera 1.6 above a ground plane 1e5 wide (green),
-/// a NaN triangle beside a good one overhead (red) and 400 tiny triangles
-/// (0.5 mm) at the zenith (blue).
+/// Red lines relative to a camera at the origin: one with a NaN end, one
+/// through the viewer, one passing 1 unit under it.
+fn bad_lines() -> Mesh {
+    optica_dome::lines::segments(&[
+        [Vec3::new(f32::NAN, 3.0, 0.0), Vec3::new(1.0, 3.0, 0.0)],
+        [Vec3::new(-1.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0)],
+        [Vec3::new(0.0, -1.0, -1.0), Vec3::new(0.0, -1.0, 1.0)],
+    ])
+}
+
+/// A zenith-looking dome camera 1.6 above a ground plane 1e5 wide (green)
+/// of apparent size `ground`, a NaN triangle beside a good one overhead
+/// (red), the bad lines (red) and 400 tiny triangles (0.5 mm) at the
+/// zenith (blue).
 fn render(dome: DomeCamera) -> RenderedFrame {
+    render_with(dome, DomeApparentSize::Changing)
+}
+
+fn render_with(dome: DomeCamera, ground: DomeApparentSize) -> RenderedFrame {
     Headless::new(SIZE, SIZE)
         .hdr(true)
         .render(move |app: &mut App| {
@@ -49,6 +66,12 @@ fn render(dome: DomeCamera) -> RenderedFrame {
                     commands.spawn((
                         Mesh3d(meshes.add(Plane3d::default().mesh().size(1e5, 1e5))),
                         flat(&mut materials, Color::srgb(0.0, 1.0, 0.0)),
+                        ground,
+                    ));
+                    commands.spawn((
+                        Mesh3d(meshes.add(bad_lines())),
+                        flat(&mut materials, Color::srgb(1.0, 0.0, 0.0)),
+                        Transform::from_xyz(0.0, 1.6, 0.0),
                     ));
                     commands.spawn((
                         Mesh3d(meshes.add(nan_mesh())),
@@ -69,6 +92,22 @@ fn render(dome: DomeCamera) -> RenderedFrame {
             );
         })
         .expect("render")
+}
+
+/// The share of red pixels (the lines, wrapped or streaking) among those
+/// in `band` of rim radii.
+fn red_share(frame: &RenderedFrame, band: std::ops::Range<f32>) -> f32 {
+    let img = frame.hdr().expect("an HDR frame");
+    let c = SIZE as f32 / 2.0;
+    let (mut red, mut n) = (0usize, 0usize);
+    for (x, y, p) in img.enumerate_pixels() {
+        let r = (Vec2::new(x as f32 + 0.5, y as f32 + 0.5) - Vec2::splat(c)).length() / c;
+        if band.contains(&r) {
+            n += 1;
+            red += usize::from(p.0[0] > 0.5 && p.0[1] < 0.5);
+        }
+    }
+    red as f32 / n.max(1) as f32
 }
 
 /// Pixels by their distance from the centre in rim radii: (green share
@@ -111,6 +150,42 @@ fn a_ground_behind_a_180_degree_dome_does_not_show() {
         centre[0] > 0.5 || centre[2] > 0.5,
         "nothing at the zenith: {centre:?}"
     );
+}
+
+/// The lines with a NaN end, through the viewer and under it leave no
+/// streak: nothing red away from the triangle overhead (within 0.25 of
+/// the rim radius), at 180° and 250°.
+#[test]
+fn bad_lines_leave_no_streak() {
+    for fov_deg in [180.0, 250.0] {
+        let frame = render(DomeCamera {
+            fov_deg,
+            ..default()
+        });
+        let red = red_share(&frame, 0.3..0.97);
+        assert_eq!(red, 0.0, "{fov_deg}°: red on {red} of the disk");
+    }
+}
+
+/// The huge ground split once (the paper's pre-subdivided class: not
+/// clipped; the vertex shader drops what lies near the antipode, under the
+/// viewer): still behind a 180° dome, a ring round a 250° one, no wrap.
+#[test]
+fn a_ground_split_once_stays_where_it_belongs() {
+    let behind = render_with(DomeCamera::default(), DomeApparentSize::NearlyConstant);
+    let (share, _) = green_share(&behind, 0.0..0.97, |_, _| true);
+    assert_eq!(share, 0.0, "the ground behind a 180° dome shows on {share}");
+    let wide = render_with(
+        DomeCamera {
+            fov_deg: 250.0,
+            ..default()
+        },
+        DomeApparentSize::NearlyConstant,
+    );
+    let (inner, _) = green_share(&wide, 0.0..0.68, |_, _| true);
+    let (ring, n) = green_share(&wide, 0.76..0.97, |_, _| true);
+    assert_eq!(inner, 0.0, "the ground wrapped into the disk: {inner}");
+    assert!(n > 1000 && ring > 0.98, "the ground ring: {ring} of {n} px");
 }
 
 #[test]

@@ -11,7 +11,7 @@
 //! | feature | what it adds |
 //! |---|---|
 //! | `compound_eye` | [`compound_eye`]: a material for insect compound eyes (Sagawa 2014), `CompoundEyePlugin` |
-//! | `dome` | [`dome`]: a fisheye dome camera, equidistant projection per vertex (Johjima and Fujimura), `DomePlugin`; work in progress |
+//! | `dome` | [`dome`]: a fisheye dome camera, equidistant projection per vertex with refinement (Johjima and Fujimura) or a resampled cube map, `DomePlugin` |
 //! | `egui` | settings panels (bevy_egui) of the plugins that are on |
 //! | `window` | opens a real window in the examples (winit + X11); without it, or without a display, they render to PNG |
 //!

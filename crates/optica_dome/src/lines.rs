@@ -68,6 +68,9 @@ fn line_list(positions: Vec<[f32; 3]>, indices: Vec<u32>) -> Mesh {
         .with_inserted_indices(Indices::U32(indices))
 }
 
+/// The finest step a [`Graticule`] takes, in degrees.
+const MIN_STEP_DEG: f32 = 0.1;
+
 /// An altitude–azimuth grid on a sphere around the entity's origin (put
 /// the viewer there): meridians every [`Self::azimuth_step_deg`] from pole
 /// to pole and altitude circles every [`Self::altitude_step_deg`], the
@@ -80,7 +83,8 @@ pub struct Graticule {
     pub radius: f32,
     /// Spacing of the altitude circles in degrees (the horizon is one).
     pub altitude_step_deg: f32,
-    /// Spacing of the meridians in degrees of azimuth.
+    /// Spacing of the meridians in degrees of azimuth (rounded so that a
+    /// whole number of them goes round).
     pub azimuth_step_deg: f32,
     /// Altitude circles are not great circles: they are drawn as chords of
     /// at most this many degrees of azimuth, whose sag from the true circle
@@ -106,11 +110,12 @@ impl Default for Graticule {
 impl Graticule {
     /// The grid as a line-list mesh. Steps that are not finite and positive
     /// are taken as 90° (horizon and four meridians) and a bad chord as 2°,
-    /// with a warning.
+    /// with a warning; steps are kept within [0.1°, 360°] (a finer grid
+    /// would be millions of lines).
     pub fn mesh(&self) -> Mesh {
         let step = |v: f32, what: &str, fallback: f32| {
             if v.is_finite() && v > 0.0 {
-                v.min(360.0)
+                v.clamp(MIN_STEP_DEG, 360.0)
             } else {
                 warn!("optica_dome: graticule {what} {v} deg is not positive; using {fallback}");
                 fallback
@@ -186,6 +191,13 @@ mod tests {
         .mesh();
         assert!(positions(&bad).iter().all(|v| v.is_finite()));
         assert_eq!(bad.indices().unwrap().len(), 2 * (8 * 4 + 72));
+        // A tiny step is held at 0.1°: 3600 meridians, not 3.6e9.
+        let fine = Graticule {
+            azimuth_step_deg: 1e-9,
+            ..g
+        }
+        .mesh();
+        assert_eq!(fine.indices().unwrap().len(), 2 * (3600 * 4 + 5 * 72));
     }
 
     #[test]

@@ -258,18 +258,18 @@ pub(crate) fn refine_twins(
     >,
     mut meshes: ResMut<Assets<Mesh>>,
     mut mesh_events: MessageReader<AssetEvent<Mesh>>,
+    mut edited: Local<Vec<AssetId<Mesh>>>,
     mut stats: ResMut<DomeRefineStats>,
 ) {
     let start = std::time::Instant::now();
     let mut pass = DomeRefineStats::default();
+    *stats = pass;
     // Meshes edited in place keep their id: their twins are stale too.
-    let edited: Vec<AssetId<Mesh>> = mesh_events
-        .read()
-        .filter_map(|e| match e {
-            AssetEvent::Modified { id } => Some(*id),
-            _ => None,
-        })
-        .collect();
+    // Kept until a pass has run (the camera may be invalid for a while).
+    edited.extend(mesh_events.read().filter_map(|e| match e {
+        AssetEvent::Modified { id } => Some(*id),
+        _ => None,
+    }));
     let Some((camera, render, camera_transform)) = cameras
         .iter()
         .find(|(camera, ..)| camera.mode == crate::DomeMode::Vertex)
@@ -301,14 +301,29 @@ pub(crate) fn refine_twins(
     };
     let view_from_world = camera_transform.affine().inverse();
     for (entity, mesh3d, transform, size, twin) in &mut originals {
-        let Some(source) = meshes.get(&mesh3d.0) else {
+        let view_from_local = view_from_world * transform.affine();
+        let source = meshes.get(&mesh3d.0);
+        if source.is_none()
+            && twin
+                .as_ref()
+                .is_some_and(|t| t.built_for.mesh == mesh3d.id())
+        {
+            // Its asset is gone for now (being reloaded): keep the twin.
             continue;
-        };
-        let Some(kind) = primitive_kind(source) else {
+        }
+        // Nothing to draw (a mesh not loaded yet, points, a triangle strip,
+        // no positions, a scale of zero): no twin, and none left showing
+        // what the mesh used to be.
+        let invertible = view_from_local.matrix3.determinant().is_normal();
+        let kind = source.filter(|_| invertible).and_then(primitive_kind);
+        let (Some(source), Some(kind)) = (source, kind) else {
+            if let Some(twin) = twin {
+                commands.entity(twin.twin).despawn();
+                commands.entity(entity).remove::<DomeTwin>();
+            }
             continue;
         };
         let treatment = classify(kind, size.copied().unwrap_or_default().into());
-        let view_from_local = view_from_world * transform.affine();
         let built_for = BuiltFor {
             mesh: mesh3d.id(),
             camera: *camera,
@@ -327,6 +342,10 @@ pub(crate) fn refine_twins(
             Treatment::PreSubdivided => pre_subdivide_mesh_asset(source, view_from_local, piece),
         };
         let Some(refined) = refined else {
+            if let Some(twin) = twin {
+                commands.entity(twin.twin).despawn();
+                commands.entity(entity).remove::<DomeTwin>();
+            }
             continue;
         };
         let extent = extent_of(source);
@@ -368,6 +387,7 @@ pub(crate) fn refine_twins(
             }
         }
     }
+    edited.clear();
     pass.cpu_ms = start.elapsed().as_secs_f32() * 1000.0;
     *stats = pass;
 }

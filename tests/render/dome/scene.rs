@@ -14,7 +14,7 @@ use optica_optics::glam::{DVec2, DVec3};
 pub(super) const SIZE: u32 = 128;
 
 /// The faces of the box [−1, 1]³: outward axis and colour. The floor lies
-/// behind a 180° dome: clipped, it must not show.
+/// behind a 180° dome: dropped, it must not show.
 const FACES: [(Vec3, [f32; 3]); 6] = [
     (Vec3::Y, [1.0, 0.0, 0.0]),
     (Vec3::NEG_Z, [0.0, 1.0, 0.0]),
@@ -124,8 +124,8 @@ pub(super) fn faces_shown(frame: &RenderedFrame, dome_settings: DomeCamera) -> f
         for x in 0..SIZE {
             let pixel = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
             let r = (pixel - dome.centre_px()).length();
-            // Outside the circle the rim mask paints black (the walls are
-            // clipped at the view plane; their refined rim may overshoot).
+            // Outside the circle the rim mask paints black (the walls
+            // reach a little past the rim, to the guard cone).
             if r > dome.rim_radius_px() + 1.0 {
                 let got = img.get_pixel(x, y).0;
                 assert_eq!(

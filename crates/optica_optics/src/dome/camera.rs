@@ -204,20 +204,13 @@ impl DomeProjection {
     }
 
     /// Largest angle subtended by a piece of an edge that leaves the guard
-    /// cone (`None` when clipping at the view plane): triangles are culled
-    /// per sub-triangle there, so a culled piece must start outside the
-    /// rim. For FOV > 180° it is π − θ_clip (the gap between rim and guard,
-    /// which also keeps kept pieces off the antipode); next to 180° half the
-    /// gap, [`RIM_MARGIN_DEG`], so culled pieces start at least that far
-    /// outside the rim and their chords cannot sag into the image circle.
+    /// cone (`None` when clipping at the view plane): half the gap between
+    /// the rim and the guard cone. Triangles are culled per sub-triangle
+    /// there, so a culled piece starts at least half the gap outside the rim
+    /// (1° next to 180°, (π − θ_max)/4 beyond) and its chords cannot sag
+    /// into the image circle; kept pieces stay off the antipode.
     pub fn guard_piece_rad(&self) -> Option<f64> {
-        if self.clips_at_view_plane() {
-            None
-        } else if self.theta_max > 0.5 * PI {
-            Some(PI - self.theta_clip())
-        } else {
-            Some(RIM_MARGIN_DEG.to_radians())
-        }
+        (!self.clips_at_view_plane()).then(|| 0.5 * (self.theta_clip() - self.theta_max))
     }
 
     /// Largest polar angle a kept piece of geometry can reach: the clip angle
@@ -226,7 +219,7 @@ impl DomeProjection {
     /// sub-triangle at the guard cone, so a kept piece ends inside it but its
     /// arc may bulge past it, by at most half its length; the rule caps
     /// pieces that leave the guard cone at [`Self::guard_piece_rad`]. For
-    /// FOV > 180° this is (θ_clip + π)/2, away from the antipode.
+    /// FOV > 180° this is (3θ_clip + π)/4, away from the antipode.
     pub fn theta_reach(&self) -> f64 {
         match self.guard_piece_rad() {
             None => self.theta_clip(),
@@ -299,7 +292,7 @@ mod tests {
             assert!(p.max_unclipped_piece_rad() > 0.0, "{fov}");
             assert_eq!(p.clips_at_view_plane(), fov <= 178.0, "{fov}");
             if let Some(piece) = p.guard_piece_rad() {
-                assert!(piece <= clip - rim && piece > 0.0, "{fov}");
+                assert!(piece <= 0.5 * (clip - rim) && piece > 0.0, "{fov}");
             }
         }
     }

@@ -149,7 +149,8 @@ fn clip_segment_cone(arc: &Arc, axis: DVec3, theta_clip: f64) -> Vec<[DVec3; 2]>
 
 /// Clips triangle (a, b, c) against the view plane `p·axis ≥ 0`
 /// (Sutherland–Hodgman) and fans the result: zero, one or two triangles with
-/// the input's winding. Used for FOV ≤ 180° only.
+/// the input's winding. Used when [`DomeProjection::clips_at_view_plane`]
+/// (FOV ≤ 178°) only.
 pub(crate) fn clip_triangle_plane(axis: DVec3, tri: [DVec3; 3]) -> Vec<[DVec3; 3]> {
     let d = tri.map(|p| p.dot(axis));
     if d.iter().all(|&x| x >= 0.0) {

@@ -42,7 +42,7 @@ pub struct RefineStats {
     /// Inputs removed entirely by clipping (behind the view plane or inside
     /// the antipode guard cone).
     pub clipped_away: usize,
-    /// Refined sub-triangles culled at the antipode guard (FOV > 180°).
+    /// Refined sub-triangles culled at the guard cone (FOV > 178°).
     pub culled: usize,
     /// Edges whose piece count hit [`MAX_PIECES`](super::MAX_PIECES).
     pub capped_edges: usize,

@@ -35,7 +35,7 @@
 //!   maximum on an arc is at the arc's largest θ. Then
 //!   `n = ⌈α·√(N_max/(8·tol))⌉`.
 //!
-//! Where triangles are culled at a guard cone (FOV ≥ 180°), an arc that
+//! Where triangles are culled at a guard cone (FOV > 178°), an arc that
 //! leaves it also gets pieces of at most
 //! [`DomeProjection::guard_piece_rad`] (see [`DomeProjection::theta_reach`]). Both rules cap n at
 //! [`MAX_PIECES`] (reported as `capped`).
@@ -68,7 +68,7 @@ const SMALL_THETA: f64 = 1e-4;
 
 /// The curvature N (D6) is evaluated no closer than this to the antipode,
 /// where sin θ → 0 and T, K diverge. Arcs that reach further are caught by
-/// the guard cone (FOV > 180°) or the view plane (FOV ≤ 180°), so this only
+/// the guard cone (FOV > 178°) or the view plane (FOV ≤ 178°), so this only
 /// keeps N finite for FOVs within ~1e-6 rad of 360°, where
 /// [`MAX_PIECES`] caps the pieces anyway.
 const CURVATURE_ANTIPODE_GAP_RAD: f64 = 1e-6;
@@ -222,7 +222,7 @@ impl SplitRule {
             };
         }
         let range = arc.theta_range(proj.axis());
-        // An arc leaving the guard cone (FOV ≥ 180°, triangles: they are
+        // An arc leaving the guard cone (FOV > 178°, triangles: they are
         // culled per sub-triangle, not clipped) gets pieces of at most the
         // guard piece, so a kept piece cannot reach the antipode and a
         // culled one starts outside the rim. Without

@@ -299,9 +299,9 @@ fn covers_direction(t: &[DVec3; 3], d: DVec3) -> bool {
     l0 >= 0.0 && l1 >= 0.0 && l2 >= 0.0
 }
 
-/// Clips (FOV ≤ 180°), refines (paper §3.3) and, for FOV > 180°, culls at the
-/// antipode guard one triangle (see [`clip_segment`](super::clip_segment)
-/// docs). Errors: a non-finite vertex ([`DomeError::Input`]). Parts touching
+/// Clips at the view plane (FOV ≤ 178°), refines (paper §3.3) and, for
+/// wider FOVs, culls at the guard cone one triangle (see
+/// [`clip_segment`](super::clip_segment) docs). Errors: a non-finite vertex ([`DomeError::Input`]). Parts touching
 /// the origin or with an edge through the viewer are left out and counted.
 pub fn refine_triangle(
     proj: &DomeProjection,
@@ -322,6 +322,14 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
     };
     let parts = if proj.clips_at_view_plane() {
         clip_triangle_plane(proj.axis(), tri)
+    } else if proj.theta_max() <= std::f64::consts::FRAC_PI_2
+        && tri.iter().all(|v| v.dot(proj.axis()) <= 0.0)
+    {
+        // Wholly behind the view plane of a dome of at most 180°: nothing
+        // of it can show. Refined whole, it would be split to the guard
+        // pieces near the cone and then culled (a floor under a zenith
+        // camera: ~10⁴ sub-triangles for nothing).
+        vec![]
     } else {
         vec![tri]
     };

@@ -5,7 +5,7 @@
 //! * Scene: random edges around the viewer (`dome::random_edges`, seeded) —
 //!   midpoints uniform in solid angle over the front hemisphere, subtended
 //!   angles 1°–60°, random orientation, endpoint distances 1–20 m (edges
-//!   near the horizon cross the view plane and are clipped) — and an
+//!   near the horizon are clipped at the guard cone 2° outside the rim) — and an
 //!   inside-out room (8 × 9 × 4.7 m, the zenith camera 1.7 m above the
 //!   floor) as a 12-triangle mesh.
 //! * Knob: `tolerance_px` of the chord-gap rule (`SplitRule::chord_gap`).
@@ -292,7 +292,8 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     };
     report.case("segment passing the antipode (FOV 250°)", case.0, case.1);
 
-    // Behind the viewer at 180°: dropped; crossing the view plane: clipped.
+    // Behind the viewer at 180°: dropped; crossing the rim: clipped at the
+    // guard cone, 2° outside it.
     let behind = refine_segment(
         &p180,
         polar(120.0, 10.0, 2.0),

@@ -52,8 +52,8 @@
 //! a 4K, 180° dome is ~8 px off. WGSL has no geometry shader, so every mesh
 //! a dome camera sees gets a refined *twin* on the CPU
 //! (`optica_optics::dome::refine_triangle`): clipped behind the viewer
-//! (FOV ≤ 178°) or culled at a guard cone a little outside the rim (wider;
-//! so that the rim itself is covered), and split until
+//! (FOV ≤ 180°; next to 180° carried 1° on past the rim so that the rim
+//! itself is covered) or culled at the antipode guard (wider), and split until
 //! every chord is within [`DomeCamera::tolerance_px`]; neighbours split
 //! their shared edges identically, so no crack opens. A twin is rebuilt only
 //! when its mesh, its placement relative to the camera or the camera's

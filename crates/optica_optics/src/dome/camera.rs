@@ -33,8 +33,8 @@ use crate::input;
 /// ~5·10¹⁷ px/rad, finite, and so is every projected pixel (≤ f·π).
 pub const MIN_FOV_DEG: f64 = 1e-6;
 
-/// How far outside the rim, at least, geometry is clipped or culled, in
-/// degrees of polar angle (see [`DomeProjection::clips_at_view_plane`]):
+/// How far past the rim a triangle cut at the view plane reaches, at
+/// least, in degrees of polar angle (see [`DomeProjection::rim_skirt_rad`]):
 /// 23 px at 4K/180°, 1.4 px at 256 px.
 pub const RIM_MARGIN_DEG: f64 = 1.0;
 
@@ -173,41 +173,42 @@ impl DomeProjection {
     }
 
     /// Whether geometry is clipped against the view plane z = 0 of the dome
-    /// frame before projection: FOV ≤ 180° − 2·[`RIM_MARGIN_DEG`], where the
-    /// visible set lies inside the convex half-space in front of that plane
-    /// and the plane is at least [`RIM_MARGIN_DEG`] outside the rim.
-    ///
-    /// Closer to 180° the plane would meet the rim itself: its cut, drawn as
-    /// chords between points on the rim, sags inside the image circle by up
-    /// to the pixel tolerance and leaves an uncovered ring. Those FOVs take
-    /// the guard-cone path of wider ones instead, with the cone a little
-    /// outside the rim ([`Self::theta_clip`]).
+    /// frame before projection (FOV ≤ 180°; the visible set is then inside
+    /// the convex half-space in front of that plane).
     pub fn clips_at_view_plane(&self) -> bool {
-        self.theta_max <= 0.5 * PI - RIM_MARGIN_DEG.to_radians()
+        self.theta_max <= 0.5 * PI
     }
 
     /// Polar angle beyond which geometry is removed before or after
-    /// refinement: 90° (the view plane) when [`Self::clips_at_view_plane`];
-    /// for FOV > 180° the guard cone halfway between the rim and the
-    /// antipode, (θ_max + π)/2; for FOVs next to 180° the cone
-    /// 2·[`RIM_MARGIN_DEG`] outside the rim. Between the rim and this angle
-    /// geometry is kept and lands outside the image circle, where a renderer
-    /// discards its fragments.
+    /// refinement: 90° (the view plane) for FOV ≤ 180°, else the guard cone
+    /// halfway between the rim and the antipode, (θ_max + π)/2. Between the
+    /// rim and this angle geometry is kept and lands outside the image
+    /// circle, where a renderer discards its fragments.
     pub fn theta_clip(&self) -> f64 {
         if self.clips_at_view_plane() {
             0.5 * PI
-        } else if self.theta_max > 0.5 * PI {
-            0.5 * (self.theta_max + PI)
         } else {
-            self.theta_max + 2.0 * RIM_MARGIN_DEG.to_radians()
+            0.5 * (self.theta_max + PI)
         }
+    }
+
+    /// The angle, past the view plane, of the *rim skirt* a clipped
+    /// triangle gets (see [`refine_triangle`](super::refine_triangle)):
+    /// [`RIM_MARGIN_DEG`] when the view plane lies within that of the rim
+    /// (FOV > 178°), else `None`. Cut at the view plane, such a triangle
+    /// ends in chords between points on the rim itself, which sag inside
+    /// the image circle by up to the tolerance and leave an uncovered ring;
+    /// the skirt carries the triangle's own plane on past the rim.
+    pub fn rim_skirt_rad(&self) -> Option<f64> {
+        let margin = RIM_MARGIN_DEG.to_radians();
+        (self.clips_at_view_plane() && self.theta_max > 0.5 * PI - margin).then_some(margin)
     }
 
     /// Largest angle subtended by a piece of an edge that leaves the guard
     /// cone (`None` when clipping at the view plane): half the gap between
     /// the rim and the guard cone. Triangles are culled per sub-triangle
     /// there, so a culled piece starts at least half the gap outside the rim
-    /// (1° next to 180°, (π − θ_max)/4 beyond) and its chords cannot sag
+    /// ((π − θ_max)/4) and its chords cannot sag
     /// into the image circle; kept pieces stay off the antipode.
     pub fn guard_piece_rad(&self) -> Option<f64> {
         (!self.clips_at_view_plane()).then(|| 0.5 * (self.theta_clip() - self.theta_max))
@@ -274,23 +275,26 @@ mod tests {
 
     #[test]
     fn clip_angles_are_ordered_for_every_fov() {
-        // rim < clip (a margin outside) ≤ reach < draw limit < π,
-        // and the guard piece fits between rim and clip, for FOVs from 1° to
-        // next to 360°, across the switch from plane to cone at 178°.
-        let margin = RIM_MARGIN_DEG.to_radians();
+        // rim ≤ clip ≤ reach < draw limit < π, the guard piece within half
+        // the gap between rim and clip, the skirt only next to 180°, for
+        // FOVs from 1° to next to 360°.
         for fov in [
             1.0, 90.0, 170.0, 178.0, 178.001, 179.0, 180.0, 181.0, 250.0, 359.9,
         ] {
             let p = frame(fov, 0.0, 4096).unwrap();
             let (rim, clip, reach) = (p.theta_max(), p.theta_clip(), p.theta_reach());
             let limit = p.theta_draw_limit();
-            // (Next to 360° the rim is closer than that to the antipode:
-            // the cone halves the gap.)
-            let gap = margin.min(0.5 * (PI - rim));
-            assert!(clip - rim >= gap * (1.0 - 1e-12), "{fov}");
-            assert!(clip <= reach && reach < limit && limit < PI, "{fov}");
+            assert!(
+                rim <= clip && clip <= reach && reach < limit && limit < PI,
+                "{fov}"
+            );
             assert!(p.max_unclipped_piece_rad() > 0.0, "{fov}");
-            assert_eq!(p.clips_at_view_plane(), fov <= 178.0, "{fov}");
+            assert_eq!(p.clips_at_view_plane(), fov <= 180.0, "{fov}");
+            assert_eq!(
+                p.rim_skirt_rad().is_some(),
+                fov > 178.0 && fov <= 180.0,
+                "{fov}"
+            );
             if let Some(piece) = p.guard_piece_rad() {
                 assert!(piece <= 0.5 * (clip - rim) && piece > 0.0, "{fov}");
             }

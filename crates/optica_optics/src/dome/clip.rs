@@ -1,24 +1,24 @@
 //! Removing geometry the projection cannot draw, before refinement.
 //!
-//! * FOV ≤ 178° (see [`DomeProjection::clips_at_view_plane`]): everything
-//!   visible lies in front of the view plane of the dome frame
-//!   (`p·axis ≥ 0`, z = 0 in dome coordinates), a convex half-space, so
-//!   segments and triangles are clipped against that plane in 3D before
-//!   projection. Without it a floor under a zenith camera has vertices behind
-//!   the viewer and near the antipode, and its projected triangles cover the
-//!   whole disk (seen on a software rasteriser, lavapipe, with a camera
-//!   inside a room). What lies between the rim and the plane projects outside
-//!   the image circle and is discarded per fragment.
-//! * Wider: the visible set θ ≤ FOV/2 is not convex (FOV > 180°: its
-//!   complement is a cone around the antipode), or the view plane would cut
-//!   at the rim itself (next to 180°). Segments are clipped exactly to the
-//!   cone θ ≤ θ_clip ([`DomeProjection::theta_clip`]) along their
-//!   great-circle arc (at most two pieces remain). Triangles are not
-//!   clipped: they are refined whole and the refined sub-triangles reaching
-//!   past θ_clip, or covering the antipode, are culled (see
-//!   [`refine_triangle`](super::refine_triangle)); pieces leaving the cone
-//!   are capped ([`DomeProjection::guard_piece_rad`]) so that culled ones
-//!   start outside the image circle.
+//! * FOV ≤ 180°: everything visible lies in front of the view plane of the
+//!   dome frame (`p·axis ≥ 0`, z = 0 in dome coordinates), a convex
+//!   half-space, so segments and triangles are clipped against that plane in
+//!   3D before projection. Without it a floor under a zenith camera has
+//!   vertices behind the viewer and near the antipode, and its projected
+//!   triangles cover the whole disk (seen on a software rasteriser,
+//!   lavapipe, with a camera inside a room). What lies between the rim and
+//!   the plane projects outside the image circle and is discarded per
+//!   fragment. (Next to 180°, triangles get a rim skirt past the cut: see
+//!   [`DomeProjection::rim_skirt_rad`].)
+//! * FOV > 180°: the visible set θ ≤ FOV/2 is not convex (its complement is a
+//!   cone around the antipode). Segments are clipped exactly to the cone
+//!   θ ≤ θ_guard = (θ_max + π)/2 along their great-circle arc (at most two
+//!   pieces remain). Triangles are not clipped: they are refined whole and
+//!   the refined sub-triangles reaching past θ_guard, or covering the
+//!   antipode, are culled (see [`refine_triangle`](super::refine_triangle));
+//!   pieces leaving the cone are capped
+//!   ([`DomeProjection::guard_piece_rad`]) so that culled ones start
+//!   outside the image circle.
 //!
 //! Cut points are computed with the edge's endpoints in canonical order, so
 //! two triangles sharing an edge cut it at the same bits.
@@ -149,8 +149,7 @@ fn clip_segment_cone(arc: &Arc, axis: DVec3, theta_clip: f64) -> Vec<[DVec3; 2]>
 
 /// Clips triangle (a, b, c) against the view plane `p·axis ≥ 0`
 /// (Sutherland–Hodgman) and fans the result: zero, one or two triangles with
-/// the input's winding. Used when [`DomeProjection::clips_at_view_plane`]
-/// (FOV ≤ 178°) only.
+/// the input's winding. Used for FOV ≤ 180° only.
 pub(crate) fn clip_triangle_plane(axis: DVec3, tri: [DVec3; 3]) -> Vec<[DVec3; 3]> {
     let d = tri.map(|p| p.dot(axis));
     if d.iter().all(|&x| x >= 0.0) {

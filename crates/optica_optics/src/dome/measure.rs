@@ -159,12 +159,20 @@ impl EdgeErrors {
         Self::of_edges(proj, &edges)
     }
 
-    /// Measures every edge of a mesh once.
+    /// Measures every edge of a mesh once. Where the projection gives cut
+    /// triangles a rim skirt ([`DomeProjection::rim_skirt_rad`]), edges
+    /// with an end behind the view plane are the skirt's and are left out:
+    /// the skirt lies wholly outside the image circle, to cover the ring
+    /// the cut's chords leave; its own edges, a degree past the rim where
+    /// the image curves a little more, are not held to the tolerance.
     pub fn of_mesh(proj: &DomeProjection, mesh: &TriMesh) -> Self {
+        let skirt = proj.rim_skirt_rad().is_some();
+        let behind = |p: DVec3| p.dot(proj.axis()) < -1e-9 * p.length();
         let edges: Vec<[DVec3; 2]> = mesh
             .edges()
             .iter()
             .map(|&[i, j]| [mesh.corner(i), mesh.corner(j)])
+            .filter(|e| !(skirt && e.iter().any(|&p| behind(p))))
             .collect();
         Self::of_edges(proj, &edges)
     }

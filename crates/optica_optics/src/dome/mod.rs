@@ -93,20 +93,20 @@
 //! * The camera origin: [`Projected::Origin`]; segments through the viewer:
 //!   [`DomeError::ThroughViewer`]; triangles touching the origin are left out.
 //! * The antipode (θ → π): [`Projected::Antipode`] within [`ANTIPODE_EPS_RAD`].
-//! * Behind the viewer, FOV ≤ 178° (180° − 2·[`RIM_MARGIN_DEG`]): clip
-//!   against the view plane z = 0 before projecting (segments and
-//!   triangles). Unclipped, a floor under a zenith camera has vertices near
-//!   the antipode and its triangles cover the whole disk.
-//! * Wider: the visible set is not convex, or (next to 180°) the view plane
-//!   would cut at the rim itself, where the cut's chords sag inside the
-//!   image circle (an uncovered ring of up to the tolerance). Segments are
-//!   clipped exactly to a guard cone θ ≤ θ_clip along their arc: (θ_max + π)/2
-//!   for FOV > 180°, 2·[`RIM_MARGIN_DEG`] outside the rim next to 180°.
-//!   Triangles are refined whole (edges leaving the guard cone get pieces of
-//!   at most [`DomeProjection::guard_piece_rad`]) and the sub-triangles
-//!   reaching past the guard cone, or covering the antipode, are culled.
-//!   Between rim and guard, geometry lands outside the image circle, where a
-//!   renderer discards fragments. See [`clip_segment`] and
+//! * Behind the viewer, FOV ≤ 180°: clip against the view plane z = 0
+//!   before projecting (segments and triangles). Unclipped, a floor under a
+//!   zenith camera has vertices near the antipode and its triangles cover
+//!   the whole disk. Next to 180° (within [`RIM_MARGIN_DEG`]) the cut lies on
+//!   the rim and its chords sag inside the image circle; a cut triangle then
+//!   gets a *rim skirt*, its own plane carried 1° on past the cut
+//!   ([`DomeProjection::rim_skirt_rad`]).
+//! * FOV > 180°: the visible set is not convex. Segments are clipped exactly to
+//!   the guard cone θ ≤ θ_clip = (θ_max + π)/2 along their arc; triangles are
+//!   refined whole (edges leaving the guard cone get pieces of at most
+//!   [`DomeProjection::guard_piece_rad`]) and the sub-triangles reaching past
+//!   the guard cone, or covering the antipode, are culled. Between rim and
+//!   guard, geometry lands outside the image circle, where a renderer
+//!   discards fragments. See [`clip_segment`] and
 //!   [`DomeProjection::theta_reach`].
 //!
 //! ## Triangles

@@ -42,8 +42,11 @@ pub struct RefineStats {
     /// Inputs removed entirely by clipping (behind the view plane or inside
     /// the antipode guard cone).
     pub clipped_away: usize,
-    /// Refined sub-triangles culled at the guard cone (FOV > 178°).
+    /// Refined sub-triangles culled at the antipode guard (FOV > 180°).
     pub culled: usize,
+    /// Triangles added as rim skirts past the view plane (FOV > 178°, see
+    /// [`DomeProjection::rim_skirt_rad`](super::DomeProjection::rim_skirt_rad)).
+    pub skirt: usize,
     /// Edges whose piece count hit [`MAX_PIECES`](super::MAX_PIECES).
     pub capped_edges: usize,
 }
@@ -59,6 +62,7 @@ impl RefineStats {
             dropped_through_viewer: self.dropped_through_viewer + o.dropped_through_viewer,
             clipped_away: self.clipped_away + o.clipped_away,
             culled: self.culled + o.culled,
+            skirt: self.skirt + o.skirt,
             capped_edges: self.capped_edges + o.capped_edges,
         }
     }
@@ -254,6 +258,7 @@ mod tests {
             dropped_through_viewer: 1,
             clipped_away: 1,
             culled: 0,
+            skirt: 0,
             capped_edges: 0,
         };
         assert_eq!(out.stats, want);

@@ -299,8 +299,9 @@ fn covers_direction(t: &[DVec3; 3], d: DVec3) -> bool {
     l0 >= 0.0 && l1 >= 0.0 && l2 >= 0.0
 }
 
-/// Clips at the view plane (FOV ≤ 178°), refines (paper §3.3) and, for
-/// wider FOVs, culls at the guard cone one triangle (see
+/// Clips at the view plane (FOV ≤ 180°; next to 180° with a rim skirt, see
+/// [`DomeProjection::rim_skirt_rad`]), refines (paper §3.3) and, for wider
+/// FOVs, culls at the guard cone one triangle (see
 /// [`clip_segment`](super::clip_segment) docs). Errors: a non-finite vertex ([`DomeError::Input`]). Parts touching
 /// the origin or with an edge through the viewer are left out and counted.
 pub fn refine_triangle(
@@ -322,17 +323,16 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
     };
     let parts = if proj.clips_at_view_plane() {
         clip_triangle_plane(proj.axis(), tri)
-    } else if proj.theta_max() <= std::f64::consts::FRAC_PI_2
-        && tri.iter().all(|v| v.dot(proj.axis()) <= 0.0)
-    {
-        // Wholly behind the view plane of a dome of at most 180°: nothing
-        // of it can show. Refined whole, it would be split to the guard
-        // pieces near the cone and then culled (a floor under a zenith
-        // camera: ~10⁴ sub-triangles for nothing).
-        vec![]
     } else {
         vec![tri]
     };
+    // A triangle cut at a view plane next to the rim gets a skirt along the
+    // cut, in its own plane (see `add_rim_skirt`).
+    let cut = tri.iter().any(|v| v.dot(proj.axis()) < 0.0);
+    let skirt = proj
+        .rim_skirt_rad()
+        .filter(|_| cut)
+        .and_then(|angle| Some((angle, skirt_direction(tri, proj.axis())?)));
     if parts.is_empty() {
         stats.clipped_away = 1;
     }
@@ -357,6 +357,9 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
             }
         };
         stats.capped_edges += usize::from(capped);
+        if let Some((angle, direction)) = skirt {
+            stats.skirt += add_rim_skirt(&mut local, proj.axis(), direction, angle);
+        }
         if !proj.clips_at_view_plane() {
             let limit = proj.theta_clip();
             let anti = -proj.axis();
@@ -378,6 +381,70 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
         mesh: welder.mesh,
         stats,
     }
+}
+
+/// The direction in the plane of `tri`, across the view plane (normal
+/// `axis`) and away from the front: where the triangle goes on behind its
+/// cut. `None` for a degenerate triangle or one nearly parallel to the
+/// view plane (its cut is a sliver at most).
+fn skirt_direction(tri: [DVec3; 3], axis: DVec3) -> Option<DVec3> {
+    let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+    let along_cut = n.cross(axis);
+    let d = n.cross(along_cut).try_normalize()?;
+    let d = if d.dot(axis) > 0.0 { -d } else { d };
+    (d.dot(axis) < -1e-6).then_some(d)
+}
+
+/// Adds to `m` (a refined part of a triangle cut at the view plane) a skirt
+/// along its cut: each boundary edge lying on the plane gets a quad that
+/// carries the triangle on in `direction` (in its plane, behind the view
+/// plane) until its vertices are `angle` past the plane. Why: the cut's
+/// chords join points on the rim of a 180° dome and sag inside the image
+/// circle by up to the tolerance; the skirt covers that ring with the
+/// triangle's own surface, and its far edge, `angle` outside the rim, sags
+/// nowhere near the circle (its pieces are as short as the cut's). No
+/// crack: the skirt only adds triangles along edges no other triangle of
+/// the input uses; neighbours' skirts meet at the shared cut point on the
+/// rim. Returns the number of triangles added.
+fn add_rim_skirt(m: &mut TriMesh, axis: DVec3, direction: DVec3, angle: f64) -> usize {
+    let on_plane = |p: DVec3| p.dot(axis).abs() <= 1e-9 * p.length();
+    let mut uses: HashMap<[u32; 2], usize> = HashMap::new();
+    for t in &m.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *uses.entry([a.min(b), a.max(b)]).or_default() += 1;
+        }
+    }
+    // How far to go along `direction` from p for `angle` past the plane,
+    // at most 4|p| (a triangle nearly parallel to the view plane would
+    // otherwise run far out sideways).
+    let (tan, behind) = (angle.tan(), -direction.dot(axis));
+    let mut beyond: HashMap<u32, u32> = HashMap::new();
+    let mut added = Vec::new();
+    for t in m.triangles.clone() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let (pa, pb) = (m.positions[a as usize], m.positions[b as usize]);
+            if uses[&[a.min(b), a.max(b)]] != 1 || !on_plane(pa) || !on_plane(pb) {
+                continue;
+            }
+            let mut past = |i: u32| {
+                *beyond.entry(i).or_insert_with(|| {
+                    let p = m.positions[i as usize];
+                    let s = (tan * p.length() / behind).min(4.0 * p.length());
+                    m.positions.push(p + s * direction);
+                    (m.positions.len() - 1) as u32
+                })
+            };
+            let (a2, b2) = (past(a), past(b));
+            // The quad b → a → a' → b', wound like its neighbour (which
+            // runs a → b).
+            added.extend([[b, a, a2], [b, a2, b2]]);
+        }
+    }
+    let n = added.len();
+    m.triangles.extend(added);
+    n
 }
 
 /// Refines every triangle of a mesh in parallel and welds the result by exact
@@ -420,6 +487,7 @@ pub fn refine_mesh(proj: &DomeProjection, mesh: &TriMesh, rule: SplitRule) -> Re
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dome::RIM_MARGIN_DEG;
     use crate::input::Expected;
     use proptest::prelude::*;
 
@@ -570,20 +638,20 @@ mod tests {
     #[test]
     fn the_rim_of_a_180_degree_dome_is_covered() {
         // The same room at 180° and 0.5 px. Cut at the view plane, the walls
-        // ended in chords between points on the rim, sagging up to the
-        // tolerance inside the image circle: an uncovered ring. With the
-        // guard cone 2° outside the rim, the drawn triangles (straight in
-        // the image) cover every point of the circle just inside the rim.
+        // end in chords between points on the rim, sagging up to the
+        // tolerance inside the image circle: an uncovered ring. Their rim
+        // skirts, 1° on past the plane, make the drawn triangles (straight
+        // in the image) cover every point of the circle just inside the rim.
         let p = dome(180.0);
-        assert!(!p.clips_at_view_plane());
-        assert!((p.theta_clip().to_degrees() - 92.0).abs() < 1e-12);
+        assert_eq!(p.rim_skirt_rad(), Some(RIM_MARGIN_DEG.to_radians()));
         let m = box_mesh(
             DVec3::new(-4.0, -6.0, -3.0),
             DVec3::new(4.0, 3.0, 1.7),
             true,
         );
         let r = refine_mesh(&p, &m, chord_gap(0.5));
-        assert!(r.stats.culled > 0);
+        assert_eq!(r.stats.clipped_away, 2);
+        assert!(r.stats.skirt > 0);
         let px = |v: DVec3| p.project(v).image_point().unwrap().pixel;
         let tris: Vec<[glam::DVec2; 3]> = r
             .mesh
@@ -602,13 +670,17 @@ mod tests {
             let q = c + (rim - 0.05) * glam::DVec2::from_angle(phi);
             assert!(tris.iter().any(|t| inside(t, q)), "{q} uncovered");
         }
-        // Every kept vertex is inside the guard cone.
-        assert!(
-            r.mesh
-                .positions()
-                .iter()
-                .all(|&v| p.theta(v) <= p.theta_clip() + 1e-12)
-        );
+        // The skirt reaches about 1° past the rim, no further; at 178° the
+        // view plane is already 1° outside the rim and no skirt is added.
+        let reach = r
+            .mesh
+            .positions()
+            .iter()
+            .map(|&v| p.theta(v).to_degrees())
+            .fold(0.0, f64::max);
+        assert!(reach > 90.9 && reach < 91.01, "{reach}°");
+        let p178 = dome(178.0);
+        assert_eq!(refine_mesh(&p178, &m, chord_gap(0.5)).stats.skirt, 0);
     }
 
     #[test]

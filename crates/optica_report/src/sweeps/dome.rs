@@ -5,7 +5,7 @@
 //! * Scene: random edges around the viewer (`dome::random_edges`, seeded) —
 //!   midpoints uniform in solid angle over the front hemisphere, subtended
 //!   angles 1°–60°, random orientation, endpoint distances 1–20 m (edges
-//!   near the horizon are clipped at the guard cone 2° outside the rim) — and an
+//!   near the horizon cross the view plane and are clipped) — and an
 //!   inside-out room (8 × 9 × 4.7 m, the zenith camera 1.7 m above the
 //!   floor) as a 12-triangle mesh.
 //! * Knob: `tolerance_px` of the chord-gap rule (`SplitRule::chord_gap`).
@@ -292,8 +292,7 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     };
     report.case("segment passing the antipode (FOV 250°)", case.0, case.1);
 
-    // Behind the viewer at 180°: dropped; crossing the rim: clipped at the
-    // guard cone, 2° outside it.
+    // Behind the viewer at 180°: dropped; crossing the view plane: clipped.
     let behind = refine_segment(
         &p180,
         polar(120.0, 10.0, 2.0),
@@ -310,11 +309,9 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
                 .and_then(|s| s.last())
                 .map_or(f64::NAN, |v| p180.theta(*v).to_degrees());
             (
-                ok && bh.strips.is_empty()
-                    && cr.strips.len() == 1
-                    && (end - p180.theta_clip().to_degrees()).abs() < 1e-9,
+                ok && bh.strips.is_empty() && cr.strips.len() == 1 && (end - 90.0).abs() < 1e-9,
                 format!(
-                    "behind: {} strips; crossing: ends at θ = {end:.9}° (the guard cone, 2° outside the rim), max error {e:.3} px",
+                    "behind: {} strips; crossing: ends at θ = {end:.9}°, max error {e:.3} px",
                     bh.strips.len()
                 ),
             )
@@ -324,9 +321,9 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     report.case("points behind the viewer (FOV 180°)", case.0, case.1);
 
     // The floor under a zenith camera: unclipped, its vertices lie near the
-    // antipode and its triangles cover the whole disk. At 170° it is clipped
-    // at the view plane; at 180° its sub-triangles past the guard cone (2°
-    // outside the rim, so that the rim is covered) are culled.
+    // antipode and its triangles cover the whole disk. Clipped at the view
+    // plane; at 180° the walls' cuts get rim skirts (so that the rim is
+    // covered), at 170° they need none.
     let p170 = dome(170.0);
     let r = refine_mesh(&p170, &room(), rule);
     let e = EdgeErrors::of_mesh(&p170, &r.mesh);
@@ -343,19 +340,19 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
     );
     let r = refine_mesh(&p180, &room(), rule);
     let e = EdgeErrors::of_mesh(&p180, &r.mesh);
-    let beyond = r
+    let reach = r
         .mesh
         .positions()
         .iter()
-        .filter(|v| p180.theta(**v) > p180.theta_clip() + 1e-12)
-        .count();
+        .map(|v| p180.theta(*v).to_degrees())
+        .fold(0.0, f64::max);
     report.case(
         "floor under a zenith camera (FOV 180°)",
-        r.stats.culled > 0 && beyond == 0 && e.failed == 0 && e.max_px <= tol,
+        r.stats.clipped_away == 2 && r.stats.skirt > 0 && reach < 91.01 && e.failed == 0 && e.max_px <= tol,
         format!(
-            "{} sub-triangles culled past the guard cone at {:.0}°, none kept beyond; {} triangles, max edge error {:.3} px",
-            r.stats.culled,
-            p180.theta_clip().to_degrees(),
+            "{} of 12 triangles (the floor) clipped away, walls cut at z = 0 with {} rim-skirt triangles reaching {reach:.3}°; {} triangles, max edge error {:.3} px",
+            r.stats.clipped_away,
+            r.stats.skirt,
             r.mesh.triangles().len(),
             e.max_px
         ),

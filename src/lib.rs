@@ -12,11 +12,12 @@
 //! |---|---|
 //! | `compound_eye` | [`compound_eye`]: a material for insect compound eyes (Sagawa 2014), `CompoundEyePlugin` |
 //! | `dome` | [`dome`]: a fisheye dome camera, equidistant projection per vertex with refinement (Johjima and Fujimura) or a resampled cube map, `DomePlugin` |
+//! | `lens_flare` | [`lens_flare`]: physically based lens flare (Hullin et al. 2011), `LensFlarePlugin`; work in progress (lens assets, ghost choice, the trace shader; no passes yet) |
 //! | `egui` | settings panels (bevy_egui) of the plugins that are on |
 //! | `window` | opens a real window in the examples (winit + X11); without it, or without a display, they render to PNG |
 //!
-//! The other plugins (`spectacles`, `foveated_lod`, `lens_flare`)
-//! join this table as they land.
+//! The other plugins (`spectacles`, `foveated_lod`) join this table as
+//! they land.
 //!
 //! ```
 //! use optica::optics::glass::Glass;
@@ -32,6 +33,8 @@ pub use optica_optics as optics;
 pub use optica_compound_eye as compound_eye;
 #[cfg(feature = "dome")]
 pub use optica_dome as dome;
+#[cfg(feature = "lens_flare")]
+pub use optica_lens_flare as lens_flare;
 
 /// The usual imports: the optics and each enabled plugin's plugin and
 /// user-facing types.
@@ -44,4 +47,6 @@ pub mod prelude {
     };
     #[cfg(feature = "dome")]
     pub use optica_dome::{DomeCamera, DomePlugin};
+    #[cfg(feature = "lens_flare")]
+    pub use optica_lens_flare::{FlareSource, LensFlare, LensFlarePlugin};
 }

@@ -6,3 +6,4 @@
 
 mod compound_eye;
 mod dome;
+mod lens_flare;

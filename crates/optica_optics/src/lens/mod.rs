@@ -147,8 +147,8 @@ pub use prescription::{
     INDEX_RANGE, LensPrescription, LensSurface, MAX_SURFACES, PrescriptionError,
 };
 pub use trace::{
-    MAX_STOP_CROSSINGS, Pass, PreparedLens, TraceError, TracePath, TraceResult, ghosts, trace,
-    trace_to,
+    MAX_STOP_CROSSINGS, Pass, PreparedLens, SurfaceData, TraceError, TracePath, TraceResult,
+    ghosts, trace, trace_to,
 };
 
 // The types this module's signatures use, so that `lens::*` is enough to call it.

@@ -146,6 +146,27 @@ struct PreparedSurface {
     coating: Option<Coating>,
 }
 
+/// One surface of a [`PreparedLens`] as a tracer on another device (the
+/// lens-flare plugin's compute shader) needs it: placed on the axis, with
+/// its indices at the lens's wavelength.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceData {
+    /// z of the vertex, mm.
+    pub vertex_z: f64,
+    /// Curvature 1/R, 1/mm (flat is exactly 0).
+    pub curvature: f64,
+    /// Clear semi-aperture, mm.
+    pub semi_aperture_mm: f64,
+    /// Index of the medium in front of the surface.
+    pub n_before: f64,
+    /// Index of the medium behind the surface.
+    pub n_after: f64,
+    /// Whether this is the aperture stop (an opening: no refraction).
+    pub is_stop: bool,
+    /// The surface's anti-reflection coating, if any.
+    pub coating: Option<Coating>,
+}
+
 /// Most crossings of the stop plane a path can have: a ghost reflecting
 /// behind the stop and then in front of it crosses it three times (forward,
 /// backward between the reflections, forward again).
@@ -263,6 +284,22 @@ impl PreparedLens {
     /// Index of the stop surface.
     pub fn stop_index(&self) -> usize {
         self.stop
+    }
+
+    /// Every surface, front to back, as another tracer needs it.
+    pub fn surface_data(&self) -> Vec<SurfaceData> {
+        self.surfaces
+            .iter()
+            .map(|s| SurfaceData {
+                vertex_z: s.geometry.vertex_z(),
+                curvature: s.geometry.curvature(),
+                semi_aperture_mm: s.semi_aperture,
+                n_before: s.n_before,
+                n_after: s.n_after,
+                is_stop: s.is_stop,
+                coating: s.coating,
+            })
+            .collect()
     }
 
     /// Traces one ray to the table's sensor plane.
@@ -753,6 +790,29 @@ mod tests {
         let r = trace(&p, ray, LAMBDA_D_NM, TracePath::ghost(6, 5)).unwrap();
         assert_eq!(r.stop_crossings, 1);
         assert_eq!(r.stop_xy_all, [r.stop_xy; 3]);
+    }
+
+    #[test]
+    fn surface_data_is_the_prepared_lens() {
+        // Tessar at the d line: vertices at the running sum of thicknesses,
+        // the stop flagged, each surface's index behind it the next one's
+        // in front, air in front of the first.
+        let p = builtin::tessar();
+        let lens = PreparedLens::new(&p, LAMBDA_D_NM).unwrap();
+        let data = lens.surface_data();
+        assert_eq!(data.len(), p.surfaces().len());
+        let z = p.vertex_z();
+        for (k, s) in data.iter().enumerate() {
+            assert_eq!(s.vertex_z, z[k]);
+            assert_eq!(s.curvature, p.surfaces()[k].curvature);
+            assert_eq!(s.is_stop, k == p.stop_index());
+            assert_eq!(s.semi_aperture_mm, p.surfaces()[k].semi_aperture_mm);
+        }
+        assert_eq!(data[0].n_before, 1.0);
+        assert!((data[0].n_after - 1.6910).abs() < 1e-4);
+        for w in data.windows(2) {
+            assert_eq!(w[0].n_after, w[1].n_before);
+        }
     }
 
     #[test]

@@ -1,0 +1,81 @@
+//! # optica_lens_flare — physically based lens flare for Bevy
+//!
+//! Ghosts — light reflected twice inside a camera lens — traced through
+//! real lens prescriptions, after Hullin, Eisemann, Seidel and Lee,
+//! *Physically-Based Real-Time Lens Flare Rendering* (SIGGRAPH 2011), as
+//! the CPU twin in `optica_optics::lens_flare` implements it.
+//!
+//! ```no_run
+//! use bevy::prelude::*;
+//! use optica_lens_flare::{FlareSource, LensFlare, LensFlarePlugin};
+//!
+//! App::new()
+//!     .add_plugins((DefaultPlugins, LensFlarePlugin))
+//!     .add_systems(Startup, |mut commands: Commands, assets: Res<AssetServer>| {
+//!         commands.spawn((
+//!             Camera3d::default(),
+//!             LensFlare::new(assets.load("lenses/tessar-us2854889.lens")),
+//!         ));
+//!         commands.spawn((DirectionalLight::default(), FlareSource::default()));
+//!     })
+//!     .run();
+//! ```
+//!
+//! ## Lenses
+//!
+//! [`LensAsset`]s load from `.lens` files (the format of
+//! `optica_optics::lens`: a patent table, one surface per row); the
+//! project ships a Brendel Tessar, an Angénieux double Gauss and a Heliar
+//! in `assets/lenses/`. With Bevy's `file_watcher` feature an edited file
+//! is reloaded; a file that does not parse is refused with its line and
+//! field named, and the flare keeps the last good lens.
+//!
+//! ## Ghosts
+//!
+//! Every pair of reflecting surfaces is a ghost (n(n−1)/2 for n
+//! interfaces: 21 for the Tessar, 91 for the double Gauss). They are
+//! estimated once per lens, coating and aperture, ranked, and the
+//! brightest within [`LensFlare::ghost_budget`] and
+//! [`LensFlare::min_relative`] are drawn ([`FlareGhosts`] says what became
+//! of each).
+//!
+//! ## Status
+//!
+//! Work in progress: the ghost choice and the trace shader
+//! (`shaders/lens_trace.wgsl`, [`LENS_TRACE_WGSL`], held to the CPU twin by
+//! readback) are in; the compute and draw passes, the starburst, ghost
+//! ringing and depth occlusion are not yet, so the plugin draws nothing
+//! yet.
+
+#![warn(missing_docs)]
+
+use bevy::prelude::*;
+
+mod asset;
+mod gpu_lens;
+mod precompute;
+mod settings;
+
+pub use asset::{LensAsset, LensLoadError, LensLoader};
+pub use gpu_lens::{LENS_TRACE_WGSL, SURFACE_FLOATS, pack_surfaces};
+pub use precompute::{FlareGhosts, GhostChoice, GhostFate, RANKING_FIELD_DEG, choose};
+pub use settings::{
+    ApertureSettings, CoatingSettings, FlareSource, LensFlare, MAX_GRID, MAX_WAVELENGTHS,
+};
+
+/// Adds [`LensAsset`] loading, [`LensFlare`] and [`FlareSource`]. Without a
+/// `LensFlare` camera it does no per-frame work.
+pub struct LensFlarePlugin;
+
+impl Plugin for LensFlarePlugin {
+    fn build(&self, app: &mut App) {
+        app.init_asset::<LensAsset>()
+            .init_asset_loader::<LensLoader>()
+            .register_type::<LensFlare>()
+            .register_type::<FlareSource>()
+            .add_systems(
+                PostUpdate,
+                precompute::choose_ghosts.run_if(any_with_component::<LensFlare>),
+            );
+    }
+}

@@ -1,0 +1,214 @@
+//! Choosing the ghosts a [`LensFlare`] camera draws (the blog's *Intensity
+//! LOD* and *Aperture culling*), redone only when the lens, the coating or
+//! the aperture changes: every two-reflection path of the lens is
+//! estimated with a small grid, ranked, and kept or left out with a reason.
+
+use bevy::prelude::*;
+use optica_optics::lens::{Coating, LensPrescription};
+use optica_optics::lens_flare::{
+    Aperture, EstimateOptions, coat_air_interfaces, estimate_ghosts, light_from_field,
+    stopped_to_f_number,
+};
+
+use crate::{LensAsset, LensFlare};
+
+/// Field angle of the light the ghosts are ranked for, degrees. The ranking
+/// is done once per lens and aperture, not per light; the order of the
+/// brightest ghosts changes little with the angle, and each kept ghost is
+/// traced at every light's real direction.
+pub const RANKING_FIELD_DEG: f64 = 10.0;
+
+/// What became of one ghost path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Reflect)]
+pub enum GhostFate {
+    /// Drawn.
+    Drawn,
+    /// Dimmer than [`LensFlare::min_relative`] of the brightest.
+    TooDim,
+    /// Bright enough, but past [`LensFlare::ghost_budget`].
+    OverBudget,
+    /// No ray of the estimate gets through the lens and the aperture.
+    Blocked,
+}
+
+/// One two-reflection path of the lens and its fate.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct GhostChoice {
+    /// Reflects at surface `.0`, then at `.1` (in front of it).
+    pub path: (usize, usize),
+    /// Estimated mean irradiance relative to the brightest ghost.
+    pub relative: f64,
+    /// Drawn, or why not.
+    pub fate: GhostFate,
+}
+
+/// On a [`LensFlare`] camera: the lens as traced and every ghost path with
+/// its fate, brightest first. Rebuilt when the lens asset, the coating or
+/// the aperture changes.
+#[derive(Component, Clone, Debug, Default)]
+pub struct FlareGhosts {
+    /// The prescription as traced (coated, stopped down), once loaded.
+    pub lens: Option<LensPrescription>,
+    /// Every ghost path (n(n−1)/2 for n interfaces), brightest first.
+    pub ghosts: Vec<GhostChoice>,
+    /// Why no ghost could be chosen (the lens is not loaded, a setting is
+    /// invalid, the estimate failed); the last good choice is kept.
+    pub problem: Option<String>,
+    built_for: Option<Key>,
+}
+
+impl FlareGhosts {
+    /// The paths drawn, brightest first.
+    pub fn drawn(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.ghosts
+            .iter()
+            .filter(|g| g.fate == GhostFate::Drawn)
+            .map(|g| g.path)
+    }
+}
+
+/// What a choice depends on.
+#[derive(Clone, Debug, PartialEq)]
+struct Key {
+    lens: AssetId<LensAsset>,
+    aperture: crate::ApertureSettings,
+    coating: Option<crate::CoatingSettings>,
+    budget: u32,
+    min_relative: f32,
+}
+
+impl Key {
+    fn of(flare: &LensFlare) -> Self {
+        Self {
+            lens: flare.lens.id(),
+            aperture: flare.aperture,
+            coating: flare.coating,
+            budget: flare.ghost_budget,
+            min_relative: flare.min_relative,
+        }
+    }
+}
+
+/// Chooses the ghosts of every [`LensFlare`] camera whose lens or settings
+/// changed, or whose lens asset was (re)loaded.
+pub(crate) fn choose_ghosts(
+    mut commands: Commands,
+    mut cameras: Query<(Entity, &LensFlare, Option<&mut FlareGhosts>)>,
+    lenses: Res<Assets<LensAsset>>,
+    mut events: MessageReader<AssetEvent<LensAsset>>,
+) {
+    let changed: Vec<AssetId<LensAsset>> = events
+        .read()
+        .filter_map(|e| match e {
+            AssetEvent::Added { id } | AssetEvent::Modified { id } => Some(*id),
+            _ => None,
+        })
+        .collect();
+    for (entity, flare, ghosts) in &mut cameras {
+        let key = Key::of(flare);
+        let fresh = ghosts
+            .as_ref()
+            .is_some_and(|g| g.built_for.as_ref() == Some(&key) && !changed.contains(&key.lens));
+        if fresh {
+            continue;
+        }
+        let result = match lenses.get(&flare.lens) {
+            None => Err("the lens is not loaded (yet)".to_string()),
+            Some(asset) => flare.validate().and_then(|()| choose(flare, &asset.0)),
+        };
+        let mut next = ghosts.as_deref().cloned().unwrap_or_default();
+        match result {
+            Ok((lens, choices)) => {
+                next.lens = Some(lens);
+                next.ghosts = choices;
+                next.problem = None;
+                next.built_for = Some(key);
+            }
+            Err(why) => {
+                if next.problem.as_ref() != Some(&why) {
+                    warn!("optica_lens_flare: {why}; the flare keeps its last ghosts");
+                }
+                next.problem = Some(why);
+                // Not marked as built: tried again when something changes
+                // (a lens still loading arrives as an asset event).
+                next.built_for = None;
+            }
+        }
+        match ghosts {
+            Some(mut g) => *g = next,
+            None => {
+                commands.entity(entity).insert(next);
+            }
+        }
+    }
+}
+
+/// The prescription as `flare` traces it and its ghosts, ranked and culled.
+pub fn choose(
+    flare: &LensFlare,
+    prescription: &LensPrescription,
+) -> Result<(LensPrescription, Vec<GhostChoice>), String> {
+    let mut lens = prescription.clone();
+    if let Some(c) = flare.coating {
+        let coating = Coating::quarter_wave(f64::from(c.index), f64::from(c.design_wavelength_nm))
+            .map_err(|e| e.to_string())?;
+        lens = coat_air_interfaces(&lens, coating).map_err(|e| e.to_string())?;
+    }
+    if let Some(f) = flare.aperture.f_number {
+        lens = stopped_to_f_number(&lens, f64::from(f)).map_err(|e| e.to_string())?;
+    }
+    let radius = lens.stop_semi_aperture_mm();
+    let a = &flare.aperture;
+    let aperture = if a.blades == 0 {
+        Aperture::circle(radius)
+    } else {
+        Aperture::blades(
+            a.blades,
+            f64::from(a.rotation_deg).to_radians(),
+            f64::from(a.roundness),
+            radius,
+        )
+    }
+    .map_err(|e| e.to_string())?;
+    let ranked = estimate_ghosts(
+        &lens,
+        light_from_field(RANKING_FIELD_DEG, 0.0),
+        550.0,
+        &aperture,
+        &EstimateOptions::default(),
+    )
+    .map_err(|e| e.to_string())?;
+    let brightest = ranked.iter().map(|g| g.intensity).fold(0.0, f64::max);
+    let mut drawn = 0u32;
+    let choices = ranked
+        .iter()
+        .map(|g| {
+            let relative = if brightest > 0.0 {
+                g.intensity / brightest
+            } else {
+                0.0
+            };
+            // (A NaN estimate counts as blocked, as zero does.)
+            let fate = if g.intensity.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                GhostFate::Blocked
+            } else if relative < f64::from(flare.min_relative) {
+                GhostFate::TooDim
+            } else if drawn >= flare.ghost_budget {
+                GhostFate::OverBudget
+            } else {
+                drawn += 1;
+                GhostFate::Drawn
+            };
+            let path = match g.path {
+                optica_optics::lens::TracePath::Ghost { first, second } => (first, second),
+                optica_optics::lens::TracePath::Primary => (0, 0),
+            };
+            GhostChoice {
+                path,
+                relative,
+                fate,
+            }
+        })
+        .collect();
+    Ok((lens, choices))
+}

@@ -1,0 +1,5 @@
+//! The lens-flare plugin on lavapipe: the trace shader against its CPU
+//! twin, lens assets and the choice of ghosts.
+
+mod ghosts;
+mod trace;

@@ -52,11 +52,13 @@
 use bevy::prelude::*;
 
 mod asset;
+mod frame;
 mod gpu_lens;
 mod precompute;
 mod settings;
 
 pub use asset::{LensAsset, LensLoadError, LensLoader};
+pub use frame::{SensorMapping, light_in_lens};
 pub use gpu_lens::{LENS_TRACE_WGSL, SURFACE_FLOATS, pack_surfaces};
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate, RANKING_FIELD_DEG, choose};
 pub use settings::{

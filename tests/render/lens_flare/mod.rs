@@ -1,5 +1,6 @@
 //! The lens-flare plugin on lavapipe: the trace shader against its CPU
 //! twin, lens assets and the choice of ghosts.
 
+mod frame;
 mod ghosts;
 mod trace;

@@ -39,25 +39,44 @@
 //! [`LensFlare::min_relative`] are drawn ([`FlareGhosts`] says what became
 //! of each).
 //!
+//! ## Per frame, on the GPU
+//!
+//! For each drawn ghost, wavelength and [`FlareSource`] light whose light
+//! enters the lens (directional lights, point and spot lights, in view or
+//! not), a grid of [`LensFlare::grid`]² parallel rays over the ghost's
+//! pupil bounds is traced through the lens by a compute pass
+//! (`shaders/lens_trace.wgsl`, [`LENS_TRACE_WGSL`], the WGSL twin of
+//! `PreparedLens::trace_to`, held to it by readback), keeping `r_rel` so
+//! the grid stays continuous. A draw pass then adds every grid cell to the
+//! HDR view target before tonemapping, with the irradiance its change of
+//! area gives (bounded gain), clipped per pixel where `r_rel > 1`. The
+//! sensor is sized so that the lens sees the camera's field of view
+//! ([`SensorMapping`]); a light's irradiance at the camera (illuminance, or
+//! a point light's lumens over 4πd²) times the camera's exposure scales its
+//! ghosts, so they sit in the scene's light levels. Pass time shows as the
+//! `optica/flare` diagnostic span.
+//!
 //! ## Status
 //!
-//! Work in progress: the ghost choice and the trace shader
-//! (`shaders/lens_trace.wgsl`, [`LENS_TRACE_WGSL`], held to the CPU twin by
-//! readback) are in; the compute and draw passes, the starburst, ghost
-//! ringing and depth occlusion are not yet, so the plugin draws nothing
-//! yet.
+//! Work in progress. Not yet: the aperture's blade shape in the draw pass
+//! (the round stop clips through `r_rel`), the starburst and ghost ringing
+//! (FFT), occlusion by the scene's depth, per-ghost grid sizes and the
+//! axial-symmetry speed-up, the example and the report.
 
 #![warn(missing_docs)]
 
 use bevy::prelude::*;
 
 mod asset;
+mod draws;
 mod frame;
 mod gpu_lens;
 mod precompute;
+mod render;
 mod settings;
 
 pub use asset::{LensAsset, LensLoadError, LensLoader};
+pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob};
 pub use frame::{SensorMapping, light_in_lens};
 pub use gpu_lens::{LENS_TRACE_WGSL, SURFACE_FLOATS, pack_surfaces};
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate, RANKING_FIELD_DEG, choose};
@@ -75,9 +94,13 @@ impl Plugin for LensFlarePlugin {
             .init_asset_loader::<LensLoader>()
             .register_type::<LensFlare>()
             .register_type::<FlareSource>()
+            .add_plugins(render::FlareRenderPlugin)
             .add_systems(
                 PostUpdate,
-                precompute::choose_ghosts.run_if(any_with_component::<LensFlare>),
+                (precompute::choose_ghosts, draws::prepare_draws)
+                    .chain()
+                    .after(bevy::transform::TransformSystems::Propagate)
+                    .run_if(any_with_component::<LensFlare>),
             );
     }
 }

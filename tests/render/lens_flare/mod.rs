@@ -3,4 +3,5 @@
 
 mod frame;
 mod ghosts;
+mod passes;
 mod trace;

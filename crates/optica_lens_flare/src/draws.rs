@@ -1,0 +1,239 @@
+//! Each frame, on the main world: the ghost grids a [`LensFlare`] camera
+//! traces — one per drawn ghost, wavelength and [`FlareSource`] light whose
+//! light enters the lens — with their beams, the lens per wavelength and
+//! the colour each grid adds. Extracted to the render world as
+//! [`FlareDraws`].
+
+use bevy::camera::Exposure;
+use bevy::math::{DVec3, Vec3, Vec4};
+use bevy::prelude::*;
+use bevy::render::extract_component::ExtractComponent;
+use bevy::render::render_resource::ShaderType;
+use optica_optics::glass::LAMBDA_D_NM;
+use optica_optics::lens::{PreparedLens, TracePath};
+use optica_optics::lens_flare::{Beam, DEFAULT_MAX_GAIN};
+
+use crate::{FlareGhosts, FlareSource, LensFlare, SensorMapping, light_in_lens, pack_surfaces};
+
+/// One surface as the shaders read it (`LensSurface`).
+#[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
+pub struct GpuSurface {
+    z: f32,
+    c: f32,
+    semi: f32,
+    n_before: f32,
+    n_after: f32,
+    is_stop: f32,
+    coat_n: f32,
+    coat_d_nm: f32,
+}
+
+/// One grid of rays (`GridJob`): the ray at pupil `(u, v)` starts at
+/// `origin + u·du + v·dv`.
+#[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
+pub struct GridJob {
+    origin: Vec3,
+    first: u32,
+    du: Vec3,
+    second: u32,
+    dv: Vec3,
+    lens_base: u32,
+    dir: Vec3,
+    cell_pupil_mm2: f32,
+    /// Linear RGB added per unit irradiance; w: the wavelength, nm.
+    color: Vec4,
+}
+
+/// The uniform of both passes (`FlareParams`).
+#[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
+pub struct FlareParams {
+    /// Rays per side of every grid.
+    pub n: u32,
+    /// Grids.
+    pub jobs: u32,
+    /// Surfaces per lens.
+    pub surfaces: u32,
+    sensor_z: f32,
+    half_height_mm: f32,
+    aspect: f32,
+    max_gain: f32,
+    intensity: f32,
+}
+
+/// What a flare camera's passes trace and draw this frame; no grids when
+/// no light enters the lens.
+#[derive(Component, Clone, Debug, Default, ExtractComponent)]
+pub struct FlareDraws {
+    /// The lens at each wavelength, one after the other.
+    pub surfaces: Vec<GpuSurface>,
+    /// The grids.
+    pub jobs: Vec<GridJob>,
+    /// Sizes and the sensor-to-screen mapping.
+    pub params: FlareParams,
+}
+
+/// A light's colour weights at `wl` nm among `count` evenly spread samples:
+/// smooth red, green and blue bands, each summing to 1 over the samples so
+/// that a white light's flare averages to white.
+fn spectral_weight(wl: f64, samples: &[f64]) -> Vec3 {
+    let band = |centre: f64, width: f64, w: f64| (-((w - centre) / width).powi(2)).exp();
+    let raw = |w: f64| {
+        Vec3::new(
+            band(610.0, 60.0, w) as f32,
+            band(545.0, 50.0, w) as f32,
+            band(450.0, 50.0, w) as f32,
+        )
+    };
+    let total = samples.iter().map(|&w| raw(w)).sum::<Vec3>();
+    if samples.len() == 1 {
+        return Vec3::ONE;
+    }
+    raw(wl) / total.max(Vec3::splat(1e-6))
+}
+
+/// Builds [`FlareDraws`] for every [`LensFlare`] camera.
+#[allow(clippy::type_complexity)]
+pub(crate) fn prepare_draws(
+    mut commands: Commands,
+    cameras: Query<(
+        Entity,
+        &LensFlare,
+        &FlareGhosts,
+        &Camera,
+        &Projection,
+        &GlobalTransform,
+        Option<&Exposure>,
+    )>,
+    lights: Query<(
+        &GlobalTransform,
+        &FlareSource,
+        Option<&DirectionalLight>,
+        Option<&PointLight>,
+        Option<&SpotLight>,
+    )>,
+) {
+    for (entity, flare, ghosts, camera, projection, transform, exposure) in &cameras {
+        let draws = build(
+            flare, ghosts, camera, projection, transform, exposure, &lights,
+        )
+        .unwrap_or_default();
+        commands.entity(entity).insert(draws);
+    }
+}
+
+#[allow(clippy::type_complexity)]
+fn build(
+    flare: &LensFlare,
+    ghosts: &FlareGhosts,
+    camera: &Camera,
+    projection: &Projection,
+    transform: &GlobalTransform,
+    exposure: Option<&Exposure>,
+    lights: &Query<(
+        &GlobalTransform,
+        &FlareSource,
+        Option<&DirectionalLight>,
+        Option<&PointLight>,
+        Option<&SpotLight>,
+    )>,
+) -> Option<FlareDraws> {
+    flare.validate().ok()?;
+    let lens = ghosts.lens.as_ref()?;
+    let Projection::Perspective(perspective) = projection else {
+        return None;
+    };
+    let size = camera.physical_target_size()?;
+    let aspect = f64::from(size.x) / f64::from(size.y.max(1));
+    let efl = lens.paraxial(LAMBDA_D_NM).ok()?.efl_mm;
+    let mapping = SensorMapping::new(efl, f64::from(perspective.fov), aspect)?;
+    let wavelengths = flare.wavelengths_nm();
+    let prepared: Vec<PreparedLens> = wavelengths
+        .iter()
+        .map(|&wl| PreparedLens::new(lens, wl).ok())
+        .collect::<Option<_>>()?;
+    let surfaces: Vec<GpuSurface> = prepared
+        .iter()
+        .flat_map(pack_surfaces)
+        .map(|s| GpuSurface {
+            z: s[0],
+            c: s[1],
+            semi: s[2],
+            n_before: s[3],
+            n_after: s[4],
+            is_stop: s[5],
+            coat_n: s[6],
+            coat_d_nm: s[7],
+        })
+        .collect();
+    let count = lens.surfaces().len() as u32;
+    let exposure = exposure.copied().unwrap_or_default().exposure();
+    let view_from_world = transform.affine().inverse();
+    let camera_position = transform.translation();
+    let n = flare.grid;
+    let cells = f64::from((n - 1) * (n - 1));
+    let mut jobs = Vec::new();
+    for (light_transform, source, directional, point, spot) in lights {
+        // Direction of travel (world) and irradiance at the camera, lux.
+        let (travel, lux, colour) = if let Some(d) = directional {
+            (light_transform.forward().as_vec3(), d.illuminance, d.color)
+        } else {
+            let to_camera = camera_position - light_transform.translation();
+            let d2 = to_camera.length_squared().max(1e-6);
+            let (lumens, colour) = match (point, spot) {
+                (Some(p), _) => (p.intensity, p.color),
+                (_, Some(s)) => (s.intensity, s.color),
+                _ => continue,
+            };
+            (
+                to_camera,
+                lumens / (4.0 * std::f32::consts::PI * d2),
+                colour,
+            )
+        };
+        let Some(d) = light_in_lens(view_from_world.transform_vector3(travel)) else {
+            continue;
+        };
+        let rgb = Vec3::from_array(LinearRgba::from(colour).to_f32_array_no_alpha())
+            * lux
+            * exposure
+            * source.strength;
+        for (first, second) in ghosts.drawn() {
+            let path = TracePath::ghost(first, second);
+            for (w, &wl) in wavelengths.iter().enumerate() {
+                let Ok(beam) = Beam::for_path(lens, path, d, wl) else {
+                    continue;
+                };
+                let at = |u: f64, v: f64| beam.ray_at(u, v).map(|r| r.origin());
+                let (Ok(o), Ok(ou), Ok(ov)) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0)) else {
+                    continue;
+                };
+                let weight = spectral_weight(wl, &wavelengths);
+                jobs.push(GridJob {
+                    origin: o.as_vec3(),
+                    first: first as u32,
+                    du: (ou - o).as_vec3(),
+                    second: second as u32,
+                    dv: (ov - o).as_vec3(),
+                    lens_base: w as u32 * count,
+                    dir: DVec3::as_vec3(beam.direction()),
+                    cell_pupil_mm2: (beam.cross_section_mm2() / cells) as f32,
+                    color: (rgb * weight).extend(wl as f32),
+                });
+            }
+        }
+    }
+    Some(FlareDraws {
+        params: FlareParams {
+            n,
+            jobs: jobs.len() as u32,
+            surfaces: count,
+            sensor_z: prepared[0].table_sensor_z() as f32,
+            half_height_mm: mapping.half_height_mm as f32,
+            aspect: aspect as f32,
+            max_gain: DEFAULT_MAX_GAIN as f32,
+            intensity: flare.intensity,
+        },
+        surfaces,
+        jobs,
+    })
+}

@@ -1,0 +1,295 @@
+//! The render world: per flare camera, a compute pass traces every ghost
+//! grid of [`FlareDraws`] into a storage buffer, and a draw pass adds their
+//! cells to the HDR view target before tonemapping (so that bloom and
+//! tonemapping treat the flare as light). Pipelines are queued when the
+//! first flare camera needs them; views without `FlareDraws` (or with no
+//! grid this frame) run neither pass.
+
+use bevy::asset::uuid_handle;
+use bevy::core_pipeline::tonemapping::tonemapping;
+use bevy::core_pipeline::{Core3d, Core3dSystems};
+use bevy::platform::collections::HashMap;
+use bevy::prelude::*;
+use bevy::render::diagnostic::RecordDiagnostics;
+use bevy::render::extract_component::ExtractComponentPlugin;
+use bevy::render::render_resource::binding_types::{
+    storage_buffer, storage_buffer_read_only, uniform_buffer,
+};
+use bevy::render::render_resource::{
+    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, BlendComponent,
+    BlendFactor, BlendOperation, BlendState, Buffer, BufferDescriptor, BufferUsages,
+    CachedComputePipelineId, CachedRenderPipelineId, ColorTargetState, ColorWrites,
+    ComputePassDescriptor, ComputePipelineDescriptor, FragmentState, PipelineCache,
+    RenderPassDescriptor, RenderPipelineDescriptor, ShaderStages, StorageBuffer, TextureFormat,
+    UniformBuffer, VertexState,
+};
+use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
+use bevy::render::view::{ExtractedView, ViewTarget};
+use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
+use bevy::shader::Shader;
+
+use crate::LENS_TRACE_WGSL;
+use crate::draws::{FlareDraws, FlareParams, GpuSurface, GridJob};
+
+/// The compute shader: the trace library and the pass's bindings.
+const TRACE_SHADER: Handle<Shader> = uuid_handle!("6b1c7f0e-3d2a-4c55-9a61-0f6f6c1d2a71");
+/// The draw shader.
+const DRAW_SHADER: Handle<Shader> = uuid_handle!("b3e2a9d4-8f17-4e0b-a1c2-5d9e7f3a4b60");
+
+/// Bytes per traced ray (`RayOut`: 12 floats).
+const RAY_BYTES: u64 = 48;
+
+/// Adds the passes.
+pub(crate) struct FlareRenderPlugin;
+
+impl Plugin for FlareRenderPlugin {
+    fn build(&self, app: &mut App) {
+        if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
+            let trace = format!(
+                "{LENS_TRACE_WGSL}\n{}",
+                include_str!("shaders/ghost_trace.wgsl")
+            );
+            let _ = shaders.insert(
+                TRACE_SHADER.id(),
+                Shader::from_wgsl(trace, "optica_lens_flare/shaders/ghost_trace.wgsl"),
+            );
+            let _ = shaders.insert(
+                DRAW_SHADER.id(),
+                Shader::from_wgsl(
+                    include_str!("shaders/ghost_draw.wgsl"),
+                    "optica_lens_flare/shaders/ghost_draw.wgsl",
+                ),
+            );
+        }
+        app.add_plugins(ExtractComponentPlugin::<FlareDraws>::default());
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+            return;
+        };
+        render_app
+            .add_systems(RenderStartup, init_flare)
+            .add_systems(
+                Render,
+                prepare_flare.in_set(RenderSystems::PrepareBindGroups),
+            )
+            .add_systems(
+                Core3d,
+                flare_passes
+                    .in_set(Core3dSystems::PostProcess)
+                    .before(tonemapping),
+            );
+    }
+}
+
+/// Layouts and the pipelines, queued on first use.
+#[derive(Resource)]
+struct FlareShared {
+    trace_layout: BindGroupLayoutDescriptor,
+    draw_layout: BindGroupLayoutDescriptor,
+    trace: Option<CachedComputePipelineId>,
+    draws: HashMap<TextureFormat, CachedRenderPipelineId>,
+}
+
+fn init_flare(mut commands: Commands) {
+    let trace_layout = BindGroupLayoutDescriptor::new(
+        "optica_lens_flare_trace_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                uniform_buffer::<FlareParams>(false),
+                storage_buffer_read_only::<Vec<GpuSurface>>(false),
+                storage_buffer_read_only::<Vec<GridJob>>(false),
+                storage_buffer::<Vec<[f32; 12]>>(false),
+            ),
+        ),
+    );
+    let draw_layout = BindGroupLayoutDescriptor::new(
+        "optica_lens_flare_draw_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::VERTEX,
+            (
+                uniform_buffer::<FlareParams>(false),
+                storage_buffer_read_only::<Vec<GridJob>>(false),
+                storage_buffer_read_only::<Vec<[f32; 12]>>(false),
+            ),
+        ),
+    );
+    commands.insert_resource(FlareShared {
+        trace_layout,
+        draw_layout,
+        trace: None,
+        draws: HashMap::default(),
+    });
+}
+
+/// One view's buffers, bind groups and pipelines for this frame.
+#[derive(Component)]
+struct FlareBinding {
+    trace_group: BindGroup,
+    draw_group: BindGroup,
+    trace: CachedComputePipelineId,
+    draw: CachedRenderPipelineId,
+    rays: u32,
+    jobs: u32,
+    cells: u32,
+    /// Kept between frames, grown when a frame needs more.
+    ray_buffer: Buffer,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn prepare_flare(
+    mut commands: Commands,
+    views: Query<(Entity, &ExtractedView, &FlareDraws, Option<&FlareBinding>)>,
+    mut shared: ResMut<FlareShared>,
+    pipeline_cache: Res<PipelineCache>,
+    render_device: Res<RenderDevice>,
+    render_queue: Res<RenderQueue>,
+) {
+    for (entity, view, draws, previous) in &views {
+        let params = draws.params;
+        if params.jobs == 0 || params.n < 2 {
+            commands.entity(entity).remove::<FlareBinding>();
+            continue;
+        }
+        let trace_layout = shared.trace_layout.clone();
+        let trace = *shared.trace.get_or_insert_with(|| {
+            pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                label: Some("optica_lens_flare_trace".into()),
+                layout: vec![trace_layout],
+                immediate_size: 0,
+                shader: TRACE_SHADER,
+                shader_defs: vec![],
+                entry_point: Some("trace".into()),
+                zero_initialize_workgroup_memory: false,
+            })
+        });
+        let format = view.target_format;
+        let draw_layout = shared.draw_layout.clone();
+        let draw = *shared.draws.entry(format).or_insert_with(|| {
+            pipeline_cache.queue_render_pipeline(RenderPipelineDescriptor {
+                label: Some("optica_lens_flare_draw".into()),
+                layout: vec![draw_layout],
+                vertex: VertexState {
+                    shader: DRAW_SHADER,
+                    entry_point: Some("vertex".into()),
+                    ..default()
+                },
+                fragment: Some(FragmentState {
+                    shader: DRAW_SHADER,
+                    entry_point: Some("fragment".into()),
+                    targets: vec![Some(ColorTargetState {
+                        format,
+                        // Added: the flare is light.
+                        blend: Some(BlendState {
+                            color: BlendComponent {
+                                src_factor: BlendFactor::One,
+                                dst_factor: BlendFactor::One,
+                                operation: BlendOperation::Add,
+                            },
+                            alpha: BlendComponent {
+                                src_factor: BlendFactor::Zero,
+                                dst_factor: BlendFactor::One,
+                                operation: BlendOperation::Add,
+                            },
+                        }),
+                        write_mask: ColorWrites::ALL,
+                    })],
+                    ..default()
+                }),
+                ..default()
+            })
+        });
+        let rays = params.n * params.n * params.jobs;
+        let size = u64::from(rays) * RAY_BYTES;
+        let ray_buffer = match previous {
+            Some(b) if b.ray_buffer.size() >= size => b.ray_buffer.clone(),
+            _ => render_device.create_buffer(&BufferDescriptor {
+                label: Some("optica_lens_flare_rays"),
+                size,
+                usage: BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            }),
+        };
+        let mut uniform = UniformBuffer::from(params);
+        uniform.write_buffer(&render_device, &render_queue);
+        let mut surfaces = StorageBuffer::from(draws.surfaces.clone());
+        surfaces.write_buffer(&render_device, &render_queue);
+        let mut jobs = StorageBuffer::from(draws.jobs.clone());
+        jobs.write_buffer(&render_device, &render_queue);
+        let (Some(u), Some(s), Some(j)) = (uniform.binding(), surfaces.binding(), jobs.binding())
+        else {
+            continue;
+        };
+        let trace_group = render_device.create_bind_group(
+            "optica_lens_flare_trace",
+            &pipeline_cache.get_bind_group_layout(&shared.trace_layout),
+            &BindGroupEntries::sequential((
+                u.clone(),
+                s,
+                j.clone(),
+                ray_buffer.as_entire_binding(),
+            )),
+        );
+        let draw_group = render_device.create_bind_group(
+            "optica_lens_flare_draw",
+            &pipeline_cache.get_bind_group_layout(&shared.draw_layout),
+            &BindGroupEntries::sequential((u, j, ray_buffer.as_entire_binding())),
+        );
+        commands.entity(entity).insert(FlareBinding {
+            trace_group,
+            draw_group,
+            trace,
+            draw,
+            rays,
+            jobs: params.jobs,
+            cells: (params.n - 1) * (params.n - 1),
+            ray_buffer,
+        });
+    }
+}
+
+/// Traces the grids, then draws their cells into the view target.
+fn flare_passes(
+    view: ViewQuery<(&ViewTarget, &FlareBinding)>,
+    pipeline_cache: Res<PipelineCache>,
+    mut ctx: RenderContext,
+) {
+    let (target, binding) = view.into_inner();
+    let (Some(trace), Some(draw)) = (
+        pipeline_cache.get_compute_pipeline(binding.trace),
+        pipeline_cache.get_render_pipeline(binding.draw),
+    ) else {
+        return;
+    };
+    let diagnostics = ctx.diagnostic_recorder();
+    let diagnostics = diagnostics.as_deref();
+    let span = diagnostics.time_span(ctx.command_encoder(), "optica/flare");
+    {
+        let mut pass = ctx
+            .command_encoder()
+            .begin_compute_pass(&ComputePassDescriptor {
+                label: Some("optica_lens_flare_trace"),
+                timestamp_writes: None,
+            });
+        pass.set_pipeline(trace);
+        pass.set_bind_group(0, &binding.trace_group, &[]);
+        let groups = binding.rays.div_ceil(64);
+        let (x, y) = (groups.min(65535), groups.div_ceil(65535));
+        pass.dispatch_workgroups(x, y, 1);
+    }
+    {
+        let mut pass = ctx
+            .command_encoder()
+            .begin_render_pass(&RenderPassDescriptor {
+                label: Some("optica_lens_flare_draw"),
+                color_attachments: &[Some(target.get_unsampled_color_attachment())],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+        pass.set_pipeline(draw);
+        pass.set_bind_group(0, &binding.draw_group, &[]);
+        pass.draw(0..6 * binding.cells, 0..binding.jobs);
+    }
+    span.end(ctx.command_encoder());
+}

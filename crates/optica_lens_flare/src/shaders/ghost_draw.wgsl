@@ -1,0 +1,97 @@
+// The flare's draw pass: every cell of every traced grid as two triangles
+// on the screen, its irradiance from its change of area with the bounded
+// gain (`optica_optics::lens_flare::cell_intensity`), clipped per pixel
+// where r_rel > 1, added to the HDR view before tonemapping.
+
+struct FlareParams {
+    n: u32,
+    jobs: u32,
+    surfaces: u32,
+    sensor_z: f32,
+    half_height_mm: f32,
+    aspect: f32,
+    max_gain: f32,
+    intensity: f32,
+}
+
+struct GridJob {
+    origin: vec3<f32>,
+    first: u32,
+    du: vec3<f32>,
+    second: u32,
+    dv: vec3<f32>,
+    lens_base: u32,
+    dir: vec3<f32>,
+    cell_pupil_mm2: f32,
+    color: vec4<f32>,
+}
+
+struct RayOut {
+    sensor: vec2<f32>,
+    r_rel: f32,
+    throughput: f32,
+    stop0: vec2<f32>,
+    stop1: vec2<f32>,
+    stop2: vec2<f32>,
+    alive: f32,
+    pad: f32,
+}
+
+@group(0) @binding(0) var<uniform> params: FlareParams;
+@group(0) @binding(1) var<storage, read> jobs: array<GridJob>;
+@group(0) @binding(2) var<storage, read> rays: array<RayOut>;
+
+struct VertexOut {
+    @builtin(position) position: vec4<f32>,
+    @location(0) color: vec3<f32>,
+    @location(1) r_rel: f32,
+}
+
+// Twice the signed area of the quad a, b, c, d (shoelace).
+fn quad_area2(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, d: vec2<f32>) -> f32 {
+    return (a.x * b.y - b.x * a.y) + (b.x * c.y - c.x * b.y) + (c.x * d.y - d.x * c.y) + (d.x * a.y - a.x * d.y);
+}
+
+@vertex
+fn vertex(@builtin(vertex_index) vi: u32, @builtin(instance_index) job_index: u32) -> VertexOut {
+    var out: VertexOut;
+    // Outside the clip volume unless the cell is alive.
+    out.position = vec4<f32>(0.0, 0.0, -1.0, 1.0);
+    out.color = vec3<f32>(0.0);
+    out.r_rel = 2.0;
+    let n = params.n;
+    let m = n - 1u;
+    let cell = vi / 6u;
+    let ci = cell % m;
+    let cj = cell / m;
+    let base = job_index * n * n;
+    var corners = array<RayOut, 4>(
+        rays[base + cj * n + ci],
+        rays[base + cj * n + ci + 1u],
+        rays[base + (cj + 1u) * n + ci + 1u],
+        rays[base + (cj + 1u) * n + ci],
+    );
+    if corners[0].alive * corners[1].alive * corners[2].alive * corners[3].alive < 0.5 {
+        return out;
+    }
+    let job = jobs[job_index];
+    let a_p = job.cell_pupil_mm2;
+    let a_s = 0.5 * abs(quad_area2(corners[0].sensor, corners[1].sensor, corners[2].sensor, corners[3].sensor));
+    let mean_t = 0.25 * (corners[0].throughput + corners[1].throughput + corners[2].throughput + corners[3].throughput);
+    let irradiance = mean_t * a_p / max(a_s, a_p / params.max_gain);
+    var order = array<u32, 6>(0u, 1u, 2u, 0u, 2u, 3u);
+    let r = corners[order[vi % 6u]];
+    let ndc = -r.sensor / vec2<f32>(params.half_height_mm * params.aspect, params.half_height_mm);
+    out.position = vec4<f32>(ndc, 0.0, 1.0);
+    out.color = job.color.rgb * irradiance * params.intensity;
+    out.r_rel = r.r_rel;
+    return out;
+}
+
+@fragment
+fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
+    if in.r_rel > 1.0 {
+        discard;
+    }
+    return vec4<f32>(in.color, 0.0);
+}

@@ -1,0 +1,74 @@
+// The flare's compute pass: traces every ray of every ghost grid (one grid
+// per ghost, wavelength and light) through the lens. Appended to
+// `lens_trace.wgsl` by the plugin (which supplies `surface_count` and
+// `surface_at` here).
+
+struct FlareParams {
+    n: u32,
+    jobs: u32,
+    surfaces: u32,
+    sensor_z: f32,
+    half_height_mm: f32,
+    aspect: f32,
+    max_gain: f32,
+    intensity: f32,
+}
+
+// One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and
+// travels along dir; `lens_base` is where its wavelength's lens starts in
+// `lens`; color.w is the wavelength, nm.
+struct GridJob {
+    origin: vec3<f32>,
+    first: u32,
+    du: vec3<f32>,
+    second: u32,
+    dv: vec3<f32>,
+    lens_base: u32,
+    dir: vec3<f32>,
+    cell_pupil_mm2: f32,
+    color: vec4<f32>,
+}
+
+struct RayOut {
+    sensor: vec2<f32>,
+    r_rel: f32,
+    throughput: f32,
+    stop0: vec2<f32>,
+    stop1: vec2<f32>,
+    stop2: vec2<f32>,
+    alive: f32,
+    pad: f32,
+}
+
+@group(0) @binding(0) var<uniform> params: FlareParams;
+@group(0) @binding(1) var<storage, read> lens: array<LensSurface>;
+@group(0) @binding(2) var<storage, read> jobs: array<GridJob>;
+@group(0) @binding(3) var<storage, read_write> rays: array<RayOut>;
+
+var<private> lens_base: u32;
+
+fn surface_count() -> u32 {
+    return params.surfaces;
+}
+
+fn surface_at(k: u32) -> LensSurface {
+    return lens[lens_base + k];
+}
+
+@compute @workgroup_size(64)
+fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let nn = params.n * params.n;
+    let i = id.x + id.y * groups.x * 64u;
+    if i >= nn * params.jobs {
+        return;
+    }
+    let job = jobs[i / nn];
+    let k = i % nn;
+    let step = 1.0 / f32(params.n - 1u);
+    let u = f32(k % params.n) * step;
+    let v = f32(k / params.n) * step;
+    lens_base = job.lens_base;
+    let o = job.origin + u * job.du + v * job.dv;
+    let r = trace_ray(o, job.dir, job.first, job.second, params.sensor_z, job.color.w);
+    rays[i] = RayOut(r.sensor, r.r_rel, r.throughput, r.stop0, r.stop1, r.stop2, select(0.0, 1.0, r.alive), 0.0);
+}

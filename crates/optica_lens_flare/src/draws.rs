@@ -13,7 +13,10 @@ use optica_optics::glass::LAMBDA_D_NM;
 use optica_optics::lens::{PreparedLens, TracePath};
 use optica_optics::lens_flare::{Beam, DEFAULT_MAX_GAIN};
 
-use crate::{FlareGhosts, FlareSource, LensFlare, SensorMapping, light_in_lens, pack_surfaces};
+use crate::{
+    FlareGhosts, FlareSource, LensFlare, SensorMapping, aperture_params, light_in_lens,
+    pack_surfaces,
+};
 
 /// One surface as the shaders read it (`LensSurface`).
 #[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
@@ -58,6 +61,11 @@ pub struct FlareParams {
     aspect: f32,
     max_gain: f32,
     intensity: f32,
+    /// The iris (`aperture_contains`'s parameters).
+    blades: u32,
+    rotation: f32,
+    radius: f32,
+    arc_w: f32,
 }
 
 /// What a flare camera's passes trace and draw this frame; no grids when
@@ -139,6 +147,7 @@ fn build(
 ) -> Option<FlareDraws> {
     flare.validate().ok()?;
     let lens = ghosts.lens.as_ref()?;
+    let (blades, rotation, radius, arc_w) = aperture_params(ghosts.aperture.as_ref()?);
     let Projection::Perspective(perspective) = projection else {
         return None;
     };
@@ -232,6 +241,10 @@ fn build(
             aspect: aspect as f32,
             max_gain: DEFAULT_MAX_GAIN as f32,
             intensity: flare.intensity,
+            blades,
+            rotation,
+            radius,
+            arc_w,
         },
         surfaces,
         jobs,

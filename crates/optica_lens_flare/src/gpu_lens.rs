@@ -2,12 +2,42 @@
 //! record of eight `f32` per surface, the layout of its `LensSurface`.
 
 use optica_optics::lens::PreparedLens;
+use optica_optics::lens_flare::{Aperture, ApertureShape};
 
 /// The trace shader library (`shaders/lens_trace.wgsl`), the WGSL twin of
 /// `optica_optics::lens::PreparedLens::trace_to`. It reads the lens through
 /// `surface_count()` and `surface_at(k)`, which the including shader
 /// defines.
 pub const LENS_TRACE_WGSL: &str = include_str!("shaders/lens_trace.wgsl");
+
+/// The aperture test (`shaders/aperture.wgsl`), the WGSL twin of
+/// `optica_optics::lens_flare::Aperture::contains`:
+/// `aperture_contains(p, blades, rotation, radius, arc_w)` with
+/// [`aperture_params`] (blades 0 = round).
+pub const APERTURE_WGSL: &str = include_str!("shaders/aperture.wgsl");
+
+/// The aperture as `aperture_contains` takes it: blades (0 = round),
+/// rotation (rad), circumradius (mm) and the edge arcs' `1/q`.
+pub fn aperture_params(aperture: &Aperture) -> (u32, f32, f32, f32) {
+    let r = aperture.radius_mm();
+    match aperture.shape() {
+        ApertureShape::Circle => (0, 0.0, r as f32, 0.0),
+        ApertureShape::Blades {
+            blades,
+            rotation_rad,
+            roundness,
+        } => {
+            let half = std::f64::consts::PI / f64::from(blades);
+            // As `Aperture::blades` computes it.
+            let w = if r > 0.0 {
+                roundness / r / (1.0 - (roundness * half.sin()).powi(2)).sqrt()
+            } else {
+                0.0
+            };
+            (blades, rotation_rad as f32, r as f32, w as f32)
+        }
+    }
+}
 
 /// Floats per surface record.
 pub const SURFACE_FLOATS: usize = 8;

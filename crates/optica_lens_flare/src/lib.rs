@@ -78,7 +78,9 @@ mod settings;
 pub use asset::{LensAsset, LensLoadError, LensLoader};
 pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob};
 pub use frame::{SensorMapping, light_in_lens};
-pub use gpu_lens::{LENS_TRACE_WGSL, SURFACE_FLOATS, pack_surfaces};
+pub use gpu_lens::{
+    APERTURE_WGSL, LENS_TRACE_WGSL, SURFACE_FLOATS, aperture_params, pack_surfaces,
+};
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate, RANKING_FIELD_DEG, choose};
 pub use settings::{
     ApertureSettings, CoatingSettings, FlareSource, LensFlare, MAX_GRID, MAX_WAVELENGTHS,

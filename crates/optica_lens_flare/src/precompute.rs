@@ -49,6 +49,8 @@ pub struct GhostChoice {
 pub struct FlareGhosts {
     /// The prescription as traced (coated, stopped down), once loaded.
     pub lens: Option<LensPrescription>,
+    /// The iris, in the stop plane of that prescription.
+    pub aperture: Option<Aperture>,
     /// Every ghost path (n(n−1)/2 for n interfaces), brightest first.
     pub ghosts: Vec<GhostChoice>,
     /// Why no ghost could be chosen (the lens is not loaded, a setting is
@@ -118,8 +120,9 @@ pub(crate) fn choose_ghosts(
         };
         let mut next = ghosts.as_deref().cloned().unwrap_or_default();
         match result {
-            Ok((lens, choices)) => {
+            Ok((lens, aperture, choices)) => {
                 next.lens = Some(lens);
+                next.aperture = Some(aperture);
                 next.ghosts = choices;
                 next.problem = None;
                 next.built_for = Some(key);
@@ -143,11 +146,12 @@ pub(crate) fn choose_ghosts(
     }
 }
 
-/// The prescription as `flare` traces it and its ghosts, ranked and culled.
+/// The prescription as `flare` traces it, its iris and its ghosts, ranked
+/// and culled.
 pub fn choose(
     flare: &LensFlare,
     prescription: &LensPrescription,
-) -> Result<(LensPrescription, Vec<GhostChoice>), String> {
+) -> Result<(LensPrescription, Aperture, Vec<GhostChoice>), String> {
     let mut lens = prescription.clone();
     if let Some(c) = flare.coating {
         let coating = Coating::quarter_wave(f64::from(c.index), f64::from(c.design_wavelength_nm))
@@ -210,5 +214,5 @@ pub fn choose(
             }
         })
         .collect();
-    Ok((lens, choices))
+    Ok((lens, aperture, choices))
 }

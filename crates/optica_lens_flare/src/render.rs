@@ -28,8 +28,8 @@ use bevy::render::view::{ExtractedView, ViewTarget};
 use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use bevy::shader::Shader;
 
-use crate::LENS_TRACE_WGSL;
 use crate::draws::{FlareDraws, FlareParams, GpuSurface, GridJob};
+use crate::{APERTURE_WGSL, LENS_TRACE_WGSL};
 
 /// The compute shader: the trace library and the pass's bindings.
 const TRACE_SHADER: Handle<Shader> = uuid_handle!("6b1c7f0e-3d2a-4c55-9a61-0f6f6c1d2a71");
@@ -56,7 +56,10 @@ impl Plugin for FlareRenderPlugin {
             let _ = shaders.insert(
                 DRAW_SHADER.id(),
                 Shader::from_wgsl(
-                    include_str!("shaders/ghost_draw.wgsl"),
+                    format!(
+                        "{APERTURE_WGSL}\n{}",
+                        include_str!("shaders/ghost_draw.wgsl")
+                    ),
                     "optica_lens_flare/shaders/ghost_draw.wgsl",
                 ),
             );
@@ -105,7 +108,8 @@ fn init_flare(mut commands: Commands) {
     let draw_layout = BindGroupLayoutDescriptor::new(
         "optica_lens_flare_draw_layout",
         &BindGroupLayoutEntries::sequential(
-            ShaderStages::VERTEX,
+            // The fragment stage reads the iris from the uniform.
+            ShaderStages::VERTEX_FRAGMENT,
             (
                 uniform_buffer::<FlareParams>(false),
                 storage_buffer_read_only::<Vec<GridJob>>(false),

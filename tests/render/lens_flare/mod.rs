@@ -1,6 +1,7 @@
 //! The lens-flare plugin on lavapipe: the trace shader against its CPU
 //! twin, lens assets and the choice of ghosts.
 
+mod aperture;
 mod frame;
 mod ghosts;
 mod passes;

@@ -1,7 +1,8 @@
 // The flare's draw pass: every cell of every traced grid as two triangles
 // on the screen, its irradiance from its change of area with the bounded
 // gain (`optica_optics::lens_flare::cell_intensity`), clipped per pixel
-// where r_rel > 1, added to the HDR view before tonemapping.
+// where r_rel > 1 or outside the iris, added to the HDR view before
+// tonemapping. Appended to `aperture.wgsl` by the plugin.
 
 struct FlareParams {
     n: u32,
@@ -12,6 +13,10 @@ struct FlareParams {
     aspect: f32,
     max_gain: f32,
     intensity: f32,
+    blades: u32,
+    rotation: f32,
+    radius: f32,
+    arc_w: f32,
 }
 
 struct GridJob {
@@ -45,6 +50,10 @@ struct VertexOut {
     @builtin(position) position: vec4<f32>,
     @location(0) color: vec3<f32>,
     @location(1) r_rel: f32,
+    // Where the ray crossed the stop plane (up to three times).
+    @location(2) stop0: vec2<f32>,
+    @location(3) stop1: vec2<f32>,
+    @location(4) stop2: vec2<f32>,
 }
 
 // Twice the signed area of the quad a, b, c, d (shoelace).
@@ -85,12 +94,20 @@ fn vertex(@builtin(vertex_index) vi: u32, @builtin(instance_index) job_index: u3
     out.position = vec4<f32>(ndc, 0.0, 1.0);
     out.color = job.color.rgb * irradiance * params.intensity;
     out.r_rel = r.r_rel;
+    out.stop0 = r.stop0;
+    out.stop1 = r.stop1;
+    out.stop2 = r.stop2;
     return out;
 }
 
 @fragment
 fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
-    if in.r_rel > 1.0 {
+    // Blocked by a rim (the round stop included), or by the iris's blades
+    // at any crossing of the stop plane (`aperture.wgsl`).
+    let inside = aperture_contains(in.stop0, params.blades, params.rotation, params.radius, params.arc_w)
+        && aperture_contains(in.stop1, params.blades, params.rotation, params.radius, params.arc_w)
+        && aperture_contains(in.stop2, params.blades, params.rotation, params.radius, params.arc_w);
+    if in.r_rel > 1.0 || !inside {
         discard;
     }
     return vec4<f32>(in.color, 0.0);

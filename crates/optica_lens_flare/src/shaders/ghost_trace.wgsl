@@ -12,6 +12,10 @@ struct FlareParams {
     aspect: f32,
     max_gain: f32,
     intensity: f32,
+    blades: u32,
+    rotation: f32,
+    radius: f32,
+    arc_w: f32,
 }
 
 // One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and

@@ -4,5 +4,7 @@
 mod aperture;
 mod frame;
 mod ghosts;
+mod goldens;
 mod passes;
+mod stability;
 mod trace;

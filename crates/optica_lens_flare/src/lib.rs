@@ -58,10 +58,9 @@
 //!
 //! ## Status
 //!
-//! Work in progress. Not yet: the aperture's blade shape in the draw pass
-//! (the round stop clips through `r_rel`), the starburst and ghost ringing
-//! (FFT), occlusion by the scene's depth, per-ghost grid sizes and the
-//! axial-symmetry speed-up, the example and the report.
+//! Work in progress. Not yet: the starburst and ghost ringing (FFT),
+//! occlusion by the scene's depth (a light behind a wall still flares),
+//! per-ghost grid sizes and the axial-symmetry speed-up, the report.
 
 #![warn(missing_docs)]
 

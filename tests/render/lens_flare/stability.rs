@@ -92,7 +92,9 @@ const TESSAR: &str = "lenses/tessar-us2854889.lens";
 fn stiff_cases_stay_finite_and_bounded() {
     let axis = Vec3::Z;
     let sixty = Vec3::new(-60f32.to_radians().sin(), 0.0, 60f32.to_radians().cos());
-    let cases: [(&str, &str, Vec3, fn(&mut LensFlare)); 5] = [
+    /// (name, lens, travel, settings).
+    type Case = (&'static str, &'static str, Vec3, fn(&mut LensFlare));
+    let cases: [Case; 5] = [
         ("on axis", TESSAR, axis, |_| {}),
         ("60° off axis, outside the view", TESSAR, sixty, |_| {}),
         (

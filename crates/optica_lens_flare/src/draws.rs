@@ -80,10 +80,11 @@ pub struct FlareDraws {
     pub params: FlareParams,
 }
 
-/// A light's colour weights at `wl` nm among `count` evenly spread samples:
-/// smooth red, green and blue bands, each summing to 1 over the samples so
-/// that a white light's flare averages to white.
-fn spectral_weight(wl: f64, samples: &[f64]) -> Vec3 {
+/// The linear-RGB weight of the sample at `wl` nm among `samples` (the
+/// wavelengths a flare is traced at): smooth red, green and blue bands,
+/// each summing to 1 over the samples so that a white light's flare
+/// averages to white; (1, 1, 1) for a single sample.
+pub fn spectral_weight(wl: f64, samples: &[f64]) -> Vec3 {
     let band = |centre: f64, width: f64, w: f64| (-((w - centre) / width).powi(2)).exp();
     let raw = |w: f64| {
         Vec3::new(

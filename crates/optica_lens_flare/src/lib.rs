@@ -75,7 +75,7 @@ mod render;
 mod settings;
 
 pub use asset::{LensAsset, LensLoadError, LensLoader};
-pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob};
+pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob, spectral_weight};
 pub use frame::{SensorMapping, light_in_lens};
 pub use gpu_lens::{
     APERTURE_WGSL, LENS_TRACE_WGSL, SURFACE_FLOATS, aperture_params, pack_surfaces,

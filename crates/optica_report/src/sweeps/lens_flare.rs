@@ -362,6 +362,8 @@ mod tests {
         let ctx = SweepContext::new("lens_flare", true, true);
         let r = run(&ctx);
         assert_eq!(r.rows.len(), 4, "{:?}", r.stability);
+        // (The plugin's rendered rows are appended by the runner and
+        // tested in `lens_flare_render`.)
         let problems = r.problems();
         assert!(problems.is_empty(), "{problems:#?}");
         for case in [

@@ -10,6 +10,7 @@ pub mod dome;
 pub mod dome_render;
 pub mod foveated_lod;
 pub mod lens_flare;
+pub mod lens_flare_render;
 pub mod optics;
 pub mod render;
 pub mod spectacles;
@@ -34,7 +35,11 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
     ("render", render::run),
     ("foveated_lod", |ctx| Ok(foveated_lod::run(ctx))),
     ("compound_eye", compound_eye::run),
-    ("lens_flare", |ctx| Ok(lens_flare::run(ctx))),
+    ("lens_flare", |ctx| {
+        let mut report = lens_flare::run(ctx);
+        lens_flare_render::rendered_rows(ctx, &mut report)?;
+        Ok(report)
+    }),
     ("spectacles", |ctx| Ok(spectacles::run(ctx))),
     ("dome", dome::run),
 ];

@@ -45,8 +45,9 @@ pub(crate) struct FlareRenderPlugin;
 impl Plugin for FlareRenderPlugin {
     fn build(&self, app: &mut App) {
         if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
+            let types = include_str!("shaders/flare_types.wgsl");
             let trace = format!(
-                "{LENS_TRACE_WGSL}\n{}",
+                "{LENS_TRACE_WGSL}\n{types}\n{}",
                 include_str!("shaders/ghost_trace.wgsl")
             );
             let _ = shaders.insert(
@@ -57,7 +58,7 @@ impl Plugin for FlareRenderPlugin {
                 DRAW_SHADER.id(),
                 Shader::from_wgsl(
                     format!(
-                        "{APERTURE_WGSL}\n{}",
+                        "{APERTURE_WGSL}\n{types}\n{}",
                         include_str!("shaders/ghost_draw.wgsl")
                     ),
                     "optica_lens_flare/shaders/ghost_draw.wgsl",

@@ -6,7 +6,7 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::{Headless, RenderedFrame, assert_golden};
-use optica_lens_flare::{FlareSource, LensFlare, LensFlarePlugin};
+use optica_lens_flare::{LensFlare, LensFlarePlugin};
 
 fn flare_at(field_deg: f32) -> RenderedFrame {
     let t = field_deg.to_radians();
@@ -19,14 +19,7 @@ fn flare_at(field_deg: f32) -> RenderedFrame {
             app.add_systems(
                 Startup,
                 move |mut commands: Commands, assets: Res<AssetServer>| {
-                    commands.spawn((
-                        DirectionalLight {
-                            illuminance: 100_000.0,
-                            ..default()
-                        },
-                        Transform::IDENTITY.looking_to(travel, Vec3::Y),
-                        FlareSource::default(),
-                    ));
+                    commands.spawn(super::sun(travel, 100_000.0));
                     commands.spawn((
                         Camera3d::default(),
                         Camera {

@@ -15,7 +15,7 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::Headless;
-use optica_lens_flare::{FlareGhosts, FlareSource, LensFlare, LensFlarePlugin, SensorMapping};
+use optica_lens_flare::{FlareGhosts, LensFlare, LensFlarePlugin, SensorMapping};
 use optica_optics::glam::DVec2;
 use optica_optics::glass::LAMBDA_D_NM;
 use optica_optics::lens::{PreparedLens, TracePath};
@@ -37,14 +37,7 @@ fn the_drawn_ghost_matches_the_cpu_rasteriser() {
             app.add_systems(
                 Startup,
                 move |mut commands: Commands, assets: Res<AssetServer>| {
-                    commands.spawn((
-                        DirectionalLight {
-                            illuminance: LUX,
-                            ..default()
-                        },
-                        Transform::IDENTITY.looking_to(travel, Vec3::Y),
-                        FlareSource::default(),
-                    ));
+                    commands.spawn(super::sun(travel, LUX));
                     let mut flare = LensFlare {
                         grid: 32,
                         wavelengths: 1,

@@ -8,7 +8,7 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::{Adapter, Headless, PipelineReport, RenderedFrame};
-use optica_lens_flare::{FlareSource, LensFlare, LensFlarePlugin};
+use optica_lens_flare::{LensFlare, LensFlarePlugin};
 
 const SIZE: u32 = 128;
 const TESSAR: &str = "lenses/tessar-us2854889.lens";
@@ -29,14 +29,7 @@ fn scene_with(
         app.add_systems(
             Startup,
             move |mut commands: Commands, assets: Res<AssetServer>| {
-                commands.spawn((
-                    DirectionalLight {
-                        illuminance: 100_000.0,
-                        ..default()
-                    },
-                    Transform::IDENTITY.looking_to(travel, Vec3::Y),
-                    FlareSource::default(),
-                ));
+                commands.spawn(super::sun(travel, 100_000.0));
                 let mut camera = commands.spawn((
                     Camera3d::default(),
                     Camera {

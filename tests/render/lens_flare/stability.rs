@@ -10,7 +10,7 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::Headless;
-use optica_lens_flare::{FlareGhosts, FlareSource, LensFlare, LensFlarePlugin};
+use optica_lens_flare::{FlareGhosts, LensFlare, LensFlarePlugin};
 use std::sync::{Arc, Mutex};
 
 const SIZE: u32 = 96;
@@ -40,14 +40,7 @@ fn case(
             app.add_systems(
                 Startup,
                 move |mut commands: Commands, assets: Res<AssetServer>| {
-                    commands.spawn((
-                        DirectionalLight {
-                            illuminance: 100_000.0,
-                            ..default()
-                        },
-                        Transform::IDENTITY.looking_to(travel, Vec3::Y),
-                        FlareSource::default(),
-                    ));
+                    commands.spawn(super::sun(travel, 100_000.0));
                     let mut flare = LensFlare {
                         grid: 16,
                         ..LensFlare::new(assets.load(lens))

@@ -2,45 +2,8 @@
 // on the screen, its irradiance from its change of area with the bounded
 // gain (`optica_optics::lens_flare::cell_intensity`), clipped per pixel
 // where r_rel > 1 or outside the iris, added to the HDR view before
-// tonemapping. Appended to `aperture.wgsl` by the plugin.
-
-struct FlareParams {
-    n: u32,
-    jobs: u32,
-    surfaces: u32,
-    sensor_z: f32,
-    half_height_mm: f32,
-    aspect: f32,
-    max_gain: f32,
-    intensity: f32,
-    blades: u32,
-    rotation: f32,
-    radius: f32,
-    arc_w: f32,
-}
-
-struct GridJob {
-    origin: vec3<f32>,
-    first: u32,
-    du: vec3<f32>,
-    second: u32,
-    dv: vec3<f32>,
-    lens_base: u32,
-    dir: vec3<f32>,
-    cell_pupil_mm2: f32,
-    color: vec4<f32>,
-}
-
-struct RayOut {
-    sensor: vec2<f32>,
-    r_rel: f32,
-    throughput: f32,
-    stop0: vec2<f32>,
-    stop1: vec2<f32>,
-    stop2: vec2<f32>,
-    alive: f32,
-    pad: f32,
-}
+// tonemapping. Appended by the plugin to `aperture.wgsl` and
+// `flare_types.wgsl`.
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
 @group(0) @binding(1) var<storage, read> jobs: array<GridJob>;

@@ -1,48 +1,9 @@
 // The flare's compute pass: traces every ray of every ghost grid (one grid
-// per ghost, wavelength and light) through the lens. Appended to
-// `lens_trace.wgsl` by the plugin (which supplies `surface_count` and
-// `surface_at` here).
-
-struct FlareParams {
-    n: u32,
-    jobs: u32,
-    surfaces: u32,
-    sensor_z: f32,
-    half_height_mm: f32,
-    aspect: f32,
-    max_gain: f32,
-    intensity: f32,
-    blades: u32,
-    rotation: f32,
-    radius: f32,
-    arc_w: f32,
-}
-
-// One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and
-// travels along dir; `lens_base` is where its wavelength's lens starts in
-// `lens`; color.w is the wavelength, nm.
-struct GridJob {
-    origin: vec3<f32>,
-    first: u32,
-    du: vec3<f32>,
-    second: u32,
-    dv: vec3<f32>,
-    lens_base: u32,
-    dir: vec3<f32>,
-    cell_pupil_mm2: f32,
-    color: vec4<f32>,
-}
-
-struct RayOut {
-    sensor: vec2<f32>,
-    r_rel: f32,
-    throughput: f32,
-    stop0: vec2<f32>,
-    stop1: vec2<f32>,
-    stop2: vec2<f32>,
-    alive: f32,
-    pad: f32,
-}
+// per ghost, wavelength and light) through the lens. Appended by the plugin
+// to `lens_trace.wgsl` (whose `surface_count` and `surface_at` it
+// supplies) and `flare_types.wgsl`. A grid's ray at pupil (u, v) starts at
+// origin + u·du + v·dv and travels along dir; `lens_base` is where its
+// wavelength's lens starts in `lens`; color.w is the wavelength, nm.
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
 @group(0) @binding(1) var<storage, read> lens: array<LensSurface>;

@@ -1,0 +1,44 @@
+// The records the flare's two passes share (`FlareParams`, `GridJob`,
+// `RayOut`), prepended to both by the plugin; the Rust side is
+// `draws.rs` (`FlareParams`, `GridJob`) and the ray buffer's 48 bytes.
+
+struct FlareParams {
+    n: u32,
+    jobs: u32,
+    surfaces: u32,
+    sensor_z: f32,
+    half_height_mm: f32,
+    aspect: f32,
+    max_gain: f32,
+    intensity: f32,
+    blades: u32,
+    rotation: f32,
+    radius: f32,
+    arc_w: f32,
+}
+
+// One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and
+// travels along dir; `lens_base` is where its wavelength's lens starts in
+// `lens`; color.w is the wavelength, nm.
+struct GridJob {
+    origin: vec3<f32>,
+    first: u32,
+    du: vec3<f32>,
+    second: u32,
+    dv: vec3<f32>,
+    lens_base: u32,
+    dir: vec3<f32>,
+    cell_pupil_mm2: f32,
+    color: vec4<f32>,
+}
+
+struct RayOut {
+    sensor: vec2<f32>,
+    r_rel: f32,
+    throughput: f32,
+    stop0: vec2<f32>,
+    stop1: vec2<f32>,
+    stop2: vec2<f32>,
+    alive: f32,
+    pad: f32,
+}

@@ -100,6 +100,16 @@ pub fn spectral_weight(wl: f64, samples: &[f64]) -> Vec3 {
     raw(wl) / total.max(Vec3::splat(1e-6))
 }
 
+/// A light that may flare: where it is, its [`FlareSource`] and which kind
+/// of light it is.
+type FlareLight = (
+    &'static GlobalTransform,
+    &'static FlareSource,
+    Option<&'static DirectionalLight>,
+    Option<&'static PointLight>,
+    Option<&'static SpotLight>,
+);
+
 /// Builds [`FlareDraws`] for every [`LensFlare`] camera.
 #[allow(clippy::type_complexity)]
 pub(crate) fn prepare_draws(
@@ -113,13 +123,7 @@ pub(crate) fn prepare_draws(
         &GlobalTransform,
         Option<&Exposure>,
     )>,
-    lights: Query<(
-        &GlobalTransform,
-        &FlareSource,
-        Option<&DirectionalLight>,
-        Option<&PointLight>,
-        Option<&SpotLight>,
-    )>,
+    lights: Query<FlareLight>,
 ) {
     for (entity, flare, ghosts, camera, projection, transform, exposure) in &cameras {
         let draws = build(
@@ -130,7 +134,6 @@ pub(crate) fn prepare_draws(
     }
 }
 
-#[allow(clippy::type_complexity)]
 fn build(
     flare: &LensFlare,
     ghosts: &FlareGhosts,
@@ -138,13 +141,7 @@ fn build(
     projection: &Projection,
     transform: &GlobalTransform,
     exposure: Option<&Exposure>,
-    lights: &Query<(
-        &GlobalTransform,
-        &FlareSource,
-        Option<&DirectionalLight>,
-        Option<&PointLight>,
-        Option<&SpotLight>,
-    )>,
+    lights: &Query<FlareLight>,
 ) -> Option<FlareDraws> {
     flare.validate().ok()?;
     let lens = ghosts.lens.as_ref()?;

@@ -136,20 +136,33 @@ struct FlareBinding {
     rays: u32,
     jobs: u32,
     cells: u32,
-    /// Kept between frames, grown when a frame needs more.
-    ray_buffer: Buffer,
+}
+
+/// One view's GPU buffers, kept between frames: rewritten in place, and
+/// reallocated only when a frame needs more room than they have.
+#[derive(Component, Default)]
+struct FlareBuffers {
+    uniform: UniformBuffer<FlareParams>,
+    surfaces: StorageBuffer<Vec<GpuSurface>>,
+    jobs: StorageBuffer<Vec<GridJob>>,
+    rays: Option<Buffer>,
 }
 
 #[allow(clippy::too_many_arguments)]
 fn prepare_flare(
     mut commands: Commands,
-    views: Query<(Entity, &ExtractedView, &FlareDraws, Option<&FlareBinding>)>,
+    mut views: Query<(
+        Entity,
+        &ExtractedView,
+        &FlareDraws,
+        Option<&mut FlareBuffers>,
+    )>,
     mut shared: ResMut<FlareShared>,
     pipeline_cache: Res<PipelineCache>,
     render_device: Res<RenderDevice>,
     render_queue: Res<RenderQueue>,
 ) {
-    for (entity, view, draws, previous) in &views {
+    for (entity, view, draws, buffers) in &mut views {
         let params = draws.params;
         if params.jobs == 0 || params.n < 2 {
             commands.entity(entity).remove::<FlareBinding>();
@@ -203,25 +216,33 @@ fn prepare_flare(
                 ..default()
             })
         });
+        let mut created = None;
+        let buffers = match buffers {
+            Some(b) => b.into_inner(),
+            None => created.insert(FlareBuffers::default()),
+        };
         let rays = params.n * params.n * params.jobs;
         let size = u64::from(rays) * RAY_BYTES;
-        let ray_buffer = match previous {
-            Some(b) if b.ray_buffer.size() >= size => b.ray_buffer.clone(),
-            _ => render_device.create_buffer(&BufferDescriptor {
+        if buffers.rays.as_ref().is_none_or(|b| b.size() < size) {
+            buffers.rays = Some(render_device.create_buffer(&BufferDescriptor {
                 label: Some("optica_lens_flare_rays"),
                 size,
                 usage: BufferUsages::STORAGE,
                 mapped_at_creation: false,
-            }),
-        };
-        let mut uniform = UniformBuffer::from(params);
-        uniform.write_buffer(&render_device, &render_queue);
-        let mut surfaces = StorageBuffer::from(draws.surfaces.clone());
-        surfaces.write_buffer(&render_device, &render_queue);
-        let mut jobs = StorageBuffer::from(draws.jobs.clone());
-        jobs.write_buffer(&render_device, &render_queue);
-        let (Some(u), Some(s), Some(j)) = (uniform.binding(), surfaces.binding(), jobs.binding())
-        else {
+            }));
+        }
+        buffers.uniform.set(params);
+        buffers.uniform.write_buffer(&render_device, &render_queue);
+        buffers.surfaces.get_mut().clone_from(&draws.surfaces);
+        buffers.surfaces.write_buffer(&render_device, &render_queue);
+        buffers.jobs.get_mut().clone_from(&draws.jobs);
+        buffers.jobs.write_buffer(&render_device, &render_queue);
+        let (Some(u), Some(s), Some(j), Some(ray_buffer)) = (
+            buffers.uniform.binding(),
+            buffers.surfaces.binding(),
+            buffers.jobs.binding(),
+            buffers.rays.as_ref(),
+        ) else {
             continue;
         };
         let trace_group = render_device.create_bind_group(
@@ -247,8 +268,10 @@ fn prepare_flare(
             rays,
             jobs: params.jobs,
             cells: (params.n - 1) * (params.n - 1),
-            ray_buffer,
         });
+        if let Some(new) = created {
+            commands.entity(entity).insert(new);
+        }
     }
 }
 

@@ -10,7 +10,10 @@ mod passes;
 mod stability;
 mod trace;
 
+use bevy::camera::Hdr;
+use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
+use bevy::render::view::Msaa;
 use optica_lens_flare::FlareSource;
 
 /// A flaring sun of `lux` whose light travels along `travel` (the view
@@ -23,5 +26,20 @@ pub fn sun(travel: Vec3, lux: f32) -> impl Bundle {
         },
         Transform::IDENTITY.looking_to(travel, Vec3::Y),
         FlareSource::default(),
+    )
+}
+
+/// A camera at the origin looking along −Z, clearing to black, HDR,
+/// untonemapped, one sample per pixel: its image is the flare's light.
+pub fn black_hdr_camera() -> impl Bundle {
+    (
+        Camera3d::default(),
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::BLACK),
+            ..default()
+        },
+        Hdr,
+        Tonemapping::None,
+        Msaa::Off,
     )
 }

@@ -10,10 +10,8 @@
 
 use std::sync::{Arc, Mutex};
 
-use bevy::camera::{Exposure, Hdr};
-use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::camera::Exposure;
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use optica_harness::Headless;
 use optica_lens_flare::{FlareGhosts, LensFlare, LensFlarePlugin, SensorMapping};
 use optica_optics::glam::DVec2;
@@ -45,17 +43,7 @@ fn the_drawn_ghost_matches_the_cpu_rasteriser() {
                         ..LensFlare::new(assets.load("lenses/tessar-us2854889.lens"))
                     };
                     flare.aperture.blades = 0;
-                    commands.spawn((
-                        Camera3d::default(),
-                        Camera {
-                            clear_color: ClearColorConfig::Custom(Color::BLACK),
-                            ..default()
-                        },
-                        Hdr,
-                        Tonemapping::None,
-                        Msaa::Off,
-                        flare,
-                    ));
+                    commands.spawn((super::black_hdr_camera(), flare));
                 },
             );
             app.add_systems(Last, move |ghosts: Query<&FlareGhosts>| {

@@ -3,10 +3,7 @@
 //! the sun's image and the centre); the sun behind the camera draws none;
 //! and a scene without `LensFlare` builds no flare pipeline.
 
-use bevy::camera::Hdr;
-use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use optica_harness::{Adapter, Headless, PipelineReport, RenderedFrame};
 use optica_lens_flare::{LensFlare, LensFlarePlugin};
 
@@ -30,17 +27,7 @@ fn scene_with(
             Startup,
             move |mut commands: Commands, assets: Res<AssetServer>| {
                 commands.spawn(super::sun(travel, 100_000.0));
-                let mut camera = commands.spawn((
-                    Camera3d::default(),
-                    Camera {
-                        clear_color: ClearColorConfig::Custom(Color::BLACK),
-                        ..default()
-                    },
-                    Hdr,
-                    Tonemapping::None,
-                    Msaa::Off,
-                    Transform::IDENTITY,
-                ));
+                let mut camera = commands.spawn((super::black_hdr_camera(), Transform::IDENTITY));
                 if flare {
                     let mut settings = LensFlare {
                         grid: 24,

@@ -5,10 +5,7 @@
 //! pixel, bounded values, no panic.
 
 use bevy::asset::AssetPlugin;
-use bevy::camera::Hdr;
-use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use optica_harness::Headless;
 use optica_lens_flare::{FlareGhosts, LensFlare, LensFlarePlugin};
 use std::sync::{Arc, Mutex};
@@ -46,17 +43,7 @@ fn case(
                         ..LensFlare::new(assets.load(lens))
                     };
                     edit(&mut flare);
-                    commands.spawn((
-                        Camera3d::default(),
-                        Camera {
-                            clear_color: ClearColorConfig::Custom(Color::BLACK),
-                            ..default()
-                        },
-                        Hdr,
-                        Tonemapping::None,
-                        Msaa::Off,
-                        flare,
-                    ));
+                    commands.spawn((super::black_hdr_camera(), flare));
                 },
             );
             app.add_systems(Last, move |ghosts: Query<&FlareGhosts>| {

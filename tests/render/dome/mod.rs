@@ -6,6 +6,7 @@ mod cube;
 mod export;
 mod goldens;
 mod line;
+mod meshes;
 mod pipelines;
 mod projection;
 mod scene;

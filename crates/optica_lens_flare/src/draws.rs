@@ -5,7 +5,7 @@
 //! [`FlareDraws`].
 
 use bevy::camera::Exposure;
-use bevy::math::{DVec3, Vec3, Vec4};
+use bevy::math::{DVec3, Mat4, Vec2, Vec3, Vec4};
 use bevy::prelude::*;
 use bevy::render::extract_component::ExtractComponent;
 use bevy::render::render_resource::ShaderType;
@@ -45,6 +45,51 @@ pub struct GridJob {
     cell_pupil_mm2: f32,
     /// Linear RGB added per unit irradiance; w: the wavelength, nm.
     color: Vec4,
+    /// The light's index in [`FlareDraws::lights`].
+    light: u32,
+}
+
+/// Where a light's occlusion is read (`LightProbe`): its image in NDC and
+/// the largest depth (reverse Z) that does not hide it.
+#[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
+pub struct LightProbe {
+    /// The light's image, NDC.
+    pub ndc: Vec2,
+    /// Scene depths above this (nearer) hide the light.
+    pub depth_limit: f32,
+    /// 0 when the light has no image to read depth round (it flares fully).
+    pub read_depth: u32,
+}
+
+impl LightProbe {
+    /// The probe of a light seen along `towards` in view space — a
+    /// direction (`w = 0`, a sun) or a position (`w = 1`) — through
+    /// `clip_from_view`. A position is moved `light_radius` towards the
+    /// camera first, so that the light's own bulb does not hide it.
+    pub fn new(clip_from_view: Mat4, towards: Vec4, light_radius: f32) -> Self {
+        let unreadable = Self {
+            read_depth: 0,
+            ..default()
+        };
+        let mut p = towards;
+        if p.w != 0.0 {
+            let distance = p.xyz().length();
+            if distance <= light_radius {
+                // The camera is inside the bulb: nothing hides the light.
+                return unreadable;
+            }
+            p = (p.xyz() * (1.0 - light_radius / distance)).extend(1.0);
+        }
+        let clip = clip_from_view * p;
+        if !clip.is_finite() || clip.w <= 0.0 {
+            return unreadable;
+        }
+        Self {
+            ndc: clip.xy() / clip.w,
+            depth_limit: clip.z / clip.w,
+            read_depth: 1,
+        }
+    }
 }
 
 /// The uniform of both passes (`FlareParams`).
@@ -66,6 +111,14 @@ pub struct FlareParams {
     rotation: f32,
     radius: f32,
     arc_w: f32,
+    /// Lights in [`FlareDraws::lights`].
+    pub lights: u32,
+    /// Radius of the occlusion disk, pixels; 0 with occlusion off.
+    pub occlusion_radius_px: f32,
+    /// Weight of the last frame's visibility.
+    pub occlusion_history: f32,
+    /// 1 when the visibility's history is to be dropped.
+    pub reset_history: u32,
 }
 
 /// What a flare camera's passes trace and draw this frame; no grids when
@@ -76,6 +129,11 @@ pub struct FlareDraws {
     pub surfaces: Vec<GpuSurface>,
     /// The grids.
     pub jobs: Vec<GridJob>,
+    /// Where each light's occlusion is read (indexed by the grids).
+    pub lights: Vec<LightProbe>,
+    /// The lights, in the order of `lights` (a change resets the
+    /// visibility's history).
+    pub light_entities: Vec<Entity>,
     /// Sizes and the sensor-to-screen mapping.
     pub params: FlareParams,
 }
@@ -103,6 +161,7 @@ pub fn spectral_weight(wl: f64, samples: &[f64]) -> Vec3 {
 /// A light that may flare: where it is, its [`FlareSource`] and which kind
 /// of light it is.
 type FlareLight = (
+    Entity,
     &'static GlobalTransform,
     &'static FlareSource,
     Option<&'static DirectionalLight>,
@@ -179,7 +238,14 @@ fn build(
     let n = flare.grid;
     let cells = f64::from((n - 1) * (n - 1));
     let mut jobs = Vec::new();
-    for (light_transform, source, directional, point, spot) in lights {
+    let mut probes = Vec::new();
+    let mut light_entities = Vec::new();
+    let clip_from_view = camera.clip_from_view();
+    let light_radius = flare.occlusion.map_or(0.0, |o| o.light_radius);
+    // In entity order, so that a light keeps its visibility's slot.
+    let mut lights: Vec<_> = lights.iter().collect();
+    lights.sort_by_key(|l| l.0);
+    for (light_entity, light_transform, source, directional, point, spot) in lights {
         // Direction of travel (world) and irradiance at the camera, lux.
         let (travel, lux, colour) = if let Some(d) = directional {
             (light_transform.forward().as_vec3(), d.illuminance, d.color)
@@ -197,9 +263,20 @@ fn build(
                 colour,
             )
         };
-        let Some(d) = light_in_lens(view_from_world.transform_vector3(travel)) else {
+        let travel_view = view_from_world.transform_vector3(travel);
+        let Some(d) = light_in_lens(travel_view) else {
             continue;
         };
+        let towards = if directional.is_some() {
+            (-travel_view).extend(0.0)
+        } else {
+            view_from_world
+                .transform_point3(light_transform.translation())
+                .extend(1.0)
+        };
+        let light = probes.len() as u32;
+        probes.push(LightProbe::new(clip_from_view, towards, light_radius));
+        light_entities.push(light_entity);
         let rgb = Vec3::from_array(LinearRgba::from(colour).to_f32_array_no_alpha())
             * lux
             * exposure
@@ -225,6 +302,7 @@ fn build(
                     dir: DVec3::as_vec3(beam.direction()),
                     cell_pupil_mm2: (beam.cross_section_mm2() / cells) as f32,
                     color: (rgb * weight).extend(wl as f32),
+                    light,
                 });
             }
         }
@@ -243,8 +321,14 @@ fn build(
             rotation,
             radius,
             arc_w,
+            lights: probes.len() as u32,
+            occlusion_radius_px: flare.occlusion.map_or(0.0, |o| o.radius * size.y as f32),
+            occlusion_history: flare.occlusion.map_or(0.0, |o| o.history),
+            reset_history: 0,
         },
         surfaces,
         jobs,
+        lights: probes,
+        light_entities,
     })
 }

@@ -56,11 +56,18 @@
 //! ghosts, so they sit in the scene's light levels. Pass time shows as the
 //! `optica/flare` diagnostic span.
 //!
+//! ## Occlusion
+//!
+//! A light behind geometry does not flare: each frame a compute pass reads
+//! the camera's depth on a small disk round each light's image and scales
+//! the light's ghosts by the fraction that is not hidden, blended over a
+//! few frames ([`FlareOcclusion`]), so the flare fades instead of popping
+//! or flickering at an edge. MSAA depth is read too.
+//!
 //! ## Status
 //!
 //! Work in progress. Not yet: the starburst and ghost ringing (FFT),
-//! occlusion by the scene's depth (a light behind a wall still flares),
-//! per-ghost grid sizes and the axial-symmetry speed-up, the report.
+//! per-ghost grid sizes and the axial-symmetry speed-up.
 
 #![warn(missing_docs)]
 
@@ -75,14 +82,15 @@ mod render;
 mod settings;
 
 pub use asset::{LensAsset, LensLoadError, LensLoader};
-pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob, spectral_weight};
+pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob, LightProbe, spectral_weight};
 pub use frame::{SensorMapping, light_in_lens};
 pub use gpu_lens::{
     APERTURE_WGSL, LENS_TRACE_WGSL, SURFACE_FLOATS, aperture_params, pack_surfaces,
 };
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate, RANKING_FIELD_DEG, choose};
 pub use settings::{
-    ApertureSettings, CoatingSettings, FlareSource, LensFlare, MAX_GRID, MAX_WAVELENGTHS,
+    ApertureSettings, CoatingSettings, FlareOcclusion, FlareSource, LensFlare, MAX_GRID,
+    MAX_WAVELENGTHS,
 };
 
 /// Adds [`LensAsset`] loading, [`LensFlare`] and [`FlareSource`]. Without a
@@ -98,10 +106,24 @@ impl Plugin for LensFlarePlugin {
             .add_plugins(render::FlareRenderPlugin)
             .add_systems(
                 PostUpdate,
-                (precompute::choose_ghosts, draws::prepare_draws)
-                    .chain()
+                (
+                    make_depth_readable,
+                    (precompute::choose_ghosts, draws::prepare_draws).chain(),
+                )
                     .after(bevy::transform::TransformSystems::Propagate)
                     .run_if(any_with_component::<LensFlare>),
             );
+    }
+}
+
+/// Lets the occlusion pass read the depth of every [`LensFlare`] camera
+/// with occlusion on (by default a camera's depth can only be drawn to).
+fn make_depth_readable(mut cameras: Query<(&mut Camera3d, &LensFlare)>) {
+    use bevy::render::render_resource::TextureUsages;
+    for (mut camera, flare) in &mut cameras {
+        let usages = TextureUsages::from(camera.depth_texture_usages);
+        if flare.occlusion.is_some() && !usages.contains(TextureUsages::TEXTURE_BINDING) {
+            camera.depth_texture_usages = (usages | TextureUsages::TEXTURE_BINDING).into();
+        }
     }
 }

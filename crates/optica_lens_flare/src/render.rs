@@ -13,7 +13,8 @@ use bevy::prelude::*;
 use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::extract_component::ExtractComponentPlugin;
 use bevy::render::render_resource::binding_types::{
-    storage_buffer, storage_buffer_read_only, uniform_buffer,
+    storage_buffer, storage_buffer_read_only, texture_depth_2d, texture_depth_2d_multisampled,
+    uniform_buffer,
 };
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, BlendComponent,
@@ -21,20 +22,22 @@ use bevy::render::render_resource::{
     CachedComputePipelineId, CachedRenderPipelineId, ColorTargetState, ColorWrites,
     ComputePassDescriptor, ComputePipelineDescriptor, FragmentState, PipelineCache,
     RenderPassDescriptor, RenderPipelineDescriptor, ShaderStages, StorageBuffer, TextureFormat,
-    UniformBuffer, VertexState,
+    TextureUsages, UniformBuffer, VertexState,
 };
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
-use bevy::render::view::{ExtractedView, ViewTarget};
+use bevy::render::view::{ExtractedView, Msaa, ViewDepthTexture, ViewTarget};
 use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use bevy::shader::Shader;
 
-use crate::draws::{FlareDraws, FlareParams, GpuSurface, GridJob};
+use crate::draws::{FlareDraws, FlareParams, GpuSurface, GridJob, LightProbe};
 use crate::{APERTURE_WGSL, LENS_TRACE_WGSL};
 
 /// The compute shader: the trace library and the pass's bindings.
 const TRACE_SHADER: Handle<Shader> = uuid_handle!("6b1c7f0e-3d2a-4c55-9a61-0f6f6c1d2a71");
 /// The draw shader.
 const DRAW_SHADER: Handle<Shader> = uuid_handle!("b3e2a9d4-8f17-4e0b-a1c2-5d9e7f3a4b60");
+/// The occlusion shader.
+const OCCLUSION_SHADER: Handle<Shader> = uuid_handle!("0f5d8c3e-7a61-4b2f-9e48-c1d0a7b9e253");
 
 /// Bytes per traced ray (`RayOut`: 12 floats).
 const RAY_BYTES: u64 = 48;
@@ -64,6 +67,13 @@ impl Plugin for FlareRenderPlugin {
                     "optica_lens_flare/shaders/ghost_draw.wgsl",
                 ),
             );
+            let _ = shaders.insert(
+                OCCLUSION_SHADER.id(),
+                Shader::from_wgsl(
+                    format!("{types}\n{}", include_str!("shaders/visibility.wgsl")),
+                    "optica_lens_flare/shaders/visibility.wgsl",
+                ),
+            );
         }
         app.add_plugins(ExtractComponentPlugin::<FlareDraws>::default());
         let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
@@ -89,8 +99,30 @@ impl Plugin for FlareRenderPlugin {
 struct FlareShared {
     trace_layout: BindGroupLayoutDescriptor,
     draw_layout: BindGroupLayoutDescriptor,
+    /// The occlusion pass's layouts: single-sampled depth, then MSAA.
+    occlusion_layouts: [BindGroupLayoutDescriptor; 2],
     trace: Option<CachedComputePipelineId>,
     draws: HashMap<TextureFormat, CachedRenderPipelineId>,
+    occlusion: [Option<CachedComputePipelineId>; 2],
+}
+
+fn occlusion_layout(multisampled: bool) -> BindGroupLayoutDescriptor {
+    BindGroupLayoutDescriptor::new(
+        "optica_lens_flare_occlusion_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                uniform_buffer::<FlareParams>(false),
+                storage_buffer_read_only::<Vec<LightProbe>>(false),
+                if multisampled {
+                    texture_depth_2d_multisampled()
+                } else {
+                    texture_depth_2d()
+                },
+                storage_buffer::<Vec<f32>>(false),
+            ),
+        ),
+    )
 }
 
 fn init_flare(mut commands: Commands) {
@@ -115,14 +147,17 @@ fn init_flare(mut commands: Commands) {
                 uniform_buffer::<FlareParams>(false),
                 storage_buffer_read_only::<Vec<GridJob>>(false),
                 storage_buffer_read_only::<Vec<[f32; 12]>>(false),
+                storage_buffer_read_only::<Vec<f32>>(false),
             ),
         ),
     );
     commands.insert_resource(FlareShared {
         trace_layout,
         draw_layout,
+        occlusion_layouts: [occlusion_layout(false), occlusion_layout(true)],
         trace: None,
         draws: HashMap::default(),
+        occlusion: [None, None],
     });
 }
 
@@ -133,9 +168,12 @@ struct FlareBinding {
     draw_group: BindGroup,
     trace: CachedComputePipelineId,
     draw: CachedRenderPipelineId,
+    /// The occlusion pass, when the view reads its depth.
+    occlusion: Option<(BindGroup, CachedComputePipelineId)>,
     rays: u32,
     jobs: u32,
     cells: u32,
+    lights: u32,
 }
 
 /// One view's GPU buffers, kept between frames: rewritten in place, and
@@ -145,25 +183,38 @@ struct FlareBuffers {
     uniform: UniformBuffer<FlareParams>,
     surfaces: StorageBuffer<Vec<GpuSurface>>,
     jobs: StorageBuffer<Vec<GridJob>>,
+    probes: StorageBuffer<Vec<LightProbe>>,
     rays: Option<Buffer>,
+    /// Each light's visibility, kept between frames for its history.
+    visibility: Option<Buffer>,
+    /// The lights whose visibility `visibility` holds.
+    lights: Vec<Entity>,
+    /// Whether the occlusion pass ran last frame (else the buffer holds
+    /// ones, not a history to blend with).
+    history_holds: bool,
 }
+
+/// A view with flare draws: its buffers once made, its depth and MSAA.
+type FlareView = (
+    Entity,
+    &'static ExtractedView,
+    &'static FlareDraws,
+    Option<&'static mut FlareBuffers>,
+    Option<&'static ViewDepthTexture>,
+    &'static Msaa,
+);
 
 #[allow(clippy::too_many_arguments)]
 fn prepare_flare(
     mut commands: Commands,
-    mut views: Query<(
-        Entity,
-        &ExtractedView,
-        &FlareDraws,
-        Option<&mut FlareBuffers>,
-    )>,
+    mut views: Query<FlareView>,
     mut shared: ResMut<FlareShared>,
     pipeline_cache: Res<PipelineCache>,
     render_device: Res<RenderDevice>,
     render_queue: Res<RenderQueue>,
 ) {
-    for (entity, view, draws, buffers) in &mut views {
-        let params = draws.params;
+    for (entity, view, draws, buffers, depth, msaa) in &mut views {
+        let mut params = draws.params;
         if params.jobs == 0 || params.n < 2 {
             commands.entity(entity).remove::<FlareBinding>();
             continue;
@@ -231,8 +282,68 @@ fn prepare_flare(
                 mapped_at_creation: false,
             }));
         }
+        // The depth is read when occlusion is on and the view's depth can
+        // be bound (`make_depth_readable` asks for it); otherwise, and until
+        // the occlusion pipeline is compiled, every light is fully visible.
+        let readable_depth = depth.filter(|d| {
+            params.occlusion_radius_px > 0.0
+                && params.lights > 0
+                && d.texture.usage().contains(TextureUsages::TEXTURE_BINDING)
+        });
+        let multisampled = msaa.samples() > 1;
+        let occlusion_layout = shared.occlusion_layouts[usize::from(multisampled)].clone();
+        let occlusion_pipeline = readable_depth.map(|_| {
+            *shared.occlusion[usize::from(multisampled)].get_or_insert_with(|| {
+                pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                    label: Some("optica_lens_flare_occlusion".into()),
+                    layout: vec![occlusion_layout.clone()],
+                    immediate_size: 0,
+                    shader: OCCLUSION_SHADER,
+                    shader_defs: if multisampled {
+                        vec!["MULTISAMPLED".into()]
+                    } else {
+                        vec![]
+                    },
+                    entry_point: Some("occlusion".into()),
+                    zero_initialize_workgroup_memory: false,
+                })
+            })
+        });
+        let occlusion_ready =
+            occlusion_pipeline.is_some_and(|id| pipeline_cache.get_compute_pipeline(id).is_some());
+        // Each light's visibility. Its history holds while the pass ran
+        // last frame for the same lights.
+        let light_bytes = u64::from(params.lights.max(1)) * 4;
+        let fresh = buffers
+            .visibility
+            .as_ref()
+            .is_none_or(|b| b.size() < light_bytes);
+        if fresh {
+            buffers.visibility = Some(render_device.create_buffer(&BufferDescriptor {
+                label: Some("optica_lens_flare_visibility"),
+                size: light_bytes,
+                usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        params.reset_history =
+            u32::from(fresh || !buffers.history_holds || buffers.lights != draws.light_entities);
+        buffers.history_holds = occlusion_ready;
+        buffers.lights.clone_from(&draws.light_entities);
+        let Some(visibility) = buffers.visibility.clone() else {
+            continue;
+        };
+        if !occlusion_ready {
+            let ones = vec![1f32; params.lights.max(1) as usize];
+            render_queue.write_buffer(&visibility, 0, &f32_bytes(&ones));
+        }
         buffers.uniform.set(params);
         buffers.uniform.write_buffer(&render_device, &render_queue);
+        buffers.probes.get_mut().clone_from(&draws.lights);
+        if buffers.probes.get().is_empty() {
+            buffers.probes.get_mut().push(LightProbe::default());
+        }
+        buffers.probes.write_buffer(&render_device, &render_queue);
         buffers.surfaces.get_mut().clone_from(&draws.surfaces);
         buffers.surfaces.write_buffer(&render_device, &render_queue);
         buffers.jobs.get_mut().clone_from(&draws.jobs);
@@ -258,16 +369,39 @@ fn prepare_flare(
         let draw_group = render_device.create_bind_group(
             "optica_lens_flare_draw",
             &pipeline_cache.get_bind_group_layout(&shared.draw_layout),
-            &BindGroupEntries::sequential((u, j, ray_buffer.as_entire_binding())),
+            &BindGroupEntries::sequential((
+                u.clone(),
+                j,
+                ray_buffer.as_entire_binding(),
+                visibility.as_entire_binding(),
+            )),
         );
+        let occlusion = match (readable_depth, occlusion_pipeline, buffers.probes.binding()) {
+            (Some(depth), Some(pipeline), Some(probes)) if occlusion_ready => {
+                let group = render_device.create_bind_group(
+                    "optica_lens_flare_occlusion",
+                    &pipeline_cache.get_bind_group_layout(&occlusion_layout),
+                    &BindGroupEntries::sequential((
+                        u,
+                        probes,
+                        depth.view(),
+                        visibility.as_entire_binding(),
+                    )),
+                );
+                Some((group, pipeline))
+            }
+            _ => None,
+        };
         commands.entity(entity).insert(FlareBinding {
             trace_group,
             draw_group,
             trace,
             draw,
+            occlusion,
             rays,
             jobs: params.jobs,
             cells: (params.n - 1) * (params.n - 1),
+            lights: params.lights,
         });
         if let Some(new) = created {
             commands.entity(entity).insert(new);
@@ -290,7 +424,23 @@ fn flare_passes(
     };
     let diagnostics = ctx.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
+    let occlusion = binding.occlusion.as_ref().and_then(|(group, id)| {
+        pipeline_cache
+            .get_compute_pipeline(*id)
+            .map(|pipeline| (group, pipeline))
+    });
     let span = diagnostics.time_span(ctx.command_encoder(), "optica/flare");
+    if let Some((group, pipeline)) = occlusion {
+        let mut pass = ctx
+            .command_encoder()
+            .begin_compute_pass(&ComputePassDescriptor {
+                label: Some("optica_lens_flare_occlusion"),
+                timestamp_writes: None,
+            });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(binding.lights, 1, 1);
+    }
     {
         let mut pass = ctx
             .command_encoder()
@@ -320,4 +470,9 @@ fn flare_passes(
         pass.draw(0..6 * binding.cells, 0..binding.jobs);
     }
     span.end(ctx.command_encoder());
+}
+
+/// The bytes of `values` as the GPU reads them (little-endian `f32`s).
+fn f32_bytes(values: &[f32]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
 }

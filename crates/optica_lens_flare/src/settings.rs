@@ -47,6 +47,9 @@ pub struct LensFlare {
     pub ghost_budget: u32,
     /// Ghosts dimmer than this fraction of the brightest are left out.
     pub min_relative: f32,
+    /// Occlusion by the scene's depth (a light behind a wall does not
+    /// flare), or `None` to let every light flare whatever is in front.
+    pub occlusion: Option<FlareOcclusion>,
 }
 
 impl LensFlare {
@@ -61,6 +64,7 @@ impl LensFlare {
             intensity: 1.0,
             ghost_budget: 64,
             min_relative: 0.001,
+            occlusion: Some(FlareOcclusion::default()),
         }
     }
 
@@ -90,6 +94,9 @@ impl LensFlare {
         self.aperture.validate()?;
         if let Some(c) = &self.coating {
             c.validate()?;
+        }
+        if let Some(o) = &self.occlusion {
+            o.validate()?;
         }
         Ok(())
     }
@@ -157,6 +164,71 @@ impl ApertureSettings {
             && !(f > 0.0 && f.is_finite())
         {
             return Err(format!("f-number {f} is not positive"));
+        }
+        Ok(())
+    }
+}
+
+/// How a [`LensFlare`] camera's depth hides its lights.
+///
+/// Each frame, the depth buffer is read at a fixed pattern of 256 points
+/// on a small disk round the light's image; the fraction of them that lie
+/// behind the light is the light's visibility, which scales all its
+/// ghosts. The disk makes the visibility soft (a light sliding behind an
+/// edge fades over the disk's width instead of popping), and the
+/// visibility is blended with the last frame's so that sub-pixel motion
+/// (TAA's jitter, a swaying branch) does not make the flare flicker.
+///
+/// Lights whose image is off the screen have no depth to read: the part
+/// of the disk outside the view counts as visible, so a light outside the
+/// view flares fully. The camera's depth texture is made readable
+/// (`Camera3d::depth_texture_usages` gains `TEXTURE_BINDING`) for this.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Default)]
+pub struct FlareOcclusion {
+    /// Radius of the disk read round the light, as a fraction of the
+    /// view's height, `0..=0.25`.
+    pub radius: f32,
+    /// Weight of the last frame's visibility in this frame's, `0..1`
+    /// (0: no smoothing; 0.7 reaches 97 % of a change in 10 frames).
+    pub history: f32,
+    /// Geometry less than this far (world units) in front of a point or
+    /// spot light does not hide it, so a bulb's own mesh round the light
+    /// leaves it visible.
+    pub light_radius: f32,
+}
+
+impl Default for FlareOcclusion {
+    /// A disk of 1 % of the view's height, history 0.7, 0.1 world units
+    /// round a point light.
+    fn default() -> Self {
+        Self {
+            radius: 0.01,
+            history: 0.7,
+            light_radius: 0.1,
+        }
+    }
+}
+
+impl FlareOcclusion {
+    fn validate(&self) -> Result<(), String> {
+        if !(0.0..=0.25).contains(&self.radius) {
+            return Err(format!(
+                "occlusion radius {} is outside [0, 0.25]",
+                self.radius
+            ));
+        }
+        if !(0.0..1.0).contains(&self.history) {
+            return Err(format!(
+                "occlusion history {} is outside [0, 1)",
+                self.history
+            ));
+        }
+        if !(self.light_radius >= 0.0 && self.light_radius.is_finite()) {
+            return Err(format!(
+                "occlusion light radius {} is not >= 0",
+                self.light_radius
+            ));
         }
         Ok(())
     }

@@ -1,6 +1,7 @@
-// The records the flare's two passes share (`FlareParams`, `GridJob`,
-// `RayOut`), prepended to both by the plugin; the Rust side is
-// `draws.rs` (`FlareParams`, `GridJob`) and the ray buffer's 48 bytes.
+// The records the flare's passes share (`FlareParams`, `GridJob`,
+// `RayOut`, `LightProbe`), prepended to each by the plugin; the Rust side
+// is `draws.rs` (`FlareParams`, `GridJob`, `LightProbe`) and the ray
+// buffer's 48 bytes.
 
 struct FlareParams {
     n: u32,
@@ -15,11 +16,17 @@ struct FlareParams {
     rotation: f32,
     radius: f32,
     arc_w: f32,
+    // Occlusion (`visibility.wgsl`).
+    lights: u32,
+    occlusion_radius_px: f32,
+    occlusion_history: f32,
+    reset_history: u32,
 }
 
 // One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and
 // travels along dir; `lens_base` is where its wavelength's lens starts in
-// `lens`; color.w is the wavelength, nm.
+// `lens`; color.w is the wavelength, nm; `light` indexes the lights'
+// visibility.
 struct GridJob {
     origin: vec3<f32>,
     first: u32,
@@ -30,6 +37,15 @@ struct GridJob {
     dir: vec3<f32>,
     cell_pupil_mm2: f32,
     color: vec4<f32>,
+    light: u32,
+}
+
+// Where a light's depth is read: its image (NDC) and the largest scene
+// depth that does not hide it; read_depth 0 for a light with no image.
+struct LightProbe {
+    ndc: vec2<f32>,
+    depth_limit: f32,
+    read_depth: u32,
 }
 
 struct RayOut {

@@ -1,13 +1,15 @@
 // The flare's draw pass: every cell of every traced grid as two triangles
 // on the screen, its irradiance from its change of area with the bounded
 // gain (`optica_optics::lens_flare::cell_intensity`), clipped per pixel
-// where r_rel > 1 or outside the iris, added to the HDR view before
-// tonemapping. Appended by the plugin to `aperture.wgsl` and
-// `flare_types.wgsl`.
+// where r_rel > 1 or outside the iris, scaled by its light's visibility,
+// added to the HDR view before tonemapping. Appended by the plugin to
+// `aperture.wgsl` and `flare_types.wgsl`.
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
 @group(0) @binding(1) var<storage, read> jobs: array<GridJob>;
 @group(0) @binding(2) var<storage, read> rays: array<RayOut>;
+// Each light's visibility through the scene's depth (`visibility.wgsl`).
+@group(0) @binding(3) var<storage, read> visibility: array<f32>;
 
 struct VertexOut {
     @builtin(position) position: vec4<f32>,
@@ -47,6 +49,10 @@ fn vertex(@builtin(vertex_index) vi: u32, @builtin(instance_index) job_index: u3
         return out;
     }
     let job = jobs[job_index];
+    let seen = clamp(visibility[job.light], 0.0, 1.0);
+    if seen <= 0.0 {
+        return out;
+    }
     let a_p = job.cell_pupil_mm2;
     let a_s = 0.5 * abs(quad_area2(corners[0].sensor, corners[1].sensor, corners[2].sensor, corners[3].sensor));
     let mean_t = 0.25 * (corners[0].throughput + corners[1].throughput + corners[2].throughput + corners[3].throughput);
@@ -55,7 +61,7 @@ fn vertex(@builtin(vertex_index) vi: u32, @builtin(instance_index) job_index: u3
     let r = corners[order[vi % 6u]];
     let ndc = -r.sensor / vec2<f32>(params.half_height_mm * params.aspect, params.half_height_mm);
     out.position = vec4<f32>(ndc, 0.0, 1.0);
-    out.color = job.color.rgb * irradiance * params.intensity;
+    out.color = job.color.rgb * irradiance * params.intensity * seen;
     out.r_rel = r.r_rel;
     out.stop0 = r.stop0;
     out.stop1 = r.stop1;

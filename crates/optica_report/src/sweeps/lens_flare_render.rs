@@ -83,7 +83,8 @@ fn scene(
                         commands.spawn((
                             Mesh3d(meshes.add(Cuboid::new(1.0, 6.0, 1.0))),
                             MeshMaterial3d(grey.clone()),
-                            Transform::from_xyz(-7.5 + 3.0 * k as f32, 1.3, -12.0),
+                            // Between the pillars: the sun stays in sight (not occluded).
+                            Transform::from_xyz(-9.0 + 3.0 * k as f32, 1.3, -12.0),
                         ));
                     }
                 }

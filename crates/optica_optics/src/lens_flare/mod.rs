@@ -125,6 +125,7 @@
 
 mod aperture;
 mod coating;
+mod diffraction;
 mod error;
 mod ghosts;
 mod grid_trace;
@@ -139,6 +140,10 @@ pub use aperture::{
     Aperture, ApertureShape, MAX_APERTURE_BLADES, stopped_down, stopped_to_f_number,
 };
 pub use coating::coat_air_interfaces;
+pub use diffraction::{
+    LensDirt, MAX_DIFFRACTION_SIDE, PupilImage, Starburst, fraunhofer, pupil_image, ringing,
+    starburst,
+};
 pub use error::FlareError;
 pub use ghosts::{
     DEFAULT_ESTIMATE_SIDE, DEFAULT_MIN_SPREAD_MM2, EstimateOptions, GhostEstimate, cull,

@@ -129,7 +129,7 @@ fn blots(dirt: &LensDirt, radius: f64) -> Vec<Blot> {
 }
 
 fn check_side(side: usize) -> Result<(), InvalidInput> {
-    if !(16..=MAX_DIFFRACTION_SIDE).contains(&side) || side % 2 != 0 {
+    if !(16..=MAX_DIFFRACTION_SIDE).contains(&side) || !side.is_multiple_of(2) {
         return Err(InvalidInput::new(
             "diffraction texture side (even)",
             side as f64,

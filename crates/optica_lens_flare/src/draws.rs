@@ -59,6 +59,9 @@ pub struct LightProbe {
     pub depth_limit: f32,
     /// 0 when the light has no image to read depth round (it flares fully).
     pub read_depth: u32,
+    /// The light's linear RGB at the camera (irradiance × exposure ×
+    /// strength × the flare's intensity), for its starburst.
+    pub color: Vec4,
 }
 
 impl LightProbe {
@@ -67,10 +70,7 @@ impl LightProbe {
     /// `clip_from_view`. A position is moved `light_radius` towards the
     /// camera first, so that the light's own bulb does not hide it.
     pub fn new(clip_from_view: Mat4, towards: Vec4, light_radius: f32) -> Self {
-        let unreadable = Self {
-            read_depth: 0,
-            ..default()
-        };
+        let unreadable = Self::default();
         let mut p = towards;
         if p.w != 0.0 {
             let distance = p.xyz().length();
@@ -88,6 +88,7 @@ impl LightProbe {
             ndc: clip.xy() / clip.w,
             depth_limit: clip.z / clip.w,
             read_depth: 1,
+            color: Vec4::ZERO,
         }
     }
 }
@@ -119,6 +120,14 @@ pub struct FlareParams {
     pub occlusion_history: f32,
     /// 1 when the visibility's history is to be dropped.
     pub reset_history: u32,
+    /// Half the starburst's height, NDC; 0 with the starburst off.
+    pub starburst_half_ndc: f32,
+    /// The starburst's texel value to pixel value (energy per pixel).
+    pub starburst_scale: f32,
+    /// 1 when the ghosts read the ringing texture.
+    pub ringing: u32,
+    /// Padding to a multiple of 16 bytes.
+    pub pad: u32,
 }
 
 /// What a flare camera's passes trace and draw this frame; no grids when
@@ -134,8 +143,35 @@ pub struct FlareDraws {
     /// The lights, in the order of `lights` (a change resets the
     /// visibility's history).
     pub light_entities: Vec<Entity>,
+    /// The starburst texture, when on.
+    pub starburst: Option<AssetId<Image>>,
+    /// The ringing texture, when on.
+    pub ringing: Option<AssetId<Image>>,
     /// Sizes and the sensor-to-screen mapping.
     pub params: FlareParams,
+}
+
+/// A starburst texel's value to a pixel's: the light the lens focuses from
+/// a light (its irradiance times the entrance pupil's area) spread over the
+/// pattern's texels, per sensor pixel. For a pattern `side` texels across
+/// spanning `2 · size` of the view's height and a sensor `2 · hh` mm high,
+/// a pixel holds `(side / (2 size H))²` texels and has `(2 hh / H)²` mm²,
+/// so the view's height `H` cancels: `side² · A_pupil / (16 size² hh²)`.
+fn starburst_scale(
+    flare: &LensFlare,
+    ghosts: &FlareGhosts,
+    paraxial: &optica_optics::lens::ParaxialProperties,
+    mapping: &SensorMapping,
+) -> f32 {
+    let (Some(settings), Some(_)) = (flare.starburst, ghosts.starburst.as_ref()) else {
+        return 0.0;
+    };
+    let side = f64::from(settings.resolution);
+    let pupil_mm2 = std::f64::consts::PI * paraxial.entrance_pupil_radius_mm.powi(2);
+    let size = f64::from(settings.size);
+    let value = f64::from(settings.intensity) * side * side * pupil_mm2
+        / (16.0 * size * size * mapping.half_height_mm.powi(2));
+    if value.is_finite() { value as f32 } else { 0.0 }
 }
 
 /// The linear-RGB weight of the sample at `wl` nm among `samples` (the
@@ -210,7 +246,8 @@ fn build(
     };
     let size = camera.physical_target_size()?;
     let aspect = f64::from(size.x) / f64::from(size.y.max(1));
-    let efl = lens.paraxial(LAMBDA_D_NM).ok()?.efl_mm;
+    let paraxial = lens.paraxial(LAMBDA_D_NM).ok()?;
+    let efl = paraxial.efl_mm;
     let mapping = SensorMapping::new(efl, f64::from(perspective.fov), aspect)?;
     let wavelengths = flare.wavelengths_nm();
     let prepared: Vec<PreparedLens> = wavelengths
@@ -274,13 +311,16 @@ fn build(
                 .transform_point3(light_transform.translation())
                 .extend(1.0)
         };
-        let light = probes.len() as u32;
-        probes.push(LightProbe::new(clip_from_view, towards, light_radius));
-        light_entities.push(light_entity);
         let rgb = Vec3::from_array(LinearRgba::from(colour).to_f32_array_no_alpha())
             * lux
             * exposure
             * source.strength;
+        let light = probes.len() as u32;
+        probes.push(LightProbe {
+            color: (rgb * flare.intensity).extend(1.0),
+            ..LightProbe::new(clip_from_view, towards, light_radius)
+        });
+        light_entities.push(light_entity);
         for (first, second) in ghosts.drawn() {
             let path = TracePath::ghost(first, second);
             for (w, &wl) in wavelengths.iter().enumerate() {
@@ -325,7 +365,13 @@ fn build(
             occlusion_radius_px: flare.occlusion.map_or(0.0, |o| o.radius * size.y as f32),
             occlusion_history: flare.occlusion.map_or(0.0, |o| o.history),
             reset_history: 0,
+            starburst_half_ndc: flare.starburst.map_or(0.0, |b| 2.0 * b.size),
+            starburst_scale: starburst_scale(flare, ghosts, &paraxial, &mapping),
+            ringing: u32::from(ghosts.ringing.is_some()),
+            pad: 0,
         },
+        starburst: ghosts.starburst.as_ref().map(Handle::id),
+        ringing: ghosts.ringing.as_ref().map(Handle::id),
         surfaces,
         jobs,
         lights: probes,

@@ -74,6 +74,7 @@
 use bevy::prelude::*;
 
 mod asset;
+mod diffraction;
 mod draws;
 mod frame;
 mod gpu_lens;
@@ -82,6 +83,7 @@ mod render;
 mod settings;
 
 pub use asset::{LensAsset, LensLoadError, LensLoader};
+pub use diffraction::RINGING_NM;
 pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob, LightProbe, spectral_weight};
 pub use frame::{SensorMapping, light_in_lens};
 pub use gpu_lens::{
@@ -90,7 +92,7 @@ pub use gpu_lens::{
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate, RANKING_FIELD_DEG, choose};
 pub use settings::{
     ApertureSettings, CoatingSettings, FlareOcclusion, FlareSource, LensFlare, MAX_GRID,
-    MAX_WAVELENGTHS,
+    MAX_WAVELENGTHS, RingingSettings, StarburstSettings,
 };
 
 /// Adds [`LensAsset`] loading, [`LensFlare`] and [`FlareSource`]. Without a

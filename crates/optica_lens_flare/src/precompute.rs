@@ -1,7 +1,8 @@
 //! Choosing the ghosts a [`LensFlare`] camera draws (the blog's *Intensity
 //! LOD* and *Aperture culling*), redone only when the lens, the coating or
 //! the aperture changes: every two-reflection path of the lens is
-//! estimated with a small grid, ranked, and kept or left out with a reason.
+//! estimated with a small grid, ranked, and kept or left out with a reason;
+//! the diffraction textures are made then too.
 
 use bevy::prelude::*;
 use optica_optics::lens::{Coating, LensPrescription};
@@ -10,6 +11,7 @@ use optica_optics::lens_flare::{
     stopped_to_f_number,
 };
 
+use crate::diffraction::{ringing_image, starburst_image};
 use crate::{LensAsset, LensFlare};
 
 /// Field angle of the light the ghosts are ranked for, degrees. The ranking
@@ -53,6 +55,13 @@ pub struct FlareGhosts {
     pub aperture: Option<Aperture>,
     /// Every ghost path (n(n−1)/2 for n interfaces), brightest first.
     pub ghosts: Vec<GhostChoice>,
+    /// The starburst texture (RGB per texel, each channel summing to about
+    /// 1), when [`LensFlare::starburst`] is on.
+    pub starburst: Option<Handle<Image>>,
+    /// The ringing texture (the iris's propagated intensity at 650, 550
+    /// and 450 nm in R, G, B; 1 on average over the opening), when
+    /// [`LensFlare::ringing`] is on.
+    pub ringing: Option<Handle<Image>>,
     /// Why no ghost could be chosen (the lens is not loaded, a setting is
     /// invalid, the estimate failed); the last good choice is kept.
     pub problem: Option<String>,
@@ -77,6 +86,9 @@ struct Key {
     coating: Option<crate::CoatingSettings>,
     budget: u32,
     min_relative: f32,
+    wavelengths: u32,
+    starburst: Option<crate::StarburstSettings>,
+    ringing: Option<crate::RingingSettings>,
 }
 
 impl Key {
@@ -87,6 +99,9 @@ impl Key {
             coating: flare.coating,
             budget: flare.ghost_budget,
             min_relative: flare.min_relative,
+            wavelengths: flare.wavelengths,
+            starburst: flare.starburst,
+            ringing: flare.ringing,
         }
     }
 }
@@ -97,6 +112,7 @@ pub(crate) fn choose_ghosts(
     mut commands: Commands,
     mut cameras: Query<(Entity, &LensFlare, Option<&mut FlareGhosts>)>,
     lenses: Res<Assets<LensAsset>>,
+    mut images: ResMut<Assets<Image>>,
     mut events: MessageReader<AssetEvent<LensAsset>>,
 ) {
     let changed: Vec<AssetId<LensAsset>> = events
@@ -116,14 +132,21 @@ pub(crate) fn choose_ghosts(
         }
         let result = match lenses.get(&flare.lens) {
             None => Err("the lens is not loaded (yet)".to_string()),
-            Some(asset) => flare.validate().and_then(|()| choose(flare, &asset.0)),
+            Some(asset) => flare.validate().and_then(|()| {
+                let (lens, aperture, choices) = choose(flare, &asset.0)?;
+                let burst = starburst_image(flare, &aperture)?;
+                let ring = ringing_image(flare, &aperture)?;
+                Ok((lens, aperture, choices, burst, ring))
+            }),
         };
         let mut next = ghosts.as_deref().cloned().unwrap_or_default();
         match result {
-            Ok((lens, aperture, choices)) => {
+            Ok((lens, aperture, choices, burst, ring)) => {
                 next.lens = Some(lens);
                 next.aperture = Some(aperture);
                 next.ghosts = choices;
+                next.starburst = burst.map(|i| images.add(i));
+                next.ringing = ring.map(|i| images.add(i));
                 next.problem = None;
                 next.built_for = Some(key);
             }

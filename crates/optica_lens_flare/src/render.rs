@@ -1,7 +1,9 @@
-//! The render world: per flare camera, a compute pass traces every ghost
-//! grid of [`FlareDraws`] into a storage buffer, and a draw pass adds their
-//! cells to the HDR view target before tonemapping (so that bloom and
-//! tonemapping treat the flare as light). Pipelines are queued when the
+//! The render world: per flare camera, a compute pass reads each light's
+//! visibility from the depth, a compute pass traces every ghost grid of
+//! [`FlareDraws`] into a storage buffer, and a draw pass adds their cells
+//! (with the ringing) and each light's starburst to the HDR view target
+//! before tonemapping (so that bloom and tonemapping treat the flare as
+//! light). Pipelines are queued when the
 //! first flare camera needs them; views without `FlareDraws` (or with no
 //! grid this frame) run neither pass.
 
@@ -12,9 +14,10 @@ use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::extract_component::ExtractComponentPlugin;
+use bevy::render::render_asset::RenderAssets;
 use bevy::render::render_resource::binding_types::{
-    storage_buffer, storage_buffer_read_only, texture_depth_2d, texture_depth_2d_multisampled,
-    uniform_buffer,
+    storage_buffer, storage_buffer_read_only, texture_2d, texture_depth_2d,
+    texture_depth_2d_multisampled, uniform_buffer,
 };
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, BlendComponent,
@@ -22,9 +25,10 @@ use bevy::render::render_resource::{
     CachedComputePipelineId, CachedRenderPipelineId, ColorTargetState, ColorWrites,
     ComputePassDescriptor, ComputePipelineDescriptor, FragmentState, PipelineCache,
     RenderPassDescriptor, RenderPipelineDescriptor, ShaderStages, StorageBuffer, TextureFormat,
-    TextureUsages, UniformBuffer, VertexState,
+    TextureSampleType, TextureUsages, UniformBuffer, VertexState,
 };
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
+use bevy::render::texture::{FallbackImage, GpuImage};
 use bevy::render::view::{ExtractedView, Msaa, ViewDepthTexture, ViewTarget};
 use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use bevy::shader::Shader;
@@ -102,8 +106,52 @@ struct FlareShared {
     /// The occlusion pass's layouts: single-sampled depth, then MSAA.
     occlusion_layouts: [BindGroupLayoutDescriptor; 2],
     trace: Option<CachedComputePipelineId>,
-    draws: HashMap<TextureFormat, CachedRenderPipelineId>,
+    /// Per view format: the ghosts' and the starburst's pipelines.
+    draws: HashMap<TextureFormat, [CachedRenderPipelineId; 2]>,
     occlusion: [Option<CachedComputePipelineId>; 2],
+}
+
+/// The flare's additive draw pipeline for `format`, at the draw shader's
+/// `entry` (`vertex` / `fragment` with the prefix).
+fn draw_pipeline(
+    pipeline_cache: &PipelineCache,
+    layout: BindGroupLayoutDescriptor,
+    format: TextureFormat,
+    label: &'static str,
+    prefix: &str,
+) -> CachedRenderPipelineId {
+    pipeline_cache.queue_render_pipeline(RenderPipelineDescriptor {
+        label: Some(label.into()),
+        layout: vec![layout],
+        vertex: VertexState {
+            shader: DRAW_SHADER,
+            entry_point: Some(format!("{prefix}vertex").into()),
+            ..default()
+        },
+        fragment: Some(FragmentState {
+            shader: DRAW_SHADER,
+            entry_point: Some(format!("{prefix}fragment").into()),
+            targets: vec![Some(ColorTargetState {
+                format,
+                // Added: the flare is light.
+                blend: Some(BlendState {
+                    color: BlendComponent {
+                        src_factor: BlendFactor::One,
+                        dst_factor: BlendFactor::One,
+                        operation: BlendOperation::Add,
+                    },
+                    alpha: BlendComponent {
+                        src_factor: BlendFactor::Zero,
+                        dst_factor: BlendFactor::One,
+                        operation: BlendOperation::Add,
+                    },
+                }),
+                write_mask: ColorWrites::ALL,
+            })],
+            ..default()
+        }),
+        ..default()
+    })
 }
 
 fn occlusion_layout(multisampled: bool) -> BindGroupLayoutDescriptor {
@@ -148,6 +196,9 @@ fn init_flare(mut commands: Commands) {
                 storage_buffer_read_only::<Vec<GridJob>>(false),
                 storage_buffer_read_only::<Vec<[f32; 12]>>(false),
                 storage_buffer_read_only::<Vec<f32>>(false),
+                storage_buffer_read_only::<Vec<LightProbe>>(false),
+                texture_2d(TextureSampleType::Float { filterable: false }),
+                texture_2d(TextureSampleType::Float { filterable: false }),
             ),
         ),
     );
@@ -168,6 +219,8 @@ struct FlareBinding {
     draw_group: BindGroup,
     trace: CachedComputePipelineId,
     draw: CachedRenderPipelineId,
+    /// The starburst's pipeline, when it is drawn.
+    starburst: Option<CachedRenderPipelineId>,
     /// The occlusion pass, when the view reads its depth.
     occlusion: Option<(BindGroup, CachedComputePipelineId)>,
     rays: u32,
@@ -212,6 +265,8 @@ fn prepare_flare(
     pipeline_cache: Res<PipelineCache>,
     render_device: Res<RenderDevice>,
     render_queue: Res<RenderQueue>,
+    images: Res<RenderAssets<GpuImage>>,
+    fallback: Res<FallbackImage>,
 ) {
     for (entity, view, draws, buffers, depth, msaa) in &mut views {
         let mut params = draws.params;
@@ -233,40 +288,38 @@ fn prepare_flare(
         });
         let format = view.target_format;
         let draw_layout = shared.draw_layout.clone();
-        let draw = *shared.draws.entry(format).or_insert_with(|| {
-            pipeline_cache.queue_render_pipeline(RenderPipelineDescriptor {
-                label: Some("optica_lens_flare_draw".into()),
-                layout: vec![draw_layout],
-                vertex: VertexState {
-                    shader: DRAW_SHADER,
-                    entry_point: Some("vertex".into()),
-                    ..default()
-                },
-                fragment: Some(FragmentState {
-                    shader: DRAW_SHADER,
-                    entry_point: Some("fragment".into()),
-                    targets: vec![Some(ColorTargetState {
-                        format,
-                        // Added: the flare is light.
-                        blend: Some(BlendState {
-                            color: BlendComponent {
-                                src_factor: BlendFactor::One,
-                                dst_factor: BlendFactor::One,
-                                operation: BlendOperation::Add,
-                            },
-                            alpha: BlendComponent {
-                                src_factor: BlendFactor::Zero,
-                                dst_factor: BlendFactor::One,
-                                operation: BlendOperation::Add,
-                            },
-                        }),
-                        write_mask: ColorWrites::ALL,
-                    })],
-                    ..default()
-                }),
-                ..default()
-            })
+        let [draw, starburst] = *shared.draws.entry(format).or_insert_with(|| {
+            [
+                draw_pipeline(
+                    &pipeline_cache,
+                    draw_layout.clone(),
+                    format,
+                    "optica_lens_flare_draw",
+                    "",
+                ),
+                draw_pipeline(
+                    &pipeline_cache,
+                    draw_layout,
+                    format,
+                    "optica_lens_flare_starburst",
+                    "starburst_",
+                ),
+            ]
         });
+        // The diffraction textures, once uploaded; until then (and when
+        // off) the fallback, and the pass leaves them out.
+        let texture = |id: Option<AssetId<Image>>| id.and_then(|id| images.get(id));
+        let ringing = texture(draws.ringing);
+        let burst = texture(draws.starburst);
+        if ringing.is_none() {
+            params.ringing = 0;
+        }
+        if burst.is_none() {
+            params.starburst_scale = 0.0;
+        }
+        let fallback_view = &fallback.d2.texture_view;
+        let ringing_view = ringing.map_or(fallback_view, |i| &i.texture_view);
+        let burst_view = burst.map_or(fallback_view, |i| &i.texture_view);
         let mut created = None;
         let buffers = match buffers {
             Some(b) => b.into_inner(),
@@ -348,10 +401,11 @@ fn prepare_flare(
         buffers.surfaces.write_buffer(&render_device, &render_queue);
         buffers.jobs.get_mut().clone_from(&draws.jobs);
         buffers.jobs.write_buffer(&render_device, &render_queue);
-        let (Some(u), Some(s), Some(j), Some(ray_buffer)) = (
+        let (Some(u), Some(s), Some(j), Some(probes), Some(ray_buffer)) = (
             buffers.uniform.binding(),
             buffers.surfaces.binding(),
             buffers.jobs.binding(),
+            buffers.probes.binding(),
             buffers.rays.as_ref(),
         ) else {
             continue;
@@ -374,10 +428,13 @@ fn prepare_flare(
                 j,
                 ray_buffer.as_entire_binding(),
                 visibility.as_entire_binding(),
+                probes.clone(),
+                ringing_view,
+                burst_view,
             )),
         );
-        let occlusion = match (readable_depth, occlusion_pipeline, buffers.probes.binding()) {
-            (Some(depth), Some(pipeline), Some(probes)) if occlusion_ready => {
+        let occlusion = match (readable_depth, occlusion_pipeline) {
+            (Some(depth), Some(pipeline)) if occlusion_ready => {
                 let group = render_device.create_bind_group(
                     "optica_lens_flare_occlusion",
                     &pipeline_cache.get_bind_group_layout(&occlusion_layout),
@@ -397,6 +454,8 @@ fn prepare_flare(
             draw_group,
             trace,
             draw,
+            starburst: (params.starburst_scale > 0.0 && params.starburst_half_ndc > 0.0)
+                .then_some(starburst),
             occlusion,
             rays,
             jobs: params.jobs,
@@ -422,6 +481,9 @@ fn flare_passes(
     ) else {
         return;
     };
+    let starburst = binding
+        .starburst
+        .and_then(|id| pipeline_cache.get_render_pipeline(id));
     let diagnostics = ctx.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
     let occlusion = binding.occlusion.as_ref().and_then(|(group, id)| {
@@ -468,6 +530,10 @@ fn flare_passes(
         pass.set_pipeline(draw);
         pass.set_bind_group(0, &binding.draw_group, &[]);
         pass.draw(0..6 * binding.cells, 0..binding.jobs);
+        if let Some(starburst) = starburst {
+            pass.set_pipeline(starburst);
+            pass.draw(0..6, 0..binding.lights);
+        }
     }
     span.end(ctx.command_encoder());
 }

@@ -50,6 +50,12 @@ pub struct LensFlare {
     /// Occlusion by the scene's depth (a light behind a wall does not
     /// flare), or `None` to let every light flare whatever is in front.
     pub occlusion: Option<FlareOcclusion>,
+    /// The starburst round each light (the aperture's diffraction), or
+    /// `None`.
+    pub starburst: Option<StarburstSettings>,
+    /// Ripples at the edge of each ghost (the aperture's Fresnel
+    /// diffraction), or `None` for sharp-edged ghosts.
+    pub ringing: Option<RingingSettings>,
 }
 
 impl LensFlare {
@@ -65,6 +71,8 @@ impl LensFlare {
             ghost_budget: 64,
             min_relative: 0.001,
             occlusion: Some(FlareOcclusion::default()),
+            starburst: Some(StarburstSettings::default()),
+            ringing: Some(RingingSettings::default()),
         }
     }
 
@@ -97,6 +105,12 @@ impl LensFlare {
         }
         if let Some(o) = &self.occlusion {
             o.validate()?;
+        }
+        if let Some(s) = &self.starburst {
+            s.validate()?;
+        }
+        if let Some(r) = &self.ringing {
+            r.validate()?;
         }
         Ok(())
     }
@@ -231,6 +245,127 @@ impl FlareOcclusion {
             ));
         }
         Ok(())
+    }
+}
+
+/// Texture sides of the diffraction textures.
+const DIFFRACTION_SIDES: std::ops::RangeInclusive<u32> = 32..=1024;
+
+fn check_side(what: &str, side: u32) -> Result<(), String> {
+    if !DIFFRACTION_SIDES.contains(&side) || !side.is_multiple_of(2) {
+        return Err(format!(
+            "{what} resolution {side} is not an even number in 32..=1024"
+        ));
+    }
+    Ok(())
+}
+
+/// The starburst: the Fraunhofer diffraction pattern of the iris (with the
+/// lens's dust and scratches), summed over the flare's wavelengths, drawn
+/// round each flaring light. Recomputed (an FFT on the CPU) only when the
+/// iris or these settings change.
+///
+/// Its light is a share of the light's own image spread by diffraction:
+/// per light it adds `intensity` × the light's irradiance × the entrance
+/// pupil's area (the energy the lens focuses from that light) to the
+/// frame, most of it in the pattern's core. A real iris diffracts into a
+/// fraction of a degree; `size` stretches the pattern to a visible size
+/// (as Hullin et al. do), keeping its energy, and it fades out towards the
+/// edge of its square. No pixel gets more than 4096 from it, so the HDR
+/// target cannot overflow.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Default)]
+pub struct StarburstSettings {
+    /// Half the width of the pattern, as a fraction of the view's height,
+    /// `(0, 2]`.
+    pub size: f32,
+    /// The share of the light's focused energy the pattern carries (1:
+    /// all of it, blinding; the default 0.001 gives a bright core and
+    /// visible spikes).
+    pub intensity: f32,
+    /// Texels per side of the FFT, an even number in `32..=1024`.
+    pub resolution: u32,
+    /// Dust specks on the lens.
+    pub specks: u32,
+    /// Scratches on the lens.
+    pub scratches: u32,
+    /// Where the dust and scratches fall.
+    pub seed: u64,
+}
+
+impl Default for StarburstSettings {
+    /// A quarter of the view's height, 0.001 of the light's focused
+    /// energy, 256², 40 specks and 6 scratches.
+    fn default() -> Self {
+        Self {
+            size: 0.25,
+            intensity: 0.001,
+            resolution: 256,
+            specks: 40,
+            scratches: 6,
+            seed: 1,
+        }
+    }
+}
+
+impl StarburstSettings {
+    fn validate(&self) -> Result<(), String> {
+        if !(self.size > 0.0 && self.size <= 2.0) {
+            return Err(format!("starburst size {} is outside (0, 2]", self.size));
+        }
+        if !(self.intensity >= 0.0 && self.intensity.is_finite()) {
+            return Err(format!(
+                "starburst intensity {} is not >= 0",
+                self.intensity
+            ));
+        }
+        if self.specks > 10_000 || self.scratches > 1_000 {
+            return Err(format!(
+                "starburst dirt of {} specks and {} scratches is more than 10000 and 1000",
+                self.specks, self.scratches
+            ));
+        }
+        check_side("starburst", self.resolution)
+    }
+}
+
+/// Ringing: the ripples that diffraction at the iris's edge puts inside
+/// each ghost, from the iris's field carried by the angular spectrum
+/// method (one texture per red, green and blue, recomputed only when the
+/// iris or these settings change), looked up where each ray crossed the
+/// stop.
+///
+/// Every ghost shares one propagation distance, given as a Fresnel number
+/// `r² / (λ z)` at 550 nm: large numbers give a few fine ripples at the
+/// edge, small ones broad rings across the ghost.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Default)]
+pub struct RingingSettings {
+    /// The Fresnel number at 550 nm, `0.5..=10000`.
+    pub fresnel_number: f32,
+    /// Texels per side, an even number in `32..=1024`.
+    pub resolution: u32,
+}
+
+impl Default for RingingSettings {
+    /// Fresnel number 60, 256².
+    fn default() -> Self {
+        Self {
+            fresnel_number: 60.0,
+            resolution: 256,
+        }
+    }
+}
+
+impl RingingSettings {
+    fn validate(&self) -> Result<(), String> {
+        if !(0.5..=10_000.0).contains(&self.fresnel_number) {
+            return Err(format!(
+                "ringing Fresnel number {} is outside 0.5..=10000",
+                self.fresnel_number
+            ));
+        }
+        check_side("ringing", self.resolution)
     }
 }
 

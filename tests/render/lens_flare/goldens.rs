@@ -1,6 +1,8 @@
-//! Golden images of the coated Tessar's ghosts on lavapipe: a sun 6° and
-//! 15° off the axis (up and to the right), 128², 24² rays per ghost, three
-//! wavelengths, six blades, untonemapped on black.
+//! Golden images of the coated Tessar's flare on lavapipe with the default
+//! settings (ghosts with ringing, the starburst with its dust and
+//! scratches): a sun 6° and 15° off the axis (up and to the right), 128²,
+//! 24² rays per ghost, three wavelengths, six blades, untonemapped on
+//! black.
 
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;

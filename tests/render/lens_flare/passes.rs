@@ -5,7 +5,7 @@
 
 use bevy::prelude::*;
 use optica_harness::{Adapter, Headless, PipelineReport, RenderedFrame};
-use optica_lens_flare::{LensFlare, LensFlarePlugin};
+use optica_lens_flare::{LensFlare, LensFlarePlugin, RingingSettings, StarburstSettings};
 
 const SIZE: u32 = 128;
 const TESSAR: &str = "lenses/tessar-us2854889.lens";
@@ -32,6 +32,8 @@ fn scene_with(
                     let mut settings = LensFlare {
                         grid: 24,
                         intensity: 1.0,
+                        // The ghosts alone, unless `edit` turns it on.
+                        starburst: None,
                         ..LensFlare::new(assets.load(TESSAR))
                     };
                     edit(&mut settings);
@@ -138,6 +140,115 @@ fn a_sun_off_axis_flares_and_a_sun_behind_does_not() {
     assert_eq!(n, 0, "{n} px lit by a sun behind the camera");
 }
 
+/// The starburst: centred on the sun's image (its brightest pixel there),
+/// with six spikes for six straight blades (brighter along the edges'
+/// normals than between them), finite and bounded; none when it is off.
+#[test]
+fn the_starburst_sits_on_the_light_with_a_spike_per_blade_edge() {
+    let travel = Vec3::new(-0.15, -0.15, 1.0).normalize();
+    let render = |on: bool| {
+        Headless::new(SIZE, SIZE)
+            .hdr(true)
+            .frames(12)
+            .render(scene_with(travel, true, move |f| {
+                f.aperture.blades = 6;
+                f.aperture.roundness = 0.0;
+                f.aperture.rotation_deg = 0.0;
+                f.starburst = on.then(|| StarburstSettings {
+                    specks: 0,
+                    scratches: 0,
+                    ..default()
+                });
+            }))
+            .expect("render")
+    };
+    let with = render(true);
+    let without = render(false);
+    let (a, b) = (with.hdr().expect("HDR"), without.hdr().expect("HDR"));
+    assert!(a.as_raw().iter().all(|v| v.is_finite()));
+    // The starburst alone: the difference of the two frames.
+    let burst = |x: u32, y: u32| {
+        let (p, q) = (a.get_pixel(x, y).0, b.get_pixel(x, y).0);
+        (p[0] - q[0]) + (p[1] - q[1]) + (p[2] - q[2])
+    };
+    // Where the camera draws the sun: the light comes from −travel.
+    let ndc = Vec2::new(0.15, 0.15) / (std::f32::consts::FRAC_PI_8.tan());
+    let (sx, sy) = (
+        (ndc.x * 0.5 + 0.5) * SIZE as f32,
+        (0.5 - ndc.y * 0.5) * SIZE as f32,
+    );
+    let (bx, by, peak) = (0..SIZE * SIZE)
+        .map(|k| (k % SIZE, k / SIZE, burst(k % SIZE, k / SIZE)))
+        .fold((0, 0, 0f32), |m, p| if p.2 > m.2 { p } else { m });
+    eprintln!("starburst peak {peak} at ({bx}, {by}), sun drawn at ({sx:.1}, {sy:.1})");
+    assert!(peak > 1.0 && peak < 3.0 * 4096.0, "{peak}");
+    assert!(
+        (bx as f32 - sx).abs() < 2.0 && (by as f32 - sy).abs() < 2.0,
+        "peak at ({bx}, {by})"
+    );
+    // Spikes: hexagon edges' normals at 30°, 90°, … from +x (the pattern is
+    // upright on screen): sum along rays 8–24 px from the peak.
+    let along = |deg: f32| {
+        let d = Vec2::from_angle(deg.to_radians());
+        (8..24)
+            .map(|r| {
+                let p = Vec2::new(bx as f32 + 0.5, by as f32 + 0.5) + d * r as f32;
+                burst(p.x as u32, p.y as u32)
+            })
+            .sum::<f32>()
+    };
+    let spikes: f32 = [30.0, 90.0, 150.0].iter().map(|&d| along(d)).sum();
+    let gaps: f32 = [0.0, 60.0, 120.0].iter().map(|&d| along(d)).sum();
+    eprintln!("along the spikes {spikes}, between them {gaps}");
+    assert!(spikes > 5.0 * gaps, "spikes {spikes} vs gaps {gaps}");
+}
+
+/// Ringing ripples the brightest ghost without changing its light much:
+/// with it on, the ghost's pixels over the same ghost without it vary
+/// (fringes), their mean stays near 1, and the total within 15 %.
+#[test]
+fn ringing_ripples_a_ghost_and_keeps_its_light() {
+    let travel = Vec3::new(-0.15, -0.15, 1.0).normalize();
+    let render = |ringing: Option<RingingSettings>| {
+        Headless::new(SIZE, SIZE)
+            .hdr(true)
+            .frames(12)
+            .render(scene_with(travel, true, move |f| {
+                f.ghost_budget = 1;
+                f.wavelengths = 1;
+                f.aperture.blades = 0;
+                f.ringing = ringing;
+            }))
+            .expect("render")
+    };
+    let with = render(Some(RingingSettings {
+        fresnel_number: 30.0,
+        ..default()
+    }));
+    let without = render(None);
+    let (a, b) = (with.hdr().expect("HDR"), without.hdr().expect("HDR"));
+    let luma = |p: &image::Rgba<f32>| f64::from(p.0[0] + p.0[1] + p.0[2]);
+    let peak = b.pixels().map(luma).fold(0.0, f64::max);
+    let ratios: Vec<f64> = a
+        .pixels()
+        .zip(b.pixels())
+        .filter(|(_, q)| luma(q) > 0.05 * peak)
+        .map(|(p, q)| luma(p) / luma(q))
+        .collect();
+    let n = ratios.len() as f64;
+    let mean = ratios.iter().sum::<f64>() / n;
+    let spread = (ratios.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
+    let (ta, tb): (f64, f64) = (a.pixels().map(luma).sum(), b.pixels().map(luma).sum());
+    eprintln!(
+        "ringing over {n} ghost pixels: ratio mean {mean:.3}, spread {spread:.3}; totals {ta:.1} vs {tb:.1}"
+    );
+    assert!(a.as_raw().iter().all(|v| v.is_finite()));
+    assert!(n > 100.0, "only {n} ghost pixels");
+    assert!((mean - 1.0).abs() < 0.2, "mean ratio {mean}");
+    assert!(spread > 0.03, "no fringes: spread {spread}");
+    assert!((ta - tb).abs() < 0.15 * tb, "{ta} vs {tb}");
+}
+
 fn pipelines(setup: impl FnOnce(&mut App)) -> PipelineReport {
     Headless::new(32, 32)
         .adapter(Adapter::Noop)
@@ -157,7 +268,12 @@ fn no_flare_camera_no_flare_pipeline() {
     );
     let with = pipelines(scene(travel, true));
     eprintln!("{:?}", with.labels);
-    for want in ["optica_lens_flare_trace", "optica_lens_flare_draw"] {
+    for want in [
+        "optica_lens_flare_trace",
+        "optica_lens_flare_draw",
+        "optica_lens_flare_starburst",
+        "optica_lens_flare_occlusion",
+    ] {
         assert!(
             with.labels.iter().any(|l| l == want),
             "{want}: {:?}",

@@ -21,6 +21,11 @@ struct FlareParams {
     occlusion_radius_px: f32,
     occlusion_history: f32,
     reset_history: u32,
+    // The starburst (`ghost_draw.wgsl`) and ringing.
+    starburst_half_ndc: f32,
+    starburst_scale: f32,
+    ringing: u32,
+    pad: u32,
 }
 
 // One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and
@@ -46,6 +51,7 @@ struct LightProbe {
     ndc: vec2<f32>,
     depth_limit: f32,
     read_depth: u32,
+    color: vec4<f32>,
 }
 
 struct RayOut {

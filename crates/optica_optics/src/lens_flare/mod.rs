@@ -123,6 +123,7 @@
 //! assert!(stats.alive_cells > 0 && stats.power.is_finite());
 //! ```
 
+mod adaptive;
 mod aperture;
 mod coating;
 mod diffraction;
@@ -136,6 +137,7 @@ mod raster;
 #[cfg(feature = "reference")]
 mod reference;
 
+pub use adaptive::{grid_sizes, interpolation_error_mm};
 pub use aperture::{
     Aperture, ApertureShape, MAX_APERTURE_BLADES, stopped_down, stopped_to_f_number,
 };

@@ -47,6 +47,10 @@ pub struct GridJob {
     color: Vec4,
     /// The light's index in [`FlareDraws::lights`].
     light: u32,
+    /// Rays per side.
+    n: u32,
+    /// Where its rays start in the ray buffer.
+    ray_base: u32,
 }
 
 /// Where a light's occlusion is read (`LightProbe`): its image in NDC and
@@ -96,8 +100,8 @@ impl LightProbe {
 /// The uniform of both passes (`FlareParams`).
 #[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
 pub struct FlareParams {
-    /// Rays per side of every grid.
-    pub n: u32,
+    /// Rays in all the grids.
+    pub rays: u32,
     /// Grids.
     pub jobs: u32,
     /// Surfaces per lens.
@@ -143,6 +147,9 @@ pub struct FlareDraws {
     /// The lights, in the order of `lights` (a change resets the
     /// visibility's history).
     pub light_entities: Vec<Entity>,
+    /// The grids by size: (rays per side, first grid, grids), in the order
+    /// of `jobs`.
+    pub batches: Vec<[u32; 3]>,
     /// The starburst texture, when on.
     pub starburst: Option<AssetId<Image>>,
     /// The ringing texture, when on.
@@ -272,8 +279,6 @@ fn build(
     let exposure = exposure.copied().unwrap_or_default().exposure();
     let view_from_world = transform.affine().inverse();
     let camera_position = transform.translation();
-    let n = flare.grid;
-    let cells = f64::from((n - 1) * (n - 1));
     let mut jobs = Vec::new();
     let mut probes = Vec::new();
     let mut light_entities = Vec::new();
@@ -321,7 +326,8 @@ fn build(
             ..LightProbe::new(clip_from_view, towards, light_radius)
         });
         light_entities.push(light_entity);
-        for (first, second) in ghosts.drawn() {
+        for ((first, second), n) in ghosts.drawn_grids() {
+            let cells = f64::from((n - 1) * (n - 1));
             let path = TracePath::ghost(first, second);
             for (w, &wl) in wavelengths.iter().enumerate() {
                 let Ok(beam) = Beam::for_path(lens, path, d, wl) else {
@@ -343,13 +349,28 @@ fn build(
                     cell_pupil_mm2: (beam.cross_section_mm2() / cells) as f32,
                     color: (rgb * weight).extend(wl as f32),
                     light,
+                    n,
+                    ray_base: 0,
                 });
             }
         }
     }
+    // Grids of a size next to each other, so that each size is one draw.
+    jobs.sort_by_key(|j| j.n);
+    let mut rays = 0u32;
+    let mut batches: Vec<[u32; 3]> = Vec::new();
+    for (k, job) in jobs.iter_mut().enumerate() {
+        job.ray_base = rays;
+        rays = rays.saturating_add(job.n * job.n);
+        match batches.last_mut() {
+            Some(b) if b[0] == job.n => b[2] += 1,
+            _ => batches.push([job.n, k as u32, 1]),
+        }
+    }
     Some(FlareDraws {
+        batches,
         params: FlareParams {
-            n,
+            rays,
             jobs: jobs.len() as u32,
             surfaces: count,
             sensor_z: prepared[0].table_sensor_z() as f32,

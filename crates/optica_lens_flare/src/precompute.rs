@@ -5,10 +5,10 @@
 //! the diffraction textures are made then too.
 
 use bevy::prelude::*;
-use optica_optics::lens::{Coating, LensPrescription};
+use optica_optics::lens::{Coating, LensPrescription, PreparedLens, TracePath};
 use optica_optics::lens_flare::{
-    Aperture, EstimateOptions, coat_air_interfaces, estimate_ghosts, light_from_field,
-    stopped_to_f_number,
+    Aperture, Beam, EstimateOptions, GridOptions, coat_air_interfaces, estimate_ghosts, grid_sizes,
+    interpolation_error_mm, light_from_field, stopped_to_f_number, trace_grid,
 };
 
 use crate::diffraction::{ringing_image, starburst_image};
@@ -42,6 +42,11 @@ pub struct GhostChoice {
     pub relative: f64,
     /// Drawn, or why not.
     pub fate: GhostFate,
+    /// Rays per side of its grid when drawn (0 when not).
+    pub grid: u32,
+    /// Its interpolation error at 9 rays per side, mm on the sensor (the
+    /// measure the grid size follows), when drawn and measurable.
+    pub deformation_mm: Option<f64>,
 }
 
 /// On a [`LensFlare`] camera: the lens as traced and every ghost path with
@@ -71,10 +76,22 @@ pub struct FlareGhosts {
 impl FlareGhosts {
     /// The paths drawn, brightest first.
     pub fn drawn(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.drawn_grids().map(|(path, _)| path)
+    }
+
+    /// The paths drawn with their grid sizes, brightest first.
+    pub fn drawn_grids(&self) -> impl Iterator<Item = ((usize, usize), u32)> + '_ {
         self.ghosts
             .iter()
             .filter(|g| g.fate == GhostFate::Drawn)
-            .map(|g| g.path)
+            .map(|g| (g.path, g.grid))
+    }
+
+    /// Rays traced per light and wavelength each frame.
+    pub fn rays_per_light(&self) -> u64 {
+        self.drawn_grids()
+            .map(|(_, n)| u64::from(n) * u64::from(n))
+            .sum()
     }
 }
 
@@ -86,6 +103,8 @@ struct Key {
     coating: Option<crate::CoatingSettings>,
     budget: u32,
     min_relative: f32,
+    grid: u32,
+    adaptive_grid: bool,
     wavelengths: u32,
     starburst: Option<crate::StarburstSettings>,
     ringing: Option<crate::RingingSettings>,
@@ -99,6 +118,8 @@ impl Key {
             coating: flare.coating,
             budget: flare.ghost_budget,
             min_relative: flare.min_relative,
+            grid: flare.grid,
+            adaptive_grid: flare.adaptive_grid,
             wavelengths: flare.wavelengths,
             starburst: flare.starburst,
             ringing: flare.ringing,
@@ -169,6 +190,55 @@ pub(crate) fn choose_ghosts(
     }
 }
 
+/// Rays per side of the grid that measures a ghost's deformation (odd:
+/// its even-indexed rays make a grid of 9).
+const DEFORMATION_GRID: usize = 17;
+
+/// Gives each drawn ghost its grid size: `flare.grid`, or with
+/// [`LensFlare::adaptive_grid`] one that follows its deformation at the
+/// ranking field (`optica_optics::lens_flare::grid_sizes`), from
+/// `min(16, grid)` to 512 rays per side.
+fn size_grids(
+    flare: &LensFlare,
+    lens: &LensPrescription,
+    mut choices: Vec<GhostChoice>,
+) -> Result<Vec<GhostChoice>, String> {
+    let drawn: Vec<usize> = (0..choices.len())
+        .filter(|&k| choices[k].fate == GhostFate::Drawn)
+        .collect();
+    if !flare.adaptive_grid {
+        for &k in &drawn {
+            choices[k].grid = flare.grid;
+        }
+        return Ok(choices);
+    }
+    let light = light_from_field(RANKING_FIELD_DEG, 0.0);
+    let prepared = PreparedLens::new(lens, 550.0).map_err(|e| e.to_string())?;
+    let errors: Vec<Option<f64>> = drawn
+        .iter()
+        .map(|&k| {
+            let (first, second) = choices[k].path;
+            let path = TracePath::ghost(first, second);
+            let beam = Beam::for_path(lens, path, light, 550.0).ok()?;
+            let grid = trace_grid(
+                &prepared,
+                path,
+                &beam,
+                DEFORMATION_GRID,
+                &GridOptions::default(),
+            )
+            .ok()?;
+            interpolation_error_mm(&grid)
+        })
+        .collect();
+    let sizes = grid_sizes(&errors, flare.grid, flare.grid.min(16), crate::MAX_GRID);
+    for ((&k, size), error) in drawn.iter().zip(sizes).zip(errors) {
+        choices[k].grid = size;
+        choices[k].deformation_mm = error;
+    }
+    Ok(choices)
+}
+
 /// The prescription as `flare` traces it, its iris and its ghosts, ranked
 /// and culled.
 pub fn choose(
@@ -234,8 +304,11 @@ pub fn choose(
                 path,
                 relative,
                 fate,
+                grid: 0,
+                deformation_mm: None,
             }
         })
         .collect();
+    let choices = size_grids(flare, &lens, choices)?;
     Ok((lens, aperture, choices))
 }

@@ -224,8 +224,8 @@ struct FlareBinding {
     /// The occlusion pass, when the view reads its depth.
     occlusion: Option<(BindGroup, CachedComputePipelineId)>,
     rays: u32,
-    jobs: u32,
-    cells: u32,
+    /// (rays per side, first grid, grids) per size.
+    batches: Vec<[u32; 3]>,
     lights: u32,
 }
 
@@ -270,7 +270,7 @@ fn prepare_flare(
 ) {
     for (entity, view, draws, buffers, depth, msaa) in &mut views {
         let mut params = draws.params;
-        if params.jobs == 0 || params.n < 2 {
+        if params.jobs == 0 || params.rays == 0 {
             commands.entity(entity).remove::<FlareBinding>();
             continue;
         }
@@ -325,7 +325,7 @@ fn prepare_flare(
             Some(b) => b.into_inner(),
             None => created.insert(FlareBuffers::default()),
         };
-        let rays = params.n * params.n * params.jobs;
+        let rays = params.rays;
         let size = u64::from(rays) * RAY_BYTES;
         if buffers.rays.as_ref().is_none_or(|b| b.size() < size) {
             buffers.rays = Some(render_device.create_buffer(&BufferDescriptor {
@@ -458,8 +458,7 @@ fn prepare_flare(
                 .then_some(starburst),
             occlusion,
             rays,
-            jobs: params.jobs,
-            cells: (params.n - 1) * (params.n - 1),
+            batches: draws.batches.clone(),
             lights: params.lights,
         });
         if let Some(new) = created {
@@ -529,7 +528,10 @@ fn flare_passes(
             });
         pass.set_pipeline(draw);
         pass.set_bind_group(0, &binding.draw_group, &[]);
-        pass.draw(0..6 * binding.cells, 0..binding.jobs);
+        // One draw per grid size (the instance index includes the first).
+        for &[n, first, count] in &binding.batches {
+            pass.draw(0..6 * (n - 1) * (n - 1), first..first + count);
+        }
         if let Some(starburst) = starburst {
             pass.set_pipeline(starburst);
             pass.draw(0..6, 0..binding.lights);

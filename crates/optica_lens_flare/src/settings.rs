@@ -32,7 +32,13 @@ pub struct LensFlare {
     pub lens: Handle<LensAsset>,
     /// Rays per side of each ghost's grid, `2..=512`: the quality knob
     /// (16–32 for real time; the report sweeps it against a 512² reference).
+    /// With [`LensFlare::adaptive_grid`] it is the mean: each ghost gets
+    /// `grid · 2^k` rays per side, more the more it deforms.
     pub grid: u32,
+    /// Chooses each ghost's grid size from how much it deforms (the blog's
+    /// adaptive resolution), keeping the rays of `grid²` per ghost in all;
+    /// `false` traces every ghost at `grid²`.
+    pub adaptive_grid: bool,
     /// Wavelengths traced, `1..=16`, spread over 420–680 nm (dispersion:
     /// ghosts move and change colour with the wavelength).
     pub wavelengths: u32,
@@ -64,6 +70,7 @@ impl LensFlare {
         Self {
             lens,
             grid: 32,
+            adaptive_grid: true,
             wavelengths: 3,
             aperture: ApertureSettings::default(),
             coating: Some(CoatingSettings::default()),

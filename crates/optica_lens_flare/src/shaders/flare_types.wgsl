@@ -4,7 +4,7 @@
 // buffer's 48 bytes.
 
 struct FlareParams {
-    n: u32,
+    rays: u32,
     jobs: u32,
     surfaces: u32,
     sensor_z: f32,
@@ -31,7 +31,7 @@ struct FlareParams {
 // One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and
 // travels along dir; `lens_base` is where its wavelength's lens starts in
 // `lens`; color.w is the wavelength, nm; `light` indexes the lights'
-// visibility.
+// visibility; `n` rays per side, from `ray_base` in the ray buffer.
 struct GridJob {
     origin: vec3<f32>,
     first: u32,
@@ -43,6 +43,8 @@ struct GridJob {
     cell_pupil_mm2: f32,
     color: vec4<f32>,
     light: u32,
+    n: u32,
+    ray_base: u32,
 }
 
 // Where a light's depth is read: its image (NDC) and the largest scene

@@ -70,12 +70,12 @@ fn vertex(@builtin(vertex_index) vi: u32, @builtin(instance_index) job_index: u3
     out.position = vec4<f32>(0.0, 0.0, -1.0, 1.0);
     out.color = vec3<f32>(0.0);
     out.r_rel = 2.0;
-    let n = params.n;
+    let n = jobs[job_index].n;
     let m = n - 1u;
     let cell = vi / 6u;
     let ci = cell % m;
     let cj = cell / m;
-    let base = job_index * n * n;
+    let base = jobs[job_index].ray_base;
     var corners = array<RayOut, 4>(
         rays[base + cj * n + ci],
         rays[base + cj * n + ci + 1u],

@@ -20,18 +20,33 @@ fn surface_at(k: u32) -> LensSurface {
     return lens[lens_base + k];
 }
 
+// The grid whose rays hold ray `i` (grids lie in order in the buffer).
+fn job_of(i: u32) -> u32 {
+    var lo = 0u;
+    var hi = params.jobs - 1u;
+    while lo < hi {
+        let mid = (lo + hi + 1u) / 2u;
+        if jobs[mid].ray_base <= i {
+            lo = mid;
+        } else {
+            hi = mid - 1u;
+        }
+    }
+    return lo;
+}
+
 @compute @workgroup_size(64)
 fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let nn = params.n * params.n;
     let i = id.x + id.y * groups.x * 64u;
-    if i >= nn * params.jobs {
+    if i >= params.rays {
         return;
     }
-    let job = jobs[i / nn];
-    let k = i % nn;
-    let step = 1.0 / f32(params.n - 1u);
-    let u = f32(k % params.n) * step;
-    let v = f32(k / params.n) * step;
+    let job = jobs[job_of(i)];
+    let n = job.n;
+    let k = i - job.ray_base;
+    let step = 1.0 / f32(n - 1u);
+    let u = f32(k % n) * step;
+    let v = f32(k / n) * step;
     lens_base = job.lens_base;
     let o = job.origin + u * job.du + v * job.dv;
     let r = trace_ray(o, job.dir, job.first, job.second, params.sensor_z, job.color.w);

@@ -51,6 +51,14 @@ pub struct GridJob {
     n: u32,
     /// Where its rays start in the ray buffer.
     ray_base: u32,
+    /// Where its rays start among the trace's threads.
+    thread_base: u32,
+    /// (cos, sin) of the azimuth its traced rays are turned by.
+    rotation: Vec2,
+    /// Rows traced: all `n`, or with symmetry the first `⌈n/2⌉`, whose
+    /// mirror images are the rest.
+    rows: u32,
+    pad: u32,
 }
 
 /// Where a light's occlusion is read (`LightProbe`): its image in NDC and
@@ -130,8 +138,9 @@ pub struct FlareParams {
     pub starburst_scale: f32,
     /// 1 when the ghosts read the ringing texture.
     pub ringing: u32,
-    /// Padding to a multiple of 16 bytes.
-    pub pad: u32,
+    /// Rays traced (fewer than `rays` with symmetry: mirrored rows are
+    /// not traced).
+    pub threads: u32,
 }
 
 /// What a flare camera's passes trace and draw this frame; no grids when
@@ -330,7 +339,14 @@ fn build(
             let cells = f64::from((n - 1) * (n - 1));
             let path = TracePath::ghost(first, second);
             for (w, &wl) in wavelengths.iter().enumerate() {
-                let Ok(beam) = Beam::for_path(lens, path, d, wl) else {
+                // With symmetry: the light turned into the x–z plane, half
+                // the rows traced and mirrored, the result turned back.
+                let beam = if flare.symmetry {
+                    Beam::meridional(lens, path, d, wl)
+                } else {
+                    Beam::for_path(lens, path, d, wl).map(|b| (b, 0.0))
+                };
+                let Ok((beam, azimuth)) = beam else {
                     continue;
                 };
                 let at = |u: f64, v: f64| beam.ray_at(u, v).map(|r| r.origin());
@@ -351,17 +367,23 @@ fn build(
                     light,
                     n,
                     ray_base: 0,
+                    thread_base: 0,
+                    rotation: Vec2::from_angle(azimuth as f32),
+                    rows: if flare.symmetry { n.div_ceil(2) } else { n },
+                    pad: 0,
                 });
             }
         }
     }
     // Grids of a size next to each other, so that each size is one draw.
     jobs.sort_by_key(|j| j.n);
-    let mut rays = 0u32;
+    let (mut rays, mut threads) = (0u32, 0u32);
     let mut batches: Vec<[u32; 3]> = Vec::new();
     for (k, job) in jobs.iter_mut().enumerate() {
         job.ray_base = rays;
+        job.thread_base = threads;
         rays = rays.saturating_add(job.n * job.n);
+        threads = threads.saturating_add(job.n * job.rows);
         match batches.last_mut() {
             Some(b) if b[0] == job.n => b[2] += 1,
             _ => batches.push([job.n, k as u32, 1]),
@@ -389,7 +411,7 @@ fn build(
             starburst_half_ndc: flare.starburst.map_or(0.0, |b| 2.0 * b.size),
             starburst_scale: starburst_scale(flare, ghosts, &paraxial, &mapping),
             ringing: u32::from(ghosts.ringing.is_some()),
-            pad: 0,
+            threads,
         },
         starburst: ghosts.starburst.as_ref().map(Handle::id),
         ringing: ghosts.ringing.as_ref().map(Handle::id),

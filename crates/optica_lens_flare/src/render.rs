@@ -223,7 +223,7 @@ struct FlareBinding {
     starburst: Option<CachedRenderPipelineId>,
     /// The occlusion pass, when the view reads its depth.
     occlusion: Option<(BindGroup, CachedComputePipelineId)>,
-    rays: u32,
+    threads: u32,
     /// (rays per side, first grid, grids) per size.
     batches: Vec<[u32; 3]>,
     lights: u32,
@@ -457,7 +457,7 @@ fn prepare_flare(
             starburst: (params.starburst_scale > 0.0 && params.starburst_half_ndc > 0.0)
                 .then_some(starburst),
             occlusion,
-            rays,
+            threads: params.threads,
             batches: draws.batches.clone(),
             lights: params.lights,
         });
@@ -511,7 +511,7 @@ fn flare_passes(
             });
         pass.set_pipeline(trace);
         pass.set_bind_group(0, &binding.trace_group, &[]);
-        let groups = binding.rays.div_ceil(64);
+        let groups = binding.threads.div_ceil(64);
         let (x, y) = (groups.min(65535), groups.div_ceil(65535));
         pass.dispatch_workgroups(x, y, 1);
     }

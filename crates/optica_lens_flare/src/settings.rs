@@ -39,6 +39,11 @@ pub struct LensFlare {
     /// adaptive resolution), keeping the rays of `grid²` per ghost in all;
     /// `false` traces every ghost at `grid²`.
     pub adaptive_grid: bool,
+    /// Uses the lens's axial symmetry (the blog's *Symmetry*): each grid is
+    /// traced for the light turned into one meridional plane, where the
+    /// ghost is mirror symmetric, so only half its rows are traced; the
+    /// result is turned back to the light's azimuth.
+    pub symmetry: bool,
     /// Wavelengths traced, `1..=16`, spread over 420–680 nm (dispersion:
     /// ghosts move and change colour with the wavelength).
     pub wavelengths: u32,
@@ -71,6 +76,7 @@ impl LensFlare {
             lens,
             grid: 32,
             adaptive_grid: true,
+            symmetry: true,
             wavelengths: 3,
             aperture: ApertureSettings::default(),
             coating: Some(CoatingSettings::default()),

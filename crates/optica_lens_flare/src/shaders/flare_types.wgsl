@@ -25,13 +25,16 @@ struct FlareParams {
     starburst_half_ndc: f32,
     starburst_scale: f32,
     ringing: u32,
-    pad: u32,
+    threads: u32,
 }
 
 // One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and
 // travels along dir; `lens_base` is where its wavelength's lens starts in
 // `lens`; color.w is the wavelength, nm; `light` indexes the lights'
-// visibility; `n` rays per side, from `ray_base` in the ray buffer.
+// visibility; `n` rays per side, from `ray_base` in the ray buffer; its
+// first `rows` rows traced from `thread_base` among the trace's threads
+// (the rest, with symmetry, their mirror images), and turned by
+// `rotation` (cos, sin of the light's azimuth).
 struct GridJob {
     origin: vec3<f32>,
     first: u32,
@@ -45,6 +48,10 @@ struct GridJob {
     light: u32,
     n: u32,
     ray_base: u32,
+    thread_base: u32,
+    rotation: vec2<f32>,
+    rows: u32,
+    pad: u32,
 }
 
 // Where a light's depth is read: its image (NDC) and the largest scene

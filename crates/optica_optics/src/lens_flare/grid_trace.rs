@@ -70,9 +70,29 @@ pub struct GridStats {
 }
 
 impl RayGrid {
+    /// This grid turned by `angle_rad` about the axis: every sensor and
+    /// stop point rotated (the CPU twin of the plugin's symmetry, which
+    /// traces a light turned into the x–z plane and turns the result back
+    /// to the light's azimuth; see `Beam::meridional`).
+    pub fn turned(&self, angle_rad: f64) -> Self {
+        let rot = glam::DVec2::from_angle(angle_rad);
+        let rays = self
+            .rays
+            .iter()
+            .map(|r| GridRay {
+                sensor: rot.rotate(r.sensor),
+                stop_xy: r.stop_xy.map(|p| rot.rotate(p)),
+                ..*r
+            })
+            .collect();
+        Self {
+            wavelength_nm: self.wavelength_nm,
+            ..Self::from_rays(self.n, self.path, self.cell_pupil_mm2, rays)
+        }
+    }
+
     /// A grid of `n` rays per side from its `n²` rays, computing its cells
     /// (for the crate's own tests of the rasteriser and the estimates).
-    #[cfg(test)]
     pub(crate) fn from_rays(
         n: usize,
         path: TracePath,

@@ -228,6 +228,31 @@ impl Beam {
         Self::new(prescription, d, b)
     }
 
+    /// The blog's *Symmetry*: the beam of `path` for `light` turned about
+    /// the axis into the x–z plane (azimuth 0), its pupil square widened
+    /// to be symmetric about y = 0, and the azimuth it was turned by,
+    /// radians. A lens of surfaces centred on its axis images this beam as
+    /// it does the light's own, turned back by the azimuth, and mirror
+    /// symmetric about y = 0: the rays of the grid's rows `j` and
+    /// `n − 1 − j` land at `(x, ±y)`, so half the rows need tracing.
+    pub fn meridional(
+        prescription: &LensPrescription,
+        path: TracePath,
+        light: DVec3,
+        wavelength_nm: f64,
+    ) -> Result<(Self, f64), FlareError> {
+        let d = light_direction(light)?;
+        let azimuth = d.y.atan2(d.x);
+        let canonical = DVec3::new(d.x.hypot(d.y), 0.0, d.z);
+        let b = PupilBounds::for_path(prescription, path, canonical, wavelength_nm)?;
+        let symmetric = PupilBounds::new(
+            b.plane_z(),
+            DVec2::new(b.center().x, 0.0),
+            b.half_width() + b.center().y.abs(),
+        )?;
+        Ok((Self::new(prescription, canonical, symmetric)?, azimuth))
+    }
+
     /// Unit direction of travel.
     pub fn direction(&self) -> DVec3 {
         self.direction
@@ -272,6 +297,59 @@ impl Beam {
 mod tests {
     use super::*;
     use crate::lens::builtin;
+
+    /// The meridional beam's grid is mirror symmetric row for row, and,
+    /// turned back by the azimuth, carries the light's own ghost: the same
+    /// power, centred in the same place.
+    #[test]
+    fn a_meridional_beam_images_the_turned_light() {
+        use crate::lens::PreparedLens;
+        use crate::lens_flare::{GridOptions, trace_grid};
+        let lens = builtin::double_gauss();
+        let prepared = PreparedLens::new(&lens, 550.0).unwrap();
+        let light = DVec3::new(-0.12, 0.09, 1.0).normalize();
+        let aperture = crate::lens_flare::Aperture::circle(lens.stop_semi_aperture_mm()).unwrap();
+        let opts = crate::lens_flare::EstimateOptions::default();
+        let ranked =
+            crate::lens_flare::estimate_ghosts(&lens, light, 550.0, &aperture, &opts).unwrap();
+        let path = ranked[0].path;
+        let (beam, azimuth) = Beam::meridional(&lens, path, light, 550.0).unwrap();
+        assert!((azimuth - 0.09f64.atan2(-0.12)).abs() < 1e-12);
+        let n = 33;
+        let grid = trace_grid(&prepared, path, &beam, n, &GridOptions::default()).unwrap();
+        let mut checked = 0;
+        for j in 0..n {
+            for i in 0..n {
+                let (a, b) = (grid.ray(i, j).unwrap(), grid.ray(i, n - 1 - j).unwrap());
+                assert_eq!(a.alive, b.alive);
+                if a.alive {
+                    assert!((a.sensor - DVec2::new(b.sensor.x, -b.sensor.y)).length() < 1e-9);
+                    assert!((a.throughput - b.throughput).abs() < 1e-12);
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > n * n / 4, "{checked}");
+        let direct_beam = Beam::for_path(&lens, path, light, 550.0).unwrap();
+        let direct = trace_grid(&prepared, path, &direct_beam, n, &GridOptions::default()).unwrap();
+        let (p0, p1) = (grid.stats().power, direct.stats().power);
+        assert!((p0 - p1).abs() < 0.02 * p1, "{p0} vs {p1}");
+        let centre = |g: &crate::lens_flare::RayGrid| {
+            let live: Vec<DVec2> = g
+                .rays()
+                .iter()
+                .filter(|r| r.alive && r.r_rel <= 1.0)
+                .map(|r| r.sensor)
+                .collect();
+            live.iter().sum::<DVec2>() / live.len() as f64
+        };
+        let turned = DVec2::from_angle(azimuth).rotate(centre(&grid));
+        let want = centre(&direct);
+        assert!(
+            (turned - want).length() < 0.02 * want.length().max(1.0),
+            "{turned} vs {want}"
+        );
+    }
 
     #[test]
     fn light_validation() {

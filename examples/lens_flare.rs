@@ -29,13 +29,17 @@ const PAN: f32 = 0.08;
 const SNAPSHOT_SECONDS: f32 = 3.0;
 
 /// The shipped lenses: (name, asset path).
-const LENSES: [(&str, &str); 3] = [
+const LENSES: [(&str, &str); 4] = [
     ("Brendel Tessar f/2.8", "lenses/tessar-us2854889.lens"),
     (
         "Angénieux double Gauss f/1.1",
         "lenses/double-gauss-us2701982.lens",
     ),
     ("Heliar", "lenses/heliar-us2645156.lens"),
+    (
+        "Canon 70–200 zoom (33 interfaces)",
+        "lenses/zoom-canon-us5537259.lens",
+    ),
 ];
 
 struct Args {
@@ -55,7 +59,7 @@ fn parse_args() -> Result<Args, String> {
                     .iter()
                     .position(|(_, path)| path.contains(name.as_str()))
                     .ok_or(format!(
-                        "unknown lens `{name}`: tessar, double-gauss, heliar"
+                        "unknown lens `{name}`: tessar, double-gauss, heliar, zoom"
                     ))?;
             }
             "--out" => out = Some(value()?),
@@ -274,6 +278,8 @@ fn panel(
                 .logarithmic(true)
                 .text("rays per side"),
         );
+        ui.checkbox(&mut edit.adaptive_grid, "grid per ghost (adaptive)");
+        ui.checkbox(&mut edit.symmetry, "trace half by symmetry");
         ui.add(egui::Slider::new(&mut edit.wavelengths, 1..=8).text("wavelengths"));
         ui.add(egui::Slider::new(&mut edit.aperture.blades, 0..=12).text("blades (0: round)"));
         ui.add(egui::Slider::new(&mut edit.aperture.roundness, 0.0..=1.0).text("blade roundness"));
@@ -294,7 +300,7 @@ fn panel(
         ui.checkbox(&mut coated, "MgF₂ coating on every air surface");
         edit.coating = coated.then(|| edit.coating.unwrap_or_default());
         ui.add(
-            egui::Slider::new(&mut edit.ghost_budget, 1..=400)
+            egui::Slider::new(&mut edit.ghost_budget, 1..=528)
                 .logarithmic(true)
                 .text("ghost budget"),
         );
@@ -303,14 +309,41 @@ fn panel(
                 .logarithmic(true)
                 .text("intensity"),
         );
+        let mut occluded = edit.occlusion.is_some();
+        ui.checkbox(&mut occluded, "occlusion by depth");
+        edit.occlusion = occluded.then(|| edit.occlusion.unwrap_or_default());
+        let mut burst = edit.starburst.is_some();
+        ui.checkbox(&mut burst, "starburst");
+        edit.starburst = burst.then(|| edit.starburst.unwrap_or_default());
+        if let Some(b) = edit.starburst.as_mut() {
+            ui.add(egui::Slider::new(&mut b.size, 0.02..=1.0).text("starburst size"));
+            ui.add(
+                egui::Slider::new(&mut b.intensity, 1e-5..=0.1)
+                    .logarithmic(true)
+                    .text("starburst share"),
+            );
+            ui.add(egui::Slider::new(&mut b.specks, 0..=400).text("dust specks"));
+            ui.add(egui::Slider::new(&mut b.scratches, 0..=40).text("scratches"));
+        }
+        let mut ringing = edit.ringing.is_some();
+        ui.checkbox(&mut ringing, "ringing");
+        edit.ringing = ringing.then(|| edit.ringing.unwrap_or_default());
+        if let Some(r) = edit.ringing.as_mut() {
+            ui.add(
+                egui::Slider::new(&mut r.fresnel_number, 1.0..=1000.0)
+                    .logarithmic(true)
+                    .text("Fresnel number"),
+            );
+        }
         if let Err(e) = edit.validate() {
             ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e);
         }
         if let Some(g) = ghosts {
             ui.label(format!(
-                "{} of {} ghosts drawn",
+                "{} of {} ghosts drawn, {} rays per light and wavelength",
                 g.drawn().count(),
-                g.ghosts.len()
+                g.ghosts.len(),
+                g.rays_per_light()
             ));
             if let Some(p) = &g.problem {
                 ui.colored_label(egui::Color32::from_rgb(230, 120, 60), p);

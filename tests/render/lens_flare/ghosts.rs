@@ -48,8 +48,14 @@ fn every_ghost_of_the_shipped_lenses_gets_a_fate() {
         ("lenses/tessar-us2854889.lens", 7),
         ("lenses/double-gauss-us2701982.lens", 14),
         ("lenses/heliar-us2645156.lens", 0),
+        // The scale case: 528 ghosts.
+        ("lenses/zoom-canon-us5537259.lens", 33),
     ] {
         let g = ghosts_of(path, |_| {});
+        if let Some(lens) = g.lens.as_ref() {
+            let p = lens.paraxial(550.0).expect("paraxial");
+            eprintln!("{path}: EFL {:.1} mm, f/{:.2}", p.efl_mm, p.f_number);
+        }
         assert_eq!(g.problem, None, "{path}");
         let lens = g.lens.as_ref().expect("the lens loaded");
         let n = lens.interfaces().len();

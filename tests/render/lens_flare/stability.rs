@@ -74,7 +74,7 @@ fn stiff_cases_stay_finite_and_bounded() {
     let sixty = Vec3::new(-60f32.to_radians().sin(), 0.0, 60f32.to_radians().cos());
     /// (name, lens, travel, settings).
     type Case = (&'static str, &'static str, Vec3, fn(&mut LensFlare));
-    let cases: [Case; 5] = [
+    let cases: [Case; 6] = [
         ("on axis", TESSAR, axis, |_| {}),
         ("60° off axis, outside the view", TESSAR, sixty, |_| {}),
         (
@@ -92,6 +92,16 @@ fn stiff_cases_stay_finite_and_bounded() {
         ("Tessar at f/32", TESSAR, Vec3::new(0.1, 0.1, 1.0), |f| {
             f.aperture.f_number = Some(32.0)
         }),
+        (
+            "zoom (33 interfaces), every unblocked ghost, 25° off axis",
+            "lenses/zoom-canon-us5537259.lens",
+            Vec3::new(0.3, -0.3, 0.9),
+            |f| {
+                f.ghost_budget = 528;
+                f.min_relative = 0.0;
+                f.grid = 8;
+            },
+        ),
     ];
     for (name, lens, travel, edit) in cases {
         let (max, finite, problem, drawn) = case(ASSETS, lens, travel.normalize(), edit);

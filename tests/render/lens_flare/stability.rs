@@ -1,8 +1,10 @@
 //! Stiff cases of the flare: a light on the axis, 60° off it (outside the
-//! view), the Heliar's plano surface, the double Gauss wide open at f/1.1
-//! and the Tessar stopped to f/32; an f-number faster than the lens and a
-//! malformed lens file are refused with a reason. Each: no NaN or infinite
-//! pixel, bounded values, no panic.
+//! view), the Heliar's plano surface, the double Gauss wide open at f/1.1,
+//! the Tessar stopped to f/32 and the 33-interface zoom with every
+//! unblocked ghost; an f-number faster than the lens and a malformed lens
+//! file are refused with a reason, and a lens file broken on reload leaves
+//! the last good lens in place. Each: no NaN or infinite pixel, bounded
+//! values, no panic.
 
 use bevy::asset::AssetPlugin;
 use bevy::prelude::*;
@@ -137,5 +139,112 @@ fn impossible_settings_and_malformed_files_are_refused() {
     assert!(
         problem.as_deref().is_some_and(|p| p.contains("not loaded")),
         "{problem:?}"
+    );
+}
+
+/// Hot reload keeps the last good lens: a `.lens` file overwritten with
+/// random bytes is refused on reload and the flare keeps drawing the
+/// Tessar's ghosts; overwritten with the double Gauss, it reloads and the
+/// ghosts are the double Gauss's.
+#[test]
+fn a_broken_reload_keeps_the_last_good_lens() {
+    let dir = std::env::temp_dir().join(format!("optica-hot-lens-{}", std::process::id()));
+    let lenses = dir.join("lenses");
+    std::fs::create_dir_all(&lenses).expect("temp dir");
+    let hot = lenses.join("hot.lens");
+    let source = |name: &str| {
+        std::fs::read(format!(
+            "{}/assets/lenses/{name}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .expect("shipped lens")
+    };
+    std::fs::write(&hot, source("tessar-us2854889.lens")).expect("write");
+    // Ghost counts seen after each step: (tessar, after garbage, after double Gauss).
+    let seen = Arc::new(Mutex::new(Vec::<(u32, usize, Option<String>)>::new()));
+    let log = seen.clone();
+    let root: &'static str = Box::leak(dir.to_string_lossy().into_owned().into_boxed_str());
+    let hot_path = hot.clone();
+    let double_gauss = source("double-gauss-us2701982.lens");
+    Headless::new(32, 32)
+        .hdr(true)
+        .frames(60)
+        .default_plugins(move |g| {
+            g.set(AssetPlugin {
+                file_path: root.into(),
+                ..default()
+            })
+        })
+        .render(move |app: &mut App| {
+            app.add_plugins(LensFlarePlugin);
+            app.add_systems(
+                Startup,
+                |mut commands: Commands, assets: Res<AssetServer>| {
+                    commands.spawn(super::sun(Vec3::new(0.1, 0.1, 1.0).normalize(), 100_000.0));
+                    commands.spawn((
+                        super::black_hdr_camera(),
+                        LensFlare {
+                            grid: 8,
+                            ..LensFlare::new(assets.load("lenses/hot.lens"))
+                        },
+                    ));
+                },
+            );
+            app.add_systems(
+                Update,
+                move |mut frame: Local<u32>,
+                      assets: Res<AssetServer>,
+                      ghosts: Query<&FlareGhosts>| {
+                    *frame += 1;
+                    let Ok(g) = ghosts.single() else { return };
+                    log.lock()
+                        .expect("log")
+                        .push((*frame, g.ghosts.len(), g.problem.clone()));
+                    let step = |bytes: &[u8]| {
+                        std::fs::write(&hot_path, bytes).expect("overwrite");
+                        assets.reload("lenses/hot.lens");
+                    };
+                    match *frame {
+                        15 => {
+                            // Random bytes (a fixed xorshift stream).
+                            let mut x = 0x2545_f491_4f6c_dd1du64;
+                            let junk: Vec<u8> = (0..512)
+                                .map(|_| {
+                                    x ^= x << 13;
+                                    x ^= x >> 7;
+                                    x ^= x << 17;
+                                    x as u8
+                                })
+                                .collect();
+                            step(&junk);
+                        }
+                        35 => step(&double_gauss),
+                        _ => {}
+                    }
+                },
+            );
+        })
+        .expect("render");
+    let _ = std::fs::remove_dir_all(&dir);
+    let seen = seen.lock().expect("log").clone();
+    let at = |f: u32| seen.iter().find(|s| s.0 == f).cloned();
+    eprintln!(
+        "ghosts at frames 14, 34, 60: {:?} {:?} {:?}",
+        at(14),
+        at(34),
+        at(60)
+    );
+    assert_eq!(at(14).map(|s| s.1), Some(21), "the Tessar first");
+    // After the broken reload: the Tessar's ghosts are kept.
+    assert!(
+        seen.iter()
+            .filter(|s| (16..=35).contains(&s.0))
+            .all(|s| s.1 == 21),
+        "{seen:?}"
+    );
+    assert_eq!(
+        at(60).map(|s| s.1),
+        Some(91),
+        "the double Gauss after its reload"
     );
 }

@@ -58,9 +58,9 @@ struct VertexOut {
     @location(5) @interpolate(flat) wl: f32,
 }
 
-// Twice the signed area of the quad a, b, c, d (shoelace).
-fn quad_area2(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, d: vec2<f32>) -> f32 {
-    return (a.x * b.y - b.x * a.y) + (b.x * c.y - c.x * b.y) + (c.x * d.y - d.x * c.y) + (d.x * a.y - a.x * d.y);
+// Twice the signed area of the triangle a, b, c.
+fn triangle_area2(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>) -> f32 {
+    return (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
 }
 
 @vertex
@@ -91,7 +91,11 @@ fn vertex(@builtin(vertex_index) vi: u32, @builtin(instance_index) job_index: u3
         return out;
     }
     let a_p = job.cell_pupil_mm2;
-    let a_s = 0.5 * abs(quad_area2(corners[0].sensor, corners[1].sensor, corners[2].sensor, corners[3].sensor));
+    // The area the two triangles cover, |s1| + |s2| (`cell_intensity`): a
+    // cell folded across a caustic crosses itself, and the signed quad
+    // area would cancel there and overstate its irradiance.
+    let a_s = 0.5 * (abs(triangle_area2(corners[0].sensor, corners[1].sensor, corners[2].sensor))
+        + abs(triangle_area2(corners[0].sensor, corners[2].sensor, corners[3].sensor)));
     let mean_t = 0.25 * (corners[0].throughput + corners[1].throughput + corners[2].throughput + corners[3].throughput);
     let irradiance = mean_t * a_p / max(a_s, a_p / params.max_gain);
     var order = array<u32, 6>(0u, 1u, 2u, 0u, 2u, 3u);

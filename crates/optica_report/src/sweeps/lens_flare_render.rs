@@ -31,7 +31,7 @@ use optica_lens_flare::{
 };
 use optica_optics::glam::DVec2;
 use optica_optics::glass::LAMBDA_D_NM;
-use optica_optics::lens::{PreparedLens, TracePath, builtin};
+use optica_optics::lens::{LensPrescription, PreparedLens, TracePath, builtin};
 use optica_optics::lens_flare::{
     Beam, GridOptions, SensorImage, SensorWindow, rasterise_into, trace_grid,
 };
@@ -47,11 +47,49 @@ fn travel() -> Vec3 {
     Vec3::new(-t.sin() * 0.6, -t.sin() * 0.8, t.cos())
 }
 
-/// A camera at the origin looking along −Z, the sun and, with `lit`, a
-/// ground and pillars; the flare on the camera when `grid` is given.
-fn scene(
-    grid: Option<u32>,
+/// How the flare is set up in one render.
+#[derive(Clone)]
+struct Setup {
+    lens: LensPrescription,
+    grid: u32,
     budget: u32,
+    adaptive: bool,
+    symmetry: bool,
+    /// Starburst and ringing on (their defaults); off for the rows held to
+    /// the CPU reference, which has neither.
+    diffraction: bool,
+}
+
+impl Setup {
+    /// The coated double Gauss, `grid`, the plugin's speed-ups on, no
+    /// diffraction textures.
+    fn double_gauss(grid: u32, budget: u32) -> Self {
+        Self {
+            // The compiled-in copy of assets/lenses/double-gauss-us2701982.lens:
+            // the runner needs no asset folder wherever it runs.
+            lens: builtin::double_gauss(),
+            grid,
+            budget,
+            adaptive: true,
+            symmetry: true,
+            diffraction: false,
+        }
+    }
+}
+
+/// The 33-interface zoom of assets/lenses/zoom-canon-us5537259.lens,
+/// compiled in.
+fn zoom() -> Result<LensPrescription, SweepError> {
+    LensPrescription::parse_bytes(include_bytes!(
+        "../../../../assets/lenses/zoom-canon-us5537259.lens"
+    ))
+    .map_err(|e| SweepError::Setup(e.to_string()))
+}
+
+/// A camera at the origin looking along −Z, the sun and, with `lit`, a
+/// ground and pillars; the flare on the camera when `setup` is given.
+fn scene(
+    setup: Option<Setup>,
     lit: bool,
     log: Option<Arc<Mutex<Option<FlareGhosts>>>>,
 ) -> impl FnOnce(&mut App) {
@@ -98,15 +136,18 @@ fn scene(
                     Tonemapping::None,
                     Msaa::Off,
                 ));
-                if let Some(grid) = grid {
+                if let Some(setup) = &setup {
+                    let defaults = LensFlare::new(lenses.add(LensAsset(setup.lens.clone())));
                     let mut flare = LensFlare {
-                        grid,
+                        grid: setup.grid,
+                        adaptive_grid: setup.adaptive,
+                        symmetry: setup.symmetry,
                         wavelengths: 3,
-                        ghost_budget: budget,
+                        ghost_budget: setup.budget,
                         min_relative: 0.0,
-                        // The compiled-in copy of assets/lenses/double-gauss-us2701982.lens:
-                        // the runner needs no asset folder wherever it runs.
-                        ..LensFlare::new(lenses.add(LensAsset(builtin::double_gauss())))
+                        starburst: defaults.starburst.filter(|_| setup.diffraction),
+                        ringing: defaults.ringing.filter(|_| setup.diffraction),
+                        ..defaults
                     };
                     flare.aperture.blades = 0;
                     camera.insert(flare);
@@ -170,17 +211,95 @@ fn reference(ghosts: &FlareGhosts, size: u32, rays: usize) -> Result<Vec<[f64; 3
     Ok(rgb)
 }
 
-/// Appends the `rendered` rows.
+/// One row: the flare of `setup` rendered on black against `reference`
+/// (when given), and the lit scene timed with it against `plain`.
+#[allow(clippy::too_many_arguments)]
+fn row(
+    ctx: &SweepContext,
+    report: &mut Report,
+    series: &str,
+    setup: Setup,
+    size: u32,
+    reference: Option<&[[f64; 3]]>,
+    plain_ms: f64,
+    timing: (u32, u32),
+) -> Result<(), SweepError> {
+    let knob = f64::from(setup.grid);
+    let log = Arc::new(Mutex::new(None));
+    let headless = ctx.headless(size, size).hdr(true).frames(12);
+    let frame = headless.render(scene(Some(setup.clone()), false, Some(log.clone())))?;
+    report.adapter.get_or_insert(frame.adapter.clone());
+    let ghosts = log
+        .lock()
+        .map_err(|_| SweepError::Setup("log".into()))?
+        .clone()
+        .ok_or_else(|| SweepError::Setup("the flare chose no ghosts".into()))?;
+    let timed = ctx.headless(size, size).hdr(true).time_frames(
+        timing.0,
+        timing.1,
+        scene(Some(setup.clone()), true, None),
+    )?;
+    let flare = timed.pass("optica/flare");
+    let mut row = Row::new(knob, timed.frame_ms.median, plain_ms)
+        .series(series)
+        .work("ghosts", ghosts.drawn().count() as f64)
+        .work(
+            "rays_per_light_and_wavelength",
+            ghosts.rays_per_light() as f64,
+        )
+        .work("wavelengths", 3.0)
+        .work("size_px", f64::from(size))
+        .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median))
+        .work(
+            "flare_source_gpu",
+            f64::from(u8::from(
+                flare.is_some_and(|p| p.source == TimeSource::GpuTimestamps),
+            )),
+        );
+    if let Some(reference) = reference {
+        let img = frame
+            .hdr()
+            .ok_or_else(|| SweepError::Setup("no HDR frame".into()))?;
+        let ref_total: f64 = reference.iter().flatten().sum();
+        let ref_peak = reference.iter().flatten().copied().fold(0.0, f64::max);
+        let (mut l1, mut total, mut se) = (0.0, 0.0, 0.0);
+        for (p, want) in img.pixels().zip(reference) {
+            for (c, &r) in want.iter().enumerate() {
+                let g = f64::from(p.0[c]);
+                l1 += (g - r).abs();
+                total += g;
+                se += (g - r) * (g - r);
+            }
+        }
+        let mse = se / (3 * reference.len()) as f64;
+        let psnr = 10.0 * (ref_peak * ref_peak / mse.max(1e-300)).log10();
+        row = row
+            .err("rel_l1", l1 / ref_total)
+            .err("rel_energy", (total - ref_total) / ref_total)
+            .err("psnr_db", psnr);
+    }
+    report.rows.push(row);
+    Ok(())
+}
+
+/// Appends the plugin's rows: series `rendered` (the defaults: a grid per
+/// ghost, symmetry), `fixed grid` (every ghost at grid²) and, at 32²,
+/// `no symmetry` against the CPU reference; the full run adds
+/// `diffraction` (starburst and ringing on, timed only) and the zoom's
+/// scale case (every unblocked ghost of 528 at 16², 1280×720, timed only).
 pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
     let size = ctx.pick(128, 512);
     let budget = ctx.pick(8, 91);
     let grids: Vec<u32> = ctx.pick(vec![8, 32], vec![4, 8, 16, 32, 64]);
     let rays = ctx.pick(128, 512);
-    let (warmup, frames) = ctx.pick((1, 3), (2, 8));
-    let headless = ctx.headless(size, size).hdr(true).frames(12);
+    let timing = ctx.pick((1, 3), (2, 8));
     // The ghosts the plugin draws, from a first render; the reference.
     let log = Arc::new(Mutex::new(None));
-    headless.render(scene(Some(grids[0]), budget, false, Some(log.clone())))?;
+    ctx.headless(size, size).hdr(true).frames(12).render(scene(
+        Some(Setup::double_gauss(grids[0], budget)),
+        false,
+        Some(log.clone()),
+    ))?;
     let ghosts = log
         .lock()
         .map_err(|_| SweepError::Setup("log".into()))?
@@ -192,57 +311,104 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         &format!("CPU reference, {rays}² rays per ghost"),
     );
     let reference = reference(&ghosts, size, rays)?;
-    let ref_total: f64 = reference.iter().flatten().sum();
-    let ref_peak = reference.iter().flatten().copied().fold(0.0, f64::max);
-    let plain = ctx.headless(size, size).hdr(true).time_frames(
-        warmup,
-        frames,
-        scene(None, budget, true, None),
-    )?;
+    let plain = ctx
+        .headless(size, size)
+        .hdr(true)
+        .time_frames(timing.0, timing.1, scene(None, true, None))?
+        .frame_ms
+        .median;
     for (i, &grid) in grids.iter().enumerate() {
         ctx.progress(i + 1, grids.len(), &format!("rendered, grid {grid}²"));
-        let frame = headless.render(scene(Some(grid), budget, false, None))?;
-        report.adapter.get_or_insert(frame.adapter.clone());
-        let img = frame
-            .hdr()
-            .ok_or_else(|| SweepError::Setup("no HDR frame".into()))?;
-        let (mut l1, mut total, mut se) = (0.0, 0.0, 0.0);
-        for (p, want) in img.pixels().zip(&reference) {
-            for (c, &r) in want.iter().enumerate() {
-                let g = f64::from(p.0[c]);
-                l1 += (g - r).abs();
-                total += g;
-                se += (g - r) * (g - r);
+        let adaptive = Setup::double_gauss(grid, budget);
+        row(
+            ctx,
+            report,
+            "rendered",
+            adaptive.clone(),
+            size,
+            Some(&reference),
+            plain,
+            timing,
+        )?;
+        let fixed = Setup {
+            adaptive: false,
+            ..adaptive.clone()
+        };
+        row(
+            ctx,
+            report,
+            "fixed grid",
+            fixed,
+            size,
+            Some(&reference),
+            plain,
+            timing,
+        )?;
+        if grid == 32 {
+            let whole = Setup {
+                symmetry: false,
+                ..adaptive.clone()
+            };
+            row(
+                ctx,
+                report,
+                "no symmetry",
+                whole,
+                size,
+                Some(&reference),
+                plain,
+                timing,
+            )?;
+            if !ctx.quick {
+                let full = Setup {
+                    diffraction: true,
+                    ..adaptive
+                };
+                row(ctx, report, "diffraction", full, size, None, plain, timing)?;
             }
         }
-        let mse = se / (3 * reference.len()) as f64;
-        let psnr = 10.0 * (ref_peak * ref_peak / mse.max(1e-300)).log10();
-        let timed = ctx.headless(size, size).hdr(true).time_frames(
-            warmup,
-            frames,
-            scene(Some(grid), budget, true, None),
+    }
+    if !ctx.quick {
+        ctx.progress(
+            grids.len(),
+            grids.len(),
+            "zoom, every unblocked ghost at 16²",
+        );
+        let (w, h) = (1280, 720);
+        let zoom_setup = Setup {
+            lens: zoom()?,
+            grid: 16,
+            budget: 528,
+            ..Setup::double_gauss(16, 528)
+        };
+        let plain_wide = ctx
+            .headless(w, h)
+            .hdr(true)
+            .time_frames(1, 4, scene(None, true, None))?
+            .frame_ms
+            .median;
+        let timed = ctx.headless(w, h).hdr(true).time_frames(
+            1,
+            4,
+            scene(Some(zoom_setup.clone()), true, None),
         )?;
+        let log = Arc::new(Mutex::new(None));
+        ctx.headless(64, 64)
+            .frames(8)
+            .render(scene(Some(zoom_setup), false, Some(log.clone())))?;
+        let drawn = log
+            .lock()
+            .map_err(|_| SweepError::Setup("log".into()))?
+            .as_ref()
+            .map_or(0, |g| g.drawn().count());
         let flare = timed.pass("optica/flare");
         report.rows.push(
-            Row::new(
-                f64::from(grid),
-                timed.frame_ms.median,
-                plain.frame_ms.median,
-            )
-            .series("rendered")
-            .err("rel_l1", l1 / ref_total)
-            .err("rel_energy", (total - ref_total) / ref_total)
-            .err("psnr_db", psnr)
-            .work("ghosts", ghosts.drawn().count() as f64)
-            .work("wavelengths", 3.0)
-            .work("size_px", f64::from(size))
-            .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median))
-            .work(
-                "flare_source_gpu",
-                f64::from(u8::from(
-                    flare.is_some_and(|p| p.source == TimeSource::GpuTimestamps),
-                )),
-            ),
+            Row::new(16.0, timed.frame_ms.median, plain_wide)
+                .series("zoom 1280x720")
+                .work("ghosts", drawn as f64)
+                .work("wavelengths", 3.0)
+                .work("size_px", f64::from(w))
+                .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median)),
         );
     }
     Ok(())
@@ -258,22 +424,35 @@ mod tests {
         let mut report = Report::cpu("lens_flare", "grid_rays_per_side");
         rendered_rows(&ctx, &mut report).expect("the rendered rows run on lavapipe");
         let rows = &report.rows;
-        assert_eq!(rows.len(), 2);
         for r in rows {
             eprintln!(
-                "grid {}: {:?}, {:.1} ms vs {:.1} ms",
-                r.knob, r.error, r.time_ms, r.baseline_time_ms
+                "{} grid {}: {:?}, {:.1} ms vs {:.1} ms, {:?}",
+                r.series, r.knob, r.error, r.time_ms, r.baseline_time_ms, r.work
             );
             assert!(r.error.values().all(|v| v.is_finite()), "{r:?}");
         }
-        // A finer grid follows the reference more closely (measured: L1
-        // 2.49 at 8², 0.32 at 32²; energy +150 %, +4 %; PSNR 4.7, 40 dB).
+        let find = |series: &str, grid: f64| {
+            rows.iter()
+                .find(|r| r.series == series && r.knob == grid)
+                .unwrap_or_else(|| panic!("no {series} row at {grid}"))
+        };
+        assert_eq!(rows.len(), 5, "{rows:?}");
+        for series in ["rendered", "fixed grid"] {
+            let (coarse, fine) = (find(series, 8.0), find(series, 32.0));
+            // A finer grid follows the reference more closely.
+            assert!(
+                fine.error["rel_l1"] < coarse.error["rel_l1"],
+                "{series}: {rows:?}"
+            );
+            assert!(fine.error["rel_l1"] < 0.5, "{series}: {rows:?}");
+            assert!(fine.error["rel_energy"].abs() < 0.1, "{series}: {rows:?}");
+            assert!(fine.error["psnr_db"] > 30.0, "{series}: {rows:?}");
+        }
+        // Symmetry changes where the rays fall, not what they add up to.
+        let (sym, whole) = (find("rendered", 32.0), find("no symmetry", 32.0));
         assert!(
-            rows[1].error["rel_l1"] < rows[0].error["rel_l1"],
-            "{rows:?}"
+            (sym.error["rel_l1"] - whole.error["rel_l1"]).abs() < 0.5 * whole.error["rel_l1"],
+            "{sym:?} vs {whole:?}"
         );
-        assert!(rows[1].error["rel_l1"] < 0.5, "{rows:?}");
-        assert!(rows[1].error["rel_energy"].abs() < 0.1, "{rows:?}");
-        assert!(rows[1].error["psnr_db"] > 30.0, "{rows:?}");
     }
 }

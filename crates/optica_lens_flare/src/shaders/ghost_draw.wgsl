@@ -85,6 +85,11 @@ fn vertex(@builtin(vertex_index) vi: u32, @builtin(instance_index) job_index: u3
     if corners[0].alive * corners[1].alive * corners[2].alive * corners[3].alive < 0.5 {
         return out;
     }
+    // r_rel is interpolated over the cell: with every corner blocked (> 1)
+    // every pixel would be, so the cell is not rasterised at all.
+    if min(min(corners[0].r_rel, corners[1].r_rel), min(corners[2].r_rel, corners[3].r_rel)) > 1.0 {
+        return out;
+    }
     let job = jobs[job_index];
     let seen = clamp(visibility[job.light], 0.0, 1.0);
     if seen <= 0.0 {

@@ -26,9 +26,10 @@
 //! [`LensAsset`]s load from `.lens` files (the format of
 //! `optica_optics::lens`: a patent table, one surface per row); the
 //! project ships a Brendel Tessar, an Angénieux double Gauss and a Heliar
-//! in `assets/lenses/`. With Bevy's `file_watcher` feature an edited file
-//! is reloaded; a file that does not parse is refused with its line and
-//! field named, and the flare keeps the last good lens.
+//! in `assets/lenses/`, and a 33-interface zoom (US 5,537,259, 528
+//! ghosts) as the scale case. With Bevy's `file_watcher` feature an edited
+//! file is reloaded; a file that does not parse is refused with its line
+//! and field named, and the flare keeps the last good lens.
 //!
 //! ## Ghosts
 //!
@@ -43,8 +44,9 @@
 //!
 //! For each drawn ghost, wavelength and [`FlareSource`] light whose light
 //! enters the lens (directional lights, point and spot lights, in view or
-//! not), a grid of [`LensFlare::grid`]² parallel rays over the ghost's
-//! pupil bounds is traced through the lens by a compute pass
+//! not), a grid of parallel rays over the ghost's pupil bounds (the part of
+//! the pupil whose light gets through that ghost's path: the blog's bundle
+//! bounding) is traced through the lens by a compute pass
 //! (`shaders/lens_trace.wgsl`, [`LENS_TRACE_WGSL`], the WGSL twin of
 //! `PreparedLens::trace_to`, held to it by readback), keeping `r_rel` so
 //! the grid stays continuous. A draw pass then adds every grid cell to the
@@ -56,6 +58,30 @@
 //! ghosts, so they sit in the scene's light levels. Pass time shows as the
 //! `optica/flare` diagnostic span.
 //!
+//! ## The blog's speed-ups
+//!
+//! - *Adaptive resolution* ([`LensFlare::adaptive_grid`], off by default):
+//!   each ghost's deformation is measured once per lens and aperture (the
+//!   miss of a grid's midpoints from bilinear interpolation), and its grid
+//!   gets `grid · 2^k` rays per side (16² … 512²) following √deformation,
+//!   about `grid²` per ghost in all. The report measures it against fixed
+//!   grids; it does not pay off for the double Gauss (see the field's
+//!   docs), so it is there to try, not on.
+//! - *Symmetry* ([`LensFlare::symmetry`], on by default): a grid is traced
+//!   for the light turned into one meridional plane, where the ghost is
+//!   mirror symmetric, so half its rows are traced; the rays are turned
+//!   back to the light's azimuth before the iris test.
+//! - *Intensity LOD* and *aperture culling*: [`FlareGhosts`].
+//!
+//! ## Diffraction
+//!
+//! [`StarburstSettings`]: the Fraunhofer pattern of the iris (with seeded
+//! dust and scratches) by FFT, summed over the wavelengths with the 1/λ
+//! scale, drawn round each light, occluded with it. [`RingingSettings`]:
+//! the iris's field carried by the angular spectrum method, looked up
+//! where each ghost's rays crossed the stop. Both are made on the CPU when
+//! the iris or their settings change.
+//!
 //! ## Occlusion
 //!
 //! A light behind geometry does not flare: each frame a compute pass reads
@@ -64,10 +90,15 @@
 //! few frames ([`FlareOcclusion`]), so the flare fades instead of popping
 //! or flickering at an edge. MSAA depth is read too.
 //!
-//! ## Status
+//! ## What it leaves out
 //!
-//! Work in progress. Not yet: the starburst and ghost ringing (FFT),
-//! per-ghost grid sizes and the axial-symmetry speed-up.
+//! - Ringing uses one propagation distance for every ghost (a Fresnel
+//!   number), not a per-ghost distance from its defocus (the paper's
+//!   fractional Fourier transform per ghost); the ripples lie inside the
+//!   ghost, not past its edge, since rays beyond the iris are clipped.
+//! - The starburst's angular size is a setting: a real iris diffracts into
+//!   a fraction of a degree.
+//! - Lights off the screen have no depth to read and flare fully.
 
 #![warn(missing_docs)]
 

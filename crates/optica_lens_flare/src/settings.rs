@@ -37,7 +37,11 @@ pub struct LensFlare {
     pub grid: u32,
     /// Chooses each ghost's grid size from how much it deforms (the blog's
     /// adaptive resolution), keeping the rays of `grid²` per ghost in all;
-    /// `false` traces every ghost at `grid²`.
+    /// `false` (the default) traces every ghost at `grid²`. Off by default:
+    /// measured on the double Gauss (83 ghosts, 512²), the deformation
+    /// measure gives smooth bright ghosts too few rays, whose edges then
+    /// err more than the deformed ghosts gain (relative L1 0.29 against
+    /// 0.15 with a fixed 32², at the same cost).
     pub adaptive_grid: bool,
     /// Uses the lens's axial symmetry (the blog's *Symmetry*): each grid is
     /// traced for the light turned into one meridional plane, where the
@@ -75,7 +79,7 @@ impl LensFlare {
         Self {
             lens,
             grid: 32,
-            adaptive_grid: true,
+            adaptive_grid: false,
             symmetry: true,
             wavelengths: 3,
             aperture: ApertureSettings::default(),

@@ -115,7 +115,10 @@ fn the_budget_and_the_threshold_are_kept() {
 #[test]
 fn grid_sizes_follow_the_deformation_within_the_budget() {
     let path = "lenses/double-gauss-us2701982.lens";
-    let g = ghosts_of(path, |f| f.grid = 32);
+    let g = ghosts_of(path, |f| {
+        f.grid = 32;
+        f.adaptive_grid = true;
+    });
     let drawn: Vec<_> = g
         .ghosts
         .iter()

@@ -77,11 +77,11 @@ impl Setup {
     }
 }
 
-/// The 33-interface zoom of assets/lenses/zoom-canon-us5537259.lens,
+/// The 33-interface zoom (assets/lenses/zoom-canon-us5537259.lens),
 /// compiled in.
 fn zoom() -> Result<LensPrescription, SweepError> {
     LensPrescription::parse_bytes(include_bytes!(
-        "../../../../assets/lenses/zoom-canon-us5537259.lens"
+        "../../../optica_optics/lenses/zoom-canon-us5537259.lens"
     ))
     .map_err(|e| SweepError::Setup(e.to_string()))
 }

@@ -25,15 +25,7 @@ fn case(
 ) -> (f32, bool, Option<String>, usize) {
     let seen = Arc::new(Mutex::new((None, 0)));
     let log = seen.clone();
-    let frame = Headless::new(SIZE, SIZE)
-        .hdr(true)
-        .frames(12)
-        .default_plugins(move |g| {
-            g.set(AssetPlugin {
-                file_path: root.into(),
-                ..default()
-            })
-        })
+    let frame = headless_at(root, SIZE, 12)
         .render(move |app: &mut App| {
             app.add_plugins(LensFlarePlugin);
             app.add_systems(
@@ -68,6 +60,19 @@ fn case(
 }
 
 const ASSETS: &str = "assets";
+
+/// A `size`² HDR render of `frames` frames whose assets load from `root`.
+fn headless_at(root: &'static str, size: u32, frames: u32) -> Headless {
+    Headless::new(size, size)
+        .hdr(true)
+        .frames(frames)
+        .default_plugins(move |g| {
+            g.set(AssetPlugin {
+                file_path: root.into(),
+                ..default()
+            })
+        })
+}
 const TESSAR: &str = "lenses/tessar-us2854889.lens";
 
 #[test]
@@ -166,15 +171,7 @@ fn a_broken_reload_keeps_the_last_good_lens() {
     let root: &'static str = Box::leak(dir.to_string_lossy().into_owned().into_boxed_str());
     let hot_path = hot.clone();
     let double_gauss = source("double-gauss-us2701982.lens");
-    Headless::new(32, 32)
-        .hdr(true)
-        .frames(60)
-        .default_plugins(move |g| {
-            g.set(AssetPlugin {
-                file_path: root.into(),
-                ..default()
-            })
-        })
+    headless_at(root, 32, 60)
         .render(move |app: &mut App| {
             app.add_plugins(LensFlarePlugin);
             app.add_systems(

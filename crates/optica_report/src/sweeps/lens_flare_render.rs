@@ -1,11 +1,12 @@
-//! The lens-flare plugin itself on the adapter: the rows of series
-//! `rendered` in the `lens_flare` report.
+//! The lens-flare plugin itself on the adapter: its rows in the
+//! `lens_flare` report (series named in [`rendered_rows`]).
 //!
 //! * Scene: the coated Angénieux double Gauss (US 2,701,982; every
 //!   unblocked ghost of its 91 drawn in the full run, the 8 brightest in
 //!   the quick one), three wavelengths, a round iris, a sun 10° off axis.
-//! * Knob: rays per side of every ghost's grid (the plugin's
-//!   `LensFlare::grid`).
+//! * Knobs: rays per side of every ghost's grid (the plugin's
+//!   `LensFlare::grid`), and in the series `wavelengths (32² fixed)` the
+//!   number of wavelengths (`LensFlare::wavelengths`).
 //! * Error: the flare layer (a black scene, HDR readback, no tonemapping)
 //!   against the CPU reference of the same frame: every drawn ghost traced
 //!   at 512² rays (quick: 128²) per wavelength with
@@ -13,7 +14,9 @@
 //!   coverage over the frame's sensor window, weighted like the plugin's
 //!   colours. `rel_l1` = Σ|gpu − ref| / Σ ref over all channels,
 //!   `rel_energy` the signed total, `psnr_db` against the reference's
-//!   peak.
+//!   peak, `flip_mean` the mean ꟻLIP of the two layers shown as a person
+//!   sees them (divided by the reference's 99.5th percentile, clamped,
+//!   gamma 2.2).
 //! * Time: the frame of a lit scene (ground, pillars, shadows) with the
 //!   flare against the same frame without it, in the same run
 //!   (`baseline_time_ms`); `flare_ms` the flare's pass (GPU timestamps where
@@ -58,6 +61,7 @@ struct Setup {
     /// Starburst and ringing on (their defaults); off for the rows held to
     /// the CPU reference, which has neither.
     diffraction: bool,
+    wavelengths: u32,
 }
 
 impl Setup {
@@ -73,6 +77,7 @@ impl Setup {
             adaptive: true,
             symmetry: true,
             diffraction: false,
+            wavelengths: 3,
         }
     }
 }
@@ -142,7 +147,7 @@ fn scene(
                         grid: setup.grid,
                         adaptive_grid: setup.adaptive,
                         symmetry: setup.symmetry,
-                        wavelengths: 3,
+                        wavelengths: setup.wavelengths,
                         ghost_budget: setup.budget,
                         min_relative: 0.0,
                         starburst: defaults.starburst.filter(|_| setup.diffraction),
@@ -164,8 +169,14 @@ fn scene(
     }
 }
 
-/// The CPU reference of the flare layer: RGB per pixel of a `size`² frame.
-fn reference(ghosts: &FlareGhosts, size: u32, rays: usize) -> Result<Vec<[f64; 3]>, SweepError> {
+/// The CPU reference of the flare layer at `wavelengths` samples: RGB per
+/// pixel of a `size`² frame.
+fn reference(
+    ghosts: &FlareGhosts,
+    size: u32,
+    rays: usize,
+    wavelengths: u32,
+) -> Result<Vec<[f64; 3]>, SweepError> {
     let setup = |e: String| SweepError::Setup(e);
     let lens = ghosts
         .lens
@@ -182,7 +193,11 @@ fn reference(ghosts: &FlareGhosts, size: u32, rays: usize) -> Result<Vec<[f64; 3
     let px = 2.0 * map.half_height_mm / f64::from(size);
     let window = SensorWindow::new(DVec2::splat(-map.half_height_mm), px, n, n)
         .map_err(|e| setup(e.to_string()))?;
-    let wavelengths = LensFlare::new(Handle::default()).wavelengths_nm();
+    let wavelengths = LensFlare {
+        wavelengths,
+        ..LensFlare::new(Handle::default())
+    }
+    .wavelengths_nm();
     let d = travel().as_dvec3();
     let scale = f64::from(LUX) * f64::from(Exposure::default().exposure()) / (px * px);
     let mut rgb = vec![[0.0; 3]; n * n];
@@ -211,6 +226,33 @@ fn reference(ghosts: &FlareGhosts, size: u32, rays: usize) -> Result<Vec<[f64; 3
     Ok(rgb)
 }
 
+/// The value shown as white when the flare layers are compared as a person
+/// sees them (ꟻLIP): the reference's 99.5th percentile of lit channel
+/// values, so that the ghosts, not a caustic's peak, fill the range.
+fn white_point(reference: &[[f64; 3]]) -> f64 {
+    let mut lit: Vec<f64> = reference
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|v| *v > 0.0)
+        .collect();
+    if lit.is_empty() {
+        return 1.0;
+    }
+    lit.sort_by(f64::total_cmp);
+    lit[(lit.len() * 995 / 1000).min(lit.len() - 1)]
+}
+
+/// A flare layer as an 8-bit sRGB-ish picture: divided by `white`, clamped,
+/// gamma 2.2.
+fn displayed(rgb: &[[f64; 3]], size: u32, white: f64) -> image::RgbaImage {
+    image::RgbaImage::from_fn(size, size, |x, y| {
+        let p = rgb[(y * size + x) as usize];
+        let t = |v: f64| ((v / white).clamp(0.0, 1.0).powf(1.0 / 2.2) * 255.0).round() as u8;
+        image::Rgba([t(p[0]), t(p[1]), t(p[2]), 255])
+    })
+}
+
 /// One row: the flare of `setup` rendered on black against `reference`
 /// (when given), and the lit scene timed with it against `plain`.
 #[allow(clippy::too_many_arguments)]
@@ -223,8 +265,8 @@ fn row(
     reference: Option<&[[f64; 3]]>,
     plain_ms: f64,
     timing: (u32, u32),
+    knob: f64,
 ) -> Result<(), SweepError> {
-    let knob = f64::from(setup.grid);
     let log = Arc::new(Mutex::new(None));
     let headless = ctx.headless(size, size).hdr(true).frames(12);
     let frame = headless.render(scene(Some(setup.clone()), false, Some(log.clone())))?;
@@ -247,7 +289,8 @@ fn row(
             "rays_per_light_and_wavelength",
             ghosts.rays_per_light() as f64,
         )
-        .work("wavelengths", 3.0)
+        .work("wavelengths", f64::from(setup.wavelengths))
+        .work("grid", f64::from(setup.grid))
         .work("size_px", f64::from(size))
         .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median))
         .work(
@@ -273,24 +316,37 @@ fn row(
         }
         let mse = se / (3 * reference.len()) as f64;
         let psnr = 10.0 * (ref_peak * ref_peak / mse.max(1e-300)).log10();
+        let gpu: Vec<[f64; 3]> = img
+            .pixels()
+            .map(|p| [0, 1, 2].map(|c| f64::from(p.0[c])))
+            .collect();
+        let white = white_point(reference);
+        let flip = optica_harness::metrics::compare(
+            &displayed(reference, size, white),
+            &displayed(&gpu, size, white),
+        )
+        .map_err(|e| SweepError::Setup(format!("{e:?}")))?;
         row = row
             .err("rel_l1", l1 / ref_total)
             .err("rel_energy", (total - ref_total) / ref_total)
-            .err("psnr_db", psnr);
+            .err("psnr_db", psnr)
+            .err("flip_mean", flip.flip_mean);
     }
     report.rows.push(row);
     Ok(())
 }
 
-/// Appends the plugin's rows: series `rendered` (the defaults: a grid per
-/// ghost, symmetry), `fixed grid` (every ghost at grid²) and, at 32²,
-/// `no symmetry` against the CPU reference; the full run adds
+/// Appends the plugin's rows: series `rendered` (a grid per ghost,
+/// symmetry), `fixed grid` (every ghost at grid², the default) and, at
+/// 32², `no symmetry` against the CPU reference at three wavelengths;
+/// `wavelengths (32² fixed)`, whose knob is the wavelength count, against
+/// a reference at 5 (quick) or 9 wavelengths; the full run adds
 /// `diffraction` (starburst and ringing on, timed only) and the zoom's
 /// scale case (every unblocked ghost of 528 at 16², 1280×720, timed only).
 pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
     let size = ctx.pick(128, 512);
     let budget = ctx.pick(8, 91);
-    let grids: Vec<u32> = ctx.pick(vec![8, 32], vec![4, 8, 16, 32, 64]);
+    let grids: Vec<u32> = ctx.pick(vec![8, 32], vec![4, 8, 16, 32, 64, 128]);
     let rays = ctx.pick(128, 512);
     let timing = ctx.pick((1, 3), (2, 8));
     // The ghosts the plugin draws, from a first render; the reference.
@@ -310,40 +366,26 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         grids.len(),
         &format!("CPU reference, {rays}² rays per ghost"),
     );
-    let reference = reference(&ghosts, size, rays)?;
+    let reference_3 = reference(&ghosts, size, rays, 3)?;
     let plain = ctx
         .headless(size, size)
         .hdr(true)
         .time_frames(timing.0, timing.1, scene(None, true, None))?
         .frame_ms
         .median;
+    let r = Some(reference_3.as_slice());
     for (i, &grid) in grids.iter().enumerate() {
         ctx.progress(i + 1, grids.len(), &format!("rendered, grid {grid}²"));
+        let knob = f64::from(grid);
         let adaptive = Setup::double_gauss(grid, budget);
-        row(
-            ctx,
-            report,
-            "rendered",
-            adaptive.clone(),
-            size,
-            Some(&reference),
-            plain,
-            timing,
-        )?;
         let fixed = Setup {
             adaptive: false,
             ..adaptive.clone()
         };
-        row(
-            ctx,
-            report,
-            "fixed grid",
-            fixed,
-            size,
-            Some(&reference),
-            plain,
-            timing,
-        )?;
+        let ours = [("rendered", adaptive.clone()), ("fixed grid", fixed)];
+        for (series, setup) in ours {
+            row(ctx, report, series, setup, size, r, plain, timing, knob)?;
+        }
         if grid == 32 {
             let whole = Setup {
                 symmetry: false,
@@ -355,18 +397,59 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
                 "no symmetry",
                 whole,
                 size,
-                Some(&reference),
+                r,
                 plain,
                 timing,
+                knob,
             )?;
             if !ctx.quick {
                 let full = Setup {
                     diffraction: true,
                     ..adaptive
                 };
-                row(ctx, report, "diffraction", full, size, None, plain, timing)?;
+                row(
+                    ctx,
+                    report,
+                    "diffraction",
+                    full,
+                    size,
+                    None,
+                    plain,
+                    timing,
+                    knob,
+                )?;
             }
         }
+    }
+    // The second knob, wavelengths, at a fixed 32² grid, against a
+    // reference sampled more finely in wavelength (each set of samples is
+    // weighted to sum to white, so they are comparable).
+    let fine = ctx.pick(5, 9);
+    ctx.progress(
+        grids.len(),
+        grids.len(),
+        &format!("reference at {fine} wavelengths"),
+    );
+    let reference_fine = reference(&ghosts, size, ctx.pick(128, 256), fine)?;
+    let r = Some(reference_fine.as_slice());
+    for wavelengths in ctx.pick(vec![1, 3], vec![1, 2, 3, 5]) {
+        let setup = Setup {
+            wavelengths,
+            adaptive: false,
+            ..Setup::double_gauss(32, budget)
+        };
+        let knob = f64::from(wavelengths);
+        row(
+            ctx,
+            report,
+            "wavelengths (32² fixed)",
+            setup,
+            size,
+            r,
+            plain,
+            timing,
+            knob,
+        )?;
     }
     if !ctx.quick {
         ctx.progress(
@@ -377,8 +460,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         let (w, h) = (1280, 720);
         let zoom_setup = Setup {
             lens: zoom()?,
-            grid: 16,
-            budget: 528,
+            adaptive: false,
             ..Setup::double_gauss(16, 528)
         };
         let plain_wide = ctx
@@ -436,7 +518,7 @@ mod tests {
                 .find(|r| r.series == series && r.knob == grid)
                 .unwrap_or_else(|| panic!("no {series} row at {grid}"))
         };
-        assert_eq!(rows.len(), 5, "{rows:?}");
+        assert_eq!(rows.len(), 7, "{rows:?}");
         for series in ["rendered", "fixed grid"] {
             let (coarse, fine) = (find(series, 8.0), find(series, 32.0));
             // A finer grid follows the reference more closely.
@@ -447,6 +529,18 @@ mod tests {
             assert!(fine.error["rel_l1"] < 0.5, "{series}: {rows:?}");
             assert!(fine.error["rel_energy"].abs() < 0.1, "{series}: {rows:?}");
             assert!(fine.error["psnr_db"] > 30.0, "{series}: {rows:?}");
+        }
+        // More wavelengths follow a finely sampled spectrum more closely.
+        let (one, three) = (
+            find("wavelengths (32² fixed)", 1.0),
+            find("wavelengths (32² fixed)", 3.0),
+        );
+        assert!(
+            three.error["rel_l1"] < one.error["rel_l1"],
+            "{one:?} vs {three:?}"
+        );
+        for r in rows.iter().filter(|r| r.error.contains_key("flip_mean")) {
+            assert!((0.0..1.0).contains(&r.error["flip_mean"]), "{r:?}");
         }
         // Symmetry changes where the rays fall, not what they add up to.
         let (sym, whole) = (find("rendered", 32.0), find("no symmetry", 32.0));

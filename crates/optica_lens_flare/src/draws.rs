@@ -61,6 +61,18 @@ pub struct GridJob {
     pad: u32,
 }
 
+impl GridJob {
+    /// One past its last ray in the ray buffer.
+    pub(crate) fn ray_end(&self) -> u32 {
+        self.ray_base + self.n * self.n
+    }
+
+    /// One past its last thread of the trace.
+    pub(crate) fn thread_end(&self) -> u32 {
+        self.thread_base + self.n * self.rows
+    }
+}
+
 /// Where a light's occlusion is read (`LightProbe`): its image in NDC and
 /// the largest depth (reverse Z) that does not hide it.
 #[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]

@@ -245,6 +245,8 @@ struct FlareBuffers {
     /// Whether the occlusion pass ran last frame (else the buffer holds
     /// ones, not a history to blend with).
     history_holds: bool,
+    /// Whether the rays have been over the device's limit (warned once).
+    warned_over_limit: bool,
 }
 
 /// A view with flare draws: its buffers once made, its depth and MSAA.
@@ -325,6 +327,44 @@ fn prepare_flare(
             Some(b) => b.into_inner(),
             None => created.insert(FlareBuffers::default()),
         };
+        // More rays than one storage binding holds (128 MiB on many
+        // devices: 2.8 M rays, e.g. 83 ghosts × 3 wavelengths at 128²): the
+        // grids past it (the dimmest of the last light) are left out, with
+        // one warning, instead of failing to bind.
+        let limits = render_device.limits();
+        let max_bytes =
+            u64::from(limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
+        let max_rays = u32::try_from(max_bytes / RAY_BYTES).unwrap_or(u32::MAX);
+        let mut batches = draws.batches.clone();
+        if params.rays > max_rays {
+            let kept = draws
+                .jobs
+                .iter()
+                .take_while(|j| j.ray_end() <= max_rays)
+                .count();
+            if !buffers.warned_over_limit {
+                warn!(
+                    "optica_lens_flare: {} rays exceed the device's storage binding ({} rays); \
+                     drawing {kept} of {} grids (lower LensFlare::grid, wavelengths or ghost_budget)",
+                    params.rays,
+                    max_rays,
+                    draws.jobs.len()
+                );
+                buffers.warned_over_limit = true;
+            }
+            let last = kept.checked_sub(1).map(|k| draws.jobs[k]);
+            params.jobs = kept as u32;
+            params.rays = last.map_or(0, |j| j.ray_end());
+            params.threads = last.map_or(0, |j| j.thread_end());
+            batches.retain(|b| (b[1] as usize) < kept);
+            for b in &mut batches {
+                b[2] = b[2].min(kept as u32 - b[1]);
+            }
+            if kept == 0 {
+                commands.entity(entity).remove::<FlareBinding>();
+                continue;
+            }
+        }
         let rays = params.rays;
         let size = u64::from(rays) * RAY_BYTES;
         if buffers.rays.as_ref().is_none_or(|b| b.size() < size) {
@@ -458,7 +498,7 @@ fn prepare_flare(
                 .then_some(starburst),
             occlusion,
             threads: params.threads,
-            batches: draws.batches.clone(),
+            batches,
             lights: params.lights,
         });
         if let Some(new) = created {

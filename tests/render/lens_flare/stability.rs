@@ -245,3 +245,45 @@ fn a_broken_reload_keeps_the_last_good_lens() {
         "the double Gauss after its reload"
     );
 }
+
+/// More rays than one storage binding holds (on lavapipe 128 MiB, 2.8 M
+/// rays; here 83 ghosts × 3 wavelengths at 128², 4.1 M): the grids past the
+/// limit are left out with a warning instead of failing to bind (which
+/// panicked), and the frame stays finite with the rest of the flare drawn.
+#[test]
+fn more_rays_than_the_device_binds_are_left_out() {
+    let frame = headless_at(ASSETS, 32, 4)
+        .render(|app: &mut App| {
+            app.add_plugins(LensFlarePlugin);
+            app.add_systems(
+                Startup,
+                |mut commands: Commands, assets: Res<AssetServer>| {
+                    commands.spawn(super::sun(Vec3::new(0.1, -0.1, 1.0).normalize(), 100_000.0));
+                    commands.spawn((
+                        super::black_hdr_camera(),
+                        LensFlare {
+                            grid: 128,
+                            ghost_budget: 91,
+                            min_relative: 0.0,
+                            starburst: None,
+                            ..LensFlare::new(assets.load("lenses/double-gauss-us2701982.lens"))
+                        },
+                    ));
+                },
+            );
+        })
+        .expect("render");
+    let img = frame.hdr().expect("HDR");
+    assert!(
+        img.as_raw().iter().all(|v| v.is_finite()),
+        "a non-finite pixel"
+    );
+    let lit = img
+        .pixels()
+        .filter(|p| p.0[0] + p.0[1] + p.0[2] > 0.0)
+        .count();
+    assert!(
+        lit > 100,
+        "only {lit} px lit: the kept ghosts were not drawn"
+    );
+}

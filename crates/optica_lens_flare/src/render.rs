@@ -332,8 +332,9 @@ fn prepare_flare(
         // grids past it (the dimmest of the last light) are left out, with
         // one warning, instead of failing to bind.
         let limits = render_device.limits();
-        let max_bytes =
-            u64::from(limits.max_storage_buffer_binding_size).min(limits.max_buffer_size);
+        let max_bytes = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
         let max_rays = u32::try_from(max_bytes / RAY_BYTES).unwrap_or(u32::MAX);
         let mut batches = draws.batches.clone();
         if params.rays > max_rays {

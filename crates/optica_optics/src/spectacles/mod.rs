@@ -55,6 +55,11 @@
 //! voxel; the sets are averaged per voxel — [`precompute_field`],
 //! [`trace_bundle`]. At run time a vertex looks up its voxel
 //! ([`DisplacementField::displacements_at`]) and clone `i` takes vector `i`.
+//! Here each set is stored as its linear map of the pupil
+//! ([`TracedBundle::linear_map`]: exact for the naked eye, first order
+//! through a lens), two vectors per voxel instead of `S`, so the field is
+//! small enough to follow a prescription slider and `S` is free at run
+//! time.
 //!
 //! Paper's setting: ~1,500 vertices per lens surface, 110×77×42 voxels,
 //! `S = 10`, ~1,500 bundles of 10 rays precomputed in ~3 s (Pentium 4
@@ -155,6 +160,7 @@ mod field_reference;
 mod lens_design;
 mod lens_mesh;
 mod lens_surface;
+mod naked;
 mod per_vertex;
 mod viewpoint;
 mod voxel_field;
@@ -174,13 +180,14 @@ pub use lens_design::{
 };
 pub use lens_mesh::{LensMesh, MAX_POLAR_POINTS};
 pub use lens_surface::{LensSurface, ToricSurface};
+pub use naked::{defocus_factor, naked_eye_displacements};
 pub use per_vertex::{LensTrace, refract_vertices};
 pub use viewpoint::{
     DEFAULT_VIEWPOINT_REGULARISATION, ViewpointFit, virtual_viewpoint, virtual_viewpoint_of_traces,
 };
 pub use voxel_field::{
     DisplacementField, FieldSettings, FieldStats, MAX_AIMS, MAX_CLONES, MAX_FIELD_VECTORS,
-    MAX_WALK_CROSSINGS, VoxelAverage, precompute_field,
+    MAX_WALK_CROSSINGS, FillRule, VoxelAverage, expand, precompute_field,
 };
 
 // The crate's types that the signatures above use, so that this module is

@@ -76,6 +76,24 @@ pub struct FieldSettings {
     window_z_m: f64,
     fill_empty: bool,
     average: VoxelAverage,
+    fill_rule: FillRule,
+}
+
+/// How the voxels no reference ray crossed are filled (step 5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum FillRule {
+    /// Each empty voxel takes the set of its nearest crossed voxel (face
+    /// steps, the L1 distance): a distance transform of a few sequential
+    /// sweeps, then one copy per voxel. The default: about as close to the
+    /// direct reference as [`FillRule::LayeredMean`] (the `spectacles`
+    /// sweep compares them) at a fraction of its time.
+    #[default]
+    Nearest,
+    /// Layer by layer outwards from the crossed voxels, each empty voxel
+    /// takes the mean of its neighbours in the layer before (a smoother
+    /// extrapolation; its layers must be done one after another, with
+    /// scattered reads).
+    LayeredMean,
 }
 
 /// The serialised form of [`FieldSettings`], unchecked.
@@ -92,6 +110,8 @@ struct RawFieldSettings {
     fill_empty: bool,
     #[serde(default)]
     average: VoxelAverage,
+    #[serde(default)]
+    fill_rule: FillRule,
 }
 
 impl TryFrom<RawFieldSettings> for FieldSettings {
@@ -109,6 +129,7 @@ impl TryFrom<RawFieldSettings> for FieldSettings {
             window_z_m: r.window_z_m,
             fill_empty: r.fill_empty,
             average: r.average,
+            fill_rule: r.fill_rule,
         }
         .checked()
     }
@@ -143,6 +164,7 @@ impl FieldSettings {
             window_z_m: 0.012,
             fill_empty: true,
             average: VoxelAverage::AllCrossings,
+            fill_rule: FillRule::Nearest,
         }
     }
 
@@ -159,9 +181,9 @@ impl FieldSettings {
         Self { dims, ..self }.checked()
     }
 
-    /// These settings with `S = clones` (pupil rays per bundle = vectors
-    /// per voxel = clones drawn). Errors: 0, more than [`MAX_CLONES`], or
-    /// more vectors than [`MAX_FIELD_VECTORS`].
+    /// These settings with `S = clones` (pupil rays per bundle, and the
+    /// clones a voxel's set is expanded to). Errors: 0, more than
+    /// [`MAX_CLONES`], or more vectors than [`MAX_FIELD_VECTORS`].
     pub fn with_clones(self, clones: usize) -> Result<Self, InvalidInput> {
         Self { clones, ..self }.checked()
     }
@@ -197,6 +219,16 @@ impl FieldSettings {
     /// docs).
     pub fn with_fill_empty(self, fill_empty: bool) -> Self {
         Self { fill_empty, ..self }
+    }
+
+    /// These settings with hole filling by `rule` (step 5).
+    pub fn with_fill_rule(self, fill_rule: FillRule) -> Self {
+        Self { fill_rule, ..self }
+    }
+
+    /// How holes are filled.
+    pub fn fill_rule(&self) -> FillRule {
+        self.fill_rule
     }
 
     /// These settings with the per-voxel average `average` (step 4).
@@ -241,7 +273,8 @@ impl FieldSettings {
         self.dims
     }
 
-    /// `S`: clones = pupil rays per bundle = vectors per voxel.
+    /// `S`: pupil rays per bundle, and the clones a voxel's map is
+    /// expanded to by [`DisplacementField::displacements`].
     pub fn clones(&self) -> usize {
         self.clones
     }
@@ -398,7 +431,7 @@ pub struct FieldStats {
 /// The precomputed field.
 ///
 /// Deserialisation is validated (the grid as [`VoxelGrid`]'s, then
-/// `1 <= S <= MAX_CLONES`, `vectors.len() = voxels × S`, every vector
+/// `1 <= S <= MAX_CLONES`, `maps.len() = voxels × 2`, every vector
 /// finite), so a field read from disk cannot panic in a lookup.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "RawDisplacementField")]
@@ -406,9 +439,10 @@ pub struct DisplacementField {
     /// Geometry, and per voxel the number of reference-ray crossings (0: not
     /// crossed; filled from neighbours if the settings said so, else zeros).
     counts: VoxelGrid<u32>,
-    /// `S` vectors per voxel, voxel-major (`cells × S`), in metres, `f32`
-    /// (what the GPU gets).
-    vectors: Vec<Vec3>,
+    /// Per voxel the set as a linear map of the pupil, `[m_x, m_y]`
+    /// ([`TracedBundle::linear_map`]), voxel-major (`cells × 2`), in
+    /// metres, `f32` (what the GPU gets).
+    maps: Vec<Vec3>,
     clones: usize,
     stats: FieldStats,
 }
@@ -417,7 +451,7 @@ pub struct DisplacementField {
 #[derive(Deserialize)]
 struct RawDisplacementField {
     counts: VoxelGrid<u32>,
-    vectors: Vec<Vec3>,
+    maps: Vec<Vec3>,
     clones: usize,
     stats: FieldStats,
 }
@@ -433,20 +467,20 @@ impl TryFrom<RawDisplacementField> for DisplacementField {
         if !(1..=MAX_CLONES).contains(&r.clones) {
             return Err(InvalidInput::new("field clones", r.clones as f64, clones));
         }
-        if r.counts.len().checked_mul(r.clones) != Some(r.vectors.len()) {
-            let n = r.counts.len() as f64 * r.clones as f64;
+        if r.counts.len().checked_mul(2) != Some(r.maps.len()) {
+            let n = r.counts.len() as f64 * 2.0;
             return Err(InvalidInput::new(
-                "field vectors (voxels × clones)",
-                r.vectors.len() as f64,
+                "field maps (voxels × 2)",
+                r.maps.len() as f64,
                 Expected::Range { min: n, max: n },
             ));
         }
-        for v in &r.vectors {
-            input::finite_vec3("field vector (m)", v.as_dvec3())?;
+        for v in &r.maps {
+            input::finite_vec3("field map vector (m)", v.as_dvec3())?;
         }
         Ok(Self {
             counts: r.counts,
-            vectors: r.vectors,
+            maps: r.maps,
             clones: r.clones,
             stats: r.stats,
         })
@@ -547,7 +581,12 @@ fn trace_pair(
 ///    ray's segment in the voxel, the set is the near bundle's displacements
 ///    if nearer than the corrected near point, the far bundle's (mirrored) if
 ///    beyond the corrected far point, else all zero (§4.2: in focus).
-/// 4. Average the sets per voxel, clone by clone. Default, not in the paper
+/// 4. Average the sets per voxel. Each set is kept as its linear map of
+///    the pupil (not in the paper: [`TracedBundle::linear_map`], two
+///    vectors per voxel instead of `S`), which is exact for the naked eye
+///    and to first order through a lens, makes the field `S/2` times
+///    smaller, and lets the number of clones drawn change without a new
+///    precompute; averaging maps is averaging their sets. Default, not in the paper
 ///    ([`VoxelAverage::AllCrossings`]): every crossing counts, in-focus ones
 ///    as zero sets. The paper (§4.3) averages only the sets recorded, the
 ///    near and far crossings ([`VoxelAverage::RecordedSets`], an option of
@@ -556,8 +595,9 @@ fn trace_pair(
 ///    closer to the direct reference (see [`VoxelAverage`]). Either way a
 ///    voxel crossed only in focus is zero (sharp) and counts as crossed.
 /// 5. Optional, not in the paper: voxels no reference ray crossed take the
-///    mean of their filled face neighbours, repeated until every voxel is
-///    filled ([`FieldSettings::with_fill_empty`]). The paper leaves them at zero
+///    set of their nearest crossed voxel, or the mean of their filled face
+///    neighbours layer by layer ([`FillRule`], [`FieldSettings::with_fill_rule`];
+///    on or off: [`FieldSettings::with_fill_empty`]). The paper leaves them at zero
 ///    (sharp), which with ~1,500 aims leaves most far voxels uncovered.
 ///
 /// Lookup (run time): the voxel containing the vertex, one transform; clone
@@ -576,12 +616,13 @@ pub fn precompute_field(
     lens: Option<&SpectacleLens>,
     st: &FieldSettings,
 ) -> Result<DisplacementField, SpectaclesError> {
-    let counts = VoxelGrid::from_bounds(st.min, st.max, st.dims, 0u32)?;
-    let n_cells = counts.len();
+    // The grid's geometry alone (no storage: `()` cells) for the walk; the
+    // counts are made in step 4.
+    let grid = VoxelGrid::from_bounds(st.min, st.max, st.dims, ())?;
+    let n_cells = grid.len();
     let s_clones = st.clones;
     let samples: Vec<DVec2> = pupil_samples(s_clones);
     let aim_dirs = aims(lens, placement, st)?;
-
     // Step 2: bundles, in parallel, counting the rays actually traced.
     let (bundles, traced): (Vec<_>, Vec<usize>) = aim_dirs
         .par_iter()
@@ -594,7 +635,6 @@ pub fn precompute_field(
     if bundles.iter().all(Option::is_none) {
         return Err(SpectaclesError::NoRays);
     }
-
     // Step 3: walk the grid along each refracted reference ray, in parallel.
     let mut crossings: Vec<Crossing> = bundles
         .par_iter()
@@ -603,7 +643,7 @@ pub fn precompute_field(
             let walk = b.as_ref().map(|(near, far)| {
                 let chief = *near.chief();
                 let (wn, wf) = (near.vergence_d(), far.vergence_d());
-                counts.traverse(&chief).filter_map(move |(cell, t0, t1)| {
+                grid.traverse(&chief).filter_map(move |(cell, t0, t1)| {
                     let s = 0.5 * (t0 + t1);
                     let idx = cell[0] + st.dims[0] * (cell[1] + st.dims[1] * cell[2]);
                     (s > 0.0).then(|| Crossing {
@@ -618,37 +658,34 @@ pub fn precompute_field(
         })
         .collect();
     crossings.par_sort_unstable_by_key(|c| c.cell);
-
-    // Step 4: average per voxel, in parallel over voxels.
-    let mut vectors = vec![Vec3::ZERO; n_cells * s_clones];
-    let mut cnt = vec![0u32; n_cells];
-    vectors
-        .par_chunks_mut(s_clones)
-        .zip(cnt.par_iter_mut())
-        .enumerate()
-        .for_each(|(cell, (out, count))| {
-            let lo = crossings.partition_point(|c| (c.cell as usize) < cell);
-            let hi = crossings.partition_point(|c| (c.cell as usize) <= cell);
-            if lo == hi {
-                return;
-            }
-            let mut sum = vec![DVec3::ZERO; s_clones];
+    // Step 4: average per voxel. The crossings are sorted by voxel, so
+    // each crossed voxel is one run of them: the runs are averaged in
+    // parallel, then written into the (otherwise zero) field.
+    let mut runs: Vec<(usize, usize, usize)> = Vec::new();
+    let mut lo = 0;
+    for hi in 1..=crossings.len() {
+        if hi == crossings.len() || crossings[hi].cell != crossings[lo].cell {
+            runs.push((crossings[lo].cell as usize, lo, hi));
+            lo = hi;
+        }
+    }
+    let mut sets = vec![Vec3::ZERO; runs.len() * 2];
+    sets.par_chunks_mut(2)
+        .zip(&runs)
+        .for_each(|(out, &(_, lo, hi))| {
+            let mut sum = [DVec3::ZERO; 2];
             let mut recorded = 0usize;
             for c in &crossings[lo..hi] {
                 let Some((near, far)) = &bundles[c.aim as usize] else {
                     continue;
                 };
-                match c.region {
-                    Region::Near => sum
-                        .iter_mut()
-                        .zip(near.displacements(c.s))
-                        .for_each(|(v, d)| *v += d),
-                    Region::Far => sum
-                        .iter_mut()
-                        .zip(far.displacements(c.s))
-                        .for_each(|(v, d)| *v -= d),
+                let (m, sign) = match c.region {
+                    Region::Near => (near.linear_map(c.s), 1.0),
+                    Region::Far => (far.linear_map(c.s), -1.0),
                     Region::InFocus => continue,
-                }
+                };
+                sum[0] += m[0] * sign;
+                sum[1] += m[1] * sign;
                 recorded += 1;
             }
             let n = match st.average {
@@ -657,18 +694,23 @@ pub fn precompute_field(
             };
             // No set recorded (crossed only in focus): zero, sharp.
             if n > 0 {
-                for (o, v) in out.iter_mut().zip(&sum) {
-                    *o = (*v / n as f64).as_vec3();
-                }
+                out[0] = (sum[0] / n as f64).as_vec3();
+                out[1] = (sum[1] / n as f64).as_vec3();
             }
-            *count = (hi - lo) as u32;
         });
+    let mut maps = vec![Vec3::ZERO; n_cells * 2];
+    let mut cnt = vec![0u32; n_cells];
+    for (k, &(cell, lo, hi)) in runs.iter().enumerate() {
+        maps[cell * 2..cell * 2 + 2].copy_from_slice(&sets[k * 2..k * 2 + 2]);
+        cnt[cell] = (hi - lo) as u32;
+    }
+    drop(sets);
     let sets_recorded = crossings
         .iter()
         .filter(|c| c.region != Region::InFocus)
         .count();
     let voxels_crossed = cnt.iter().filter(|&&c| c > 0).count();
-    let counts = VoxelGrid::from_vec(st.min, counts.cell_size(), st.dims, cnt)?;
+    let counts = VoxelGrid::from_vec(st.min, grid.cell_size(), st.dims, cnt)?;
 
     let mut stats = FieldStats {
         aims: aim_dirs.len(),
@@ -682,29 +724,172 @@ pub fn precompute_field(
     };
     drop(crossings);
     if st.fill_empty && voxels_crossed > 0 {
-        let (filled, passes) = fill_empty(&counts, &mut vectors, s_clones);
+        let (filled, passes) = match st.fill_rule {
+            FillRule::Nearest => fill_nearest(&counts, &mut maps, 2),
+            FillRule::LayeredMean => fill_empty(&counts, &mut maps, 2),
+        };
         stats.voxels_filled = filled;
         stats.fill_passes = passes;
     }
     Ok(DisplacementField {
         counts,
-        vectors,
+        maps,
         clones: s_clones,
         stats,
     })
 }
 
-/// Step 5: every voxel with no crossing takes the mean of its face
-/// neighbours that were filled before it, layer by layer outwards from the
-/// crossed voxels (a breadth-first front: layer k is the voxels k steps from
-/// the nearest crossed one). Each voxel is visited once per layer it borders,
-/// so the cost is O(cells·S), not O(cells·S·layers). Returns (voxels filled,
-/// layers).
-fn fill_empty(counts: &VoxelGrid<u32>, vectors: &mut [Vec3], s: usize) -> (usize, usize) {
+/// The L1 distance transform of [`fill_nearest`] and [`fill_empty`]: in
+/// a grid of face neighbours, a voxel's breadth-first layer from the
+/// crossed voxels is its L1 distance to the nearest of them, which a
+/// forward and a backward sweep along each axis find exactly (the metric
+/// is separable). `dist` starts at 0 on crossed voxels and "far" elsewhere;
+/// `carry` (the nearest crossed voxel) is carried along every improvement.
+/// Each sweep steps whole rows (along y) or planes (along z) at a time, so
+/// memory is read in order and the work splits across threads.
+fn l1_sweeps(dims: [usize; 3], dist: &mut [u32], carry: &mut [u32]) {
+    let (sx, sy) = (dims[0], dims[0] * dims[1]);
+    // `to[i] ← from[i] + 1` where that is nearer, element-wise.
+    fn relax(from_d: &[u32], from_c: &[u32], to_d: &mut [u32], to_c: &mut [u32]) {
+        for i in 0..to_d.len() {
+            if from_d[i] + 1 < to_d[i] {
+                to_d[i] = from_d[i] + 1;
+                to_c[i] = from_c[i];
+            }
+        }
+    }
+    // Sweeps over consecutive blocks of `block` elements (rows of a slab,
+    // planes of the grid), forwards then backwards.
+    fn blocks(dist: &mut [u32], carry: &mut [u32], block: usize, parallel: bool) {
+        let n = dist.len() / block;
+        let step = |dist: &mut [u32], carry: &mut [u32], a: usize, b: usize| {
+            let (lo, hi) = (a.min(b), a.max(b));
+            let (d_lo, d_hi) = dist.split_at_mut(hi * block);
+            let (c_lo, c_hi) = carry.split_at_mut(hi * block);
+            let (d_lo, c_lo) = (&mut d_lo[lo * block..], &mut c_lo[lo * block..]);
+            let (d_hi, c_hi) = (&mut d_hi[..block], &mut c_hi[..block]);
+            let chunk = 4096;
+            if a < b {
+                if parallel {
+                    d_lo.par_chunks(chunk)
+                        .zip(c_lo.par_chunks(chunk))
+                        .zip(d_hi.par_chunks_mut(chunk).zip(c_hi.par_chunks_mut(chunk)))
+                        .for_each(|((fd, fc), (td, tc))| relax(fd, fc, td, tc));
+                } else {
+                    relax(d_lo, c_lo, d_hi, c_hi);
+                }
+            } else if parallel {
+                d_hi.par_chunks(chunk)
+                    .zip(c_hi.par_chunks(chunk))
+                    .zip(d_lo.par_chunks_mut(chunk).zip(c_lo.par_chunks_mut(chunk)))
+                    .for_each(|((fd, fc), (td, tc))| relax(fd, fc, td, tc));
+            } else {
+                relax(d_hi, c_hi, d_lo, c_lo);
+            }
+        };
+        for k in 1..n {
+            step(dist, carry, k - 1, k);
+        }
+        for k in (1..n).rev() {
+            step(dist, carry, k, k - 1);
+        }
+    }
+    // Along x: within each row, in parallel over rows.
+    dist.par_chunks_mut(sx)
+        .zip(carry.par_chunks_mut(sx))
+        .for_each(|(d, c)| {
+            for k in 1..sx {
+                if d[k - 1] + 1 < d[k] {
+                    d[k] = d[k - 1] + 1;
+                    c[k] = c[k - 1];
+                }
+            }
+            for k in (1..sx).rev() {
+                if d[k] + 1 < d[k - 1] {
+                    d[k - 1] = d[k] + 1;
+                    c[k - 1] = c[k];
+                }
+            }
+        });
+    // Along y: row by row within each slab, in parallel over slabs.
+    dist.par_chunks_mut(sy)
+        .zip(carry.par_chunks_mut(sy))
+        .for_each(|(d, c)| blocks(d, c, sx, false));
+    // Along z: plane by plane, each plane split across threads.
+    blocks(dist, carry, sy, true);
+}
+
+/// The L1 distance of every voxel to the nearest crossed voxel, and that
+/// voxel (`u32::MAX / 2` and itself where the grid has none crossed).
+fn nearest_crossed(counts: &VoxelGrid<u32>) -> (Vec<u32>, Vec<u32>) {
+    let unreached = u32::MAX / 2;
+    let mut dist: Vec<u32> = counts
+        .cells()
+        .iter()
+        .map(|&c| if c > 0 { 0 } else { unreached })
+        .collect();
+    let mut nearest: Vec<u32> = (0..dist.len() as u32).collect();
+    l1_sweeps(counts.dims(), &mut dist, &mut nearest);
+    (dist, nearest)
+}
+
+/// Step 5, [`FillRule::Nearest`]: every voxel with no crossing takes the
+/// values of its nearest crossed voxel (L1, ties broken by the sweeps).
+/// Returns (voxels filled, the largest distance in voxels).
+fn fill_nearest(counts: &VoxelGrid<u32>, values: &mut [Vec3], s: usize) -> (usize, usize) {
+    let (dist, nearest) = nearest_crossed(counts);
+    // The crossed voxels are never written: copy their values out once,
+    // so the gather below reads one array and writes another.
+    let crossed: Vec<usize> = (0..dist.len()).filter(|&i| dist[i] == 0).collect();
+    let mut rank = vec![0u32; dist.len()];
+    let mut known = Vec::with_capacity(crossed.len() * s);
+    for (r, &i) in crossed.iter().enumerate() {
+        rank[i] = r as u32;
+        known.extend_from_slice(&values[i * s..(i + 1) * s]);
+    }
+    values
+        .par_chunks_mut(s)
+        .zip(dist.par_iter().zip(nearest.par_iter()))
+        .for_each(|(out, (&d, &n))| {
+            if d > 0 {
+                let r = rank[n as usize] as usize;
+                out.copy_from_slice(&known[r * s..(r + 1) * s]);
+            }
+        });
+    let layers = dist.iter().copied().max().unwrap_or(0) as usize;
+    (dist.len() - crossed.len(), layers)
+}
+
+/// Step 5, [`FillRule::LayeredMean`]: every voxel with no crossing takes
+/// the mean of its face neighbours that were filled before it, layer by
+/// layer outwards from the crossed voxels (layer k is the voxels at L1
+/// distance k from the nearest crossed one, [`l1_sweeps`]; the voxels are
+/// ordered by layer by a counting sort). The known neighbours of a layer-k
+/// voxel are exactly its layer-(k − 1) neighbours (face neighbours' layers
+/// differ by at most one), so each layer is filled in parallel from the
+/// one before it and every voxel is visited once: O(cells·s). Returns
+/// (voxels filled, layers).
+fn fill_empty(counts: &VoxelGrid<u32>, values: &mut [Vec3], s: usize) -> (usize, usize) {
     let dims = counts.dims();
     let (sx, sy) = (dims[0], dims[0] * dims[1]);
+    let (layer, _) = nearest_crossed(counts);
+    // Voxels by layer, index order within a layer (counting sort).
+    let layers = layer.iter().copied().max().unwrap_or(0) as usize;
+    let mut start = vec![0usize; layers + 2];
+    for &l in &layer {
+        start[l as usize + 1] += 1;
+    }
+    for k in 1..start.len() {
+        start[k] += start[k - 1];
+    }
+    let mut order = vec![0u32; layer.len()];
+    let mut next = start.clone();
+    for (i, &l) in layer.iter().enumerate() {
+        order[next[l as usize]] = i as u32;
+        next[l as usize] += 1;
+    }
     let neighbours = |i: usize| {
-        let [x, y, z] = [i % dims[0], (i / dims[0]) % dims[1], i / sy];
+        let [x, y, z] = [i % sx, (i / sx) % dims[1], i / sy];
         [
             (x > 0).then(|| i - 1),
             (x + 1 < dims[0]).then(|| i + 1),
@@ -714,54 +899,44 @@ fn fill_empty(counts: &VoxelGrid<u32>, vectors: &mut [Vec3], s: usize) -> (usize
             (z + 1 < dims[2]).then(|| i + sy),
         ]
     };
-    // 0: unknown, 1: known (crossed or filled in an earlier layer), 2: queued.
-    let mut state: Vec<u8> = counts.cells().iter().map(|&c| u8::from(c > 0)).collect();
-    let mut front: Vec<usize> = Vec::new();
-    for i in 0..state.len() {
-        if state[i] == 0 && neighbours(i).iter().flatten().any(|&j| state[j] == 1) {
-            front.push(i);
-        }
-    }
-    for &i in &front {
-        state[i] = 2;
-    }
-    let (mut filled, mut layers) = (0, 0);
-    while !front.is_empty() {
-        // Means of the known neighbours, computed in parallel from a frozen state.
-        let mut means = vec![Vec3::ZERO; front.len() * s];
+    let mut means = Vec::new();
+    for k in 1..=layers {
+        let front = &order[start[k]..start[k + 1]];
+        means.clear();
+        means.resize(front.len() * s, Vec3::ZERO);
+        let known: &[Vec3] = values;
+        let layer = &layer;
         means
             .par_chunks_mut(s)
             .zip(front.par_iter())
             .for_each(|(out, &i)| {
                 let mut n = 0.0f32;
-                for j in neighbours(i).into_iter().flatten() {
-                    if state[j] == 1 {
+                for j in neighbours(i as usize).into_iter().flatten() {
+                    if layer[j] + 1 == k as u32 {
                         n += 1.0;
                         out.iter_mut()
-                            .zip(&vectors[j * s..(j + 1) * s])
+                            .zip(&known[j * s..(j + 1) * s])
                             .for_each(|(a, b)| *a += *b);
                     }
                 }
                 out.iter_mut().for_each(|v| *v /= n);
             });
-        for (k, &i) in front.iter().enumerate() {
-            vectors[i * s..(i + 1) * s].copy_from_slice(&means[k * s..(k + 1) * s]);
-            state[i] = 1;
+        for (m, &i) in means.chunks_exact(s).zip(front) {
+            let i = i as usize;
+            values[i * s..(i + 1) * s].copy_from_slice(m);
         }
-        filled += front.len();
-        layers += 1;
-        let mut next = Vec::new();
-        for &i in &front {
-            for j in neighbours(i).into_iter().flatten() {
-                if state[j] == 0 {
-                    state[j] = 2;
-                    next.push(j);
-                }
-            }
-        }
-        front = next;
     }
-    (filled, layers)
+    (counts.len() - start[1], layers)
+}
+
+/// The vectors of `map` for `clones` pupil samples ([`pupil_samples`]):
+/// clone `i` moves by `xᵢ·m_x + yᵢ·m_y`. The plugin's vertex shader does
+/// the same per clone.
+pub fn expand(map: [Vec3; 2], clones: usize) -> Vec<Vec3> {
+    pupil_samples(clones)
+        .iter()
+        .map(|p| map[0] * p.x as f32 + map[1] * p.y as f32)
+        .collect()
 }
 
 impl DisplacementField {
@@ -780,27 +955,93 @@ impl DisplacementField {
         &self.stats
     }
 
-    /// All vectors, `cells × S`, voxel-major (x fastest), for upload.
-    pub fn vectors(&self) -> &[Vec3] {
-        &self.vectors
+    /// The maps of every voxel, `cells × 2` vectors (`m_x`, `m_y` of
+    /// voxel 0, then of voxel 1, …; voxels x fastest), for upload.
+    pub fn maps(&self) -> &[Vec3] {
+        &self.maps
     }
 
-    /// The set of `cell`.
-    pub fn displacements(&self, cell: [usize; 3]) -> Option<&[Vec3]> {
+    /// The set of `cell` as a linear map of the pupil, `[m_x, m_y]`: clone
+    /// of pupil point `(x, y)` moves by `x·m_x + y·m_y`.
+    pub fn map(&self, cell: [usize; 3]) -> Option<[Vec3; 2]> {
         let i = self.counts.index(cell)?;
-        Some(&self.vectors[i * self.clones..(i + 1) * self.clones])
+        Some([self.maps[2 * i], self.maps[2 * i + 1]])
+    }
+
+    /// The map of the voxel containing `point` (the paper's lookup),
+    /// `None` outside the box or for a non-finite point.
+    pub fn map_at(&self, point: DVec3) -> Option<[Vec3; 2]> {
+        self.map(self.counts.cell_of(point)?)
+    }
+
+    /// The set of `cell`: its map applied to the field's `S` pupil samples
+    /// ([`pupil_samples`]), one vector per clone.
+    pub fn displacements(&self, cell: [usize; 3]) -> Option<Vec<Vec3>> {
+        Some(expand(self.map(cell)?, self.clones))
     }
 
     /// The set of the voxel containing `point` (the paper's lookup), `None`
     /// outside the box or for a non-finite point.
-    pub fn displacements_at(&self, point: DVec3) -> Option<&[Vec3]> {
+    pub fn displacements_at(&self, point: DVec3) -> Option<Vec<Vec3>> {
         self.displacements(self.counts.cell_of(point)?)
+    }
+
+    /// The map for a vertex at `point` seen from `from` (the eye's pupil),
+    /// and the factor its vectors are scaled by: inside the box the map of
+    /// the voxel that holds `point` ([`DisplacementField::map_at`],
+    /// factor 1); beyond it, the map of the voxel where the sight line from
+    /// `from` to `point` leaves the box, scaled by `|point − from| / |exit −
+    /// from|` (documented fallback: far from focus a set grows about
+    /// linearly with distance, so the blur's angle is kept). `None` when
+    /// the sight line never enters the box or a point is not finite (no
+    /// blur). The plugin's vertex shader is the twin of this.
+    pub fn displacement_along_sight(
+        &self,
+        point: DVec3,
+        from: DVec3,
+    ) -> Option<([Vec3; 2], f64)> {
+        if !point.is_finite() || !from.is_finite() {
+            return None;
+        }
+        if let Some(map) = self.map_at(point) {
+            return Some((map, 1.0));
+        }
+        let (lo, hi) = self.counts.bounds();
+        let d = point - from;
+        let (mut t0, mut t1) = (0.0f64, 1.0f64);
+        for a in 0..3 {
+            if d[a] == 0.0 {
+                if from[a] < lo[a] || from[a] > hi[a] {
+                    return None;
+                }
+            } else {
+                let (ta, tb) = ((lo[a] - from[a]) / d[a], (hi[a] - from[a]) / d[a]);
+                t0 = t0.max(ta.min(tb));
+                t1 = t1.min(ta.max(tb));
+            }
+        }
+        if t1 < t0 || !(t1 > 0.0) {
+            return None;
+        }
+        let q = from + d * t1;
+        let size = self.counts.cell_size();
+        let dims = self.counts.dims();
+        let cell = [0, 1, 2].map(|a| {
+            let c = ((q[a] - lo[a]) / size[a]).floor();
+            c.clamp(0.0, (dims[a] - 1) as f64) as usize
+        });
+        Some((self.map(cell)?, 1.0 / t1))
     }
 
     /// Spread of the set at `point`.
     pub fn spread_at(&self, point: DVec3) -> Option<Spread> {
         self.displacements_at(point)
             .map(|v| Spread::of(v.iter().map(|x| x.as_dvec3())))
+    }
+
+    /// The `S` clone vectors of `map` ([`expand`]) for this field's `S`.
+    pub fn expand(&self, map: [Vec3; 2]) -> Vec<Vec3> {
+        expand(map, self.clones)
     }
 
     /// Fraction of voxels crossed by a reference ray.
@@ -816,6 +1057,32 @@ mod tests {
 
     fn small() -> FieldSettings {
         FieldSettings::paper().scaled(0.25).unwrap()
+    }
+
+    #[test]
+    fn voxel_field_beyond_the_box_scales_the_exit_voxel() {
+        // Box z 0.03–2.13 m. Inside: the voxel's own set, factor 1. A point
+        // 5 m out on a sight line: the set of the voxel where the line
+        // leaves the far face, scaled by 5/2.133. A line that passes beside
+        // the box, a NaN: no set.
+        let eye = Eye::from_near_far(0.5, 1.3, 0.012).unwrap();
+        let pl = EyePlacement::default();
+        let f = precompute_field(&eye, &pl, None, &small()).unwrap();
+        let from = DVec3::new(0.0, 0.0, -0.003);
+        let inside = DVec3::new(0.1, -0.2, 1.0);
+        let (map, k) = f.displacement_along_sight(inside, from).unwrap();
+        assert_eq!((map, k), (f.map_at(inside).unwrap(), 1.0));
+        let far = DVec3::new(0.4, 0.2, 5.0);
+        let (map, k) = f.displacement_along_sight(far, from).unwrap();
+        let t = (f.counts().bounds().1.z - from.z) / (far.z - from.z);
+        assert!((k - 1.0 / t).abs() < 1e-12, "{k}");
+        let exit = from + (far - from) * t;
+        let exit_cell = f.counts().cell_of(exit - DVec3::Z * 1e-9).unwrap();
+        assert_eq!(map, f.map(exit_cell).unwrap());
+        // Beside the box (x beyond ±2.75 m all the way), behind the eye, NaN.
+        assert!(f.displacement_along_sight(DVec3::new(9.0, 0.0, 0.02), from).is_none());
+        assert!(f.displacement_along_sight(DVec3::NAN, from).is_none());
+        assert!(f.displacement_along_sight(DVec3::new(0.0, 0.0, 5.0), DVec3::NAN).is_none());
     }
 
     #[test]
@@ -882,7 +1149,7 @@ mod tests {
         // Corrected, the eye focuses at infinity: at 2 m ΔD = 0.5 D, disc
         // A·z·ΔD = 4 mm (a little less: the minus lens narrows the bundle).
         assert!((dc - 0.004).abs() < 0.0008, "{dc}");
-        assert!(corrected.vectors().iter().all(|v| v.is_finite()));
+        assert!(corrected.maps().iter().all(|v| v.is_finite()));
     }
 
     #[test]
@@ -910,7 +1177,7 @@ mod tests {
         // Zero pupil: every set is zero, nothing NaN.
         let eye0 = Eye::new(-2.0, 1.0, 0.0).unwrap();
         let f0 = precompute_field(&eye0, &pl, None, &small()).unwrap();
-        assert!(f0.vectors().iter().all(|v| *v == Vec3::ZERO));
+        assert!(f0.maps().iter().all(|v| *v == Vec3::ZERO));
     }
 
     #[test]
@@ -1054,18 +1321,14 @@ mod tests {
         let refusal = |edit: &dyn Fn(&mut Value)| parse(edit).unwrap_err().to_string();
         // Short storage: `displacements` would slice out of range.
         let short = refusal(&|v| {
-            v["vectors"].as_array_mut().unwrap().pop();
+            v["maps"].as_array_mut().unwrap().pop();
         });
-        assert!(
-            short.starts_with("field vectors (voxels × clones) = 95"),
-            "{short}"
-        );
-        // Zero clones, and more clones than the vectors hold.
+        assert!(short.starts_with("field maps (voxels × 2) = 47"), "{short}");
+        // Zero clones, and a vector that is not finite.
         assert!(refusal(&|v| v["clones"] = json!(0)).starts_with("field clones = 0"));
-        assert!(
-            refusal(&|v| v["clones"] = json!(5))
-                .starts_with("field vectors (voxels × clones) = 96")
-        );
+        // 1e39 overflows f32 to infinity.
+        let infinite = refusal(&|v| v["maps"][3] = json!([1.0, 1e39, 0.0]));
+        assert!(infinite.starts_with("field map vector (m)"), "{infinite}");
         // A grid with a zero dimension (underflow in `trilinear`) or whose
         // counts do not match its dims (panic in `get`): the grid's own errors.
         assert!(
@@ -1167,7 +1430,7 @@ mod tests {
             .with_fill_empty(true);
         let f = precompute_field(&eye, &pl, None, &in_focus).unwrap();
         assert_eq!((f.stats().sets_recorded, f.stats().voxels_filled), (0, 0));
-        assert!(f.stats().crossings > 0 && f.vectors().iter().all(|v| *v == Vec3::ZERO));
+        assert!(f.stats().crossings > 0 && f.maps().iter().all(|v| *v == Vec3::ZERO));
     }
 
     #[test]
@@ -1214,5 +1477,82 @@ mod tests {
             "{s:?}"
         );
         assert!(s.fill_passes >= 1 && f.coverage() > 0.0 && f.coverage() < 1.0);
+        // Both rules fill every voxel with a finite map, and agree on the
+        // crossed voxels: only the holes differ.
+        let layered = precompute_field(
+            &eye,
+            &pl,
+            Some(&lens),
+            &small().with_fill_rule(FillRule::LayeredMean),
+        )
+        .unwrap();
+        assert_eq!(layered.stats(), f.stats());
+        for cell in 0..f.counts().len() {
+            let c = f.counts().cell_at_index(cell).unwrap();
+            let (a, b) = (f.map(c).unwrap(), layered.map(c).unwrap());
+            assert!(a.iter().chain(&b).all(|v| v.is_finite()));
+            if *f.counts().get(c).unwrap() > 0 {
+                assert_eq!(a, b);
+            }
+        }
+    }
+
+    /// Breadth-first layers from the `true` voxels (6-neighbours), the
+    /// definition [`l1_sweeps`] must meet.
+    fn bfs_layers(dims: [usize; 3], seeds: &[bool]) -> Vec<u32> {
+        let mut layer = vec![u32::MAX; seeds.len()];
+        let mut queue: std::collections::VecDeque<usize> =
+            (0..seeds.len()).filter(|&i| seeds[i]).collect();
+        for &i in &queue {
+            layer[i] = 0;
+        }
+        let (sx, sy) = (dims[0], dims[0] * dims[1]);
+        while let Some(i) = queue.pop_front() {
+            let [x, y, z] = [i % sx, (i / sx) % dims[1], i / sy];
+            let next = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < dims[0]).then(|| i + 1),
+                (y > 0).then(|| i - sx),
+                (y + 1 < dims[1]).then(|| i + sx),
+                (z > 0).then(|| i - sy),
+                (z + 1 < dims[2]).then(|| i + sy),
+            ];
+            for j in next.into_iter().flatten() {
+                if layer[j] == u32::MAX {
+                    layer[j] = layer[i] + 1;
+                    queue.push_back(j);
+                }
+            }
+        }
+        layer
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn voxel_field_distance_transform_is_the_bfs(
+            nx in 1usize..7, ny in 1usize..7, nz in 1usize..7,
+            bits in proptest::collection::vec(0u8..8, 343),
+        ) {
+            // Random seeds (about one voxel in eight), at least one.
+            let dims = [nx, ny, nz];
+            let n = nx * ny * nz;
+            let mut seeds: Vec<bool> = bits[..n].iter().map(|&b| b == 0).collect();
+            seeds[n / 2] = true;
+            let counts = VoxelGrid::from_vec(
+                DVec3::ZERO, DVec3::ONE, dims,
+                seeds.iter().map(|&s| u32::from(s)).collect(),
+            ).unwrap();
+            let (dist, nearest) = nearest_crossed(&counts);
+            let want = bfs_layers(dims, &seeds);
+            proptest::prop_assert_eq!(&dist, &want);
+            // The nearest voxel carried along is crossed and at that distance.
+            for i in 0..n {
+                let j = nearest[i] as usize;
+                proptest::prop_assert!(seeds[j]);
+                let (a, b) = (counts.cell_at_index(i).unwrap(), counts.cell_at_index(j).unwrap());
+                let l1: usize = (0..3).map(|k| a[k].abs_diff(b[k])).sum();
+                proptest::prop_assert_eq!(l1 as u32, dist[i]);
+            }
+        }
     }
 }

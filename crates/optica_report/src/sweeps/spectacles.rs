@@ -237,7 +237,7 @@ fn stability(report: &mut Report) {
     let small = FieldSettings::paper()
         .scaled(0.25)
         .expect("a quarter of the paper's setting is within the caps");
-    let finite = |f: &DisplacementField| f.vectors().iter().all(|v| v.is_finite());
+    let finite = |f: &DisplacementField| f.maps().iter().all(|v| v.is_finite());
 
     // ±20 D.
     let plus20 = design_lens(
@@ -296,7 +296,7 @@ fn stability(report: &mut Report) {
     );
     let ok = f0
         .as_ref()
-        .is_ok_and(|f| f.vectors().iter().all(|v| *v == Vec3::ZERO))
+        .is_ok_and(|f| f.maps().iter().all(|v| *v == Vec3::ZERO))
         && r0.as_ref().is_ok_and(|r| r.spread.rms_radius_m == 0.0);
     report.case(
         "zero pupil",

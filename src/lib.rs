@@ -13,11 +13,11 @@
 //! | `compound_eye` | [`compound_eye`]: a material for insect compound eyes (Sagawa 2014), `CompoundEyePlugin` |
 //! | `dome` | [`dome`]: a fisheye dome camera, equidistant projection per vertex with refinement (Johjima and Fujimura) or a resampled cube map, `DomePlugin` |
 //! | `lens_flare` | [`lens_flare`]: physically based lens flare (Hullin et al. 2011), `LensFlarePlugin`; work in progress (ghosts traced and drawn on the GPU; no starburst, occlusion or blade shape yet) |
+//! | `spectacles` | [`spectacles`]: see through a prescription (Kakimoto et al.): the eye's defocus by clone rendering, corrected through the lens's voxel field, `SpectaclesPlugin` |
 //! | `egui` | settings panels (bevy_egui) of the plugins that are on |
 //! | `window` | opens a real window in the examples (winit + X11); without it, or without a display, they render to PNG |
 //!
-//! The other plugins (`spectacles`, `foveated_lod`) join this table as
-//! they land.
+//! The foveated-LOD plugin joins this table when it lands.
 //!
 //! ```
 //! use optica::optics::glass::Glass;
@@ -35,6 +35,8 @@ pub use optica_compound_eye as compound_eye;
 pub use optica_dome as dome;
 #[cfg(feature = "lens_flare")]
 pub use optica_lens_flare as lens_flare;
+#[cfg(feature = "spectacles")]
+pub use optica_spectacles as spectacles;
 
 /// The usual imports: the optics and each enabled plugin's plugin and
 /// user-facing types.
@@ -49,4 +51,6 @@ pub mod prelude {
     pub use optica_dome::{DomeCamera, DomePlugin};
     #[cfg(feature = "lens_flare")]
     pub use optica_lens_flare::{FlareSource, LensFlare, LensFlarePlugin};
+    #[cfg(feature = "spectacles")]
+    pub use optica_spectacles::{CloneDefocus, Eye, Spectacles, SpectaclesPlugin};
 }

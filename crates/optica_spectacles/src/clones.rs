@@ -1,0 +1,599 @@
+//! The clones (paper §4.2) in the main world: for the eye camera, a clone
+//! camera that draws all `S` clones of the scene into one atlas of `S`
+//! tiles in a single pass, and for every `StandardMaterial` mesh `S` twins
+//! (children, tagged with their clone number) carrying a [`CloneMaterial`]
+//! copy of the mesh's material.
+//!
+//! One camera draws every clone, so the clones share that view's light
+//! culling and shadow maps, and Bevy culls, batches and instances them like
+//! any mesh (the twins of a mesh share one material: they are instanced).
+//! The eye camera itself then draws nothing but the clones' average (see
+//! `render`), so the scene is not drawn a further time, sharp.
+
+use bevy::asset::RenderAssetUsages;
+use bevy::camera::visibility::RenderLayers;
+use bevy::camera::{CameraProjection, Hdr, RenderTarget, SubCameraView};
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::light::NotShadowCaster;
+use bevy::light::cluster::ClusterConfig;
+use bevy::math::Vec3A;
+use bevy::mesh::MeshTag;
+use bevy::pbr::{ExtendedMaterial, MaterialExtension};
+use bevy::platform::collections::HashMap;
+use bevy::prelude::*;
+use bevy::render::render_resource::{
+    AsBindGroup, RenderPipelineDescriptor, SpecializedMeshPipelineError, TextureFormat,
+    TextureUsages,
+};
+use bevy::render::storage::ShaderBuffer;
+use bevy::render::view::Msaa;
+use bevy::mesh::MeshVertexBufferLayoutRef;
+use bevy::pbr::{MaterialExtensionKey, MaterialExtensionPipeline};
+use bevy::shader::ShaderRef;
+use bevy::camera::primitives::Frustum;
+use bevy::render::extract_component::ExtractComponent;
+
+use crate::precompute::{CloneUniform, EyeOptics};
+use crate::settings::{CloneDefocus, CloneShading};
+
+/// The render layer the clones live on: only clone cameras see it (and
+/// every light is given it, so the clones are lit).
+pub const CLONE_LAYER: usize = 28;
+
+/// A `StandardMaterial` drawn as a clone: the base material's own look,
+/// every vertex moved by its clone's displacement vector.
+pub type CloneMaterial = ExtendedMaterial<StandardMaterial, CloneExtension>;
+
+/// The clone part of a [`CloneMaterial`]: the eye's numbers and the field.
+#[derive(Asset, AsBindGroup, Reflect, Debug, Clone, Default)]
+#[bind_group_data(CloneKey)]
+pub struct CloneExtension {
+    /// The eye, the field's grid and the atlas layout.
+    #[uniform(100)]
+    pub params: CloneUniform,
+    /// The field's vectors (`cells × S × 3` floats), or a stand-in when
+    /// the eye is naked.
+    #[storage(101, read_only)]
+    pub field: Handle<ShaderBuffer>,
+}
+
+/// What the clone pipelines are specialised on: a reprojected clone's
+/// fragment shader only records where its surface lies (no shading at
+/// all: a CPU rasteriser pays for both sides of a branch).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CloneKey {
+    reprojected: bool,
+}
+
+impl From<&CloneExtension> for CloneKey {
+    fn from(e: &CloneExtension) -> Self {
+        Self {
+            reprojected: e.params.shading == 1,
+        }
+    }
+}
+
+impl MaterialExtension for CloneExtension {
+    fn vertex_shader() -> ShaderRef {
+        crate::CLONE_SHADER.into()
+    }
+
+    fn fragment_shader() -> ShaderRef {
+        crate::CLONE_SHADER.into()
+    }
+
+    // Clones are drawn by the clone camera alone, which has no prepass;
+    // their originals cast the shadows.
+    fn enable_prepass() -> bool {
+        false
+    }
+
+    fn enable_shadows() -> bool {
+        false
+    }
+
+    fn specialize(
+        _pipeline: &MaterialExtensionPipeline,
+        descriptor: &mut RenderPipelineDescriptor,
+        _layout: &MeshVertexBufferLayoutRef,
+        key: MaterialExtensionKey<Self>,
+    ) -> Result<(), SpecializedMeshPipelineError> {
+        // The fragment stage reads the clone number (the mesh tag) to cut
+        // each clone at its tile.
+        let def = "VERTEX_OUTPUT_INSTANCE_INDEX";
+        descriptor.vertex.shader_defs.push(def.into());
+        if let Some(fragment) = descriptor.fragment.as_mut() {
+            fragment.shader_defs.push(def.into());
+            if key.bind_group_data.reprojected {
+                fragment.shader_defs.push("REPROJECTED".into());
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The perspective of the eye camera, kept whatever the size of the atlas
+/// the clone camera draws into: each tile is a whole view.
+#[derive(Clone, Debug)]
+pub(crate) struct TileProjection(pub PerspectiveProjection);
+
+impl CameraProjection for TileProjection {
+    fn get_clip_from_view(&self) -> Mat4 {
+        self.0.get_clip_from_view()
+    }
+
+    fn get_clip_from_view_for_sub(&self, sub_view: &SubCameraView) -> Mat4 {
+        self.0.get_clip_from_view_for_sub(sub_view)
+    }
+
+    // The atlas's aspect is not the view's: keep the eye's.
+    fn update(&mut self, _width: f32, _height: f32) {}
+
+    fn far(&self) -> f32 {
+        self.0.far()
+    }
+
+    fn get_frustum_corners(&self, z_near: f32, z_far: f32) -> [Vec3A; 8] {
+        self.0.get_frustum_corners(z_near, z_far)
+    }
+
+    fn compute_frustum(&self, camera_transform: &GlobalTransform) -> Frustum {
+        self.0.compute_frustum(camera_transform)
+    }
+}
+
+/// On an eye camera while its clones are drawn: the clone camera, the
+/// atlas, its layout, and the layers the eye camera had.
+#[derive(Component, Clone, Debug)]
+pub struct CloneRig {
+    /// The camera that draws the clones.
+    pub camera: Entity,
+    /// The atlas: `tiles.x × tiles.y` tiles of `tile` pixels, linear HDR.
+    pub atlas: Handle<Image>,
+    /// Tiles across and down.
+    pub tiles: UVec2,
+    /// One tile's size (px): the eye camera's view.
+    pub tile: UVec2,
+    /// `S`.
+    pub clones: u32,
+    /// How the clones are shaded.
+    pub shading: CloneShading,
+    /// The perspective the clone camera draws with.
+    perspective: PerspectiveProjection,
+    /// The eye camera's own layers, given back when the clones stop.
+    saved_layers: Option<RenderLayers>,
+}
+
+/// The clone camera's clear colour: the eye camera's when the clones are
+/// shaded, transparent when they only record where their surface lies (a
+/// zero alpha marks "no geometry" for the resolve).
+fn clone_clear(shading: CloneShading, eye: &ClearColorConfig) -> ClearColorConfig {
+    match shading {
+        CloneShading::Full => eye.clone(),
+        CloneShading::Reprojected => ClearColorConfig::Custom(Color::NONE),
+    }
+}
+
+/// Whether two clear colours are the same.
+fn same_clear(a: &ClearColorConfig, b: &ClearColorConfig) -> bool {
+    match (a, b) {
+        (ClearColorConfig::Default, ClearColorConfig::Default)
+        | (ClearColorConfig::None, ClearColorConfig::None) => true,
+        (ClearColorConfig::Custom(x), ClearColorConfig::Custom(y)) => x == y,
+        _ => false,
+    }
+}
+
+/// Whether two perspectives draw the same view.
+fn same_perspective(a: &PerspectiveProjection, b: &PerspectiveProjection) -> bool {
+    a.fov == b.fov
+        && a.aspect_ratio == b.aspect_ratio
+        && a.near == b.near
+        && a.far == b.far
+        && a.near_clip_plane == b.near_clip_plane
+}
+
+/// What the eye camera's resolve pass reads (extracted to the render world).
+#[derive(Component, Clone, Debug, PartialEq, ExtractComponent)]
+pub struct CloneResolve {
+    /// The atlas.
+    pub atlas: AssetId<Image>,
+    /// Tiles across and down.
+    pub tiles: UVec2,
+    /// `S`.
+    pub clones: u32,
+    /// How the clones were shaded: the atlas holds colours, or where each
+    /// clone's surface lies in the sharp view.
+    pub shading: crate::CloneShading,
+    /// The colour a clone shows where it has no geometry (linear RGB).
+    pub background: Vec4,
+}
+
+/// On a clone camera: the eye camera it draws for.
+#[derive(Component, Clone, Copy, Debug)]
+pub struct CloneCameraOf(pub Entity);
+
+/// On a twin: the mesh entity it clones.
+#[derive(Component, Clone, Copy, Debug)]
+pub struct CloneOf(pub Entity);
+
+/// On a mesh entity that has twins: them, in clone order.
+#[derive(Component, Clone, Debug, Default)]
+pub struct CloneTwins(pub Vec<Entity>);
+
+/// The tiles of an atlas of `clones` tiles: as square as can be, wider than
+/// tall (`cols = ⌈√S⌉`, `rows = ⌈S/cols⌉`).
+pub fn tile_layout(clones: u32) -> UVec2 {
+    let s = clones.max(1);
+    let cols = (s as f32).sqrt().ceil() as u32;
+    UVec2::new(cols, s.div_ceil(cols))
+}
+
+/// The clone materials: one per original material, all sharing the eye's
+/// clone part.
+#[derive(Resource, Default)]
+pub(crate) struct CloneMaterials {
+    by_base: HashMap<AssetId<StandardMaterial>, Handle<CloneMaterial>>,
+    extension: CloneExtension,
+    /// A one-vector stand-in for the field of a naked eye.
+    empty_field: Option<Handle<ShaderBuffer>>,
+}
+
+/// The eye camera whose clones are drawn: the first with an enabled
+/// [`CloneDefocus`] and optics.
+type EyeCamera<'a> = (
+    Entity,
+    &'a Camera,
+    &'a Camera3d,
+    &'a CloneDefocus,
+    &'a EyeOptics,
+    &'a Projection,
+    Option<&'a RenderLayers>,
+    Option<&'a CloneRig>,
+    Option<&'a CloneResolve>,
+);
+
+/// Creates, resizes or removes the clone camera and atlas of the eye
+/// camera, and keeps the clone materials' numbers up to date.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sync_rig(
+    mut commands: Commands,
+    eyes: Query<EyeCamera>,
+    rigs: Query<(Entity, &CloneRig)>,
+    mut clone_cameras: Query<
+        (&mut Projection, &mut Camera),
+        (With<CloneCameraOf>, Without<CloneDefocus>),
+    >,
+    clear: Res<ClearColor>,
+    mut images: ResMut<Assets<Image>>,
+    mut buffers: ResMut<Assets<ShaderBuffer>>,
+    mut materials: ResMut<CloneMaterials>,
+    mut clone_assets: ResMut<Assets<CloneMaterial>>,
+) {
+    let active = eyes
+        .iter()
+        .find(|(_, camera, _, defocus, ..)| camera.is_active && defocus.enabled);
+    // Stop the rigs of every other camera.
+    for (entity, rig) in &rigs {
+        if active.is_some_and(|a| a.0 == entity) {
+            continue;
+        }
+        stop_rig(&mut commands, entity, rig);
+    }
+    let Some((entity, camera, camera3d, defocus, optics, projection, layers, rig, resolve)) = active
+    else {
+        return;
+    };
+    let shading = defocus.shading;
+    let Some(tile) = camera.physical_viewport_size().filter(|s| s.x > 0 && s.y > 0) else {
+        return;
+    };
+    let Projection::Perspective(perspective) = projection else {
+        bevy::log::warn_once!("optica_spectacles: an eye camera needs a perspective projection; its view stays sharp");
+        return;
+    };
+    let clones = defocus.clones.clamp(1, crate::settings::MAX_CLONES);
+    let tiles = tile_layout(clones);
+    let mut tile_projection = perspective.clone();
+    tile_projection.aspect_ratio = tile.x as f32 / tile.y as f32;
+
+    // The clone part every clone material shares.
+    let empty = materials
+        .empty_field
+        .get_or_insert_with(|| {
+            buffers.add(ShaderBuffer::new(&[0u8; 12], RenderAssetUsages::RENDER_WORLD))
+        })
+        .clone();
+    let mut extension = CloneExtension {
+        params: optics.uniform,
+        field: optics.field.as_ref().map_or(empty, |(h, _)| h.clone()),
+    };
+    extension.params.tile_cols = tiles.x;
+    extension.params.tile_rows = tiles.y;
+    if extension.params != materials.extension.params || extension.field != materials.extension.field {
+        materials.extension = extension.clone();
+        for handle in materials.by_base.values() {
+            if let Some(mut m) = clone_assets.get_mut(handle) {
+                m.extension = extension.clone();
+            }
+        }
+    }
+
+    // What the resolve reads: kept up to date with the rig (below) and the
+    // eye's clear colour.
+    let background = match &camera.clear_color {
+        ClearColorConfig::Custom(c) => *c,
+        _ => clear.0,
+    }
+    .to_linear()
+    .to_vec4();
+    let wanted = |atlas: AssetId<Image>| CloneResolve {
+        atlas,
+        tiles,
+        clones,
+        shading,
+        background,
+    };
+
+    match rig {
+        Some(rig)
+            if rig.tiles == tiles
+                && rig.tile == tile
+                && rig.clones == clones
+                && rig.shading == shading =>
+        {
+            // Keep the clone camera in step with the eye's perspective,
+            // clear colour and order, touching it only when they change.
+            if let Ok((mut p, mut c)) = clone_cameras.get_mut(rig.camera) {
+                if !same_perspective(&rig.perspective, &tile_projection) {
+                    *p = Projection::custom(TileProjection(tile_projection.clone()));
+                    commands.entity(entity).insert(CloneRig {
+                        perspective: tile_projection,
+                        ..rig.clone()
+                    });
+                }
+                let clear = clone_clear(shading, &camera.clear_color);
+                if !same_clear(&c.clear_color, &clear) || c.order != camera.order - 1 {
+                    c.clear_color = clear;
+                    c.order = camera.order - 1;
+                }
+            }
+            let want = wanted(rig.atlas.id());
+            if resolve.is_none_or(|r| *r != want) {
+                commands.entity(entity).insert(want);
+            }
+        }
+        _ => {
+            let saved_layers = match rig {
+                Some(old) => {
+                    commands.entity(old.camera).despawn();
+                    old.saved_layers.clone()
+                }
+                None => layers.cloned(),
+            };
+            let size = tile * tiles;
+            let mut atlas = Image::new_target_texture(size.x, size.y, TextureFormat::Rgba16Float, None);
+            atlas.asset_usage = RenderAssetUsages::RENDER_WORLD;
+            atlas.texture_descriptor.usage |= TextureUsages::TEXTURE_BINDING;
+            let atlas = images.add(atlas);
+            let clone_camera = commands
+                .spawn((
+                    Camera3d::default(),
+                    Camera {
+                        order: camera.order - 1,
+                        clear_color: clone_clear(shading, &camera.clear_color),
+                        ..default()
+                    },
+                    RenderTarget::Image(atlas.clone().into()),
+                    Hdr,
+                    Tonemapping::None,
+                    Msaa::Off,
+                    // Clusters assume one view per target: one cluster serves every tile.
+                    ClusterConfig::Single,
+                    Projection::custom(TileProjection(tile_projection.clone())),
+                    RenderLayers::layer(CLONE_LAYER),
+                    CloneCameraOf(entity),
+                    Transform::IDENTITY,
+                    ChildOf(entity),
+                ))
+                .id();
+            commands.entity(entity).insert((
+                CloneRig {
+                    camera: clone_camera,
+                    atlas: atlas.clone(),
+                    tiles,
+                    tile,
+                    clones,
+                    shading,
+                    perspective: tile_projection,
+                    saved_layers: saved_layers.clone(),
+                },
+                wanted(atlas.id()),
+                Hdr,
+            ));
+            match shading {
+                // The eye camera draws only the clones' mean.
+                CloneShading::Full => {
+                    commands.entity(entity).insert(RenderLayers::none());
+                }
+                // The eye camera draws the scene sharp, and the resolve
+                // reads its depth.
+                CloneShading::Reprojected => {
+                    let mut e = commands.entity(entity);
+                    match saved_layers {
+                        Some(l) => e.insert(l),
+                        None => e.remove::<RenderLayers>(),
+                    };
+                    let usages = TextureUsages::from(camera3d.depth_texture_usages);
+                    if !usages.contains(TextureUsages::TEXTURE_BINDING) {
+                        e.insert(Camera3d {
+                            depth_texture_usages: (usages | TextureUsages::TEXTURE_BINDING).into(),
+                            ..camera3d.clone()
+                        });
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Removes a rig: its camera, the resolve, and gives the eye camera its
+/// layers back.
+fn stop_rig(commands: &mut Commands, eye: Entity, rig: &CloneRig) {
+    commands.entity(rig.camera).despawn();
+    let mut e = commands.entity(eye);
+    e.remove::<(CloneRig, CloneResolve)>();
+    match &rig.saved_layers {
+        Some(layers) => {
+            e.insert(layers.clone());
+        }
+        None => {
+            e.remove::<RenderLayers>();
+        }
+    }
+}
+
+/// Removes the rig of an eye camera whose `Eye` was removed.
+pub(crate) fn stop_removed(
+    mut commands: Commands,
+    mut removed: RemovedComponents<crate::Eye>,
+    rigs: Query<&CloneRig>,
+) {
+    for entity in removed.read() {
+        if let Ok(rig) = rigs.get(entity) {
+            stop_rig(&mut commands, entity, rig);
+        }
+    }
+}
+
+/// Gives every light the clone layer, so that the clones are lit.
+pub(crate) fn light_the_clones(
+    mut commands: Commands,
+    lights: Query<
+        (Entity, Option<&RenderLayers>),
+        Or<(With<DirectionalLight>, With<PointLight>, With<SpotLight>)>,
+    >,
+) {
+    for (entity, layers) in &lights {
+        let layers = layers.cloned().unwrap_or_default();
+        if !layers.intersects(&RenderLayers::layer(CLONE_LAYER)) {
+            commands.entity(entity).insert(layers.with(CLONE_LAYER));
+        }
+    }
+}
+
+/// Keeps `S` twins under every `StandardMaterial` mesh the eye camera
+/// sees, each with its clone number as mesh tag and the clone material of
+/// the mesh's material; removes them when no rig draws clones.
+#[allow(clippy::type_complexity)]
+pub(crate) fn sync_twins(
+    mut commands: Commands,
+    rigs: Query<&CloneRig>,
+    meshes: Query<
+        (
+            Entity,
+            &Mesh3d,
+            &MeshMaterial3d<StandardMaterial>,
+            Option<&RenderLayers>,
+            Option<&CloneTwins>,
+        ),
+        Without<CloneOf>,
+    >,
+    mut twins: Query<(&mut Mesh3d, &mut MeshMaterial3d<CloneMaterial>), With<CloneOf>>,
+    mut materials: ResMut<CloneMaterials>,
+    bases: Res<Assets<StandardMaterial>>,
+    mut clone_assets: ResMut<Assets<CloneMaterial>>,
+) {
+    let Some(rig) = rigs.iter().next() else {
+        // No clones drawn: no twins.
+        for (entity, .., twins_of) in &meshes {
+            if let Some(t) = twins_of {
+                for &twin in &t.0 {
+                    commands.entity(twin).despawn();
+                }
+                commands.entity(entity).remove::<CloneTwins>();
+            }
+        }
+        return;
+    };
+    let seen = rig.saved_layers.clone().unwrap_or_default();
+    for (entity, mesh, base, layers, twins_of) in &meshes {
+        let visible = layers.cloned().unwrap_or_default().intersects(&seen);
+        let wanted = if visible { rig.clones as usize } else { 0 };
+        let material = if visible {
+            let extension = materials.extension.clone();
+            let handle = materials
+                .by_base
+                .entry(base.id())
+                .or_insert_with(|| {
+                    clone_assets.add(CloneMaterial {
+                        base: bases.get(&base.0).cloned().unwrap_or_default(),
+                        extension,
+                    })
+                })
+                .clone();
+            Some(handle)
+        } else {
+            None
+        };
+        let have = twins_of.map_or(&[][..], |t| &t.0[..]);
+        if have.len() == wanted {
+            // Follow the original's mesh and material.
+            for &twin in have {
+                if let (Ok((mut m, mut mat)), Some(material)) = (twins.get_mut(twin), &material) {
+                    if m.0 != mesh.0 {
+                        m.0 = mesh.0.clone();
+                    }
+                    if mat.0 != *material {
+                        mat.0 = material.clone();
+                    }
+                }
+            }
+            continue;
+        }
+        for &twin in have {
+            commands.entity(twin).despawn();
+        }
+        let Some(material) = material else {
+            commands.entity(entity).remove::<CloneTwins>();
+            continue;
+        };
+        let new: Vec<Entity> = (0..wanted as u32)
+            .map(|k| {
+                commands
+                    .spawn((
+                        Mesh3d(mesh.0.clone()),
+                        MeshMaterial3d(material.clone()),
+                        MeshTag(k),
+                        RenderLayers::layer(CLONE_LAYER),
+                        NotShadowCaster,
+                        CloneOf(entity),
+                        Transform::IDENTITY,
+                        ChildOf(entity),
+                    ))
+                    .id()
+            })
+            .collect();
+        commands.entity(entity).insert(CloneTwins(new));
+    }
+}
+
+/// Copies an edited `StandardMaterial` into its clone material.
+pub(crate) fn follow_base_materials(
+    mut events: MessageReader<AssetEvent<StandardMaterial>>,
+    bases: Res<Assets<StandardMaterial>>,
+    materials: Res<CloneMaterials>,
+    mut clone_assets: ResMut<Assets<CloneMaterial>>,
+) {
+    for event in events.read() {
+        let (AssetEvent::Added { id } | AssetEvent::Modified { id }) = event else {
+            continue;
+        };
+        if let (Some(handle), Some(base)) = (materials.by_base.get(id), bases.get(*id))
+            && let Some(mut m) = clone_assets.get_mut(handle)
+        {
+            m.base = base.clone();
+        }
+    }
+}

@@ -7,3 +7,4 @@
 mod compound_eye;
 mod dome;
 mod lens_flare;
+mod spectacles;

@@ -72,13 +72,31 @@ fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
             continue;
         }
         let from_px = (vec2<f32>(here) + 0.5 + g.xy) * view / tile;
-        if any(from_px < vec2<f32>(0.0)) || any(from_px >= view) {
-            continue;
+        // The sharp pixels round that point (its bilinear footprint): the
+        // ones that show the same surface, weighted bilinearly. (A point
+        // near a silhouette may lie past the centres of the pixels the
+        // sharp view drew the surface in, so the nearest pixel alone
+        // would lose it.)
+        let base = floor(from_px - 0.5);
+        let f = from_px - 0.5 - base;
+        var c = vec3<f32>(0.0);
+        var w = 0.0;
+        for (var j = 0u; j < 4u; j++) {
+            let o = vec2<f32>(f32(j & 1u), f32(j >> 1u));
+            let ip = base + o;
+            if any(ip < vec2<f32>(0.0)) || any(ip >= view) {
+                continue;
+            }
+            let d = textureLoad(sharp_depth, vec2<i32>(ip), 0);
+            if abs(d - g.z) <= params.depth_tolerance * g.z {
+                let b = mix(1.0 - f, f, o);
+                let wb = max(b.x * b.y, 1e-4);
+                c += wb * textureLoad(sharp, vec2<i32>(ip), 0).rgb;
+                w += wb;
+            }
         }
-        let ip = vec2<i32>(from_px);
-        let d = textureLoad(sharp_depth, ip, 0);
-        if abs(d - g.z) <= params.depth_tolerance * g.z {
-            sum += textureLoad(sharp, ip, 0).rgb;
+        if w > 0.0 {
+            sum += c / w;
             weight += 1.0;
         }
     }

@@ -1,0 +1,155 @@
+//! Leave out what a scene does not need: with the plugin added but no
+//! `Eye`, no extra pipeline is built, no clone camera, twin or field
+//! exists; with an eye the clone and resolve pipelines compile (wgpu's
+//! noop backend), for both shadings and with MSAA on the eye camera.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use bevy::prelude::*;
+use bevy::render::view::Msaa;
+use optica_harness::{Adapter, Headless, PipelineReport};
+use optica_spectacles::{
+    CloneCameraOf, CloneDefocus, CloneOf, CloneShading, Eye, EyeOptics, Spectacles,
+};
+
+use super::{Target, scene};
+
+fn pipelines(setup: impl FnOnce(&mut App)) -> PipelineReport {
+    Headless::new(32, 32)
+        .adapter(Adapter::Noop)
+        .frames(3)
+        .check_pipelines(setup)
+        .expect("pipelines compile")
+}
+
+fn targets() -> Vec<Target> {
+    vec![Target::checker(2.0, 1.0, 4)]
+}
+
+/// The same scene without the plugin.
+fn without_plugin(app: &mut App) {
+    app.add_systems(
+        Startup,
+        |mut commands: Commands,
+         mut meshes: ResMut<Assets<Mesh>>,
+         mut materials: ResMut<Assets<StandardMaterial>>| {
+            commands.spawn((
+                Mesh3d(meshes.add(Plane3d::new(Vec3::Z, Vec2::splat(0.5)).mesh().subdivisions(15))),
+                MeshMaterial3d(materials.add(StandardMaterial {
+                    unlit: true,
+                    ..default()
+                })),
+                Transform::from_xyz(0.0, 0.0, -2.0),
+            ));
+            commands.spawn((Camera3d::default(), Msaa::Off));
+        },
+    );
+}
+
+/// Counts, every frame, the entities the plugin would make.
+fn count_plugin_entities(app: &mut App, seen: Arc<AtomicUsize>) {
+    app.add_systems(
+        Last,
+        move |rigs: Query<(), With<CloneCameraOf>>,
+              twins: Query<(), With<CloneOf>>,
+              optics: Query<(), With<EyeOptics>>| {
+            let n = rigs.iter().count() + twins.iter().count() + optics.iter().count();
+            seen.fetch_max(n, Ordering::Relaxed);
+        },
+    );
+}
+
+#[test]
+fn no_eye_no_pipeline_no_clone_and_the_passes_compile_on_noop() {
+    let plain = pipelines(without_plugin);
+    let seen = Arc::new(AtomicUsize::new(0));
+    let plugin_no_eye = pipelines({
+        let seen = seen.clone();
+        move |app| {
+            scene(targets(), None, None, 0.8)(app);
+            count_plugin_entities(app, seen);
+        }
+    });
+    assert_eq!(
+        plugin_no_eye.ok, plain.ok,
+        "{:?}\n{:?}",
+        plugin_no_eye.labels, plain.labels
+    );
+    assert_eq!(seen.load(Ordering::Relaxed), 0, "clone cameras, twins or optics without an eye");
+
+    for shading in [CloneShading::Reprojected, CloneShading::Full] {
+        for spectacles in [None, Some(Spectacles::sphere(-2.0))] {
+            let seen = Arc::new(AtomicUsize::new(0));
+            let with_eye = pipelines({
+                let seen = seen.clone();
+                let spectacles = spectacles.clone();
+                move |app| {
+                    let defocus = CloneDefocus {
+                        clones: 4,
+                        shading,
+                        ..default()
+                    };
+                    scene(targets(), Some((Eye::default(), defocus)), spectacles, 0.8)(app);
+                    count_plugin_entities(app, seen);
+                }
+            });
+            eprintln!(
+                "{shading:?}, glasses {}: {} pipelines ({} without the eye)",
+                spectacles.is_some(),
+                with_eye.ok,
+                plain.ok
+            );
+            assert!(
+                with_eye.labels.iter().any(|l| l == "optica_spectacles_resolve"),
+                "{:?}",
+                with_eye.labels
+            );
+            assert!(with_eye.ok > plain.ok + 1, "{:?}", with_eye.labels);
+            // One clone camera, four twins, the eye's optics.
+            assert_eq!(seen.load(Ordering::Relaxed), 6);
+        }
+    }
+}
+
+/// The reprojection resolve reads an MSAA eye camera's depth: the view is
+/// blurred as without MSAA (SSIM ≥ 0.9 between the two; against the sharp
+/// view under 0.8).
+#[test]
+fn reprojection_works_with_msaa() {
+    let render = |eye: bool, msaa: Msaa| {
+        Headless::new(64, 64)
+            .frames(4)
+            .render(move |app: &mut App| {
+                scene(
+                    vec![Target::checker(2.0, 1.2, 6)],
+                    eye.then(|| {
+                        (
+                            Eye {
+                                refractive_error_d: -3.0,
+                                pupil: optica_spectacles::Pupil::Diameter { mm: 12.0 },
+                                ..default()
+                            },
+                            CloneDefocus::default(),
+                        )
+                    }),
+                    None,
+                    0.8,
+                )(app);
+                app.add_systems(Update, move |mut cameras: Query<&mut Msaa, Without<CloneCameraOf>>| {
+                    for mut m in &mut cameras {
+                        *m = msaa;
+                    }
+                });
+            })
+            .expect("render")
+            .to_rgba8()
+    };
+    let sharp = render(false, Msaa::Sample4);
+    let plain = render(true, Msaa::Off);
+    let msaa = render(true, Msaa::Sample4);
+    let same = optica_harness::metrics::ssim(&plain, &msaa).unwrap();
+    let blurred = optica_harness::metrics::ssim(&sharp, &msaa).unwrap();
+    eprintln!("MSAA eye camera: SSIM against no MSAA {same:.3}, against the sharp view {blurred:.3}");
+    assert!(same >= 0.9 && blurred < 0.8, "{same} {blurred}");
+}

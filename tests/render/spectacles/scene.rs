@@ -1,0 +1,177 @@
+//! The test scenes: unlit targets (so that a pixel is the texture's colour,
+//! whatever the lights) at known distances straight ahead of an eye camera.
+
+use bevy::asset::RenderAssetUsages;
+use bevy::image::{ImageSampler, ImageSamplerDescriptor};
+use bevy::prelude::*;
+use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
+use bevy::render::view::Msaa;
+use optica_spectacles::{CloneDefocus, Eye, Spectacles, SpectaclesPlugin};
+
+/// A square `n`×`n` checkerboard of `cells` cells, black and white.
+pub fn checker(n: u32, cells: u32) -> Image {
+    let mut data = Vec::with_capacity((n * n * 4) as usize);
+    for y in 0..n {
+        for x in 0..n {
+            let on = ((x * cells / n) + (y * cells / n)) % 2 == 0;
+            let v = if on { 255 } else { 0 };
+            data.extend_from_slice(&[v, v, v, 255]);
+        }
+    }
+    let mut image = Image::new(
+        Extent3d {
+            width: n,
+            height: n,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        data,
+        TextureFormat::Rgba8UnormSrgb,
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor::nearest());
+    image
+}
+
+/// A soft white spot on black, a Gaussian of `sigma` (a fraction of the
+/// image's side), bilinearly filtered: its moments do not depend on how
+/// the pixel grid falls on it.
+pub fn gaussian_spot(n: u32, sigma: f32) -> Image {
+    let mut data = Vec::with_capacity((n * n * 4) as usize);
+    for y in 0..n {
+        for x in 0..n {
+            let u = (x as f32 + 0.5) / n as f32 - 0.5;
+            let v = (y as f32 + 0.5) / n as f32 - 0.5;
+            let g = (-(u * u + v * v) / (2.0 * sigma * sigma)).exp();
+            let c = (g * 255.0).round() as u8;
+            data.extend_from_slice(&[c, c, c, 255]);
+        }
+    }
+    Image::new(
+        Extent3d {
+            width: n,
+            height: n,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        data,
+        // Linear, so that the moments are the image's.
+        TextureFormat::Rgba8Unorm,
+        RenderAssetUsages::RENDER_WORLD,
+    )
+}
+
+/// A target: a square of `size` metres, `distance` metres straight ahead
+/// of the camera at the origin (looking down −Z), facing it, showing a
+/// checkerboard of `cells` cells (or plain white with `cells = 0`),
+/// split into `split`² quads so that its blur varies per vertex.
+#[derive(Clone, Copy, Debug)]
+pub struct Target {
+    pub distance: f32,
+    pub size: f32,
+    pub offset: Vec2,
+    pub cells: u32,
+    pub split: u32,
+    /// A Gaussian spot instead of a checkerboard.
+    pub spot: bool,
+}
+
+impl Target {
+    pub fn checker(distance: f32, size: f32, cells: u32) -> Self {
+        Self {
+            distance,
+            size,
+            offset: Vec2::ZERO,
+            cells,
+            split: 16,
+            spot: false,
+        }
+    }
+
+    /// A Gaussian spot of `sigma` metres at `distance`, on a black square
+    /// of eight sigma.
+    pub fn spot(distance: f32, sigma: f32) -> Self {
+        Self {
+            split: 1,
+            spot: true,
+            ..Self::checker(distance, 8.0 * sigma, 0)
+        }
+    }
+}
+
+/// A plane mesh of `split`² quads facing +Z.
+fn split_plane(size: f32, split: u32) -> Mesh {
+    Plane3d::new(Vec3::Z, Vec2::splat(0.5 * size))
+        .mesh()
+        .subdivisions(split.saturating_sub(1))
+        .build()
+}
+
+/// A scene of unlit targets seen by a camera at the origin with `eye` (and
+/// `spectacles`); `None` for a plain camera. Vertical field of view `fov`
+/// (rad), MSAA off.
+pub fn scene(
+    targets: Vec<Target>,
+    eye: Option<(Eye, CloneDefocus)>,
+    spectacles: Option<Spectacles>,
+    fov: f32,
+) -> impl FnOnce(&mut App) {
+    scene_with_background(targets, eye, spectacles, fov, Color::srgb(0.5, 0.5, 0.5))
+}
+
+/// [`scene`] with the clear colour `background`.
+pub fn scene_with_background(
+    targets: Vec<Target>,
+    eye: Option<(Eye, CloneDefocus)>,
+    spectacles: Option<Spectacles>,
+    fov: f32,
+    background: Color,
+) -> impl FnOnce(&mut App) {
+    move |app: &mut App| {
+        app.add_plugins(SpectaclesPlugin);
+        app.add_systems(
+            Startup,
+            move |mut commands: Commands,
+                  mut meshes: ResMut<Assets<Mesh>>,
+                  mut images: ResMut<Assets<Image>>,
+                  mut materials: ResMut<Assets<StandardMaterial>>| {
+                for t in &targets {
+                    let texture = if t.spot {
+                        Some(images.add(gaussian_spot(64, 0.125)))
+                    } else {
+                        (t.cells > 0).then(|| images.add(checker(256, t.cells)))
+                    };
+                    let material = materials.add(StandardMaterial {
+                        base_color_texture: texture,
+                        unlit: true,
+                        ..default()
+                    });
+                    commands.spawn((
+                        Mesh3d(meshes.add(split_plane(t.size, t.split))),
+                        MeshMaterial3d(material),
+                        Transform::from_xyz(t.offset.x, t.offset.y, -t.distance),
+                    ));
+                }
+                let mut camera = commands.spawn((
+                    Camera3d::default(),
+                    Camera {
+                        clear_color: ClearColorConfig::Custom(background),
+                        ..default()
+                    },
+                    Msaa::Off,
+                    Projection::Perspective(PerspectiveProjection {
+                        fov,
+                        near: 0.01,
+                        ..default()
+                    }),
+                ));
+                if let Some((eye, defocus)) = eye.clone() {
+                    camera.insert((eye, defocus));
+                }
+                if let Some(s) = spectacles.clone() {
+                    camera.insert(s);
+                }
+            },
+        );
+    }
+}

@@ -1,0 +1,133 @@
+//! Stiff and extreme settings: every one renders without a panic or a
+//! non-finite pixel, and a refused one says why in `SpectaclesStatus`
+//! and falls back as documented (a refused eye: the view stays sharp; a
+//! refused lens: the eye is seen naked).
+
+use std::sync::{Arc, Mutex};
+
+use bevy::prelude::*;
+use optica_harness::Headless;
+use optica_spectacles::{
+    Accommodation, CloneDefocus, Eye, LensMaterial, Pupil, Spectacles, SpectaclesStatus,
+};
+
+use super::{Target, scene};
+
+struct Case {
+    name: &'static str,
+    eye: Eye,
+    spectacles: Option<Spectacles>,
+    /// Part of the refusal expected in `SpectaclesStatus::error`, if any.
+    refused: Option<&'static str>,
+}
+
+fn eye(r: f32, amp: f32, mm: f32) -> Eye {
+    Eye {
+        refractive_error_d: r,
+        accommodation: Accommodation::Dioptres(amp),
+        pupil: Pupil::Diameter { mm },
+    }
+}
+
+fn cases() -> Vec<Case> {
+    let lens = |s: f32| Some(Spectacles::sphere(s));
+    vec![
+        Case { name: "−20 D myope in −20 D glasses", eye: eye(-20.0, 1.0, 8.0), spectacles: lens(-20.0), refused: None },
+        Case {
+            name: "+20 D in CR-39 on a 50 mm blank (front surface closes before the rim)",
+            eye: eye(20.0, 1.0, 4.0),
+            spectacles: lens(20.0),
+            refused: Some("smaller than the blank radius"),
+        },
+        Case {
+            name: "+20 D on a 36 mm blank",
+            eye: eye(20.0, 1.0, 4.0),
+            spectacles: Some(Spectacles { blank_diameter_mm: 36.0, ..Spectacles::sphere(20.0) }),
+            refused: None,
+        },
+        Case {
+            name: "total internal reflection at the rim of a −10 D lens, n 1.66, 70 mm blank",
+            eye: eye(-10.0, 1.0, 12.0),
+            spectacles: Some(Spectacles {
+                material: LensMaterial::Paper,
+                blank_diameter_mm: 70.0,
+                ..Spectacles::sphere(-10.0)
+            }),
+            refused: None,
+        },
+        Case { name: "zero pupil", eye: eye(-3.0, 1.0, 0.0), spectacles: None, refused: None },
+        Case { name: "zero pupil through a lens", eye: eye(-3.0, 1.0, 0.0), spectacles: lens(-3.0), refused: None },
+        Case { name: "near point = far point", eye: eye(-2.0, 0.0, 6.0), spectacles: None, refused: None },
+        Case { name: "hyperope, far point behind the eye", eye: eye(4.0, 0.0, 6.0), spectacles: None, refused: None },
+        Case { name: "hyperope in +4 D glasses", eye: eye(4.0, 0.0, 6.0), spectacles: lens(4.0), refused: None },
+        Case {
+            name: "lens on the cornea (vertex distance 0)",
+            eye: eye(-3.0, 1.0, 6.0),
+            spectacles: Some(Spectacles { vertex_distance_mm: 0.0, ..Spectacles::sphere(-3.0) }),
+            refused: None,
+        },
+        Case {
+            name: "lens behind the cornea",
+            eye: eye(-3.0, 1.0, 6.0),
+            spectacles: Some(Spectacles { vertex_distance_mm: -5.0, ..Spectacles::sphere(-3.0) }),
+            refused: Some("vertex distance"),
+        },
+        Case { name: "NaN refractive error", eye: eye(f32::NAN, 1.0, 6.0), spectacles: None, refused: Some("refractive error") },
+        Case { name: "infinite pupil", eye: eye(-1.0, 1.0, f32::INFINITY), spectacles: None, refused: Some("pupil") },
+        Case {
+            name: "NaN cylinder axis",
+            eye: eye(-3.0, 1.0, 6.0),
+            spectacles: Some(Spectacles { cylinder_d: -1.0, axis_deg: f32::NAN, ..Spectacles::sphere(-3.0) }),
+            refused: Some("axis"),
+        },
+    ]
+}
+
+#[test]
+fn extreme_eyes_and_lenses_render_finite() {
+    let targets = vec![
+        Target::checker(3.0, 2.0, 6),
+        Target {
+            offset: Vec2::new(0.03, 0.0),
+            ..Target::checker(0.15, 0.06, 4)
+        },
+    ];
+    for case in cases() {
+        let status: Arc<Mutex<Option<SpectaclesStatus>>> = Arc::default();
+        let sink = status.clone();
+        let frame = Headless::new(48, 48)
+            .hdr(true)
+            .frames(4)
+            .render(|app: &mut App| {
+                scene(
+                    targets.clone(),
+                    Some((case.eye.clone(), CloneDefocus { clones: 6, ..default() })),
+                    case.spectacles.clone(),
+                    1.0,
+                )(app);
+                app.add_systems(Last, move |s: Query<&SpectaclesStatus>| {
+                    if let Ok(s) = s.single() {
+                        *sink.lock().unwrap() = Some(s.clone());
+                    }
+                });
+            })
+            .unwrap_or_else(|e| panic!("{}: {e}", case.name));
+        let img = frame.hdr().unwrap();
+        assert!(
+            img.pixels().all(|p| p.0.iter().all(|c| c.is_finite())),
+            "{}: a non-finite pixel",
+            case.name
+        );
+        let status = status.lock().unwrap().clone();
+        let error = status.as_ref().and_then(|s| s.error.clone());
+        eprintln!("{}: {}", case.name, error.as_deref().unwrap_or("ok"));
+        match case.refused {
+            Some(why) => assert!(
+                error.as_deref().is_some_and(|e| e.contains(why)),
+                "{}: expected a refusal naming `{why}`, got {error:?}",
+                case.name
+            ),
+            None => assert!(error.is_none(), "{}: refused: {error:?}", case.name),
+        }
+    }
+}

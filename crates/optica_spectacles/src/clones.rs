@@ -57,6 +57,13 @@ pub struct CloneExtension {
     pub field: Handle<ShaderBuffer>,
 }
 
+/// Whether the render device clips primitives by distances the vertex
+/// shader writes (`wgpu::Features::CLIP_DISTANCES`), set when the render
+/// app starts: clones are then cut at their tiles by the rasteriser;
+/// without it, by a discard in the fragment shader.
+pub(crate) static CLIP_DISTANCES: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
+
 /// What the clone pipelines are specialised on: a reprojected clone's
 /// fragment shader only records where its surface lies (no shading at
 /// all: a CPU rasteriser pays for both sides of a branch).
@@ -103,8 +110,15 @@ impl MaterialExtension for CloneExtension {
         // each clone at its tile.
         let def = "VERTEX_OUTPUT_INSTANCE_INDEX";
         descriptor.vertex.shader_defs.push(def.into());
+        let clip = CLIP_DISTANCES.load(std::sync::atomic::Ordering::Relaxed);
+        if clip {
+            descriptor.vertex.shader_defs.push("CLIP_DISTANCES".into());
+        }
         if let Some(fragment) = descriptor.fragment.as_mut() {
             fragment.shader_defs.push(def.into());
+            if clip {
+                fragment.shader_defs.push("CLIP_DISTANCES".into());
+            }
             if key.bind_group_data.reprojected {
                 fragment.shader_defs.push("REPROJECTED".into());
             }
@@ -116,30 +130,47 @@ impl MaterialExtension for CloneExtension {
 /// The perspective of the eye camera, kept whatever the size of the atlas
 /// the clone camera draws into: each tile is a whole view.
 #[derive(Clone, Debug)]
-pub(crate) struct TileProjection(pub PerspectiveProjection);
+pub(crate) struct TileProjection {
+    perspective: PerspectiveProjection,
+    /// Whether the clones are shaded (and so need shadow maps).
+    shaded: bool,
+}
+
+/// Depth (m) of the sliver a clone camera that shades nothing gives its
+/// directional lights' shadow cascades: Bevy fits a cascade set to every
+/// camera's frustum; this keeps them (a millimetre in front of the lens)
+/// empty, so no shadow caster is drawn for a camera that never reads them.
+const UNSHADED_CASCADE_DEPTH: f32 = 1e-3;
 
 impl CameraProjection for TileProjection {
     fn get_clip_from_view(&self) -> Mat4 {
-        self.0.get_clip_from_view()
+        self.perspective.get_clip_from_view()
     }
 
     fn get_clip_from_view_for_sub(&self, sub_view: &SubCameraView) -> Mat4 {
-        self.0.get_clip_from_view_for_sub(sub_view)
+        self.perspective.get_clip_from_view_for_sub(sub_view)
     }
 
     // The atlas's aspect is not the view's: keep the eye's.
     fn update(&mut self, _width: f32, _height: f32) {}
 
     fn far(&self) -> f32 {
-        self.0.far()
+        self.perspective.far()
     }
 
+    // Only shadow cascades use these corners (culling uses the frustum).
     fn get_frustum_corners(&self, z_near: f32, z_far: f32) -> [Vec3A; 8] {
-        self.0.get_frustum_corners(z_near, z_far)
+        if self.shaded {
+            self.perspective.get_frustum_corners(z_near, z_far)
+        } else {
+            let near = -self.perspective.near;
+            self.perspective
+                .get_frustum_corners(near, near - UNSHADED_CASCADE_DEPTH)
+        }
     }
 
     fn compute_frustum(&self, camera_transform: &GlobalTransform) -> Frustum {
-        self.0.compute_frustum(camera_transform)
+        self.perspective.compute_frustum(camera_transform)
     }
 }
 
@@ -170,7 +201,7 @@ pub struct CloneRig {
 /// zero alpha marks "no geometry" for the resolve).
 fn clone_clear(shading: CloneShading, eye: &ClearColorConfig) -> ClearColorConfig {
     match shading {
-        CloneShading::Full => eye.clone(),
+        CloneShading::Full => *eye,
         CloneShading::Reprojected => ClearColorConfig::Custom(Color::NONE),
     }
 }
@@ -222,12 +253,26 @@ pub struct CloneOf(pub Entity);
 #[derive(Component, Clone, Debug, Default)]
 pub struct CloneTwins(pub Vec<Entity>);
 
-/// The tiles of an atlas of `clones` tiles: as square as can be, wider than
-/// tall (`cols = ⌈√S⌉`, `rows = ⌈S/cols⌉`).
-pub fn tile_layout(clones: u32) -> UVec2 {
+/// The largest side of the clone atlas: wgpu's default
+/// `max_texture_dimension_2d` (the limit Bevy asks devices for).
+pub const MAX_ATLAS_SIDE: u32 = 8192;
+
+/// The tiles (across, down) of an atlas holding `clones` tiles of `tile`
+/// pixels within [`MAX_ATLAS_SIDE`]: the layout with the fewest unused
+/// tiles (each is cleared every frame), then the squarest; `None` when
+/// even a full atlas holds fewer tiles than `clones`.
+pub fn tile_layout(clones: u32, tile: UVec2) -> Option<UVec2> {
     let s = clones.max(1);
-    let cols = (s as f32).sqrt().ceil() as u32;
-    UVec2::new(cols, s.div_ceil(cols))
+    let (fit_x, fit_y) = (MAX_ATLAS_SIDE / tile.x.max(1), MAX_ATLAS_SIDE / tile.y.max(1));
+    (1..=s)
+        .map(|rows| UVec2::new(s.div_ceil(rows), rows))
+        .filter(|t| t.x <= fit_x && t.y <= fit_y)
+        .min_by_key(|t| (t.x * t.y - s, (t.x * tile.x).max(t.y * tile.y)))
+}
+
+/// The most tiles of `tile` pixels an atlas holds.
+pub fn max_tiles(tile: UVec2) -> u32 {
+    (MAX_ATLAS_SIDE / tile.x.max(1)) * (MAX_ATLAS_SIDE / tile.y.max(1))
 }
 
 /// The clone materials: one per original material, all sharing the eye's
@@ -254,6 +299,13 @@ type EyeCamera<'a> = (
     Option<&'a CloneResolve>,
 );
 
+/// What `sync_rig` keeps in step on a clone camera.
+type CloneCameraParts = (&'static mut Projection, &'static mut Camera);
+/// Clone cameras, never an eye camera.
+type CloneCameraOnly = (With<CloneCameraOf>, Without<CloneDefocus>);
+/// Every kind of light.
+type AnyLight = Or<(With<DirectionalLight>, With<PointLight>, With<SpotLight>)>;
+
 /// Creates, resizes or removes the clone camera and atlas of the eye
 /// camera, and keeps the clone materials' numbers up to date.
 #[allow(clippy::too_many_arguments)]
@@ -261,10 +313,7 @@ pub(crate) fn sync_rig(
     mut commands: Commands,
     eyes: Query<EyeCamera>,
     rigs: Query<(Entity, &CloneRig)>,
-    mut clone_cameras: Query<
-        (&mut Projection, &mut Camera),
-        (With<CloneCameraOf>, Without<CloneDefocus>),
-    >,
+    mut clone_cameras: Query<CloneCameraParts, CloneCameraOnly>,
     clear: Res<ClearColor>,
     mut images: ResMut<Assets<Image>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
@@ -293,8 +342,20 @@ pub(crate) fn sync_rig(
         bevy::log::warn_once!("optica_spectacles: an eye camera needs a perspective projection; its view stays sharp");
         return;
     };
-    let clones = defocus.clones.clamp(1, crate::settings::MAX_CLONES);
-    let tiles = tile_layout(clones);
+    let mut clones = defocus.clones.clamp(1, crate::settings::MAX_CLONES);
+    let tiles = match tile_layout(clones, tile) {
+        Some(t) => t,
+        None => {
+            let fit = max_tiles(tile).max(1);
+            bevy::log::warn_once!(
+                "optica_spectacles: {clones} clones of {}×{} px do not fit one {MAX_ATLAS_SIDE}² atlas; drawing {fit}",
+                tile.x,
+                tile.y
+            );
+            clones = fit;
+            tile_layout(clones, tile).unwrap_or(UVec2::ONE)
+        }
+    };
     let mut tile_projection = perspective.clone();
     tile_projection.aspect_ratio = tile.x as f32 / tile.y as f32;
 
@@ -309,6 +370,7 @@ pub(crate) fn sync_rig(
         params: optics.uniform,
         field: optics.field.as_ref().map_or(empty, |(h, _)| h.clone()),
     };
+    extension.params.clones = clones;
     extension.params.tile_cols = tiles.x;
     extension.params.tile_rows = tiles.y;
     if extension.params != materials.extension.params || extension.field != materials.extension.field {
@@ -347,15 +409,18 @@ pub(crate) fn sync_rig(
             // clear colour and order, touching it only when they change.
             if let Ok((mut p, mut c)) = clone_cameras.get_mut(rig.camera) {
                 if !same_perspective(&rig.perspective, &tile_projection) {
-                    *p = Projection::custom(TileProjection(tile_projection.clone()));
+                    *p = Projection::custom(TileProjection {
+                        perspective: tile_projection.clone(),
+                        shaded: shading == CloneShading::Full,
+                    });
                     commands.entity(entity).insert(CloneRig {
                         perspective: tile_projection,
                         ..rig.clone()
                     });
                 }
-                let clear = clone_clear(shading, &camera.clear_color);
-                if !same_clear(&c.clear_color, &clear) || c.order != camera.order - 1 {
-                    c.clear_color = clear;
+                let wanted_clear = clone_clear(shading, &camera.clear_color);
+                if !same_clear(&c.clear_color, &wanted_clear) || c.order != camera.order - 1 {
+                    c.clear_color = wanted_clear;
                     c.order = camera.order - 1;
                 }
             }
@@ -391,7 +456,10 @@ pub(crate) fn sync_rig(
                     Msaa::Off,
                     // Clusters assume one view per target: one cluster serves every tile.
                     ClusterConfig::Single,
-                    Projection::custom(TileProjection(tile_projection.clone())),
+                    Projection::custom(TileProjection {
+                        perspective: tile_projection.clone(),
+                        shaded: shading == CloneShading::Full,
+                    }),
                     RenderLayers::layer(CLONE_LAYER),
                     CloneCameraOf(entity),
                     Transform::IDENTITY,
@@ -470,10 +538,7 @@ pub(crate) fn stop_removed(
 /// Gives every light the clone layer, so that the clones are lit.
 pub(crate) fn light_the_clones(
     mut commands: Commands,
-    lights: Query<
-        (Entity, Option<&RenderLayers>),
-        Or<(With<DirectionalLight>, With<PointLight>, With<SpotLight>)>,
-    >,
+    lights: Query<(Entity, Option<&RenderLayers>), AnyLight>,
 ) {
     for (entity, layers) in &lights {
         let layers = layers.cloned().unwrap_or_default();

@@ -97,7 +97,7 @@ mod settings;
 
 pub use clones::{
     CLONE_LAYER, CloneCameraOf, CloneExtension, CloneMaterial, CloneOf, CloneResolve, CloneRig,
-    CloneTwins, tile_layout,
+    CloneTwins, MAX_ATLAS_SIDE, max_tiles, tile_layout,
 };
 pub use precompute::{
     CloneUniform, EyeOptics, FieldGeometry, SpectaclesStatus, camera_z, corrected_points,
@@ -126,6 +126,25 @@ pub const DISPLACEMENT_WGSL: &str = include_str!("shaders/displacement.wgsl");
 /// `field` of `f32` that the including shader declares.
 pub const FIELD_LOOKUP_WGSL: &str = include_str!("shaders/field_lookup.wgsl");
 
+/// Puts the clone material's shader in the assets: `clone.wgsl` with the
+/// field lookup pasted in and, where the device clips by distances the
+/// vertex shader writes, the `enable` directive that allows them (it must
+/// open the file, so it cannot sit under a shader def).
+fn insert_clone_shader(app: &mut App, clip_distances: bool) {
+    if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
+        let clone = include_str!("shaders/clone.wgsl")
+            .replace("//FIELD_LOOKUP", FIELD_LOOKUP_WGSL)
+            .replace(
+                "//ENABLE_CLIP_DISTANCES",
+                if clip_distances { "enable clip_distances;" } else { "" },
+            );
+        let _ = shaders.insert(
+            CLONE_SHADER.id(),
+            Shader::from_wgsl(clone, "optica_spectacles/shaders/clone.wgsl"),
+        );
+    }
+}
+
 /// Adds [`Eye`], [`Spectacles`] and [`CloneDefocus`]. Without an `Eye`
 /// camera it adds no pass, builds no pipeline and does no per-frame work.
 pub struct SpectaclesPlugin;
@@ -133,12 +152,8 @@ pub struct SpectaclesPlugin;
 impl Plugin for SpectaclesPlugin {
     fn build(&self, app: &mut App) {
         load_shader_library!(app, "shaders/displacement.wgsl");
+        insert_clone_shader(app, false);
         if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
-            let clone = include_str!("shaders/clone.wgsl").replace("//FIELD_LOOKUP", FIELD_LOOKUP_WGSL);
-            let _ = shaders.insert(
-                CLONE_SHADER.id(),
-                Shader::from_wgsl(clone, "optica_spectacles/shaders/clone.wgsl"),
-            );
             let _ = shaders.insert(
                 RESOLVE_SHADER.id(),
                 Shader::from_wgsl(
@@ -168,5 +183,19 @@ impl Plugin for SpectaclesPlugin {
                     .before(bevy::camera::CameraUpdateSystems)
                     .run_if(any_with_component::<Eye>.or_else(any_with_component::<CloneRig>)),
             );
+    }
+
+    fn finish(&self, app: &mut App) {
+        // Clones are cut at their tiles by clip distances where the device
+        // has them (no discard: early depth testing stays on).
+        let clip = app
+            .get_sub_app(bevy::render::RenderApp)
+            .and_then(|r| r.world().get_resource::<bevy::render::renderer::RenderDevice>())
+            .is_some_and(|d| {
+                d.features()
+                    .contains(bevy::render::render_resource::WgpuFeatures::CLIP_DISTANCES)
+            });
+        clones::CLIP_DISTANCES.store(clip, std::sync::atomic::Ordering::Relaxed);
+        insert_clone_shader(app, clip);
     }
 }

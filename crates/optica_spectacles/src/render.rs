@@ -85,6 +85,9 @@ enum Variant {
 struct ResolveShared {
     layouts: HashMap<Variant, BindGroupLayoutDescriptor>,
     sampler: Sampler,
+    /// Nearest, for the reprojection's gathers (depth textures take no
+    /// filtering sampler).
+    gather: Sampler,
     pipelines: HashMap<(Variant, TextureFormat), CachedRenderPipelineId>,
 }
 
@@ -114,6 +117,7 @@ fn layout(variant: Variant) -> BindGroupLayoutDescriptor {
                     } else {
                         texture_depth_2d()
                     },
+                    sampler(SamplerBindingType::NonFiltering),
                 ),
             ),
         ),
@@ -121,6 +125,7 @@ fn layout(variant: Variant) -> BindGroupLayoutDescriptor {
 }
 
 fn init_resolve(mut commands: Commands, render_device: Res<RenderDevice>) {
+
     let layouts = [
         Variant::Full,
         Variant::Reprojected {
@@ -139,9 +144,14 @@ fn init_resolve(mut commands: Commands, render_device: Res<RenderDevice>) {
         min_filter: FilterMode::Linear,
         ..default()
     });
+    let gather = render_device.create_sampler(&SamplerDescriptor {
+        label: Some("optica_spectacles_resolve_gather"),
+        ..default()
+    });
     commands.insert_resource(ResolveShared {
         layouts,
         sampler,
+        gather,
         pipelines: HashMap::default(),
     });
 }
@@ -261,6 +271,7 @@ fn resolve_pass(
                     params,
                     post.source,
                     depth.view(),
+                    &shared.gather,
                 )),
             )
         }

@@ -171,13 +171,17 @@ pub struct CloneDefocus {
 pub enum CloneShading {
     /// The eye camera draws the scene once, sharp, with all its shading;
     /// each clone is drawn with a cheap shader that only records where its
-    /// (undisplaced) surface point lies in that sharp view, and takes that
-    /// pixel's colour when the point is visible there. A clone shows what
-    /// the sharp view hides only where the sharp view shows it nearby:
-    /// surface points hidden behind a nearer object (the inner edge of a
-    /// blurred object in front of a sharp one) are left out of the average
-    /// at that pixel. The default: a clone costs a fraction of a shaded
-    /// drawing of the scene (see the `spectacles` report).
+    /// (undisplaced) surface point lies in that sharp view, and takes the
+    /// colour there (bilinearly, from the pixels that show the same
+    /// surface) when the point is visible in it. What this gives up:
+    /// surface points the sharp view hides behind a nearer object (the
+    /// inner edge of a blurred object in front of a sharp one) are left
+    /// out of the mean at that pixel; points just past the view's edge
+    /// take the edge pixel's colour; and resampling the sharp view adds
+    /// about a sixth of a pixel² to the blur's variance, which shows where
+    /// the blur is itself about a pixel wide. The default: a clone costs a
+    /// fraction of a shaded drawing of the scene (see the `spectacles`
+    /// report).
     #[default]
     Reprojected,
     /// The paper's: every clone is shaded in full by its material (Bevy's

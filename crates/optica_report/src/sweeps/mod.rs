@@ -14,6 +14,7 @@ pub mod lens_flare_render;
 pub mod optics;
 pub mod render;
 pub mod spectacles;
+pub mod spectacles_render;
 
 /// Why a sweep could not run.
 #[derive(Debug, thiserror::Error)]
@@ -40,6 +41,10 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
         lens_flare_render::rendered_rows(ctx, &mut report)?;
         Ok(report)
     }),
-    ("spectacles", |ctx| Ok(spectacles::run(ctx))),
+    ("spectacles", |ctx| {
+        let mut report = spectacles::run(ctx);
+        spectacles_render::rendered_rows(ctx, &mut report)?;
+        Ok(report)
+    }),
     ("dome", dome::run),
 ];

@@ -8,6 +8,8 @@
 // Assembled by the plugin after `displacement.wgsl` (imported) and
 // `field_lookup.wgsl` (pasted below the bindings).
 
+//ENABLE_CLIP_DISTANCES
+
 #import bevy_pbr::{
     mesh_bindings::mesh,
     mesh_functions,
@@ -88,8 +90,77 @@ fn morph_vertex(vertex_in: Vertex, instance_index: u32) -> Vertex {
 }
 #endif
 
+#ifdef CLIP_DISTANCES
+// Bevy's `VertexOutput` with the four planes of the clone's tile as clip
+// distances: the rasteriser cuts each clone at its tile, so the fragment
+// shader needs no discard (which would cost early depth testing).
+struct CloneVertexOutput {
+    @builtin(position) position: vec4<f32>,
+    @location(0) world_position: vec4<f32>,
+    @location(1) world_normal: vec3<f32>,
+#ifdef VERTEX_UVS_A
+    @location(2) uv: vec2<f32>,
+#endif
+#ifdef VERTEX_UVS_B
+    @location(3) uv_b: vec2<f32>,
+#endif
+#ifdef VERTEX_TANGENTS
+    @location(4) world_tangent: vec4<f32>,
+#endif
+#ifdef VERTEX_COLORS
+    @location(5) color: vec4<f32>,
+#endif
+#ifdef VERTEX_OUTPUT_INSTANCE_INDEX
+    @location(6) @interpolate(flat) instance_index: u32,
+#endif
+#ifdef VISIBILITY_RANGE_DITHER
+    @location(7) @interpolate(flat) visibility_range_dither: i32,
+#endif
+    @builtin(clip_distances) clip_distances: array<f32, 4>,
+}
+
+@vertex
+fn vertex(vertex_no_morph: Vertex) -> CloneVertexOutput {
+    let out = clone_vertex(vertex_no_morph);
+    var o: CloneVertexOutput;
+    o.position = into_tile(out.position, mesh_functions::get_tag(vertex_no_morph.instance_index));
+    o.world_position = out.world_position;
+    o.world_normal = out.world_normal;
+#ifdef VERTEX_UVS_A
+    o.uv = out.uv;
+#endif
+#ifdef VERTEX_UVS_B
+    o.uv_b = out.uv_b;
+#endif
+#ifdef VERTEX_TANGENTS
+    o.world_tangent = out.world_tangent;
+#endif
+#ifdef VERTEX_COLORS
+    o.color = out.color;
+#endif
+#ifdef VERTEX_OUTPUT_INSTANCE_INDEX
+    o.instance_index = out.instance_index;
+#endif
+#ifdef VISIBILITY_RANGE_DITHER
+    o.visibility_range_dither = out.visibility_range_dither;
+#endif
+    // The view's own clip volume, before it is squeezed into the tile.
+    let c = out.position;
+    o.clip_distances = array<f32, 4>(c.w + c.x, c.w - c.x, c.w + c.y, c.w - c.y);
+    return o;
+}
+#else
 @vertex
 fn vertex(vertex_no_morph: Vertex) -> VertexOutput {
+    var out = clone_vertex(vertex_no_morph);
+    out.position = into_tile(out.position, mesh_functions::get_tag(vertex_no_morph.instance_index));
+    return out;
+}
+#endif
+
+// Bevy's mesh vertex shader with the displacement; `position` is the
+// view's clip position, not yet in the tile.
+fn clone_vertex(vertex_no_morph: Vertex) -> VertexOutput {
     var out: VertexOutput;
 #ifdef MORPH_TARGETS
     var vertex = morph_vertex(vertex_no_morph, vertex_no_morph.instance_index);
@@ -122,7 +193,7 @@ fn vertex(vertex_no_morph: Vertex) -> VertexOutput {
     // Shaded where the original is (its lights and shadows), drawn where
     // the clone is.
     out.world_position = world;
-    out.position = into_tile(position_world_to_clip(world.xyz + displace(world.xyz, k)), k);
+    out.position = position_world_to_clip(world.xyz + displace(world.xyz, k));
 #ifdef VERTEX_UVS_A
     out.uv = vertex.uv;
 #endif
@@ -156,9 +227,11 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
     let k = mesh_functions::get_tag(in.instance_index);
     let tile = view.viewport.zw / vec2<f32>(f32(clone.tile_cols), f32(clone.tile_rows));
     let at = floor((in.position.xy - view.viewport.xy) / tile);
+#ifndef CLIP_DISTANCES
     if at.x != f32(k % clone.tile_cols) || at.y != f32(k / clone.tile_cols) {
         discard;
     }
+#endif
     var out: FragmentOutput;
 #ifdef REPROJECTED
     {

@@ -32,6 +32,28 @@ struct ResolveParams {
 #else
 @group(0) @binding(4) var sharp_depth: texture_depth_2d;
 #endif
+// Nearest, clamped: gathers the four texels round a point.
+@group(0) @binding(5) var gather_sampler: sampler;
+#endif
+
+#ifndef FULL
+// The sharp depths of the bilinear footprint round `p` (pixels), in
+// `textureGather` order.
+fn footprint_depths(p: vec2<f32>, view: vec2<f32>) -> vec4<f32> {
+#ifdef MULTISAMPLED
+    // No gather from a multisampled texture: sample 0 of each pixel.
+    let b = vec2<i32>(floor(p - 0.5));
+    let hi = vec2<i32>(view) - 1;
+    return vec4<f32>(
+        textureLoad(sharp_depth, clamp(b + vec2<i32>(0, 1), vec2<i32>(0), hi), 0),
+        textureLoad(sharp_depth, clamp(b + vec2<i32>(1, 1), vec2<i32>(0), hi), 0),
+        textureLoad(sharp_depth, clamp(b + vec2<i32>(1, 0), vec2<i32>(0), hi), 0),
+        textureLoad(sharp_depth, clamp(b, vec2<i32>(0), hi), 0),
+    );
+#else
+    return textureGather(sharp_depth, gather_sampler, p / view);
+#endif
+}
 #endif
 
 fn tile_origin(k: u32, tile: vec2<f32>) -> vec2<f32> {
@@ -72,31 +94,36 @@ fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
             continue;
         }
         let from_px = (vec2<f32>(here) + 0.5 + g.xy) * view / tile;
+        if any(from_px < vec2<f32>(0.0)) || any(from_px > view) {
+            // The point lies outside the sharp view (a clone brings in what
+            // lies just past the view's edge): the edge pixel nearest it
+            // stands in for it, as a clamped texture would.
+            let edge = clamp(vec2<i32>(from_px), vec2<i32>(0), vec2<i32>(view) - 1);
+            sum += textureLoad(sharp, edge, 0).rgb;
+            weight += 1.0;
+            continue;
+        }
         // The sharp pixels round that point (its bilinear footprint): the
         // ones that show the same surface, weighted bilinearly. (A point
         // near a silhouette may lie past the centres of the pixels the
         // sharp view drew the surface in, so the nearest pixel alone
-        // would lose it.)
-        let base = floor(from_px - 0.5);
-        let f = from_px - 0.5 - base;
-        var c = vec3<f32>(0.0);
-        var w = 0.0;
-        for (var j = 0u; j < 4u; j++) {
-            let o = vec2<f32>(f32(j & 1u), f32(j >> 1u));
-            let ip = base + o;
-            if any(ip < vec2<f32>(0.0)) || any(ip >= view) {
-                continue;
-            }
-            let d = textureLoad(sharp_depth, vec2<i32>(ip), 0);
-            if abs(d - g.z) <= params.depth_tolerance * g.z {
-                let b = mix(1.0 - f, f, o);
-                let wb = max(b.x * b.y, 1e-4);
-                c += wb * textureLoad(sharp, vec2<i32>(ip), 0).rgb;
-                w += wb;
-            }
-        }
-        if w > 0.0 {
-            sum += c / w;
+        // would lose it.) Gathered: the footprint's four depths in one
+        // fetch, its colours in three.
+        let f = fract(from_px - 0.5);
+        // Gather order: (u0, v1), (u1, v1), (u1, v0), (u0, v0).
+        let bilinear = vec4<f32>((1.0 - f.x) * f.y, f.x * f.y, f.x * (1.0 - f.y), (1.0 - f.x) * (1.0 - f.y));
+        let depths = footprint_depths(from_px, view);
+        let same = abs(depths - vec4<f32>(g.z)) <= vec4<f32>(params.depth_tolerance * g.z);
+        let w = select(vec4<f32>(0.0), max(bilinear, vec4<f32>(1e-4)), same);
+        let wsum = dot(w, vec4<f32>(1.0));
+        if wsum > 0.0 {
+            let uv = from_px / view;
+            let c = vec3<f32>(
+                dot(w, textureGather(0, sharp, gather_sampler, uv)),
+                dot(w, textureGather(1, sharp, gather_sampler, uv)),
+                dot(w, textureGather(2, sharp, gather_sampler, uv)),
+            );
+            sum += c / wsum;
             weight += 1.0;
         }
     }

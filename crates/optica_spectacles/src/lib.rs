@@ -91,10 +91,15 @@ use bevy::prelude::*;
 use bevy::shader::{Shader, load_shader_library};
 
 mod clones;
+#[cfg(feature = "egui")]
+mod panel;
 mod precompute;
+pub mod presets;
 mod render;
 mod settings;
 
+#[cfg(feature = "egui")]
+pub use panel::{SpectaclesPanelPlugin, spectacles_ui};
 pub use clones::{
     CLONE_LAYER, CloneCameraOf, CloneExtension, CloneMaterial, CloneOf, CloneResolve, CloneRig,
     CloneTwins, MAX_ATLAS_SIDE, max_tiles, tile_layout,

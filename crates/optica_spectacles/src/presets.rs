@@ -1,0 +1,192 @@
+//! Eyes and glasses people have: the paper's Fig. 8 cases and everyday
+//! ones, each with what its wearer sees and why ([`Preset::sight`]).
+
+use optica_optics::glam::DVec3;
+use optica_optics::spectacles::{self as optics, SpectacleLens, pupil_samples, trace_bundle};
+
+use crate::precompute::{camera_z, eye_placement};
+use crate::settings::{Accommodation, Eye, LensMaterial, Pupil, Spectacles};
+
+/// An eye and the glasses it wears (if any), with a description.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Preset {
+    /// Short name (menus, the example's `--preset`).
+    pub name: &'static str,
+    /// Who this is, in words.
+    pub description: &'static str,
+    /// The eye.
+    pub eye: Eye,
+    /// The glasses, if worn.
+    pub spectacles: Option<Spectacles>,
+}
+
+/// The paper's pupil (Fig. 8: 12 mm, to exaggerate the blur) and lens
+/// index (1.66).
+fn paper_eye(near_m: f32, far_m: f32) -> Eye {
+    Eye::from_near_far(near_m, far_m, 12.0)
+}
+
+fn paper_lens(sphere_d: f32) -> Spectacles {
+    Spectacles {
+        material: LensMaterial::Paper,
+        ..Spectacles::sphere(sphere_d)
+    }
+}
+
+/// A pupil in an ordinary room (100 cd/m²) for someone of `age`.
+fn room_pupil(age: f32) -> Pupil {
+    Pupil::Light {
+        luminance_cd_m2: 100.0,
+        age_years: age,
+    }
+}
+
+/// Every preset: the paper's Fig. 8 (a)–(d), then everyday eyes with and
+/// without their glasses, at a physiological pupil.
+pub fn presets() -> Vec<Preset> {
+    let myope = Eye {
+        refractive_error_d: -3.0,
+        accommodation: Accommodation::Age { years: 30.0 },
+        pupil: room_pupil(30.0),
+    };
+    let presbyope = Eye {
+        refractive_error_d: 0.0,
+        accommodation: Accommodation::Age { years: 55.0 },
+        pupil: room_pupil(55.0),
+    };
+    vec![
+        Preset {
+            name: "fig8a-emmetrope",
+            description: "Paper Fig. 8(a): a normal eye, near point 0.2 m, far point 10 m, 12 mm pupil",
+            eye: paper_eye(0.2, 10.0),
+            spectacles: None,
+        },
+        Preset {
+            name: "fig8b-myopic-presbyope",
+            description: "Paper Fig. 8(b): short-sighted and presbyopic, sharp only from 0.5 m to 1.3 m, 12 mm pupil",
+            eye: paper_eye(0.5, 1.3),
+            spectacles: None,
+        },
+        Preset {
+            name: "fig8c-concave",
+            description: "Paper Fig. 8(c): the same eye with a concave lens (−0.78 D, n 1.66) that puts its far point at infinity; the book blurs",
+            eye: paper_eye(0.5, 1.3),
+            spectacles: Some(paper_lens(-0.778)),
+        },
+        Preset {
+            name: "fig8d-convex",
+            description: "Paper Fig. 8(d): the same eye with a convex reading lens (+1.5 D, n 1.66); near things sharpen, the chart blurs more",
+            eye: paper_eye(0.5, 1.3),
+            spectacles: Some(paper_lens(1.5)),
+        },
+        Preset {
+            name: "emmetrope",
+            description: "A normal eye of 25 in room light (pupil ~3 mm): sharp from 9 cm to infinity",
+            eye: Eye {
+                pupil: room_pupil(25.0),
+                ..Eye::default()
+            },
+            spectacles: None,
+        },
+        Preset {
+            name: "myope",
+            description: "A −3 D myope of 30 without glasses: sharp only nearer than 33 cm",
+            eye: myope.clone(),
+            spectacles: None,
+        },
+        Preset {
+            name: "myope-glasses",
+            description: "The −3 D myope in −3 D CR-39 glasses: sharp again far away, the world a little smaller",
+            eye: myope,
+            spectacles: Some(Spectacles::sphere(-3.0)),
+        },
+        Preset {
+            name: "presbyope",
+            description: "A normal eye of 55 (2 D of accommodation left, near point 50 cm): the book at 30 cm is blurred",
+            eye: presbyope.clone(),
+            spectacles: None,
+        },
+        Preset {
+            name: "presbyope-readers",
+            description: "The presbyope in +2 D reading glasses: the book is sharp, the far wall is not",
+            eye: presbyope,
+            spectacles: Some(Spectacles::sphere(2.0)),
+        },
+    ]
+}
+
+/// What a wearer sees of a point straight ahead.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sight {
+    /// The blur disc's diameter as the eye sees it (arcminutes; 1′ is the
+    /// finest detail a good eye resolves, a 20/20 letter is 5′ tall).
+    pub blur_arcmin: f64,
+}
+
+impl Preset {
+    /// What the wearer sees of a point `distance_m` metres ahead, and the
+    /// glasses' magnification (%; negative: things look smaller), or why
+    /// the settings were refused.
+    pub fn sight(&self, distance_m: f64) -> Result<(Sight, f64), String> {
+        let eye = self.eye.optics().map_err(|e| e.to_string())?;
+        let lens = match &self.spectacles {
+            Some(s) => Some(s.design().map_err(|e| e.to_string())?),
+            None => None,
+        };
+        let blur = blur_angle_rad(&eye, lens.as_ref(), distance_m)
+            .ok_or_else(|| "the point is not seen through the lens".to_string())?;
+        let magnification = lens.as_ref().map_or(0.0, spectacle_magnification_percent);
+        Ok((
+            Sight {
+                blur_arcmin: blur.to_degrees() * 60.0,
+            },
+            magnification,
+        ))
+    }
+}
+
+/// The blur disc's angular diameter (rad) of a point `distance_m` ahead of
+/// the eye's camera (its entrance pupil): `A·ΔD` for the naked eye; through
+/// a lens, the near or far bundle traced along the axis and its set's
+/// diameter at the point (the linear map's largest radius, doubled), over
+/// the point's distance.
+pub fn blur_angle_rad(eye: &optics::Eye, lens: Option<&SpectacleLens>, distance_m: f64) -> Option<f64> {
+    let Some(lens) = lens else {
+        return eye.blur_angle_rad(distance_m).ok();
+    };
+    let rho = 0.5 * eye.pupil_diameter_m();
+    if rho == 0.0 {
+        return Some(0.0);
+    }
+    let samples = pupil_samples(64);
+    let pl = eye_placement();
+    let near = trace_bundle(Some(lens), &pl, DVec3::Z, rho, eye.near_point_vergence_d(), &samples).ok()?;
+    let far = trace_bundle(Some(lens), &pl, DVec3::Z, rho, eye.far_point_vergence_d(), &samples).ok()?;
+    // Distance along the refracted chief from its exit on the lens.
+    let s = distance_m + f64::from(camera_z()) - near.chief().origin().z;
+    if !(s > 0.0) {
+        return None;
+    }
+    let map = if s * near.vergence_d() < 1.0 {
+        near.linear_map(s)
+    } else if s * far.vergence_d() > 1.0 {
+        far.linear_map(s)
+    } else {
+        return Some(0.0);
+    };
+    let radius = map[0].length().max(map[1].length());
+    Some(2.0 * radius / distance_m)
+}
+
+/// Spectacle magnification (%) of a lens seen from the entrance pupil:
+/// the power factor `1/(1 − h·F)` (back-vertex power `F`, `h` from the
+/// back vertex to the entrance pupil) times the shape factor
+/// `1/(1 − t·F1/n)` (centre thickness `t`, front power `F1`, index `n`),
+/// minus one. A −3 D lens at 12 mm makes things about 4 % smaller.
+pub fn spectacle_magnification_percent(lens: &SpectacleLens) -> f64 {
+    let h = lens.vertex_distance_m() - f64::from(camera_z());
+    let f = lens.prescription().spherical_equivalent_d();
+    let power = 1.0 / (1.0 - h * f);
+    let shape = 1.0 / (1.0 - lens.centre_thickness_m() * lens.front_power_d() / lens.index());
+    (power * shape - 1.0) * 100.0
+}

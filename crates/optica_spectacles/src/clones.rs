@@ -192,8 +192,6 @@ pub struct CloneRig {
     pub shading: CloneShading,
     /// The perspective the clone camera draws with.
     perspective: PerspectiveProjection,
-    /// The eye camera's own layers, given back when the clones stop.
-    saved_layers: Option<RenderLayers>,
 }
 
 /// The clone camera's clear colour: the eye camera's when the clones are
@@ -294,7 +292,6 @@ type EyeCamera<'a> = (
     &'a CloneDefocus,
     &'a EyeOptics,
     &'a Projection,
-    Option<&'a RenderLayers>,
     Option<&'a CloneRig>,
     Option<&'a CloneResolve>,
 );
@@ -330,7 +327,7 @@ pub(crate) fn sync_rig(
         }
         stop_rig(&mut commands, entity, rig);
     }
-    let Some((entity, camera, camera3d, defocus, optics, projection, layers, rig, resolve)) = active
+    let Some((entity, camera, camera3d, defocus, optics, projection, rig, resolve)) = active
     else {
         return;
     };
@@ -430,13 +427,9 @@ pub(crate) fn sync_rig(
             }
         }
         _ => {
-            let saved_layers = match rig {
-                Some(old) => {
-                    commands.entity(old.camera).despawn();
-                    old.saved_layers.clone()
-                }
-                None => layers.cloned(),
-            };
+            if let Some(old) = rig {
+                commands.entity(old.camera).despawn();
+            }
             let size = tile * tiles;
             let mut atlas = Image::new_target_texture(size.x, size.y, TextureFormat::Rgba16Float, None);
             atlas.asset_usage = RenderAssetUsages::RENDER_WORLD;
@@ -475,50 +468,45 @@ pub(crate) fn sync_rig(
                     clones,
                     shading,
                     perspective: tile_projection,
-                    saved_layers: saved_layers.clone(),
                 },
                 wanted(atlas.id()),
                 Hdr,
             ));
-            match shading {
-                // The eye camera draws only the clones' mean.
-                CloneShading::Full => {
-                    commands.entity(entity).insert(RenderLayers::none());
-                }
-                // The eye camera draws the scene sharp, and the resolve
-                // reads its depth.
-                CloneShading::Reprojected => {
-                    let mut e = commands.entity(entity);
-                    match saved_layers {
-                        Some(l) => e.insert(l),
-                        None => e.remove::<RenderLayers>(),
-                    };
-                    let usages = TextureUsages::from(camera3d.depth_texture_usages);
-                    if !usages.contains(TextureUsages::TEXTURE_BINDING) {
-                        e.insert(Camera3d {
-                            depth_texture_usages: (usages | TextureUsages::TEXTURE_BINDING).into(),
-                            ..camera3d.clone()
-                        });
-                    }
-                }
+            // The eye camera still draws the scene, sharp: reprojected clones
+            // take their colours from it, and the lens's refraction finds the
+            // scene in its depth.
+            let usages = TextureUsages::from(camera3d.depth_texture_usages);
+            if !usages.contains(TextureUsages::TEXTURE_BINDING) {
+                commands.entity(entity).insert(Camera3d {
+                    depth_texture_usages: (usages | TextureUsages::TEXTURE_BINDING).into(),
+                    ..camera3d.clone()
+                });
             }
         }
     }
 }
 
-/// Removes a rig: its camera, the resolve, and gives the eye camera its
-/// layers back.
+/// Removes a rig: its camera and the resolve.
 fn stop_rig(commands: &mut Commands, eye: Entity, rig: &CloneRig) {
     commands.entity(rig.camera).despawn();
-    let mut e = commands.entity(eye);
-    e.remove::<(CloneRig, CloneResolve)>();
-    match &rig.saved_layers {
-        Some(layers) => {
-            e.insert(layers.clone());
-        }
-        None => {
-            e.remove::<RenderLayers>();
-        }
+    commands.entity(eye).remove::<(CloneRig, CloneResolve)>();
+}
+
+/// Gives a clone camera its eye camera's exposure (it scales the light a
+/// clone shaded in full receives), when the rig is made or the exposure
+/// changes.
+pub(crate) fn follow_exposure(
+    mut commands: Commands,
+    eyes: Query<
+        (&CloneRig, Option<&bevy::camera::Exposure>),
+        Or<(Changed<bevy::camera::Exposure>, Changed<CloneRig>)>,
+    >,
+) {
+    for (rig, exposure) in &eyes {
+        match exposure {
+            Some(e) => commands.entity(rig.camera).insert(*e),
+            None => commands.entity(rig.camera).remove::<bevy::camera::Exposure>(),
+        };
     }
 }
 
@@ -554,7 +542,7 @@ pub(crate) fn light_the_clones(
 #[allow(clippy::type_complexity)]
 pub(crate) fn sync_twins(
     mut commands: Commands,
-    rigs: Query<&CloneRig>,
+    rigs: Query<(&CloneRig, Option<&RenderLayers>)>,
     meshes: Query<
         (
             Entity,
@@ -570,7 +558,7 @@ pub(crate) fn sync_twins(
     bases: Res<Assets<StandardMaterial>>,
     mut clone_assets: ResMut<Assets<CloneMaterial>>,
 ) {
-    let Some(rig) = rigs.iter().next() else {
+    let Some((rig, eye_layers)) = rigs.iter().next() else {
         // No clones drawn: no twins.
         for (entity, .., twins_of) in &meshes {
             if let Some(t) = twins_of {
@@ -582,7 +570,7 @@ pub(crate) fn sync_twins(
         }
         return;
     };
-    let seen = rig.saved_layers.clone().unwrap_or_default();
+    let seen = eye_layers.cloned().unwrap_or_default();
     for (entity, mesh, base, layers, twins_of) in &meshes {
         let visible = layers.cloned().unwrap_or_default().intersects(&seen);
         let wanted = if visible { rig.clones as usize } else { 0 };

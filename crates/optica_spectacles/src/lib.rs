@@ -47,41 +47,97 @@
 //!   future work): every `StandardMaterial` mesh the eye camera sees gets
 //!   `S` twin entities carrying a [`CloneMaterial`] — the same material,
 //!   with a vertex shader that moves the vertex — tagged with their clone
-//!   number. The clones are shaded where the original is, under Bevy's
-//!   lights and shadows, so what is in focus looks exactly as without the
-//!   eye.
-//! - **How the clones are drawn, and why.** One clone camera (a child of
-//!   the eye camera) draws all `S` clones into an atlas of `S` tiles in a
-//!   single pass: each clone's vertices are mapped into its tile, and each
-//!   fragment outside its tile is discarded. The eye camera then draws only
-//!   the tiles' mean. Against `S` cameras, one per clone, this draws the
-//!   shadow maps once instead of `S` times and culls, batches and sorts
-//!   once; the twins of a mesh share one material and are instanced. The
-//!   `spectacles` report measures both (see its `mechanism` series).
+//!   number. A clone is shaded where its original is, under Bevy's lights
+//!   and shadows, so what is in focus looks exactly as without the eye.
 //! - **Without glasses** the sets are computed per vertex in closed form
 //!   (`optica_optics::spectacles::naked_eye_displacements`).
 //! - **With glasses** they come from the paper's voxel field (§4.3):
 //!   bundles from the pupil through the lens's ~1,500 points, converging at
 //!   the near and far points, traced through both surfaces; their spreads
 //!   recorded in the voxels their refracted reference rays cross, averaged
-//!   per voxel, holes filled from neighbours. It is precomputed when the
-//!   eye, the lens or the field's settings change and uploaded once; each
-//!   vertex looks up its voxel. A vertex beyond the field's box takes the
-//!   set where its line of sight leaves the box, scaled by distance
+//!   per voxel, holes filled from the nearest crossed voxel. Each voxel
+//!   keeps its set as a linear map of the pupil (two vectors instead of
+//!   `S`: exact for the naked eye, first order through a lens, elliptical
+//!   for an astigmatic bundle), so the field is 8.5 MB at the paper's
+//!   110×77×42 voxels, is precomputed in about 20 ms on two cores (the
+//!   paper: ~3 s) whenever the eye, the lens or the field's settings
+//!   change, and `S` can change without a new precompute. Each vertex
+//!   looks up its voxel; a vertex beyond the field's box takes the set
+//!   where its line of sight leaves the box, scaled by distance
 //!   ([`FieldBox`]).
+//!
+//! ## The lens's refraction (the paper's §3)
+//!
+//! With [`Spectacles`] the lens is drawn over the view (on by default:
+//! [`Spectacles::refraction`]): on the CPU a ray from the eye through every
+//! vertex of the lens's back surface (the paper's ~1,500, 24 rings × 64
+//! segments, [`Spectacles::tessellation`]) is traced through both
+//! surfaces, only when the lens or its place before the eye changes
+//! ([`Spectacles::decentration_mm`] slides it; ~0.2 ms a trace); on the
+//! GPU each vertex's exit ray finds the scene in the eye camera's depth
+//! (a march of 64 geometric steps and 16 bisections), and that point's
+//! place in the view is the vertex's texture coordinate; the lens's back
+//! surface, drawn over the view, shows the view there, interpolated between
+//! vertices (the paper's steps 3(a)–(d)). Vertices whose ray is totally
+//! reflected or leaves through the rim mask their triangles as the lens's
+//! dark edge. The environment map is the eye camera's own view, not a view
+//! rendered from the paper's virtual viewpoint (which [`LensRefraction`]
+//! still gives): for spectacles that point lies within millimetres of the
+//! eye, the hits are found exactly in the depth, and the scene is not drawn
+//! once more; what this gives up is the part of the scene a minus lens
+//! shows past the view's edge (its rays there take the edge pixel).
+//! Against an exact per-pixel trace through the same lens the scene seen
+//! through it lies within 0.1 px (mean 0.02–0.03 px at 128², −4 and
+//! +4 D), magnified or minified as the lens does (the `spectacles` report
+//! sweeps the tessellation).
+//!
+//! ## How the clones are drawn, and why
+//!
+//! One clone camera (a child of the eye camera) draws all `S` clones in a
+//! single pass into an atlas of `S` tiles, each clone's vertices mapped
+//! into its tile and cut at the tile's edges by clip distances (a discard
+//! where the device has none). One camera culls, batches and sorts once
+//! for all clones; the twins of a mesh share their material and are
+//! instanced. The eye camera's view then becomes the tiles' mean (the
+//! paper's accumulation buffer), written over its main texture before
+//! Bevy's post-processing, so bloom, exposure and tonemapping treat the
+//! blurred view as the sharp one.
+//!
+//! How each clone is shaded decides the cost ([`CloneShading`]). Measured
+//! by the `spectacles` report on lavapipe (256², a lit room with shadows,
+//! `S = 10`): shading every clone in full, the paper's way, costs about
+//! 7.5× the sharp frame, and so do `S` cameras each drawing the scene
+//! (7.1×; they also draw the shadow maps `S` times) — every clone pays a
+//! shaded drawing of the scene. The default instead lets the eye camera
+//! draw the scene once, sharp, with all its shading, and each clone only
+//! records where its undisplaced surface point lies in that view; the
+//! resolve takes the sharp view's colour there when the point is visible
+//! in it: about 2× the sharp frame, and its clone camera needs no shadow
+//! maps at all. What reprojection gives up (points the sharp view hides,
+//! and a slight extra blur from resampling the view) is measured in the
+//! same report against `S = 128` clones shaded in full, and documented on
+//! [`CloneShading::Reprojected`].
 //!
 //! ## Status and limits
 //!
 //! - One eye camera per app draws clones (the first active one). It is
-//!   made HDR; its own `RenderLayers` are kept and given back when the
-//!   [`Eye`] is removed or [`CloneDefocus::enabled`] is off.
+//!   made HDR (the clones are averaged, and the lens resamples the view, in
+//!   linear light), and it still draws the scene sharp: reprojected clones
+//!   take their colours from that view and the lens finds the scene in its
+//!   depth (with full shading it is one extra drawing of `S + 1`).
 //! - Meshes with `StandardMaterial` are cloned; other materials are not
-//!   drawn through the eye. The camera's `Exposure`, environment map and
-//!   fog are not carried to the clone camera yet.
+//!   blurred. The eye camera's `Exposure` is carried to the clone camera;
+//!   its environment map and fog are not (they matter only to clones
+//!   shaded in full). Transparent and alpha-masked materials are cloned as
+//!   opaque when reprojected.
 //! - Objects must be tessellated finely enough that a vertex's blur stands
 //!   for its neighbourhood (the paper's §6.1): a large quad has one blur
 //!   per corner.
-//! - Screen-space effects of the clone camera (SSAO, SSR, TAA) are off.
+//! - The defocus field is precomputed for a centred lens: a decentred lens
+//!   refracts the view from where it sits, but blurs it as if centred.
+//! - Still to come: the per-vertex mirror of the paper's §3.2, an
+//!   astigmatic eye, progressive lenses, chromatic aberration and a voxel
+//!   grid in eye coordinates.
 
 #![warn(missing_docs)]
 
@@ -95,6 +151,7 @@ mod clones;
 mod panel;
 mod precompute;
 pub mod presets;
+mod refraction;
 mod render;
 mod settings;
 
@@ -108,6 +165,8 @@ pub use precompute::{
     CloneUniform, EyeOptics, FieldGeometry, SpectaclesStatus, camera_z, corrected_points,
     eye_placement, field_bytes,
 };
+pub use refraction::{LensRefraction, LensVertex, trace_lens};
+pub use render::refraction::MARCH_STEPS;
 pub use settings::{
     Accommodation, CloneDefocus, CloneShading, Eye, FieldBox, LensMaterial, MAX_CLONES, Pupil,
     Spectacles,
@@ -119,6 +178,9 @@ pub(crate) const CLONE_SHADER: Handle<Shader> =
 /// The resolve pass's shader.
 pub(crate) const RESOLVE_SHADER: Handle<Shader> =
     uuid_handle!("5a3e8c71-2b94-4d6f-b0a2-e91c47f6d385");
+/// The lens refraction's shader.
+pub(crate) const LENS_SHADER: Handle<Shader> =
+    uuid_handle!("9c2b7e14-6a3f-4d85-b1e0-3f7a5c9d2e46");
 
 /// `displacement.wgsl`: the clones' displacement sets (pupil samples, the
 /// frame across a sight line, the naked eye, the box exit), the WGSL twin of
@@ -160,6 +222,13 @@ impl Plugin for SpectaclesPlugin {
         insert_clone_shader(app, false);
         if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
             let _ = shaders.insert(
+                LENS_SHADER.id(),
+                Shader::from_wgsl(
+                    include_str!("shaders/lens_refraction.wgsl"),
+                    "optica_spectacles/shaders/lens_refraction.wgsl",
+                ),
+            );
+            let _ = shaders.insert(
                 RESOLVE_SHADER.id(),
                 Shader::from_wgsl(
                     include_str!("shaders/resolve.wgsl"),
@@ -168,7 +237,7 @@ impl Plugin for SpectaclesPlugin {
             );
         }
         app.add_plugins(MaterialPlugin::<CloneMaterial>::default())
-            .add_plugins(render::CloneRenderPlugin)
+            .add_plugins(render::SpectaclesRenderPlugin)
             .register_type::<Eye>()
             .register_type::<Spectacles>()
             .register_type::<CloneDefocus>()
@@ -180,13 +249,21 @@ impl Plugin for SpectaclesPlugin {
                     precompute::update_optics,
                     clones::stop_removed,
                     clones::sync_rig,
+                    clones::follow_exposure,
                     clones::sync_twins,
                     clones::follow_base_materials,
                     clones::light_the_clones,
+                    refraction::update_refraction,
+                    refraction::make_depth_readable,
                 )
                     .chain()
                     .before(bevy::camera::CameraUpdateSystems)
-                    .run_if(any_with_component::<Eye>.or_else(any_with_component::<CloneRig>)),
+                    .run_if(
+                        any_with_component::<Eye>
+                            .or_else(any_with_component::<CloneRig>)
+                            .or_else(any_with_component::<Spectacles>)
+                            .or_else(any_with_component::<refraction::LensRefraction>),
+                    ),
             );
     }
 

@@ -7,6 +7,8 @@ mod blur;
 mod correction;
 mod parity;
 mod pipelines;
+mod presets;
+mod refraction;
 mod scene;
 mod stability;
 

@@ -1,4 +1,4 @@
-//! The render world: the eye camera's view becomes the mean of the clone
+//! The resolve: the eye camera's view becomes the mean of the clone
 //! atlas's tiles (the paper's accumulation, §4.1), written over its main
 //! texture before Bevy's post-processing, so bloom, exposure and
 //! tonemapping treat the blurred view as they would the sharp one. With
@@ -50,25 +50,21 @@ struct ResolveParams {
 }
 
 /// Adds the resolve pass.
-pub(crate) struct CloneRenderPlugin;
-
-impl Plugin for CloneRenderPlugin {
-    fn build(&self, app: &mut App) {
-        app.add_plugins(ExtractComponentPlugin::<CloneResolve>::default());
-        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
-            return;
-        };
-        render_app
-            .add_systems(RenderStartup, init_resolve)
-            .add_systems(
-                Render,
-                prepare_resolve.in_set(RenderSystems::PrepareBindGroups),
-            )
-            .add_systems(
-                Core3d,
-                resolve_pass.in_set(Core3dSystems::EarlyPostProcess),
-            );
-    }
+pub(crate) fn build(app: &mut App) {
+    app.add_plugins(ExtractComponentPlugin::<CloneResolve>::default());
+    let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+        return;
+    };
+    render_app
+        .add_systems(RenderStartup, init_resolve)
+        .add_systems(
+            Render,
+            prepare_resolve.in_set(RenderSystems::PrepareBindGroups),
+        )
+        .add_systems(
+            Core3d,
+            resolve_pass.in_set(Core3dSystems::EarlyPostProcess),
+        );
 }
 
 /// Which resolve: the clones' colours, or reprojection from the sharp view
@@ -82,7 +78,7 @@ enum Variant {
 /// The layouts, sampler and the pipelines (per variant and target
 /// format), queued on first use.
 #[derive(Resource)]
-struct ResolveShared {
+pub(crate) struct ResolveShared {
     layouts: HashMap<Variant, BindGroupLayoutDescriptor>,
     sampler: Sampler,
     /// Nearest, for the reprojection's gathers (depth textures take no
@@ -158,7 +154,7 @@ fn init_resolve(mut commands: Commands, render_device: Res<RenderDevice>) {
 
 /// A view's resolve for this frame.
 #[derive(Component)]
-struct ResolveBinding {
+pub(crate) struct ResolveBinding {
     variant: Variant,
     pipeline: CachedRenderPipelineId,
     atlas: AssetId<Image>,
@@ -231,7 +227,7 @@ fn prepare_resolve(
 }
 
 /// Writes the clones' mean over the view's main texture.
-fn resolve_pass(
+pub(crate) fn resolve_pass(
     view: ViewQuery<(&ViewTarget, &ResolveBinding, Option<&ViewDepthTexture>)>,
     shared: Res<ResolveShared>,
     pipeline_cache: Res<PipelineCache>,

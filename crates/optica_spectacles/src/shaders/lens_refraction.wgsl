@@ -1,0 +1,153 @@
+// The lens's refraction of the view (the paper's §3.1, Fig. 1), with the
+// eye camera's own view as the environment map:
+//
+// `march`: per lens vertex, (a) the exit ray's hit on the scene, found in
+// the view's depth; (b–d) that point projected into the view gives the
+// vertex's texture coordinate. A ray that meets nothing (the sky, or it
+// leaves the view first) takes its direction's point at infinity.
+//
+// `copy_*` draws the view unchanged; `lens_*` then draws the lens's back
+// surface over it, each fragment showing the view at the coordinate
+// interpolated from its triangle's vertices; vertices whose ray does not
+// get through (total reflection, the rim) mask their triangles as the
+// lens's dark edge. `MULTISAMPLED` reads sample 0 of an MSAA depth.
+
+#import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
+
+struct LensVertex {
+    back: vec3<f32>,
+    exits: u32,
+    origin: vec3<f32>,
+    _pad0: f32,
+    dir: vec3<f32>,
+    _pad1: f32,
+}
+
+struct LensParams {
+    clip_from_view: mat4x4<f32>,
+    // Reverse-Z infinite perspective: depth = near / distance.
+    near: f32,
+    vertices: u32,
+    steps: u32,
+    // The lens's dark edge, linear RGB.
+    edge: f32,
+}
+
+@group(0) @binding(0) var<uniform> params: LensParams;
+@group(0) @binding(1) var<storage, read> lens: array<LensVertex>;
+#ifdef MARCH
+@group(0) @binding(2) var<storage, read_write> coords: array<vec4<f32>>;
+#ifdef MULTISAMPLED
+@group(0) @binding(3) var depth: texture_depth_multisampled_2d;
+#else
+@group(0) @binding(3) var depth: texture_depth_2d;
+#endif
+#else
+@group(0) @binding(2) var<storage, read> coords: array<vec4<f32>>;
+@group(0) @binding(3) var view: texture_2d<f32>;
+@group(0) @binding(4) var view_sampler: sampler;
+#endif
+
+// View-space point to texture coordinate (0..1, y down) and its w.
+fn project(p: vec4<f32>) -> vec3<f32> {
+    let c = params.clip_from_view * p;
+    let ndc = c.xy / c.w;
+    return vec3<f32>(ndc.x * 0.5 + 0.5, 0.5 - ndc.y * 0.5, c.w);
+}
+
+#ifdef MARCH
+// The scene's distance (view depth, m) at texture coordinate `uv`, or a
+// negative number off the view.
+fn scene_distance(uv: vec2<f32>) -> f32 {
+    let size = vec2<f32>(textureDimensions(depth));
+    if any(uv < vec2<f32>(0.0)) || any(uv >= vec2<f32>(1.0)) {
+        return -1.0;
+    }
+    let d = textureLoad(depth, vec2<i32>(uv * size), 0);
+    if d <= 0.0 {
+        return 1e30;
+    }
+    return params.near / d;
+}
+
+// Whether the ray's point at `t` lies behind the visible surface.
+fn behind(o: vec3<f32>, d: vec3<f32>, t: f32) -> bool {
+    let p = o + d * t;
+    let s = project(vec4<f32>(p, 1.0));
+    let scene = scene_distance(s.xy);
+    return scene > 0.0 && -p.z >= scene;
+}
+
+@compute @workgroup_size(64)
+fn march(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= params.vertices {
+        return;
+    }
+    let v = lens[i];
+    // Geometric steps from 2 cm to 2 km past the lens, then bisection.
+    let t0 = 0.02;
+    let ratio = pow(1e5, 1.0 / f32(params.steps));
+    var lo = 0.0;
+    var hi = -1.0;
+    var t = t0;
+    for (var k = 0u; k < params.steps; k++) {
+        if behind(v.origin, v.dir, t) {
+            hi = t;
+            break;
+        }
+        lo = t;
+        t *= ratio;
+    }
+    var uv: vec2<f32>;
+    var hit = 0.0;
+    if hi > 0.0 {
+        for (var k = 0u; k < 16u; k++) {
+            let mid = 0.5 * (lo + hi);
+            if behind(v.origin, v.dir, mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        uv = project(vec4<f32>(v.origin + v.dir * hi, 1.0)).xy;
+        hit = 1.0;
+    } else {
+        // Nothing met: the direction's point at infinity.
+        uv = project(vec4<f32>(v.dir, 0.0)).xy;
+    }
+    coords[i] = vec4<f32>(uv, hit, f32(v.exits));
+}
+#else
+
+@fragment
+fn copy_fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
+    return textureSampleLevel(view, view_sampler, in.uv, 0.0);
+}
+
+struct LensOut {
+    @builtin(position) position: vec4<f32>,
+    @location(0) uv: vec2<f32>,
+    @location(1) exits: f32,
+}
+
+@vertex
+fn lens_vertex(@builtin(vertex_index) i: u32) -> LensOut {
+    var out: LensOut;
+    var c = params.clip_from_view * vec4<f32>(lens[i].back, 1.0);
+    // No depth test: any depth inside the clip volume.
+    c.z = 0.5 * c.w;
+    out.position = c;
+    out.uv = coords[i].xy;
+    out.exits = coords[i].w;
+    return out;
+}
+
+@fragment
+fn lens_fragment(in: LensOut) -> @location(0) vec4<f32> {
+    let seen = textureSampleLevel(view, view_sampler, clamp(in.uv, vec2<f32>(0.0), vec2<f32>(1.0)), 0.0);
+    // A triangle with a vertex whose ray does not get through: the edge.
+    let through = step(0.999, in.exits);
+    return vec4<f32>(mix(vec3<f32>(params.edge), seen.rgb, through), 1.0);
+}
+#endif

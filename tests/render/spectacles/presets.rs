@@ -1,0 +1,37 @@
+//! The presets say what their wearers see, and it is what ophthalmic
+//! optics says: the blur disc at the chart (5 m) and the book (0.3 m), in
+//! arcminutes, and the glasses' magnification (CPU only: the numbers the
+//! example prints).
+
+use optica_spectacles::presets::presets;
+
+#[test]
+fn presets_describe_what_their_wearers_see() {
+    let all = presets();
+    let get = |name: &str| all.iter().find(|p| p.name == name).unwrap_or_else(|| panic!("{name}"));
+    let sight = |name: &str, z: f64| get(name).sight(z).unwrap_or_else(|e| panic!("{name}: {e}"));
+    for p in &all {
+        for z in [0.3, 1.0, 5.0] {
+            let (s, m) = p.sight(z).unwrap_or_else(|e| panic!("{}: {e}", p.name));
+            assert!(s.blur_arcmin.is_finite() && s.blur_arcmin >= 0.0 && m.is_finite(), "{}", p.name);
+        }
+    }
+    // Fig. 8(b) naked, at the chart: A·ΔD = 12 mm × (1/1.3 − 1/5) D = 6.83 mrad = 23.5′.
+    let (b, _) = sight("fig8b-myopic-presbyope", 5.0);
+    assert!((b.blur_arcmin - 0.012 * (1.0 / 1.3 - 0.2) * (180.0 / std::f64::consts::PI) * 60.0).abs() < 1e-6);
+    // The concave lens sharpens the chart and blurs the book more.
+    assert!(sight("fig8c-concave", 5.0).0.blur_arcmin < 2.0);
+    assert!(sight("fig8c-concave", 0.3).0.blur_arcmin > sight("fig8b-myopic-presbyope", 0.3).0.blur_arcmin);
+    // The convex reading lens: the book sharp, the chart worse.
+    assert!(sight("fig8d-convex", 0.3).0.blur_arcmin < 2.0);
+    assert!(sight("fig8d-convex", 5.0).0.blur_arcmin > b.blur_arcmin);
+    // The −3 D myope: the chart blurred, the book sharp; in −3 D glasses the
+    // chart is sharp (under 2′) and things look 3–5 % smaller.
+    assert!(sight("myope", 5.0).0.blur_arcmin > 20.0 && sight("myope", 0.3).0.blur_arcmin == 0.0);
+    let (g, m) = sight("myope-glasses", 5.0);
+    assert!(g.blur_arcmin < 2.0 && (-5.0..-3.0).contains(&m), "{g:?} {m}");
+    // The presbyope: the book blurred, the chart sharp; reading glasses the other way round, larger.
+    assert!(sight("presbyope", 0.3).0.blur_arcmin > 5.0 && sight("presbyope", 5.0).0.blur_arcmin == 0.0);
+    let (r, m) = sight("presbyope-readers", 0.3);
+    assert!(r.blur_arcmin < 2.0 && m > 2.0 && sight("presbyope-readers", 5.0).0.blur_arcmin > 5.0);
+}

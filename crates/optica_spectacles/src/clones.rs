@@ -492,15 +492,15 @@ fn stop_rig(commands: &mut Commands, eye: Entity, rig: &CloneRig) {
     commands.entity(eye).remove::<(CloneRig, CloneResolve)>();
 }
 
+/// An eye camera whose exposure or rig changed.
+type ExposureOrRigChanged = Or<(Changed<bevy::camera::Exposure>, Changed<CloneRig>)>;
+
 /// Gives a clone camera its eye camera's exposure (it scales the light a
 /// clone shaded in full receives), when the rig is made or the exposure
 /// changes.
 pub(crate) fn follow_exposure(
     mut commands: Commands,
-    eyes: Query<
-        (&CloneRig, Option<&bevy::camera::Exposure>),
-        Or<(Changed<bevy::camera::Exposure>, Changed<CloneRig>)>,
-    >,
+    eyes: Query<(&CloneRig, Option<&bevy::camera::Exposure>), ExposureOrRigChanged>,
 ) {
     for (rig, exposure) in &eyes {
         match exposure {

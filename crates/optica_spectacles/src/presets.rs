@@ -164,7 +164,8 @@ pub fn blur_angle_rad(eye: &optics::Eye, lens: Option<&SpectacleLens>, distance_
     let far = trace_bundle(Some(lens), &pl, DVec3::Z, rho, eye.far_point_vergence_d(), &samples).ok()?;
     // Distance along the refracted chief from its exit on the lens.
     let s = distance_m + f64::from(camera_z()) - near.chief().origin().z;
-    if !(s > 0.0) {
+    // Not ahead of the lens (or NaN): nothing to see through it.
+    if s.is_nan() || s <= 0.0 {
         return None;
     }
     let map = if s * near.vergence_d() < 1.0 {

@@ -19,8 +19,7 @@ use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use bevy::render::view::Msaa;
 use optica_harness::Headless;
 use optica_optics::glam::DVec3;
-use optica_optics::ray::Ray;
-use optica_optics::spectacles::LensTrace;
+use optica_optics::spectacles::plane_seen_through_lens;
 use optica_spectacles::{Spectacles, SpectaclesPlugin, camera_z};
 
 const SIZE: u32 = 128;
@@ -116,30 +115,23 @@ fn seen(frame: &optica_harness::RenderedFrame, x: u32, y: u32) -> Option<(f64, f
     (p[2] > 0.5).then(|| (f64::from(p[0]), f64::from(p[1])))
 }
 
-/// Displacements (px) of every pixel whose exact ray meets the plane well
-/// inside the view, and the view's scale against the naked eye's.
+/// Displacements (px) of every pixel (away from the view's edge) whose
+/// exact ray meets the plane, and the view's scale against the naked eye's.
 fn displacements(s: &Spectacles) -> (Vec<f64>, f64) {
     let lens = s.design().unwrap();
     let frame = render(Some(s.clone()));
     let naked = render(None);
     let tan = f64::from(FOV / 2.0).tan();
     let px_per_m = f64::from(SIZE) / (2.0 * tan * f64::from(PLANE_Z));
-    let eye = DVec3::new(0.0, 0.0, f64::from(camera_z()));
+    let plane_z = f64::from(PLANE_Z) + f64::from(camera_z());
+    let exact = plane_seen_through_lens(Some(&lens), f64::from(camera_z()), f64::from(FOV), SIZE, plane_z);
     let mut d = Vec::new();
     let (mut spread_lens, mut spread_naked) = (0.0, 0.0);
     for y in 8..SIZE - 8 {
         for x in 8..SIZE - 8 {
-            // Eye frame: +x to the wearer's left (the image's left), +z ahead.
-            let ndc = (
-                (2.0 * (f64::from(x) + 0.5) / f64::from(SIZE) - 1.0) * tan,
-                (1.0 - 2.0 * (f64::from(y) + 0.5) / f64::from(SIZE)) * tan,
-            );
-            let ray = Ray::new(eye, DVec3::new(-ndc.0, ndc.1, 1.0)).unwrap();
-            let LensTrace::Exit { front, dir, .. } = lens.trace_from_eye(&ray) else {
+            let Some(hit) = exact[(y * SIZE + x) as usize] else {
                 continue;
             };
-            let t = (f64::from(PLANE_Z) + f64::from(camera_z()) - front.z) / dir.z;
-            let hit = front + dir * t;
             // The plane's x is Bevy's x: the eye frame's −x.
             let want = (-hit.x, hit.y);
             let (Some(got), Some(bare)) = (seen(&frame, x, y), seen(&naked, x, y)) else {

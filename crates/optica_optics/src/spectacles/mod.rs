@@ -163,6 +163,8 @@ mod lens_surface;
 mod naked;
 mod per_vertex;
 mod viewpoint;
+#[cfg(feature = "reference")]
+mod view_reference;
 mod voxel_field;
 
 pub use bundle::{EyePlacement, Region, Spread, TracedBundle, pupil_samples, trace_bundle};
@@ -182,6 +184,8 @@ pub use lens_mesh::{LensMesh, MAX_POLAR_POINTS};
 pub use lens_surface::{LensSurface, ToricSurface};
 pub use naked::{defocus_factor, naked_eye_displacements};
 pub use per_vertex::{LensTrace, refract_vertices};
+#[cfg(feature = "reference")]
+pub use view_reference::plane_seen_through_lens;
 pub use viewpoint::{
     DEFAULT_VIEWPOINT_REGULARISATION, ViewpointFit, virtual_viewpoint, virtual_viewpoint_of_traces,
 };

@@ -88,6 +88,13 @@ enum Viewer {
     BevyDof(DepthOfFieldMode),
     /// `S` plain cameras, each drawing the scene into its own target.
     Cameras(u32),
+    /// A camera with glasses and no eye: the lens's refraction alone.
+    Lens(Spectacles),
+}
+
+/// The lit room through `spectacles`, no eye (the refraction's rows).
+pub(crate) fn room_with(spectacles: Spectacles) -> impl FnOnce(&mut App) {
+    room(Viewer::Lens(spectacles), true)
 }
 
 fn eye() -> Eye {
@@ -203,6 +210,9 @@ fn room(viewer: Viewer, lit: bool) -> impl FnOnce(&mut App) {
                                 ..default()
                             },
                         ));
+                    }
+                    Viewer::Lens(s) => {
+                        commands.spawn((camera, s.clone()));
                     }
                     Viewer::Cameras(n) => {
                         commands.spawn(camera);

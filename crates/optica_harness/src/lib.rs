@@ -14,7 +14,9 @@
 //!   median and spread over N frames after a warm-up;
 //! - [`Headless::check_pipelines`] proves every pipeline compiles, also on
 //!   wgpu's noop backend where no driver exists;
-//! - [`metrics`] computes PSNR, SSIM and ꟻLIP.
+//! - [`metrics`] computes PSNR, SSIM and ꟻLIP;
+//! - [`textures`] makes test patterns (a checkerboard, a texture of its own
+//!   coordinates, a soft spot) to put in front of the camera.
 //!
 //! **Prerequisite:** a Vulkan driver. On a headless Linux machine or CI,
 //! `apt-get install mesa-vulkan-drivers` gives lavapipe, the CPU device the
@@ -75,6 +77,7 @@ mod headless;
 mod kernel;
 pub mod metrics;
 mod noop;
+pub mod textures;
 mod timing;
 
 pub use adapter::{Adapter, AdapterInfo};

@@ -13,11 +13,10 @@
 //! magnification's sign). Vertices totally reflected at the rim of a thick
 //! minus lens are drawn dark, not as a wrong view.
 
-use bevy::asset::RenderAssetUsages;
 use bevy::prelude::*;
-use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use bevy::render::view::Msaa;
 use optica_harness::Headless;
+use optica_harness::textures::coordinates;
 use optica_optics::glam::DVec3;
 use optica_optics::spectacles::plane_seen_through_lens;
 use optica_spectacles::{Spectacles, SpectaclesPlugin, camera_z};
@@ -26,37 +25,6 @@ const SIZE: u32 = 128;
 const FOV: f32 = 0.8;
 const PLANE_Z: f32 = 2.0;
 const PLANE_HALF: f32 = 2.0;
-
-/// A texture whose texel at (u, v) holds (x, y) of the plane, metres, and
-/// 1 in blue.
-fn coordinates() -> Image {
-    let n = 256u32;
-    let mut data = Vec::with_capacity((n * n * 16) as usize);
-    for j in 0..n {
-        for i in 0..n {
-            let x = ((i as f32 + 0.5) / n as f32 - 0.5) * 2.0 * PLANE_HALF;
-            let y = (0.5 - (j as f32 + 0.5) / n as f32) * 2.0 * PLANE_HALF;
-            // Blue marks the plane; f16 holds ±2 m to ~1 mm.
-            for c in [x, y, 1.0, 1.0] {
-                data.extend_from_slice(&c.to_le_bytes());
-            }
-        }
-    }
-    let mut image = Image::new(
-        Extent3d {
-            width: n,
-            height: n,
-            depth_or_array_layers: 1,
-        },
-        TextureDimension::D2,
-        data,
-        TextureFormat::Rgba32Float,
-        RenderAssetUsages::RENDER_WORLD,
-    );
-    // Bilinear: the coordinates are continuous across texels.
-    image.sampler = bevy::image::ImageSampler::linear();
-    image
-}
 
 fn render(spectacles: Option<Spectacles>) -> optica_harness::RenderedFrame {
     render_at(spectacles, FOV)
@@ -79,7 +47,7 @@ fn render_at(spectacles: Option<Spectacles>, fov: f32) -> optica_harness::Render
                             Plane3d::new(Vec3::Z, Vec2::splat(PLANE_HALF)).mesh().subdivisions(7),
                         )),
                         MeshMaterial3d(materials.add(StandardMaterial {
-                            base_color_texture: Some(images.add(coordinates())),
+                            base_color_texture: Some(images.add(coordinates(256, PLANE_HALF))),
                             unlit: true,
                             ..default()
                         })),

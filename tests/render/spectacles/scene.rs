@@ -1,65 +1,10 @@
 //! The test scenes: unlit targets (so that a pixel is the texture's colour,
 //! whatever the lights) at known distances straight ahead of an eye camera.
 
-use bevy::asset::RenderAssetUsages;
-use bevy::image::{ImageSampler, ImageSamplerDescriptor};
 use bevy::prelude::*;
-use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use bevy::render::view::Msaa;
+use optica_harness::textures::{checker, gaussian_spot};
 use optica_spectacles::{CloneDefocus, Eye, Spectacles, SpectaclesPlugin};
-
-/// A square `n`×`n` checkerboard of `cells` cells, black and white.
-pub fn checker(n: u32, cells: u32) -> Image {
-    let mut data = Vec::with_capacity((n * n * 4) as usize);
-    for y in 0..n {
-        for x in 0..n {
-            let on = ((x * cells / n) + (y * cells / n)) % 2 == 0;
-            let v = if on { 255 } else { 0 };
-            data.extend_from_slice(&[v, v, v, 255]);
-        }
-    }
-    let mut image = Image::new(
-        Extent3d {
-            width: n,
-            height: n,
-            depth_or_array_layers: 1,
-        },
-        TextureDimension::D2,
-        data,
-        TextureFormat::Rgba8UnormSrgb,
-        RenderAssetUsages::RENDER_WORLD,
-    );
-    image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor::nearest());
-    image
-}
-
-/// A soft white spot on black, a Gaussian of `sigma` (a fraction of the
-/// image's side), bilinearly filtered: its moments do not depend on how
-/// the pixel grid falls on it.
-pub fn gaussian_spot(n: u32, sigma: f32) -> Image {
-    let mut data = Vec::with_capacity((n * n * 4) as usize);
-    for y in 0..n {
-        for x in 0..n {
-            let u = (x as f32 + 0.5) / n as f32 - 0.5;
-            let v = (y as f32 + 0.5) / n as f32 - 0.5;
-            let g = (-(u * u + v * v) / (2.0 * sigma * sigma)).exp();
-            let c = (g * 255.0).round() as u8;
-            data.extend_from_slice(&[c, c, c, 255]);
-        }
-    }
-    Image::new(
-        Extent3d {
-            width: n,
-            height: n,
-            depth_or_array_layers: 1,
-        },
-        TextureDimension::D2,
-        data,
-        // Linear, so that the moments are the image's.
-        TextureFormat::Rgba8Unorm,
-        RenderAssetUsages::RENDER_WORLD,
-    )
-}
 
 /// A target: a square of `size` metres, `distance` metres straight ahead
 /// of the camera at the origin (looking down −Z), facing it, showing a
@@ -139,7 +84,7 @@ pub fn scene_with_background(
                     let texture = if t.spot {
                         Some(images.add(gaussian_spot(64, 0.125)))
                     } else {
-                        (t.cells > 0).then(|| images.add(checker(256, t.cells)))
+                        (t.cells > 0).then(|| images.add(checker(256, t.cells, 0, 255)))
                     };
                     let material = materials.add(StandardMaterial {
                         base_color_texture: texture,

@@ -14,10 +14,13 @@
 //!   on; per-voxel average over all crossings (`VoxelAverage::AllCrossings`,
 //!   the crate's default; the paper's `RecordedSets` measured 0–2 % higher
 //!   mean error at quick settings, see `spectacles::VoxelAverage`).
-//! * Series: rows with `work.clones` = S. The main series is S = 10 (the
-//!   paper's); error names without suffix. The full sweep adds S = 4 and
-//!   S = 20 at every k, with the error names suffixed `_s4`, `_s20`, so that
-//!   each S is its own curve in the plot.
+//! * Series: rows with `work.clones` = S, the pupil rays per bundle and the
+//!   clones each voxel's set (kept as its linear map of the pupil) is
+//!   expanded to. The main series is S = 10 (the paper's); error names
+//!   without suffix. The full sweep adds S = 4 and S = 20 at every k, with
+//!   the error names suffixed `_s4`, `_s20`, so that each S is its own
+//!   curve in the plot. The rendered series (`spectacles_render`,
+//!   `spectacles_refraction`) follow in the same report.
 //! * Errors (per point, then mean / max over points): `mean_mm`, `max_mm` —
 //!   |RMS radius of the field's set − RMS radius of the reference set|, mm
 //!   (the blur's size); `mean_mrad` — the same divided by the distance
@@ -25,7 +28,8 @@
 //!   disc's edge, which only S samples).
 //! * Reference: `reference_at` with 256 pupil rays per bundle at quasi-random
 //!   points (Halton) seen through the lens, 0.1–2 m away.
-//! * time_ms: the field precompute. baseline_time_ms: the per-vertex
+//! * time_ms: the field precompute (median of runs; the paper's setting is
+//!   k = 1). baseline_time_ms: the per-vertex
 //!   refraction of one lens mesh (1,537 back-surface vertices, the paper's
 //!   lens size), which is the per-frame work of §3 when the lens moves.
 //! * Stability cases: extremes run through the whole path (lens design,

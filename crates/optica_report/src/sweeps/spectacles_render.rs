@@ -35,6 +35,7 @@ use bevy::camera::Hdr;
 use bevy::post_process::dof::{DepthOfField, DepthOfFieldMode};
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
+use optica_harness::textures::checker;
 use optica_harness::{RenderedFrame, metrics};
 use optica_spectacles::{
     CloneDefocus, CloneShading, Eye, FieldBox, LensMaterial, Spectacles, SpectaclesPlugin,
@@ -50,32 +51,6 @@ const PUPIL_MM: f32 = 12.0;
 /// Fig. 8(c)'s concave lens: the far point (1.3 m from the pupil, 1.285 m
 /// from a lens 15 mm in front of it) to infinity.
 const CONCAVE_D: f32 = -0.778;
-
-/// A checkerboard texture of `cells` cells on a side.
-fn checker(cells: u32) -> Image {
-    use bevy::asset::RenderAssetUsages;
-    use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
-    let n = 256u32;
-    let mut data = Vec::with_capacity((n * n * 4) as usize);
-    for y in 0..n {
-        for x in 0..n {
-            let on = ((x * cells / n) + (y * cells / n)).is_multiple_of(2);
-            let v = if on { 230 } else { 20 };
-            data.extend_from_slice(&[v, v, v, 255]);
-        }
-    }
-    Image::new(
-        Extent3d {
-            width: n,
-            height: n,
-            depth_or_array_layers: 1,
-        },
-        TextureDimension::D2,
-        data,
-        TextureFormat::Rgba8UnormSrgb,
-        RenderAssetUsages::RENDER_WORLD,
-    )
-}
 
 /// What looks at the room.
 #[derive(Clone)]
@@ -134,7 +109,7 @@ fn room(viewer: Viewer, lit: bool) -> impl FnOnce(&mut App) {
                 ];
                 for (distance, size, offset, cells) in targets {
                     let material = materials.add(StandardMaterial {
-                        base_color_texture: Some(images.add(checker(cells))),
+                        base_color_texture: Some(images.add(checker(256, cells, 20, 230))),
                         unlit: !lit,
                         perceptual_roughness: 0.6,
                         ..default()

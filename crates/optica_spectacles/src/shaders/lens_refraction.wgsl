@@ -70,12 +70,15 @@ fn scene_distance(uv: vec2<f32>) -> f32 {
     return params.near / d;
 }
 
+// The scene's distance under the ray's point at `t` (negative off the view).
+fn scene_under(o: vec3<f32>, d: vec3<f32>, t: f32) -> f32 {
+    return scene_distance(project(vec4<f32>(o + d * t, 1.0)).xy);
+}
+
 // Whether the ray's point at `t` lies behind the visible surface.
 fn behind(o: vec3<f32>, d: vec3<f32>, t: f32) -> bool {
-    let p = o + d * t;
-    let s = project(vec4<f32>(p, 1.0));
-    let scene = scene_distance(s.xy);
-    return scene > 0.0 && -p.z >= scene;
+    let scene = scene_under(o, d, t);
+    return scene > 0.0 && -(o.z + d.z * t) >= scene;
 }
 
 @compute @workgroup_size(64)
@@ -91,10 +94,16 @@ fn march(@builtin(global_invocation_id) id: vec3<u32>) {
     var lo = 0.0;
     var hi = -1.0;
     var t = t0;
+    // The scene's distance at the last point of the ray inside the view.
+    var last_seen = -1.0;
     for (var k = 0u; k < params.steps; k++) {
-        if behind(v.origin, v.dir, t) {
+        let scene = scene_under(v.origin, v.dir, t);
+        if scene > 0.0 && -(v.origin.z + v.dir.z * t) >= scene {
             hi = t;
             break;
+        }
+        if scene > 0.0 {
+            last_seen = scene;
         }
         lo = t;
         t *= ratio;
@@ -112,6 +121,12 @@ fn march(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         uv = project(vec4<f32>(v.origin + v.dir * hi, 1.0)).xy;
         hit = 1.0;
+    } else if last_seen > 0.0 && last_seen < 1e29 && v.dir.z < 0.0 {
+        // The ray left the view before it met the scene (a minus lens
+        // shows past the view's edge): the scene is taken to go on at the
+        // distance it had where the ray left.
+        let t_hit = (last_seen + v.origin.z) / -v.dir.z;
+        uv = project(vec4<f32>(v.origin + v.dir * t_hit, 1.0)).xy;
     } else {
         // Nothing met: the direction's point at infinity.
         uv = project(vec4<f32>(v.dir, 0.0)).xy;

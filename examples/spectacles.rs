@@ -159,7 +159,7 @@ fn eye_chart() -> Image {
                         _ => (h - 1 - dy, dx),
                     };
                     let band = v / stroke;
-                    let ink = u < stroke || band % 2 == 0;
+                    let ink = u < stroke || band.is_multiple_of(2);
                     if ink && y + dy < n && x0 + dx < n {
                         px[(y + dy) * n + x0 + dx] = 15;
                     }

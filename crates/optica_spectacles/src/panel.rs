@@ -97,6 +97,13 @@ pub fn spectacles_ui(
         ui.label("refractive error (D)");
         ui.add(egui::Slider::new(&mut eye.refractive_error_d, -20.0..=20.0).step_by(0.25));
         ui.end_row();
+        ui.label("astigmatism (D) / axis (°)");
+        ui.horizontal(|ui| {
+            let a = &mut eye.astigmatism;
+            ui.add(egui::Slider::new(&mut a.cylinder_d, -6.0..=6.0).step_by(0.25));
+            ui.add(egui::Slider::new(&mut a.axis_deg, 0.0..=180.0).step_by(5.0));
+        });
+        ui.end_row();
         ui.label("accommodation");
         ui.horizontal(|ui| match &mut eye.accommodation {
             Accommodation::Dioptres(d) => {
@@ -135,7 +142,12 @@ pub fn spectacles_ui(
     let mut wears = spectacles.is_some();
     ui.checkbox(&mut wears, "glasses");
     if wears != spectacles.is_some() {
-        *spectacles = wears.then(|| Spectacles::sphere(-eye.refractive_error_d));
+        // New glasses match the eye's prescription.
+        *spectacles = wears.then(|| Spectacles {
+            cylinder_d: eye.astigmatism.cylinder_d,
+            axis_deg: eye.astigmatism.axis_deg,
+            ..Spectacles::sphere(eye.refractive_error_d)
+        });
     }
     if let Some(s) = spectacles {
         egui::Grid::new("spectacles_lens").num_columns(2).show(ui, |ui| {

@@ -74,9 +74,9 @@ pub struct CloneUniform {
     pub tile_rows: u32,
     /// `A/2` (m).
     pub pupil_radius: f32,
-    /// Near point vergence (D).
+    /// Near point vergence (D), of the spherical equivalent.
     pub p_near: f32,
-    /// Far point vergence (D).
+    /// Far point vergence (D), of the spherical equivalent.
     pub p_far: f32,
     /// Centre of rotation to pupil (m).
     pub pupil_offset: f32,
@@ -93,6 +93,10 @@ pub struct CloneUniform {
     /// 0: clones shaded in full, 1: reprojected from the sharp view
     /// ([`CloneShading`](crate::CloneShading)).
     pub shading: u32,
+    /// The eye's cylinder (D; 0 for a stigmatic eye).
+    pub cylinder: f32,
+    /// The cylinder's axis, a unit vector in the eye's x–y plane.
+    pub axis: Vec2,
 }
 
 /// Shader modes of [`CloneUniform::mode`].
@@ -298,6 +302,8 @@ fn clone_uniform(
             crate::settings::CloneShading::Full => 0,
             crate::settings::CloneShading::Reprojected => 1,
         },
+        cylinder: eye.cylinder_d() as f32,
+        axis: eye.axis_direction().truncate().as_vec2(),
     };
     match field {
         Some((_, g)) => {

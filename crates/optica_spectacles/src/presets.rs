@@ -1,11 +1,14 @@
 //! Eyes and glasses people have: the paper's Fig. 8 cases and everyday
 //! ones, each with what its wearer sees and why ([`Preset::sight`]).
 
-use optica_optics::glam::DVec3;
-use optica_optics::spectacles::{self as optics, SpectacleLens, pupil_samples, trace_bundle};
+use optica_optics::glam::{DVec2, DVec3};
+use optica_optics::spectacles::{
+    self as optics, SpectacleLens, naked_eye_displacements, perpendicular_frame, pupil_samples,
+    region_of, set_map, trace_astigmatic_bundle,
+};
 
 use crate::precompute::{camera_z, eye_placement};
-use crate::settings::{Accommodation, Eye, LensMaterial, Pupil, Spectacles};
+use crate::settings::{Accommodation, Astigmatism, Eye, LensMaterial, Pupil, Spectacles};
 
 /// An eye and the glasses it wears (if any), with a description.
 #[derive(Clone, Debug, PartialEq)]
@@ -48,11 +51,22 @@ pub fn presets() -> Vec<Preset> {
         refractive_error_d: -3.0,
         accommodation: Accommodation::Age { years: 30.0 },
         pupil: room_pupil(30.0),
+        ..Eye::default()
     };
     let presbyope = Eye {
         refractive_error_d: 0.0,
         accommodation: Accommodation::Age { years: 55.0 },
         pupil: room_pupil(55.0),
+        ..Eye::default()
+    };
+    let astigmat = Eye {
+        refractive_error_d: -0.5,
+        accommodation: Accommodation::Age { years: 30.0 },
+        pupil: room_pupil(30.0),
+        astigmatism: Astigmatism {
+            cylinder_d: -2.0,
+            axis_deg: 180.0,
+        },
     };
     vec![
         Preset {
@@ -112,6 +126,23 @@ pub fn presets() -> Vec<Preset> {
             eye: presbyope,
             spectacles: Some(Spectacles::sphere(2.0)),
         },
+        Preset {
+            name: "astigmat",
+            description: "An astigmat of 30, −0.50 / −2.00 × 180 (with the rule), without glasses: the vertical meridian is 2 D more myopic, so far points smear into vertical streaks and the chart's horizontal strokes blur before its vertical ones",
+            eye: astigmat.clone(),
+            spectacles: None,
+        },
+        Preset {
+            name: "astigmat-glasses",
+            description: "The astigmat in −0.50 / −2.00 × 180 glasses (a toric lens, its cylinder across the vertical meridian): sharp far away again, the world a little squashed vertically",
+            eye: astigmat,
+            spectacles: Some(Spectacles {
+                sphere_d: -0.5,
+                cylinder_d: -2.0,
+                axis_deg: 180.0,
+                ..Spectacles::sphere(-0.5)
+            }),
+        },
     ]
 }
 
@@ -145,38 +176,59 @@ impl Preset {
     }
 }
 
-/// The blur disc's angular diameter (rad) of a point `distance_m` ahead of
-/// the eye's camera (its entrance pupil): `A·ΔD` for the naked eye; through
-/// a lens, the near or far bundle traced along the axis and its set's
-/// diameter at the point (the linear map's largest radius, doubled), over
-/// the point's distance.
+/// The blur's angular diameter (rad) of a point `distance_m` ahead of the
+/// eye's camera (its entrance pupil), along its longest direction (an
+/// astigmat's blur is an ellipse): `A·ΔD` for a stigmatic naked eye;
+/// otherwise the set the clones draw, straight ahead — the naked eye's
+/// closed form, or the near and far bundles traced through the lens and
+/// the field's rule at the point — as the largest radius of its ellipse,
+/// doubled, over the point's distance.
 pub fn blur_angle_rad(eye: &optics::Eye, lens: Option<&SpectacleLens>, distance_m: f64) -> Option<f64> {
+    let pl = eye_placement();
     let Some(lens) = lens else {
-        return eye.blur_angle_rad(distance_m).ok();
+        if eye.cylinder_d() == 0.0 {
+            return eye.blur_angle_rad(distance_m).ok();
+        }
+        if distance_m.is_nan() || distance_m <= 0.0 {
+            return None;
+        }
+        let point = DVec3::new(0.0, 0.0, distance_m + f64::from(camera_z()));
+        let axes = [DVec2::X, DVec2::Y];
+        let m = naked_eye_displacements(eye, &pl, point, &axes);
+        let radius = largest_radius([m[0], m[1]]);
+        return radius.is_finite().then(|| 2.0 * radius / distance_m);
     };
     let rho = 0.5 * eye.pupil_diameter_m();
     if rho == 0.0 {
         return Some(0.0);
     }
     let samples = pupil_samples(64);
-    let pl = eye_placement();
-    let near = trace_bundle(Some(lens), &pl, DVec3::Z, rho, eye.near_point_vergence_d(), &samples).ok()?;
-    let far = trace_bundle(Some(lens), &pl, DVec3::Z, rho, eye.far_point_vergence_d(), &samples).ok()?;
+    let (e1, e2) = perpendicular_frame(DVec3::Z);
+    let bundle = |a: f64| {
+        trace_astigmatic_bundle(Some(lens), &pl, DVec3::Z, rho, eye.vergence_matrix(e1, e2, a), &samples)
+            .ok()
+    };
+    let near = bundle(eye.accommodation_d())?;
+    let far = bundle(0.0)?;
     // Distance along the refracted chief from its exit on the lens.
     let s = distance_m + f64::from(camera_z()) - near.chief().origin().z;
     // Not ahead of the lens (or NaN): nothing to see through it.
     if s.is_nan() || s <= 0.0 {
         return None;
     }
-    let map = if s * near.vergence_d() < 1.0 {
-        near.linear_map(s)
-    } else if s * far.vergence_d() > 1.0 {
-        far.linear_map(s)
-    } else {
+    let region = region_of(&near, &far, s);
+    let Some(map) = set_map(&near, &far, region, s, eye.cylinder_d() != 0.0) else {
         return Some(0.0);
     };
-    let radius = map[0].length().max(map[1].length());
-    Some(2.0 * radius / distance_m)
+    Some(2.0 * largest_radius(map) / distance_m)
+}
+
+/// The semi-major axis of the ellipse `x·m_x + y·m_y` over the unit disc:
+/// the largest singular value of `[m_x m_y]`.
+fn largest_radius(m: [DVec3; 2]) -> f64 {
+    let (a, b, c) = (m[0].length_squared(), m[0].dot(m[1]), m[1].length_squared());
+    let half = 0.5 * (a - c);
+    (0.5 * (a + c) + (half * half + b * b).sqrt()).sqrt()
 }
 
 /// Spectacle magnification (%) of a lens seen from the entrance pupil:

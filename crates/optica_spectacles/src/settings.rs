@@ -29,6 +29,7 @@ use optica_optics::spectacles::{
 ///     refractive_error_d: -3.0,
 ///     accommodation: Accommodation::Age { years: 30.0 },
 ///     pupil: Pupil::Diameter { mm: 4.0 },
+///     ..Default::default()
 /// };
 /// let optics = eye.optics().unwrap();
 /// assert!((optics.far_point_m() - 1.0 / 3.0).abs() < 1e-6);
@@ -38,12 +39,37 @@ use optica_optics::spectacles::{
 #[require(CloneDefocus)]
 pub struct Eye {
     /// Refractive error `R` (D): negative for myopia, positive for
-    /// hyperopia, 0 for an emmetrope. Accepted: ±30 D.
+    /// hyperopia, 0 for an emmetrope; the sphere of an astigmatic eye.
+    /// Accepted: ±30 D.
     pub refractive_error_d: f32,
     /// How far the eye can accommodate.
     pub accommodation: Accommodation,
     /// The entrance pupil.
     pub pupil: Pupil,
+    /// The eye's astigmatism; none by default.
+    pub astigmatism: Astigmatism,
+}
+
+/// An astigmatic eye's cylinder, written as on its prescription: an eye
+/// "−1.00 / −2.00 × 90" has `refractive_error_d: -1.0` and
+/// `Astigmatism { cylinder_d: -2.0, axis_deg: 90.0 }`: −1 D in the
+/// vertical (axis) meridian, −3 D in the horizontal one, and [`Spectacles`]
+/// of the same sphere, cylinder and axis correct it.
+///
+/// The eye accommodates to the circle of least confusion (the spherical
+/// equivalent `R + C/2`), so where it can focus it still sees a disc
+/// `A·|C|/2` radians wide, and elsewhere an ellipse drawn out across the
+/// meridian with more error: a distant point is a line across the axis
+/// for a myopic cylinder.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq)]
+pub struct Astigmatism {
+    /// Cylinder `C` (D), either sign: the error across the axis is `R + C`.
+    /// Accepted: ±10 D.
+    pub cylinder_d: f32,
+    /// Axis (degrees), the optometric convention of
+    /// [`Spectacles::axis_deg`]: from the wearer's left, counter-clockwise
+    /// as the examiner facing the wearer sees it.
+    pub axis_deg: f32,
 }
 
 impl Default for Eye {
@@ -54,6 +80,7 @@ impl Default for Eye {
             refractive_error_d: 0.0,
             accommodation: Accommodation::Age { years: 25.0 },
             pupil: Pupil::Diameter { mm: 4.0 },
+            astigmatism: Astigmatism::default(),
         }
     }
 }
@@ -101,6 +128,7 @@ impl Eye {
             refractive_error_d: -p_far,
             accommodation: Accommodation::Dioptres(1.0 / near_m - p_far),
             pupil: Pupil::Diameter { mm: pupil_mm },
+            astigmatism: Astigmatism::default(),
         }
     }
 
@@ -138,6 +166,10 @@ impl Eye {
             f64::from(self.refractive_error_d),
             self.amplitude_d()?,
             self.pupil_mm()? * 1e-3,
+        )?
+        .with_astigmatism(
+            f64::from(self.astigmatism.cylinder_d),
+            f64::from(self.astigmatism.axis_deg),
         )
     }
 }

@@ -29,6 +29,7 @@ fn myope() -> Eye {
         refractive_error_d: -3.0,
         accommodation: Accommodation::Age { years: 30.0 },
         pupil: Pupil::Diameter { mm: 6.0 },
+        ..default()
     }
 }
 

@@ -20,7 +20,7 @@ use optica_spectacles::{DISPLACEMENT_WGSL, FIELD_LOOKUP_WGSL, camera_z, eye_plac
 
 const CLONES: u32 = 10;
 
-/// The libraries and a kernel: input = the `CloneParams` numbers (16
+/// The libraries and a kernel: input = the `CloneParams` numbers (19
 /// floats), the point count, the points (3 floats each), then the field's
 /// maps; per point and clone it writes the naked and the field vectors
 /// and the pupil sample (8 floats).
@@ -52,17 +52,19 @@ fn params() -> CloneParams {{
     c.grid_origin = vec3<f32>(input[7], input[8], input[9]);
     c.grid_cell = vec3<f32>(input[10], input[11], input[12]);
     c.grid_dims = vec3<u32>(u32(input[13]), u32(input[14]), u32(input[15]));
+    c.cylinder = input[16];
+    c.axis = vec2<f32>(input[17], input[18]);
     return c;
 }}
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
     let c = params();
-    let points = u32(input[16]);
+    let points = u32(input[19]);
     let i = id.x / c.clones;
     let k = id.x % c.clones;
     if i >= points {{ return; }}
-    field_at = 17u + 3u * points;
-    let b = 17u + 3u * i;
+    field_at = 20u + 3u * points;
+    let b = 20u + 3u * i;
     let p = vec3<f32>(input[b], input[b + 1u], input[b + 2u]);
     let naked = naked_displacement(p, k, c);
     let field = field_displacement(p, vec3<f32>(0.0, 0.0, c.camera_z), k, c);
@@ -104,8 +106,14 @@ fn near_a_face(field: &DisplacementField, p: DVec3, eps: f64) -> bool {
 #[test]
 fn naked_eye_and_field_lookup_match_the_cpu_twin() {
     // A −3 D myope presbyope with a 6 mm pupil in +1.5 D reading glasses
-    // (n = 1.66), the field at a quarter of the paper's resolution.
+    // (n = 1.66), the field at a quarter of the paper's resolution; then
+    // the same eye with astigmatism, −1.5 D × 30.
     let eye = optics::Eye::new(-3.0, 1.5, 0.006).unwrap();
+    parity(eye);
+    parity(eye.with_astigmatism(-1.5, 30.0).unwrap());
+}
+
+fn parity(eye: optics::Eye) {
     let placement: EyePlacement = eye_placement();
     let lens = design_lens(
         &Prescription::sphere(1.5).unwrap(),
@@ -160,6 +168,9 @@ fn naked_eye_and_field_lookup_match_the_cpu_twin() {
         dims[0] as f32,
         dims[1] as f32,
         dims[2] as f32,
+        eye.cylinder_d() as f32,
+        eye.axis_direction().x as f32,
+        eye.axis_direction().y as f32,
         points.len() as f32,
     ];
     for p in &points {
@@ -213,8 +224,9 @@ fn naked_eye_and_field_lookup_match_the_cpu_twin() {
         }
     }
     eprintln!(
-        "parity over {} points × {CLONES} clones ({beyond} beyond the box): naked {worst_naked:.2e}, \
-         field {worst_field:.2e} of the set's size, pupil samples {worst_sample:.2e}",
+        "parity, cylinder {} D, over {} points × {CLONES} clones ({beyond} beyond the box): naked \
+         {worst_naked:.2e}, field {worst_field:.2e} of the set's size, pupil samples {worst_sample:.2e}",
+        eye.cylinder_d(),
         points.len()
     );
     // The field was not all zeros where the points are (a real check).

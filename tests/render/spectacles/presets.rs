@@ -34,4 +34,17 @@ fn presets_describe_what_their_wearers_see() {
     assert!(sight("presbyope", 0.3).0.blur_arcmin > 5.0 && sight("presbyope", 5.0).0.blur_arcmin == 0.0);
     let (r, m) = sight("presbyope-readers", 0.3);
     assert!(r.blur_arcmin < 2.0 && m > 2.0 && sight("presbyope-readers", 5.0).0.blur_arcmin > 5.0);
+    // The astigmat (−0.50 / −2.00 × 180): at the chart the worse, vertical
+    // meridian (−2.5 D, the far point 40 cm) is out of focus by
+    // 2.5 − 0.2 D, the blur's length A·2.3 D; at the book the eye
+    // accommodates to the circle of least confusion, ±1 D: A·1 D. In its
+    // toric glasses the chart is sharp.
+    let a = get("astigmat").eye.optics().unwrap().pupil_diameter_m();
+    let arcmin = |rad: f64| rad.to_degrees() * 60.0;
+    let (far, _) = sight("astigmat", 5.0);
+    let (near, _) = sight("astigmat", 0.3);
+    assert!((far.blur_arcmin / arcmin(a * (2.5 - 0.2)) - 1.0).abs() < 0.01, "{far:?}");
+    assert!((near.blur_arcmin / arcmin(a * 1.0) - 1.0).abs() < 0.01, "{near:?}");
+    let (g, m) = sight("astigmat-glasses", 5.0);
+    assert!(g.blur_arcmin < 2.0 && m < 0.0, "{g:?} {m}");
 }

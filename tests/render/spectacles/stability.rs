@@ -26,6 +26,7 @@ fn eye(r: f32, amp: f32, mm: f32) -> Eye {
         refractive_error_d: r,
         accommodation: Accommodation::Dioptres(amp),
         pupil: Pupil::Diameter { mm },
+        ..default()
     }
 }
 

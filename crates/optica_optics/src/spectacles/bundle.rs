@@ -1,6 +1,6 @@
 //! Ray bundles from the pupil through the lens (documented on [`trace_bundle`]).
 
-use glam::{DVec2, DVec3};
+use glam::{DMat2, DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
 use super::error::{BlockedRay, SpectaclesError};
@@ -110,7 +110,7 @@ pub fn pupil_samples(count: usize) -> Vec<DVec2> {
 /// the same way for every bundle (`e1 = ŷ × a`, `e2 = a × e1`; `x̂` stands in
 /// for `ŷ` when `a` is nearly vertical), so that clone `i` of neighbouring
 /// bundles points the same way and averaging per voxel keeps the set's shape.
-pub(crate) fn perpendicular_frame(a: DVec3) -> (DVec3, DVec3) {
+pub fn perpendicular_frame(a: DVec3) -> (DVec3, DVec3) {
     let e1 = DVec3::Y
         .cross(a)
         .try_normalize()
@@ -243,8 +243,33 @@ pub fn trace_bundle(
     for s in samples {
         input::finite_vec2("pupil sample", *s)?;
     }
-    trace_bundle_counted(lens, placement, aim, rho, vergence_d, samples, &mut 0)
+    let vergence = DMat2::IDENTITY * vergence_d;
+    trace_bundle_counted(lens, placement, aim, rho, vergence, samples, &mut 0)
 }
+
+/// [`trace_bundle`] for an astigmatic eye: the bundle converges (before the
+/// lens) at the vergence matrix `vergence` (D, symmetric, in the frame
+/// across the aim that [`Eye::vergence_matrix`](super::Eye::vergence_matrix)
+/// takes; pupil offset `r` gets direction `a − V·r`). Same errors.
+pub fn trace_astigmatic_bundle(
+    lens: Option<&SpectacleLens>,
+    placement: &EyePlacement,
+    aim: DVec3,
+    pupil_radius_m: f64,
+    vergence: DMat2,
+    samples: &[DVec2],
+) -> Result<TracedBundle, SpectaclesError> {
+    let aim = input::direction("bundle aim", aim)?;
+    let rho = input::non_negative("pupil radius (m)", pupil_radius_m)?;
+    if !vergence.is_finite() {
+        return Err(SpectaclesError::Degenerate("bundle vergence not finite"));
+    }
+    for s in samples {
+        input::finite_vec2("pupil sample", *s)?;
+    }
+    trace_bundle_counted(lens, placement, aim, rho, vergence, samples, &mut 0)
+}
+
 
 /// [`trace_bundle`] for checked input (unit `aim`, finite values), adding to
 /// `traced` the number of rays actually traced through the lens: the
@@ -255,7 +280,7 @@ pub(crate) fn trace_bundle_counted(
     placement: &EyePlacement,
     aim: DVec3,
     pupil_radius_m: f64,
-    vergence_d: f64,
+    vergence: DMat2,
     samples: &[DVec2],
     traced: &mut usize,
 ) -> Result<TracedBundle, SpectaclesError> {
@@ -284,9 +309,10 @@ pub(crate) fn trace_bundle_counted(
     let mut slopes = Vec::with_capacity(samples.len());
     for s in samples {
         let r = (e1 * s.x + e2 * s.y) * pupil_radius_m;
-        // `aim − r·V` has component 1 along the unit aim (r ⟂ aim): never
-        // zero, and finite unless r·V overflows.
-        let ray = Ray::new(pupil + r, aim - r * vergence_d)?;
+        let vr = vergence * (*s * pupil_radius_m);
+        // `aim − V·r` has component 1 along the unit aim (r ⟂ aim): never
+        // zero, and finite unless V·r overflows.
+        let ray = Ray::new(pupil + r, aim - (e1 * vr.x + e2 * vr.y))?;
         let out = exit(ray).ok_or(blocked.clone())?;
         let da = out.dir().dot(a);
         if !(da > MIN_EXIT_COSINE) {
@@ -389,19 +415,82 @@ pub(crate) fn region(s: f64, w_near: f64, w_far: f64) -> Region {
     }
 }
 
+/// The linear map (signed) of the set at distance `s` along an aim's chief
+/// in `region` (of [`region`] for the pair's fitted vergences), as the
+/// voxel field records it: the near bundle's map nearer than the corrected
+/// near point, the far bundle's mirrored beyond the corrected far point;
+/// in between `None` (in focus) for a stigmatic eye, and for an
+/// `astigmatic` one the map at the accommodation that makes it smallest.
+pub fn set_map(
+    near: &TracedBundle,
+    far: &TracedBundle,
+    region: Region,
+    s: f64,
+    astigmatic: bool,
+) -> Option<[DVec3; 2]> {
+    match region {
+        Region::Near => Some(near.linear_map(s)),
+        Region::Far => Some(far.linear_map(s).map(|v| -v)),
+        Region::InFocus if astigmatic => Some(accommodated_map(near, far, s)),
+        Region::InFocus => None,
+    }
+}
+
+/// Which region the point at distance `s` along the pair's chief is in.
+pub fn region_of(near: &TracedBundle, far: &TracedBundle, s: f64) -> Region {
+    region(s, near.vergence_d, far.vergence_d)
+}
+
+/// The set at distance `s` between an aim's corrected near and far points,
+/// where the eye accommodates to the circle of least confusion: the maps
+/// are linear in the accommodation (exactly without a lens, to first order
+/// through one), so the eye's best `t ∈ [0, 1]` between the far map `F`
+/// and the near map `N` minimises `|F + t·(N − F)|²`. Zero for a stigmatic
+/// bundle pair; what is left for an astigmatic one is the astigmatism the
+/// lens did not correct. Signed like the near set in the nearer half of
+/// the range and like the (mirrored) far set in the farther, so that it
+/// joins both regions' sets; in the middle, where it flips, the set is a
+/// traceless map whose ellipse is the same either way.
+fn accommodated_map(near: &TracedBundle, far: &TracedBundle, s: f64) -> [DVec3; 2] {
+    let (f, n) = (far.linear_map(s), near.linear_map(s));
+    let d = [n[0] - f[0], n[1] - f[1]];
+    let dd = d[0].length_squared() + d[1].length_squared();
+    let t = if dd > 0.0 {
+        (-(f[0].dot(d[0]) + f[1].dot(d[1])) / dd).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let sign = if t >= 0.5 { 1.0 } else { -1.0 };
+    [(f[0] + d[0] * t) * sign, (f[1] + d[1] * t) * sign]
+}
+
 /// The displacement set at distance `s` along the chief, for the region's
 /// bundle. Far sets are point-mirrored (`−(rᵢ + s uᵢ)`), so that clone `i`
 /// always lies on the side of pupil point `i`: the set is still the same disc,
-/// and averaging across the focal plane never cancels.
+/// and averaging across the focal plane never cancels. In focus the set is
+/// zero, unless the eye is `astigmatic`: then it is the set at the
+/// accommodation between the two bundles that makes it smallest (the
+/// field's rule, signed the same way).
 #[cfg(feature = "reference")]
 pub(crate) fn displacement_set(
     near: &TracedBundle,
     far: &TracedBundle,
     s: f64,
+    astigmatic: bool,
 ) -> (Region, Vec<DVec3>) {
     match region(s, near.vergence_d, far.vergence_d) {
         Region::Near => (Region::Near, near.displacements(s).collect()),
         Region::Far => (Region::Far, far.displacements(s).map(|v| -v).collect()),
+        Region::InFocus if astigmatic => {
+            let (f, n): (Vec<DVec3>, Vec<DVec3>) =
+                (far.displacements(s).collect(), near.displacements(s).collect());
+            let num: f64 = f.iter().zip(&n).map(|(f, n)| f.dot(*n - *f)).sum();
+            let den: f64 = f.iter().zip(&n).map(|(f, n)| (*n - *f).length_squared()).sum();
+            let t = if den > 0.0 { (-num / den).clamp(0.0, 1.0) } else { 0.0 };
+            let sign = if t >= 0.5 { 1.0 } else { -1.0 };
+            let set = f.iter().zip(&n).map(|(f, n)| (*f + (*n - *f) * t) * sign).collect();
+            (Region::InFocus, set)
+        }
         Region::InFocus => (Region::InFocus, vec![DVec3::ZERO; near.heights.len()]),
     }
 }
@@ -504,7 +593,7 @@ mod tests {
         let eye = Eye::new(-3.0, 1.0, 0.004).unwrap();
         let lens =
             design_lens(&Prescription::sphere(-3.0).unwrap(), &LensDesignParams::default()).unwrap();
-        let b = trace_bundle(Some(&lens), &pl, DVec3::Z, 0.002, 3.0, &samples).unwrap();
+        let b = trace_bundle(Some(&lens), &pl, DVec3::Z, 0.002, eye.far_point_vergence_d(), &samples).unwrap();
         assert!(b.vergence_d().abs() < 0.2, "{}", b.vergence_d());
     }
 
@@ -559,7 +648,7 @@ mod tests {
             (near.vergence_d - 2.0).abs() < 1e-12 && (far.vergence_d - 1.0 / 1.3).abs() < 1e-12
         );
         for z in [0.1, 0.3, 0.8, 2.0, 6.0] {
-            let (_, set) = displacement_set(&near, &far, z);
+            let (_, set) = displacement_set(&near, &far, z, false);
             let want = eye.blur_disc_diameter_m(z).unwrap();
             assert!(
                 (Spread::of(set).disc_diameter_m() - want).abs() < 1e-12,

@@ -1,5 +1,6 @@
 //! The eye model in dioptres (documented on [`Eye`]).
 
+use glam::{DMat2, DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
 use crate::input::{self, Expected, InvalidInput};
@@ -135,14 +136,30 @@ pub const MAX_PUPIL_DIAMETER_M: f64 = 0.05;
 /// `Amp = 0` (near point = far point) and a hyperope (`P_far < 0`, far point a
 /// virtual point behind the eye) need no special case.
 ///
+/// Astigmatism ([`Eye::with_astigmatism`]): the refractive error is a
+/// prescription, sphere `R` in the axis meridian and `R + C` across it
+/// (`R(θ) = R + C·sin²(θ − axis)`, the axis in the eye's frame from +x
+/// towards +y, the optometric convention of the `spectacles` module docs):
+/// the eye's error is the power of the spectacle lens that corrects it at
+/// the cornea. Across a line of sight with frame `(e₁, e₂)` the error is the
+/// symmetric matrix `R·I + C·(I − c cᵀ)` ([`Eye::error_matrix`]), `c` the
+/// axis projected into the frame, and the eye accommodates to the circle of
+/// least confusion: the scalar vergences above are the spherical
+/// equivalent's (`R + C/2`), and what is left in focus is the astigmatic
+/// part, a disc of diameter `A·s·|C|/2` at distance `s`
+/// ([`naked_eye_displacements`](super::naked_eye_displacements)).
+///
 /// Built by the checked constructors ([`Eye::new`], [`Eye::from_age`],
-/// [`Eye::from_near_far`]); deserialisation runs the same checks.
+/// [`Eye::from_near_far`], [`Eye::with_astigmatism`]); deserialisation runs
+/// the same checks.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(try_from = "RawEye")]
 pub struct Eye {
     refractive_error_d: f64,
     accommodation_d: f64,
     pupil_diameter_m: f64,
+    cylinder_d: f64,
+    axis_deg: f64,
 }
 
 /// The serialised form of an [`Eye`], unchecked.
@@ -151,15 +168,24 @@ struct RawEye {
     refractive_error_d: f64,
     accommodation_d: f64,
     pupil_diameter_m: f64,
+    #[serde(default)]
+    cylinder_d: f64,
+    #[serde(default)]
+    axis_deg: f64,
 }
 
 impl TryFrom<RawEye> for Eye {
     type Error = InvalidInput;
 
     fn try_from(r: RawEye) -> Result<Self, InvalidInput> {
-        Eye::new(r.refractive_error_d, r.accommodation_d, r.pupil_diameter_m)
+        Eye::new(r.refractive_error_d, r.accommodation_d, r.pupil_diameter_m)?
+            .with_astigmatism(r.cylinder_d, r.axis_deg)
     }
 }
+
+/// Largest |cylinder| of an eye accepted (D): corneal astigmatism beyond
+/// ~6 D is keratoconus territory, and spectacle cylinders stop near there.
+pub const MAX_EYE_CYLINDER_D: f64 = 10.0;
 
 impl Eye {
     /// An eye from its refractive error `R` (D; negative for myopia,
@@ -189,7 +215,73 @@ impl Eye {
                 0.0,
                 MAX_PUPIL_DIAMETER_M,
             )?,
+            cylinder_d: 0.0,
+            axis_deg: 0.0,
         })
+    }
+
+    /// The same eye with astigmatism: cylinder `C` (D, either sign, the
+    /// power added across the axis) at `axis_deg` (degrees, the optometric
+    /// convention; any finite angle, taken modulo 180). The refractive error
+    /// stays the sphere, the error in the axis meridian. An eye
+    /// "−1.00 / −2.00 × 90" is `Eye::new(-1.0, ..)?.with_astigmatism(-2.0, 90.0)`:
+    /// −1 D vertically, −3 D horizontally, and the lens of that prescription
+    /// corrects it.
+    ///
+    /// Errors: a non-finite axis, `|C|` above [`MAX_EYE_CYLINDER_D`].
+    pub fn with_astigmatism(self, cylinder_d: f64, axis_deg: f64) -> Result<Self, InvalidInput> {
+        let c = MAX_EYE_CYLINDER_D;
+        Ok(Self {
+            cylinder_d: input::in_range("eye cylinder (D)", cylinder_d, -c, c)?,
+            axis_deg: input::finite("eye cylinder axis (deg)", axis_deg)?.rem_euclid(180.0),
+            ..self
+        })
+    }
+
+    /// Cylinder `C` (D); 0 for a stigmatic eye.
+    pub fn cylinder_d(&self) -> f64 {
+        self.cylinder_d
+    }
+
+    /// Cylinder axis (degrees, `0..180`).
+    pub fn axis_deg(&self) -> f64 {
+        self.axis_deg
+    }
+
+    /// Spherical equivalent `R + C/2` (D): the error the eye's scalar
+    /// vergences use (the circle of least confusion).
+    pub fn spherical_equivalent_d(&self) -> f64 {
+        self.refractive_error_d + 0.5 * self.cylinder_d
+    }
+
+    /// The cylinder axis as a unit direction in the eye's frame.
+    pub fn axis_direction(&self) -> DVec3 {
+        let a = self.axis_deg.to_radians();
+        DVec3::new(a.cos(), a.sin(), 0.0)
+    }
+
+    /// The astigmatic part of the error across a line of sight with frame
+    /// `(e1, e2)`: the traceless symmetric matrix `C·(I/2 − c cᵀ)` (D), `c`
+    /// the axis projected into the frame (`e1` where the sight line runs
+    /// along the axis, which no forward sight line does). Zero for a
+    /// stigmatic eye. The whole error is `(R + C/2)·I + this`.
+    pub fn astigmatic_matrix(&self, e1: DVec3, e2: DVec3) -> DMat2 {
+        if self.cylinder_d == 0.0 {
+            return DMat2::ZERO;
+        }
+        let axis = self.axis_direction();
+        let c = DVec2::new(axis.dot(e1), axis.dot(e2)).normalize_or(DVec2::X);
+        let outer = DMat2::from_cols(c * c.x, c * c.y);
+        (DMat2::IDENTITY * 0.5 - outer) * self.cylinder_d
+    }
+
+    /// The vergence (D) that the eye, accommodated by `accommodation_d`,
+    /// focuses from the pupil across a line of sight with frame `(e1, e2)`,
+    /// as a symmetric matrix: `(P_far + a)·I − astigmatic part`. Pupil
+    /// offset `r` (in the frame) takes the direction `aim − V·r`.
+    pub fn vergence_matrix(&self, e1: DVec3, e2: DVec3, accommodation_d: f64) -> DMat2 {
+        DMat2::IDENTITY * (self.far_point_vergence_d() + accommodation_d)
+            - self.astigmatic_matrix(e1, e2)
     }
 
     /// An eye of `age_years` whose amplitude is Hofstetter's `bound`.
@@ -248,9 +340,10 @@ impl Eye {
         self.pupil_diameter_m
     }
 
-    /// Far point vergence `P_far = −R` (D).
+    /// Far point vergence `P_far = −R` (D); for an astigmatic eye that of
+    /// the spherical equivalent, `−(R + C/2)`.
     pub fn far_point_vergence_d(&self) -> f64 {
-        -self.refractive_error_d
+        -self.spherical_equivalent_d()
     }
 
     /// Near point vergence `P_near = P_far + Amp` (D).

@@ -3,7 +3,10 @@
 use glam::{DVec2, DVec3};
 use serde::Serialize;
 
-use super::bundle::{EyePlacement, Region, Spread, displacement_set, pupil_samples, trace_bundle};
+use super::bundle::{
+    EyePlacement, Region, Spread, displacement_set, perpendicular_frame, pupil_samples,
+    trace_astigmatic_bundle,
+};
 use super::error::SpectaclesError;
 use super::eye::Eye;
 use super::lens_design::SpectacleLens;
@@ -206,23 +209,14 @@ pub fn reference_at(
     }
     let samples = pupil_samples(dense_samples);
     let rho = 0.5 * eye.pupil_diameter_m();
-    let near = trace_bundle(
-        lens,
-        placement,
-        aim,
-        rho,
-        eye.near_point_vergence_d(),
-        &samples,
-    )?;
-    let far = trace_bundle(
-        lens,
-        placement,
-        aim,
-        rho,
-        eye.far_point_vergence_d(),
-        &samples,
-    )?;
-    let (region, set) = displacement_set(&near, &far, s);
+    let (e1, e2) = perpendicular_frame(aim);
+    let bundle = |accommodation: f64| {
+        let v = eye.vergence_matrix(e1, e2, accommodation);
+        trace_astigmatic_bundle(lens, placement, aim, rho, v, &samples)
+    };
+    let near = bundle(eye.accommodation_d())?;
+    let far = bundle(0.0)?;
+    let (region, set) = displacement_set(&near, &far, s, eye.cylinder_d() != 0.0);
     Ok(PointReference {
         aim,
         chief,

@@ -167,10 +167,13 @@ mod viewpoint;
 mod view_reference;
 mod voxel_field;
 
-pub use bundle::{EyePlacement, Region, Spread, TracedBundle, pupil_samples, trace_bundle};
+pub use bundle::{
+    EyePlacement, Region, Spread, TracedBundle, perpendicular_frame, pupil_samples, region_of,
+    set_map, trace_astigmatic_bundle, trace_bundle,
+};
 pub use error::{BlockedRay, LensSide, SpectaclesError};
 pub use eye::{
-    AdaptedEyes, Eye, HofstetterBound, MAX_ACCOMMODATION_D, MAX_PUPIL_DIAMETER_M,
+    AdaptedEyes, Eye, HofstetterBound, MAX_ACCOMMODATION_D, MAX_EYE_CYLINDER_D, MAX_PUPIL_DIAMETER_M,
     MAX_REFRACTIVE_ERROR_D, WATSON_YELLOTT_AGE_RANGE, WATSON_YELLOTT_REFERENCE_AGE,
     hofstetter_amplitude_d, pupil_diameter_watson_yellott_mm,
 };

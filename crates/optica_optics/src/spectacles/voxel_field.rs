@@ -5,7 +5,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::bundle::{
-    EyePlacement, Region, Spread, TracedBundle, pupil_samples, region, trace_bundle_counted,
+    EyePlacement, Region, Spread, TracedBundle, perpendicular_frame, pupil_samples, region,
+    set_map, trace_bundle_counted,
 };
 use super::error::{LensSide, SpectaclesError};
 use super::eye::Eye;
@@ -546,14 +547,17 @@ fn trace_pair(
 ) {
     let rho = 0.5 * eye.pupil_diameter_m();
     let mut traced = 0;
-    let mut trace =
-        |v: f64| match trace_bundle_counted(lens, placement, aim, rho, v, samples, &mut traced) {
+    let (e1, e2) = perpendicular_frame(aim);
+    let mut trace = |accommodation: f64| {
+        let v = eye.vergence_matrix(e1, e2, accommodation);
+        match trace_bundle_counted(lens, placement, aim, rho, v, samples, &mut traced) {
             Ok(b) => Ok(Some(b)),
             Err(SpectaclesError::BundleBlocked(_)) => Ok(None),
             Err(e) => Err(e),
-        };
-    let pair = match trace(eye.near_point_vergence_d()) {
-        Ok(Some(near)) => trace(eye.far_point_vergence_d()).map(|far| far.map(|far| (near, far))),
+        }
+    };
+    let pair = match trace(eye.accommodation_d()) {
+        Ok(Some(near)) => trace(0.0).map(|far| far.map(|far| (near, far))),
         other => other.map(|_| None),
     };
     (pair, traced)
@@ -669,6 +673,9 @@ pub fn precompute_field(
             lo = hi;
         }
     }
+    // An astigmatic eye is never quite in focus: between its corrected
+    // near and far points it keeps the astigmatism the lens leaves.
+    let astigmatic = eye.cylinder_d() != 0.0;
     let mut sets = vec![Vec3::ZERO; runs.len() * 2];
     sets.par_chunks_mut(2)
         .zip(&runs)
@@ -679,13 +686,11 @@ pub fn precompute_field(
                 let Some((near, far)) = &bundles[c.aim as usize] else {
                     continue;
                 };
-                let (m, sign) = match c.region {
-                    Region::Near => (near.linear_map(c.s), 1.0),
-                    Region::Far => (far.linear_map(c.s), -1.0),
-                    Region::InFocus => continue,
+                let Some(m) = set_map(near, far, c.region, c.s, astigmatic) else {
+                    continue;
                 };
-                sum[0] += m[0] * sign;
-                sum[1] += m[1] * sign;
+                sum[0] += m[0];
+                sum[1] += m[1];
                 recorded += 1;
             }
             let n = match st.average {
@@ -707,7 +712,7 @@ pub fn precompute_field(
     drop(sets);
     let sets_recorded = crossings
         .iter()
-        .filter(|c| c.region != Region::InFocus)
+        .filter(|c| astigmatic || c.region != Region::InFocus)
         .count();
     let voxels_crossed = cnt.iter().filter(|&&c| c > 0).count();
     let counts = VoxelGrid::from_vec(st.min, grid.cell_size(), st.dims, cnt)?;
@@ -1086,6 +1091,37 @@ mod tests {
     }
 
     #[test]
+    fn voxel_field_toric_glasses_correct_an_astigmat_at_their_axis() {
+        // An eye "−1.00 / −2.00 × 30" (1 D of accommodation, 4 mm pupil).
+        // Naked, a point 1.5 m out is blurred (2 D of spherical equivalent
+        // and ±1 D across the meridians); through its own prescription it
+        // is in focus, and through the same lens turned to axis 120° the
+        // astigmatism doubles instead of cancelling (±2 D).
+        let pl = EyePlacement::default();
+        let eye = Eye::new(-1.0, 1.0, 0.004)
+            .unwrap()
+            .with_astigmatism(-2.0, 30.0)
+            .unwrap();
+        let samples = pupil_samples(10);
+        let field = |axis: f64| {
+            let rx = Prescription::new(-1.0, -2.0, axis).unwrap();
+            let lens = design_lens(&rx, &LensDesignParams::default()).unwrap();
+            precompute_field(&eye, &pl, Some(&lens), &small()).unwrap()
+        };
+        let (matching, crossed) = (field(30.0), field(120.0));
+        for p in [DVec3::new(0.0, 0.0, 1.5), DVec3::new(0.15, -0.1, 1.0)] {
+            let naked = Spread::of(crate::spectacles::naked_eye_displacements(&eye, &pl, p, &samples))
+                .rms_radius_m;
+            let rms = |f: &DisplacementField| {
+                Spread::of(f.displacements_at(p).unwrap().iter().map(|v| v.as_dvec3())).rms_radius_m
+            };
+            let (m, c) = (rms(&matching), rms(&crossed));
+            assert!(m < 0.1 * naked, "{p}: matching {m} vs naked {naked}");
+            assert!(c > 0.5 * naked, "{p}: crossed {c} vs naked {naked}");
+        }
+    }
+
+    #[test]
     fn voxel_field_naked_eye_matches_eq_1_and_2() {
         // Naked eye (paper Fig. 8(b): near 0.5, far 1.3, A = 12 mm): on the
         // axis, the field's disc (2√2·rms) is the analytic A·z·ΔD at the
@@ -1381,7 +1417,7 @@ mod tests {
                 &pl,
                 a,
                 rho,
-                eye.near_point_vergence_d(),
+                glam::DMat2::IDENTITY * eye.near_point_vergence_d(),
                 &samples,
                 &mut 0,
             )

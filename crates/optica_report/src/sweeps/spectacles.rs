@@ -19,7 +19,9 @@
 //!   expanded to. The main series is S = 10 (the paper's); error names
 //!   without suffix. The full sweep adds S = 4 and S = 20 at every k, with
 //!   the error names suffixed `_s4`, `_s20`, so that each S is its own
-//!   curve in the plot. The rendered series (`spectacles_render`,
+//!   curve in the plot. An astigmatic series (`_astig`, S = 10): the same
+//!   eye with −1.5 D of cylinder at 30° in the toric lens of its
+//!   prescription (+1.5 / −1.5 × 30), against its own reference points. The rendered series (`spectacles_render`,
 //!   `spectacles_refraction`) follow in the same report.
 //! * Errors (per point, then mean / max over points): `mean_mm`, `max_mm` —
 //!   |RMS radius of the field's set − RMS radius of the reference set|, mm
@@ -136,18 +138,34 @@ pub fn run(ctx: &SweepContext) -> Report {
     let eye = Eye::from_near_far(0.5, 1.3, 0.012).expect("Fig. 8 eye");
     let pl = EyePlacement::default();
     let lens = sweep_lens();
+    // The same eye with −1.5 D of astigmatism at 30°, in the toric lens of
+    // its prescription: elliptical sets, and between the corrected near and
+    // far points what astigmatism the lens leaves.
+    let astigmat = eye.with_astigmatism(-1.5, 30.0).expect("astigmatic eye");
+    let toric = design_lens(
+        &Prescription::new(1.5, -1.5, 30.0).expect("valid"),
+        &LensDesignParams::paper(),
+    )
+    .expect("+1.5 / −1.5 × 30 is a lens");
     let scales: Vec<f64> = ctx.pick(vec![0.25, 0.5, 1.0], vec![0.25, 0.5, 0.75, 1.0, 1.25, 1.5]);
-    let series: Vec<(usize, Vec<f64>)> = ctx.pick(
-        vec![(10, scales.clone()), (4, vec![0.5]), (20, vec![0.5])],
+    // (S, scales, astigmatic).
+    let series: Vec<(usize, Vec<f64>, bool)> = ctx.pick(
         vec![
-            (10, scales.clone()),
-            (4, scales.clone()),
-            (20, scales.clone()),
+            (10, scales.clone(), false),
+            (4, vec![0.5], false),
+            (20, vec![0.5], false),
+            (10, vec![0.5, 1.0], true),
+        ],
+        vec![
+            (10, scales.clone(), false),
+            (4, scales.clone(), false),
+            (20, scales.clone(), false),
+            (10, scales.clone(), true),
         ],
     );
     let n_points = ctx.pick(60, 300);
     let (runs, budget) = ctx.pick((1, 0.0), (3, 2000.0));
-    let total: usize = series.iter().map(|(_, s)| s.len()).sum::<usize>() + 1;
+    let total: usize = series.iter().map(|(_, s, _)| s.len()).sum::<usize>() + 1;
 
     ctx.progress(0, total, "baseline and reference points");
     let mesh = lens
@@ -168,14 +186,21 @@ pub fn run(ctx: &SweepContext) -> Report {
             0
         }
     };
-    let (pts, skipped) = reference_points(&eye, &pl, &lens, n_points);
+    let plain = reference_points(&eye, &pl, &lens, n_points);
+    let astig = reference_points(&astigmat, &pl, &toric, n_points);
 
     let mut step = 0;
-    for (clones, ks) in &series {
-        let suffix = if *clones == 10 {
-            String::new()
+    for (clones, ks, astigmatic) in &series {
+        let suffix = match (*clones, *astigmatic) {
+            (10, false) => String::new(),
+            (c, false) => format!("_s{c}"),
+            (10, true) => "_astig".to_string(),
+            (c, true) => format!("_astig_s{c}"),
+        };
+        let (eye, lens, (pts, skipped)) = if *astigmatic {
+            (&astigmat, &toric, &astig)
         } else {
-            format!("_s{clones}")
+            (&eye, &lens, &plain)
         };
         for &k in ks {
             step += 1;
@@ -195,7 +220,7 @@ pub fn run(ctx: &SweepContext) -> Report {
                 }
             };
             let (t, field) = time_ms(runs, budget, || {
-                precompute_field(&eye, &pl, Some(&lens), &st)
+                precompute_field(eye, &pl, Some(lens), &st)
             });
             let field = match field {
                 Ok(f) => f,
@@ -208,7 +233,7 @@ pub fn run(ctx: &SweepContext) -> Report {
                     continue;
                 }
             };
-            let (mean, max, ang, edge) = errors(&field, &pts);
+            let (mean, max, ang, edge) = errors(&field, pts);
             let s = field.stats();
             report.rows.push(
                 Row::new(k, t, t_base)
@@ -225,7 +250,8 @@ pub fn run(ctx: &SweepContext) -> Report {
                     .work("coverage", field.coverage())
                     .work("fill_layers", s.fill_passes as f64)
                     .work("points", pts.len() as f64)
-                    .work("points_skipped", skipped as f64)
+                    .work("points_skipped", *skipped as f64)
+                    .work("astigmatic", f64::from(u8::from(*astigmatic)))
                     .work("baseline_exits", exits as f64),
             );
         }

@@ -21,7 +21,7 @@ struct CloneParams {
     tile_rows: u32,
     // Pupil radius A/2 (m).
     pupil_radius: f32,
-    // Near and far point vergences (D).
+    // Near and far point vergences (D) of the spherical equivalent.
     p_near: f32,
     p_far: f32,
     // From the centre of rotation to the entrance pupil along the aim (m).
@@ -36,6 +36,9 @@ struct CloneParams {
     grid_dims: vec3<u32>,
     // 0: shaded in full, 1: reprojected from the sharp view.
     shading: u32,
+    // The eye's cylinder (D) and its axis (unit, eye frame x–y).
+    cylinder: f32,
+    axis: vec2<f32>,
 }
 
 // `pupil_samples(count)[k]`: the sunflower spiral, radius √((k + ½)/count),
@@ -63,12 +66,13 @@ fn defocus_factor(s: f32, p_near: f32, p_far: f32) -> f32 {
         return 1.0 - s * p_near;
     }
     if s * p_far > 1.0 {
-        return s * p_far - 1.0;
+        return 1.0 - s * p_far;
     }
     return 0.0;
 }
 
-// `naked_eye_displacements(eye, placement, p, samples)[k]`.
+// `naked_eye_displacements(eye, placement, p, samples)[k]`: ρ·(e₁ e₂)·K·q,
+// K = k(s)·I + s·(the astigmatic part).
 fn naked_displacement(p: vec3<f32>, k: u32, c: CloneParams) -> vec3<f32> {
     let centre = vec3<f32>(0.0, 0.0, c.centre_z);
     let to_p = p - centre;
@@ -80,7 +84,19 @@ fn naked_displacement(p: vec3<f32>, k: u32, c: CloneParams) -> vec3<f32> {
     let s = length(p - (centre + aim * c.pupil_offset));
     let f = perpendicular_frame(aim);
     let q = pupil_sample(k, c.clones);
-    return (f[0] * q.x + f[1] * q.y) * (c.pupil_radius * defocus_factor(s, c.p_near, c.p_far));
+    let d = defocus_factor(s, c.p_near, c.p_far);
+    var m = mat2x2<f32>(d, 0.0, 0.0, d);
+    if c.cylinder != 0.0 {
+        // `Eye::astigmatic_matrix`: C·(I/2 − u uᵀ), u the axis across the sight line.
+        let axis = vec3<f32>(c.axis, 0.0);
+        var u = vec2<f32>(dot(axis, f[0]), dot(axis, f[1]));
+        let len = length(u);
+        u = select(vec2<f32>(1.0, 0.0), u / len, len > 0.0);
+        let astig = c.cylinder * (mat2x2<f32>(0.5, 0.0, 0.0, 0.5) - mat2x2<f32>(u * u.x, u * u.y));
+        m = m + astig * s;
+    }
+    let w = m * q;
+    return (f[0] * w.x + f[1] * w.y) * c.pupil_radius;
 }
 
 // Where the sight line from the pupil centre `start` to `p` leaves the

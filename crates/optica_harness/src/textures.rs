@@ -38,12 +38,24 @@ pub fn checker(n: u32, cells: u32, dark: u8, light: u8) -> Image {
 /// coordinates are continuous between texels). Use it unlit; `Rgba16Float`
 /// readbacks hold `±2` to about a thousandth.
 pub fn coordinates(n: u32, half: f32) -> Image {
+    coordinates_in(n, half, [0, 1, 2])
+}
+
+/// [`coordinates`] with x, y and the 1 in the channels `[x, y, one]`
+/// (0 red, 1 green, 2 blue; alpha holds 1): `[2, 1, 0]` puts x in blue, to
+/// read where a colour-dependent view (chromatic aberration) takes blue
+/// from.
+pub fn coordinates_in(n: u32, half: f32, channels: [usize; 3]) -> Image {
     let mut data = Vec::with_capacity((n * n * 16) as usize);
     for j in 0..n {
         for i in 0..n {
             let x = ((i as f32 + 0.5) / n as f32 - 0.5) * 2.0 * half;
             let y = (0.5 - (j as f32 + 0.5) / n as f32) * 2.0 * half;
-            for c in [x, y, 1.0, 1.0] {
+            let mut texel = [1.0f32; 4];
+            texel[channels[0]] = x;
+            texel[channels[1]] = y;
+            texel[channels[2]] = 1.0;
+            for c in texel {
                 data.extend_from_slice(&c.to_le_bytes());
             }
         }

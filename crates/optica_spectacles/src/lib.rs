@@ -112,6 +112,19 @@
 //! 6 rings, 0.14 px at 12, 0.05 px at the default 24; there a −4 D lens
 //! in a 46° view shows 13 % of its pixels from past the view's edge.
 //!
+//! The lens's chromatic aberration ([`Spectacles::chromatic_aberration`],
+//! on by default, from the material's Abbe number): the CPU traces every
+//! vertex's ray at the C and F lines too, and the view's red, green and
+//! blue are taken where the C, d and F rays land, so that towards the rim,
+//! where the lens is a prism, the colours part by the prism over `V` —
+//! the fringes of strong polycarbonate lenses. Against the exact trace at
+//! each wavelength: −8 D polycarbonate at 128², each colour within
+//! 0.03 px on average, their parting 0.18 px against the exact 0.19 px
+//! (5 %). What is left out: the lens's longitudinal chromatic aberration
+//! in the defocus (its power differs by `F/V` between red and blue, 0.27 D
+//! for that lens; the clones share one field) and the eye's own (about
+//! 2 D across the visible, which every eye has and the brain discounts).
+//!
 //! ## How the clones are drawn, and why
 //!
 //! One clone camera (a child of the eye camera) draws all `S` clones in a
@@ -157,8 +170,7 @@
 //! - The defocus field is precomputed for a centred lens: a decentred lens
 //!   refracts the view from where it sits, but blurs it as if centred.
 //! - Still to come: the per-vertex mirror of the paper's §3.2,
-//!   progressive lenses, chromatic aberration and a voxel grid in eye
-//!   coordinates.
+//!   progressive lenses and a voxel grid in eye coordinates.
 
 #![warn(missing_docs)]
 

@@ -178,6 +178,18 @@ pub fn spectacles_ui(
             ui.label("centre thickness (mm)");
             ui.add(egui::Slider::new(&mut s.min_centre_thickness_mm, 0.5..=6.0));
             ui.end_row();
+            ui.label("decentration (mm)");
+            ui.horizontal(|ui| {
+                ui.add(egui::Slider::new(&mut s.decentration_mm.x, -10.0..=10.0));
+                ui.add(egui::Slider::new(&mut s.decentration_mm.y, -10.0..=10.0));
+            });
+            ui.end_row();
+            ui.label("refraction");
+            ui.horizontal(|ui| {
+                ui.checkbox(&mut s.refraction, "drawn");
+                ui.checkbox(&mut s.chromatic_aberration, "chromatic aberration");
+            });
+            ui.end_row();
         });
     }
     ui.separator();

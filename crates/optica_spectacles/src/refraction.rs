@@ -9,6 +9,7 @@ use bevy::prelude::*;
 use bevy::render::extract_component::ExtractComponent;
 use bevy::render::render_resource::ShaderType;
 use optica_optics::glam::DVec3;
+use optica_optics::glass::{LAMBDA_C_NM, LAMBDA_F_NM};
 use optica_optics::spectacles::{
     DEFAULT_VIEWPOINT_REGULARISATION, LensTrace, SpectacleLens, refract_vertices,
     virtual_viewpoint_of_traces,
@@ -32,10 +33,20 @@ pub struct LensVertex {
     pub origin: Vec3,
     /// Padding.
     pub _pad0: f32,
-    /// Its direction after the lens (unit).
+    /// Its direction after the lens (unit), at the d line (green).
     pub dir: Vec3,
     /// Padding.
     pub _pad1: f32,
+    /// The direction at the C line (red): `dir` without chromatic
+    /// aberration. The exit point is taken as the d line's for all three
+    /// (they differ by micrometres).
+    pub dir_red: Vec3,
+    /// Padding.
+    pub _pad2: f32,
+    /// The direction at the F line (blue).
+    pub dir_blue: Vec3,
+    /// Padding.
+    pub _pad3: f32,
 }
 
 /// The traced lens of an eye camera, made from its [`Spectacles`] whenever
@@ -72,12 +83,14 @@ fn view_dir_of_eye(d: DVec3) -> Vec3 {
 
 /// Traces `lens`, shifted `decentration` (m, eye frame x and y: the lens's
 /// optical centre off the line of sight), at `rings × segments`: the rays
-/// from the camera (the entrance pupil) through every back-surface vertex.
+/// from the camera (the entrance pupil) through every back-surface vertex;
+/// with `chromatic`, also at the C and F lines (red and blue).
 pub fn trace_lens(
     lens: &SpectacleLens,
     decentration: DVec3,
     rings: usize,
     segments: usize,
+    chromatic: bool,
 ) -> Result<LensRefraction, String> {
     let started = std::time::Instant::now();
     let mesh = lens.mesh(rings, segments).map_err(|e| e.to_string())?;
@@ -85,13 +98,30 @@ pub fn trace_lens(
     let eye = DVec3::new(0.0, 0.0, f64::from(camera_z())) - decentration;
     let back = mesh.back_positions();
     let traces = refract_vertices(lens, eye, back).map_err(|e| e.to_string())?;
+    // The directions at the C and F lines; a ray that gets through at the
+    // d line but not at another (total reflection within a hair of the
+    // rim) keeps the d line's.
+    let exit_dirs = |nm: f64| -> Result<Vec<Option<DVec3>>, String> {
+        if !chromatic || lens.at_wavelength(nm).index() == lens.index() {
+            return Ok(vec![None; back.len()]);
+        }
+        let t = refract_vertices(&lens.at_wavelength(nm), eye, back).map_err(|e| e.to_string())?;
+        Ok(t.iter()
+            .map(|t| match *t {
+                LensTrace::Exit { dir, .. } => Some(dir),
+                _ => None,
+            })
+            .collect())
+    };
+    let (red, blue) = (exit_dirs(LAMBDA_C_NM)?, exit_dirs(LAMBDA_F_NM)?);
     let fit = virtual_viewpoint_of_traces(&traces, eye, DEFAULT_VIEWPOINT_REGULARISATION)
         .map_err(|e| e.to_string())?;
     let mut masked = 0;
     let vertices = back
         .iter()
         .zip(&traces)
-        .map(|(b, t)| {
+        .enumerate()
+        .map(|(i, (b, t))| {
             let (origin, dir, exits) = match *t {
                 LensTrace::Exit { front, dir, .. } => (front, dir, 1),
                 _ => {
@@ -104,6 +134,8 @@ pub fn trace_lens(
                 exits,
                 origin: view_of_eye(origin + decentration),
                 dir: view_dir_of_eye(dir),
+                dir_red: view_dir_of_eye(red[i].unwrap_or(dir)),
+                dir_blue: view_dir_of_eye(blue[i].unwrap_or(dir)),
                 ..default()
             }
         })
@@ -155,6 +187,7 @@ pub(crate) fn update_refraction(
             DVec3::new(d.x, d.y, 0.0),
             spectacles.tessellation.x as usize,
             spectacles.tessellation.y as usize,
+            spectacles.chromatic_aberration,
         ) {
             Ok(trace) => {
                 commands.entity(entity).insert(trace);

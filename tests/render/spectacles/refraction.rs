@@ -16,7 +16,8 @@
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::Headless;
-use optica_harness::textures::coordinates;
+use optica_harness::textures::coordinates_in;
+use optica_optics::glass::{LAMBDA_C_NM, LAMBDA_F_NM};
 use optica_optics::glam::DVec3;
 use optica_optics::spectacles::plane_seen_through_lens;
 use optica_spectacles::{Spectacles, SpectaclesPlugin, camera_z};
@@ -26,11 +27,16 @@ const FOV: f32 = 0.8;
 const PLANE_Z: f32 = 2.0;
 const PLANE_HALF: f32 = 2.0;
 
+/// The texture's channels: red = x, green = y, blue = 1.
+const XY1: [usize; 3] = [0, 1, 2];
+/// Blue = x, green = y, red = 1.
+const BLUE_X: [usize; 3] = [2, 1, 0];
+
 fn render(spectacles: Option<Spectacles>) -> optica_harness::RenderedFrame {
-    render_at(spectacles, FOV)
+    render_at(spectacles, FOV, XY1)
 }
 
-fn render_at(spectacles: Option<Spectacles>, fov: f32) -> optica_harness::RenderedFrame {
+fn render_at(spectacles: Option<Spectacles>, fov: f32, channels: [usize; 3]) -> optica_harness::RenderedFrame {
     Headless::new(SIZE, SIZE)
         .hdr(true)
         .frames(4)
@@ -47,7 +53,7 @@ fn render_at(spectacles: Option<Spectacles>, fov: f32) -> optica_harness::Render
                             Plane3d::new(Vec3::Z, Vec2::splat(PLANE_HALF)).mesh().subdivisions(7),
                         )),
                         MeshMaterial3d(materials.add(StandardMaterial {
-                            base_color_texture: Some(images.add(coordinates(256, PLANE_HALF))),
+                            base_color_texture: Some(images.add(coordinates_in(256, PLANE_HALF, channels))),
                             unlit: true,
                             ..default()
                         })),
@@ -79,8 +85,24 @@ fn render_at(spectacles: Option<Spectacles>, fov: f32) -> optica_harness::Render
 /// The plane point (x, y) a pixel shows, from its colour; `None` where the
 /// pixel shows no plane.
 fn seen(frame: &optica_harness::RenderedFrame, x: u32, y: u32) -> Option<(f64, f64)> {
+    seen_in(frame, x, y, XY1)
+}
+
+fn seen_in(frame: &optica_harness::RenderedFrame, x: u32, y: u32, ch: [usize; 3]) -> Option<(f64, f64)> {
     let p = frame.hdr().unwrap().get_pixel(x, y).0;
-    (p[2] > 0.5).then(|| (f64::from(p[0]), f64::from(p[1])))
+    (p[ch[2]] > 0.5).then(|| (f64::from(p[ch[0]]), f64::from(p[ch[1]])))
+}
+
+/// The exact plane points of every pixel through `lens` at a wavelength.
+fn exact_at(lens: &optica_optics::spectacles::SpectacleLens, nm: Option<f64>) -> Vec<Option<optica_optics::glam::DVec2>> {
+    let lens = nm.map_or(*lens, |nm| lens.at_wavelength(nm));
+    let plane_z = f64::from(PLANE_Z) + f64::from(camera_z());
+    plane_seen_through_lens(Some(&lens), f64::from(camera_z()), f64::from(FOV), SIZE, plane_z)
+}
+
+/// Pixels per metre on the plane straight ahead.
+fn px_per_m() -> f64 {
+    f64::from(SIZE) / (2.0 * f64::from(FOV / 2.0).tan() * f64::from(PLANE_Z))
 }
 
 /// Displacements (px) of every pixel (away from the view's edge) whose
@@ -89,19 +111,20 @@ fn displacements(s: &Spectacles) -> (Vec<f64>, f64) {
     let lens = s.design().unwrap();
     let frame = render(Some(s.clone()));
     let naked = render(None);
-    let tan = f64::from(FOV / 2.0).tan();
-    let px_per_m = f64::from(SIZE) / (2.0 * tan * f64::from(PLANE_Z));
-    let plane_z = f64::from(PLANE_Z) + f64::from(camera_z());
-    let exact = plane_seen_through_lens(Some(&lens), f64::from(camera_z()), f64::from(FOV), SIZE, plane_z);
+    let px_per_m = px_per_m();
+    // Green (y) is refracted as the d line, red (x) as the C line.
+    let exact = exact_at(&lens, None);
+    let exact_red = exact_at(&lens, s.chromatic_aberration.then_some(LAMBDA_C_NM));
     let mut d = Vec::new();
     let (mut spread_lens, mut spread_naked) = (0.0, 0.0);
     for y in 8..SIZE - 8 {
         for x in 8..SIZE - 8 {
-            let Some(hit) = exact[(y * SIZE + x) as usize] else {
+            let (Some(hit), Some(red)) = (exact[(y * SIZE + x) as usize], exact_red[(y * SIZE + x) as usize])
+            else {
                 continue;
             };
             // The plane's x is Bevy's x: the eye frame's −x.
-            let want = (-hit.x, hit.y);
+            let want = (-red.x, hit.y);
             let (Some(got), Some(bare)) = (seen(&frame, x, y), seen(&naked, x, y)) else {
                 continue;
             };
@@ -168,12 +191,12 @@ fn total_internal_reflection_at_the_rim_is_drawn_dark() {
         ..Spectacles::sphere(power)
     };
     let trace = |power: f32| {
-        optica_spectacles::trace_lens(&lens(power).design().unwrap(), DVec3::ZERO, 24, 64).unwrap()
+        optica_spectacles::trace_lens(&lens(power).design().unwrap(), DVec3::ZERO, 24, 64, true).unwrap()
     };
     let (minus_trace, plus_trace) = (trace(-10.0), trace(2.0));
     assert!(minus_trace.masked > 2 * plus_trace.masked, "{} {}", minus_trace.masked, plus_trace.masked);
     let dark = |power: f32| {
-        let frame = render_at(Some(lens(power)), 2.6);
+        let frame = render_at(Some(lens(power)), 2.6, XY1);
         let img = frame.hdr().unwrap();
         // The lens's edge: 0.02 grey (linear) in every channel.
         img.pixels()
@@ -188,4 +211,72 @@ fn total_internal_reflection_at_the_rim_is_drawn_dark() {
         plus_trace.masked
     );
     assert!(minus > 1000 && plus * 3 < minus, "{minus} {plus}");
+}
+
+/// The lens's chromatic aberration: a −8 D polycarbonate lens (V = 30)
+/// refracts red as the C line and blue as the F line. Two renders read
+/// where each colour takes the plane from (x in red, then x in blue);
+/// each is held to the exact per-pixel trace at its own wavelength
+/// (mean under 0.1 px), and the colours' parting, which grows towards the
+/// rim as the lens's prism over V, is the exact one's to within 10 % of
+/// its mean where it exceeds 0.1 px. Without it, red and blue coincide.
+#[test]
+fn chromatic_aberration_parts_the_colours_by_the_abbe_number() {
+    let lens = |chromatic: bool| Spectacles {
+        material: optica_spectacles::LensMaterial::Polycarbonate,
+        chromatic_aberration: chromatic,
+        ..Spectacles::sphere(-8.0)
+    };
+    let designed = lens(true).design().unwrap();
+    let (red_ref, blue_ref) = (exact_at(&designed, Some(LAMBDA_C_NM)), exact_at(&designed, Some(LAMBDA_F_NM)));
+    let k = px_per_m();
+    for chromatic in [true, false] {
+        let red = render_at(Some(lens(chromatic)), FOV, XY1);
+        let blue = render_at(Some(lens(chromatic)), FOV, BLUE_X);
+        let (mut err_red, mut err_blue, mut n) = (0.0, 0.0, 0usize);
+        let (mut parted, mut parted_ref, mut wide) = (0.0, 0.0, 0usize);
+        let mut apart = 0.0f64;
+        for y in 8..SIZE - 8 {
+            for x in 8..SIZE - 8 {
+                let i = (y * SIZE + x) as usize;
+                let (Some(r_ref), Some(b_ref)) = (red_ref[i], blue_ref[i]) else {
+                    continue;
+                };
+                let (Some(r), Some(b)) = (seen_in(&red, x, y, XY1), seen_in(&blue, x, y, BLUE_X)) else {
+                    continue;
+                };
+                // Bevy's x is the eye frame's −x; the parting is along x
+                // and y, but only x is read in both colours.
+                let (rx, bx) = (r.0, b.0);
+                apart = apart.max((rx - bx).abs() * k);
+                if !chromatic {
+                    continue;
+                }
+                err_red += (rx + r_ref.x).abs() * k;
+                err_blue += (bx + b_ref.x).abs() * k;
+                n += 1;
+                let want = (b_ref.x - r_ref.x) * k;
+                if want.abs() > 0.1 {
+                    parted += (rx - bx) * want.signum() * k;
+                    parted_ref += want.abs();
+                    wide += 1;
+                }
+            }
+        }
+        if chromatic {
+            let (er, eb) = (err_red / n as f64, err_blue / n as f64);
+            let (got, want) = (parted / wide as f64, parted_ref / wide as f64);
+            eprintln!(
+                "−8 D polycarbonate: {n} pixels, x error red {er:.3} px (C line), blue {eb:.3} px (F line); \
+                 where the exact colours part by more than 0.1 px ({wide} pixels) they part by {got:.3} px \
+                 (exact {want:.3} px), at most {apart:.3} px"
+            );
+            assert!(n > 10_000 && wide > 1_000, "{n} {wide}");
+            assert!(er < 0.1 && eb < 0.1, "{er} {eb}");
+            assert!((got / want - 1.0).abs() < 0.1, "{got} vs {want}");
+        } else {
+            eprintln!("without chromatic aberration: red and blue part by at most {apart:.4} px");
+            assert!(apart < 0.01, "{apart}");
+        }
+    }
 }

@@ -496,9 +496,24 @@ impl SpectacleLens {
         &self.params
     }
 
-    /// Refractive index used (the material at the d line).
+    /// Refractive index used (the material at the d line, unless
+    /// [`SpectacleLens::at_wavelength`] chose another).
     pub fn index(&self) -> f64 {
         self.index
+    }
+
+    /// The same lens — its surfaces as designed for the d line — as light
+    /// of `wavelength_nm` meets it: the material's index there
+    /// ([`Glass::index`]; a [`Glass::Constant`] material has no
+    /// dispersion). Tracing the same ray at the C and F lines
+    /// (656.3 / 486.1 nm) gives the lens's chromatic aberration: off the
+    /// optical centre the prism `c·F` (Prentice, `c` in cm) spreads the
+    /// colours over `c·F/V` prism dioptres, `V` the Abbe number.
+    pub fn at_wavelength(&self, wavelength_nm: f64) -> SpectacleLens {
+        SpectacleLens {
+            index: self.params.material().index(wavelength_nm),
+            ..*self
+        }
     }
 
     /// Object-side surface, vertex at `z = d + t`.
@@ -886,5 +901,44 @@ mod tests {
                 Err(e) => prop_assert!(matches!(e, SpectaclesError::SurfaceTooSteep { .. }), "{:?}", e),
             }
         }
+    }
+
+    #[test]
+    fn lens_chromatic_aberration_follows_prentice_over_abbe() {
+        // A ray from the eye through the lens 5 mm off its optical centre
+        // meets a prism that deviates it by δ (Prentice: about c·F prism
+        // dioptres, c in cm, 1/100 rad each), and a prism parts the C and F
+        // lines by δ/V: traced, within 10 %.
+        use crate::glass::{LAMBDA_C_NM, LAMBDA_F_NM};
+        use crate::spectacles::LensTrace;
+        for (f, nd, vd) in [(-6.0, 1.498, 58.0), (-6.0, 1.586, 30.0), (4.0, 1.586, 30.0)] {
+            let params = LensDesignParams::default()
+                .with_glass(Glass::Abbe { nd, vd })
+                .unwrap();
+            let lens = design_lens(&Prescription::sphere(f).unwrap(), &params).unwrap();
+            let eye = DVec3::new(0.0, 0.0, -0.003);
+            let back = lens.back().point(0.005, 0.0).unwrap();
+            let dir = |l: &SpectacleLens| match l.trace_through_vertex(eye, back).unwrap() {
+                LensTrace::Exit { dir, .. } => dir,
+                other => panic!("{other:?}"),
+            };
+            let (dc, dd, df) = (
+                dir(&lens.at_wavelength(LAMBDA_C_NM)),
+                dir(&lens),
+                dir(&lens.at_wavelength(LAMBDA_F_NM)),
+            );
+            let incoming = (back - eye).normalize();
+            let deviation = incoming.angle_between(dd);
+            let spread = dc.angle_between(df);
+            let prentice = 0.5 * f.abs() / 100.0;
+            assert!(deviation > 0.8 * prentice && deviation < 1.5 * prentice, "{f} D: {deviation} rad");
+            let want = deviation / vd;
+            assert!((spread / want - 1.0).abs() < 0.1, "{f} D, V {vd}: {spread} rad vs {want}");
+            // Blue bends more: for a minus lens away from the centre, more outwards.
+            assert!(lens.at_wavelength(LAMBDA_F_NM).index() > lens.index());
+        }
+        // No dispersion in a constant-index material.
+        let paper = design_lens(&Prescription::sphere(-6.0).unwrap(), &LensDesignParams::paper()).unwrap();
+        assert_eq!(paper.at_wavelength(LAMBDA_F_NM).index(), paper.index());
     }
 }

@@ -7,7 +7,9 @@
 //! * Knob: the lens's tessellation, rings of its back surface (segments
 //!   8/3 as many; 24 × 64 is the paper's ~1,500 vertices).
 //! * Reference: the exact view, every pixel's ray traced through both
-//!   surfaces to the plane (`plane_seen_through_lens`). Error: the
+//!   surfaces to the plane (`plane_seen_through_lens`; the texture's x is
+//!   read in red, which the lens refracts as the C line, y in green, the
+//!   d line). Error: the
 //!   displacement (px) between the plane point a pixel shows and the one
 //!   its exact ray meets: mean and max over the pixels whose exact point
 //!   the eye's own view shows (the environment map is that view: a minus
@@ -18,10 +20,13 @@
 //!   (`baseline_time_ms`); `trace_ms` the CPU trace of the lens.
 //! * Moving lens: the lens slid by a millimetre every frame (retraced every
 //!   frame, as the paper's 6 fps case) against the same lens still.
+//! * Chromatic aberration: the lens with its colours refracted apart
+//!   against the same lens without.
 
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::textures::coordinates;
+use optica_optics::glass::LAMBDA_C_NM;
 use optica_optics::spectacles::plane_seen_through_lens;
 use optica_spectacles::{Spectacles, SpectaclesPlugin, camera_z, trace_lens};
 
@@ -107,12 +112,17 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
         let img = frame.hdr().ok_or_else(|| SweepError::Setup("no HDR frame".into()))?;
         let plane_z = f64::from(PLANE_Z) + f64::from(camera_z());
         let exact = plane_seen_through_lens(Some(&designed), f64::from(camera_z()), f64::from(FOV), size, plane_z);
+        // Red (x) is refracted as the C line (the lens's chromatic
+        // aberration), green (y) as the d line.
+        let red = designed.at_wavelength(LAMBDA_C_NM);
+        let exact_red = plane_seen_through_lens(Some(&red), f64::from(camera_z()), f64::from(FOV), size, plane_z);
         // What the eye's own view shows of the plane (±half its extent there).
         let shown = tan * plane_z;
         let (mut sum, mut max, mut n, mut outside) = (0.0, 0.0f64, 0usize, 0usize);
         for y in 0..size {
             for x in 0..size {
-                let (Some(hit), p) = (exact[(y * size + x) as usize], img.get_pixel(x, y).0) else {
+                let i = (y * size + x) as usize;
+                let (Some(hit), Some(hit_red), p) = (exact[i], exact_red[i], img.get_pixel(x, y).0) else {
                     continue;
                 };
                 if hit.x.abs() > shown || hit.y.abs() > shown {
@@ -122,14 +132,20 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
                 if p[2] < 0.5 {
                     continue;
                 }
-                let e = ((f64::from(p[0]) + hit.x).powi(2) + (f64::from(p[1]) - hit.y).powi(2)).sqrt() * px_per_m;
+                let e = ((f64::from(p[0]) + hit_red.x).powi(2) + (f64::from(p[1]) - hit.y).powi(2)).sqrt() * px_per_m;
                 sum += e;
                 max = max.max(e);
                 n += 1;
             }
         }
-        let trace = trace_lens(&designed, optica_optics::glam::DVec3::ZERO, s.tessellation.x as usize, s.tessellation.y as usize)
-            .map_err(SweepError::Setup)?;
+        let trace = trace_lens(
+            &designed,
+            optica_optics::glam::DVec3::ZERO,
+            s.tessellation.x as usize,
+            s.tessellation.y as usize,
+            s.chromatic_aberration,
+        )
+        .map_err(SweepError::Setup)?;
         let timed = ctx.headless(size, size).time_frames(timing.0, timing.1, lit_room(s.clone()))?;
         let plain = ctx.headless(size, size).time_frames(
             timing.0,
@@ -159,6 +175,20 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
 
     ctx.progress(total, total, "moving lens");
     let still = ctx.headless(size, size).time_frames(timing.0, timing.1, lit_room(lens(24)))?;
+    let achromatic = ctx.headless(size, size).time_frames(
+        timing.0,
+        timing.1,
+        lit_room(Spectacles {
+            chromatic_aberration: false,
+            ..lens(24)
+        }),
+    )?;
+    report.rows.push(
+        Row::new(24.0, still.frame_ms.median, achromatic.frame_ms.median)
+            .series("chromatic aberration: on against off (knob rings)")
+            .work("frame_ratio", still.frame_ms.median / achromatic.frame_ms.median)
+            .work("size_px", f64::from(size)),
+    );
     let moving = ctx.headless(size, size).time_frames(timing.0, timing.1, |app: &mut App| {
         lit_room(lens(24))(app);
         app.insert_resource(Slide(1.0)).add_systems(Update, slide);

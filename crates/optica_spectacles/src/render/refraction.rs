@@ -234,7 +234,8 @@ fn prepare_refraction(
             vertices.write_buffer(&render_device, &render_queue);
             let coords = render_device.create_buffer(&BufferDescriptor {
                 label: Some("optica_spectacles_lens_coords"),
-                size: 16 * lens.vertices.len() as u64,
+                // A coordinate per vertex and colour (green, red, blue).
+                size: 3 * 16 * lens.vertices.len() as u64,
                 usage: BufferUsages::STORAGE,
                 mapped_at_creation: false,
             });
@@ -336,7 +337,7 @@ fn refraction_pass(
             });
         pass.set_pipeline(march);
         pass.set_bind_group(0, &march_group, &[]);
-        pass.dispatch_workgroups((buffers.traced.len() as u32).div_ceil(64), 1, 1);
+        pass.dispatch_workgroups((3 * buffers.traced.len() as u32).div_ceil(64), 1, 1);
     }
     {
         let mut pass = ctx

@@ -1,9 +1,11 @@
 // The lens's refraction of the view (the paper's §3.1, Fig. 1), with the
 // eye camera's own view as the environment map:
 //
-// `march`: per lens vertex, (a) the exit ray's hit on the scene, found in
-// the view's depth; (b–d) that point projected into the view gives the
-// vertex's texture coordinate. A ray that meets nothing (the sky, or it
+// `march`: per lens vertex and colour (the exit rays of the C, d and F
+// lines, for red, green and blue: the lens's chromatic aberration), (a)
+// the exit ray's hit on the scene, found in the view's depth; (b–d) that
+// point projected into the view gives the vertex's texture coordinate for
+// that colour (`coords`: green's for every vertex, then red's, then blue's). A ray that meets nothing (the sky, or it
 // leaves the view first) takes its direction's point at infinity.
 //
 // `copy_*` draws the view unchanged; `lens_*` then draws the lens's back
@@ -21,6 +23,10 @@ struct LensVertex {
     _pad0: f32,
     dir: vec3<f32>,
     _pad1: f32,
+    dir_red: vec3<f32>,
+    _pad2: f32,
+    dir_blue: vec3<f32>,
+    _pad3: f32,
 }
 
 struct LensParams {
@@ -83,11 +89,17 @@ fn behind(o: vec3<f32>, d: vec3<f32>, t: f32) -> bool {
 
 @compute @workgroup_size(64)
 fn march(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if i >= params.vertices {
+    let i = id.x % params.vertices;
+    let colour = id.x / params.vertices;
+    if colour >= 3u {
         return;
     }
-    let v = lens[i];
+    var v = lens[i];
+    if colour == 1u {
+        v.dir = v.dir_red;
+    } else if colour == 2u {
+        v.dir = v.dir_blue;
+    }
     // Geometric steps from 2 cm to 2 km past the lens, then bisection.
     let t0 = 0.02;
     let ratio = pow(1e5, 1.0 / f32(params.steps));
@@ -131,7 +143,7 @@ fn march(@builtin(global_invocation_id) id: vec3<u32>) {
         // Nothing met: the direction's point at infinity.
         uv = project(vec4<f32>(v.dir, 0.0)).xy;
     }
-    coords[i] = vec4<f32>(uv, hit, f32(v.exits));
+    coords[id.x] = vec4<f32>(uv, hit, f32(v.exits));
 }
 #else
 
@@ -144,6 +156,8 @@ struct LensOut {
     @builtin(position) position: vec4<f32>,
     @location(0) uv: vec2<f32>,
     @location(1) exits: f32,
+    @location(2) uv_red: vec2<f32>,
+    @location(3) uv_blue: vec2<f32>,
 }
 
 @vertex
@@ -155,14 +169,22 @@ fn lens_vertex(@builtin(vertex_index) i: u32) -> LensOut {
     out.position = c;
     out.uv = coords[i].xy;
     out.exits = coords[i].w;
+    out.uv_red = coords[params.vertices + i].xy;
+    out.uv_blue = coords[2u * params.vertices + i].xy;
     return out;
 }
 
 @fragment
 fn lens_fragment(in: LensOut) -> @location(0) vec4<f32> {
-    let seen = textureSampleLevel(view, view_sampler, clamp(in.uv, vec2<f32>(0.0), vec2<f32>(1.0)), 0.0);
+    let lo = vec2<f32>(0.0);
+    let hi = vec2<f32>(1.0);
+    let seen = vec3<f32>(
+        textureSampleLevel(view, view_sampler, clamp(in.uv_red, lo, hi), 0.0).r,
+        textureSampleLevel(view, view_sampler, clamp(in.uv, lo, hi), 0.0).g,
+        textureSampleLevel(view, view_sampler, clamp(in.uv_blue, lo, hi), 0.0).b,
+    );
     // A triangle with a vertex whose ray does not get through: the edge.
     let through = step(0.999, in.exits);
-    return vec4<f32>(mix(vec3<f32>(params.edge), seen.rgb, through), 1.0);
+    return vec4<f32>(mix(vec3<f32>(params.edge), seen, through), 1.0);
 }
 #endif

@@ -26,6 +26,17 @@ const HEIGHT: u32 = 600;
 const EYE: Vec3 = Vec3::new(0.0, 1.2, 0.0);
 const CHART_M: f32 = 5.0;
 const BOOK_M: f32 = 0.3;
+/// Where the book lies from the eye: below, in front, where a reader holds
+/// it (looked at through a progressive lens's near zone).
+const BOOK: Vec3 = Vec3::new(0.0, -0.17, -0.24);
+/// Where the eye camera looks: the chart, a little down.
+const LOOK_AT: Vec3 = Vec3::new(0.0, EYE.y - 0.25, -CHART_M);
+
+/// Degrees from the camera's line of sight down to the book.
+fn book_down_deg() -> f64 {
+    let ahead = (LOOK_AT - EYE).normalize();
+    f64::from(ahead.angle_between(BOOK.normalize()).to_degrees())
+}
 
 fn parse_args() -> Result<(Vec<Preset>, Option<String>), String> {
     let mut args = std::env::args().skip(1);
@@ -102,7 +113,7 @@ fn main() {
 
 /// What a wearer of `p` sees, on the terminal.
 fn describe(p: &Preset) {
-    let at = |m: f64| match p.sight(m) {
+    let at = |m: f64, down: f64| match p.sight_looking_down(m, down) {
         Ok((s, _)) => format!("{:.1}′", s.blur_arcmin),
         Err(e) => format!("({e})"),
     };
@@ -111,11 +122,12 @@ fn describe(p: &Preset) {
         _ => String::new(),
     };
     println!(
-        "{}: {}\n    blur disc at the chart ({CHART_M} m) {}, at the book ({BOOK_M} m) {}{magnification}",
+        "{}: {}\n    blur disc at the chart ({CHART_M} m) {}, at the book ({BOOK_M} m, {:.0}° down) {}{magnification}",
         p.name,
         p.description,
-        at(f64::from(CHART_M)),
-        at(f64::from(BOOK_M)),
+        at(f64::from(CHART_M), 0.0),
+        book_down_deg(),
+        at(f64::from(BOOK.length()), book_down_deg()),
     );
 }
 
@@ -288,7 +300,7 @@ fn spawn_room(
             perceptual_roughness: 0.7,
             ..default()
         })),
-        Transform::from_translation(EYE + Vec3::new(0.07, -0.17, -0.24))
+        Transform::from_translation(EYE + BOOK)
             .looking_at(EYE, Vec3::Y)
             .mul_transform(Transform::from_rotation(Quat::from_rotation_y(std::f32::consts::PI))),
     ));
@@ -308,7 +320,7 @@ fn spawn_room(
             near: 0.05,
             ..default()
         }),
-        Transform::from_translation(EYE).looking_at(Vec3::new(0.0, EYE.y - 0.25, -CHART_M), Vec3::Y),
+        Transform::from_translation(EYE).looking_at(LOOK_AT, Vec3::Y),
         preset.eye,
         CloneDefocus::default(),
     ));

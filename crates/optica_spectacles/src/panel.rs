@@ -160,6 +160,12 @@ pub fn spectacles_ui(
                 ui.add(egui::Slider::new(&mut s.axis_deg, 0.0..=180.0).step_by(5.0));
             });
             ui.end_row();
+            ui.label("addition (D) / corridor (mm)");
+            ui.horizontal(|ui| {
+                ui.add(egui::Slider::new(&mut s.addition_d, 0.0..=3.5).step_by(0.25));
+                ui.add(egui::Slider::new(&mut s.corridor_mm, 9.0..=20.0));
+            });
+            ui.end_row();
             ui.label("material");
             egui::ComboBox::from_id_salt("spectacles_material")
                 .selected_text(s.material.name())

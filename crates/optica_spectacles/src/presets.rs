@@ -123,8 +123,17 @@ pub fn presets() -> Vec<Preset> {
         Preset {
             name: "presbyope-readers",
             description: "The presbyope in +2 D reading glasses: the book is sharp, the far wall is not",
-            eye: presbyope,
+            eye: presbyope.clone(),
             spectacles: Some(Spectacles::sphere(2.0)),
+        },
+        Preset {
+            name: "presbyope-progressives",
+            description: "The presbyope in plano progressives with a +2.00 add: the far wall sharp straight ahead, the book sharp when looked at through the near zone about 30° below, and either side of the corridor the blur every progressive wearer learns to turn their head away from",
+            eye: presbyope,
+            spectacles: Some(Spectacles {
+                addition_d: 2.0,
+                ..Spectacles::sphere(0.0)
+            }),
         },
         Preset {
             name: "astigmat",
@@ -159,12 +168,19 @@ impl Preset {
     /// glasses' magnification (%; negative: things look smaller), or why
     /// the settings were refused.
     pub fn sight(&self, distance_m: f64) -> Result<(Sight, f64), String> {
+        self.sight_looking_down(distance_m, 0.0)
+    }
+
+    /// [`Preset::sight`] of a point `down_deg` degrees below straight
+    /// ahead: a book in the lap, seen through a progressive lens's near
+    /// zone.
+    pub fn sight_looking_down(&self, distance_m: f64, down_deg: f64) -> Result<(Sight, f64), String> {
         let eye = self.eye.optics().map_err(|e| e.to_string())?;
         let lens = match &self.spectacles {
             Some(s) => Some(s.design().map_err(|e| e.to_string())?),
             None => None,
         };
-        let blur = blur_angle_rad(&eye, lens.as_ref(), distance_m)
+        let blur = blur_angle_looking_down_rad(&eye, lens.as_ref(), distance_m, down_deg.to_radians())
             .ok_or_else(|| "the point is not seen through the lens".to_string())?;
         let magnification = lens.as_ref().map_or(0.0, spectacle_magnification_percent);
         Ok((
@@ -184,15 +200,29 @@ impl Preset {
 /// the field's rule at the point — as the largest radius of its ellipse,
 /// doubled, over the point's distance.
 pub fn blur_angle_rad(eye: &optics::Eye, lens: Option<&SpectacleLens>, distance_m: f64) -> Option<f64> {
+    blur_angle_looking_down_rad(eye, lens, distance_m, 0.0)
+}
+
+/// [`blur_angle_rad`] of a point `down_rad` below straight ahead, the eye
+/// turned towards it (the bundles' aim from the eye's centre of rotation
+/// through the point; a lens's prism bends the line of sight by a few
+/// degrees, which moves the point the set is taken at by millimetres).
+pub fn blur_angle_looking_down_rad(
+    eye: &optics::Eye,
+    lens: Option<&SpectacleLens>,
+    distance_m: f64,
+    down_rad: f64,
+) -> Option<f64> {
+    if distance_m.is_nan() || distance_m <= 0.0 || !down_rad.is_finite() {
+        return None;
+    }
     let pl = eye_placement();
+    let camera = DVec3::new(0.0, 0.0, f64::from(camera_z()));
+    let point = camera + DVec3::new(0.0, -down_rad.sin(), down_rad.cos()) * distance_m;
     let Some(lens) = lens else {
-        if eye.cylinder_d() == 0.0 {
+        if eye.cylinder_d() == 0.0 && down_rad == 0.0 {
             return eye.blur_angle_rad(distance_m).ok();
         }
-        if distance_m.is_nan() || distance_m <= 0.0 {
-            return None;
-        }
-        let point = DVec3::new(0.0, 0.0, distance_m + f64::from(camera_z()));
         let axes = [DVec2::X, DVec2::Y];
         let m = naked_eye_displacements(eye, &pl, point, &axes);
         let radius = largest_radius([m[0], m[1]]);
@@ -203,15 +233,15 @@ pub fn blur_angle_rad(eye: &optics::Eye, lens: Option<&SpectacleLens>, distance_
         return Some(0.0);
     }
     let samples = pupil_samples(64);
-    let (e1, e2) = perpendicular_frame(DVec3::Z);
+    let aim = (point - pl.centre_of_rotation()).try_normalize()?;
+    let (e1, e2) = perpendicular_frame(aim);
     let bundle = |a: f64| {
-        trace_astigmatic_bundle(Some(lens), &pl, DVec3::Z, rho, eye.vergence_matrix(e1, e2, a), &samples)
-            .ok()
+        trace_astigmatic_bundle(Some(lens), &pl, aim, rho, eye.vergence_matrix(e1, e2, a), &samples).ok()
     };
     let near = bundle(eye.accommodation_d())?;
     let far = bundle(0.0)?;
     // Distance along the refracted chief from its exit on the lens.
-    let s = distance_m + f64::from(camera_z()) - near.chief().origin().z;
+    let s = (point - near.chief().origin()).dot(near.chief().dir());
     // Not ahead of the lens (or NaN): nothing to see through it.
     if s.is_nan() || s <= 0.0 {
         return None;

@@ -399,6 +399,16 @@ pub struct Spectacles {
     /// wearer's left (the examiner's right, facing the wearer)
     /// counter-clockwise as the examiner sees the lens, `0..180`.
     pub axis_deg: f32,
+    /// Near addition (D) of a progressive-addition lens, `0..=4`; 0 (the
+    /// default) for a single-vision lens. The lens's power grows by it
+    /// from the fitting point (its centre, where the eye looks straight
+    /// ahead) down a corridor of [`Spectacles::corridor_mm`] into the near
+    /// zone below, with the blurred zones either side of the corridor that
+    /// every progressive lens has (`optica_optics::spectacles::ProgressiveAddition`).
+    pub addition_d: f32,
+    /// The progressive corridor's length (mm): from the fitting point to
+    /// the full addition, 14 by default (short corridors are ~11 mm).
+    pub corridor_mm: f32,
     /// Lens material.
     pub material: LensMaterial,
     /// Cornea to the lens's back vertex (mm): 12–14 is usual.
@@ -442,6 +452,8 @@ impl Default for Spectacles {
             sphere_d: 0.0,
             cylinder_d: 0.0,
             axis_deg: 0.0,
+            addition_d: 0.0,
+            corridor_mm: 14.0,
             material: LensMaterial::Cr39,
             vertex_distance_mm: 12.0,
             blank_diameter_mm: 50.0,
@@ -466,13 +478,15 @@ impl Spectacles {
 
     /// The prescription.
     ///
-    /// Errors: numbers that are not finite, or powers beyond ±20 D.
+    /// Errors: numbers that are not finite, powers beyond ±20 D, an
+    /// addition outside `0..=4` D.
     pub fn prescription(&self) -> Result<Prescription, InvalidInput> {
         Prescription::new(
             f64::from(self.sphere_d),
             f64::from(self.cylinder_d),
             f64::from(self.axis_deg),
-        )
+        )?
+        .with_addition(f64::from(self.addition_d))
     }
 
     /// The lens maker's choices.
@@ -484,7 +498,8 @@ impl Spectacles {
             .with_vertex_distance_m(f64::from(self.vertex_distance_mm) * 1e-3)?
             .with_blank_diameter_m(f64::from(self.blank_diameter_mm) * 1e-3)?
             .with_min_centre_thickness_m(f64::from(self.min_centre_thickness_mm) * 1e-3)?
-            .with_base_curve_d(self.base_curve_d.map(f64::from))
+            .with_base_curve_d(self.base_curve_d.map(f64::from))?
+            .with_corridor_m(f64::from(self.corridor_mm) * 1e-3)
     }
 
     /// The designed lens, in the eye's frame.

@@ -47,4 +47,14 @@ fn presets_describe_what_their_wearers_see() {
     assert!((near.blur_arcmin / arcmin(a * 1.0) - 1.0).abs() < 0.01, "{near:?}");
     let (g, m) = sight("astigmat-glasses", 5.0);
     assert!(g.blur_arcmin < 2.0 && m < 0.0, "{g:?} {m}");
+    // The presbyope in +2.00 progressives: the chart straight ahead is
+    // sharp, and so is the book 33° below (through the near zone), which
+    // the naked eye and the same look through single-vision plano glasses
+    // see blurred.
+    let pal = get("presbyope-progressives");
+    let (far, m) = pal.sight(5.0).unwrap();
+    let (book, _) = pal.sight_looking_down(0.3, 33.0).unwrap();
+    let (naked, _) = get("presbyope").sight_looking_down(0.3, 33.0).unwrap();
+    eprintln!("progressives: chart {far:?}, book {book:?} (naked {naked:?}), magnification {m:.2} %");
+    assert!(far.blur_arcmin < 2.0 && book.blur_arcmin < 2.0 && naked.blur_arcmin > 5.0);
 }

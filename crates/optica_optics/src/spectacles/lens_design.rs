@@ -6,7 +6,7 @@ use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
 use super::error::{LensSide, SpectaclesError};
-use super::lens_surface::{LensSurface, ToricSurface};
+use super::lens_surface::{LensSurface, ProgressiveAddition, ProgressiveSurface, ToricSurface};
 use crate::glass::Glass;
 use crate::input::{self, InvalidInput};
 use crate::ray::Ray;
@@ -26,6 +26,7 @@ pub struct Prescription {
     sphere_d: f64,
     cylinder_d: f64,
     axis_deg: f64,
+    add_d: f64,
 }
 
 /// The serialised form of a [`Prescription`], unchecked.
@@ -34,15 +35,21 @@ struct RawPrescription {
     sphere_d: f64,
     cylinder_d: f64,
     axis_deg: f64,
+    #[serde(default)]
+    add_d: f64,
 }
 
 impl TryFrom<RawPrescription> for Prescription {
     type Error = InvalidInput;
 
     fn try_from(r: RawPrescription) -> Result<Self, InvalidInput> {
-        Prescription::new(r.sphere_d, r.cylinder_d, r.axis_deg)
+        Prescription::new(r.sphere_d, r.cylinder_d, r.axis_deg)?.with_addition(r.add_d)
     }
 }
+
+/// Largest near addition (D) [`Prescription::with_addition`] accepts:
+/// additions run from +0.75 to about +3.50 D.
+pub const MAX_ADDITION_D: f64 = 4.0;
 
 impl Prescription {
     /// A prescription of sphere `S` (D, the back-vertex power in the axis
@@ -62,7 +69,27 @@ impl Prescription {
             sphere_d,
             cylinder_d,
             axis_deg,
+            add_d: 0.0,
         })
+    }
+
+    /// The same prescription with a near addition `add_d` (D, `0..=`
+    /// [`MAX_ADDITION_D`]; 0 for a single-vision lens): the lens becomes a
+    /// progressive-addition lens, its power growing by `add_d` down a
+    /// corridor ([`LensDesignParams::with_corridor_m`]) into a near zone.
+    /// Errors: an addition outside that range, or one that takes a
+    /// meridian beyond ±[`MAX_LENS_POWER_D`].
+    pub fn with_addition(self, add_d: f64) -> Result<Self, InvalidInput> {
+        let add_d = input::in_range("near addition (D)", add_d, 0.0, MAX_ADDITION_D)?;
+        let m = MAX_LENS_POWER_D;
+        input::in_range("sphere + addition (D)", self.sphere_d + add_d, -m, m)?;
+        input::in_range("sphere + cylinder + addition (D)", self.sphere_d + self.cylinder_d + add_d, -m, m)?;
+        Ok(Self { add_d, ..self })
+    }
+
+    /// Near addition (D); 0 for a single-vision lens.
+    pub fn add_d(&self) -> f64 {
+        self.add_d
     }
 
     /// A spherical prescription.
@@ -128,6 +155,7 @@ pub struct LensDesignParams {
     min_centre_thickness_m: f64,
     min_edge_thickness_m: f64,
     base_curve_d: Option<f64>,
+    corridor_m: f64,
 }
 
 /// The serialised form of [`LensDesignParams`], unchecked.
@@ -139,6 +167,14 @@ struct RawLensDesignParams {
     min_centre_thickness_m: f64,
     min_edge_thickness_m: f64,
     base_curve_d: Option<f64>,
+    #[serde(default = "default_corridor_m")]
+    corridor_m: f64,
+}
+
+/// The default progressive corridor (m): 14 mm from the fitting point to
+/// the full addition, a common "regular" corridor (short ones are ~11 mm).
+fn default_corridor_m() -> f64 {
+    0.014
 }
 
 impl TryFrom<RawLensDesignParams> for LensDesignParams {
@@ -151,7 +187,8 @@ impl TryFrom<RawLensDesignParams> for LensDesignParams {
             .with_blank_diameter_m(r.blank_diameter_m)?
             .with_min_centre_thickness_m(r.min_centre_thickness_m)?
             .with_min_edge_thickness_m(r.min_edge_thickness_m)?
-            .with_base_curve_d(r.base_curve_d)
+            .with_base_curve_d(r.base_curve_d)?
+            .with_corridor_m(r.corridor_m)
     }
 }
 
@@ -170,6 +207,7 @@ impl Default for LensDesignParams {
             min_centre_thickness_m: 0.002,
             min_edge_thickness_m: 0.001,
             base_curve_d: None,
+            corridor_m: default_corridor_m(),
         }
     }
 }
@@ -245,6 +283,23 @@ impl LensDesignParams {
             min_edge_thickness_m: input::positive("minimum edge thickness (m)", e)?,
             ..self
         })
+    }
+
+    /// These choices with a progressive corridor of `length` (m): from the
+    /// fitting point (where the wearer looks straight ahead, the lens's
+    /// centre) down to where the addition is full. Used only for a
+    /// prescription with an addition. Errors: a length that is not finite
+    /// and positive.
+    pub fn with_corridor_m(self, length: f64) -> Result<Self, InvalidInput> {
+        Ok(Self {
+            corridor_m: input::positive("progressive corridor (m)", length)?,
+            ..self
+        })
+    }
+
+    /// The progressive corridor's length (m).
+    pub fn corridor_m(&self) -> f64 {
+        self.corridor_m
     }
 
     /// These choices with front surface power `F1` (D), or `None` for
@@ -393,6 +448,14 @@ pub fn design_lens(
     })?;
     let axis = rx.axis_deg.to_radians();
     let fv = [rx.sphere_d, rx.sphere_d + rx.cylinder_d];
+    // A progressive addition on the back surface, in the eye's frame: the
+    // back surface's power F2 = (1 − n)·c2 in the optician's frame grows by
+    // the add, c2 by add/(1 − n), the eye frame's curvature by add/(n − 1).
+    let addition = if rx.add_d > 0.0 {
+        Some(ProgressiveAddition::new(rx.add_d / (n - 1.0), params.corridor_m)?)
+    } else {
+        None
+    };
 
     // Back curvatures for thickness t (optician's frame).
     let back_for = |t: f64| -> Result<([f64; 2], [f64; 2]), SpectaclesError> {
@@ -426,10 +489,11 @@ pub fn design_lens(
         let mut m = f64::INFINITY;
         for k in 0..RIM_SAMPLES {
             let phi = 2.0 * PI * k as f64 / RIM_SAMPLES as f64;
-            let (s2, _) = torus
-                .sag_and_gradient(r * phi.cos(), r * phi.sin())
-                .ok_or(too_steep.clone())?;
-            m = m.min(s2 - sag1);
+            let (x, y) = (r * phi.cos(), r * phi.sin());
+            let (s2, _) = torus.sag_and_gradient(x, y).ok_or(too_steep.clone())?;
+            // The addition in this frame (curvatures mirrored).
+            let add = addition.map_or(0.0, |a| a.mirrored().sag_and_gradient(x, y).0);
+            m = m.min(s2 + add - sag1);
         }
         Ok(m)
     };
@@ -467,10 +531,13 @@ pub fn design_lens(
     let d = params.vertex_distance_m;
     // Mirror into the eye's frame: curvatures change sign.
     let front = SphericalSurface::new(d + t, -c1)?;
-    let back = if rx.cylinder_d == 0.0 {
-        LensSurface::Spherical(SphericalSurface::new(d, -c2[0])?)
-    } else {
-        LensSurface::Toric(ToricSurface::new(d, -c2[0], -c2[1], axis)?)
+    let back = match addition {
+        Some(a) => LensSurface::Progressive(ProgressiveSurface::new(
+            ToricSurface::new(d, -c2[0], -c2[1], axis)?,
+            a,
+        )),
+        None if rx.cylinder_d == 0.0 => LensSurface::Spherical(SphericalSurface::new(d, -c2[0])?),
+        None => LensSurface::Toric(ToricSurface::new(d, -c2[0], -c2[1], axis)?),
     };
     Ok(SpectacleLens {
         prescription: *rx,
@@ -622,6 +689,45 @@ impl SpectacleLens {
         let delta = self.vertex_distance_m() - h2.point.z; // z′_E − z′_vertex
         let hv = h2.point.truncate() - slope * delta;
         Ok(-slope.dot(m) / hv.dot(m))
+    }
+
+    /// The power (D) in meridian `theta_deg` at the point `(x, y)` (m) of
+    /// the lens, as a lensmeter measures it there (how an optician checks a
+    /// progressive lens's near zone): two rays parallel to the axis from
+    /// the object side, ±0.1 mm from the point along the meridian; the
+    /// power is the change of their exit slope over the change of their
+    /// height at the back-vertex plane. At the centre it is
+    /// [`SpectacleLens::measured_back_vertex_power_d`].
+    ///
+    /// Errors: a non-finite input; [`SpectaclesError::Degenerate`] if a
+    /// probe does not get through.
+    pub fn measured_power_at_d(&self, x: f64, y: f64, theta_deg: f64) -> Result<f64, SpectaclesError> {
+        let theta = input::finite("meridian (deg)", theta_deg)?;
+        let at = input::finite_vec2("lens point (m)", DVec2::new(x, y))?;
+        let m = DVec2::from_angle(theta.to_radians());
+        let fail = SpectaclesError::Degenerate("lensmeter ray did not get through the lens");
+        let probe = |p: DVec2| -> Result<(DVec2, DVec2), SpectaclesError> {
+            let start = DVec3::new(p.x, p.y, self.front.vertex_z() + PARAXIAL_PROBE_START_M);
+            let ray = Ray::from_unit(start, DVec3::NEG_Z);
+            let h1 = self.front.intersect(&ray).ok_or(fail.clone())?;
+            let d1 = refract(ray.dir(), h1.normal, 1.0, self.index)
+                .direction()
+                .ok_or(fail.clone())?;
+            let h2 = self
+                .back
+                .intersect(&Ray::from_unit(h1.point, d1))
+                .ok_or(fail.clone())?;
+            let d2 = refract(d1, h2.normal, self.index, 1.0)
+                .direction()
+                .ok_or(fail.clone())?;
+            let slope = d2.truncate() / (-d2.z);
+            let delta = self.vertex_distance_m() - h2.point.z;
+            Ok((slope, h2.point.truncate() - slope * delta))
+        };
+        let h = PARAXIAL_PROBE_HEIGHT_M;
+        let (sa, ha) = probe(at + m * h)?;
+        let (sb, hb) = probe(at - m * h)?;
+        Ok(-(sa - sb).dot(m) / (ha - hb).dot(m))
     }
 }
 
@@ -940,5 +1046,46 @@ mod tests {
         // No dispersion in a constant-index material.
         let paper = design_lens(&Prescription::sphere(-6.0).unwrap(), &LensDesignParams::paper()).unwrap();
         assert_eq!(paper.at_wavelength(LAMBDA_F_NM).index(), paper.index());
+    }
+
+    #[test]
+    fn lens_design_progressive_addition_by_lensmeter() {
+        // A plano lens with a +2.00 add and a 14 mm corridor, CR-39: the
+        // lensmeter reads plano at and above the fitting point, +2.00 in
+        // both meridians in the near zone (within 0.1 D: the lensmeter's
+        // rays are parallel to the axis, the zone's tilt adds a little),
+        // half the add half-way down the corridor, and beside the corridor
+        // the astigmatism no progressive surface avoids (Minkwitz).
+        let params = LensDesignParams::default();
+        let rx = Prescription::sphere(0.0).unwrap().with_addition(2.0).unwrap();
+        let lens = design_lens(&rx, &params).unwrap();
+        assert!(matches!(lens.back(), LensSurface::Progressive(_)));
+        let power = |x: f64, y: f64| {
+            (
+                lens.measured_power_at_d(x, y, 0.0).unwrap(),
+                lens.measured_power_at_d(x, y, 90.0).unwrap(),
+            )
+        };
+        for (x, y, want) in [(0.0, 0.004, 0.0), (0.0, 0.0, 0.0), (0.0, -0.007, 1.0), (0.0, -0.018, 2.0)] {
+            let (h, v) = power(x, y);
+            assert!((h - want).abs() < 0.1 && (v - want).abs() < 0.1, "({x}, {y}): {h} / {v} vs {want}");
+        }
+        // Beside the corridor, half-way down, the astigmatism from the
+        // oblique terms: the cylinder from the powers at 0°, 45° and 90°.
+        let cylinder = |x: f64, y: f64| {
+            let f = |t: f64| lens.measured_power_at_d(x, y, t).unwrap();
+            let (a, c) = (f(0.0), f(90.0));
+            let b = f(45.0) - 0.5 * (a + c);
+            2.0 * (0.25 * (a - c) * (a - c) + b * b).sqrt()
+        };
+        let (on, beside) = (cylinder(0.0, -0.007), cylinder(0.008, -0.007));
+        eprintln!("progressive +2.00: cylinder on the corridor {on:.2} D, 8 mm beside it {beside:.2} D");
+        assert!(on < 0.1 && beside > 1.0 && beside < 4.0, "{on} {beside}");
+        // The centre's power is the sphere's, as without an add.
+        assert!(lens.measured_back_vertex_power_d(0.0).unwrap().abs() < 0.01);
+        // Bad additions.
+        assert!(Prescription::sphere(0.0).unwrap().with_addition(-1.0).is_err());
+        assert!(Prescription::sphere(19.0).unwrap().with_addition(2.0).is_err());
+        assert!(params.with_corridor_m(0.0).is_err());
     }
 }

@@ -1,4 +1,5 @@
-//! The two kinds of spectacle-lens surface, spherical and toric.
+//! The kinds of spectacle-lens surface: spherical, toric, and toric with
+//! a progressive addition.
 
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
@@ -168,52 +169,212 @@ impl ToricSurface {
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mean =
             SphericalSurface::from_checked(self.vertex_z, 0.5 * (self.c_axis + self.c_cross));
-        let mut t = match mean.intersect(ray) {
-            Some(h) => h.t,
-            None if ray.dir().z != 0.0 => (self.vertex_z - ray.origin().z) / ray.dir().z,
-            None => return None,
-        };
-        if !t.is_finite() {
-            return None;
-        }
-        let scale = 1.0 + ray.origin().length();
-        for _ in 0..TORIC_NEWTON_MAX_STEPS {
-            let p = ray.at(t);
-            let (sag, g) = self.sag_and_gradient(p.x, p.y)?;
-            let f = p.z - self.vertex_z - sag;
-            let df = ray.dir().z - g.x * ray.dir().x - g.y * ray.dir().y;
-            if df == 0.0 || !df.is_finite() {
-                return None;
-            }
-            let step = f / df;
-            t -= step;
-            if !t.is_finite() {
-                return None;
-            }
-            if step.abs() <= TORIC_NEWTON_STEP_TOLERANCE * scale {
-                break;
-            }
-        }
-        let point = ray.at(t);
-        let (sag, g) = self.sag_and_gradient(point.x, point.y)?;
-        if (point.z - self.vertex_z - sag).abs() > TORIC_HIT_TOLERANCE * scale || t <= T_EPSILON {
-            return None;
-        }
-        Some(Hit {
-            t,
-            point,
-            normal: DVec3::new(g.x, g.y, -1.0).normalize(),
-        })
+        newton_hit(ray, self.vertex_z, &mean, |x, y| self.sag_and_gradient(x, y))
     }
 }
 
-/// A spectacle-lens surface: spherical or toric.
+/// The forward hit of `ray` on the surface `z = vertex_z + sag(x, y)`, by
+/// Newton's method on `f(t) = z(t) − z_v − sag(x(t), y(t))` from the hit on
+/// `start` (a sphere near the surface). `None` when the ray misses, the
+/// iteration leaves the surface or does not converge in 50 steps, or the
+/// hit is behind the origin (`t <= T_EPSILON`).
+fn newton_hit(
+    ray: &Ray,
+    vertex_z: f64,
+    start: &SphericalSurface,
+    sag_and_gradient: impl Fn(f64, f64) -> Option<(f64, DVec2)>,
+) -> Option<Hit> {
+    let mut t = match start.intersect(ray) {
+        Some(h) => h.t,
+        None if ray.dir().z != 0.0 => (vertex_z - ray.origin().z) / ray.dir().z,
+        None => return None,
+    };
+    if !t.is_finite() {
+        return None;
+    }
+    let scale = 1.0 + ray.origin().length();
+    for _ in 0..TORIC_NEWTON_MAX_STEPS {
+        let p = ray.at(t);
+        let (sag, g) = sag_and_gradient(p.x, p.y)?;
+        let f = p.z - vertex_z - sag;
+        let df = ray.dir().z - g.x * ray.dir().x - g.y * ray.dir().y;
+        if df == 0.0 || !df.is_finite() {
+            return None;
+        }
+        let step = f / df;
+        t -= step;
+        if !t.is_finite() {
+            return None;
+        }
+        if step.abs() <= TORIC_NEWTON_STEP_TOLERANCE * scale {
+            break;
+        }
+    }
+    let point = ray.at(t);
+    let (sag, g) = sag_and_gradient(point.x, point.y)?;
+    if (point.z - vertex_z - sag).abs() > TORIC_HIT_TOLERANCE * scale || t <= T_EPSILON {
+        return None;
+    }
+    Some(Hit {
+        t,
+        point,
+        normal: DVec3::new(g.x, g.y, -1.0).normalize(),
+    })
+}
+
+/// The width `w` (m) over which a [`ProgressiveAddition`]'s lateral terms
+/// fade.
+pub const PROGRESSIVE_LATERAL_WIDTH_M: f64 = 0.008;
+
+/// A progressive addition: the sag a progressive surface adds to its
+/// base, growing from nothing at the fitting point (`y = 0`, where the
+/// wearer looks straight ahead) to a sphere of curvature `kappa` (1/m)
+/// below `y = −length` (the near zone), along a vertical corridor.
+///
+/// Along the corridor's line `x = 0` the surface must be umbilic (equal
+/// curvature in every direction, so the wearer sees sharply down it):
+///
+/// ```text
+/// δz(x, y) = κ(y)·f(x) + Φ(y),    Φ'' = κ,   Φ(0) = Φ'(0) = 0
+/// κ(y)     = kappa · s(t),         t = −y / length,  s = 6t⁵ − 15t⁴ + 10t³ on [0, 1]
+/// f(x)     = ½ x² · exp(−x² / 2w²),  w = 8 mm
+/// ```
+///
+/// so that `∂²δz/∂x² = ∂²δz/∂y² = κ(y)` and `∂²δz/∂x∂y = 0` at `x = 0`
+/// (the quintic `s` is twice continuously differentiable, so the power
+/// changes smoothly). Off the corridor the surface cannot stay umbilic
+/// (Minkwitz's theorem): `∂²δz/∂x∂y = κ'·f'(x)`, an astigmatism growing
+/// with the distance from the corridor at the rate the power changes
+/// along it (twice that rate in dioptres per millimetre at first) — the
+/// blurred zones either side of every progressive lens's corridor. The
+/// lateral factor `exp(−x²/2w²)` (a width of our choosing, not a
+/// commercial design) bounds it: far from the corridor the surface is
+/// `Φ(y)` alone, a cylinder of the local addition. The near zone's inset
+/// towards the nose is left out (the corridor is vertical).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ProgressiveAddition {
+    kappa: f64,
+    length_m: f64,
+}
+
+impl ProgressiveAddition {
+    /// An addition of curvature `kappa` (1/m) reached `length_m` below
+    /// the fitting point. Errors: a non-finite curvature, a length that is
+    /// not finite and positive.
+    pub fn new(kappa: f64, length_m: f64) -> Result<Self, InvalidInput> {
+        Ok(Self {
+            kappa: input::finite("progressive addition curvature (1/m)", kappa)?,
+            length_m: input::positive("progressive corridor length (m)", length_m)?,
+        })
+    }
+
+    /// The near zone's added curvature (1/m).
+    pub fn kappa(&self) -> f64 {
+        self.kappa
+    }
+
+    /// The corridor's length (m).
+    pub fn length_m(&self) -> f64 {
+        self.length_m
+    }
+
+    /// The same addition with its curvature's sign changed (the surface
+    /// seen from its other side).
+    pub fn mirrored(&self) -> Self {
+        Self {
+            kappa: -self.kappa,
+            ..*self
+        }
+    }
+
+    /// `δz` and its gradient at `(x, y)`.
+    pub fn sag_and_gradient(&self, x: f64, y: f64) -> (f64, DVec2) {
+        let (k, l) = (self.kappa, self.length_m);
+        let t = -y / l;
+        // κ/kappa, dκ/dt / kappa, and Φ, dΦ/dt over kappa·l².
+        let (s, ds, phi, dphi) = if t <= 0.0 {
+            (0.0, 0.0, 0.0, 0.0)
+        } else if t < 1.0 {
+            let (t3, t4, t5) = (t * t * t, t * t * t * t, t * t * t * t * t);
+            (
+                6.0 * t5 - 15.0 * t4 + 10.0 * t3,
+                30.0 * t4 - 60.0 * t3 + 30.0 * t * t,
+                t5 * t * t / 7.0 - 0.5 * t5 * t + 0.5 * t5,
+                t5 * t - 3.0 * t5 + 2.5 * t4,
+            )
+        } else {
+            let u = t - 1.0;
+            (1.0, 0.0, 1.0 / 7.0 + 0.5 * u + 0.5 * u * u, 0.5 + u)
+        };
+        let kappa_y = k * s;
+        // d/dy = −(1/l) d/dt.
+        let dkappa_dy = -k * ds / l;
+        let phi_y = k * l * l * phi;
+        let dphi_dy = -k * l * dphi;
+        let w2 = PROGRESSIVE_LATERAL_WIDTH_M * PROGRESSIVE_LATERAL_WIDTH_M;
+        let taper = (-0.5 * x * x / w2).exp();
+        let f = 0.5 * x * x * taper;
+        let df = x * taper * (1.0 - 0.5 * x * x / w2);
+        (
+            kappa_y * f + phi_y,
+            DVec2::new(kappa_y * df, dkappa_dy * f + dphi_dy),
+        )
+    }
+}
+
+/// A toric (or spherical) surface with a progressive addition: the back
+/// surface of a progressive-addition lens.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ProgressiveSurface {
+    base: ToricSurface,
+    addition: ProgressiveAddition,
+}
+
+impl ProgressiveSurface {
+    /// `base` with `addition` on it.
+    pub fn new(base: ToricSurface, addition: ProgressiveAddition) -> Self {
+        Self { base, addition }
+    }
+
+    /// The surface without its addition.
+    pub fn base(&self) -> &ToricSurface {
+        &self.base
+    }
+
+    /// The addition.
+    pub fn addition(&self) -> &ProgressiveAddition {
+        &self.addition
+    }
+
+    /// Sag and gradient: the base's plus the addition's.
+    pub fn sag_and_gradient(&self, x: f64, y: f64) -> Option<(f64, DVec2)> {
+        let (z, g) = self.base.sag_and_gradient(x, y)?;
+        let (dz, dg) = self.addition.sag_and_gradient(x, y);
+        Some((z + dz, g + dg))
+    }
+
+    /// The forward hit of `ray`, by Newton's method from the base's mean
+    /// sphere with half the addition (the addition is at most a few
+    /// hundred micrometres of sag across a spectacle lens).
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let b = &self.base;
+        let mean = SphericalSurface::from_checked(
+            b.vertex_z,
+            0.5 * (b.c_axis + b.c_cross) + 0.5 * self.addition.kappa,
+        );
+        newton_hit(ray, b.vertex_z, &mean, |x, y| self.sag_and_gradient(x, y))
+    }
+}
+
+/// A spectacle-lens surface: spherical, toric, or progressive.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum LensSurface {
     /// A sphere (or plane) in curvature form.
     Spherical(SphericalSurface),
     /// A torus for an astigmatic correction.
     Toric(ToricSurface),
+    /// A torus (or sphere) with a progressive addition.
+    Progressive(ProgressiveSurface),
 }
 
 impl LensSurface {
@@ -222,6 +383,7 @@ impl LensSurface {
         match self {
             LensSurface::Spherical(s) => s.vertex_z(),
             LensSurface::Toric(t) => t.vertex_z,
+            LensSurface::Progressive(p) => p.base.vertex_z,
         }
     }
 
@@ -237,6 +399,7 @@ impl LensSurface {
                 s.sag(r)
             }
             LensSurface::Toric(t) => t.sag_and_gradient(x, y).map(|(z, _)| z),
+            LensSurface::Progressive(p) => p.sag_and_gradient(x, y).map(|(z, _)| z),
         }
     }
 
@@ -252,6 +415,10 @@ impl LensSurface {
         match self {
             LensSurface::Spherical(s) => s.normal_at(p),
             LensSurface::Toric(t) => t.normal_at(p),
+            LensSurface::Progressive(s) => match s.sag_and_gradient(p.x, p.y) {
+                Some((_, g)) => DVec3::new(g.x, g.y, -1.0).normalize(),
+                None => DVec3::NEG_Z,
+            },
         }
     }
 
@@ -260,6 +427,7 @@ impl LensSurface {
         match self {
             LensSurface::Spherical(s) => s.intersect(ray),
             LensSurface::Toric(t) => t.intersect(ray),
+            LensSurface::Progressive(p) => p.intersect(ray),
         }
     }
 
@@ -268,6 +436,11 @@ impl LensSurface {
         match self {
             LensSurface::Spherical(s) => (s.curvature(), s.curvature()),
             LensSurface::Toric(t) => (t.c_axis.min(t.c_cross), t.c_axis.max(t.c_cross)),
+            LensSurface::Progressive(p) => {
+                let (b, k) = (&p.base, p.addition.kappa);
+                let (lo, hi) = (b.c_axis.min(b.c_cross), b.c_axis.max(b.c_cross));
+                (lo.min(lo + k), hi.max(hi + k))
+            }
         }
     }
 }

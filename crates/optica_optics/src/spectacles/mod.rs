@@ -184,7 +184,9 @@ pub use lens_design::{
     vogel_base_curve_d,
 };
 pub use lens_mesh::{LensMesh, MAX_POLAR_POINTS};
-pub use lens_surface::{LensSurface, ToricSurface};
+pub use lens_surface::{
+    LensSurface, PROGRESSIVE_LATERAL_WIDTH_M, ProgressiveAddition, ProgressiveSurface, ToricSurface,
+};
 pub use naked::{defocus_factor, naked_eye_displacements};
 pub use per_vertex::{LensTrace, refract_vertices};
 #[cfg(feature = "reference")]

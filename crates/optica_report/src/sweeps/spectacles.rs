@@ -21,7 +21,9 @@
 //!   the error names suffixed `_s4`, `_s20`, so that each S is its own
 //!   curve in the plot. An astigmatic series (`_astig`, S = 10): the same
 //!   eye with −1.5 D of cylinder at 30° in the toric lens of its
-//!   prescription (+1.5 / −1.5 × 30), against its own reference points. The rendered series (`spectacles_render`,
+//!   prescription (+1.5 / −1.5 × 30), against its own reference points;
+//!   a progressive series (`_pal`, S = 10): the Fig. 8 eye in its
+//!   distance correction (−0.78 D) with a +2.00 add. The rendered series (`spectacles_render`,
 //!   `spectacles_refraction`) follow in the same report.
 //! * Errors (per point, then mean / max over points): `mean_mm`, `max_mm` —
 //!   |RMS radius of the field's set − RMS radius of the reference set|, mm
@@ -126,6 +128,28 @@ fn sweep_lens() -> SpectacleLens {
     .expect("+1.5 D is a lens")
 }
 
+/// The eye and lens of a series.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Case {
+    /// The Fig. 8(d) eye in its +1.5 D reading lens.
+    Plain,
+    /// The same eye, astigmatic, in its toric lens.
+    Astigmatic,
+    /// The same eye in progressives.
+    Progressive,
+}
+
+impl Case {
+    /// The suffix of the series' error names.
+    fn suffix(self) -> &'static str {
+        match self {
+            Case::Plain => "",
+            Case::Astigmatic => "_astig",
+            Case::Progressive => "_pal",
+        }
+    }
+}
+
 /// Runs the sweep.
 pub fn run(ctx: &SweepContext) -> Report {
     let mut report = Report::cpu("spectacles", "resolution_scale");
@@ -147,20 +171,34 @@ pub fn run(ctx: &SweepContext) -> Report {
         &LensDesignParams::paper(),
     )
     .expect("+1.5 / −1.5 × 30 is a lens");
+    // The Fig. 8 eye in progressives: its distance correction (−0.78 D,
+    // far point to infinity) with a +2.00 add, so that the near zone
+    // brings the book in: bundles through the corridor and the blurred
+    // zones beside it.
+    let progressive = design_lens(
+        &Prescription::sphere(-0.78)
+            .and_then(|rx| rx.with_addition(2.0))
+            .expect("valid"),
+        &LensDesignParams::paper(),
+    )
+    .expect("−0.78 D add +2.00 is a lens");
     let scales: Vec<f64> = ctx.pick(vec![0.25, 0.5, 1.0], vec![0.25, 0.5, 0.75, 1.0, 1.25, 1.5]);
-    // (S, scales, astigmatic).
-    let series: Vec<(usize, Vec<f64>, bool)> = ctx.pick(
+    // (S, scales, case).
+    use Case::{Astigmatic, Plain, Progressive};
+    let series: Vec<(usize, Vec<f64>, Case)> = ctx.pick(
         vec![
-            (10, scales.clone(), false),
-            (4, vec![0.5], false),
-            (20, vec![0.5], false),
-            (10, vec![0.5, 1.0], true),
+            (10, scales.clone(), Plain),
+            (4, vec![0.5], Plain),
+            (20, vec![0.5], Plain),
+            (10, vec![0.5, 1.0], Astigmatic),
+            (10, vec![0.5, 1.0], Progressive),
         ],
         vec![
-            (10, scales.clone(), false),
-            (4, scales.clone(), false),
-            (20, scales.clone(), false),
-            (10, scales.clone(), true),
+            (10, scales.clone(), Plain),
+            (4, scales.clone(), Plain),
+            (20, scales.clone(), Plain),
+            (10, scales.clone(), Astigmatic),
+            (10, scales.clone(), Progressive),
         ],
     );
     let n_points = ctx.pick(60, 300);
@@ -188,19 +226,18 @@ pub fn run(ctx: &SweepContext) -> Report {
     };
     let plain = reference_points(&eye, &pl, &lens, n_points);
     let astig = reference_points(&astigmat, &pl, &toric, n_points);
+    let pal = reference_points(&eye, &pl, &progressive, n_points);
 
     let mut step = 0;
-    for (clones, ks, astigmatic) in &series {
-        let suffix = match (*clones, *astigmatic) {
-            (10, false) => String::new(),
-            (c, false) => format!("_s{c}"),
-            (10, true) => "_astig".to_string(),
-            (c, true) => format!("_astig_s{c}"),
+    for (clones, ks, case) in &series {
+        let suffix = match (*clones, case) {
+            (10, _) => case.suffix().to_string(),
+            (c, _) => format!("{}_s{c}", case.suffix()),
         };
-        let (eye, lens, (pts, skipped)) = if *astigmatic {
-            (&astigmat, &toric, &astig)
-        } else {
-            (&eye, &lens, &plain)
+        let (eye, lens, (pts, skipped)) = match case {
+            Plain => (&eye, &lens, &plain),
+            Astigmatic => (&astigmat, &toric, &astig),
+            Progressive => (&eye, &progressive, &pal),
         };
         for &k in ks {
             step += 1;
@@ -251,7 +288,8 @@ pub fn run(ctx: &SweepContext) -> Report {
                     .work("fill_layers", s.fill_passes as f64)
                     .work("points", pts.len() as f64)
                     .work("points_skipped", *skipped as f64)
-                    .work("astigmatic", f64::from(u8::from(*astigmatic)))
+                    .work("astigmatic", f64::from(u8::from(*case == Astigmatic)))
+                    .work("progressive", f64::from(u8::from(*case == Progressive)))
                     .work("baseline_exits", exits as f64),
             );
         }
@@ -417,7 +455,9 @@ mod tests {
     fn quick_sweep_is_finite_and_error_falls_with_resolution() {
         let ctx = SweepContext::new("spectacles", true, true);
         let r = run(&ctx);
-        assert_eq!(r.rows.len(), 5);
+        // S = 10 at three scales, S = 4 and 20 at one, the astigmatic and
+        // progressive series at two each.
+        assert_eq!(r.rows.len(), 9);
         let problems = r.problems();
         assert!(problems.is_empty(), "{problems:#?}");
         // The S = 10 series: rows 0..3 at scales 0.25, 0.5, 1.
@@ -430,5 +470,19 @@ mod tests {
             );
         }
         assert!(r.rows[0].work["points"] >= 50.0);
+        // The astigmatic and progressive fields follow their references
+        // as closely as the plain one at the same resolution (scale 1).
+        let at_scale_1 = |key: &str| {
+            r.rows
+                .iter()
+                .find(|row| row.knob == 1.0 && row.error.contains_key(key))
+                .map(|row| row.error[key])
+                .unwrap_or_else(|| panic!("{key}"))
+        };
+        let plain = at_scale_1("mean_mm");
+        for key in ["mean_mm_astig", "mean_mm_pal"] {
+            let e = at_scale_1(key);
+            assert!(e.is_finite() && e < 2.0 * plain, "{key}: {e} against {plain}");
+        }
     }
 }

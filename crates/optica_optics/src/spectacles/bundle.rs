@@ -237,14 +237,9 @@ pub fn trace_bundle(
     vergence_d: f64,
     samples: &[DVec2],
 ) -> Result<TracedBundle, SpectaclesError> {
-    let aim = input::direction("bundle aim", aim)?;
-    let rho = input::non_negative("pupil radius (m)", pupil_radius_m)?;
     let vergence_d = input::finite("bundle vergence (D)", vergence_d)?;
-    for s in samples {
-        input::finite_vec2("pupil sample", *s)?;
-    }
     let vergence = DMat2::IDENTITY * vergence_d;
-    trace_bundle_counted(lens, placement, aim, rho, vergence, samples, &mut 0)
+    trace_astigmatic_bundle(lens, placement, aim, pupil_radius_m, vergence, samples)
 }
 
 /// [`trace_bundle`] for an astigmatic eye: the bundle converges (before the

@@ -653,42 +653,18 @@ impl SpectacleLens {
     }
 
     /// Back-vertex power (D) in meridian `theta_deg`, measured as a
-    /// lensmeter does: a real ray at 0.1 mm height in that meridian, from
-    /// the object side, parallel to the axis, refracted through both
-    /// surfaces: `Fv = −u′/h′` with `u′` the exit slope and `h′` the exit
+    /// lensmeter does: real rays ±0.1 mm from the centre in that meridian,
+    /// from the object side, parallel to the axis, refracted through both
+    /// surfaces: `Fv = −Δu′/Δh′` with `u′` the exit slope and `h′` the exit
     /// height, both taken along the meridian, `h′` transferred to the
-    /// back-vertex plane. It uses only the placed surfaces, so it checks
+    /// back-vertex plane ([`SpectacleLens::measured_power_at_d`] at the
+    /// centre). It uses only the placed surfaces, so it checks
     /// [`design_lens`]'s algebra independently.
     ///
     /// Errors: a non-finite meridian; [`SpectaclesError::Degenerate`] if the
     /// probe does not get through (which a designed lens rules out).
     pub fn measured_back_vertex_power_d(&self, theta_deg: f64) -> Result<f64, SpectaclesError> {
-        let theta = input::finite("meridian (deg)", theta_deg)?;
-        let h = PARAXIAL_PROBE_HEIGHT_M;
-        let m = DVec2::from_angle(theta.to_radians());
-        let start = DVec3::new(
-            h * m.x,
-            h * m.y,
-            self.front.vertex_z() + PARAXIAL_PROBE_START_M,
-        );
-        let ray = Ray::from_unit(start, DVec3::NEG_Z);
-        let fail = SpectaclesError::Degenerate("paraxial probe ray did not get through the lens");
-        let h1 = self.front.intersect(&ray).ok_or(fail.clone())?;
-        let d1 = refract(ray.dir(), h1.normal, 1.0, self.index)
-            .direction()
-            .ok_or(fail.clone())?;
-        let h2 = self
-            .back
-            .intersect(&Ray::from_unit(h1.point, d1))
-            .ok_or(fail.clone())?;
-        let d2 = refract(d1, h2.normal, self.index, 1.0)
-            .direction()
-            .ok_or(fail)?;
-        // Optician's frame: z′ = −z, so the slope is (dx/dz′) = d_xy / (−d_z).
-        let slope = d2.truncate() / (-d2.z);
-        let delta = self.vertex_distance_m() - h2.point.z; // z′_E − z′_vertex
-        let hv = h2.point.truncate() - slope * delta;
-        Ok(-slope.dot(m) / hv.dot(m))
+        self.measured_power_at_d(0.0, 0.0, theta_deg)
     }
 
     /// The power (D) in meridian `theta_deg` at the point `(x, y)` (m) of
@@ -696,8 +672,7 @@ impl SpectacleLens {
     /// progressive lens's near zone): two rays parallel to the axis from
     /// the object side, ±0.1 mm from the point along the meridian; the
     /// power is the change of their exit slope over the change of their
-    /// height at the back-vertex plane. At the centre it is
-    /// [`SpectacleLens::measured_back_vertex_power_d`].
+    /// height at the back-vertex plane.
     ///
     /// Errors: a non-finite input; [`SpectaclesError::Degenerate`] if a
     /// probe does not get through.

@@ -125,8 +125,8 @@
 //! Against an exact per-pixel trace through the same lens the scene seen
 //! through it lies within 0.1 px (mean 0.02–0.03 px at 128², −4 and
 //! +4 D), magnified or minified as the lens does. The `spectacles` report
-//! sweeps the tessellation (release, lavapipe, 256², −4 D): 0.76 px mean at
-//! 6 rings, 0.14 px at 12, 0.05 px at the default 24; there a −4 D lens
+//! sweeps the tessellation (release, lavapipe, 256², −4 D): 0.74 px mean at
+//! 6 rings, 0.13 px at 12, 0.04 px at the default 24; there a −4 D lens
 //! in a 46° view shows 13 % of its pixels from past the view's edge.
 //!
 //! The lens's chromatic aberration ([`Spectacles::chromatic_aberration`],
@@ -156,15 +156,15 @@
 //!
 //! How each clone is shaded decides the cost ([`CloneShading`]). Measured
 //! by the `spectacles` report on lavapipe (release, 256², a lit room with
-//! shadows, `S = 10`): shading every clone in full, the paper's way, costs
-//! 5.8× the sharp frame, and `S` cameras each drawing the scene 8.4× (they
-//! also draw the shadow maps `S` times) — every clone pays a shaded
-//! drawing of the scene. The default instead lets the eye camera draw the
-//! scene once, sharp, with all its shading, and each clone only records
-//! where its undisplaced surface point lies in that view; the resolve
-//! takes the sharp view's colour there when the point is visible in it:
-//! 1.7× the sharp frame (2.0× at 512², 2.6× at `S = 40`), and its clone
-//! camera needs no shadow maps at all. What reprojection gives up (points the sharp view hides,
+//! shadows, `S = 10`; the range of two runs): shading every clone in full,
+//! the paper's way, costs 5.8–7.4× the sharp frame, and `S` cameras each
+//! drawing the scene 8.4–10.5× (they also draw the shadow maps `S` times)
+//! — every clone pays a shaded drawing of the scene. The default instead
+//! lets the eye camera draw the scene once, sharp, with all its shading,
+//! and each clone only records where its undisplaced surface point lies in
+//! that view; the resolve takes the sharp view's colour there when the
+//! point is visible in it: 1.7–2.1× the sharp frame (2.0× at 512², 2.6–3.4×
+//! at `S = 40`), and its clone camera needs no shadow maps at all. What reprojection gives up (points the sharp view hides,
 //! and a slight extra blur from resampling the view) is measured in the
 //! same report against `S = 128` clones shaded in full, and documented on
 //! [`CloneShading::Reprojected`].

@@ -68,6 +68,9 @@ pub struct LensRefraction {
     pub masked: u32,
     /// Time of the trace (ms).
     pub trace_ms: f32,
+    /// Whether red and blue were traced apart from green (the lens's
+    /// chromatic aberration is drawn); otherwise green's rays stand for all.
+    pub chromatic: bool,
 }
 
 /// An eye-frame point (cornea at z = 0, +z ahead, +x to the wearer's
@@ -101,8 +104,9 @@ pub fn trace_lens(
     // The directions at the C and F lines; a ray that gets through at the
     // d line but not at another (total reflection within a hair of the
     // rim) keeps the d line's.
+    let chromatic = chromatic && lens.params().material().is_dispersive();
     let exit_dirs = |nm: f64| -> Result<Vec<Option<DVec3>>, String> {
-        if !chromatic || lens.at_wavelength(nm).index() == lens.index() {
+        if !chromatic {
             return Ok(vec![None; back.len()]);
         }
         let t = refract_vertices(&lens.at_wavelength(nm), eye, back).map_err(|e| e.to_string())?;
@@ -155,6 +159,7 @@ pub fn trace_lens(
         viewpoint_rms_m: fit.rms_distance_m as f32,
         masked,
         trace_ms: started.elapsed().as_secs_f32() * 1e3,
+        chromatic,
     })
 }
 

@@ -448,15 +448,18 @@ pub fn region_of(near: &TracedBundle, far: &TracedBundle, s: f64) -> Region {
 /// traceless map whose ellipse is the same either way.
 fn accommodated_map(near: &TracedBundle, far: &TracedBundle, s: f64) -> [DVec3; 2] {
     let (f, n) = (far.linear_map(s), near.linear_map(s));
-    let d = [n[0] - f[0], n[1] - f[1]];
-    let dd = d[0].length_squared() + d[1].length_squared();
-    let t = if dd > 0.0 {
-        (-(f[0].dot(d[0]) + f[1].dot(d[1])) / dd).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let sign = if t >= 0.5 { 1.0 } else { -1.0 };
-    [(f[0] + d[0] * t) * sign, (f[1] + d[1] * t) * sign]
+    let (t, sign) = best_accommodation(&f, &n);
+    [(f[0] + (n[0] - f[0]) * t) * sign, (f[1] + (n[1] - f[1]) * t) * sign]
+}
+
+/// The `t ∈ [0, 1]` that minimises `Σ|fᵢ + t·(nᵢ − fᵢ)|²` between far and
+/// near vectors (a map's two, or a set's `S`), and the sign of the blended
+/// set ([`accommodated_map`]): +1 in the nearer half, −1 in the farther.
+fn best_accommodation(f: &[DVec3], n: &[DVec3]) -> (f64, f64) {
+    let num: f64 = f.iter().zip(n).map(|(f, n)| f.dot(*n - *f)).sum();
+    let den: f64 = f.iter().zip(n).map(|(f, n)| (*n - *f).length_squared()).sum();
+    let t = if den > 0.0 { (-num / den).clamp(0.0, 1.0) } else { 0.0 };
+    (t, if t >= 0.5 { 1.0 } else { -1.0 })
 }
 
 /// The displacement set at distance `s` along the chief, for the region's
@@ -479,10 +482,7 @@ pub(crate) fn displacement_set(
         Region::InFocus if astigmatic => {
             let (f, n): (Vec<DVec3>, Vec<DVec3>) =
                 (far.displacements(s).collect(), near.displacements(s).collect());
-            let num: f64 = f.iter().zip(&n).map(|(f, n)| f.dot(*n - *f)).sum();
-            let den: f64 = f.iter().zip(&n).map(|(f, n)| (*n - *f).length_squared()).sum();
-            let t = if den > 0.0 { (-num / den).clamp(0.0, 1.0) } else { 0.0 };
-            let sign = if t >= 0.5 { 1.0 } else { -1.0 };
+            let (t, sign) = best_accommodation(&f, &n);
             let set = f.iter().zip(&n).map(|(f, n)| (*f + (*n - *f) * t) * sign).collect();
             (Region::InFocus, set)
         }

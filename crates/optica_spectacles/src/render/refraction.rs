@@ -44,6 +44,9 @@ struct LensParams {
     vertices: u32,
     steps: u32,
     edge: f32,
+    /// 3 when the lens parts the colours (a march per colour), else 1 (the
+    /// green march stands for all three).
+    colours: u32,
 }
 
 pub(crate) fn build(app: &mut App) {
@@ -135,6 +138,8 @@ struct RefractionBuffers {
     index_count: u32,
     /// The trace the buffers hold (its vertices, compared to see a retrace).
     traced: Vec<LensVertex>,
+    /// Marches per vertex (`LensParams::colours`).
+    colours: u32,
 }
 
 /// This frame's pipelines of a view.
@@ -227,6 +232,7 @@ fn prepare_refraction(
             vertices: lens.vertices.len() as u32,
             steps: MARCH_STEPS,
             edge: EDGE,
+            colours: if lens.chromatic { 3 } else { 1 },
         };
         let retraced = buffers.as_ref().is_none_or(|b| b.traced != lens.vertices);
         if retraced {
@@ -259,6 +265,7 @@ fn prepare_refraction(
                 indices,
                 index_count: lens.indices.len() as u32,
                 traced: lens.vertices.clone(),
+                colours: params.colours,
             });
         } else if let Some(mut b) = buffers {
             b.params.set(params);
@@ -337,7 +344,7 @@ fn refraction_pass(
             });
         pass.set_pipeline(march);
         pass.set_bind_group(0, &march_group, &[]);
-        pass.dispatch_workgroups((3 * buffers.traced.len() as u32).div_ceil(64), 1, 1);
+        pass.dispatch_workgroups((buffers.colours * buffers.traced.len() as u32).div_ceil(64), 1, 1);
     }
     {
         let mut pass = ctx

@@ -37,6 +37,9 @@ struct LensParams {
     steps: u32,
     // The lens's dark edge, linear RGB.
     edge: f32,
+    // 3 when the lens parts the colours, else 1 (green's coordinate
+    // stands for all three and red's and blue's are not marched).
+    colours: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: LensParams;
@@ -91,7 +94,7 @@ fn behind(o: vec3<f32>, d: vec3<f32>, t: f32) -> bool {
 fn march(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x % params.vertices;
     let colour = id.x / params.vertices;
-    if colour >= 3u {
+    if colour >= params.colours {
         return;
     }
     var v = lens[i];
@@ -169,8 +172,9 @@ fn lens_vertex(@builtin(vertex_index) i: u32) -> LensOut {
     out.position = c;
     out.uv = coords[i].xy;
     out.exits = coords[i].w;
-    out.uv_red = coords[params.vertices + i].xy;
-    out.uv_blue = coords[2u * params.vertices + i].xy;
+    let parted = params.colours == 3u;
+    out.uv_red = coords[select(i, params.vertices + i, parted)].xy;
+    out.uv_blue = coords[select(i, 2u * params.vertices + i, parted)].xy;
     return out;
 }
 

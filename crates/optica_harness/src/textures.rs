@@ -65,6 +65,23 @@ pub fn coordinates_in(n: u32, half: f32, channels: [usize; 3]) -> Image {
     image
 }
 
+/// [`coordinates`] scaled by `tag`: red, green and blue hold `(x, y, 1)·tag`,
+/// so that a pixel says which of several surfaces it shows (`round(blue)`)
+/// and where on it (`red / blue`, `green / blue`), even when the view
+/// scales the colour (a mirror's reflectance, a lit reflection).
+pub fn coordinates_tagged(n: u32, half: f32, tag: f32) -> Image {
+    let mut image = coordinates(n, half);
+    if let Some(data) = image.data.as_mut() {
+        for texel in data.chunks_exact_mut(16) {
+            for c in texel[..12].chunks_exact_mut(4) {
+                let v = f32::from_le_bytes([c[0], c[1], c[2], c[3]]) * tag;
+                c.copy_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    image
+}
+
 /// A soft white spot on black: a Gaussian of standard deviation `sigma`
 /// (a fraction of the texture's side) in the middle of an `n`×`n` linear
 /// texture, sampled linearly.

@@ -160,6 +160,7 @@ mod field_reference;
 mod lens_design;
 mod lens_mesh;
 mod lens_surface;
+mod mirror;
 mod naked;
 mod per_vertex;
 mod viewpoint;
@@ -187,10 +188,11 @@ pub use lens_mesh::{LensMesh, MAX_POLAR_POINTS};
 pub use lens_surface::{
     LensSurface, PROGRESSIVE_LATERAL_WIDTH_M, ProgressiveAddition, ProgressiveSurface, ToricSurface,
 };
+pub use mirror::{CurvedMirror, MAX_MIRROR_CELLS};
 pub use naked::{defocus_factor, naked_eye_displacements};
 pub use per_vertex::{LensTrace, refract_vertices};
 #[cfg(feature = "reference")]
-pub use view_reference::plane_seen_through_lens;
+pub use view_reference::{CoordinatePlane, Pinhole, SeenPoint, plane_seen_through_lens, seen_with_mirror};
 pub use viewpoint::{
     DEFAULT_VIEWPOINT_REGULARISATION, ViewpointFit, virtual_viewpoint, virtual_viewpoint_of_traces,
 };

@@ -14,6 +14,7 @@ pub mod lens_flare_render;
 pub mod optics;
 pub mod render;
 pub mod spectacles;
+pub mod spectacles_mirror;
 pub mod spectacles_refraction;
 pub mod spectacles_render;
 
@@ -46,6 +47,7 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
         let mut report = spectacles::run(ctx);
         spectacles_render::rendered_rows(ctx, &mut report)?;
         spectacles_refraction::refraction_rows(ctx, &mut report)?;
+        spectacles_mirror::mirror_rows(ctx, &mut report)?;
         Ok(report)
     }),
     ("dome", dome::run),

@@ -6,6 +6,7 @@
 
 use bevy::prelude::*;
 
+pub(crate) mod mirror;
 pub(crate) mod refraction;
 pub(crate) mod resolve;
 
@@ -17,5 +18,6 @@ impl Plugin for SpectaclesRenderPlugin {
     fn build(&self, app: &mut App) {
         resolve::build(app);
         refraction::build(app);
+        mirror::build(app);
     }
 }

@@ -34,19 +34,19 @@ use crate::refraction::{LensRefraction, LensVertex};
 pub const MARCH_STEPS: u32 = 64;
 
 /// The lens's dark edge where its rays do not get through (linear).
-const EDGE: f32 = 0.02;
+pub(crate) const EDGE: f32 = 0.02;
 
 /// `LensParams` in `lens_refraction.wgsl`.
 #[derive(Clone, Copy, Debug, Default, ShaderType)]
-struct LensParams {
-    clip_from_view: Mat4,
-    near: f32,
-    vertices: u32,
-    steps: u32,
-    edge: f32,
+pub(crate) struct LensParams {
+    pub(crate) clip_from_view: Mat4,
+    pub(crate) near: f32,
+    pub(crate) vertices: u32,
+    pub(crate) steps: u32,
+    pub(crate) edge: f32,
     /// 3 when the lens parts the colours (a march per colour), else 1 (the
     /// green march stands for all three).
-    colours: u32,
+    pub(crate) colours: u32,
 }
 
 pub(crate) fn build(app: &mut App) {
@@ -69,14 +69,40 @@ pub(crate) fn build(app: &mut App) {
 }
 
 #[derive(Resource)]
-struct RefractionShared {
+pub(crate) struct RefractionShared {
     /// The march's layouts: single-sampled depth, then MSAA.
-    march_layouts: [BindGroupLayoutDescriptor; 2],
+    pub(crate) march_layouts: [BindGroupLayoutDescriptor; 2],
     draw_layout: BindGroupLayoutDescriptor,
     sampler: Sampler,
     march: [Option<CachedComputePipelineId>; 2],
     /// Per target format: the copy and the lens pipelines.
     draws: HashMap<TextureFormat, [CachedRenderPipelineId; 2]>,
+}
+
+impl RefractionShared {
+    /// The march's pipeline for single-sampled or MSAA depth, queued once.
+    pub(crate) fn march_pipeline(
+        &mut self,
+        pipeline_cache: &PipelineCache,
+        multisampled: bool,
+    ) -> CachedComputePipelineId {
+        let layout = self.march_layouts[usize::from(multisampled)].clone();
+        *self.march[usize::from(multisampled)].get_or_insert_with(|| {
+            pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                label: Some("optica_spectacles_lens_march".into()),
+                layout: vec![layout],
+                immediate_size: 0,
+                shader: crate::LENS_SHADER,
+                shader_defs: if multisampled {
+                    vec!["MARCH".into(), "MULTISAMPLED".into()]
+                } else {
+                    vec!["MARCH".into()]
+                },
+                entry_point: Some("march".into()),
+                zero_initialize_workgroup_memory: false,
+            })
+        })
+    }
 }
 
 fn march_layout(multisampled: bool) -> BindGroupLayoutDescriptor {
@@ -172,22 +198,7 @@ fn prepare_refraction(
             continue;
         }
         let multisampled = msaa.samples() > 1;
-        let layout = shared.march_layouts[usize::from(multisampled)].clone();
-        let march = *shared.march[usize::from(multisampled)].get_or_insert_with(|| {
-            pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
-                label: Some("optica_spectacles_lens_march".into()),
-                layout: vec![layout],
-                immediate_size: 0,
-                shader: crate::LENS_SHADER,
-                shader_defs: if multisampled {
-                    vec!["MARCH".into(), "MULTISAMPLED".into()]
-                } else {
-                    vec!["MARCH".into()]
-                },
-                entry_point: Some("march".into()),
-                zero_initialize_workgroup_memory: false,
-            })
-        });
+        let march = shared.march_pipeline(&pipeline_cache, multisampled);
         let format = view.target_format;
         let draw_layout = shared.draw_layout.clone();
         let [copy, lens_pipeline] = *shared.draws.entry(format).or_insert_with(|| {

@@ -1,0 +1,723 @@
+//! A curved mirror by per-vertex ray tracing (the paper's §3.2, Fig. 2: a
+//! car's door mirror), and the cube-map reflection a Bevy user would
+//! otherwise reach for, to compare them.
+//!
+//! Per vertex (the default): every frame the mirror or its viewer moves,
+//! the CPU reflects the ray from the viewer at every vertex of the mirror
+//! (`optica_optics::spectacles::CurvedMirror`), fits the virtual viewpoint
+//! those reflected rays come from, and points an environment camera from
+//! there along them; on the GPU each vertex's reflected ray finds the scene
+//! in that camera's depth (the march of the lens's refraction), and the
+//! mirror, drawn in the scene with [`MirrorMaterial`], shows the
+//! environment image at those points.
+//!
+//! The cube map ([`MirrorMethod::CubeMap`]): six cameras at the mirror
+//! render a cube map every frame, and the mirror is a `StandardMaterial`
+//! mirror (metallic, smooth) lit by it as a Bevy reflection probe: exact
+//! for what lies far away, wrong by the mirror's size for what lies near
+//! it. [`MirrorMethod::ParallaxCorrectedCubeMap`] captures at the centre of
+//! a room's box and lets Bevy correct the parallax against that box: exact
+//! on the box's walls, wrong for what stands inside the room.
+
+use bevy::asset::RenderAssetUsages;
+use bevy::camera::visibility::RenderLayers;
+use bevy::camera::{Exposure, Hdr, RenderTarget};
+use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::light::{EnvironmentMapLight, LightProbe, ParallaxCorrection};
+use bevy::mesh::{Indices, PrimitiveTopology};
+use bevy::prelude::*;
+use bevy::render::extract_component::ExtractComponent;
+use bevy::render::render_resource::{
+    AsBindGroup, Extent3d, TextureDimension, TextureFormat, TextureUsages, TextureViewDescriptor,
+    TextureViewDimension,
+};
+use bevy::render::storage::ShaderBuffer;
+use bevy::render::view::Msaa;
+use bevy::shader::ShaderRef;
+use optica_optics::glam::{DAffine3, DVec3};
+use optica_optics::spectacles::{CurvedMirror as MirrorOptics, DEFAULT_VIEWPOINT_REGULARISATION};
+
+use crate::refraction::LensVertex;
+
+/// The render layer the plugin puts mirrors on: the viewer sees it, the
+/// cameras that render what a mirror shows do not (a mirror must not
+/// render itself).
+pub const MIRROR_LAYER: usize = 27;
+
+/// Whether Bevy's reflection probes work on this device (they need
+/// binding arrays of textures: most desktop GPUs, not lavapipe or WebGL2),
+/// set when the render device is made. Where they do not, a
+/// [`MirrorMethod::ParallaxCorrectedCubeMap`] falls back to the plain cube
+/// map (the view's environment map) and says so in [`MirrorState`].
+pub(crate) static REFLECTION_PROBES: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
+
+/// Whether this device draws parallax-corrected cube maps (Bevy's
+/// reflection probes); known once the plugin's `finish` has run.
+pub fn reflection_probes_supported() -> bool {
+    REFLECTION_PROBES.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// The widest field of view of a mirror's environment camera (the
+/// per-vertex method): what a mirror reflects beyond it takes the image's
+/// edge.
+pub const MAX_ENVIRONMENT_FOV_DEG: f32 = 150.0;
+
+/// A curved mirror in the scene, seen by the camera with [`MirrorViewer`].
+///
+/// Its reflecting face looks along the entity's forward (−Z), so
+/// `Transform::looking_at(viewer, Vec3::Y)` turns it to a viewer; the
+/// rectangle spans `size_m` across X and Y; its scale is ignored. The
+/// plugin gives it its mesh and material.
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use optica_spectacles::{CurvedMirror, MirrorViewer};
+///
+/// fn setup(mut commands: Commands) {
+///     commands.spawn((Camera3d::default(), MirrorViewer));
+///     // A door mirror 1 m ahead, turned to the camera.
+///     commands.spawn((
+///         CurvedMirror::default(),
+///         Transform::from_xyz(0.3, 0.0, -1.0).looking_at(Vec3::ZERO, Vec3::Y),
+///     ));
+/// }
+/// ```
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component, Default, Clone)]
+#[require(Transform, Visibility)]
+pub struct CurvedMirror {
+    /// Radius of curvature (m): positive convex (a passenger-side door
+    /// mirror: 1.2–1.5 m; European rules ask at least 1.2 m), negative
+    /// concave, `f32::INFINITY` flat. A zero or NaN radius, or one smaller
+    /// than the half-diagonal, is refused (named in the log; nothing drawn).
+    pub radius_m: f32,
+    /// Width and height (m).
+    pub size_m: Vec2,
+    /// Cells of the mirror's grid across and down (the per-vertex method's
+    /// knob: its error against an exact trace falls with it).
+    pub tessellation: UVec2,
+    /// Reflectance (0–1): about 0.9 for a silvered glass mirror, 0.5–0.6
+    /// for a car's chromed or blue-tinted one.
+    pub reflectance: f32,
+    /// Side (px) of the environment image (per vertex) or of each cube
+    /// face (cube maps).
+    pub resolution: u32,
+    /// How the reflection is drawn.
+    pub method: MirrorMethod,
+}
+
+impl Default for CurvedMirror {
+    fn default() -> Self {
+        Self {
+            radius_m: 1.4,
+            size_m: Vec2::new(0.24, 0.16),
+            tessellation: UVec2::new(32, 24),
+            reflectance: 0.9,
+            resolution: 512,
+            method: MirrorMethod::PerVertex,
+        }
+    }
+}
+
+impl CurvedMirror {
+    /// The mirror's optics (its CPU twin), or why it is refused.
+    pub fn optics(&self) -> Result<MirrorOptics, String> {
+        MirrorOptics::new(
+            f64::from(self.radius_m),
+            f64::from(self.size_m.x),
+            f64::from(self.size_m.y),
+        )
+        .map_err(|e| e.to_string())
+    }
+}
+
+/// How a [`CurvedMirror`] reflects.
+#[derive(Clone, Debug, Default, PartialEq, Reflect)]
+pub enum MirrorMethod {
+    /// The paper's per-vertex ray tracing: each vertex shows where its
+    /// reflected ray meets the scene.
+    #[default]
+    PerVertex,
+    /// Bevy's reflection probe with a cube map captured at the mirror every
+    /// frame, treated as infinitely far (no parallax correction).
+    CubeMap,
+    /// Bevy's parallax-corrected reflection probe: the cube map captured at
+    /// the centre of the room's box every frame, the reflection corrected
+    /// against the box's walls.
+    ParallaxCorrectedCubeMap {
+        /// The room box's centre (world, m).
+        room_centre: Vec3,
+        /// Half its size along the world axes (m).
+        room_half_size: Vec3,
+    },
+}
+
+/// Marks the camera mirrors are traced for (one per app: the per-vertex
+/// method reflects one viewpoint). It is given [`MIRROR_LAYER`] so it sees
+/// the mirrors.
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component, Default)]
+pub struct MirrorViewer;
+
+/// What the plugin made for a mirror, and the last trace's figures.
+#[derive(Component, Clone, Debug)]
+pub struct MirrorState {
+    /// The environment image (per vertex) or the cube map.
+    pub environment: Handle<Image>,
+    /// The cameras rendering it (one, or six faces), and the light probe.
+    pub helpers: Vec<Entity>,
+    /// The virtual viewpoint (world, m).
+    pub viewpoint: Vec3,
+    /// How far the reflected rays pass from it, root mean square (m).
+    pub viewpoint_rms_m: f32,
+    /// Vertices the viewer sees from behind (masked).
+    pub masked: u32,
+    /// Time of the last per-vertex trace (ms).
+    pub trace_ms: f32,
+    /// Whether a parallax-corrected cube map is drawn as asked; false
+    /// where the device has no reflection probes and the plain cube map
+    /// stands in.
+    pub parallax_corrected: bool,
+    settings: CurvedMirror,
+    optics: MirrorOptics,
+    vertices: Vec<DVec3>,
+    traced_from: Option<(Mat4, Mat4)>,
+}
+
+/// The per-vertex mirror's material: the environment image at each
+/// vertex's traced coordinate (`mirror.wgsl`).
+#[derive(Asset, TypePath, AsBindGroup, Clone, Debug)]
+pub struct MirrorMaterial {
+    /// Reflectance per channel (linear).
+    #[uniform(0)]
+    pub tint: LinearRgba,
+    /// What the environment camera sees.
+    #[texture(1)]
+    #[sampler(2)]
+    pub environment: Handle<Image>,
+    /// Per vertex: texture coordinate, hit flag, whether it is seen from the front.
+    #[storage(3, read_only)]
+    pub coords: Handle<ShaderBuffer>,
+}
+
+impl Material for MirrorMaterial {
+    fn vertex_shader() -> ShaderRef {
+        crate::MIRROR_SHADER.into()
+    }
+
+    fn fragment_shader() -> ShaderRef {
+        crate::MIRROR_SHADER.into()
+    }
+}
+
+/// On an environment camera: the mirror's reflected rays in its view space,
+/// marched in its depth into `coords` (`render::mirror`).
+#[derive(Component, Clone, Debug, ExtractComponent)]
+pub struct MirrorEnvironment {
+    /// One per mirror vertex (`back` unused; `exits` 0 where masked).
+    pub vertices: Vec<LensVertex>,
+    /// Where the march writes the vertices' coordinates.
+    pub coords: Handle<ShaderBuffer>,
+}
+
+/// On a cube-map face camera: the cube and the layer its view is copied to.
+#[derive(Component, Clone, Debug, ExtractComponent)]
+pub struct CubeFace {
+    /// The cube map.
+    pub cube: Handle<Image>,
+    /// Its layer (Bevy's order: +X, −X, +Y, −Y, then world −Z, +Z: cube
+    /// maps are left-handed).
+    pub layer: u32,
+}
+
+/// Cube faces as Bevy samples them: layer, the face camera's forward and up.
+const FACES: [(Vec3, Vec3); 6] = [
+    (Vec3::X, Vec3::Y),
+    (Vec3::NEG_X, Vec3::Y),
+    (Vec3::Y, Vec3::Z),
+    (Vec3::NEG_Y, Vec3::NEG_Z),
+    (Vec3::NEG_Z, Vec3::Y),
+    (Vec3::Z, Vec3::Y),
+];
+
+fn layers_without_mirrors(viewer: Option<&RenderLayers>) -> RenderLayers {
+    viewer.cloned().unwrap_or_default().without(MIRROR_LAYER)
+}
+
+fn helper_camera(
+    target: Handle<Image>,
+    order: isize,
+    exposure: Exposure,
+    layers: RenderLayers,
+    clear: ClearColorConfig,
+) -> impl Bundle {
+    (
+        Camera3d {
+            depth_texture_usages: (TextureUsages::RENDER_ATTACHMENT
+                | TextureUsages::TEXTURE_BINDING)
+                .into(),
+            ..default()
+        },
+        Camera {
+            order,
+            clear_color: clear,
+            ..default()
+        },
+        RenderTarget::Image(target.into()),
+        Hdr,
+        Tonemapping::None,
+        Msaa::Off,
+        exposure,
+        layers,
+    )
+}
+
+fn hdr_target(side: u32) -> Image {
+    let mut image = Image::new_target_texture(side, side, TextureFormat::Rgba16Float, None);
+    image.sampler = bevy::image::ImageSampler::linear();
+    image
+}
+
+fn cube_image(side: u32) -> Image {
+    let mut image = Image::new_fill(
+        Extent3d {
+            width: side,
+            height: side,
+            depth_or_array_layers: 6,
+        },
+        TextureDimension::D2,
+        &[0; 8],
+        TextureFormat::Rgba16Float,
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    image.texture_view_descriptor = Some(TextureViewDescriptor {
+        dimension: Some(TextureViewDimension::Cube),
+        ..default()
+    });
+    image.texture_descriptor.usage = TextureUsages::TEXTURE_BINDING | TextureUsages::COPY_DST;
+    image
+}
+
+/// The mirror's mesh: positions and normals in its frame, and each
+/// vertex's index in `UV_0.x` (the material reads its traced coordinate
+/// by it).
+fn mirror_mesh(vertices: &[DVec3], triangles: &[[u32; 3]], optics: &MirrorOptics) -> Mesh {
+    let positions: Vec<[f32; 3]> = vertices.iter().map(|v| v.as_vec3().to_array()).collect();
+    // The twin's normal points to the viewer (−z at the vertex).
+    let normals: Vec<[f32; 3]> = vertices
+        .iter()
+        .map(|&v| optics.surface().normal_at(v).as_vec3().to_array())
+        .collect();
+    let index: Vec<[f32; 2]> = (0..vertices.len()).map(|i| [i as f32, 0.0]).collect();
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
+    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, index)
+    .with_inserted_indices(Indices::U32(triangles.iter().flatten().copied().collect()))
+}
+
+/// Builds (or rebuilds, when its settings change) each mirror's mesh,
+/// material and helper cameras.
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub(crate) fn build_mirrors(
+    mut commands: Commands,
+    mirrors: Query<(Entity, &CurvedMirror, Option<&MirrorState>), Changed<CurvedMirror>>,
+    viewers: Query<(Entity, &Camera, Option<&RenderLayers>, Option<&Exposure>), With<MirrorViewer>>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut images: ResMut<Assets<Image>>,
+    mut buffers: ResMut<Assets<ShaderBuffer>>,
+    mut mirror_materials: ResMut<Assets<MirrorMaterial>>,
+    mut standard_materials: ResMut<Assets<StandardMaterial>>,
+) {
+    let (viewer, order, layers, exposure) = viewers
+        .iter()
+        .next()
+        .map(|(v, c, l, e)| {
+            (
+                Some(v),
+                c.order - 1,
+                layers_without_mirrors(l),
+                e.copied().unwrap_or_default(),
+            )
+        })
+        .unwrap_or((None, -1, RenderLayers::default(), Exposure::default()));
+    for (entity, mirror, state) in &mirrors {
+        if let Some(state) = state {
+            if state.settings == *mirror {
+                continue;
+            }
+            for &h in &state.helpers {
+                commands.entity(h).despawn();
+            }
+        }
+        let built = mirror.optics().and_then(|optics| {
+            let (cols, rows) = (
+                mirror.tessellation.x as usize,
+                mirror.tessellation.y as usize,
+            );
+            let (vertices, triangles) = optics.mesh(cols, rows).map_err(|e| e.to_string())?;
+            Ok((optics, vertices, triangles))
+        });
+        let (optics, vertices, triangles) = match built {
+            Ok(b) => b,
+            Err(e) => {
+                warn!("optica_spectacles: mirror {entity}: {e}");
+                commands.entity(entity).remove::<(
+                    MirrorState,
+                    Mesh3d,
+                    MeshMaterial3d<MirrorMaterial>,
+                    MeshMaterial3d<StandardMaterial>,
+                )>();
+                continue;
+            }
+        };
+        let side = mirror.resolution.clamp(16, 4096);
+        let coords = buffers.add(ShaderBuffer::with_size(
+            16 * vertices.len(),
+            RenderAssetUsages::RENDER_WORLD,
+        ));
+        let mesh = meshes.add(mirror_mesh(&vertices, &triangles, &optics));
+        let mut e = commands.entity(entity);
+        e.insert((Mesh3d(mesh), RenderLayers::layer(MIRROR_LAYER)));
+        e.remove::<(
+            MeshMaterial3d<MirrorMaterial>,
+            MeshMaterial3d<StandardMaterial>,
+        )>();
+        let clear = ClearColorConfig::Default;
+        let (environment, helpers) = match &mirror.method {
+            MirrorMethod::PerVertex => {
+                let image = images.add(hdr_target(side));
+                e.insert(MeshMaterial3d(mirror_materials.add(MirrorMaterial {
+                    tint: LinearRgba::gray(mirror.reflectance),
+                    environment: image.clone(),
+                    coords: coords.clone(),
+                })));
+                let camera = commands
+                    .spawn((
+                        helper_camera(image.clone(), order, exposure, layers.clone(), clear),
+                        MirrorEnvironment {
+                            vertices: Vec::new(),
+                            coords: coords.clone(),
+                        },
+                        Name::new("optica mirror environment camera"),
+                    ))
+                    .id();
+                (image, vec![camera])
+            }
+            MirrorMethod::CubeMap | MirrorMethod::ParallaxCorrectedCubeMap { .. } => {
+                let cube = images.add(cube_image(side));
+                e.insert(MeshMaterial3d(standard_materials.add(StandardMaterial {
+                    base_color: Color::linear_rgb(
+                        mirror.reflectance,
+                        mirror.reflectance,
+                        mirror.reflectance,
+                    ),
+                    metallic: 1.0,
+                    perceptual_roughness: 0.0,
+                    ..default()
+                })));
+                let mut helpers: Vec<Entity> = (0..6u32)
+                    .map(|layer| {
+                        commands
+                            .spawn((
+                                helper_camera(
+                                    images.add(hdr_target(side)),
+                                    order,
+                                    exposure,
+                                    layers.clone(),
+                                    clear,
+                                ),
+                                Projection::Perspective(PerspectiveProjection {
+                                    fov: std::f32::consts::FRAC_PI_2,
+                                    aspect_ratio: 1.0,
+                                    near: 0.01,
+                                    ..default()
+                                }),
+                                CubeFace {
+                                    cube: cube.clone(),
+                                    layer,
+                                },
+                                Name::new("optica mirror cube face"),
+                            ))
+                            .id()
+                    })
+                    .collect();
+                let light = EnvironmentMapLight {
+                    diffuse_map: cube.clone(),
+                    specular_map: cube.clone(),
+                    // The cube holds what the viewer's exposure already
+                    // scaled; Bevy scales the map's light by it again.
+                    intensity: 1.0 / exposure.exposure(),
+                    ..default()
+                };
+                let probes = reflection_probes_supported();
+                match mirror.method {
+                    MirrorMethod::ParallaxCorrectedCubeMap {
+                        room_centre,
+                        room_half_size,
+                    } if probes => helpers.push(
+                        commands
+                            .spawn((
+                                LightProbe::default(),
+                                light,
+                                ParallaxCorrection::Auto,
+                                Transform::from_translation(room_centre)
+                                    .with_scale(2.0 * room_half_size),
+                                Name::new("optica mirror reflection probe"),
+                            ))
+                            .id(),
+                    ),
+                    // Bevy treats a view's environment map as infinitely
+                    // far: a cube map without parallax correction.
+                    _ => {
+                        if matches!(mirror.method, MirrorMethod::ParallaxCorrectedCubeMap { .. }) {
+                            warn!(
+                                "optica_spectacles: mirror {entity}: this device has no reflection probes \
+                                 (binding arrays); the plain cube map stands in for the parallax-corrected one"
+                            );
+                        }
+                        if let Some(viewer) = viewer {
+                            commands.entity(viewer).insert(light);
+                        }
+                    }
+                }
+                (cube, helpers)
+            }
+        };
+        commands.entity(entity).insert(MirrorState {
+            environment,
+            helpers,
+            viewpoint: Vec3::ZERO,
+            viewpoint_rms_m: 0.0,
+            masked: 0,
+            trace_ms: 0.0,
+            parallax_corrected: matches!(
+                mirror.method,
+                MirrorMethod::ParallaxCorrectedCubeMap { .. }
+            ) && reflection_probes_supported(),
+            settings: mirror.clone(),
+            optics,
+            vertices,
+            traced_from: None,
+        });
+    }
+}
+
+/// Gives the viewer the mirrors' layer.
+pub(crate) fn show_mirrors_to_the_viewer(
+    mut commands: Commands,
+    viewers: Query<(Entity, Option<&RenderLayers>), With<MirrorViewer>>,
+) {
+    for (entity, layers) in &viewers {
+        let layers = layers.cloned().unwrap_or_default();
+        if !layers.intersects(&RenderLayers::layer(MIRROR_LAYER)) {
+            commands.entity(entity).insert(layers.with(MIRROR_LAYER));
+        }
+    }
+}
+
+/// Removes what the plugin made for mirrors that are gone.
+pub(crate) fn remove_mirrors(
+    mut commands: Commands,
+    mut removed: RemovedComponents<CurvedMirror>,
+    states: Query<&MirrorState>,
+) {
+    for entity in removed.read() {
+        if let Ok(state) = states.get(entity) {
+            for &h in &state.helpers {
+                commands.entity(h).despawn();
+            }
+            commands.entity(entity).remove::<MirrorState>();
+        }
+    }
+}
+
+/// Places each mirror's helper cameras: per vertex, retraces the mirror
+/// when it or the viewer moved and points the environment camera from the
+/// virtual viewpoint; cube maps, puts the six faces at the mirror (or the
+/// room's centre).
+type Helpers<'w, 's> = Query<
+    'w,
+    's,
+    (
+        &'static mut Transform,
+        &'static mut GlobalTransform,
+        Option<&'static mut Projection>,
+        Option<&'static mut MirrorEnvironment>,
+    ),
+    (Without<MirrorState>, Without<MirrorViewer>),
+>;
+
+/// Puts a helper where it goes this frame (after transform propagation,
+/// so its global transform too).
+fn place(helpers: &mut Helpers, entity: Entity, t: Transform) {
+    if let Ok((mut tr, mut gt, ..)) = helpers.get_mut(entity) {
+        *tr = t;
+        *gt = GlobalTransform::from(t);
+    }
+}
+
+pub(crate) fn trace_mirrors(
+    mut mirrors: Query<(&GlobalTransform, &mut MirrorState)>,
+    viewer: Query<&GlobalTransform, (With<MirrorViewer>, Without<MirrorState>)>,
+    mut helpers: Helpers,
+) {
+    let Some(eye) = viewer.iter().next() else {
+        return;
+    };
+    let eye_from = eye.to_matrix();
+    for (mirror_at, mut state) in &mut mirrors {
+        // The mirror's rigid placement (its scale is ignored).
+        let (_, rotation, translation) = mirror_at.to_scale_rotation_translation();
+        let world_from_mirror = Mat4::from_rotation_translation(rotation, translation);
+        let key = (world_from_mirror, eye_from);
+        if state.traced_from == Some(key) {
+            continue;
+        }
+        state.traced_from = Some(key);
+        match &state.settings.method {
+            MirrorMethod::CubeMap | MirrorMethod::ParallaxCorrectedCubeMap { .. } => {
+                let centre = match state.settings.method {
+                    MirrorMethod::ParallaxCorrectedCubeMap { room_centre, .. }
+                        if state.parallax_corrected =>
+                    {
+                        room_centre
+                    }
+                    _ => translation,
+                };
+                for (k, &(forward, up)) in FACES.iter().enumerate() {
+                    let t = Transform::from_translation(centre).looking_to(forward, up);
+                    place(&mut helpers, state.helpers[k], t);
+                }
+            }
+            MirrorMethod::PerVertex => {
+                let started = std::time::Instant::now();
+                let to_d = |m: Mat4| DAffine3::from_mat4(m.as_dmat4());
+                let world_from_mirror = to_d(world_from_mirror);
+                let mirror_from_world = world_from_mirror.inverse();
+                let eye_local = mirror_from_world.transform_point3(eye.translation().as_dvec3());
+                let rays = state.optics.reflect_vertices(eye_local, &state.vertices);
+                let masked = rays.iter().filter(|r| r.is_none()).count() as u32;
+                let Ok(fit) = state.optics.virtual_viewpoint(
+                    eye_local,
+                    &rays,
+                    DEFAULT_VIEWPOINT_REGULARISATION,
+                ) else {
+                    // The viewer sees only the mirror's back: nothing to draw.
+                    state.masked = masked;
+                    continue;
+                };
+                // Its axis: the rays' mean direction; up: the mirror's +y.
+                let axis = rays
+                    .iter()
+                    .flatten()
+                    .map(|r| r.dir())
+                    .sum::<DVec3>()
+                    .normalize_or(DVec3::NEG_Z);
+                // A concave mirror may focus its rays in front of it: then
+                // the viewpoint falls back to the eye's image in the
+                // mirror's tangent plane, which always lies behind it.
+                let depth_of = |v: DVec3, p: DVec3| (p - v).dot(axis);
+                let mut viewpoint = fit.point;
+                if state
+                    .vertices
+                    .iter()
+                    .any(|&p| depth_of(viewpoint, p) < 1e-3)
+                {
+                    viewpoint = DVec3::new(eye_local.x, eye_local.y, -eye_local.z);
+                }
+                let up_hint = if axis.y.abs() > 0.99 {
+                    DVec3::X
+                } else {
+                    DVec3::Y
+                };
+                let right = axis.cross(up_hint).normalize();
+                let up = right.cross(axis);
+                // The field of view holds every ray's direction and every
+                // vertex seen from the viewpoint (a hit lies between them).
+                let mut tan_max = 0.0f64;
+                let mut near = f64::INFINITY;
+                for (p, r) in state.vertices.iter().zip(&rays) {
+                    let Some(r) = r else { continue };
+                    for d in [r.dir(), *p - viewpoint] {
+                        let z = d.dot(axis);
+                        if z > 1e-6 {
+                            tan_max = tan_max.max(d.dot(right).abs() / z).max(d.dot(up).abs() / z);
+                        }
+                    }
+                    near = near.min(depth_of(viewpoint, *p));
+                }
+                let max_tan = (0.5 * f64::from(MAX_ENVIRONMENT_FOV_DEG).to_radians()).tan();
+                let fov = 2.0 * (tan_max * 1.02).min(max_tan).atan();
+                let near = near.max(1e-3);
+                // The camera in the world; its view space (−z ahead).
+                let camera_from_mirror =
+                    |p: DVec3| DVec3::new(p.dot(right), p.dot(up), -p.dot(axis));
+                let world_view =
+                    world_from_mirror * DAffine3::from_cols(right, up, -axis, viewpoint);
+                let transform = Transform::from_matrix(world_view.as_mat4_like());
+                let vertices: Vec<LensVertex> = state
+                    .vertices
+                    .iter()
+                    .zip(&rays)
+                    .map(|(p, r)| {
+                        let origin = camera_from_mirror(*p - viewpoint).as_vec3();
+                        match r {
+                            Some(r) => LensVertex {
+                                back: origin,
+                                exits: 1,
+                                origin,
+                                dir: camera_from_mirror(r.dir()).as_vec3(),
+                                dir_red: camera_from_mirror(r.dir()).as_vec3(),
+                                dir_blue: camera_from_mirror(r.dir()).as_vec3(),
+                                ..default()
+                            },
+                            None => LensVertex {
+                                back: origin,
+                                origin,
+                                dir: Vec3::NEG_Z,
+                                dir_red: Vec3::NEG_Z,
+                                dir_blue: Vec3::NEG_Z,
+                                ..default()
+                            },
+                        }
+                    })
+                    .collect();
+                let camera = state.helpers[0];
+                place(&mut helpers, camera, transform);
+                if let Ok((_, _, projection, environment)) = helpers.get_mut(camera) {
+                    if let Some(mut projection) = projection {
+                        *projection = Projection::Perspective(PerspectiveProjection {
+                            fov: fov as f32,
+                            aspect_ratio: 1.0,
+                            near: near as f32,
+                            ..default()
+                        });
+                    }
+                    if let Some(mut environment) = environment {
+                        environment.vertices = vertices;
+                    }
+                }
+                state.viewpoint = world_from_mirror.transform_point3(viewpoint).as_vec3();
+                state.viewpoint_rms_m = fit.rms_distance_m as f32;
+                state.masked = masked;
+                state.trace_ms = started.elapsed().as_secs_f32() * 1e3;
+            }
+        }
+    }
+}
+
+/// `DAffine3` to the `Mat4` a `Transform` is made from.
+trait AsMat4 {
+    fn as_mat4_like(&self) -> Mat4;
+}
+
+impl AsMat4 for DAffine3 {
+    fn as_mat4_like(&self) -> Mat4 {
+        optica_optics::glam::DMat4::from(*self).as_mat4()
+    }
+}

@@ -66,6 +66,28 @@
 //!   where its line of sight leaves the box, scaled by distance
 //!   ([`FieldBox`]).
 //!
+//! ## A voxel grid in eye coordinates (the journal version's future work)
+//!
+//! [`FieldBox::eye_coordinates`] lays the field's voxels out in eye
+//! coordinates instead of the paper's box: uniform in the sight line's
+//! direction from the eye's centre of rotation (`x/z'`, `y/z'`) and in its
+//! dioptric distance (`1/z'`), so voxels are small near the eye and grow
+//! with distance as a blur does, and the last layer reaches infinity (no
+//! far face to fall back from). The projection maps straight lines to
+//! straight lines, so the reference rays are walked through these cells by
+//! the same Amanatides–Woo traversal, to their vanishing point; each voxel
+//! keeps its set for the distance of its centre, and a vertex blends the
+//! two layers around it in dioptres, each carried to its own distance (a
+//! set is an angle times a distance, and linear in dioptres between the
+//! corrected near and far points). At the paper's voxel count (110×77×42,
+//! the Fig. 8 eye in +1.5 D reading glasses, against the direct reference
+//! at points 0.1–2 m away) the set's error falls from 0.42 to 0.068 mrad on
+//! average and from 0.97 to 0.069 mrad nearer than 0.3 m, where the box's
+//! 5 cm voxels span several dioptres. Where the corrected near or far
+//! point falls between two layers the blend across that kink leaves about
+//! the box's error. It is off by default (the paper's layout); the GPU
+//! lookup is held to its CPU twin within 3.3e-6 of the set's size.
+//!
 //! ## Astigmatism (the journal version's extension)
 //!
 //! An eye with [`Astigmatism`] has a cylinder at an axis, written as on
@@ -229,7 +251,6 @@
 //!   per corner.
 //! - The defocus field is precomputed for a centred lens: a decentred lens
 //!   refracts the view from where it sits, but blurs it as if centred.
-//! - Still to come: a voxel grid in eye coordinates.
 
 #![warn(missing_docs)]
 

@@ -213,6 +213,12 @@ pub fn spectacles_ui(
         ui.label("blur");
         ui.checkbox(&mut defocus.enabled, "on");
         ui.end_row();
+        ui.label("voxels");
+        ui.horizontal(|ui| {
+            ui.selectable_value(&mut defocus.field.eye_coordinates, false, "box (the paper's)");
+            ui.selectable_value(&mut defocus.field.eye_coordinates, true, "eye coordinates");
+        });
+        ui.end_row();
     });
     if let Some(st) = status {
         ui.separator();

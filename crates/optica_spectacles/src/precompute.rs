@@ -84,9 +84,10 @@ pub struct CloneUniform {
     pub centre_z: f32,
     /// z of the camera (m).
     pub camera_z: f32,
-    /// The field's min corner (m, eye frame).
+    /// The field's min corner (m, eye frame; in eye coordinates
+    /// `x/z'`, `y/z'`, `1/z'`).
     pub grid_origin: Vec3,
-    /// The field's cell size (m).
+    /// The field's cell size (m, or in eye coordinates).
     pub grid_cell: Vec3,
     /// The field's cells per axis.
     pub grid_dims: UVec3,
@@ -104,6 +105,8 @@ pub(crate) mod mode {
     pub const SHARP: u32 = 0;
     pub const NAKED: u32 = 1;
     pub const FIELD: u32 = 2;
+    /// The voxel field in eye coordinates (`FieldGrid::Eye`).
+    pub const FIELD_EYE: u32 = 3;
 }
 
 /// The optics of one eye camera, for the clones.
@@ -129,6 +132,9 @@ pub struct FieldGeometry {
     pub cell: DVec3,
     /// Cells per axis.
     pub dims: [usize; 3],
+    /// Whether the cells lie in eye coordinates (`origin` and `cell` then
+    /// in `x/z'`, `y/z'`, `1/z'`).
+    pub eye_coordinates: bool,
     /// The precompute's counters.
     pub stats: FieldStats,
 }
@@ -247,6 +253,7 @@ pub(crate) fn update_optics(
                             origin: f.counts().origin(),
                             cell: f.counts().cell_size(),
                             dims: f.counts().dims(),
+                            eye_coordinates: matches!(f.layout(), optics::FieldLayout::Eye { .. }),
                             stats: *f.stats(),
                         };
                         let buffer = buffers.add(ShaderBuffer {
@@ -307,7 +314,7 @@ fn clone_uniform(
     };
     match field {
         Some((_, g)) => {
-            u.mode = mode::FIELD;
+            u.mode = if g.eye_coordinates { mode::FIELD_EYE } else { mode::FIELD };
             u.grid_origin = g.origin.as_vec3();
             u.grid_cell = g.cell.as_vec3();
             u.grid_dims = UVec3::new(g.dims[0] as u32, g.dims[1] as u32, g.dims[2] as u32);

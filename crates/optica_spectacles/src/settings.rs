@@ -259,6 +259,14 @@ pub struct FieldBox {
     /// Pupil rays per bundle (the paper: 10). Each voxel keeps its set as
     /// a linear map of the pupil, so this is not the number of clones drawn.
     pub bundle_rays: u32,
+    /// Lay the voxels out in eye coordinates (not in the paper; the
+    /// journal version's future work): uniform in the sight line's
+    /// direction from the eye's centre of rotation and in dioptric
+    /// distance, small near the eye and reaching infinity. The box then
+    /// gives the extent: the angles of its far face as the eye sees them,
+    /// every distance from its near face on. Off (the paper's box) by
+    /// default; see the crate docs for what it changes.
+    pub eye_coordinates: bool,
 }
 
 impl Default for FieldBox {
@@ -276,6 +284,7 @@ impl Default for FieldBox {
             voxels: UVec3::new(d[0] as u32, d[1] as u32, d[2] as u32),
             aims: UVec2::new(paper.aim_rings() as u32, paper.aim_segments() as u32),
             bundle_rays: paper.clones() as u32,
+            eye_coordinates: false,
         }
     }
 }
@@ -306,6 +315,13 @@ impl FieldBox {
             ])?
             .with_aims(self.aims.x as usize, self.aims.y as usize)?
             .with_clones(self.bundle_rays as usize)
+            .map(|st| {
+                st.with_grid(if self.eye_coordinates {
+                    optics::FieldGrid::Eye
+                } else {
+                    optics::FieldGrid::Box
+                })
+            })
     }
 }
 

@@ -13,7 +13,7 @@
 use optica_harness::Headless;
 use optica_optics::glam::{DVec2, DVec3};
 use optica_optics::spectacles::{
-    self as optics, DisplacementField, EyePlacement, FieldSettings, LensDesignParams,
+    self as optics, DisplacementField, EyePlacement, FieldGrid, FieldSettings, LensDesignParams,
     Prescription, design_lens, naked_eye_displacements, pupil_samples,
 };
 use optica_spectacles::{DISPLACEMENT_WGSL, FIELD_LOOKUP_WGSL, camera_z, eye_placement};
@@ -39,7 +39,7 @@ var<private> field_at: u32;
 {lookup}
 fn params() -> CloneParams {{
     var c: CloneParams;
-    c.mode = 2u;
+    c.mode = u32(input[20]);
     c.clones = u32(input[0]);
     c.tile_cols = 1u;
     c.tile_rows = 1u;
@@ -63,8 +63,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
     let i = id.x / c.clones;
     let k = id.x % c.clones;
     if i >= points {{ return; }}
-    field_at = 20u + 3u * points;
-    let b = 20u + 3u * i;
+    field_at = 21u + 3u * points;
+    let b = 21u + 3u * i;
     let p = vec3<f32>(input[b], input[b + 1u], input[b + 2u]);
     let naked = naked_displacement(p, k, c);
     let field = field_displacement(p, vec3<f32>(0.0, 0.0, c.camera_z), k, c);
@@ -94,11 +94,20 @@ fn halton(i: usize, base: usize) -> f64 {
 }
 
 /// Whether `p` lies within `eps` of a face between the field's voxels.
+/// In eye coordinates, within `eps` of a face across the sight lines (the
+/// lookup blends between layers, so their faces are no edge).
 fn near_a_face(field: &DisplacementField, p: DVec3, eps: f64) -> bool {
     let (lo, _) = field.counts().bounds();
     let size = field.counts().cell_size();
-    (0..3).any(|a| {
-        let t = (p[a] - lo[a]) / size[a];
+    let (q, axes) = match field.layout() {
+        optics::FieldLayout::Box => (p, 3),
+        optics::FieldLayout::Eye { centre_z } => {
+            let z = p.z - centre_z;
+            (DVec3::new(p.x / z, p.y / z, 1.0 / z), 2)
+        }
+    };
+    (0..axes).any(|a| {
+        let t = (q[a] - lo[a]) / size[a];
         (t - t.round()).abs() * size[a] < eps
     })
 }
@@ -108,12 +117,14 @@ fn naked_eye_and_field_lookup_match_the_cpu_twin() {
     // A −3 D myope presbyope with a 6 mm pupil in +1.5 D reading glasses
     // (n = 1.66), the field at a quarter of the paper's resolution; then
     // the same eye with astigmatism, −1.5 D × 30.
+    // Both voxel layouts: the paper's box and eye coordinates.
     let eye = optics::Eye::new(-3.0, 1.5, 0.006).unwrap();
-    parity(eye);
-    parity(eye.with_astigmatism(-1.5, 30.0).unwrap());
+    parity(eye, FieldGrid::Box);
+    parity(eye.with_astigmatism(-1.5, 30.0).unwrap(), FieldGrid::Box);
+    parity(eye, FieldGrid::Eye);
 }
 
-fn parity(eye: optics::Eye) {
+fn parity(eye: optics::Eye, grid: FieldGrid) {
     let placement: EyePlacement = eye_placement();
     let lens = design_lens(
         &Prescription::sphere(1.5).unwrap(),
@@ -124,7 +135,7 @@ fn parity(eye: optics::Eye) {
         &eye,
         &placement,
         Some(&lens),
-        &FieldSettings::paper().scaled(0.25).unwrap(),
+        &FieldSettings::paper().scaled(0.25).unwrap().with_grid(grid),
     )
     .unwrap();
     let (lo, _) = field.counts().bounds();
@@ -147,7 +158,9 @@ fn parity(eye: optics::Eye) {
         .iter()
         .filter(|p| field.counts().cell_of(**p).is_none())
         .count();
-    assert!(beyond > 50 && beyond < 250, "{beyond} of 300 beyond the box");
+    if grid == FieldGrid::Box {
+        assert!(beyond > 50 && beyond < 250, "{beyond} of 300 beyond the box");
+    }
 
     let cell = field.counts().cell_size();
     let dims = field.counts().dims();
@@ -172,6 +185,7 @@ fn parity(eye: optics::Eye) {
         eye.axis_direction().x as f32,
         eye.axis_direction().y as f32,
         points.len() as f32,
+        if grid == FieldGrid::Eye { 3.0 } else { 2.0 },
     ];
     for p in &points {
         input.extend(p.to_array().map(|c| c as f32));
@@ -224,7 +238,7 @@ fn parity(eye: optics::Eye) {
         }
     }
     eprintln!(
-        "parity, cylinder {} D, over {} points × {CLONES} clones ({beyond} beyond the box): naked \
+        "parity, {grid:?} grid, cylinder {} D, over {} points × {CLONES} clones ({beyond} beyond the box): naked \
          {worst_naked:.2e}, field {worst_field:.2e} of the set's size, pupil samples {worst_sample:.2e}",
         eye.cylinder_d(),
         points.len()

@@ -197,7 +197,7 @@ pub use viewpoint::{
     DEFAULT_VIEWPOINT_REGULARISATION, ViewpointFit, virtual_viewpoint, virtual_viewpoint_of_traces,
 };
 pub use voxel_field::{
-    DisplacementField, FieldSettings, FieldStats, MAX_AIMS, MAX_CLONES, MAX_FIELD_VECTORS,
+    DisplacementField, FieldGrid, FieldLayout, FieldSettings, FieldStats, MAX_AIMS, MAX_CLONES, MAX_FIELD_VECTORS,
     MAX_WALK_CROSSINGS, FillRule, VoxelAverage, expand, precompute_field,
 };
 

@@ -12,6 +12,7 @@ use super::error::{LensSide, SpectaclesError};
 use super::eye::Eye;
 use super::lens_design::SpectacleLens;
 use super::lens_mesh::{MAX_POLAR_POINTS, polar_point_count, polar_points, too_many_points};
+use crate::ray::Ray;
 use crate::input::{self, Expected, InvalidInput};
 use crate::voxel::VoxelGrid;
 
@@ -78,6 +79,33 @@ pub struct FieldSettings {
     fill_empty: bool,
     average: VoxelAverage,
     fill_rule: FillRule,
+    grid: FieldGrid,
+}
+
+/// How the field's voxels are laid out (not in the paper; the journal
+/// version names "a voxel grid in eye coordinates" as future work).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum FieldGrid {
+    /// The paper's: a box of voxels in the eye's frame, from the settings'
+    /// min to max corner; a point beyond it takes the set where its sight
+    /// line leaves the box, scaled by distance.
+    #[default]
+    Box,
+    /// Eye coordinates: cells uniform in the sight line's direction from
+    /// the centre of rotation (`x/z'`, `y/z'`, z' measured from it) and in
+    /// its dioptric distance `1/z'`, so voxels are small near the eye and
+    /// grow with distance as the blur's own scale does, and the last layer
+    /// reaches infinity. The settings' box gives the extent: the angles of
+    /// its far face seen from the centre of rotation, every distance from
+    /// its near face to infinity. Each voxel keeps its set for the
+    /// distance of its centre; a point takes its voxel's set scaled by its
+    /// distance over that one (a set is an angle times distance), and a
+    /// point beyond the angles takes the set at the grid's edge. The
+    /// projection `(x, y, z') ↦ (x/z', y/z', 1/z')` maps straight lines in
+    /// front of the centre to straight lines, so the reference rays are
+    /// walked through these cells by the same Amanatides–Woo traversal, to
+    /// their vanishing point at `1/z' = 0`.
+    Eye,
 }
 
 /// How the voxels no reference ray crossed are filled (step 5).
@@ -113,6 +141,8 @@ struct RawFieldSettings {
     average: VoxelAverage,
     #[serde(default)]
     fill_rule: FillRule,
+    #[serde(default)]
+    grid: FieldGrid,
 }
 
 impl TryFrom<RawFieldSettings> for FieldSettings {
@@ -131,6 +161,7 @@ impl TryFrom<RawFieldSettings> for FieldSettings {
             fill_empty: r.fill_empty,
             average: r.average,
             fill_rule: r.fill_rule,
+            grid: r.grid,
         }
         .checked()
     }
@@ -166,6 +197,7 @@ impl FieldSettings {
             fill_empty: true,
             average: VoxelAverage::AllCrossings,
             fill_rule: FillRule::Nearest,
+            grid: FieldGrid::Box,
         }
     }
 
@@ -235,6 +267,16 @@ impl FieldSettings {
     /// These settings with the per-voxel average `average` (step 4).
     pub fn with_average(self, average: VoxelAverage) -> Self {
         Self { average, ..self }
+    }
+
+    /// These settings with the voxels laid out by `grid`.
+    pub fn with_grid(self, grid: FieldGrid) -> Self {
+        Self { grid, ..self }
+    }
+
+    /// How the voxels are laid out.
+    pub fn grid(&self) -> FieldGrid {
+        self.grid
     }
 
     /// The same box with `k` times the voxels per axis and `k` times the aim
@@ -446,6 +488,23 @@ pub struct DisplacementField {
     maps: Vec<Vec3>,
     clones: usize,
     stats: FieldStats,
+    /// Where the voxels lie: `counts`' box in the eye's frame, or in eye
+    /// coordinates `(x/z', y/z', 1/z')` about the centre of rotation.
+    #[serde(default)]
+    layout: FieldLayout,
+}
+
+/// A field's voxel layout and, for eye coordinates, their centre.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub enum FieldLayout {
+    /// A box in the eye's frame.
+    #[default]
+    Box,
+    /// Eye coordinates about the centre of rotation at `(0, 0, centre_z)`.
+    Eye {
+        /// z of the centre of rotation (m).
+        centre_z: f64,
+    },
 }
 
 /// The serialised form of a [`DisplacementField`], unchecked.
@@ -455,6 +514,8 @@ struct RawDisplacementField {
     maps: Vec<Vec3>,
     clones: usize,
     stats: FieldStats,
+    #[serde(default)]
+    layout: FieldLayout,
 }
 
 impl TryFrom<RawDisplacementField> for DisplacementField {
@@ -479,11 +540,15 @@ impl TryFrom<RawDisplacementField> for DisplacementField {
         for v in &r.maps {
             input::finite_vec3("field map vector (m)", v.as_dvec3())?;
         }
+        if let FieldLayout::Eye { centre_z } = r.layout {
+            input::finite("field centre z (m)", centre_z)?;
+        }
         Ok(Self {
             counts: r.counts,
             maps: r.maps,
             clones: r.clones,
             stats: r.stats,
+            layout: r.layout,
         })
     }
 }
@@ -495,6 +560,16 @@ struct Crossing {
     aim: u32,
     region: Region,
     s: f64,
+    /// The set's scale to the voxel's own distance (eye coordinates; 1 in
+    /// a box).
+    scale: f64,
+}
+
+/// Eye coordinates `(x/z', y/z', 1/z')` of an eye-frame point, z' from the
+/// centre of rotation at `centre_z`; `None` at or behind the centre.
+fn eye_coordinates(p: DVec3, centre_z: f64) -> Option<DVec3> {
+    let z = p.z - centre_z;
+    (z > 0.0).then(|| DVec3::new(p.x / z, p.y / z, 1.0 / z))
 }
 
 /// The aims (unit directions from the centre of rotation).
@@ -622,7 +697,27 @@ pub fn precompute_field(
 ) -> Result<DisplacementField, SpectaclesError> {
     // The grid's geometry alone (no storage: `()` cells) for the walk; the
     // counts are made in step 4.
-    let grid = VoxelGrid::from_bounds(st.min, st.max, st.dims, ())?;
+    let centre_z = placement.centre_of_rotation().z;
+    let (layout, grid_lo, grid_hi) = match st.grid {
+        FieldGrid::Box => (FieldLayout::Box, st.min, st.max),
+        FieldGrid::Eye => {
+            let (near, far) = (st.min.z - centre_z, st.max.z - centre_z);
+            if !(near > 0.0) {
+                return Err(InvalidInput::new(
+                    "field box near face (m), in front of the centre of rotation",
+                    st.min.z,
+                    Expected::AtLeast(centre_z),
+                )
+                .into());
+            }
+            (
+                FieldLayout::Eye { centre_z },
+                DVec3::new(st.min.x / far, st.min.y / far, 0.0),
+                DVec3::new(st.max.x / far, st.max.y / far, 1.0 / near),
+            )
+        }
+    };
+    let grid = VoxelGrid::from_bounds(grid_lo, grid_hi, st.dims, ())?;
     let n_cells = grid.len();
     let s_clones = st.clones;
     let samples: Vec<DVec2> = pupil_samples(s_clones);
@@ -647,14 +742,15 @@ pub fn precompute_field(
             let walk = b.as_ref().map(|(near, far)| {
                 let chief = *near.chief();
                 let (wn, wf) = (near.vergence_d(), far.vergence_d());
-                grid.traverse(&chief).filter_map(move |(cell, t0, t1)| {
-                    let s = 0.5 * (t0 + t1);
+                let cells = crossed_cells(&grid, &chief, layout);
+                cells.into_iter().filter_map(move |(cell, s, scale)| {
                     let idx = cell[0] + st.dims[0] * (cell[1] + st.dims[1] * cell[2]);
                     (s > 0.0).then(|| Crossing {
                         cell: idx as u32,
                         aim: k as u32,
                         region: region(s, wn, wf),
                         s,
+                        scale,
                     })
                 })
             });
@@ -689,8 +785,8 @@ pub fn precompute_field(
                 let Some(m) = set_map(near, far, c.region, c.s, astigmatic) else {
                     continue;
                 };
-                sum[0] += m[0];
-                sum[1] += m[1];
+                sum[0] += m[0] * c.scale;
+                sum[1] += m[1] * c.scale;
                 recorded += 1;
             }
             let n = match st.average {
@@ -715,7 +811,7 @@ pub fn precompute_field(
         .filter(|c| astigmatic || c.region != Region::InFocus)
         .count();
     let voxels_crossed = cnt.iter().filter(|&&c| c > 0).count();
-    let counts = VoxelGrid::from_vec(st.min, grid.cell_size(), st.dims, cnt)?;
+    let counts = VoxelGrid::from_vec(grid_lo, grid.cell_size(), st.dims, cnt)?;
 
     let mut stats = FieldStats {
         aims: aim_dirs.len(),
@@ -741,7 +837,49 @@ pub fn precompute_field(
         maps,
         clones: s_clones,
         stats,
+        layout,
     })
+}
+
+/// The voxels a refracted reference ray crosses (step 3): each with the
+/// distance `s` along the ray where its set is taken and the factor that
+/// carries that set to the voxel's own distance.
+///
+/// In a box: the segment's midpoint, factor 1. In eye coordinates the ray
+/// is a straight segment from its origin's image to its vanishing point
+/// `(d_x/d_z, d_y/d_z, 0)`; in each voxel the set is taken at the
+/// segment's dioptric midpoint (blur is linear in dioptres), and carried
+/// to the voxel centre's distance (`1/z'` at the centre) by the ratio of
+/// the distances. A ray that does not travel away from the eye crosses
+/// nothing.
+fn crossed_cells(grid: &VoxelGrid<()>, chief: &Ray, layout: FieldLayout) -> Vec<([usize; 3], f64, f64)> {
+    match layout {
+        FieldLayout::Box => grid
+            .traverse(chief)
+            .map(|(cell, t0, t1)| (cell, 0.5 * (t0 + t1), 1.0))
+            .collect(),
+        FieldLayout::Eye { centre_z } => {
+            let (o, d) = (chief.origin(), chief.dir());
+            let (Some(start), true) = (eye_coordinates(o, centre_z), d.z > 0.0) else {
+                return Vec::new();
+            };
+            let vanishing = DVec3::new(d.x / d.z, d.y / d.z, 0.0);
+            let length = (vanishing - start).length();
+            let Ok(segment) = Ray::new(start, vanishing - start) else {
+                return Vec::new();
+            };
+            let z_origin = o.z - centre_z;
+            let (w_lo, w_size) = (grid.origin().z, grid.cell_size().z);
+            grid.traverse_segment(&segment, 0.0, length)
+                .filter_map(|(cell, t0, t1)| {
+                    let w = |t: f64| start.z * (1.0 - t / length);
+                    let w_mid = 0.5 * (w(t0) + w(t1));
+                    let w_centre = w_lo + (cell[2] as f64 + 0.5) * w_size;
+                    (w_mid > 0.0).then(|| (cell, (1.0 / w_mid - z_origin) / d.z, w_mid / w_centre))
+                })
+                .collect()
+        }
+    }
 }
 
 /// The L1 distance transform of [`fill_nearest`] and [`fill_empty`]: in
@@ -973,10 +1111,49 @@ impl DisplacementField {
         Some([self.maps[2 * i], self.maps[2 * i + 1]])
     }
 
-    /// The map of the voxel containing `point` (the paper's lookup),
-    /// `None` outside the box or for a non-finite point.
+    /// How the voxels are laid out.
+    pub fn layout(&self) -> FieldLayout {
+        self.layout
+    }
+
+    /// In eye coordinates: the set at `point`, blended linearly in
+    /// dioptric distance between the two layers of voxels around it (a
+    /// set is linear in dioptres between the corrected near and far
+    /// points), each voxel's set carried to the point's distance (the
+    /// point's over the voxel centre's). A point beyond the grid's angles,
+    /// nearer than its near face or beyond the last layer's centre takes
+    /// the voxels at the grid's edge. `None` at or behind the centre, for a
+    /// non-finite point, or in a box.
+    fn eye_map(&self, point: DVec3) -> Option<[Vec3; 2]> {
+        let FieldLayout::Eye { centre_z } = self.layout else {
+            return None;
+        };
+        let q = eye_coordinates(point, centre_z).filter(|q| q.is_finite())?;
+        let (lo, size, dims) = (self.counts.origin(), self.counts.cell_size(), self.counts.dims());
+        let across = |a: usize| (((q[a] - lo[a]) / size[a]).floor()).clamp(0.0, (dims[a] - 1) as f64) as usize;
+        // Layers by their centres: `k` below the point, `k + 1` above.
+        let layer = ((q.z - lo.z) / size.z - 0.5).clamp(0.0, (dims[2] - 1) as f64);
+        let k = (layer.floor() as usize).min(dims[2] - 1);
+        let above = (k + 1).min(dims[2] - 1);
+        let f = (layer - k as f64) as f32;
+        let z = point.z - centre_z;
+        let carried = |k: usize| -> Option<[Vec3; 2]> {
+            let scale = (z * (lo.z + (k as f64 + 0.5) * size.z)) as f32;
+            let [x, y] = self.map([across(0), across(1), k])?;
+            Some([x * scale, y * scale])
+        };
+        let (a, b) = (carried(k)?, carried(above)?);
+        Some([a[0] * (1.0 - f) + b[0] * f, a[1] * (1.0 - f) + b[1] * f])
+    }
+
+    /// The map of the voxel containing `point` (the paper's lookup), `None`
+    /// outside the box or for a non-finite point. In eye coordinates, the
+    /// voxel's map scaled to the point's distance (see [`FieldGrid::Eye`]).
     pub fn map_at(&self, point: DVec3) -> Option<[Vec3; 2]> {
-        self.map(self.counts.cell_of(point)?)
+        match self.layout {
+            FieldLayout::Box => self.map(self.counts.cell_of(point)?),
+            FieldLayout::Eye { .. } => self.eye_map(point),
+        }
     }
 
     /// The set of `cell`: its map applied to the field's `S` pupil samples
@@ -988,7 +1165,7 @@ impl DisplacementField {
     /// The set of the voxel containing `point` (the paper's lookup), `None`
     /// outside the box or for a non-finite point.
     pub fn displacements_at(&self, point: DVec3) -> Option<Vec<Vec3>> {
-        self.displacements(self.counts.cell_of(point)?)
+        Some(expand(self.map_at(point)?, self.clones))
     }
 
     /// The map for a vertex at `point` seen from `from` (the eye's pupil),
@@ -1007,6 +1184,9 @@ impl DisplacementField {
     ) -> Option<([Vec3; 2], f64)> {
         if !point.is_finite() || !from.is_finite() {
             return None;
+        }
+        if let FieldLayout::Eye { .. } = self.layout {
+            return Some((self.eye_map(point)?, 1.0));
         }
         if let Some(map) = self.map_at(point) {
             return Some((map, 1.0));
@@ -1062,6 +1242,58 @@ mod tests {
 
     fn small() -> FieldSettings {
         FieldSettings::paper().scaled(0.25).unwrap()
+    }
+
+    /// Near the eye the paper's voxels (10 cm at half its resolution) span
+    /// dioptres (0.1 to 0.2 m is 5 D) and tens of degrees; eye coordinates
+    /// at the same voxel count keep a blur's scale across each voxel, so
+    /// the sets of points 0.1–0.2 m away come tens of times closer to the
+    /// direct reference, and farther ones closer too.
+    #[test]
+    fn eye_coordinates_follow_the_blur_near_the_eye() {
+        use crate::spectacles::field_reference::reference_at;
+        let eye = Eye::from_near_far(0.5, 1.3, 0.012).unwrap();
+        let pl = EyePlacement::default();
+        let lens = design_lens(&Prescription::sphere(1.5).unwrap(), &LensDesignParams::paper()).unwrap();
+        let st = FieldSettings::paper().scaled(0.5).unwrap();
+        let boxed = precompute_field(&eye, &pl, Some(&lens), &st).unwrap();
+        let eyed = precompute_field(&eye, &pl, Some(&lens), &st.with_grid(FieldGrid::Eye)).unwrap();
+        assert!(matches!(eyed.layout(), FieldLayout::Eye { .. }));
+        let centre = pl.centre_of_rotation();
+        let error = |f: &DisplacementField, z: f64| {
+            let mut sum = 0.0;
+            let mut n = 0;
+            for k in 0..12 {
+                let a = k as f64 * 0.5;
+                let dir = DVec3::new(0.1 * a.cos() * (k % 3) as f64, 0.1 * a.sin() * (k % 3) as f64, 1.0).normalize();
+                let p = centre + dir * ((z - centre.z) / dir.z);
+                let Ok(r) = reference_at(&eye, &pl, Some(&lens), p, 64) else { continue };
+                let got = f.spread_at(p).expect("inside the field").rms_radius_m;
+                sum += (got - r.spread.rms_radius_m).abs() / r.distance_m;
+                n += 1;
+            }
+            assert!(n >= 8, "{n} points");
+            sum / n as f64
+        };
+        // Near the eye, tens of times closer; over 0.12–1.8 m, several
+        // times closer on average. Where the corrected near point falls
+        // between two layers (0.3–0.45 m here) the blend across the kink
+        // leaves about the box's error.
+        let (mut sum_box, mut sum_eye) = (0.0, 0.0);
+        for z in [0.12, 0.2, 0.3, 0.45, 0.7, 1.0, 1.8] {
+            let (b, e) = (error(&boxed, z), error(&eyed, z));
+            eprintln!("{z} m: eye coordinates {e:.2e} rad, box {b:.2e} rad");
+            if z < 0.25 {
+                assert!(e < 0.1 * b, "at {z} m: eye coordinates {e:.2e} rad, box {b:.2e} rad");
+            }
+            sum_box += b;
+            sum_eye += e;
+        }
+        assert!(sum_eye < 0.5 * sum_box, "{sum_eye} {sum_box}");
+        // Beyond the box's far face the eye grid goes on (its last layer
+        // reaches infinity); a point behind the centre has no set.
+        assert!(eyed.map_at(DVec3::new(0.0, 0.0, 50.0)).is_some());
+        assert!(eyed.map_at(DVec3::new(0.0, 0.0, centre.z - 0.01)).is_none());
     }
 
     #[test]

@@ -23,7 +23,11 @@
 //!   eye with −1.5 D of cylinder at 30° in the toric lens of its
 //!   prescription (+1.5 / −1.5 × 30), against its own reference points;
 //!   a progressive series (`_pal`, S = 10): the Fig. 8 eye in its
-//!   distance correction (−0.78 D) with a +2.00 add. The rendered series (`spectacles_render`,
+//!   distance correction (−0.78 D) with a +2.00 add; an eye-coordinates
+//!   series (`_eyegrid`, S = 10): the plain case with the voxels laid out
+//!   in eye coordinates (`FieldGrid::Eye`, the same voxel count). Every
+//!   series also gives `near_mean_mrad` over the points nearer than 0.3 m.
+//!   The rendered series (`spectacles_render`,
 //!   `spectacles_refraction`) follow in the same report.
 //! * Errors (per point, then mean / max over points): `mean_mm`, `max_mm` —
 //!   |RMS radius of the field's set − RMS radius of the reference set|, mm
@@ -42,7 +46,7 @@
 
 use optica_optics::glam::{DVec3, Vec3};
 use optica_optics::spectacles::{
-    DEFAULT_DENSE_SAMPLES, DisplacementField, Eye, EyePlacement, FieldSettings, LensDesignParams,
+    DEFAULT_DENSE_SAMPLES, DisplacementField, Eye, EyePlacement, FieldGrid, FieldSettings, LensDesignParams,
     LensMesh, Prescription, SpectacleLens, SpectaclesError, design_lens, precompute_field,
     reference_at, refract_vertices,
 };
@@ -61,6 +65,7 @@ fn halton(i: usize, base: usize) -> f64 {
 }
 
 /// A test point and its reference RMS and edge radii.
+#[derive(Clone)]
 struct RefPoint {
     p: DVec3,
     dist: f64,
@@ -137,6 +142,8 @@ enum Case {
     Astigmatic,
     /// The same eye in progressives.
     Progressive,
+    /// The plain case with the voxels in eye coordinates.
+    EyeGrid,
 }
 
 impl Case {
@@ -146,6 +153,7 @@ impl Case {
             Case::Plain => "",
             Case::Astigmatic => "_astig",
             Case::Progressive => "_pal",
+            Case::EyeGrid => "_eyegrid",
         }
     }
 }
@@ -184,7 +192,7 @@ pub fn run(ctx: &SweepContext) -> Report {
     .expect("−0.78 D add +2.00 is a lens");
     let scales: Vec<f64> = ctx.pick(vec![0.25, 0.5, 1.0], vec![0.25, 0.5, 0.75, 1.0, 1.25, 1.5]);
     // (S, scales, case).
-    use Case::{Astigmatic, Plain, Progressive};
+    use Case::{Astigmatic, EyeGrid, Plain, Progressive};
     let series: Vec<(usize, Vec<f64>, Case)> = ctx.pick(
         vec![
             (10, scales.clone(), Plain),
@@ -192,6 +200,7 @@ pub fn run(ctx: &SweepContext) -> Report {
             (20, vec![0.5], Plain),
             (10, vec![0.5, 1.0], Astigmatic),
             (10, vec![0.5, 1.0], Progressive),
+            (10, scales.clone(), EyeGrid),
         ],
         vec![
             (10, scales.clone(), Plain),
@@ -199,6 +208,7 @@ pub fn run(ctx: &SweepContext) -> Report {
             (20, scales.clone(), Plain),
             (10, scales.clone(), Astigmatic),
             (10, scales.clone(), Progressive),
+            (10, scales.clone(), EyeGrid),
         ],
     );
     let n_points = ctx.pick(60, 300);
@@ -235,16 +245,18 @@ pub fn run(ctx: &SweepContext) -> Report {
             (c, _) => format!("{}_s{c}", case.suffix()),
         };
         let (eye, lens, (pts, skipped)) = match case {
-            Plain => (&eye, &lens, &plain),
+            Plain | EyeGrid => (&eye, &lens, &plain),
             Astigmatic => (&astigmat, &toric, &astig),
             Progressive => (&eye, &progressive, &pal),
         };
         for &k in ks {
             step += 1;
             ctx.progress(step, total, &format!("S = {clones}, scale {k}"));
+            let grid = if *case == EyeGrid { FieldGrid::Eye } else { FieldGrid::Box };
             let st = match FieldSettings::paper()
                 .scaled(k)
                 .and_then(|st| st.with_clones(*clones))
+                .map(|st| st.with_grid(grid))
             {
                 Ok(st) => st,
                 Err(e) => {
@@ -271,6 +283,8 @@ pub fn run(ctx: &SweepContext) -> Report {
                 }
             };
             let (mean, max, ang, edge) = errors(&field, pts);
+            let near: Vec<RefPoint> = pts.iter().filter(|q| q.dist < 0.3).cloned().collect();
+            let (_, _, near_ang, _) = errors(&field, &near);
             let s = field.stats();
             report.rows.push(
                 Row::new(k, t, t_base)
@@ -278,6 +292,7 @@ pub fn run(ctx: &SweepContext) -> Report {
                     .err(&format!("max_mm{suffix}"), max * 1e3)
                     .err(&format!("mean_mrad{suffix}"), ang * 1e3)
                     .err(&format!("edge_mean_mm{suffix}"), edge * 1e3)
+                    .err(&format!("near_mean_mrad{suffix}"), near_ang * 1e3)
                     .work("clones", *clones as f64)
                     .work("voxels", field.counts().len() as f64)
                     .work("aims", s.aims as f64)
@@ -290,6 +305,8 @@ pub fn run(ctx: &SweepContext) -> Report {
                     .work("points_skipped", *skipped as f64)
                     .work("astigmatic", f64::from(u8::from(*case == Astigmatic)))
                     .work("progressive", f64::from(u8::from(*case == Progressive)))
+                    .work("eye_grid", f64::from(u8::from(*case == EyeGrid)))
+                    .work("near_points", near.len() as f64)
                     .work("baseline_exits", exits as f64),
             );
         }
@@ -456,8 +473,8 @@ mod tests {
         let ctx = SweepContext::new("spectacles", true, true);
         let r = run(&ctx);
         // S = 10 at three scales, S = 4 and 20 at one, the astigmatic and
-        // progressive series at two each.
-        assert_eq!(r.rows.len(), 9);
+        // progressive series at two each, eye coordinates at three.
+        assert_eq!(r.rows.len(), 12);
         let problems = r.problems();
         assert!(problems.is_empty(), "{problems:#?}");
         // The S = 10 series: rows 0..3 at scales 0.25, 0.5, 1.
@@ -479,6 +496,13 @@ mod tests {
                 .map(|row| row.error[key])
                 .unwrap_or_else(|| panic!("{key}"))
         };
+        // Eye coordinates follow the reference more closely than the box
+        // at the same voxel count, near the eye above all.
+        for key in ["mean_mrad", "near_mean_mrad"] {
+            let (boxed, eyed) = (at_scale_1(key), at_scale_1(&format!("{key}_eyegrid")));
+            eprintln!("{key}: box {boxed:.4}, eye coordinates {eyed:.4}");
+            assert!(eyed < boxed, "{key}: eye coordinates {eyed} against the box's {boxed}");
+        }
         let plain = at_scale_1("mean_mm");
         for key in ["mean_mm_astig", "mean_mm_pal"] {
             let e = at_scale_1(key);

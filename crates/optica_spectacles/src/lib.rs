@@ -81,9 +81,13 @@
 //! set is an angle times a distance, and linear in dioptres between the
 //! corrected near and far points). At the paper's voxel count (110×77×42,
 //! the Fig. 8 eye in +1.5 D reading glasses, against the direct reference
-//! at points 0.1–2 m away) the set's error falls from 0.42 to 0.068 mrad on
-//! average and from 0.97 to 0.069 mrad nearer than 0.3 m, where the box's
-//! 5 cm voxels span several dioptres. Where the corrected near or far
+//! at 300 points 0.1–2 m away; the `spectacles` report, release) the set's
+//! error falls from 0.44 to 0.081 mrad on average and from 1.04 to
+//! 0.10 mrad nearer than 0.3 m, where the box's 5 cm voxels span several
+//! dioptres; the precompute takes 25 ms against the box's 20 ms on two
+//! cores, and at three quarters of the voxels (12 ms) eye coordinates are
+//! still closer than the box at one and a half times them (0.11 against
+//! 0.29 mrad, 70 ms). Where the corrected near or far
 //! point falls between two layers the blend across that kink leaves about
 //! the box's error. It is off by default (the paper's layout); the GPU
 //! lookup is held to its CPU twin within 3.3e-6 of the set's size.
@@ -193,15 +197,18 @@
 //! Against an exact per-pixel reflection (`optica_optics::spectacles::
 //! seen_with_mirror`; the `spectacles` report's "mirror" rows: a convex
 //! mirror of `R` = 1.2 m, 60 × 45 cm, 1 m before the camera, a wall 2.5 m
-//! from it and a card 0.5 m before it; 128², lavapipe, debug build): per
-//! vertex, the point a pixel shows lies 0.46 px from the exact one on
-//! average at 8 × 6 cells and 0.12 px at 32 × 24 (95 % of pixels within
-//! 0.04 px; the rest at the card's edge, where the viewpoint's parallax
-//! shows the card a little wider), 0.3 % of pixels showing the wrong
-//! surface; the cube map, 4.7 px on average, the card 15 px off, 11.6 %
-//! of pixels the wrong surface: the paper's Fig. 2. The frame costs
-//! 2.5–2.8× the frame without the mirror per vertex (one more drawing of
-//! the scene, from the viewpoint) and 8.1× with the cube map (six).
+//! from it and a card 0.5 m before it; 256², lavapipe, release): per
+//! vertex, the point a pixel shows lies 0.86 px from the exact one on
+//! average at 8 × 6 cells, 0.23 px at 16 × 12 and 0.094 px at 32 × 24
+//! (95 % of pixels within 0.09 px; the card 0.31 px, whose edge the
+//! viewpoint's parallax shifts), 0.1 % of pixels showing the wrong
+//! surface; the cube map, 9.4 px on average whatever its face size (the
+//! error is parallax, not resolution), the card 31 px off, 11.5 % of pixels
+//! the wrong surface: the paper's Fig. 2. The frame costs 3.5–4.0× the
+//! frame without the mirror per vertex (the environment camera draws the
+//! scene once more, with its own shadow cascades; the march is 1.4–3 ms
+//! and the CPU trace 0.15 ms of it) and 9.8–19.6× with the cube map
+//! (six drawings, 128² to 512² faces).
 //!
 //! Left out: several viewers (the trace is for one), the mirror in the
 //! clones' blur (its material is not a `StandardMaterial`), and a mirror

@@ -1,6 +1,6 @@
 //! Leave out what a scene does not need: with the plugin added but no
-//! `Eye`, no extra pipeline is built, no clone camera, twin or field
-//! exists; with an eye the clone and resolve pipelines compile (wgpu's
+//! `Eye` and no mirror, no extra pipeline is built, no clone camera, twin,
+//! field or mirror camera exists; with an eye the clone and resolve pipelines compile (wgpu's
 //! noop backend), for both shadings and with MSAA on the eye camera.
 
 use std::sync::Arc;
@@ -10,7 +10,8 @@ use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::{Adapter, Headless, PipelineReport};
 use optica_spectacles::{
-    CloneCameraOf, CloneDefocus, CloneOf, CloneShading, Eye, EyeOptics, Spectacles,
+    CloneCameraOf, CloneDefocus, CloneOf, CloneShading, CubeFace, Eye, EyeOptics, MirrorEnvironment, MirrorState,
+    Spectacles,
 };
 
 use super::{Target, scene};
@@ -53,8 +54,9 @@ fn count_plugin_entities(app: &mut App, seen: Arc<AtomicUsize>) {
         Last,
         move |rigs: Query<(), With<CloneCameraOf>>,
               twins: Query<(), With<CloneOf>>,
-              optics: Query<(), With<EyeOptics>>| {
-            let n = rigs.iter().count() + twins.iter().count() + optics.iter().count();
+              optics: Query<(), With<EyeOptics>>,
+              mirrors: Query<(), Or<(With<MirrorEnvironment>, With<CubeFace>, With<MirrorState>)>>| {
+            let n = rigs.iter().count() + twins.iter().count() + optics.iter().count() + mirrors.iter().count();
             seen.fetch_max(n, Ordering::Relaxed);
         },
     );

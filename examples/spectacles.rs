@@ -4,7 +4,13 @@
 //!
 //! ```sh
 //! cargo run --example spectacles --features spectacles,egui,window -- [--preset myope] [--out DIR]
+//!     [--mirror per-vertex|cube-map]
 //! ```
+//!
+//! `--mirror` hangs a convex safety mirror on the left wall (the paper's
+//! §3.2) and draws it per vertex or as Bevy's cube map would; the view is
+//! then drawn sharp (a mirror is not among the clones), and the PNG is
+//! `spectacles_<preset>_mirror_<method>.png`.
 //!
 //! With the `window` feature and a display it opens a window (the `egui`
 //! feature adds a panel for every setting and the presets); otherwise (or
@@ -18,7 +24,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use optica::spectacles::presets::{Preset, presets};
-use optica::spectacles::{CloneDefocus, SpectaclesPlugin};
+use optica::spectacles::{CloneDefocus, CurvedMirror, MirrorMethod, MirrorViewer, SpectaclesPlugin};
 
 const WIDTH: u32 = 800;
 const HEIGHT: u32 = 600;
@@ -38,9 +44,16 @@ fn book_down_deg() -> f64 {
     f64::from(ahead.angle_between(BOOK.normalize()).to_degrees())
 }
 
-fn parse_args() -> Result<(Vec<Preset>, Option<String>), String> {
+/// The command line: presets, output folder, a mirror.
+struct Args {
+    presets: Vec<Preset>,
+    out: Option<String>,
+    mirror: Option<MirrorMethod>,
+}
+
+fn parse_args() -> Result<Args, String> {
     let mut args = std::env::args().skip(1);
-    let (mut chosen, mut out) = (presets(), None);
+    let (mut chosen, mut out, mut mirror) = (presets(), None, None);
     while let Some(a) = args.next() {
         let mut value = || args.next().ok_or(format!("{a} needs a value"));
         match a.as_str() {
@@ -56,14 +69,29 @@ fn parse_args() -> Result<(Vec<Preset>, Option<String>), String> {
                 chosen = vec![p];
             }
             "--out" => out = Some(value()?),
+            "--mirror" => {
+                mirror = Some(match value()?.as_str() {
+                    "per-vertex" => MirrorMethod::PerVertex,
+                    "cube-map" => MirrorMethod::CubeMap,
+                    m => return Err(format!("unknown mirror method `{m}`: per-vertex, cube-map")),
+                })
+            }
             _ => return Err(format!("unknown argument {a}")),
         }
     }
-    Ok((chosen, out))
+    Ok(Args {
+        presets: chosen,
+        out,
+        mirror,
+    })
 }
 
 fn main() {
-    let (chosen, out) = parse_args().unwrap_or_else(|e| {
+    let Args {
+        presets: chosen,
+        out,
+        mirror,
+    } = parse_args().unwrap_or_else(|e| {
         eprintln!("spectacles: {e}");
         std::process::exit(2);
     });
@@ -81,7 +109,7 @@ fn main() {
             }),
             ..default()
         }));
-        setup_app(&mut app, chosen[0].clone());
+        setup_app(&mut app, chosen[0].clone(), mirror.clone());
         #[cfg(feature = "egui")]
         app.add_plugins((
             bevy_egui::EguiPlugin::default(),
@@ -92,11 +120,16 @@ fn main() {
         let dir = out.unwrap_or_else(|| "target/optica".into());
         let _ = std::fs::create_dir_all(&dir);
         for p in chosen {
-            let name = p.name;
+            let name = match &mirror {
+                None => p.name.to_string(),
+                Some(MirrorMethod::PerVertex) => format!("{}_mirror_per-vertex", p.name),
+                Some(_) => format!("{}_mirror_cube-map", p.name),
+            };
+            let m = mirror.clone();
             let frame = optica_harness::Headless::new(WIDTH, HEIGHT)
                 .adapter(optica_harness::Adapter::Auto)
                 .frames(6)
-                .render(|app| setup_app(app, p))
+                .render(|app| setup_app(app, p, m))
                 .unwrap_or_else(|e| {
                     eprintln!("spectacles: headless render failed: {e}");
                     std::process::exit(1);
@@ -131,19 +164,19 @@ fn describe(p: &Preset) {
     );
 }
 
-fn setup_app(app: &mut App, preset: Preset) {
+fn setup_app(app: &mut App, preset: Preset, mirror: Option<MirrorMethod>) {
     app.add_plugins(SpectaclesPlugin)
         .insert_resource(GlobalAmbientLight {
             color: Color::srgb(0.95, 0.92, 0.85),
             brightness: 600.0,
             ..default()
         })
-        .insert_resource(StartPreset(preset))
+        .insert_resource(StartPreset(preset, mirror))
         .add_systems(Startup, spawn_room);
 }
 
 #[derive(Resource)]
-struct StartPreset(Preset);
+struct StartPreset(Preset, Option<MirrorMethod>);
 
 /// A tumbling-E chart: rows of Es from 50′ down to 5′ tall at 5 m (a
 /// 20/20 row last), on a 1 m × 1 m board, 1,024² texels (~1 mm each).
@@ -248,6 +281,11 @@ fn spawn_room(
         perceptual_roughness: 0.9,
         ..default()
     });
+    let back_wall = materials.add(StandardMaterial {
+        base_color: Color::srgb(0.35, 0.45, 0.6),
+        perceptual_roughness: 0.9,
+        ..default()
+    });
     let wood = materials.add(StandardMaterial {
         base_color: Color::srgb(0.45, 0.3, 0.18),
         perceptual_roughness: 0.6,
@@ -326,5 +364,31 @@ fn spawn_room(
     ));
     if let Some(s) = preset.spectacles {
         camera.insert(s);
+    }
+    if let Some(method) = start.1.clone() {
+        // The clones do not carry the mirror: the view is drawn sharp.
+        camera.insert((
+            MirrorViewer,
+            CloneDefocus {
+                enabled: false,
+                ..default()
+            },
+        ));
+        // The wall behind the eye, for the mirror to show, and a convex
+        // safety mirror on the left wall, turned to the eye.
+        commands.spawn((
+            Mesh3d(meshes.add(board(Vec2::new(6.0, 3.0), 24))),
+            MeshMaterial3d(back_wall),
+            Transform::from_xyz(0.0, 1.5, 0.4).with_rotation(Quat::from_rotation_y(std::f32::consts::PI)),
+        ));
+        commands.spawn((
+            CurvedMirror {
+                radius_m: 1.5,
+                size_m: Vec2::new(0.6, 0.45),
+                method,
+                ..default()
+            },
+            Transform::from_xyz(-1.1, 1.45, -2.2).looking_at(EYE, Vec3::Y),
+        ));
     }
 }

@@ -186,9 +186,13 @@
 //!
 //! [`MirrorMethod::CubeMap`] draws the same mirror as a Bevy user would:
 //! a metallic, smooth `StandardMaterial` lit by a cube map captured at the
-//! mirror every frame (six cameras, copied into the cube's layers) and
-//! given to the viewer as its environment map, which Bevy treats as
-//! infinitely far. [`MirrorMethod::ParallaxCorrectedCubeMap`] captures at
+//! mirror every frame (six cameras, copied into the cube's layers),
+//! uncorrected for parallax (treated as infinitely far): a reflection
+//! probe around the mirror where the device has Bevy's reflection probes,
+//! else the viewer's environment map, which then lights every mesh the
+//! viewer sees too. Bevy also adds its ambient light to a metallic
+//! surface, which washes such a mirror out in a room lit by ambient light;
+//! the per-vertex mirror shows only what it reflects. [`MirrorMethod::ParallaxCorrectedCubeMap`] captures at
 //! a room's centre and lets a Bevy reflection probe correct the parallax
 //! against the room's box; Bevy's reflection probes need binding arrays,
 //! which lavapipe and WebGL2 lack, and there the plain cube map stands in
@@ -210,9 +214,12 @@
 //! and the CPU trace 0.15 ms of it) and 9.8–19.6× with the cube map
 //! (six drawings, 128² to 512² faces).
 //!
-//! Left out: several viewers (the trace is for one), the mirror in the
-//! clones' blur (its material is not a `StandardMaterial`), and a mirror
-//! seen in another mirror.
+//! The `spectacles` example hangs one on the room's wall (`--mirror
+//! per-vertex|cube-map`; its panel switches the method and the grid).
+//! Left out: several viewers (the trace is for one); the mirror in the
+//! clones' blur (its material is not a `StandardMaterial`, so an eye
+//! camera that draws clones does not show it: the example draws the view
+//! sharp when it hangs a mirror); a mirror seen in another mirror.
 //!
 //! ## How the clones are drawn, and why
 //!
@@ -277,7 +284,7 @@ mod render;
 mod settings;
 
 #[cfg(feature = "egui")]
-pub use panel::{SpectaclesPanelPlugin, spectacles_ui};
+pub use panel::{SpectaclesPanelPlugin, mirror_ui, spectacles_ui};
 pub use clones::{
     CLONE_LAYER, CloneCameraOf, CloneExtension, CloneMaterial, CloneOf, CloneResolve, CloneRig,
     CloneTwins, MAX_ATLAS_SIDE, max_tiles, tile_layout,

@@ -231,6 +231,36 @@ pub struct CubeFace {
     pub layer: u32,
 }
 
+/// On what the plugin made for a mirror (its cameras, its probe): the
+/// mirror's entity, so that they go with it.
+#[derive(Component, Clone, Copy, Debug)]
+pub(crate) struct MirrorHelperOf(Entity);
+
+/// On a viewer lit by a mirror's cube map (where the device has no
+/// reflection probes): the mirror.
+#[derive(Component, Clone, Copy, Debug)]
+pub(crate) struct LitByMirrorCube(Entity);
+
+/// Despawns what the plugin made for `mirror` and takes its cube map off
+/// the viewer.
+fn release(
+    commands: &mut Commands,
+    mirror: Entity,
+    helpers: &Query<(Entity, &MirrorHelperOf)>,
+    lit: &Query<(Entity, &LitByMirrorCube)>,
+) {
+    for (h, of) in helpers {
+        if of.0 == mirror {
+            commands.entity(h).despawn();
+        }
+    }
+    for (v, by) in lit {
+        if by.0 == mirror {
+            commands.entity(v).remove::<(EnvironmentMapLight, LitByMirrorCube)>();
+        }
+    }
+}
+
 /// Cube faces as Bevy samples them: layer, the face camera's forward and up.
 const FACES: [(Vec3, Vec3); 6] = [
     (Vec3::X, Vec3::Y),
@@ -332,6 +362,8 @@ pub(crate) fn build_mirrors(
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut mirror_materials: ResMut<Assets<MirrorMaterial>>,
     mut standard_materials: ResMut<Assets<StandardMaterial>>,
+    owned: Query<(Entity, &MirrorHelperOf)>,
+    lit: Query<(Entity, &LitByMirrorCube)>,
 ) {
     let (viewer, order, layers, exposure) = viewers
         .iter()
@@ -350,9 +382,7 @@ pub(crate) fn build_mirrors(
             if state.settings == *mirror {
                 continue;
             }
-            for &h in &state.helpers {
-                commands.entity(h).despawn();
-            }
+            release(&mut commands, entity, &owned, &lit);
         }
         let built = mirror.optics().and_then(|optics| {
             let (cols, rows) = (
@@ -403,6 +433,7 @@ pub(crate) fn build_mirrors(
                             vertices: Vec::new(),
                             coords: coords.clone(),
                         },
+                        MirrorHelperOf(entity),
                         Name::new("optica mirror environment camera"),
                     ))
                     .id();
@@ -441,6 +472,7 @@ pub(crate) fn build_mirrors(
                                     cube: cube.clone(),
                                     layer,
                                 },
+                                MirrorHelperOf(entity),
                                 Name::new("optica mirror cube face"),
                             ))
                             .id()
@@ -455,34 +487,48 @@ pub(crate) fn build_mirrors(
                     ..default()
                 };
                 let probes = reflection_probes_supported();
-                match mirror.method {
+                let parallax = match mirror.method {
                     MirrorMethod::ParallaxCorrectedCubeMap {
                         room_centre,
                         room_half_size,
-                    } if probes => helpers.push(
+                    } => Some((room_centre, room_half_size)),
+                    _ => None,
+                };
+                if probes {
+                    // A reflection probe: the room's box, corrected for
+                    // parallax; or (placed on the mirror each frame) a box
+                    // holding only the mirror, uncorrected.
+                    let (correction, place) = match parallax {
+                        Some((centre, half)) => (
+                            ParallaxCorrection::Auto,
+                            Transform::from_translation(centre).with_scale(2.0 * half),
+                        ),
+                        None => (ParallaxCorrection::None, Transform::default()),
+                    };
+                    helpers.push(
                         commands
                             .spawn((
                                 LightProbe::default(),
                                 light,
-                                ParallaxCorrection::Auto,
-                                Transform::from_translation(room_centre)
-                                    .with_scale(2.0 * room_half_size),
+                                correction,
+                                place,
+                                MirrorHelperOf(entity),
                                 Name::new("optica mirror reflection probe"),
                             ))
                             .id(),
-                    ),
-                    // Bevy treats a view's environment map as infinitely
-                    // far: a cube map without parallax correction.
-                    _ => {
-                        if matches!(mirror.method, MirrorMethod::ParallaxCorrectedCubeMap { .. }) {
-                            warn!(
-                                "optica_spectacles: mirror {entity}: this device has no reflection probes \
-                                 (binding arrays); the plain cube map stands in for the parallax-corrected one"
-                            );
-                        }
-                        if let Some(viewer) = viewer {
-                            commands.entity(viewer).insert(light);
-                        }
+                    );
+                } else {
+                    // No reflection probes: the cube becomes the viewer's
+                    // environment map, which Bevy treats as infinitely far
+                    // (and which lights every mesh the viewer sees).
+                    if parallax.is_some() {
+                        warn!(
+                            "optica_spectacles: mirror {entity}: this device has no reflection probes \
+                             (binding arrays); the plain cube map stands in for the parallax-corrected one"
+                        );
+                    }
+                    if let Some(viewer) = viewer {
+                        commands.entity(viewer).insert((light, LitByMirrorCube(entity)));
                     }
                 }
                 (cube, helpers)
@@ -520,18 +566,18 @@ pub(crate) fn show_mirrors_to_the_viewer(
     }
 }
 
-/// Removes what the plugin made for mirrors that are gone.
+/// Removes what the plugin made for mirrors that are gone (the component
+/// removed or the entity despawned).
 pub(crate) fn remove_mirrors(
     mut commands: Commands,
     mut removed: RemovedComponents<CurvedMirror>,
-    states: Query<&MirrorState>,
+    owned: Query<(Entity, &MirrorHelperOf)>,
+    lit: Query<(Entity, &LitByMirrorCube)>,
 ) {
     for entity in removed.read() {
-        if let Ok(state) = states.get(entity) {
-            for &h in &state.helpers {
-                commands.entity(h).despawn();
-            }
-            commands.entity(entity).remove::<MirrorState>();
+        release(&mut commands, entity, &owned, &lit);
+        if let Ok(mut e) = commands.get_entity(entity) {
+            e.remove::<MirrorState>();
         }
     }
 }
@@ -592,6 +638,15 @@ pub(crate) fn trace_mirrors(
                 for (k, &(forward, up)) in FACES.iter().enumerate() {
                     let t = Transform::from_translation(centre).looking_to(forward, up);
                     place(&mut helpers, state.helpers[k], t);
+                }
+                // An uncorrected probe holds only the mirror.
+                if matches!(state.settings.method, MirrorMethod::CubeMap) && state.helpers.len() > 6 {
+                    let reach = state.settings.size_m.length() * 2.0;
+                    place(
+                        &mut helpers,
+                        state.helpers[6],
+                        Transform::from_translation(translation).with_scale(Vec3::splat(reach)),
+                    );
                 }
             }
             MirrorMethod::PerVertex => {

@@ -3,7 +3,8 @@
 //! [`spectacles_ui`] draws an eye camera's [`Eye`], [`Spectacles`] and
 //! [`CloneDefocus`], the presets and what the plugin made of them
 //! ([`SpectaclesStatus`]) into an egui `Ui` of yours;
-//! [`SpectaclesPanelPlugin`] shows it in a window for the first eye camera.
+//! [`SpectaclesPanelPlugin`] shows it in a window for the first eye camera,
+//! and [`mirror_ui`] for the first [`CurvedMirror`] in another.
 //!
 //! ```no_run
 //! use bevy::prelude::*;
@@ -24,6 +25,7 @@ use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 use crate::presets::presets;
 use crate::settings::{Accommodation, CloneDefocus, CloneShading, Eye, LensMaterial, Pupil, Spectacles};
 use crate::SpectaclesStatus;
+use crate::mirror::{CurvedMirror, MirrorMethod, MirrorState};
 
 /// Shows a "Spectacles" window editing the first camera with an [`Eye`].
 /// Needs `bevy_egui`'s `EguiPlugin`.
@@ -31,7 +33,7 @@ pub struct SpectaclesPanelPlugin;
 
 impl Plugin for SpectaclesPanelPlugin {
     fn build(&self, app: &mut App) {
-        app.add_systems(EguiPrimaryContextPass, panel_window);
+        app.add_systems(EguiPrimaryContextPass, (panel_window, mirror_window));
     }
 }
 
@@ -71,6 +73,62 @@ fn panel_window(mut commands: Commands, mut contexts: EguiContexts, mut eyes: Qu
         _ => {}
     }
     Ok(())
+}
+
+fn mirror_window(mut contexts: EguiContexts, mut mirrors: Query<(&mut CurvedMirror, Option<&MirrorState>)>) -> Result {
+    let Some((mut mirror, state)) = mirrors.iter_mut().next() else {
+        return Ok(());
+    };
+    let mut m = mirror.clone();
+    egui::Window::new("Mirror").show(contexts.ctx_mut()?, |ui| mirror_ui(ui, &mut m, state));
+    if *mirror != m {
+        *mirror = m;
+    }
+    Ok(())
+}
+
+/// Draws a mirror's settings (how it reflects, its shape and grid) and
+/// what the last trace gave.
+pub fn mirror_ui(ui: &mut egui::Ui, mirror: &mut CurvedMirror, state: Option<&MirrorState>) {
+    egui::Grid::new("optica_mirror").num_columns(2).show(ui, |ui| {
+        ui.label("reflection");
+        ui.horizontal(|ui| {
+            ui.selectable_value(&mut mirror.method, MirrorMethod::PerVertex, "per vertex (the paper's)");
+            ui.selectable_value(&mut mirror.method, MirrorMethod::CubeMap, "Bevy cube map");
+        });
+        ui.end_row();
+        ui.label("radius (m, + convex)");
+        ui.add(egui::Slider::new(&mut mirror.radius_m, -5.0..=5.0));
+        ui.end_row();
+        ui.label("grid cells across");
+        let mut across = mirror.tessellation.x;
+        ui.add(egui::Slider::new(&mut across, 2..=128));
+        if across != mirror.tessellation.x {
+            mirror.tessellation = UVec2::new(across, (across * 2).div_ceil(3).max(2));
+        }
+        ui.end_row();
+        ui.label("image / face (px)");
+        ui.add(egui::Slider::new(&mut mirror.resolution, 64..=2048));
+        ui.end_row();
+        ui.label("reflectance");
+        ui.add(egui::Slider::new(&mut mirror.reflectance, 0.0..=1.0));
+        ui.end_row();
+    });
+    if let Some(st) = state
+        && matches!(mirror.method, MirrorMethod::PerVertex)
+    {
+        let v = st.viewpoint;
+        ui.label(format!(
+            "virtual viewpoint at ({:.2}, {:.2}, {:.2}) m, rays {:.1} mm from it (rms); {} vertices masked; \
+             trace {:.2} ms",
+            v.x,
+            v.y,
+            v.z,
+            st.viewpoint_rms_m * 1e3,
+            st.masked,
+            st.trace_ms
+        ));
+    }
 }
 
 /// Draws the presets, every setting of `eye`, `defocus` and `spectacles`

@@ -48,6 +48,9 @@ fn without_plugin(app: &mut App) {
     );
 }
 
+/// What the plugin makes for a mirror.
+type MirrorMade = Or<(With<MirrorEnvironment>, With<CubeFace>, With<MirrorState>)>;
+
 /// Counts, every frame, the entities the plugin would make.
 fn count_plugin_entities(app: &mut App, seen: Arc<AtomicUsize>) {
     app.add_systems(
@@ -55,7 +58,7 @@ fn count_plugin_entities(app: &mut App, seen: Arc<AtomicUsize>) {
         move |rigs: Query<(), With<CloneCameraOf>>,
               twins: Query<(), With<CloneOf>>,
               optics: Query<(), With<EyeOptics>>,
-              mirrors: Query<(), Or<(With<MirrorEnvironment>, With<CubeFace>, With<MirrorState>)>>| {
+              mirrors: Query<(), MirrorMade>| {
             let n = rigs.iter().count() + twins.iter().count() + optics.iter().count() + mirrors.iter().count();
             seen.fetch_max(n, Ordering::Relaxed);
         },

@@ -67,7 +67,8 @@ pub const MAX_ENVIRONMENT_FOV_DEG: f32 = 150.0;
 ///
 /// Its reflecting face looks along the entity's forward (−Z), so
 /// `Transform::looking_at(viewer, Vec3::Y)` turns it to a viewer; the
-/// rectangle spans `size_m` across X and Y; its scale is ignored. The
+/// rectangle spans `size_m` across X and Y. Keep its scale 1 (a scaled
+/// mirror is named in the log: its reflection is traced unscaled). The
 /// plugin gives it its mesh and material.
 ///
 /// ```no_run
@@ -180,6 +181,7 @@ pub struct MirrorState {
     /// stands in.
     pub parallax_corrected: bool,
     settings: CurvedMirror,
+    warned_scale: bool,
     optics: MirrorOptics,
     vertices: Vec<DVec3>,
     traced_from: Option<(Mat4, Mat4)>,
@@ -237,9 +239,10 @@ pub struct CubeFace {
 pub(crate) struct MirrorHelperOf(Entity);
 
 /// On a viewer lit by a mirror's cube map (where the device has no
-/// reflection probes): the mirror.
-#[derive(Component, Clone, Copy, Debug)]
-pub(crate) struct LitByMirrorCube(Entity);
+/// reflection probes): the mirror, and the viewer's own environment map
+/// to give back when the mirror goes.
+#[derive(Component, Clone)]
+pub(crate) struct LitByMirrorCube(Entity, Option<EnvironmentMapLight>);
 
 /// Despawns what the plugin made for `mirror` and takes its cube map off
 /// the viewer.
@@ -256,7 +259,11 @@ fn release(
     }
     for (v, by) in lit {
         if by.0 == mirror {
-            commands.entity(v).remove::<(EnvironmentMapLight, LitByMirrorCube)>();
+            let mut e = commands.entity(v);
+            e.remove::<(EnvironmentMapLight, LitByMirrorCube)>();
+            if let Some(own) = by.1.clone() {
+                e.insert(own);
+            }
         }
     }
 }
@@ -356,7 +363,10 @@ fn mirror_mesh(vertices: &[DVec3], triangles: &[[u32; 3]], optics: &MirrorOptics
 pub(crate) fn build_mirrors(
     mut commands: Commands,
     mirrors: Query<(Entity, &CurvedMirror, Option<&MirrorState>), Changed<CurvedMirror>>,
-    viewers: Query<(Entity, &Camera, Option<&RenderLayers>, Option<&Exposure>), With<MirrorViewer>>,
+    viewers: Query<
+        (Entity, &Camera, Option<&RenderLayers>, Option<&Exposure>, Option<&EnvironmentMapLight>),
+        With<MirrorViewer>,
+    >,
     mut meshes: ResMut<Assets<Mesh>>,
     mut images: ResMut<Assets<Image>>,
     mut buffers: ResMut<Assets<ShaderBuffer>>,
@@ -368,7 +378,7 @@ pub(crate) fn build_mirrors(
     let (viewer, order, layers, exposure) = viewers
         .iter()
         .next()
-        .map(|(v, c, l, e)| {
+        .map(|(v, c, l, e, _)| {
             (
                 Some(v),
                 c.order - 1,
@@ -528,7 +538,13 @@ pub(crate) fn build_mirrors(
                         );
                     }
                     if let Some(viewer) = viewer {
-                        commands.entity(viewer).insert((light, LitByMirrorCube(entity)));
+                        // The viewer's own map, to give back (or the one a
+                        // mirror before this one kept).
+                        let own = match lit.iter().find(|(v, _)| *v == viewer) {
+                            Some((_, by)) => by.1.clone(),
+                            None => viewers.get(viewer).ok().and_then(|(.., m)| m.cloned()),
+                        };
+                        commands.entity(viewer).insert((light, LitByMirrorCube(entity, own)));
                     }
                 }
                 (cube, helpers)
@@ -546,6 +562,7 @@ pub(crate) fn build_mirrors(
                 MirrorMethod::ParallaxCorrectedCubeMap { .. }
             ) && reflection_probes_supported(),
             settings: mirror.clone(),
+            warned_scale: false,
             optics,
             vertices,
             traced_from: None,
@@ -567,18 +584,26 @@ pub(crate) fn show_mirrors_to_the_viewer(
 }
 
 /// Removes what the plugin made for mirrors that are gone (the component
-/// removed or the entity despawned).
+/// removed or the entity despawned): whatever is marked with a mirror that
+/// no longer has a [`CurvedMirror`].
 pub(crate) fn remove_mirrors(
     mut commands: Commands,
-    mut removed: RemovedComponents<CurvedMirror>,
+    mirrors: Query<(), With<CurvedMirror>>,
     owned: Query<(Entity, &MirrorHelperOf)>,
     lit: Query<(Entity, &LitByMirrorCube)>,
+    stale: Query<Entity, (With<MirrorState>, Without<CurvedMirror>)>,
 ) {
-    for entity in removed.read() {
-        release(&mut commands, entity, &owned, &lit);
-        if let Ok(mut e) = commands.get_entity(entity) {
-            e.remove::<MirrorState>();
-        }
+    let gone: std::collections::BTreeSet<Entity> = owned
+        .iter()
+        .map(|(_, of)| of.0)
+        .chain(lit.iter().map(|(_, by)| by.0))
+        .filter(|m| !mirrors.contains(*m))
+        .collect();
+    for mirror in gone {
+        release(&mut commands, mirror, &owned, &lit);
+    }
+    for entity in &stale {
+        commands.entity(entity).remove::<MirrorState>();
     }
 }
 
@@ -617,8 +642,16 @@ pub(crate) fn trace_mirrors(
     };
     let eye_from = eye.to_matrix();
     for (mirror_at, mut state) in &mut mirrors {
-        // The mirror's rigid placement (its scale is ignored).
-        let (_, rotation, translation) = mirror_at.to_scale_rotation_translation();
+        // The mirror's rigid placement: its shape is its radius and size,
+        // and a scale would draw it where it was not traced.
+        let (scale, rotation, translation) = mirror_at.to_scale_rotation_translation();
+        if (scale - Vec3::ONE).abs().max_element() > 1e-4 && !state.warned_scale {
+            warn!(
+                "optica_spectacles: a CurvedMirror is scaled by {scale}: its reflection is traced unscaled; \
+                 set its size with CurvedMirror::size_m and keep its scale 1"
+            );
+            state.warned_scale = true;
+        }
         let world_from_mirror = Mat4::from_rotation_translation(rotation, translation);
         let key = (world_from_mirror, eye_from);
         if state.traced_from == Some(key) {

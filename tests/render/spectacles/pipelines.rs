@@ -158,3 +158,69 @@ fn reprojection_works_with_msaa() {
     eprintln!("MSAA eye camera: SSIM against no MSAA {same:.3}, against the sharp view {blurred:.3}");
     assert!(same >= 0.9 && blurred < 0.8, "{same} {blurred}");
 }
+
+/// A mirror's cameras compile on noop, and go with it: with a per-vertex
+/// mirror one environment camera, with a cube map six faces (and, on a
+/// device without reflection probes, the cube as the viewer's environment
+/// map, given back when the mirror goes); a frame after the mirror is
+/// despawned none is left.
+#[test]
+fn mirror_cameras_come_and_go_with_the_mirror() {
+    use optica_spectacles::{CurvedMirror, MirrorMethod, MirrorViewer};
+    for (method, made) in [(MirrorMethod::PerVertex, 2), (MirrorMethod::CubeMap, 7)] {
+        let during = Arc::new(AtomicUsize::new(0));
+        let after = Arc::new(AtomicUsize::new(usize::MAX));
+        let lit_after = Arc::new(AtomicUsize::new(usize::MAX));
+        let report = Headless::new(32, 32)
+            .adapter(Adapter::Noop)
+            .frames(6)
+            .check_pipelines({
+                let (during, after, lit_after) = (during.clone(), after.clone(), lit_after.clone());
+                let method = method.clone();
+                move |app: &mut App| {
+                    scene(targets(), None, None, 0.8)(app);
+                    app.add_systems(Startup, move |mut commands: Commands, cameras: Query<Entity, With<Camera3d>>| {
+                        for c in &cameras {
+                            commands.entity(c).insert(MirrorViewer);
+                        }
+                        commands.spawn((
+                            CurvedMirror {
+                                method: method.clone(),
+                                resolution: 32,
+                                ..default()
+                            },
+                            Transform::from_xyz(0.0, 0.0, -1.0).looking_at(Vec3::ZERO, Vec3::Y),
+                        ));
+                    });
+                    let mut frame = 0;
+                    app.add_systems(
+                        Last,
+                        move |mut commands: Commands,
+                              mirrors: Query<Entity, With<CurvedMirror>>,
+                              made: Query<(), MirrorMade>,
+                              cameras: Query<(), With<Camera>>,
+                              lit: Query<(), (With<MirrorViewer>, With<bevy::light::EnvironmentMapLight>)>| {
+                            frame += 1;
+                            let n = made.iter().count() + cameras.iter().count() - 1;
+                            if frame == 3 {
+                                during.store(n, Ordering::Relaxed);
+                                for m in &mirrors {
+                                    commands.entity(m).despawn();
+                                }
+                            } else if frame > 4 {
+                                after.store(n, Ordering::Relaxed);
+                                lit_after.store(lit.iter().count(), Ordering::Relaxed);
+                            }
+                        },
+                    );
+                }
+            })
+            .expect("the mirror's pipelines compile");
+        eprintln!("{method:?}: {} pipelines", report.ok);
+        // The mirror's state and its cameras (counted as cameras and as
+        // what the plugin made).
+        assert!(during.load(Ordering::Relaxed) >= made, "{method:?}: {}", during.load(Ordering::Relaxed));
+        assert_eq!(after.load(Ordering::Relaxed), 0, "{method:?}: left behind");
+        assert_eq!(lit_after.load(Ordering::Relaxed), 0, "{method:?}: the viewer keeps the cube");
+    }
+}

@@ -127,6 +127,13 @@ impl CurvedMirror {
         p.x.abs() <= self.half_size.x && p.y.abs() <= self.half_size.y
     }
 
+    /// Distance along `ray` to where it meets the mirror, from either side,
+    /// within the rectangle (its back is opaque).
+    pub fn meets(&self, ray: &Ray) -> Option<f64> {
+        let hit = self.surface.intersect(ray)?;
+        self.covers(hit.point).then_some(hit.t)
+    }
+
     /// The reflection of `ray` (travelling towards the reflecting face):
     /// from the point where it meets the mirror, in the mirrored direction.
     /// `None` when it misses the rectangle or meets the mirror from behind.

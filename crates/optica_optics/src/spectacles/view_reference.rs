@@ -154,16 +154,17 @@ pub fn seen_with_mirror(
                 mirror_from_world.transform_vector3(ray.dir()),
             )
             .ok()?;
-            if let Some(r) = mirror.reflect(&local) {
-                let t = (r.origin() - local.origin()).length();
-                if direct.is_none_or(|(tp, ..)| t < tp) {
-                    let out = Ray::new(
-                        world_from_mirror.transform_point3(r.origin()),
-                        world_from_mirror.transform_vector3(r.dir()),
-                    )
-                    .ok()?;
-                    return nearest(&out).map(|(_, tag, at)| SeenPoint { tag, at, in_mirror: true });
-                }
+            if let Some(t) = mirror.meets(&local)
+                && direct.is_none_or(|(tp, ..)| t < tp)
+            {
+                // The mirror's face reflects; its back hides what lies behind.
+                let r = mirror.reflect(&local)?;
+                let out = Ray::new(
+                    world_from_mirror.transform_point3(r.origin()),
+                    world_from_mirror.transform_vector3(r.dir()),
+                )
+                .ok()?;
+                return nearest(&out).map(|(_, tag, at)| SeenPoint { tag, at, in_mirror: true });
             }
             direct.map(|(_, tag, at)| SeenPoint { tag, at, in_mirror: false })
         })

@@ -825,10 +825,25 @@ pub fn precompute_field(
     };
     drop(crossings);
     if st.fill_empty && voxels_crossed > 0 {
+        // In eye coordinates a voxel's set is for its centre's distance:
+        // filled as angles (divided by that distance), so that a set
+        // carried across layers keeps its angle, not its size.
+        let per_layer = st.dims[0] * st.dims[1];
+        let layer_w = |i: usize| grid_lo.z + ((i / 2 / per_layer) as f64 + 0.5) * grid.cell_size().z;
+        if layout != FieldLayout::Box {
+            for (i, v) in maps.iter_mut().enumerate() {
+                *v *= layer_w(i) as f32;
+            }
+        }
         let (filled, passes) = match st.fill_rule {
             FillRule::Nearest => fill_nearest(&counts, &mut maps, 2),
             FillRule::LayeredMean => fill_empty(&counts, &mut maps, 2),
         };
+        if layout != FieldLayout::Box {
+            for (i, v) in maps.iter_mut().enumerate() {
+                *v /= layer_w(i) as f32;
+            }
+        }
         stats.voxels_filled = filled;
         stats.fill_passes = passes;
     }

@@ -5,10 +5,11 @@
 //! * Scene: a convex mirror (R = 1.2 m, 0.6 × 0.45 m) 1 m ahead of the
 //!   camera, facing it; behind the camera, 2.5 m from the mirror, a wall;
 //!   0.5 m before the mirror, beside the camera's view of it, a card (the
-//!   paper's "local object", whose reflection a cube map misplaces). Wall
-//!   and card are unlit and their textures hold their own coordinates,
-//!   tagged 1 and 2 (`coordinates_tagged`), so a pixel says which surface
-//!   it shows and where.
+//!   paper's "local object", whose reflection a cube map misplaces); the
+//!   mirror hangs on a wall 8 cm behind its centre (which the mirror must
+//!   not show). The surfaces are unlit and their textures hold their own
+//!   coordinates, tagged 1, 2 and 3 (`coordinates_tagged`), so a pixel
+//!   says which surface it shows and where.
 //! * Reference: the exact view, every pixel's ray reflected off the
 //!   mirror's sphere and traced to the nearest surface
 //!   (`seen_with_mirror`).
@@ -42,6 +43,8 @@ const WALL_Z: f32 = 1.5;
 const WALL_HALF: f32 = 3.5;
 const CARD_AT: Vec3 = Vec3::new(0.45, 0.0, -0.5);
 const CARD_HALF: f32 = 0.2;
+/// The wall the mirror hangs on (its corners lie 6 cm behind its centre).
+const MOUNT_Z: f32 = -1.08;
 
 /// The scene's mirror, drawn by `method`.
 pub fn scene_mirror(method: MirrorMethod, columns: u32, resolution: u32) -> CurvedMirror {
@@ -68,12 +71,13 @@ fn mirror_transform() -> Transform {
 }
 
 /// (centre, rotation, half side, tag) of the wall and the card, both
-/// facing the mirror (−z).
-fn surfaces() -> [(Vec3, Quat, f32, f32); 2] {
+/// facing the mirror (−z), and of the wall the mirror hangs on.
+fn surfaces() -> [(Vec3, Quat, f32, f32); 3] {
     let facing_mirror = Quat::from_rotation_y(std::f32::consts::PI);
     [
         (Vec3::new(0.0, 0.0, WALL_Z), facing_mirror, WALL_HALF, 1.0),
         (CARD_AT, facing_mirror, CARD_HALF, 2.0),
+        (Vec3::new(0.0, 0.0, MOUNT_Z), Quat::IDENTITY, 1.5, 3.0),
     ]
 }
 

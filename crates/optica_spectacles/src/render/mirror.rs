@@ -43,45 +43,57 @@ pub(crate) fn build(app: &mut App) {
         );
 }
 
-/// An environment camera's march inputs, kept between frames.
+/// An environment camera's march inputs, kept between frames; the
+/// vertices are rewritten only when the mirror was retraced.
 #[derive(Component)]
 struct MirrorMarch {
     params: UniformBuffer<LensParams>,
     vertices: StorageBuffer<Vec<LensVertex>>,
     pipeline: CachedComputePipelineId,
     count: u32,
+    traced: Vec<LensVertex>,
 }
 
 fn prepare_mirror_march(
     mut commands: Commands,
-    views: Query<(Entity, &ExtractedView, &MirrorEnvironment)>,
+    mut views: Query<(Entity, &ExtractedView, &MirrorEnvironment, Option<&mut MirrorMarch>)>,
     mut shared: ResMut<RefractionShared>,
     pipeline_cache: Res<PipelineCache>,
     render_device: Res<RenderDevice>,
     render_queue: Res<RenderQueue>,
 ) {
-    for (entity, view, environment) in &views {
+    for (entity, view, environment, march) in &mut views {
         if environment.vertices.is_empty() {
             continue;
         }
         let pipeline = shared.march_pipeline(&pipeline_cache, false);
-        let mut params = UniformBuffer::from(LensParams {
+        let params = LensParams {
             clip_from_view: view.clip_from_view,
             near: view.clip_from_view.w_axis.z,
             vertices: environment.vertices.len() as u32,
             steps: MARCH_STEPS,
             edge: EDGE,
             colours: 1,
-        });
-        params.write_buffer(&render_device, &render_queue);
-        let mut vertices = StorageBuffer::from(environment.vertices.clone());
-        vertices.write_buffer(&render_device, &render_queue);
-        commands.entity(entity).insert(MirrorMarch {
-            params,
-            vertices,
-            pipeline,
-            count: environment.vertices.len() as u32,
-        });
+        };
+        match march {
+            Some(mut m) if m.traced == environment.vertices => {
+                m.params.set(params);
+                m.params.write_buffer(&render_device, &render_queue);
+            }
+            _ => {
+                let mut uniform = UniformBuffer::from(params);
+                uniform.write_buffer(&render_device, &render_queue);
+                let mut vertices = StorageBuffer::from(environment.vertices.clone());
+                vertices.write_buffer(&render_device, &render_queue);
+                commands.entity(entity).insert(MirrorMarch {
+                    params: uniform,
+                    vertices,
+                    pipeline,
+                    count: environment.vertices.len() as u32,
+                    traced: environment.vertices.clone(),
+                });
+            }
+        }
     }
 }
 

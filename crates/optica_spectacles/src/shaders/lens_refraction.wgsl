@@ -84,10 +84,12 @@ fn scene_under(o: vec3<f32>, d: vec3<f32>, t: f32) -> f32 {
     return scene_distance(project(vec4<f32>(o + d * t, 1.0)).xy);
 }
 
-// Whether the ray's point at `t` lies behind the visible surface.
+// Whether the ray's point at `t` lies behind the visible surface. Scene
+// nearer than the ray's origin is not on its path (for a mirror: what lies
+// behind it, between the virtual viewpoint and its surface).
 fn behind(o: vec3<f32>, d: vec3<f32>, t: f32) -> bool {
     let scene = scene_under(o, d, t);
-    return scene > 0.0 && -(o.z + d.z * t) >= scene;
+    return scene > -o.z && -(o.z + d.z * t) >= scene;
 }
 
 @compute @workgroup_size(64)
@@ -113,11 +115,11 @@ fn march(@builtin(global_invocation_id) id: vec3<u32>) {
     var last_seen = -1.0;
     for (var k = 0u; k < params.steps; k++) {
         let scene = scene_under(v.origin, v.dir, t);
-        if scene > 0.0 && -(v.origin.z + v.dir.z * t) >= scene {
+        if scene > -v.origin.z && -(v.origin.z + v.dir.z * t) >= scene {
             hi = t;
             break;
         }
-        if scene > 0.0 {
+        if scene > -v.origin.z {
             last_seen = scene;
         }
         lo = t;

@@ -218,6 +218,18 @@
 //!
 //! The `spectacles` example hangs one on the room's wall (`--mirror
 //! per-vertex|cube-map`; its panel switches the method and the grid).
+//! The environment camera looks from behind the mirror: what stands
+//! between that viewpoint and the mirror and faces it (a two-sided wall
+//! the mirror hangs on, a door mirror's closed housing) hides what the
+//! mirror reflects wherever it lies past the camera's near plane (the
+//! nearest vertex), as it does behind the far side of a mirror seen
+//! obliquely; one-sided surfaces seen from behind are culled and do no
+//! harm, and the march ignores any scene nearer than a ray's start. Turned
+//! 25° on a one-sided wall the mirror stays within 0.3 px (128², quick
+//! report); with the wall two-sided 97 % of its pixels show the wall. An
+//! oblique near plane along the mirror's rim would lift this; it is not
+//! done.
+//!
 //! Left out: several viewers (the trace is for one); the mirror in the
 //! clones' blur (its material is not a `StandardMaterial`, so an eye
 //! camera that draws clones does not show it: the example draws the view

@@ -12,12 +12,11 @@
 //! |---|---|
 //! | `compound_eye` | [`compound_eye`]: a material for insect compound eyes (Sagawa 2014), `CompoundEyePlugin` |
 //! | `dome` | [`dome`]: a fisheye dome camera, equidistant projection per vertex with refinement (Johjima and Fujimura) or a resampled cube map, `DomePlugin` |
+//! | `foveated_lod` | [`foveated_lod`]: gaze-driven level of detail (Mochizuki and Makino): a tracked head, LOD chains switched by the visual field, off-axis CAVE walls, `FoveatedLodPlugin`; the paper's ray tracer is still to come |
 //! | `lens_flare` | [`lens_flare`]: physically based lens flare (Hullin et al. 2011), `LensFlarePlugin`; work in progress (ghosts traced and drawn on the GPU; no starburst, occlusion or blade shape yet) |
 //! | `spectacles` | [`spectacles`]: see through a prescription (Kakimoto et al.): the eye's defocus by clone rendering, corrected through the lens's voxel field, `SpectaclesPlugin` |
 //! | `egui` | settings panels (bevy_egui) of the plugins that are on |
 //! | `window` | opens a real window in the examples (winit + X11); without it, or without a display, they render to PNG |
-//!
-//! The foveated-LOD plugin joins this table when it lands.
 //!
 //! ```
 //! use optica::optics::glass::Glass;
@@ -33,6 +32,8 @@ pub use optica_optics as optics;
 pub use optica_compound_eye as compound_eye;
 #[cfg(feature = "dome")]
 pub use optica_dome as dome;
+#[cfg(feature = "foveated_lod")]
+pub use optica_foveated_lod as foveated_lod;
 #[cfg(feature = "lens_flare")]
 pub use optica_lens_flare as lens_flare;
 #[cfg(feature = "spectacles")]
@@ -49,6 +50,10 @@ pub mod prelude {
     };
     #[cfg(feature = "dome")]
     pub use optica_dome::{DomeCamera, DomePlugin};
+    #[cfg(feature = "foveated_lod")]
+    pub use optica_foveated_lod::{
+        CaveView, FoveatedLodPlugin, Foveation, GazeLod, HeadSource, TrackedHead,
+    };
     #[cfg(feature = "lens_flare")]
     pub use optica_lens_flare::{FlareSource, LensFlare, LensFlarePlugin};
     #[cfg(feature = "spectacles")]

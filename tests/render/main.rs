@@ -6,5 +6,6 @@
 
 mod compound_eye;
 mod dome;
+mod foveated_lod;
 mod lens_flare;
 mod spectacles;

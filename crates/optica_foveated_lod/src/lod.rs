@@ -1,0 +1,454 @@
+//! The mesh path: a chain of simplified meshes built once per mesh
+//! ([`LodChain`]), and each object's level picked from where its bounds lie
+//! in the visual field, switched with hysteresis and dwell ([`GazeLod`]).
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
+use bevy::prelude::*;
+use optica_optics::foveated_lod::{LodHysteresis, lod_for_level, polygon_budget};
+use thiserror::Error;
+
+use crate::head::GazeState;
+use crate::settings::{CheckedFoveation, FieldEyes};
+
+/// Gaze-driven level of detail for this entity's mesh.
+///
+/// When the entity has a `Mesh3d`, the plugin builds, once per mesh and
+/// setting, a chain of simplified copies (meshoptimizer's edge collapse)
+/// with triangle counts N from `min_triangles` to `max_triangles` by eq. 10
+/// of Mochizuki and Makino, N = level (N_max − N_min) + N_min, one per level
+/// step of [`Foveation::steps`](crate::Foveation::steps). Every frame the
+/// gaze or the object moved, it takes the level of the point of the
+/// object's bounding sphere nearest the gaze (so an object is as detailed as
+/// its most central part needs), quantises and holds it
+/// ([`Foveation::dead_band`](crate::Foveation::dead_band),
+/// [`Foveation::min_dwell_s`](crate::Foveation::min_dwell_s)), and swaps the
+/// entity's `Mesh3d` to that level's mesh. Meshes are never rebuilt per
+/// frame. [`GazeLodState`] says what was chosen.
+///
+/// The mesh must be an indexed triangle list with positions; others are
+/// drawn as they are (logged once). Entities sharing a mesh share its chain.
+/// Assign a new mesh by writing `Mesh3d` as usual: the chain follows.
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use optica_foveated_lod::{FoveatedLodPlugin, GazeLod, HeadSource, SimulatedGaze};
+///
+/// fn setup(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>) {
+///     commands.spawn((
+///         Mesh3d(meshes.add(Sphere::new(0.5).mesh().ico(5).unwrap())),
+///         MeshMaterial3d(materials.add(StandardMaterial::default())),
+///         Transform::from_xyz(1.0, 1.6, -3.0),
+///         GazeLod { min_triangles: 200, ..default() },
+///     ));
+///     commands.spawn((Camera3d::default(), Transform::from_xyz(0.0, 1.6, 0.0)));
+/// }
+///
+/// App::new()
+///     .add_plugins((DefaultPlugins, FoveatedLodPlugin))
+///     .insert_resource(HeadSource::Simulated(SimulatedGaze::default()))
+///     .add_systems(Startup, setup)
+///     .run();
+/// ```
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component)]
+#[require(GazeLodState)]
+pub struct GazeLod {
+    /// N_min: the triangles of the coarsest level (the paper: 500).
+    pub min_triangles: u32,
+    /// N_max: the triangles of the finest level; `None`: the mesh's own.
+    pub max_triangles: Option<u32>,
+    /// Hide the object while its level is 0 (outside the visual field: the
+    /// paper draws background there).
+    pub hide_outside_field: bool,
+}
+
+impl Default for GazeLod {
+    fn default() -> Self {
+        Self {
+            min_triangles: 500,
+            max_triangles: None,
+            hide_outside_field: false,
+        }
+    }
+}
+
+/// What [`GazeLod`] chose for an entity (read it; the plugin writes it).
+#[derive(Component, Clone, Debug, Default, Reflect)]
+#[reflect(Component)]
+pub struct GazeLodState {
+    /// The level of the object's most central point this frame, in [0, 1].
+    pub level: f32,
+    /// The held level step k (level k/S).
+    pub step: u32,
+    /// The index into the chain's meshes drawn now.
+    pub lod: usize,
+    /// Its triangle count.
+    pub triangles: usize,
+    /// How many times the step changed.
+    pub switches: u64,
+    /// Hidden because it is outside the visual field.
+    pub hidden: bool,
+    /// The chain, once built.
+    #[reflect(ignore)]
+    pub chain: Option<Arc<LodChain>>,
+    #[reflect(ignore)]
+    hysteresis: Option<LodHysteresis>,
+}
+
+/// Why a mesh has no LOD chain.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum LodError {
+    /// Not a triangle list.
+    #[error("the mesh is not a triangle list")]
+    NotTriangles,
+    /// No index buffer: without shared vertices there is no edge to collapse.
+    #[error("the mesh has no indices (edge collapse needs shared vertices)")]
+    NotIndexed,
+    /// No `Float32x3` positions.
+    #[error("the mesh has no Float32x3 positions")]
+    NoPositions,
+    /// No triangles, or an index past the vertices.
+    #[error("the mesh has no triangles or an index out of range")]
+    Invalid,
+}
+
+/// A mesh's chain of simplifications, coarsest first, and which one each
+/// level step draws.
+#[derive(Debug)]
+pub struct LodChain {
+    /// The source mesh (the finest level when N_max is the mesh's own).
+    pub source: AssetId<Mesh>,
+    /// The meshes, coarsest first.
+    pub meshes: Vec<Handle<Mesh>>,
+    /// Their triangle counts, increasing.
+    pub triangles: Vec<usize>,
+    /// The mesh index of each level step k = 0..=S (eq. 10's budget, then
+    /// the coarsest mesh with at least that many triangles).
+    pub step_lod: Vec<usize>,
+    /// The source mesh's bounding sphere in its own coordinates.
+    pub bounds: (Vec3, f32),
+    /// Time the chain took to build (ms, main thread).
+    pub build_ms: f32,
+}
+
+impl LodChain {
+    /// Builds the chain of `mesh` for N_min, N_max and `steps` level steps.
+    /// `add` stores each simplified mesh (the source itself is kept by
+    /// `source_handle` and not copied).
+    pub fn build(
+        mesh: &Mesh,
+        source_handle: &Handle<Mesh>,
+        lod: &GazeLod,
+        steps: u32,
+        mut add: impl FnMut(Mesh) -> Handle<Mesh>,
+    ) -> Result<Self, LodError> {
+        let start = std::time::Instant::now();
+        if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
+            return Err(LodError::NotTriangles);
+        }
+        let Some(VertexAttributeValues::Float32x3(positions)) =
+            mesh.attribute(Mesh::ATTRIBUTE_POSITION)
+        else {
+            return Err(LodError::NoPositions);
+        };
+        let indices: Vec<u32> = match mesh.indices() {
+            Some(Indices::U32(i)) => i.clone(),
+            Some(Indices::U16(i)) => i.iter().map(|&i| i as u32).collect(),
+            None => return Err(LodError::NotIndexed),
+        };
+        if indices.len() < 3 || indices.iter().any(|&i| i as usize >= positions.len()) {
+            return Err(LodError::Invalid);
+        }
+        let full = indices.len() / 3;
+        let n_max = lod.max_triangles.map_or(full, |n| (n as usize).clamp(1, full));
+        let n_min = (lod.min_triangles as usize).clamp(1, n_max);
+        let s = steps.max(1);
+        // Eq. 10's budget of each step, rounded up: a mesh with at least that
+        // many triangles serves the step.
+        let mut targets: Vec<usize> = (0..=s)
+            .map(|k| polygon_budget(k as f64 / s as f64, n_min, n_max).ceil() as usize)
+            .collect();
+        targets.dedup();
+        let mut meshes = Vec::new();
+        let mut triangles = Vec::new();
+        for &target in &targets {
+            if target >= full {
+                meshes.push(source_handle.clone());
+                triangles.push(full);
+                continue;
+            }
+            // No error limit (1.0 is the mesh's whole extent): the count is
+            // what eq. 10 asks for. The edge collapse stops early where the
+            // topology allows no more collapses; the count it reached is kept.
+            let simplified = meshopt::simplify_decoder(
+                &indices,
+                positions,
+                target * 3,
+                1.0,
+                meshopt::SimplifyOptions::None,
+                None,
+            );
+            let n = simplified.len() / 3;
+            if n == 0 || triangles.last().is_some_and(|&last| n <= last) && n < target {
+                // Collapsed to nothing, or no finer than the previous level.
+                continue;
+            }
+            let mut lod_mesh = mesh.clone();
+            lod_mesh.insert_indices(Indices::U32(simplified));
+            meshes.push(add(lod_mesh));
+            triangles.push(n);
+        }
+        let step_lod = (0..=s)
+            .map(|k| {
+                let level = k as f64 / s as f64;
+                let budget = polygon_budget(level, n_min, n_max).ceil() as usize;
+                // The coarsest mesh with at least the budget; the finest when
+                // simplification fell short of it everywhere.
+                triangles
+                    .iter()
+                    .position(|&n| n >= budget)
+                    .unwrap_or(triangles.len() - 1)
+            })
+            .collect();
+        let (lo, hi) = positions.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(Vec3::from(*p)), hi.max(Vec3::from(*p))),
+        );
+        let centre = (lo + hi) / 2.0;
+        let radius = positions
+            .iter()
+            .map(|p| Vec3::from(*p).distance(centre))
+            .fold(0.0, f32::max);
+        // `lod_for_level` is eq. 10 over the same counts; kept in step with
+        // the choice above by the tests.
+        debug_assert_eq!(
+            lod_for_level(&triangles, 1.0),
+            triangles.len() - 1,
+            "the finest level draws the finest mesh"
+        );
+        Ok(Self {
+            source: source_handle.id(),
+            meshes,
+            triangles,
+            step_lod,
+            bounds: (centre, radius),
+            build_ms: start.elapsed().as_secs_f32() * 1e3,
+        })
+    }
+
+    /// The mesh of level step `k`.
+    pub fn mesh_of_step(&self, k: u32) -> usize {
+        self.step_lod[(k as usize).min(self.step_lod.len() - 1)]
+    }
+}
+
+/// A chain is one per source mesh, N_min, N_max and level steps.
+type ChainKey = (AssetId<Mesh>, u32, Option<u32>, u32);
+
+/// Chains already built, shared by the entities that draw the same mesh.
+#[derive(Resource, Default)]
+pub(crate) struct LodChains {
+    chains: HashMap<ChainKey, Arc<LodChain>>,
+    failed: HashMap<AssetId<Mesh>, LodError>,
+}
+
+/// Builds (or finds) the chain of every [`GazeLod`] entity whose mesh or
+/// setting changed; an entity whose mesh has not loaded yet is retried.
+pub(crate) fn build_chains(
+    mut objects: Query<(Entity, Ref<GazeLod>, Ref<Mesh3d>, &mut GazeLodState)>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut chains: ResMut<LodChains>,
+    settings: Res<CheckedFoveation>,
+    mut work: ResMut<FoveationWork>,
+) {
+    let steps = settings.hysteresis.steps();
+    for (entity, lod, mesh, mut state) in &mut objects {
+        let current = mesh.id();
+        let stale = match &state.chain {
+            None => true,
+            Some(chain) => {
+                lod.is_changed()
+                    || settings.is_changed()
+                    || (mesh.is_changed() && !chain.meshes.iter().any(|m| m.id() == current))
+            }
+        };
+        if !stale {
+            continue;
+        }
+        // The source is the mesh the user set: while a chain's mesh is drawn,
+        // that chain's source.
+        let (source_id, source_handle) = match &state.chain {
+            Some(chain) if chain.meshes.iter().any(|m| m.id() == current) => {
+                let last = chain.meshes.last().expect("a chain has a mesh");
+                (chain.source, chain.meshes.iter().find(|m| m.id() == chain.source).unwrap_or(last).clone())
+            }
+            _ => (current, mesh.0.clone()),
+        };
+        let key = (source_id, lod.min_triangles, lod.max_triangles, steps);
+        if let Some(chain) = chains.chains.get(&key) {
+            state.chain = Some(chain.clone());
+            state.hysteresis = None;
+            continue;
+        }
+        if chains.failed.contains_key(&source_id) {
+            continue;
+        }
+        let Some(source) = meshes.get(source_id).cloned() else {
+            continue; // Not loaded yet.
+        };
+        match LodChain::build(&source, &source_handle, &lod, steps, |m| meshes.add(m)) {
+            Ok(chain) => {
+                debug!(
+                    "foveated LOD: chain of {entity} ({:?} triangles) built in {:.2} ms",
+                    chain.triangles, chain.build_ms
+                );
+                let chain = Arc::new(chain);
+                work.chains_built += 1;
+                chains.chains.insert(key, chain.clone());
+                state.chain = Some(chain);
+                state.hysteresis = None;
+            }
+            Err(e) => {
+                warn!("foveated LOD: {entity}'s mesh gets no LOD chain: {e}; it is drawn as it is");
+                chains.failed.insert(source_id, e);
+            }
+        }
+    }
+}
+
+/// What the plugin's systems did, counted since the app started: read it to
+/// see the per-frame work (and that a still head costs nothing).
+#[derive(Resource, Clone, Debug, Default, PartialEq, Eq, Reflect)]
+#[reflect(Resource)]
+pub struct FoveationWork {
+    /// Frames in which the gaze filter ran.
+    pub gaze_updates: u64,
+    /// Object levels computed (one per object per frame it was revisited).
+    pub levels_computed: u64,
+    /// Mesh swaps (an object's level step changed its mesh).
+    pub mesh_swaps: u64,
+    /// LOD chains built.
+    pub chains_built: u64,
+    /// CAVE cameras re-aimed.
+    pub views_aimed: u64,
+}
+
+/// Whether some object waits for its dwell before it may be made coarser:
+/// then the levels are revisited next frame even if nothing moved.
+#[derive(Resource, Default)]
+pub(crate) struct DwellPending(bool);
+
+/// Picks each object's level and swaps its mesh. Does nothing in a frame
+/// where neither the gaze, the settings, the object nor a pending dwell
+/// asks for it.
+#[allow(clippy::type_complexity)]
+pub(crate) fn select_levels(
+    gaze: Res<GazeState>,
+    settings: Res<CheckedFoveation>,
+    time: Res<Time<Real>>,
+    mut pending: ResMut<DwellPending>,
+    mut work: ResMut<FoveationWork>,
+    mut objects: Query<(
+        Ref<GlobalTransform>,
+        &GazeLod,
+        &mut GazeLodState,
+        &mut Mesh3d,
+        Option<&mut Visibility>,
+    )>,
+) {
+    let everything = gaze.is_changed() || settings.is_changed() || pending.0;
+    let now = time.elapsed_secs_f64();
+    let s = settings.hysteresis.steps();
+    let d = settings.hysteresis.dead_band();
+    let mut still_pending = false;
+    for (transform, lod, mut state, mut mesh, mut visibility) in &mut objects {
+        let fresh = state.hysteresis.is_none();
+        if !(everything || fresh || transform.is_changed() || state.is_changed()) {
+            continue;
+        }
+        let Some(chain) = state.chain.clone() else {
+            continue;
+        };
+        work.levels_computed += 1;
+        let (centre, radius) = chain.bounds;
+        let affine = transform.affine();
+        let world_centre = affine.transform_point3(centre);
+        let m = affine.matrix3;
+        let scale = m.x_axis.length().max(m.y_axis.length()).max(m.z_axis.length());
+        let world_radius = radius * scale;
+        let level = level_of_sphere(&gaze, settings.eyes, world_centre, world_radius);
+        let params = settings.hysteresis;
+        let hysteresis = state.hysteresis.get_or_insert_with(|| LodHysteresis::new(params));
+        let step = hysteresis.update(level, now);
+        let switches = hysteresis.switches();
+        // A coarser target held back by the dwell: look again next frame.
+        let target_below = level <= (step as f64 / s as f64 - d).max(0.0) && step > 0;
+        still_pending |= target_below;
+        let lod_index = chain.mesh_of_step(step);
+        let hide = lod.hide_outside_field && step == 0;
+        let state = state.bypass_change_detection();
+        state.level = level as f32;
+        state.step = step;
+        state.lod = lod_index;
+        state.triangles = chain.triangles[lod_index];
+        state.switches = switches;
+        let handle = &chain.meshes[lod_index];
+        if mesh.0.id() != handle.id() {
+            mesh.0 = handle.clone();
+            work.mesh_swaps += 1;
+        }
+        if hide != state.hidden
+            && let Some(visibility) = visibility.as_mut()
+        {
+            **visibility = if hide { Visibility::Hidden } else { Visibility::Inherited };
+            state.hidden = hide;
+        }
+    }
+    if pending.0 != still_pending {
+        pending.0 = still_pending;
+    }
+}
+
+/// The level of the point of a sphere nearest the gaze, for the eyes the
+/// field model uses (1 when the eye is inside the sphere or no gaze is known).
+pub fn level_of_sphere(gaze: &GazeState, eyes: FieldEyes, centre: Vec3, radius: f32) -> f64 {
+    use crate::head::Eye;
+    let at = |eye: Eye| -> f64 {
+        let estimate = gaze.estimate(eye);
+        let (Some(frame), Some(origin)) = (estimate.frame(), estimate.eye()) else {
+            return 1.0;
+        };
+        let to_centre = centre.as_dvec3() - origin;
+        let dist = to_centre.length();
+        let r = radius.max(0.0) as f64;
+        if dist.is_nan() || dist <= r {
+            return 1.0;
+        }
+        let c = to_centre / dist;
+        let f = frame.forward();
+        let rho = (r / dist).asin();
+        let theta = c.dot(f).clamp(-1.0, 1.0).acos();
+        let dir = if theta <= rho {
+            f
+        } else {
+            // Turn the centre's direction towards the gaze by the sphere's
+            // angular radius (about any axis when the gaze is behind).
+            let axis = c.cross(f);
+            let axis = if axis.length_squared() > 1e-24 {
+                axis.normalize()
+            } else {
+                c.any_orthonormal_vector()
+            };
+            optica_optics::glam::DQuat::from_axis_angle(axis, rho) * c
+        };
+        gaze.level(eye, dir)
+    };
+    let level = match eyes {
+        FieldEyes::Cyclopean => at(Eye::Cyclopean),
+        FieldEyes::PerEye => at(Eye::Left).max(at(Eye::Right)),
+    };
+    if level.is_finite() { level } else { 1.0 }
+}

@@ -1,0 +1,166 @@
+//! The tracked head: recorded traces (CSV), the OpenXR mapping, dropouts
+//! and NaN, and no per-frame work without a consumer.
+
+use bevy::prelude::*;
+use optica_foveated_lod::{
+    Eye, FoveationWork, GazeLod, GazeLodState, GazeState, HeadReplay, HeadSource, HeadTrace,
+    TrackedHead, TraceError,
+};
+use optica_optics::foveated_lod::GazeEstimate;
+
+use super::{FPS, cpu_app, set_gaze_yaw};
+
+const HEADER: &str = "t,head_x,head_y,head_z,qx,qy,qz,qw,gaze_x,gaze_y,gaze_z\n";
+
+#[test]
+fn traces_round_trip_and_bad_files_are_errors() {
+    let mut a = TrackedHead::looking(Vec3::new(0.1, 1.5, 0.2), Quat::from_rotation_y(0.3), Some(Vec3::new(0.2, -0.1, -1.0)), 0.06);
+    a.timestamp_s = 0.0;
+    let mut b = a.clone();
+    b.timestamp_s = 0.25;
+    b.eye_gaze = Some([Vec3::new(0.1, 0.0, -1.0), Vec3::new(-0.1, 0.0, -1.0)]);
+    b.valid = false;
+    let trace = HeadTrace::new(vec![a.clone(), b.clone()]).unwrap();
+    let mut csv = Vec::new();
+    trace.to_csv(&mut csv).unwrap();
+    let back = HeadTrace::from_csv(csv.as_slice()).unwrap();
+    assert_eq!(back.len(), 2);
+    for (x, y) in back.samples().iter().zip(trace.samples()) {
+        assert!(x.eyes[0].distance(y.eyes[0]) < 1e-6 && x.eyes[1].distance(y.eyes[1]) < 1e-6);
+        assert!(x.orientation.angle_between(y.orientation) < 1e-5);
+        assert_eq!((x.gaze, x.eye_gaze, x.valid, x.timestamp_s), (y.gaze, y.eye_gaze, y.valid, y.timestamp_s));
+    }
+    // Playback: the last sample at or before the time, looping.
+    assert_eq!(back.at(0.1, false).unwrap().timestamp_s, 0.0);
+    assert_eq!(back.at(9.0, false).unwrap().timestamp_s, 0.25);
+    assert_eq!(back.at(0.3, true).unwrap().timestamp_s, 0.0);
+    assert!(back.at(-1.0, false).is_none());
+
+    // Malformed files are errors that say where, never panics.
+    let missing_column = "t,head_x,head_y,qx,qy,qz,qw\n0,0,1.6,0,0,0,1\n";
+    let text = format!("{HEADER}0,0,1.6,0,0,0,0,one,0,0,-1\n");
+    let unknown = "t,head_x,head_y,head_z,qx,qy,qz,qw,pupil\n0,0,1.6,0,0,0,0,1,3\n";
+    for bad in [missing_column, text.as_str(), unknown, "", HEADER] {
+        let e = HeadTrace::from_csv(bad.as_bytes()).unwrap_err();
+        eprintln!("{e}");
+        assert!(matches!(e, TraceError::Csv(_) | TraceError::Empty), "{e}");
+    }
+    let backwards = format!("{HEADER}1,0,1.6,0,0,0,0,1,0,0,-1\n0.5,0,1.6,0,0,0,0,1,0,0,-1\n");
+    assert!(matches!(HeadTrace::from_csv(backwards.as_bytes()), Err(TraceError::Time { row: 2, .. })));
+    // A NaN recorded by the tracker is kept: that sample is a dropout.
+    let nan = format!("{HEADER}0,0,1.6,0,0,0,0,1,NaN,0,-1\n");
+    let t = HeadTrace::from_csv(nan.as_bytes()).unwrap();
+    assert!(t.samples()[0].sample(Eye::Cyclopean).frame().is_err());
+}
+
+#[test]
+fn openxr_without_eye_tracking_falls_back_to_the_head() {
+    let head_pose = ([0.0, 1.7, 0.0], Quat::from_rotation_y(0.5).to_array());
+    let gaze_pose = ([0.0, 1.7, 0.0], Quat::from_rotation_x(0.2).to_array());
+    let tracked = TrackedHead::from_openxr(gaze_pose, head_pose, 2_500_000_000, 0.064, true);
+    let untracked = TrackedHead::from_openxr(gaze_pose, head_pose, 2_500_000_000, 0.064, false);
+    assert!((tracked.gaze.unwrap() - Quat::from_rotation_x(0.2) * Vec3::NEG_Z).length() < 1e-6);
+    assert_eq!(untracked.gaze, None);
+    let forward = untracked.gaze_of(Eye::Cyclopean);
+    assert!((forward - Quat::from_rotation_y(0.5) * Vec3::NEG_Z).length() < 1e-6);
+    assert!((untracked.eyes[0].distance(untracked.eyes[1]) - 0.064).abs() < 1e-6);
+    let nan = TrackedHead::from_openxr(gaze_pose, ([0.0; 3], [f32::NAN; 4]), 0, 0.064, true);
+    assert!(!nan.valid);
+}
+
+/// An object 3 m ahead; the gaze 60° to the side gives it a level near 0.6.
+fn spawn_object(app: &mut App) -> Entity {
+    let mesh = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Sphere::new(0.5).mesh().ico(3).unwrap());
+    app.world_mut()
+        .spawn((Mesh3d(mesh), Transform::from_xyz(0.0, 1.6, -3.0).with_scale(Vec3::splat(0.1)), GazeLod::default()))
+        .id()
+}
+
+fn step(app: &App, e: Entity) -> u32 {
+    app.world().get::<GazeLodState>(e).unwrap().step
+}
+
+/// Dropout, NaN and a zero gaze keep the last valid gaze for the hold
+/// timeout (0.2 s), then the object is drawn at full quality; a valid sample
+/// brings foveation back.
+#[test]
+fn dropouts_hold_then_fall_back_to_full_quality() {
+    let mut app = cpu_app();
+    let e = spawn_object(&mut app);
+    set_gaze_yaw(&mut app, 60.0);
+    for _ in 0..30 {
+        app.update();
+    }
+    let foveated = step(&app, e);
+    assert!(foveated < 8, "step {foveated}");
+    for (what, spoil) in [
+        ("dropout", Box::new(|h: &mut TrackedHead| h.valid = false) as Box<dyn Fn(&mut TrackedHead)>),
+        ("NaN gaze", Box::new(|h: &mut TrackedHead| h.gaze = Some(Vec3::NAN))),
+        ("zero gaze", Box::new(|h: &mut TrackedHead| h.gaze = Some(Vec3::ZERO))),
+        ("NaN eyes", Box::new(|h: &mut TrackedHead| h.eyes = [Vec3::NAN; 2])),
+    ] {
+        // The app writes the head itself from now on.
+        let good = app.world().resource::<TrackedHead>().clone();
+        app.insert_resource(HeadSource::External);
+        let mut bad = good.clone();
+        spoil(&mut bad);
+        app.insert_resource(bad);
+        app.update();
+        eprintln!("{what}: {:?}", app.world().resource::<GazeState>().estimate(Eye::Cyclopean));
+        let frames_held = 1 + (0..60)
+            .take_while(|_| {
+                app.update();
+                matches!(app.world().resource::<GazeState>().estimate(Eye::Cyclopean), GazeEstimate::Held { .. })
+            })
+            .count();
+        // 0.2 s at 60 fps: 12 frames (±1 for the clock's rounding).
+        assert!((11..=13).contains(&frames_held), "{what}: held {frames_held} frames");
+        assert!(app.world().resource::<GazeState>().full_quality(), "{what}");
+        app.update();
+        assert_eq!(step(&app, e), 8, "{what}: full quality after the timeout");
+        let level = app.world().get::<GazeLodState>(e).unwrap().level;
+        assert!(level == 1.0, "{what}: level {level}");
+        app.insert_resource(good);
+        for _ in 0..30 {
+            app.update();
+        }
+        assert_eq!(step(&app, e), foveated, "{what}: foveated again");
+    }
+}
+
+/// Without a `GazeLod` or a `CaveView` nothing runs, however the head moves.
+#[test]
+fn no_consumer_no_work() {
+    let mut app = cpu_app();
+    for i in 0..20 {
+        set_gaze_yaw(&mut app, i as f32);
+        app.update();
+    }
+    assert_ne!(app.world().resource::<TrackedHead>().gaze, None, "the source ran");
+    assert_eq!(*app.world().resource::<FoveationWork>(), FoveationWork::default());
+    assert_eq!(*app.world().resource::<GazeState>(), GazeState::default());
+}
+
+/// A replayed trace drives the levels like a live tracker.
+#[test]
+fn a_replayed_trace_drives_the_levels() {
+    let mut app = cpu_app();
+    let e = spawn_object(&mut app);
+    let sample = |t: f64, yaw_deg: f32| {
+        let mut h = TrackedHead::looking(Vec3::new(0.0, 1.6, 0.0), Quat::IDENTITY, Some(Quat::from_rotation_y(-yaw_deg.to_radians()) * Vec3::NEG_Z), 0.063);
+        h.timestamp_s = t;
+        h
+    };
+    let trace = HeadTrace::new(vec![sample(0.0, 0.0), sample(0.5, 70.0)]).unwrap();
+    app.insert_resource(HeadSource::Replay(HeadReplay { trace, start_s: 0.0, looping: false }));
+    let mut steps = Vec::new();
+    for _ in 0..(FPS as usize) {
+        app.update();
+        steps.push(step(&app, e));
+    }
+    assert_eq!(steps[5], 8);
+    assert!(*steps.last().unwrap() < 8, "{steps:?}");
+}

@@ -9,6 +9,7 @@ pub mod compound_eye;
 pub mod dome;
 pub mod dome_render;
 pub mod foveated_lod;
+pub mod foveated_lod_mesh;
 pub mod lens_flare;
 pub mod lens_flare_render;
 pub mod optics;
@@ -36,7 +37,11 @@ pub type SweepFn = fn(&SweepContext) -> Result<Report, SweepError>;
 pub const SWEEPS: &[(&str, SweepFn)] = &[
     ("optics", |ctx| Ok(optics::run(ctx))),
     ("render", render::run),
-    ("foveated_lod", |ctx| Ok(foveated_lod::run(ctx))),
+    ("foveated_lod", |ctx| {
+        let mut report = foveated_lod::run(ctx);
+        foveated_lod_mesh::mesh_rows(ctx, &mut report)?;
+        Ok(report)
+    }),
     ("compound_eye", compound_eye::run),
     ("lens_flare", |ctx| {
         let mut report = lens_flare::run(ctx);

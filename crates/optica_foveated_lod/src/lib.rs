@@ -56,6 +56,13 @@
 //!     .run();
 //! ```
 //!
+//! ## Settings panel
+//!
+//! With the cargo feature `egui`, `foveation_ui` draws the settings into an
+//! egui `Ui` and `FoveatedLodPanelPlugin` shows them in a window with the
+//! simulated gaze, each object's level and the visual field with the
+//! objects in it.
+//!
 //! ## Real trackers, several machines
 //!
 //! [`TrackedHead`] is plain data: write it from any tracker SDK.
@@ -97,13 +104,21 @@
 //! a mesh flicker. The paper has no quantisation or hysteresis; they are
 //! additions.
 //!
+//! ## Example and report
+//!
+//! The example `foveated_lod` is the paper's setting: a 3 m CAVE (front,
+//! right, floor; `--stereo` for two eyes per wall), eight models of 5,780
+//! triangles, a simulated gaze. The report `optica_report foveated_lod`
+//! measures the mesh path in the paper's four scenes and two gazes: frame
+//! time against full quality in the same run, the image error by
+//! eccentricity band, the triangles drawn.
+//!
 //! ## Not yet
 //!
 //! The paper's own method is a ray tracer with a level per ray (eq. 9 sets
 //! each ray's reflection depth, eq. 10 the mesh it intersects); the GPU ray
-//! tracer, the report's error-against-time sweep and the example scene
-//! come next. The CPU tracer is `optica_optics::foveated_lod::render`
-//! (feature `reference`).
+//! tracer is still to come. The CPU tracer is
+//! `optica_optics::foveated_lod::render` (feature `reference`).
 
 #![warn(missing_docs)]
 
@@ -114,12 +129,16 @@ use bevy::transform::TransformSystems;
 mod cave;
 mod head;
 mod lod;
+#[cfg(feature = "egui")]
+mod panel;
 mod settings;
 mod trace;
 
 pub use cave::{CaveView, OffAxisClip, WallRect, aim};
 pub use head::{Eye, GazeState, HeadReplay, HeadSource, SimulatedGaze, TrackedHead};
 pub use lod::{FoveationWork, GazeLod, GazeLodState, LodChain, LodError, level_of_sphere};
+#[cfg(feature = "egui")]
+pub use panel::{FoveatedLodPanelPlugin, foveation_ui};
 pub use settings::{CheckedFoveation, FieldBoundary, FieldEyes, Foveation};
 pub use trace::{HeadTrace, TraceError};
 

@@ -72,10 +72,17 @@ fn main() {
             }),
             ..default()
         }));
-        setup_app(&mut app, Layout { px: WALL_PX, stereo: args.stereo }, SimulatedGaze {
-            position: EYE,
-            ..default()
-        });
+        setup_app(
+            &mut app,
+            Layout {
+                px: WALL_PX,
+                stereo: args.stereo,
+            },
+            SimulatedGaze {
+                position: EYE,
+                ..default()
+            },
+        );
         #[cfg(feature = "egui")]
         app.add_plugins((
             bevy_egui::EguiPlugin::default(),
@@ -86,7 +93,11 @@ fn main() {
         let dir = args.out.unwrap_or_else(|| "target/optica".into());
         let _ = std::fs::create_dir_all(&dir);
         let px = HEADLESS_WALL_PX;
-        for (name, yaw, pitch) in [("front", 0.0, 0.0), ("floor", 0.0, -60.0), ("right", 70.0, 0.0)] {
+        for (name, yaw, pitch) in [
+            ("front", 0.0, 0.0),
+            ("floor", 0.0, -60.0),
+            ("right", 70.0, 0.0),
+        ] {
             let gaze = SimulatedGaze {
                 position: EYE,
                 gaze_yaw_deg: yaw,
@@ -98,7 +109,14 @@ fn main() {
                 .adapter(optica_harness::Adapter::Auto)
                 .frames(4)
                 .render(|app| {
-                    setup_app(app, Layout { px, stereo: args.stereo }, gaze.clone());
+                    setup_app(
+                        app,
+                        Layout {
+                            px,
+                            stereo: args.stereo,
+                        },
+                        gaze.clone(),
+                    );
                     app.add_systems(Last, report_levels);
                 })
                 .unwrap_or_else(|e| {
@@ -160,7 +178,11 @@ fn spawn_cave(
         Vec3::new(0.6, 0.25, 0.5),
     ];
     for (i, p) in places.into_iter().enumerate() {
-        let (kind, material) = if i % 2 == 0 { ("mirror", &mirror) } else { ("diffuse", &diffuse) };
+        let (kind, material) = if i % 2 == 0 {
+            ("mirror", &mirror)
+        } else {
+            ("diffuse", &diffuse)
+        };
         commands.spawn((
             Name::new(format!("{kind} {}", i + 1)),
             Mesh3d(model.clone()),
@@ -191,7 +213,11 @@ fn spawn_cave(
         Transform::from_xyz(0.0, 0.001, 0.0),
     ));
     let walls = WallRect::front_right_floor(CAVE_M).expect("a 3 m CAVE");
-    let eyes: &[Eye] = if layout.stereo { &[Eye::Left, Eye::Right] } else { &[Eye::Cyclopean] };
+    let eyes: &[Eye] = if layout.stereo {
+        &[Eye::Left, Eye::Right]
+    } else {
+        &[Eye::Cyclopean]
+    };
     for (i, wall) in walls.into_iter().enumerate() {
         for (k, &eye) in eyes.iter().enumerate() {
             let mut camera = Camera {
@@ -210,7 +236,12 @@ fn spawn_cave(
             } else {
                 // The right eye's images would go to their own projectors;
                 // here each goes to an image of its own, not shown.
-                let target = Image::new_target_texture(layout.px, layout.px, TextureFormat::Rgba8UnormSrgb, None);
+                let target = Image::new_target_texture(
+                    layout.px,
+                    layout.px,
+                    TextureFormat::Rgba8UnormSrgb,
+                    None,
+                );
                 let target = RenderTarget::Image(images.add(target).into());
                 commands.spawn((name, CaveView::new(wall, eye), camera, target));
             }
@@ -219,13 +250,19 @@ fn spawn_cave(
 }
 
 /// Prints each model's level once it settled (headless runs).
-fn report_levels(frames: Res<bevy::diagnostic::FrameCount>, objects: Query<(&Name, &GazeLodState)>) {
+fn report_levels(
+    frames: Res<bevy::diagnostic::FrameCount>,
+    objects: Query<(&Name, &GazeLodState)>,
+) {
     if frames.0 != 3 {
         return;
     }
     let mut rows: Vec<_> = objects.iter().collect();
     rows.sort_by_key(|(n, _)| n.to_string());
     for (name, s) in rows {
-        println!("  {name}: level {:.2}, step {}, {} triangles", s.level, s.step, s.triangles);
+        println!(
+            "  {name}: level {:.2}, step {}, {} triangles",
+            s.level, s.step, s.triangles
+        );
     }
 }

@@ -45,8 +45,7 @@ impl WallRect {
 
     /// Width over height, the aspect its camera's target should have.
     pub fn aspect(&self) -> f32 {
-        (self.lower_right - self.lower_left).length()
-            / (self.upper_left - self.lower_left).length()
+        (self.lower_right - self.lower_left).length() / (self.upper_left - self.lower_left).length()
     }
 }
 
@@ -160,11 +159,7 @@ pub fn aim(view: &CaveView, eye: Vec3) -> Result<(Transform, OffAxisClip), Fovea
     }
     let near = view.near as f64;
     let p = wall.off_axis(e, near, f64::INFINITY, DepthConvention::ReverseInfinite)?;
-    let rotation = Quat::from_mat3(&Mat3::from_cols(
-        vr.as_vec3(),
-        vu.as_vec3(),
-        vn.as_vec3(),
-    ));
+    let rotation = Quat::from_mat3(&Mat3::from_cols(vr.as_vec3(), vu.as_vec3(), vn.as_vec3()));
     let [l, r, b, t] = p.extents;
     Ok((
         Transform {

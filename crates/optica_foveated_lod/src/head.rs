@@ -267,9 +267,8 @@ pub(crate) struct GazeFilters {
 impl GazeFilters {
     fn new(timeout_s: f32) -> Self {
         // CheckedFoveation keeps the timeout finite and ≥ 0.
-        let t = GazeTracker::new(timeout_s as f64).unwrap_or_else(|_| {
-            GazeTracker::new(0.0).expect("a zero timeout is valid")
-        });
+        let t = GazeTracker::new(timeout_s as f64)
+            .unwrap_or_else(|_| GazeTracker::new(0.0).expect("a zero timeout is valid"));
         Self {
             trackers: [t.clone(), t.clone(), t],
             timeout_s,
@@ -398,8 +397,12 @@ impl SimulatedGaze {
             self.gaze_pitch_deg.to_radians(),
             0.0,
         ) * Vec3::NEG_Z;
-        let mut head =
-            TrackedHead::looking(self.position, orientation, Some(orientation * local), self.ipd);
+        let mut head = TrackedHead::looking(
+            self.position,
+            orientation,
+            Some(orientation * local),
+            self.ipd,
+        );
         head.valid = !self.dropped;
         head
     }
@@ -455,8 +458,8 @@ fn steer(sim: &mut SimulatedGaze, keys: &ButtonInput<KeyCode>, dt: f32) {
     };
     sim.gaze_yaw_deg = (sim.gaze_yaw_deg + turn * axis(KeyCode::ArrowLeft, KeyCode::ArrowRight))
         .clamp(-90.0, 90.0);
-    sim.gaze_pitch_deg = (sim.gaze_pitch_deg + turn * axis(KeyCode::ArrowDown, KeyCode::ArrowUp))
-        .clamp(-80.0, 80.0);
+    sim.gaze_pitch_deg =
+        (sim.gaze_pitch_deg + turn * axis(KeyCode::ArrowDown, KeyCode::ArrowUp)).clamp(-80.0, 80.0);
     let step = sim.speed / 60.0 * dt;
     let forward = Quat::from_rotation_y(sim.head_yaw_deg.to_radians()) * Vec3::NEG_Z;
     let right = forward.cross(Vec3::Y);

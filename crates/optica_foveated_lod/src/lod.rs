@@ -163,7 +163,9 @@ impl LodChain {
             return Err(LodError::Invalid);
         }
         let full = indices.len() / 3;
-        let n_max = lod.max_triangles.map_or(full, |n| (n as usize).clamp(1, full));
+        let n_max = lod
+            .max_triangles
+            .map_or(full, |n| (n as usize).clamp(1, full));
         let n_min = (lod.min_triangles as usize).clamp(1, n_max);
         let s = steps.max(1);
         // Eq. 10's budget of each step, rounded up: a mesh with at least that
@@ -283,7 +285,15 @@ pub(crate) fn build_chains(
         let (source_id, source_handle) = match &state.chain {
             Some(chain) if chain.meshes.iter().any(|m| m.id() == current) => {
                 let last = chain.meshes.last().expect("a chain has a mesh");
-                (chain.source, chain.meshes.iter().find(|m| m.id() == chain.source).unwrap_or(last).clone())
+                (
+                    chain.source,
+                    chain
+                        .meshes
+                        .iter()
+                        .find(|m| m.id() == chain.source)
+                        .unwrap_or(last)
+                        .clone(),
+                )
             }
             _ => (current, mesh.0.clone()),
         };
@@ -341,9 +351,39 @@ pub struct FoveationWork {
 #[derive(Resource, Default)]
 pub(crate) struct DwellPending(bool);
 
-/// Picks each object's level and swaps its mesh. Does nothing in a frame
-/// where neither the gaze, the settings, the object nor a pending dwell
-/// asks for it.
+/// Whether the mesh path foveates now, and what it would save.
+///
+/// Coarser meshes pay only when they take away enough triangles: a few
+/// percent saves nothing measurable, and distinct meshes break Bevy's
+/// batching of entities that share one. So the plugin sums, over every
+/// [`GazeLod`] object, the triangles its level would draw (0 when hidden)
+/// against its full mesh, and draws the level meshes only while that saves
+/// at least [`Foveation::min_saving`](crate::Foveation::min_saving) of the
+/// triangles; else every object draws its full mesh, exactly as without
+/// foveation. To keep it from flickering, it stops foveating only once the
+/// saving falls below half the threshold.
+#[derive(Resource, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Resource)]
+pub struct FoveationGate {
+    /// The level meshes are drawn.
+    pub active: bool,
+    /// The fraction of the triangles the levels would save, in [0, 1].
+    pub saving: f32,
+}
+
+impl Default for FoveationGate {
+    fn default() -> Self {
+        Self {
+            active: true,
+            saving: 0.0,
+        }
+    }
+}
+
+/// Picks each object's level, decides whether foveating pays
+/// ([`FoveationGate`]) and swaps the meshes. Does nothing in a frame where
+/// neither the gaze, the settings, the object nor a pending dwell asks for
+/// it.
 #[allow(clippy::type_complexity)]
 pub(crate) fn select_levels(
     gaze: Res<GazeState>,
@@ -351,6 +391,7 @@ pub(crate) fn select_levels(
     time: Res<Time<Real>>,
     mut pending: ResMut<DwellPending>,
     mut work: ResMut<FoveationWork>,
+    mut gate: ResMut<FoveationGate>,
     mut objects: Query<(
         Ref<GlobalTransform>,
         &GazeLod,
@@ -364,7 +405,8 @@ pub(crate) fn select_levels(
     let s = settings.hysteresis.steps();
     let d = settings.hysteresis.dead_band();
     let mut still_pending = false;
-    for (transform, lod, mut state, mut mesh, mut visibility) in &mut objects {
+    let mut updated = false;
+    for (transform, _, mut state, _, _) in &mut objects {
         let fresh = state.hysteresis.is_none();
         if !(everything || fresh || transform.is_changed() || state.is_changed()) {
             continue;
@@ -373,28 +415,76 @@ pub(crate) fn select_levels(
             continue;
         };
         work.levels_computed += 1;
+        updated = true;
         let (centre, radius) = chain.bounds;
         let affine = transform.affine();
         let world_centre = affine.transform_point3(centre);
         let m = affine.matrix3;
-        let scale = m.x_axis.length().max(m.y_axis.length()).max(m.z_axis.length());
+        let scale = m
+            .x_axis
+            .length()
+            .max(m.y_axis.length())
+            .max(m.z_axis.length());
         let world_radius = radius * scale;
         let level = level_of_sphere(&gaze, settings.eyes, world_centre, world_radius);
         let params = settings.hysteresis;
-        let hysteresis = state.hysteresis.get_or_insert_with(|| LodHysteresis::new(params));
+        let hysteresis = state
+            .hysteresis
+            .get_or_insert_with(|| LodHysteresis::new(params));
         let step = hysteresis.update(level, now);
         let switches = hysteresis.switches();
         // A coarser target held back by the dwell: look again next frame.
         let target_below = level <= (step as f64 / s as f64 - d).max(0.0) && step > 0;
         still_pending |= target_below;
-        let lod_index = chain.mesh_of_step(step);
-        let hide = lod.hide_outside_field && step == 0;
         let state = state.bypass_change_detection();
         state.level = level as f32;
         state.step = step;
+        state.switches = switches;
+    }
+    if pending.0 != still_pending {
+        pending.0 = still_pending;
+    }
+    if !updated {
+        return;
+    }
+    // What the levels would draw, against the full meshes.
+    let (mut chosen, mut full) = (0usize, 0usize);
+    for (_, lod, state, _, _) in &objects {
+        if let Some(chain) = &state.chain {
+            let hidden = lod.hide_outside_field && state.step == 0;
+            if !hidden {
+                chosen += chain.triangles[chain.mesh_of_step(state.step)];
+            }
+            full += chain.triangles[chain.triangles.len() - 1];
+        }
+    }
+    let saving = if full > 0 {
+        1.0 - chosen as f32 / full as f32
+    } else {
+        0.0
+    };
+    let threshold = settings.min_saving;
+    let active = if gate.active {
+        saving >= threshold / 2.0
+    } else {
+        saving >= threshold
+    };
+    gate.set_if_neq(FoveationGate { active, saving });
+    for (_, lod, mut state, mut mesh, mut visibility) in &mut objects {
+        let Some(chain) = state.chain.clone() else {
+            continue;
+        };
+        let (lod_index, hide) = if active {
+            (
+                chain.mesh_of_step(state.step),
+                lod.hide_outside_field && state.step == 0,
+            )
+        } else {
+            (chain.meshes.len() - 1, false)
+        };
+        let state = state.bypass_change_detection();
         state.lod = lod_index;
         state.triangles = chain.triangles[lod_index];
-        state.switches = switches;
         let handle = &chain.meshes[lod_index];
         if mesh.0.id() != handle.id() {
             mesh.0 = handle.clone();
@@ -403,12 +493,13 @@ pub(crate) fn select_levels(
         if hide != state.hidden
             && let Some(visibility) = visibility.as_mut()
         {
-            **visibility = if hide { Visibility::Hidden } else { Visibility::Inherited };
+            **visibility = if hide {
+                Visibility::Hidden
+            } else {
+                Visibility::Inherited
+            };
             state.hidden = hide;
         }
-    }
-    if pending.0 != still_pending {
-        pending.0 = still_pending;
     }
 }
 

@@ -20,7 +20,8 @@ use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 use optica_optics::foveated_lod::FieldAngles;
 
 use crate::{
-    Eye, FieldBoundary, FieldEyes, Foveation, FoveationWork, GazeLodState, GazeState, HeadSource,
+    Eye, FieldBoundary, FieldEyes, Foveation, FoveationGate, FoveationWork, GazeLodState,
+    GazeState, HeadSource,
 };
 
 /// Shows a "Foveated LOD" window: [`foveation_ui`], the simulated gaze (when
@@ -37,9 +38,11 @@ impl Plugin for FoveatedLodPanelPlugin {
 /// Draws every setting of [`Foveation`]; true when one changed.
 pub fn foveation_ui(ui: &mut egui::Ui, f: &mut Foveation) -> bool {
     let mut changed = ui.checkbox(&mut f.enabled, "foveation on").changed();
-    let deg = |ui: &mut egui::Ui, v: &mut f32, range: std::ops::RangeInclusive<f32>, label: &str| {
-        ui.add(egui::Slider::new(v, range).suffix("°").text(label)).changed()
-    };
+    let deg =
+        |ui: &mut egui::Ui, v: &mut f32, range: std::ops::RangeInclusive<f32>, label: &str| {
+            ui.add(egui::Slider::new(v, range).suffix("°").text(label))
+                .changed()
+        };
     changed |= deg(ui, &mut f.central_deg, 1.0..=90.0, "central field");
     let c = f.central_deg;
     changed |= deg(ui, &mut f.ear_deg, c..=180.0, "ear side");
@@ -47,19 +50,46 @@ pub fn foveation_ui(ui: &mut egui::Ui, f: &mut Foveation) -> bool {
     changed |= deg(ui, &mut f.upper_deg, c..=180.0, "up");
     changed |= deg(ui, &mut f.lower_deg, c..=180.0, "down");
     ui.horizontal(|ui| {
-        changed |= ui.radio_value(&mut f.eyes, FieldEyes::Cyclopean, "one eye (paper)").changed();
-        changed |= ui.radio_value(&mut f.eyes, FieldEyes::PerEye, "per eye").changed();
+        changed |= ui
+            .radio_value(&mut f.eyes, FieldEyes::Cyclopean, "one eye (paper)")
+            .changed();
+        changed |= ui
+            .radio_value(&mut f.eyes, FieldEyes::PerEye, "per eye")
+            .changed();
     });
     ui.horizontal(|ui| {
-        changed |= ui.radio_value(&mut f.boundary, FieldBoundary::PaperEq7, "eq. 7").changed();
-        changed |= ui.radio_value(&mut f.boundary, FieldBoundary::TrueEllipse, "ellipse").changed();
+        changed |= ui
+            .radio_value(&mut f.boundary, FieldBoundary::PaperEq7, "eq. 7")
+            .changed();
+        changed |= ui
+            .radio_value(&mut f.boundary, FieldBoundary::TrueEllipse, "ellipse")
+            .changed();
     });
-    changed |= ui.add(egui::Slider::new(&mut f.steps, 1..=32).text("level steps")).changed();
+    changed |= ui
+        .add(egui::Slider::new(&mut f.steps, 1..=32).text("level steps"))
+        .changed();
     let max_band = (1.0 / f.steps as f32) * 0.99;
     f.dead_band = f.dead_band.min(max_band);
-    changed |= ui.add(egui::Slider::new(&mut f.dead_band, 0.0..=max_band).text("dead band")).changed();
-    changed |= ui.add(egui::Slider::new(&mut f.min_dwell_s, 0.0..=2.0).suffix(" s").text("dwell")).changed();
-    changed |= ui.add(egui::Slider::new(&mut f.hold_timeout_s, 0.0..=2.0).suffix(" s").text("dropout hold")).changed();
+    changed |= ui
+        .add(egui::Slider::new(&mut f.dead_band, 0.0..=max_band).text("dead band"))
+        .changed();
+    changed |= ui
+        .add(
+            egui::Slider::new(&mut f.min_dwell_s, 0.0..=2.0)
+                .suffix(" s")
+                .text("dwell"),
+        )
+        .changed();
+    changed |= ui
+        .add(egui::Slider::new(&mut f.min_saving, 0.0..=1.0).text("foveate when saving ≥"))
+        .changed();
+    changed |= ui
+        .add(
+            egui::Slider::new(&mut f.hold_timeout_s, 0.0..=2.0)
+                .suffix(" s")
+                .text("dropout hold"),
+        )
+        .changed();
     changed
 }
 
@@ -69,6 +99,7 @@ fn panel_window(
     mut source: ResMut<HeadSource>,
     gaze: Res<GazeState>,
     work: Res<FoveationWork>,
+    gate: Res<FoveationGate>,
     objects: Query<(Entity, Option<&Name>, &GazeLodState, &GlobalTransform)>,
 ) -> Result {
     egui::Window::new("Foveated LOD").show(contexts.ctx_mut()?, |ui| {
@@ -79,13 +110,34 @@ fn panel_window(
         if let HeadSource::Simulated(sim) = source.as_mut() {
             ui.separator();
             ui.label("simulated gaze (arrow keys)");
-            ui.add(egui::Slider::new(&mut sim.gaze_yaw_deg, -90.0..=90.0).suffix("°").text("yaw"));
-            ui.add(egui::Slider::new(&mut sim.gaze_pitch_deg, -80.0..=80.0).suffix("°").text("pitch"));
+            ui.add(
+                egui::Slider::new(&mut sim.gaze_yaw_deg, -90.0..=90.0)
+                    .suffix("°")
+                    .text("yaw"),
+            );
+            ui.add(
+                egui::Slider::new(&mut sim.gaze_pitch_deg, -80.0..=80.0)
+                    .suffix("°")
+                    .text("pitch"),
+            );
             ui.checkbox(&mut sim.dropped, "tracker dropout");
         }
         ui.separator();
-        let status = if gaze.full_quality() { "no gaze: full quality" } else { "gaze tracked" };
+        let status = if gaze.full_quality() {
+            "no gaze: full quality"
+        } else {
+            "gaze tracked"
+        };
         ui.label(status);
+        ui.label(format!(
+            "levels would save {:.0} % of the triangles: {}",
+            100.0 * gate.saving,
+            if gate.active {
+                "foveating"
+            } else {
+                "full meshes (too little to gain)"
+            }
+        ));
         field_diagram(ui, &foveation, &gaze, &objects);
         ui.separator();
         egui::Grid::new("objects").striped(true).show(ui, |ui| {
@@ -97,7 +149,11 @@ fn panel_window(
             for (e, name, s, _) in &objects {
                 ui.label(name.map_or_else(|| e.to_string(), |n| n.to_string()));
                 ui.label(format!("{:.2}", s.level));
-                ui.label(if s.hidden { format!("{} (hidden)", s.step) } else { s.step.to_string() });
+                ui.label(if s.hidden {
+                    format!("{} (hidden)", s.step)
+                } else {
+                    s.step.to_string()
+                });
                 ui.label(s.triangles.to_string());
                 ui.end_row();
             }
@@ -133,7 +189,12 @@ fn field_diagram(
             rect.center().y - b_deg as f32 * scale,
         )
     };
-    painter.rect_stroke(rect, 0.0, egui::Stroke::new(1.0, egui::Color32::GRAY), egui::StrokeKind::Inside);
+    painter.rect_stroke(
+        rect,
+        0.0,
+        egui::Stroke::new(1.0, egui::Color32::GRAY),
+        egui::StrokeKind::Inside,
+    );
     let curve = |radius: &dyn Fn(f64) -> f64| -> Vec<egui::Pos2> {
         (0..=240)
             .map(|i| {
@@ -144,9 +205,17 @@ fn field_diagram(
             .collect()
     };
     let central = field.extents().central;
-    painter.add(egui::Shape::line(curve(&|_| central), egui::Stroke::new(1.5, egui::Color32::LIGHT_GREEN)));
     painter.add(egui::Shape::line(
-        curve(&|phi| field.boundary(FieldAngles { m_alpha: phi.cos(), m_beta: phi.sin() })),
+        curve(&|_| central),
+        egui::Stroke::new(1.5, egui::Color32::LIGHT_GREEN),
+    ));
+    painter.add(egui::Shape::line(
+        curve(&|phi| {
+            field.boundary(FieldAngles {
+                m_alpha: phi.cos(),
+                m_beta: phi.sin(),
+            })
+        }),
         egui::Stroke::new(1.5, egui::Color32::YELLOW),
     ));
     let Some(frame) = gaze.frame(Eye::Cyclopean) else {
@@ -156,7 +225,12 @@ fn field_diagram(
         let local = frame.to_local(transform.translation().as_dvec3() - frame.eye());
         let a = field.angles(local);
         let level = state.level.clamp(0.0, 1.0);
-        let colour = egui::Color32::from_rgb((255.0 * (1.0 - level)) as u8, (255.0 * level) as u8, 80);
-        painter.circle_filled(to_screen(a.m_alpha.to_degrees(), a.m_beta.to_degrees()), 3.5, colour);
+        let colour =
+            egui::Color32::from_rgb((255.0 * (1.0 - level)) as u8, (255.0 * level) as u8, 80);
+        painter.circle_filled(
+            to_screen(a.m_alpha.to_degrees(), a.m_beta.to_degrees()),
+            3.5,
+            colour,
+        );
     }
 }

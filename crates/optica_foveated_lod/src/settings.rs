@@ -38,7 +38,8 @@ pub enum FieldBoundary {
 /// The defaults are the paper's field (central 30°, 100° to the ear side,
 /// 60° up, 70° down), eight level steps with a dead band of 0.05 and a
 /// quarter-second dwell before detail is taken away, and a gaze held for
-/// 0.2 s through a tracker dropout. Invalid settings (an extent outside
+/// 0.2 s through a tracker dropout; the mesh path foveates while that saves
+/// at least a fifth of the triangles. Invalid settings (an extent outside
 /// `central..=180°`, a dead band of a whole step) are logged once and the
 /// defaults used instead.
 #[derive(Resource, Clone, Debug, PartialEq, Reflect)]
@@ -71,6 +72,10 @@ pub struct Foveation {
     /// How long the last valid gaze is kept through a tracker dropout
     /// before everything is drawn at full quality (s).
     pub hold_timeout_s: f32,
+    /// The mesh path draws coarser meshes only while they save at least
+    /// this fraction of the [`GazeLod`](crate::GazeLod) objects' triangles
+    /// (see [`FoveationGate`](crate::FoveationGate)); 0 always foveates.
+    pub min_saving: f32,
 }
 
 impl Default for Foveation {
@@ -90,6 +95,7 @@ impl Default for Foveation {
             dead_band: h.dead_band() as f32,
             min_dwell_s: h.min_dwell_s() as f32,
             hold_timeout_s: 0.2,
+            min_saving: 0.2,
         }
     }
 }
@@ -107,6 +113,8 @@ pub struct CheckedFoveation {
     pub hysteresis: HysteresisParams,
     /// The dropout hold (s), finite and ≥ 0.
     pub hold_timeout_s: f32,
+    /// The mesh path's saving threshold, in [0, 1].
+    pub min_saving: f32,
 }
 
 impl Default for CheckedFoveation {
@@ -139,13 +147,25 @@ impl Foveation {
             FieldBoundary::TrueEllipse => BoundaryShape::TrueEllipse,
         };
         let field = |eye| VisualField::new(extents, eye_model(self.eyes, eye), boundary);
-        let fields = [field(Eye::Left)?, field(Eye::Right)?, field(Eye::Cyclopean)?];
+        let fields = [
+            field(Eye::Left)?,
+            field(Eye::Right)?,
+            field(Eye::Cyclopean)?,
+        ];
         let hysteresis =
             HysteresisParams::new(self.steps, self.dead_band as f64, self.min_dwell_s as f64)?;
-        let hold_timeout_s =
-            optica_optics::input::non_negative("gaze hold timeout (s)", self.hold_timeout_s as f64)?
-                as f32;
+        let hold_timeout_s = optica_optics::input::non_negative(
+            "gaze hold timeout (s)",
+            self.hold_timeout_s as f64,
+        )? as f32;
+        let min_saving = optica_optics::input::in_range(
+            "minimum triangle saving",
+            self.min_saving as f64,
+            0.0,
+            1.0,
+        )? as f32;
         Ok(CheckedFoveation {
+            min_saving,
             enabled: self.enabled,
             eyes: self.eyes,
             fields,

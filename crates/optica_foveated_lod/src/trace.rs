@@ -108,7 +108,11 @@ impl Row {
         // No normalisation here: a NaN stays NaN and makes the sample a
         // dropout downstream; a non-unit quaternion is normalised.
         let q = Quat::from_xyzw(self.qx, self.qy, self.qz, self.qw);
-        let q = if q.length_squared() > 0.0 { q.normalize() } else { q };
+        let q = if q.length_squared() > 0.0 {
+            q.normalize()
+        } else {
+            q
+        };
         let gaze = vec3(self.gaze_x, self.gaze_y, self.gaze_z);
         let centre = Vec3::new(self.head_x, self.head_y, self.head_z);
         let mut head = TrackedHead::looking(centre, q, gaze, self.ipd.unwrap_or(DEFAULT_IPD));
@@ -176,7 +180,9 @@ impl HeadTrace {
 
     /// Reads a trace in the CSV format above.
     pub fn from_csv(reader: impl std::io::Read) -> Result<Self, TraceError> {
-        let mut csv = csv::ReaderBuilder::new().trim(csv::Trim::All).from_reader(reader);
+        let mut csv = csv::ReaderBuilder::new()
+            .trim(csv::Trim::All)
+            .from_reader(reader);
         let samples = csv
             .deserialize::<Row>()
             .map(|row| row.map(|r| r.head()))

@@ -4,7 +4,9 @@
 
 use bevy::camera::ClearColorConfig;
 use bevy::prelude::*;
-use optica_foveated_lod::{CaveView, Eye, FoveatedLodPlugin, HeadSource, OffAxisClip, TrackedHead, WallRect, aim};
+use optica_foveated_lod::{
+    CaveView, Eye, FoveatedLodPlugin, HeadSource, OffAxisClip, TrackedHead, WallRect, aim,
+};
 use optica_harness::Headless;
 use optica_optics::foveated_lod::DepthConvention;
 
@@ -107,7 +109,10 @@ fn off_axis_cameras_match_the_twin_and_stay_finite() {
             let (t, clip) = aim(&view, eye).unwrap();
             assert!(t.translation.is_finite() && t.rotation.is_finite());
             assert!(clip.clip_from_view.is_finite(), "{eye:?}");
-            let d = wall.wall().unwrap().signed_distance(t.translation.as_dvec3());
+            let d = wall
+                .wall()
+                .unwrap()
+                .signed_distance(t.translation.as_dvec3());
             assert!(d >= 0.0099, "eye {eye:?}: {d} m in front");
         }
     }

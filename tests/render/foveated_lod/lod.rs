@@ -5,7 +5,9 @@
 use std::sync::Arc;
 
 use bevy::prelude::*;
-use optica_foveated_lod::{Foveation, FoveationWork, GazeLod, GazeLodState, LodChain};
+use optica_foveated_lod::{
+    Foveation, FoveationGate, FoveationWork, GazeLod, GazeLodState, LodChain,
+};
 use optica_optics::foveated_lod::{lod_for_level, polygon_budget};
 
 use super::{FPS, cpu_app, set_gaze_yaw};
@@ -23,7 +25,8 @@ fn spawn(app: &mut App, n: usize, lod: GazeLod) -> Vec<Entity> {
             app.world_mut()
                 .spawn((
                     Mesh3d(mesh.clone()),
-                    Transform::from_xyz(0.0, 1.6 + 0.01 * i as f32, -3.0).with_scale(Vec3::splat(0.1)),
+                    Transform::from_xyz(0.0, 1.6 + 0.01 * i as f32, -3.0)
+                        .with_scale(Vec3::splat(0.1)),
                     lod.clone(),
                     Visibility::default(),
                 ))
@@ -51,14 +54,27 @@ fn chains_follow_eq10_and_are_built_once() {
     for _ in 0..5 {
         app.update();
     }
-    let chains: Vec<Arc<LodChain>> = objects.iter().map(|&e| state(&app, e).chain.expect("built")).collect();
-    assert!(chains.iter().all(|c| Arc::ptr_eq(c, &chains[0])), "one chain for a shared mesh");
+    let chains: Vec<Arc<LodChain>> = objects
+        .iter()
+        .map(|&e| state(&app, e).chain.expect("built"))
+        .collect();
+    assert!(
+        chains.iter().all(|c| Arc::ptr_eq(c, &chains[0])),
+        "one chain for a shared mesh"
+    );
     let chain = &chains[0];
-    eprintln!("chain {:?}, steps {:?}, built in {:.2} ms", chain.triangles, chain.step_lod, chain.build_ms);
+    eprintln!(
+        "chain {:?}, steps {:?}, built in {:.2} ms",
+        chain.triangles, chain.step_lod, chain.build_ms
+    );
     assert_eq!(*chain.triangles.last().unwrap(), 5780);
     assert!(chain.triangles.windows(2).all(|w| w[0] < w[1]));
     // N_min = 500 within meshoptimizer's reach (it stops where no collapse is left).
-    assert!((450..=560).contains(&chain.triangles[0]), "{:?}", chain.triangles);
+    assert!(
+        (450..=560).contains(&chain.triangles[0]),
+        "{:?}",
+        chain.triangles
+    );
     let steps = Foveation::default().steps;
     for k in 0..=steps {
         let level = k as f64 / steps as f64;
@@ -67,7 +83,11 @@ fn chains_follow_eq10_and_are_built_once() {
         // Each step draws the coarsest mesh with at least eq. 10's budget,
         // as the CPU twin chooses.
         assert!(n as f64 >= budget, "step {k}: {n} < {budget}");
-        assert_eq!(chain.mesh_of_step(k), lod_for_level(&chain.triangles, level), "step {k}");
+        assert_eq!(
+            chain.mesh_of_step(k),
+            lod_for_level(&chain.triangles, level),
+            "step {k}"
+        );
     }
     let work = app.world().resource::<FoveationWork>().clone();
     assert_eq!(work.chains_built, 1);
@@ -76,7 +96,11 @@ fn chains_follow_eq10_and_are_built_once() {
         set_gaze_yaw(&mut app, (i * 7 % 120) as f32 - 60.0);
         app.update();
     }
-    assert_eq!(app.world().resource::<FoveationWork>().chains_built, 1, "no rebuild per frame");
+    assert_eq!(
+        app.world().resource::<FoveationWork>().chains_built,
+        1,
+        "no rebuild per frame"
+    );
     assert_eq!(app.world().resource::<Assets<Mesh>>().len(), meshes);
 }
 
@@ -108,7 +132,10 @@ fn hysteresis_and_dwell_stop_thrash_under_an_oscillating_gaze() {
     // Edge 0.75 between steps 5 and 6; dead band 0.05.
     let (inside, levels, _, _) = run(0.72, 0.78);
     eprintln!("jitter ±0.03 around an edge: {inside} switches (levels {levels:?})");
-    assert!((levels.0 - 0.72).abs() < 0.01 && (levels.1 - 0.78).abs() < 0.01, "{levels:?}");
+    assert!(
+        (levels.0 - 0.72).abs() < 0.01 && (levels.1 - 0.78).abs() < 0.01,
+        "{levels:?}"
+    );
     assert_eq!(inside, 0);
     let (beyond, levels, swaps, total) = run(0.65, 0.85);
     // Every frame would switch without hysteresis (120 in 2 s); a downgrade
@@ -126,7 +153,10 @@ fn hysteresis_and_dwell_stop_thrash_under_an_oscillating_gaze() {
 #[test]
 fn saccades_and_the_field_edge() {
     let mut app = cpu_app();
-    let lod = GazeLod { hide_outside_field: true, ..default() };
+    let lod = GazeLod {
+        hide_outside_field: true,
+        ..default()
+    };
     let e = spawn(&mut app, 1, lod)[0];
     set_gaze_yaw(&mut app, 80.0);
     for _ in 0..30 {
@@ -138,7 +168,10 @@ fn saccades_and_the_field_edge() {
     app.update();
     let s = state(&app, e);
     assert_eq!(s.step, 8, "full detail in the frame of the saccade");
-    assert_eq!(app.world().get::<Mesh3d>(e).unwrap().0.id(), s.chain.as_ref().unwrap().meshes.last().unwrap().id());
+    assert_eq!(
+        app.world().get::<Mesh3d>(e).unwrap().0.id(),
+        s.chain.as_ref().unwrap().meshes.last().unwrap().id()
+    );
     // Away again: held for the dwell (0.25 s = 15 frames), then coarse.
     set_gaze_yaw(&mut app, 80.0);
     let held = (0..40)
@@ -158,7 +191,10 @@ fn saccades_and_the_field_edge() {
     set_gaze_yaw(&mut app, 10.0);
     app.update();
     assert!(!state(&app, e).hidden);
-    assert_eq!(app.world().get::<Visibility>(e), Some(&Visibility::Inherited));
+    assert_eq!(
+        app.world().get::<Visibility>(e),
+        Some(&Visibility::Inherited)
+    );
 }
 
 /// A still head and still objects cost nothing: no level is recomputed.
@@ -177,10 +213,56 @@ fn a_still_head_recomputes_nothing() {
     let after = app.world().resource::<FoveationWork>().clone();
     assert_eq!(before, after);
     // One moving object is revisited alone.
-    let mut q = app.world_mut().query_filtered::<&mut Transform, With<GazeLod>>();
+    let mut q = app
+        .world_mut()
+        .query_filtered::<&mut Transform, With<GazeLod>>();
     q.iter_mut(app.world_mut()).next().unwrap().translation.x += 0.1;
     app.update();
     let moved = app.world().resource::<FoveationWork>().clone();
     assert_eq!(moved.levels_computed, after.levels_computed + 1);
     assert_eq!(moved.gaze_updates, after.gaze_updates);
+}
+
+/// Where the levels would save little (every object near the gaze), the
+/// full meshes are drawn, exactly as without foveation; turning away to
+/// where they save much switches the level meshes on.
+#[test]
+fn foveation_is_left_out_where_it_saves_little() {
+    let mut app = cpu_app();
+    let objects = spawn(&mut app, 8, GazeLod::default());
+    // A ninth object far to the side: alone it would save a ninth at most.
+    let side = spawn(&mut app, 1, GazeLod::default())[0];
+    app.world_mut()
+        .get_mut::<Transform>(side)
+        .unwrap()
+        .translation = Vec3::new(3.0, 1.6, -1.0);
+    set_gaze_yaw(&mut app, 0.0);
+    for _ in 0..40 {
+        app.update();
+    }
+    let gate = app.world().resource::<FoveationGate>().clone();
+    eprintln!(
+        "gaze ahead: {gate:?}, side object step {}",
+        state(&app, side).step
+    );
+    assert!(
+        state(&app, side).step < 8,
+        "the side object's level is coarse"
+    );
+    assert!(
+        !gate.active && gate.saving > 0.0 && gate.saving < 0.2,
+        "{gate:?}"
+    );
+    for &e in objects.iter().chain([&side]) {
+        let s = state(&app, e);
+        assert_eq!(s.triangles, 5780, "full meshes: {s:?}");
+    }
+    set_gaze_yaw(&mut app, 75.0);
+    for _ in 0..40 {
+        app.update();
+    }
+    let gate = app.world().resource::<FoveationGate>().clone();
+    eprintln!("gaze 75° aside: {gate:?}");
+    assert!(gate.active && gate.saving >= 0.2, "{gate:?}");
+    assert!(state(&app, objects[0]).triangles < 5780);
 }

@@ -26,7 +26,9 @@ pub fn cpu_app() -> App {
         FoveatedLodPlugin,
     ))
     .init_asset::<Mesh>()
-    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / FPS)))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / FPS,
+    )))
     .insert_resource(HeadSource::Simulated(SimulatedGaze::default()));
     app
 }

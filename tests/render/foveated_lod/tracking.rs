@@ -4,7 +4,7 @@
 use bevy::prelude::*;
 use optica_foveated_lod::{
     Eye, FoveationWork, GazeLod, GazeLodState, GazeState, HeadReplay, HeadSource, HeadTrace,
-    TrackedHead, TraceError,
+    TraceError, TrackedHead,
 };
 use optica_optics::foveated_lod::GazeEstimate;
 
@@ -14,7 +14,12 @@ const HEADER: &str = "t,head_x,head_y,head_z,qx,qy,qz,qw,gaze_x,gaze_y,gaze_z\n"
 
 #[test]
 fn traces_round_trip_and_bad_files_are_errors() {
-    let mut a = TrackedHead::looking(Vec3::new(0.1, 1.5, 0.2), Quat::from_rotation_y(0.3), Some(Vec3::new(0.2, -0.1, -1.0)), 0.06);
+    let mut a = TrackedHead::looking(
+        Vec3::new(0.1, 1.5, 0.2),
+        Quat::from_rotation_y(0.3),
+        Some(Vec3::new(0.2, -0.1, -1.0)),
+        0.06,
+    );
     a.timestamp_s = 0.0;
     let mut b = a.clone();
     b.timestamp_s = 0.25;
@@ -28,7 +33,10 @@ fn traces_round_trip_and_bad_files_are_errors() {
     for (x, y) in back.samples().iter().zip(trace.samples()) {
         assert!(x.eyes[0].distance(y.eyes[0]) < 1e-6 && x.eyes[1].distance(y.eyes[1]) < 1e-6);
         assert!(x.orientation.angle_between(y.orientation) < 1e-5);
-        assert_eq!((x.gaze, x.eye_gaze, x.valid, x.timestamp_s), (y.gaze, y.eye_gaze, y.valid, y.timestamp_s));
+        assert_eq!(
+            (x.gaze, x.eye_gaze, x.valid, x.timestamp_s),
+            (y.gaze, y.eye_gaze, y.valid, y.timestamp_s)
+        );
     }
     // Playback: the last sample at or before the time, looping.
     assert_eq!(back.at(0.1, false).unwrap().timestamp_s, 0.0);
@@ -46,11 +54,31 @@ fn traces_round_trip_and_bad_files_are_errors() {
         assert!(matches!(e, TraceError::Csv(_) | TraceError::Empty), "{e}");
     }
     let backwards = format!("{HEADER}1,0,1.6,0,0,0,0,1,0,0,-1\n0.5,0,1.6,0,0,0,0,1,0,0,-1\n");
-    assert!(matches!(HeadTrace::from_csv(backwards.as_bytes()), Err(TraceError::Time { row: 2, .. })));
+    assert!(matches!(
+        HeadTrace::from_csv(backwards.as_bytes()),
+        Err(TraceError::Time { row: 2, .. })
+    ));
     // A NaN recorded by the tracker is kept: that sample is a dropout.
     let nan = format!("{HEADER}0,0,1.6,0,0,0,0,1,NaN,0,-1\n");
     let t = HeadTrace::from_csv(nan.as_bytes()).unwrap();
     assert!(t.samples()[0].sample(Eye::Cyclopean).frame().is_err());
+}
+
+/// The head is plain data: one process can send it (here as JSON) to one
+/// app per CAVE wall.
+#[test]
+fn the_head_serialises_for_a_cave_of_several_machines() {
+    let mut head = TrackedHead::looking(
+        Vec3::new(0.2, 1.7, -0.1),
+        Quat::from_rotation_y(0.4),
+        Some(Vec3::new(0.1, -0.2, -1.0)),
+        0.062,
+    );
+    head.eye_gaze = Some([Vec3::new(0.05, -0.2, -1.0), Vec3::new(0.15, -0.2, -1.0)]);
+    head.timestamp_s = 12.5;
+    let wire = serde_json::to_string(&head).unwrap();
+    let back: TrackedHead = serde_json::from_str(&wire).unwrap();
+    assert_eq!(back, head);
 }
 
 #[test]
@@ -75,7 +103,11 @@ fn spawn_object(app: &mut App) -> Entity {
         .resource_mut::<Assets<Mesh>>()
         .add(Sphere::new(0.5).mesh().ico(3).unwrap());
     app.world_mut()
-        .spawn((Mesh3d(mesh), Transform::from_xyz(0.0, 1.6, -3.0).with_scale(Vec3::splat(0.1)), GazeLod::default()))
+        .spawn((
+            Mesh3d(mesh),
+            Transform::from_xyz(0.0, 1.6, -3.0).with_scale(Vec3::splat(0.1)),
+            GazeLod::default(),
+        ))
         .id()
 }
 
@@ -97,10 +129,22 @@ fn dropouts_hold_then_fall_back_to_full_quality() {
     let foveated = step(&app, e);
     assert!(foveated < 8, "step {foveated}");
     for (what, spoil) in [
-        ("dropout", Box::new(|h: &mut TrackedHead| h.valid = false) as Box<dyn Fn(&mut TrackedHead)>),
-        ("NaN gaze", Box::new(|h: &mut TrackedHead| h.gaze = Some(Vec3::NAN))),
-        ("zero gaze", Box::new(|h: &mut TrackedHead| h.gaze = Some(Vec3::ZERO))),
-        ("NaN eyes", Box::new(|h: &mut TrackedHead| h.eyes = [Vec3::NAN; 2])),
+        (
+            "dropout",
+            Box::new(|h: &mut TrackedHead| h.valid = false) as Box<dyn Fn(&mut TrackedHead)>,
+        ),
+        (
+            "NaN gaze",
+            Box::new(|h: &mut TrackedHead| h.gaze = Some(Vec3::NAN)),
+        ),
+        (
+            "zero gaze",
+            Box::new(|h: &mut TrackedHead| h.gaze = Some(Vec3::ZERO)),
+        ),
+        (
+            "NaN eyes",
+            Box::new(|h: &mut TrackedHead| h.eyes = [Vec3::NAN; 2]),
+        ),
     ] {
         // The app writes the head itself from now on.
         let good = app.world().resource::<TrackedHead>().clone();
@@ -109,15 +153,25 @@ fn dropouts_hold_then_fall_back_to_full_quality() {
         spoil(&mut bad);
         app.insert_resource(bad);
         app.update();
-        eprintln!("{what}: {:?}", app.world().resource::<GazeState>().estimate(Eye::Cyclopean));
-        let frames_held = 1 + (0..60)
-            .take_while(|_| {
-                app.update();
-                matches!(app.world().resource::<GazeState>().estimate(Eye::Cyclopean), GazeEstimate::Held { .. })
-            })
-            .count();
+        eprintln!(
+            "{what}: {:?}",
+            app.world().resource::<GazeState>().estimate(Eye::Cyclopean)
+        );
+        let frames_held = 1
+            + (0..60)
+                .take_while(|_| {
+                    app.update();
+                    matches!(
+                        app.world().resource::<GazeState>().estimate(Eye::Cyclopean),
+                        GazeEstimate::Held { .. }
+                    )
+                })
+                .count();
         // 0.2 s at 60 fps: 12 frames (±1 for the clock's rounding).
-        assert!((11..=13).contains(&frames_held), "{what}: held {frames_held} frames");
+        assert!(
+            (11..=13).contains(&frames_held),
+            "{what}: held {frames_held} frames"
+        );
         assert!(app.world().resource::<GazeState>().full_quality(), "{what}");
         app.update();
         assert_eq!(step(&app, e), 8, "{what}: full quality after the timeout");
@@ -139,8 +193,15 @@ fn no_consumer_no_work() {
         set_gaze_yaw(&mut app, i as f32);
         app.update();
     }
-    assert_ne!(app.world().resource::<TrackedHead>().gaze, None, "the source ran");
-    assert_eq!(*app.world().resource::<FoveationWork>(), FoveationWork::default());
+    assert_ne!(
+        app.world().resource::<TrackedHead>().gaze,
+        None,
+        "the source ran"
+    );
+    assert_eq!(
+        *app.world().resource::<FoveationWork>(),
+        FoveationWork::default()
+    );
     assert_eq!(*app.world().resource::<GazeState>(), GazeState::default());
 }
 
@@ -150,12 +211,21 @@ fn a_replayed_trace_drives_the_levels() {
     let mut app = cpu_app();
     let e = spawn_object(&mut app);
     let sample = |t: f64, yaw_deg: f32| {
-        let mut h = TrackedHead::looking(Vec3::new(0.0, 1.6, 0.0), Quat::IDENTITY, Some(Quat::from_rotation_y(-yaw_deg.to_radians()) * Vec3::NEG_Z), 0.063);
+        let mut h = TrackedHead::looking(
+            Vec3::new(0.0, 1.6, 0.0),
+            Quat::IDENTITY,
+            Some(Quat::from_rotation_y(-yaw_deg.to_radians()) * Vec3::NEG_Z),
+            0.063,
+        );
         h.timestamp_s = t;
         h
     };
     let trace = HeadTrace::new(vec![sample(0.0, 0.0), sample(0.5, 70.0)]).unwrap();
-    app.insert_resource(HeadSource::Replay(HeadReplay { trace, start_s: 0.0, looping: false }));
+    app.insert_resource(HeadSource::Replay(HeadReplay {
+        trace,
+        start_s: 0.0,
+        looping: false,
+    }));
     let mut steps = Vec::new();
     for _ in 0..(FPS as usize) {
         app.update();

@@ -17,7 +17,11 @@
 //!   over the colour channels) per eccentricity band from the gaze: 0–5°,
 //!   5–30°, beyond 30°; and weighted by each pixel's eq. 8 level. The
 //!   central field (≤ 30°) must match full quality exactly.
-//! * Work: triangles of the models drawn per frame, foveated and full.
+//! * Models whose level is 0 (outside the visual field) are hidden, as the
+//!   paper draws background there.
+//! * Work: triangles of the models drawn per frame, foveated and full; the
+//!   fraction the levels would save and whether the plugin foveated (it
+//!   draws the full meshes where the levels save under a fifth).
 //! * Series "central field": scene B with the front gaze, the knob the
 //!   central field's radius (degrees).
 
@@ -27,8 +31,8 @@ use bevy::render::render_resource::TextureFormat;
 use bevy::render::view::Msaa;
 use image::RgbaImage;
 use optica_foveated_lod::{
-    CaveView, Eye, FoveatedLodPlugin, Foveation, GazeLod, GazeLodState, HeadSource, TrackedHead,
-    WallRect,
+    CaveView, Eye, FoveatedLodPlugin, Foveation, FoveationGate, GazeLod, GazeLodState, HeadSource,
+    TrackedHead, WallRect,
 };
 use optica_optics::foveated_lod::{GazeFrame, VisualField};
 use optica_optics::glam::DVec3;
@@ -54,10 +58,26 @@ struct Scene {
 }
 
 const SCENES: [Scene; 4] = [
-    Scene { name: "A mirror, all walls", mirror: true, all_walls: true },
-    Scene { name: "B diffuse, all walls", mirror: false, all_walls: true },
-    Scene { name: "C mirror, front", mirror: true, all_walls: false },
-    Scene { name: "D diffuse, front", mirror: false, all_walls: false },
+    Scene {
+        name: "A mirror, all walls",
+        mirror: true,
+        all_walls: true,
+    },
+    Scene {
+        name: "B diffuse, all walls",
+        mirror: false,
+        all_walls: true,
+    },
+    Scene {
+        name: "C mirror, front",
+        mirror: true,
+        all_walls: false,
+    },
+    Scene {
+        name: "D diffuse, front",
+        mirror: false,
+        all_walls: false,
+    },
 ];
 
 /// The gaze: at the front wall, or 60° down at the floor.
@@ -122,7 +142,11 @@ fn setup(app: &mut App, scene: Scene, floor_gaze: bool, foveation: Foveation, si
                         Mesh3d(model.clone()),
                         MeshMaterial3d(material.clone()),
                         Transform::from_translation(p),
-                        GazeLod::default(),
+                        // Level 0 draws background, as the paper's rays do.
+                        GazeLod {
+                            hide_outside_field: true,
+                            ..default()
+                        },
                     ));
                 }
                 commands.spawn((
@@ -227,7 +251,7 @@ fn banded_error(a: &RgbaImage, b: &RgbaImage, field: &[(f64, f64)]) -> Vec<(&'st
 /// Triangles the models draw as the plugin chooses them, from the same
 /// setup run without rendering (the choice depends on the gaze and the
 /// models' places only).
-fn triangles_drawn(scene: Scene, floor_gaze: bool, foveation: Foveation) -> f64 {
+fn triangles_drawn(scene: Scene, floor_gaze: bool, foveation: Foveation) -> (f64, FoveationGate) {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default()))
         .init_asset::<Mesh>()
@@ -238,10 +262,12 @@ fn triangles_drawn(scene: Scene, floor_gaze: bool, foveation: Foveation) -> f64 
         app.update();
     }
     let mut q = app.world_mut().query::<&GazeLodState>();
-    q.iter(app.world())
+    let drawn = q
+        .iter(app.world())
         .filter(|s| !s.hidden)
         .map(|s| s.triangles as f64)
-        .sum()
+        .sum();
+    (drawn, app.world().resource::<FoveationGate>().clone())
 }
 
 /// One measured case: foveated against full quality, same run.
@@ -250,6 +276,7 @@ struct Case {
     full_ms: f64,
     errors: Vec<(&'static str, f64)>,
     triangles: (f64, f64),
+    gate: FoveationGate,
 }
 
 fn measure(
@@ -264,12 +291,15 @@ fn measure(
     let headless = ctx.headless(size, size).frames(4);
     let mut images = Vec::new();
     let mut triangles = Vec::new();
+    let mut gates = Vec::new();
     for enabled in [true, false] {
         let fov = foveation(enabled, central_deg);
         let frame = headless.render(|app| setup(app, scene, floor_gaze, fov.clone(), size))?;
         report.adapter.get_or_insert(frame.adapter.clone());
         images.push(frame.to_rgba8());
-        triangles.push(triangles_drawn(scene, floor_gaze, fov));
+        let (drawn, gate) = triangles_drawn(scene, floor_gaze, fov);
+        triangles.push(drawn);
+        gates.push(gate);
     }
     let mut times = Vec::new();
     for enabled in [true, false] {
@@ -285,6 +315,7 @@ fn measure(
         full_ms: times[1],
         errors: banded_error(&images[0], &images[1], &field),
         triangles: (triangles[0], triangles[1]),
+        gate: gates[0].clone(),
     })
 }
 
@@ -300,17 +331,33 @@ pub fn mesh_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepErr
     let total = cases.len() + centrals.len();
     let mut step = 0;
     for (scene, floor_gaze) in cases {
-        let gaze_name = if floor_gaze { "floor gaze" } else { "front gaze" };
-        ctx.progress(step, total, &format!("mesh path, {}, {gaze_name}", scene.name));
+        let gaze_name = if floor_gaze {
+            "floor gaze"
+        } else {
+            "front gaze"
+        };
+        ctx.progress(
+            step,
+            total,
+            &format!("mesh path, {}, {gaze_name}", scene.name),
+        );
         step += 1;
         let case = measure(ctx, scene, floor_gaze, 30.0, report)?;
-        report.rows.push(row(&case, 30.0, &format!("mesh: {}, {gaze_name}", scene.name)));
+        report.rows.push(row(
+            &case,
+            30.0,
+            &format!("mesh: {}, {gaze_name}", scene.name),
+        ));
     }
     for central in centrals {
         ctx.progress(step, total, &format!("mesh path, central field {central}°"));
         step += 1;
         let case = measure(ctx, SCENES[1], false, central, report)?;
-        report.rows.push(row(&case, central as f64, "mesh: central field (B, front gaze)"));
+        report.rows.push(row(
+            &case,
+            central as f64,
+            "mesh: central field (B, front gaze)",
+        ));
     }
     Ok(())
 }
@@ -319,7 +366,9 @@ fn row(case: &Case, knob: f64, series: &str) -> Row {
     let mut r = Row::new(knob, case.foveated_ms, case.full_ms)
         .series(series)
         .work("triangles_foveated", case.triangles.0)
-        .work("triangles_full", case.triangles.1);
+        .work("triangles_full", case.triangles.1)
+        .work("triangle_saving", case.gate.saving as f64)
+        .work("foveating", case.gate.active as u8 as f64);
     for (name, value) in &case.errors {
         r = r.err(name, *value);
     }
@@ -337,9 +386,23 @@ mod tests {
         mesh_rows(&ctx, &mut report).expect("the mesh rows run on lavapipe");
         assert_eq!(report.rows.len(), 3);
         for r in &report.rows {
-            eprintln!("{} {}: {:.2}/{:.2} ms {:?} {:?}", r.series, r.knob, r.time_ms, r.baseline_time_ms, r.error, r.work);
+            eprintln!(
+                "{} {}: {:.2}/{:.2} ms {:?} {:?}",
+                r.series, r.knob, r.time_ms, r.baseline_time_ms, r.error, r.work
+            );
             assert!(r.time_ms > 0.0 && r.baseline_time_ms > 0.0);
-            assert!(r.work["triangles_foveated"] < r.work["triangles_full"], "{:?}", r.work);
+            // Foveating draws fewer triangles; where the levels would save
+            // too little, the full meshes are drawn.
+            if r.work["foveating"] == 1.0 {
+                assert!(
+                    r.work["triangles_foveated"] < r.work["triangles_full"],
+                    "{:?}",
+                    r.work
+                );
+            } else {
+                assert!(r.work["triangle_saving"] < 0.2, "{:?}", r.work);
+                assert_eq!(r.work["triangles_foveated"], r.work["triangles_full"]);
+            }
             assert_eq!(r.work["triangles_full"], (MODELS * 5780) as f64);
         }
         // The paper's central field (30°) draws exactly what full quality draws.

@@ -359,7 +359,89 @@ pub fn mesh_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepErr
             "mesh: central field (B, front gaze)",
         ));
     }
+    plugin_stability(report);
     Ok(())
+}
+
+/// The plugin's systems on hostile heads (no rendering: the levels and the
+/// CAVE cameras are CPU state): every level finite and in [0, 1], every
+/// camera transform and projection finite, nothing panics.
+fn plugin_stability(report: &mut Report) {
+    let [front, right, _] = WallRect::front_right_floor(CAVE_M).expect("a 3 m CAVE");
+    let seam = (front.lower_right + front.upper_left.with_x(right.lower_left.x)) / 2.0;
+    let cases: [(&str, TrackedHead); 5] = [
+        (
+            "gaze behind the head",
+            TrackedHead::looking(EYE, Quat::IDENTITY, Some(Vec3::Z), 0.063),
+        ),
+        (
+            "NaN gaze",
+            TrackedHead::looking(EYE, Quat::IDENTITY, Some(Vec3::NAN), 0.063),
+        ),
+        (
+            "zero gaze",
+            TrackedHead::looking(EYE, Quat::IDENTITY, Some(Vec3::ZERO), 0.063),
+        ),
+        (
+            "gaze on the front/right wall seam",
+            TrackedHead::looking(EYE, Quat::IDENTITY, Some(seam - EYE), 0.063),
+        ),
+        (
+            "head outside the CAVE, behind the front wall",
+            TrackedHead::looking(Vec3::new(0.4, 1.5, -4.0), Quat::IDENTITY, None, 0.063),
+        ),
+    ];
+    for (name, head) in cases {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default()))
+            .init_asset::<Mesh>()
+            .init_asset::<Image>()
+            .init_asset::<StandardMaterial>();
+        // 1/60 s a frame, so that 30 frames outlast the dropout hold.
+        app.insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+            std::time::Duration::from_secs_f64(1.0 / 60.0),
+        ));
+        setup(&mut app, SCENES[0], false, Foveation::default(), 8);
+        for _ in 0..3 {
+            app.update();
+        }
+        app.insert_resource(head);
+        for _ in 0..30 {
+            app.update();
+        }
+        let mut levels = app.world_mut().query::<&GazeLodState>();
+        let levels: Vec<f32> = levels.iter(app.world()).map(|s| s.level).collect();
+        let levels_ok = levels.iter().all(|l| (0.0..=1.0).contains(l));
+        let mut cams = app
+            .world_mut()
+            .query::<(&Transform, &Projection, &CaveView)>();
+        let mut cams_ok = true;
+        let mut nearest = f64::INFINITY;
+        for (t, p, view) in cams.iter(app.world()) {
+            let finite = t.translation.is_finite()
+                && t.rotation.is_finite()
+                && matches!(p, Projection::Custom(_))
+                && p.get_clip_from_view().is_finite();
+            cams_ok &= finite;
+            if let Ok(wall) = view.wall.wall() {
+                nearest = nearest.min(wall.signed_distance(t.translation.as_dvec3()));
+            }
+        }
+        let full = app
+            .world()
+            .resource::<optica_foveated_lod::GazeState>()
+            .full_quality();
+        // A NaN or zero gaze is a dropout: full quality once the hold is over.
+        let full_ok = full == matches!(name, "NaN gaze" | "zero gaze");
+        report.case(
+            &format!("plugin: {name}"),
+            levels_ok && cams_ok && nearest > 0.0 && full_ok,
+            format!(
+                "levels {:?}; full quality: {full}; wall cameras finite: {cams_ok}, the nearest {nearest:.3} m in front of its wall",
+                levels.iter().map(|l| (l * 100.0).round() / 100.0).collect::<Vec<_>>()
+            ),
+        );
+    }
 }
 
 fn row(case: &Case, knob: f64, series: &str) -> Row {
@@ -385,6 +467,10 @@ mod tests {
         let mut report = Report::cpu("foveated_lod", "level_steps_S");
         mesh_rows(&ctx, &mut report).expect("the mesh rows run on lavapipe");
         assert_eq!(report.rows.len(), 3);
+        for c in &report.stability {
+            eprintln!("{}: {} — {}", c.case, c.ok, c.detail);
+        }
+        assert_eq!(report.stability.len(), 5);
         for r in &report.rows {
             eprintln!(
                 "{} {}: {:.2}/{:.2} ms {:?} {:?}",

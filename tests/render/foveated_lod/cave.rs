@@ -118,3 +118,46 @@ fn off_axis_cameras_match_the_twin_and_stay_finite() {
     }
     assert!(aim(&CaveView::new(walls[0], Eye::Cyclopean), Vec3::NAN).is_err());
 }
+
+/// Stereo as the paper ran it: each wall has a camera per eye, placed at
+/// that eye; with per-eye fields, a point 75° to the left is in the left
+/// eye's field (ear side, 100°) and outside the right eye's (nose side, 60°).
+#[test]
+fn stereo_walls_follow_each_eye_with_its_own_field() {
+    use optica_foveated_lod::{FieldEyes, Foveation, GazeState};
+    let mut app = super::cpu_app();
+    app.insert_resource(HeadSource::External)
+        .insert_resource(TrackedHead::looking(
+            Vec3::new(0.1, 1.6, 0.2),
+            Quat::IDENTITY,
+            None,
+            0.064,
+        ))
+        .insert_resource(Foveation {
+            eyes: FieldEyes::PerEye,
+            ..default()
+        });
+    let [front, _, _] = WallRect::front_right_floor(3.0).unwrap();
+    let left = app.world_mut().spawn(CaveView::new(front, Eye::Left)).id();
+    let right = app.world_mut().spawn(CaveView::new(front, Eye::Right)).id();
+    for _ in 0..3 {
+        app.update();
+    }
+    let at = |e: Entity| app.world().get::<Transform>(e).unwrap().translation;
+    assert!(
+        at(left).distance(Vec3::new(0.1 - 0.032, 1.6, 0.2)) < 1e-5,
+        "{:?}",
+        at(left)
+    );
+    assert!(
+        at(right).distance(Vec3::new(0.1 + 0.032, 1.6, 0.2)) < 1e-5,
+        "{:?}",
+        at(right)
+    );
+    let gaze = app.world().resource::<GazeState>();
+    let a = 75f64.to_radians();
+    let dir = optica_optics::glam::DVec3::new(-a.sin(), 0.0, -a.cos());
+    let (l, r) = (gaze.level(Eye::Left, dir), gaze.level(Eye::Right, dir));
+    eprintln!("75° left: left eye level {l:.3}, right eye {r:.3}");
+    assert!((l - 25.0 / 70.0).abs() < 1e-9 && r == 0.0, "{l} {r}");
+}

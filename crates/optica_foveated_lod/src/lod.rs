@@ -119,8 +119,9 @@ pub enum LodError {
 /// level step draws.
 #[derive(Debug)]
 pub struct LodChain {
-    /// The source mesh (the finest level when N_max is the mesh's own).
-    pub source: AssetId<Mesh>,
+    /// The source mesh the chain was simplified from (also its finest level
+    /// when N_max is the mesh's own).
+    pub source: Handle<Mesh>,
     /// The meshes, coarsest first.
     pub meshes: Vec<Handle<Mesh>>,
     /// Their triangle counts, increasing.
@@ -232,7 +233,7 @@ impl LodChain {
             "the finest level draws the finest mesh"
         );
         Ok(Self {
-            source: source_handle.id(),
+            source: source_handle.clone(),
             meshes,
             triangles,
             step_lod,
@@ -281,22 +282,13 @@ pub(crate) fn build_chains(
             continue;
         }
         // The source is the mesh the user set: while a chain's mesh is drawn,
-        // that chain's source.
-        let (source_id, source_handle) = match &state.chain {
-            Some(chain) if chain.meshes.iter().any(|m| m.id() == current) => {
-                let last = chain.meshes.last().expect("a chain has a mesh");
-                (
-                    chain.source,
-                    chain
-                        .meshes
-                        .iter()
-                        .find(|m| m.id() == chain.source)
-                        .unwrap_or(last)
-                        .clone(),
-                )
-            }
-            _ => (current, mesh.0.clone()),
+        // that chain's source (not its finest level, which N_max may have
+        // simplified).
+        let source_handle = match &state.chain {
+            Some(chain) if chain.meshes.iter().any(|m| m.id() == current) => chain.source.clone(),
+            _ => mesh.0.clone(),
         };
+        let source_id = source_handle.id();
         let key = (source_id, lod.min_triangles, lod.max_triangles, steps);
         if let Some(chain) = chains.chains.get(&key) {
             state.chain = Some(chain.clone());

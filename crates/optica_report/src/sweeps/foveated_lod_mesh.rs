@@ -34,7 +34,7 @@ use optica_foveated_lod::{
     CaveView, Eye, FoveatedLodPlugin, Foveation, FoveationGate, GazeLod, GazeLodState, HeadSource,
     TrackedHead, WallRect,
 };
-use optica_optics::foveated_lod::{GazeFrame, VisualField};
+use optica_optics::foveated_lod::GazeFrame;
 use optica_optics::glam::DVec3;
 
 use super::SweepError;
@@ -200,8 +200,7 @@ fn pixel_field(size: u32, floor_gaze: bool, central_deg: f32) -> Vec<(f64, f64)>
     let field = foveation(true, central_deg)
         .check()
         .expect("valid settings")
-        .fields[2];
-    let field: VisualField = field;
+        .field(Eye::Cyclopean);
     let (ll, u, v) = (
         front.lower_left.as_dvec3(),
         (front.lower_right - front.lower_left).as_dvec3(),
@@ -248,15 +247,26 @@ fn banded_error(a: &RgbaImage, b: &RgbaImage, field: &[(f64, f64)]) -> Vec<(&'st
     out
 }
 
-/// Triangles the models draw as the plugin chooses them, from the same
-/// setup run without rendering (the choice depends on the gaze and the
-/// models' places only).
-fn triangles_drawn(scene: Scene, floor_gaze: bool, foveation: Foveation) -> (f64, FoveationGate) {
+/// The scene's app without rendering (the levels and the CAVE cameras are
+/// CPU state), its clock advancing 1/60 s a frame so that dwell and dropout
+/// hold play out in frames, not in the machine's speed.
+fn cpu_app() -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default()))
         .init_asset::<Mesh>()
         .init_asset::<Image>()
-        .init_asset::<StandardMaterial>();
+        .init_asset::<StandardMaterial>()
+        .insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+            std::time::Duration::from_secs_f64(1.0 / 60.0),
+        ));
+    app
+}
+
+/// Triangles the models draw as the plugin chooses them, from the same
+/// setup run without rendering (the choice depends on the gaze and the
+/// models' places only).
+fn triangles_drawn(scene: Scene, floor_gaze: bool, foveation: Foveation) -> (f64, FoveationGate) {
+    let mut app = cpu_app();
     setup(&mut app, scene, floor_gaze, foveation, 8);
     for _ in 0..4 {
         app.update();
@@ -392,15 +402,7 @@ fn plugin_stability(report: &mut Report) {
         ),
     ];
     for (name, head) in cases {
-        let mut app = App::new();
-        app.add_plugins((MinimalPlugins, TransformPlugin, AssetPlugin::default()))
-            .init_asset::<Mesh>()
-            .init_asset::<Image>()
-            .init_asset::<StandardMaterial>();
-        // 1/60 s a frame, so that 30 frames outlast the dropout hold.
-        app.insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
-            std::time::Duration::from_secs_f64(1.0 / 60.0),
-        ));
+        let mut app = cpu_app();
         setup(&mut app, SCENES[0], false, Foveation::default(), 8);
         for _ in 0..3 {
             app.update();

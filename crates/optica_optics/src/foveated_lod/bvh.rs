@@ -115,7 +115,7 @@ impl Aabb {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-enum NodeKind {
+pub(crate) enum NodeKind {
     /// Primitives `indices[first..first + count]`.
     Leaf { first: u32, count: u32 },
     /// Children at these node indices.
@@ -174,6 +174,16 @@ impl Bvh {
     #[cfg(test)]
     pub(crate) fn node_count(&self) -> usize {
         self.nodes.len()
+    }
+
+    /// The nodes in order (the root first), for flattening onto the GPU.
+    pub(crate) fn nodes(&self) -> impl Iterator<Item = (Aabb, NodeKind)> + '_ {
+        self.nodes.iter().map(|n| (n.bounds, n.kind))
+    }
+
+    /// The primitive indices the leaves' ranges refer to.
+    pub(crate) fn indices(&self) -> &[u32] {
+        &self.indices
     }
 
     /// Bounds of everything (empty for an empty BVH).

@@ -247,6 +247,26 @@ impl TriangleMesh {
         self.triangles.len()
     }
 
+    /// Vertex positions (m).
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    /// Unit vertex normals (zero where the given normal was zero).
+    pub fn normals(&self) -> &[DVec3] {
+        &self.normals
+    }
+
+    /// Triangles as vertex indices.
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// The BVH over the triangles.
+    pub(crate) fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
     /// Bounds of the mesh.
     pub(crate) fn bounds(&self) -> Aabb {
         self.bvh.bounds()

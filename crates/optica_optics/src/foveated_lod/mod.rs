@@ -79,17 +79,19 @@
 //! ## Additions the paper does not specify
 //!
 //! The tracker policy, the quantisation and hysteresis, and the CAVE
-//! projection are documented where they live. With the `reference` feature,
-//! the paper's progressive meshes are replaced by a discrete chain of
-//! tessellations per object (`TriangleMesh`, `LodObject`): eq. 10's
-//! budget picks the coarsest mesh with at least N_j triangles.
+//! projection are documented where they live. The paper's progressive
+//! meshes are replaced by a discrete chain of meshes per object
+//! (`TriangleMesh`, `LodObject`): eq. 10's budget picks the coarsest mesh
+//! with at least N_j triangles.
 //!
-//! ## Reference renderer (feature `reference`)
+//! ## The ray tracer
 //!
-//! A small Whitted tracer with a level per ray (`render`, `trace_ray`,
-//! `TracerCamera`), its test scene (`demo_scene`, `TracerScene`), a
-//! per-object BVH (the paper's §3.2.2), and the image error measures
-//! (`rmse`, `weighted_rmse`) that the report compares foveated renders with.
+//! A small Whitted tracer (reflection and refraction) with a level per ray
+//! (`render`, `trace_ray`, `TracerCamera`) over a per-object BVH (the
+//! paper's §3.2.2), and its scene (`TracerScene`, `demo_scene`). It is the
+//! reference of the plugin's GPU tracer, whose buffers `FlatScene` lays
+//! out. With the `reference` feature, the image error measures (`rmse`,
+//! `weighted_rmse`) that the report compares foveated renders with.
 
 mod budget;
 mod cave;
@@ -98,15 +100,12 @@ mod hysteresis;
 mod level;
 mod tracker;
 
-#[cfg(feature = "reference")]
 mod bvh;
+mod flat;
 #[cfg(feature = "reference")]
 mod image_error;
-#[cfg(feature = "reference")]
 mod mesh;
-#[cfg(feature = "reference")]
 mod scene;
-#[cfg(feature = "reference")]
 mod tracer;
 
 pub use crate::input::InvalidInput;
@@ -125,11 +124,9 @@ pub use tracker::{GazeEstimate, GazeTracker, TrackerSample};
 
 #[cfg(feature = "reference")]
 pub use image_error::{rmse, weighted_rmse};
-#[cfg(feature = "reference")]
+pub use flat::{FlatMesh, FlatNode, FlatObject, FlatScene, FlatVertex, LEAF_BIT};
 pub use mesh::TriangleMesh;
-#[cfg(feature = "reference")]
 pub use scene::{DemoDetail, LodObject, TracerLight, TracerMaterial, TracerScene, demo_scene};
-#[cfg(feature = "reference")]
 pub use tracer::{
     RenderedImage, TraceSettings, TraceStats, TracerCamera, pixel_levels, render,
     render_full_quality, trace_ray,

@@ -13,7 +13,7 @@ use super::scene::TracerScene;
 use super::tracker::GazeEstimate;
 use crate::input::{self, Expected, InvalidInput};
 use crate::ray::Ray;
-use crate::surface::reflect;
+use crate::surface::{Refraction, reflect, refract};
 
 /// Offset of secondary ray origins (shadow and reflection rays) along the
 /// surface normal, relative to the hit point's largest coordinate (plus 1 m,
@@ -97,6 +97,8 @@ pub struct TraceStats {
     pub primary_rays: u64,
     /// Reflection rays.
     pub reflection_rays: u64,
+    /// Refraction rays.
+    pub refraction_rays: u64,
     /// Shadow rays.
     pub shadow_rays: u64,
     /// Ray–triangle tests.
@@ -106,14 +108,15 @@ pub struct TraceStats {
 }
 
 impl TraceStats {
-    /// All rays traced: primary + reflection + shadow.
+    /// All rays traced: primary + reflection + refraction + shadow.
     pub fn rays(&self) -> u64 {
-        self.primary_rays + self.reflection_rays + self.shadow_rays
+        self.primary_rays + self.reflection_rays + self.refraction_rays + self.shadow_rays
     }
 
     fn add(mut self, o: Self) -> Self {
         self.primary_rays += o.primary_rays;
         self.reflection_rays += o.reflection_rays;
+        self.refraction_rays += o.refraction_rays;
         self.shadow_rays += o.shadow_rays;
         self.triangle_tests += o.triangle_tests;
         self.background_pixels += o.background_pixels;
@@ -297,18 +300,40 @@ fn trace(
         let spec = reflect(-l, n).dot(view).max(0.0).powf(m.shininess);
         local += irr * (m.color * (m.diffuse * ndl) + DVec3::splat(m.specular * spec));
     }
-    if !m.reflective || m.reflectance <= 0.0 {
+    let mut kr = if m.reflective { m.reflectance } else { 0.0 };
+    let kt = m.transmittance;
+    if kr <= 0.0 && kt <= 0.0 {
         return local;
     }
-    let mut color = local * (1.0 - m.reflectance);
-    if depth < limit {
+    let color = local * (1.0 - kr - kt);
+    if depth >= limit {
+        return color;
+    }
+    let mut secondary = DVec3::ZERO;
+    if kt > 0.0 {
+        // Entering when the ray meets the winding's front face: meshes are
+        // closed and wound outwards, so the inside has the object's index.
+        let entering = mesh.face_normal(h.hit.triangle).dot(ray.dir()) < 0.0;
+        let (n1, n2) = if entering { (1.0, m.ior) } else { (m.ior, 1.0) };
+        match refract(ray.dir(), n, n1, n2) {
+            Refraction::Transmitted(d) => {
+                st.refraction_rays += 1;
+                // Behind the surface: the geometric normal faces the ray.
+                let r = Ray::from_unit(p - geo * offset(p), d);
+                secondary += trace(scene, &r, level, depth + 1, limit, st) * kt;
+            }
+            // Total internal reflection: the transmitted share is reflected.
+            Refraction::TotalInternalReflection => kr += kt,
+        }
+    }
+    if kr > 0.0 {
         st.reflection_rays += 1;
         let r = Ray::from_unit(origin, reflect(ray.dir(), n));
         // A shading normal can send the reflection into the surface; it then
         // simply hits the surface again, which is finite and rare.
-        color += trace(scene, &r, level, depth + 1, limit, st) * m.reflectance;
+        secondary += trace(scene, &r, level, depth + 1, limit, st) * kr;
     }
-    color
+    color + secondary
 }
 
 /// Traces one primary ray at `level`, Steps 2–6 of the paper's §3.3.3, in
@@ -324,12 +349,16 @@ fn trace(
 ///
 /// Shading (after T. Whitted, "An Improved Illumination Model for Shaded
 /// Display", *Communications of the ACM* 23(6), 1980, the paper's tracer):
-/// ambient + per light (shadow ray, 1/d² falloff) Lambert + Phong; a
-/// reflective object mixes (1 − k_r)·local + k_r·reflected. When eq. 9's
-/// limit stops the recursion the reflected term is dropped (black), as in
+/// ambient + per light (shadow ray, 1/d² falloff) Lambert + Phong; an
+/// object mixes (1 − k_r − k_t)·local + k_r·reflected + k_t·refracted
+/// (Snell's law into the object's index and out of it; on total internal
+/// reflection the transmitted share is reflected). Reflection and
+/// refraction both count towards eq. 9's limit (the paper's scenes have
+/// only mirrors; a refraction is one more bounce of the same tree). When the
+/// limit stops the recursion both terms are dropped (black), as in
 /// Whitted's cut-off, so that every extra bounce only adds light and a deeper
-/// limit is never further from the full-quality image in that term.
-/// Refraction is not modelled: the demo scenes have no transparent objects.
+/// limit is never further from the full-quality image in that term. Shadow
+/// rays treat transparent objects as opaque, as Whitted's did.
 pub fn trace_ray(
     scene: &TracerScene,
     ray: &Ray,
@@ -437,7 +466,8 @@ fn render_with(
 mod tests {
     use super::super::cave::front_right_floor;
     use super::super::level::GazeFrame;
-    use super::super::scene::{DemoDetail, demo_scene};
+    use super::super::mesh::TriangleMesh;
+    use super::super::scene::{DemoDetail, LodObject, TracerMaterial, demo_scene};
     use super::*;
 
     fn setup(n: usize) -> (TracerScene, TracerCamera, TraceSettings) {
@@ -504,6 +534,66 @@ mod tests {
         let b = render_full_quality(&scene, &cam, &s);
         assert_eq!(a, b);
         assert!(a.pixels.iter().all(|p| p.is_finite()));
+    }
+
+    /// A sphere in front of a red wall, hit through its centre: a clear
+    /// sphere of index 1 is invisible (the ray goes through unbent); at
+    /// index 1.5 the central ray still goes straight (normal incidence) and
+    /// sees the wall through two refractions; with one bounce allowed it
+    /// stops inside and sees black; an off-centre ray is bent.
+    #[test]
+    fn refraction_enters_and_leaves_by_snell() {
+        let ball = |ior: f64, kt: f64| {
+            let glass = TracerMaterial {
+                color: DVec3::ONE,
+                diffuse: 0.0,
+                specular: 0.0,
+                shininess: 1.0,
+                reflective: false,
+                reflectance: 0.0,
+                transmittance: kt,
+                ior,
+            };
+            let sphere = TriangleMesh::uv_sphere(DVec3::new(0.0, 0.0, -3.0), 1.0, 48, 96).unwrap();
+            let wall = TriangleMesh::quad(
+                DVec3::new(-50.0, -50.0, -10.0),
+                DVec3::new(100.0, 0.0, 0.0),
+                DVec3::new(0.0, 100.0, 0.0),
+            )
+            .unwrap();
+            let red = TracerMaterial::diffuse(DVec3::new(1.0, 0.0, 0.0));
+            TracerScene::new(
+                vec![
+                    LodObject::new(vec![sphere], glass).unwrap(),
+                    LodObject::new(vec![wall], red).unwrap(),
+                ],
+                vec![],
+                DVec3::splat(0.5),
+                DVec3::new(0.0, 0.0, 1.0),
+            )
+            .unwrap()
+        };
+        let central = Ray::from_unit(DVec3::ZERO, DVec3::NEG_Z);
+        let wall_colour = DVec3::new(0.5, 0.0, 0.0);
+        let mut st = TraceStats::default();
+        let c = trace_ray(&ball(1.0, 1.0), &central, 1.0, 3, &mut st);
+        assert!((c - wall_colour).length() < 1e-12, "{c}");
+        assert_eq!(st.refraction_rays, 2);
+        let c = trace_ray(&ball(1.5, 1.0), &central, 1.0, 3, &mut st);
+        assert!((c - wall_colour).length() < 1e-9, "{c}");
+        // One bounce: the ray enters and is cut off inside (black).
+        let c = trace_ray(&ball(1.5, 1.0), &central, 1.0, 1, &mut st);
+        assert_eq!(c, DVec3::ZERO);
+        // Half transmitted at each of the two surfaces: a quarter of the
+        // wall, and the sphere's own (white ambient, 0.5) colour at half
+        // weight on entry and a quarter on exit.
+        let c = trace_ray(&ball(1.5, 0.5), &central, 1.0, 3, &mut st);
+        assert!((c - (DVec3::splat(0.375) + wall_colour * 0.25)).length() < 1e-9, "{c}");
+        // Off centre at index 1.5 the ray is bent towards the axis and on
+        // through the far side: it still sees the wall, not the background.
+        let off = Ray::from_unit(DVec3::ZERO, DVec3::new(0.25, 0.0, -3.0).normalize());
+        let c = trace_ray(&ball(1.5, 1.0), &off, 1.0, 3, &mut st);
+        assert!((c - wall_colour).length() < 1e-9, "{c}");
     }
 
     #[test]

@@ -152,8 +152,10 @@
 
 #![warn(missing_docs)]
 
+use bevy::asset::uuid_handle;
 use bevy::camera::visibility::VisibilitySystems;
 use bevy::prelude::*;
+use bevy::shader::Shader;
 use bevy::transform::TransformSystems;
 
 mod cave;
@@ -161,6 +163,8 @@ mod head;
 mod lod;
 #[cfg(feature = "egui")]
 mod panel;
+mod raytrace;
+mod raytrace_render;
 mod settings;
 mod trace;
 
@@ -171,13 +175,21 @@ pub use lod::{
 };
 #[cfg(feature = "egui")]
 pub use panel::{FoveatedLodPanelPlugin, foveation_ui};
+pub use raytrace::{
+    GazeRayTracer, GazeRayTracerState, MAX_REFLECT, RayTraced, TracedScene, light_scale,
+    reference_of,
+};
 pub use settings::{CheckedFoveation, FieldBoundary, FieldEyes, Foveation};
 pub use trace::{HeadTrace, TraceError};
 
 /// Adds [`TrackedHead`], [`Foveation`], [`HeadSource`] and the systems that
-/// turn them into levels for [`GazeLod`] meshes and projections for
-/// [`CaveView`] cameras.
+/// turn them into levels for [`GazeLod`] meshes, projections for
+/// [`CaveView`] cameras and traced images for [`GazeRayTracer`] cameras.
 pub struct FoveatedLodPlugin;
+
+/// The ray tracer's shader (`raytrace.wgsl`).
+pub(crate) const RAYTRACE_SHADER: Handle<Shader> =
+    uuid_handle!("7b1e4d92-3c58-4a0f-9e26-d5a8c1f04b73");
 
 /// The system sets of the plugin, in `PostUpdate`.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -192,7 +204,19 @@ pub enum FoveatedLodSystems {
 
 impl Plugin for FoveatedLodPlugin {
     fn build(&self, app: &mut App) {
-        let consumers = any_with_component::<GazeLod>.or_else(any_with_component::<CaveView>);
+        if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
+            let _ = shaders.insert(
+                RAYTRACE_SHADER.id(),
+                Shader::from_wgsl(
+                    include_str!("shaders/raytrace.wgsl"),
+                    "optica_foveated_lod/shaders/raytrace.wgsl",
+                ),
+            );
+        }
+        raytrace_render::build(app);
+        let consumers = any_with_component::<GazeLod>
+            .or_else(any_with_component::<CaveView>)
+            .or_else(any_with_component::<GazeRayTracer>);
         app.init_resource::<TrackedHead>()
             .init_resource::<Foveation>()
             .init_resource::<settings::CheckedFoveation>()
@@ -203,6 +227,10 @@ impl Plugin for FoveatedLodPlugin {
             .init_resource::<lod::DwellPending>()
             .init_resource::<FoveationWork>()
             .init_resource::<FoveationGate>()
+            .init_resource::<TracedScene>()
+            .register_type::<GazeRayTracer>()
+            .register_type::<GazeRayTracerState>()
+            .register_type::<RayTraced>()
             .register_type::<FoveationGate>()
             .register_type::<TrackedHead>()
             .register_type::<Foveation>()
@@ -240,6 +268,12 @@ impl Plugin for FoveatedLodPlugin {
                         .in_set(FoveatedLodSystems::Gaze),
                     lod::select_levels
                         .run_if(any_with_component::<GazeLod>)
+                        .in_set(FoveatedLodSystems::Levels),
+                    (
+                        raytrace::build_traced_scene.run_if(any_with_component::<RayTraced>),
+                        raytrace::prepare_tracer_views
+                            .run_if(any_with_component::<GazeRayTracer>),
+                    )
                         .in_set(FoveatedLodSystems::Levels),
                 ),
             );

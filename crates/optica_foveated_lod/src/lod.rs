@@ -384,13 +384,17 @@ pub(crate) fn select_levels(
     mut pending: ResMut<DwellPending>,
     mut work: ResMut<FoveationWork>,
     mut gate: ResMut<FoveationGate>,
-    mut objects: Query<(
-        Ref<GlobalTransform>,
-        &GazeLod,
-        &mut GazeLodState,
-        &mut Mesh3d,
-        Option<&mut Visibility>,
-    )>,
+    mut objects: Query<
+        (
+            Ref<GlobalTransform>,
+            &GazeLod,
+            &mut GazeLodState,
+            &mut Mesh3d,
+            Option<&mut Visibility>,
+        ),
+        // The tracer picks a level per ray; these are never rasterised.
+        Without<crate::RayTraced>,
+    >,
 ) {
     let everything = gaze.is_changed() || settings.is_changed() || pending.0;
     let now = time.elapsed_secs_f64();

@@ -4,6 +4,7 @@
 
 mod cave;
 mod lod;
+mod raytrace;
 mod tracking;
 
 use std::time::Duration;

@@ -129,5 +129,5 @@ pub use mesh::TriangleMesh;
 pub use scene::{DemoDetail, LodObject, TracerLight, TracerMaterial, TracerScene, demo_scene};
 pub use tracer::{
     RenderedImage, TraceSettings, TraceStats, TracerCamera, pixel_levels, render,
-    render_full_quality, trace_ray,
+    render_full_quality, render_layered, trace_ray,
 };

@@ -216,11 +216,15 @@ impl TracerCamera {
     /// `settings`' size (row 0 at the top). A pixel outside the image gives
     /// the ray through the same place extended beyond the image's edge.
     pub fn primary_ray(&self, x: usize, y: usize, settings: &TraceSettings) -> Ray {
-        // The sides are at least 1 (checked by `TraceSettings::new`), so s
-        // and t are finite.
+        self.primary_ray_at(x as f64 + 0.5, y as f64 + 0.5, settings)
+    }
+
+    /// The primary ray through the image point (`px`, `py`), in pixels from
+    /// the top left corner (a pixel's centre is at + 0.5).
+    pub fn primary_ray_at(&self, px: f64, py: f64, settings: &TraceSettings) -> Ray {
         let (w, h) = (settings.width as f64, settings.height as f64);
-        let s = (x as f64 + 0.5) / w;
-        let t = 1.0 - (y as f64 + 0.5) / h;
+        let s = px / w;
+        let t = 1.0 - py / h;
         match self.0 {
             CameraKind::Pinhole {
                 eye,
@@ -434,6 +438,93 @@ pub fn render_full_quality(
     render_with(scene, camera, settings, |_| 1.0)
 }
 
+/// Renders as the plugin's GPU tracer schedules its rays (the twin of
+/// `trace_low` and `trace_full` in its `raytrace.wgsl`): each ray's level is
+/// eq. 1–8 of its direction for `gaze`, quantised by `quant`. Rays of level
+/// 1 (the central field) are traced at every pixel; rays of a lower level
+/// on a grid `scale` times coarser per axis, whose texel (i, j) is the ray
+/// through image point ((i + ½)·scale, (j + ½)·scale); a peripheral pixel
+/// takes the bilinear blend of the four texels around its centre, or is
+/// traced itself where one of them lies in the central field (untraced);
+/// pixels of level 0 are background. `scale` ≤ 1 traces every pixel at its
+/// level, as [`render`] with [`pixel_levels`].
+pub fn render_layered(
+    scene: &TracerScene,
+    camera: &TracerCamera,
+    settings: &TraceSettings,
+    field: &VisualField,
+    gaze: &GazeEstimate,
+    quant: LevelQuantization,
+    scale: u32,
+) -> RenderedImage {
+    let level = |ray: &Ray| quant.apply(gaze.level(field, ray.dir()));
+    let (w, h) = (settings.width, settings.height);
+    if scale <= 1 {
+        return render_with(scene, camera, settings, |i| {
+            level(&camera.primary_ray(i % w, i / w, settings))
+        });
+    }
+    let k = scale as usize;
+    let (lw, lh) = (w.div_ceil(k), h.div_ceil(k));
+    let low: Vec<(Option<DVec3>, TraceStats)> = (0..lw * lh)
+        .into_par_iter()
+        .map(|i| {
+            let mut st = TraceStats::default();
+            let ray = camera.primary_ray_at(
+                ((i % lw) as f64 + 0.5) * k as f64,
+                ((i / lw) as f64 + 0.5) * k as f64,
+                settings,
+            );
+            let l = level(&ray);
+            let c = (l < 1.0).then(|| trace_ray(scene, &ray, l, settings.reflect_max, &mut st));
+            (c, st)
+        })
+        .collect();
+    let full: Vec<(DVec3, TraceStats)> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let mut st = TraceStats::default();
+            let (x, y) = (i % w, i / w);
+            let ray = camera.primary_ray(x, y, settings);
+            let l = level(&ray);
+            if l <= 0.0 {
+                st.background_pixels += 1;
+                return (scene.background(), st);
+            }
+            if l < 1.0 {
+                let gx = (x as f64 + 0.5) / k as f64 - 0.5;
+                let gy = (y as f64 + 0.5) / k as f64 - 0.5;
+                let x0 = gx.floor().clamp(0.0, (lw - 1) as f64);
+                let y0 = gy.floor().clamp(0.0, (lh - 1) as f64);
+                let (fx, fy) = ((gx - x0).clamp(0.0, 1.0), (gy - y0).clamp(0.0, 1.0));
+                let (x0, y0) = (x0 as usize, y0 as usize);
+                let (x1, y1) = ((x0 + 1).min(lw - 1), (y0 + 1).min(lh - 1));
+                let tap = |xx: usize, yy: usize| low[yy * lw + xx].0;
+                if let (Some(c00), Some(c10), Some(c01), Some(c11)) =
+                    (tap(x0, y0), tap(x1, y0), tap(x0, y1), tap(x1, y1))
+                {
+                    let top = c00.lerp(c10, fx);
+                    let bottom = c01.lerp(c11, fx);
+                    return (top.lerp(bottom, fy), st);
+                }
+            }
+            let c = trace_ray(scene, &ray, l, settings.reflect_max, &mut st);
+            (c, st)
+        })
+        .collect();
+    let stats = low
+        .iter()
+        .map(|(_, s)| *s)
+        .chain(full.iter().map(|(_, s)| *s))
+        .fold(TraceStats::default(), |a, s| a.add(s));
+    RenderedImage {
+        width: w,
+        height: h,
+        pixels: full.into_iter().map(|(c, _)| c).collect(),
+        stats,
+    }
+}
+
 /// Renders pixel `i` at `level(i)`.
 fn render_with(
     scene: &TracerScene,
@@ -594,6 +685,38 @@ mod tests {
         let off = Ray::from_unit(DVec3::ZERO, DVec3::new(0.25, 0.0, -3.0).normalize());
         let c = trace_ray(&ball(1.5, 1.0), &off, 1.0, 3, &mut st);
         assert!((c - wall_colour).length() < 1e-9, "{c}");
+    }
+
+    /// The layered schedule: per pixel it is `render` with `pixel_levels`;
+    /// at half resolution the central field is unchanged, the periphery
+    /// traces about a quarter of the primary rays, and no gaze is full
+    /// quality.
+    #[test]
+    fn layered_render_keeps_the_central_field() {
+        let (scene, cam, s) = setup(24);
+        let gaze = GazeEstimate::Tracked(
+            GazeFrame::new(cam.eye(), DVec3::new(-0.6, -0.2, -1.0), DVec3::Y).unwrap(),
+        );
+        let field = VisualField::paper();
+        let q = LevelQuantization::Steps(8);
+        let lv = pixel_levels(&cam, &s, &field, &gaze, q);
+        let per_pixel = render(&scene, &cam, &s, &lv).unwrap();
+        assert_eq!(render_layered(&scene, &cam, &s, &field, &gaze, q, 1), per_pixel);
+        let half = render_layered(&scene, &cam, &s, &field, &gaze, q, 2);
+        let central = lv.iter().filter(|&&l| l >= 1.0).count() as u64;
+        let peripheral = lv.iter().filter(|&&l| l > 0.0 && l < 1.0).count() as u64;
+        assert!(central > 0 && peripheral > 0);
+        for i in 0..lv.len() {
+            if lv[i] >= 1.0 {
+                assert_eq!(half.pixels[i], per_pixel.pixels[i]);
+            }
+        }
+        assert!(half.stats.primary_rays < central + peripheral / 2);
+        let lost = GazeEstimate::FullQuality { last: None };
+        assert_eq!(
+            render_layered(&scene, &cam, &s, &field, &lost, q, 2),
+            render_full_quality(&scene, &cam, &s)
+        );
     }
 
     #[test]

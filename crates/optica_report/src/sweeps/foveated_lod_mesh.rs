@@ -40,9 +40,9 @@ use optica_optics::glam::DVec3;
 use super::SweepError;
 use crate::{Report, Row, SweepContext};
 
-const EYE: Vec3 = Vec3::new(0.0, 1.5, 0.0);
-const CAVE_M: f32 = 3.0;
-const MODELS: usize = 8;
+pub(super) const EYE: Vec3 = Vec3::new(0.0, 1.5, 0.0);
+pub(super) const CAVE_M: f32 = 3.0;
+pub(super) const MODELS: usize = 8;
 const BANDS_DEG: [(f64, f64, &str); 3] = [
     (0.0, 5.0, "rmse_0_5deg"),
     (5.0, 30.0, "rmse_5_30deg"),
@@ -51,13 +51,13 @@ const BANDS_DEG: [(f64, f64, &str); 3] = [
 
 /// One of the paper's four scenes.
 #[derive(Clone, Copy, Debug)]
-struct Scene {
-    name: &'static str,
-    mirror: bool,
-    all_walls: bool,
+pub(super) struct Scene {
+    pub(super) name: &'static str,
+    pub(super) mirror: bool,
+    pub(super) all_walls: bool,
 }
 
-const SCENES: [Scene; 4] = [
+pub(super) const SCENES: [Scene; 4] = [
     Scene {
         name: "A mirror, all walls",
         mirror: true,
@@ -81,7 +81,7 @@ const SCENES: [Scene; 4] = [
 ];
 
 /// The gaze: at the front wall, or 60° down at the floor.
-fn gaze(floor: bool) -> Vec3 {
+pub(super) fn gaze(floor: bool) -> Vec3 {
     if floor {
         Quat::from_rotation_x(-60f32.to_radians()) * Vec3::NEG_Z
     } else {
@@ -91,7 +91,7 @@ fn gaze(floor: bool) -> Vec3 {
 
 /// Where the models stand: spread in front of the front wall, or over the
 /// front wall, the right wall and the floor.
-fn positions(all_walls: bool) -> Vec<Vec3> {
+pub(super) fn positions(all_walls: bool) -> Vec<Vec3> {
     (0..MODELS)
         .map(|i| {
             let f = i as f32;
@@ -184,7 +184,7 @@ fn setup(app: &mut App, scene: Scene, floor_gaze: bool, foveation: Foveation, si
 
 /// The foveation of the scenes: the paper's field, or with another central
 /// radius; `enabled = false` is full quality.
-fn foveation(enabled: bool, central_deg: f32) -> Foveation {
+pub(super) fn foveation(enabled: bool, central_deg: f32) -> Foveation {
     Foveation {
         enabled,
         central_deg,
@@ -193,7 +193,7 @@ fn foveation(enabled: bool, central_deg: f32) -> Foveation {
 }
 
 /// The eccentricity (degrees) and the eq. 8 level of each front-wall pixel.
-fn pixel_field(size: u32, floor_gaze: bool, central_deg: f32) -> Vec<(f64, f64)> {
+pub(super) fn pixel_field(size: u32, floor_gaze: bool, central_deg: f32) -> Vec<(f64, f64)> {
     let [front, _, _] = WallRect::front_right_floor(CAVE_M).expect("a 3 m CAVE");
     let g = gaze(floor_gaze).as_dvec3();
     let frame = GazeFrame::new(EYE.as_dvec3(), g, DVec3::Y).expect("a valid gaze");
@@ -220,7 +220,7 @@ fn pixel_field(size: u32, floor_gaze: bool, central_deg: f32) -> Vec<(f64, f64)>
 
 /// RMSE (8-bit sRGB, colour channels, in [0, 1]) per band and weighted by
 /// level.
-fn banded_error(a: &RgbaImage, b: &RgbaImage, field: &[(f64, f64)]) -> Vec<(&'static str, f64)> {
+pub(super) fn banded_error(a: &RgbaImage, b: &RgbaImage, field: &[(f64, f64)]) -> Vec<(&'static str, f64)> {
     let mut sums = [(0.0, 0.0); 4];
     for (i, (pa, pb)) in a.pixels().zip(b.pixels()).enumerate() {
         let e2 = (0..3)

@@ -10,6 +10,7 @@ pub mod dome;
 pub mod dome_render;
 pub mod foveated_lod;
 pub mod foveated_lod_mesh;
+pub mod foveated_lod_raytrace;
 pub mod lens_flare;
 pub mod lens_flare_render;
 pub mod optics;
@@ -40,6 +41,7 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
     ("foveated_lod", |ctx| {
         let mut report = foveated_lod::run(ctx);
         foveated_lod_mesh::mesh_rows(ctx, &mut report)?;
+        foveated_lod_raytrace::raytrace_rows(ctx, &mut report)?;
         Ok(report)
     }),
     ("compound_eye", compound_eye::run),

@@ -1,0 +1,342 @@
+//! The foveated-LOD plugin's ray tracer (the paper's method) on the
+//! adapter: frame time against full quality in the paper's setting, the
+//! image error by eccentricity, and the rays and triangle tests it saves.
+//!
+//! * Setting: as the mesh rows (`foveated_lod_mesh`): a 3 m CAVE, front,
+//!   right and floor walls each a `GazeRayTracer` camera (256², quick 48²)
+//!   from an eye at (0, 1.5, 0); eight 5,780-triangle models (`RayTraced`
+//!   mirrors, reflectance 0.6, or diffuse), N_min = 500, Reflect_max = 3, one
+//!   point light, and a diffuse floor (a 3 m quad) so that rays meet
+//!   something below the horizon, as in a room.
+//! * Scenes and gazes: the paper's four (A mirror, all walls; B diffuse, all
+//!   walls; C mirror, front; D diffuse, front) × gaze at the front wall and
+//!   60° down at the floor.
+//! * Time: the three walls' frame foveated (the defaults: eight level steps,
+//!   periphery at half resolution, foveation only where it saves a fifth of
+//!   the primary rays) against the same frame with `foveate: false` (every
+//!   pixel traced at level 1), medians of the timed frames, same run.
+//! * Error: the front wall's image (8-bit sRGB, tonemapped) against full
+//!   quality, RMSE per eccentricity band (0–5°, 5–30°, beyond 30°) and
+//!   weighted by level. The central field (≤ 30°) is traced at level 1 at
+//!   every pixel, so it matches full quality.
+//! * Work: the plugin's own estimate of the primary rays saved
+//!   (`GazeRayTracerState::saving`, front wall), whether the front wall
+//!   foveated, and from the CPU twin of the same schedule
+//!   (`render_layered`, the front wall at 64², quick 24²): all rays and
+//!   ray–triangle tests, foveated over full quality.
+//! * Series "periphery scale": scene D with the floor gaze, the knob the
+//!   periphery's grid scale (1: every pixel at its level, only eq. 9 and 10
+//!   save; 2; 4).
+
+use std::sync::{Arc, Mutex};
+
+use bevy::camera::{ClearColorConfig, RenderTarget};
+use bevy::prelude::*;
+use bevy::render::render_resource::TextureFormat;
+use bevy::render::view::Msaa;
+use optica_foveated_lod::{
+    CaveView, Eye, FoveatedLodPlugin, Foveation, GazeRayTracer, GazeRayTracerState, GazeState,
+    HeadSource, RayTraced, TracedScene, TrackedHead, WallRect, reference_of,
+};
+use optica_optics::foveated_lod::{
+    GazeEstimate, LevelQuantization, TraceSettings, TracerCamera, render_layered,
+};
+
+use super::SweepError;
+use super::foveated_lod_mesh::{
+    CAVE_M, EYE, SCENES, Scene, banded_error, gaze, pixel_field, positions,
+};
+use crate::{Report, Row, SweepContext};
+
+/// What the app saw after its frames: the traced scene, the gaze, and the
+/// front wall's tracer state.
+#[derive(Default, Clone)]
+struct Seen {
+    traced: Option<TracedScene>,
+    gaze: Option<GazeState>,
+    front: Option<GazeRayTracerState>,
+}
+
+/// The scene's app: a tracer camera per wall (the front one draws into the
+/// harness's image), the models, the floor, a light.
+fn setup(
+    app: &mut App,
+    scene: Scene,
+    floor_gaze: bool,
+    tracer: GazeRayTracer,
+    size: u32,
+    seen: Option<Arc<Mutex<Seen>>>,
+) {
+    let head = TrackedHead::looking(EYE, Quat::IDENTITY, Some(gaze(floor_gaze)), 0.063);
+    app.add_plugins(FoveatedLodPlugin)
+        .insert_resource(HeadSource::External)
+        .insert_resource(head)
+        .insert_resource(Foveation::default())
+        .add_systems(
+            Startup,
+            move |mut commands: Commands,
+                  mut meshes: ResMut<Assets<Mesh>>,
+                  mut images: ResMut<Assets<Image>>| {
+                let model = meshes.add(Sphere::new(0.15).mesh().ico(16).expect("ico sphere"));
+                let material = if scene.mirror {
+                    RayTraced::mirror(LinearRgba::rgb(0.8, 0.8, 0.85), 0.6)
+                } else {
+                    RayTraced::diffuse(LinearRgba::rgb(0.6, 0.25, 0.1))
+                };
+                for p in positions(scene.all_walls) {
+                    commands.spawn((
+                        Mesh3d(model.clone()),
+                        Transform::from_translation(p),
+                        material,
+                    ));
+                }
+                let floor = meshes.add(Plane3d::default().mesh().size(CAVE_M, CAVE_M));
+                commands.spawn((
+                    Mesh3d(floor),
+                    Transform::from_xyz(0.0, 0.0, 0.0),
+                    RayTraced::diffuse(LinearRgba::rgb(0.4, 0.4, 0.38)),
+                ));
+                commands.spawn((
+                    PointLight {
+                        intensity: 2.0e5,
+                        range: 20.0,
+                        ..default()
+                    },
+                    Transform::from_xyz(0.5, 2.8, 0.5),
+                ));
+                let walls = WallRect::front_right_floor(CAVE_M).expect("a 3 m CAVE");
+                for (i, wall) in walls.into_iter().enumerate() {
+                    let mut camera = commands.spawn((
+                        CaveView::new(wall, Eye::Cyclopean),
+                        tracer.clone(),
+                        Camera {
+                            order: i as isize,
+                            clear_color: ClearColorConfig::Custom(Color::BLACK),
+                            ..default()
+                        },
+                        Msaa::Off,
+                    ));
+                    if i > 0 {
+                        let target = Image::new_target_texture(
+                            size,
+                            size,
+                            TextureFormat::Rgba8UnormSrgb,
+                            None,
+                        );
+                        camera.insert(RenderTarget::Image(images.add(target).into()));
+                    }
+                }
+            },
+        );
+    if let Some(seen) = seen {
+        app.add_systems(
+            Last,
+            move |traced: Res<TracedScene>,
+                  gaze: Res<GazeState>,
+                  cams: Query<(&Camera, &GazeRayTracerState)>| {
+                let mut s = seen.lock().expect("one writer");
+                s.traced = Some(traced.clone());
+                s.gaze = Some(gaze.clone());
+                s.front = cams
+                    .iter()
+                    .find(|(c, _)| c.order == 0)
+                    .map(|(_, st)| st.clone());
+            },
+        );
+    }
+}
+
+/// One measured case: foveated against full quality, same run.
+struct Case {
+    foveated_ms: f64,
+    full_ms: f64,
+    errors: Vec<(&'static str, f64)>,
+    state: GazeRayTracerState,
+    /// Rays and triangle tests of the twin, foveated over full quality.
+    rays_ratio: f64,
+    tests_ratio: f64,
+    triangles: usize,
+}
+
+fn tracer(foveate: bool, scale: u32) -> GazeRayTracer {
+    GazeRayTracer {
+        foveate,
+        periphery_scale: scale,
+        background: LinearRgba::BLACK,
+        ..default()
+    }
+}
+
+/// The CPU twin's work on the front wall, foveated over full quality.
+fn twin_work(seen: &Seen, t: &GazeRayTracer, size: usize) -> Result<(f64, f64), SweepError> {
+    let traced = seen
+        .traced
+        .as_ref()
+        .ok_or(SweepError::Setup("no traced scene".into()))?;
+    let scene = reference_of(traced, t).ok_or(SweepError::Setup("empty traced scene".into()))?;
+    let gaze = seen
+        .gaze
+        .as_ref()
+        .ok_or(SweepError::Setup("no gaze".into()))?;
+    let [front, _, _] = WallRect::front_right_floor(CAVE_M).expect("a 3 m CAVE");
+    let wall = front.wall().map_err(|e| SweepError::Setup(e.to_string()))?;
+    let camera =
+        TracerCamera::cave(wall, EYE.as_dvec3()).map_err(|e| SweepError::Setup(e.to_string()))?;
+    let settings = TraceSettings::new(size, size, t.reflect_max)
+        .map_err(|e| SweepError::Setup(e.to_string()))?;
+    let field = gaze.field(Eye::Cyclopean);
+    let quant = LevelQuantization::Steps(Foveation::default().steps);
+    let fov = render_layered(
+        &scene,
+        &camera,
+        &settings,
+        field,
+        gaze.estimate(Eye::Cyclopean),
+        quant,
+        t.periphery_scale,
+    );
+    let full = render_layered(
+        &scene,
+        &camera,
+        &settings,
+        field,
+        &GazeEstimate::FullQuality { last: None },
+        quant,
+        1,
+    );
+    Ok((
+        fov.stats.rays() as f64 / full.stats.rays().max(1) as f64,
+        fov.stats.triangle_tests as f64 / full.stats.triangle_tests.max(1) as f64,
+    ))
+}
+
+fn measure(
+    ctx: &SweepContext,
+    scene: Scene,
+    floor_gaze: bool,
+    scale: u32,
+    report: &mut Report,
+) -> Result<Case, SweepError> {
+    let size = ctx.pick(48, 256);
+    let (warmup, frames) = ctx.pick((2, 3), (4, 20));
+    let headless = ctx.headless(size, size).frames(4);
+    let seen = Arc::new(Mutex::new(Seen::default()));
+    let mut images = Vec::new();
+    for foveate in [true, false] {
+        let s = foveate.then(|| seen.clone());
+        let t = tracer(foveate, scale);
+        let frame = headless.render(|app| setup(app, scene, floor_gaze, t, size, s))?;
+        report.adapter.get_or_insert(frame.adapter.clone());
+        images.push(frame.to_rgba8());
+    }
+    let mut times = Vec::new();
+    for foveate in [true, false] {
+        let t = tracer(foveate, scale);
+        let timing = headless.time_frames(warmup, frames, |app| {
+            setup(app, scene, floor_gaze, t, size, None)
+        })?;
+        times.push(timing.frame_ms.median);
+    }
+    let seen = seen.lock().expect("the app has finished").clone();
+    let (rays_ratio, tests_ratio) = twin_work(&seen, &tracer(true, scale), ctx.pick(24, 64))?;
+    let field = pixel_field(size, floor_gaze, 30.0);
+    Ok(Case {
+        foveated_ms: times[0],
+        full_ms: times[1],
+        errors: banded_error(&images[0], &images[1], &field),
+        state: seen.front.unwrap_or_default(),
+        rays_ratio,
+        tests_ratio,
+        triangles: seen.traced.map_or(0, |t| t.flat.triangles.len()),
+    })
+}
+
+/// Adds the ray tracer's rows to the `foveated_lod` report.
+pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
+    let all: Vec<(Scene, bool)> = SCENES
+        .into_iter()
+        .flat_map(|s| [(s, false), (s, true)])
+        .collect();
+    // Quick: two of the eight cases, one knob value.
+    let cases = ctx.pick(vec![(SCENES[0], false), (SCENES[3], true)], all);
+    let scales: Vec<u32> = ctx.pick(vec![4], vec![1, 2, 4]);
+    let total = cases.len() + scales.len();
+    let mut step = 0;
+    for (scene, floor_gaze) in cases {
+        let gaze_name = if floor_gaze {
+            "floor gaze"
+        } else {
+            "front gaze"
+        };
+        ctx.progress(
+            step,
+            total,
+            &format!("ray tracer, {}, {gaze_name}", scene.name),
+        );
+        step += 1;
+        let case = measure(ctx, scene, floor_gaze, 2, report)?;
+        report.rows.push(row(
+            &case,
+            30.0,
+            &format!("ray tracer: {}, {gaze_name}", scene.name),
+        ));
+    }
+    for scale in scales {
+        ctx.progress(step, total, &format!("ray tracer, periphery scale {scale}"));
+        step += 1;
+        let case = measure(ctx, SCENES[3], true, scale, report)?;
+        report.rows.push(row(
+            &case,
+            scale as f64,
+            "ray tracer: periphery scale (D, floor gaze)",
+        ));
+    }
+    Ok(())
+}
+
+fn row(case: &Case, knob: f64, series: &str) -> Row {
+    let mut r = Row::new(knob, case.foveated_ms, case.full_ms)
+        .series(series)
+        .work("ray_saving_estimate", case.state.saving as f64)
+        .work("foveating", case.state.foveating as u8 as f64)
+        .work("central_fraction", case.state.central as f64)
+        .work("outside_fraction", case.state.outside as f64)
+        .work("twin_rays_ratio", case.rays_ratio)
+        .work("twin_triangle_tests_ratio", case.tests_ratio)
+        .work("scene_triangles", case.triangles as f64);
+    for (name, value) in &case.errors {
+        r = r.err(name, *value);
+    }
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quick_raytrace_rows_match_full_quality_in_the_central_field() {
+        let ctx = SweepContext::new("foveated_lod", true, true);
+        let mut report = Report::cpu("foveated_lod", "level_steps_S");
+        raytrace_rows(&ctx, &mut report).expect("the ray tracer rows run on lavapipe");
+        assert_eq!(report.rows.len(), 3);
+        for r in &report.rows {
+            eprintln!(
+                "{} {}: {:.2}/{:.2} ms {:?} {:?}",
+                r.series, r.knob, r.time_ms, r.baseline_time_ms, r.error, r.work
+            );
+            assert!(r.time_ms > 0.0 && r.baseline_time_ms > 0.0);
+            assert!(
+                r.work["scene_triangles"] as usize > super::super::foveated_lod_mesh::MODELS * 5780
+            );
+            if r.work["foveating"] == 1.0 {
+                assert!(r.work["twin_rays_ratio"] < 1.0, "{:?}", r.work);
+                // The central field is traced as full quality traces it.
+                assert_eq!(r.error["rmse_0_5deg"], 0.0, "{}", r.series);
+            } else {
+                assert!(r.work["ray_saving_estimate"] < 0.2, "{:?}", r.work);
+            }
+        }
+        assert!(report.problems().is_empty(), "{:?}", report.problems());
+    }
+}

@@ -4,7 +4,7 @@
 //! place in the visual field asks for; the gaze is simulated (arrow keys).
 //!
 //! ```sh
-//! cargo run --example foveated_lod --features foveated_lod,egui,window -- [--stereo] [--out DIR]
+//! cargo run --example foveated_lod --features foveated_lod,egui,window -- [--stereo] [--raytrace] [--out DIR]
 //! ```
 //!
 //! With the `window` feature and a display it opens a window showing the
@@ -16,12 +16,17 @@
 //! front wall, 60° down at the floor, 70° to the right) to `DIR`, by
 //! default `target/optica/`. `--stereo` gives each wall two cameras, one
 //! per eye, as the paper's CAVE did; the window then shows the left eye's.
+//! `--raytrace` draws the walls with the paper's own method, the GPU ray
+//! tracer (`GazeRayTracer`): mirrors reflect the other models and the
+//! floor, each ray at the level of its direction in the visual field; the
+//! PNGs are then `foveated_lod_rt_*.png`.
 
 use bevy::camera::{RenderTarget, Viewport};
 use bevy::prelude::*;
 use bevy::render::render_resource::TextureFormat;
 use optica::foveated_lod::{
-    CaveView, Eye, FoveatedLodPlugin, GazeLod, GazeLodState, HeadSource, SimulatedGaze, WallRect,
+    CaveView, Eye, FoveatedLodPlugin, GazeLod, GazeLodState, GazeRayTracer, HeadSource, RayTraced,
+    SimulatedGaze, WallRect,
 };
 
 /// The side of one wall's image in the window (px).
@@ -33,20 +38,26 @@ const EYE: Vec3 = Vec3::new(0.0, 1.5, 0.0);
 
 struct Args {
     stereo: bool,
+    raytrace: bool,
     out: Option<String>,
 }
 
 fn parse_args() -> Result<Args, String> {
     let mut args = std::env::args().skip(1);
-    let (mut stereo, mut out) = (false, None);
+    let (mut stereo, mut raytrace, mut out) = (false, false, None);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--stereo" => stereo = true,
+            "--raytrace" => raytrace = true,
             "--out" => out = Some(args.next().ok_or("--out needs a directory")?),
             _ => return Err(format!("unknown argument {a}")),
         }
     }
-    Ok(Args { stereo, out })
+    Ok(Args {
+        stereo,
+        raytrace,
+        out,
+    })
 }
 
 /// How the walls are laid out in the target: side by side, `px` square each.
@@ -54,6 +65,8 @@ fn parse_args() -> Result<Args, String> {
 struct Layout {
     px: u32,
     stereo: bool,
+    /// Ray traced by the GPU tracer rather than rasterised.
+    raytrace: bool,
 }
 
 fn main() {
@@ -77,6 +90,7 @@ fn main() {
             Layout {
                 px: WALL_PX,
                 stereo: args.stereo,
+                raytrace: args.raytrace,
             },
             SimulatedGaze {
                 position: EYE,
@@ -114,6 +128,7 @@ fn main() {
                         Layout {
                             px,
                             stereo: args.stereo,
+                            raytrace: args.raytrace,
                         },
                         gaze.clone(),
                     );
@@ -123,7 +138,8 @@ fn main() {
                     eprintln!("foveated_lod: headless render failed: {e}");
                     std::process::exit(1);
                 });
-            let path = format!("{dir}/foveated_lod_{name}.png");
+            let kind = if args.raytrace { "rt_" } else { "" };
+            let path = format!("{dir}/foveated_lod_{kind}{name}.png");
             frame.to_rgba8().save(&path).unwrap_or_else(|e| {
                 eprintln!("foveated_lod: cannot write {path}: {e}");
                 std::process::exit(1);
@@ -183,13 +199,22 @@ fn spawn_cave(
         } else {
             ("diffuse", &diffuse)
         };
-        commands.spawn((
+        let mut model = commands.spawn((
             Name::new(format!("{kind} {}", i + 1)),
             Mesh3d(model.clone()),
-            MeshMaterial3d(material.clone()),
             Transform::from_translation(p),
             GazeLod::default(),
         ));
+        if layout.raytrace {
+            // Traced, never rasterised: no material.
+            model.insert(if i % 2 == 0 {
+                RayTraced::mirror(LinearRgba::rgb(0.85, 0.85, 0.9), 0.6)
+            } else {
+                RayTraced::diffuse(LinearRgba::rgb(0.7, 0.25, 0.08))
+            });
+        } else {
+            model.insert(MeshMaterial3d(material.clone()));
+        }
     }
     commands.spawn((
         PointLight {
@@ -207,11 +232,15 @@ fn spawn_cave(
         perceptual_roughness: 0.9,
         ..default()
     });
-    commands.spawn((
+    let mut floor = commands.spawn((
         Mesh3d(meshes.add(Plane3d::new(Vec3::Y, Vec2::splat(CAVE_M / 2.0)))),
-        MeshMaterial3d(room),
         Transform::from_xyz(0.0, 0.001, 0.0),
     ));
+    if layout.raytrace {
+        floor.insert(RayTraced::diffuse(LinearRgba::rgb(0.3, 0.32, 0.35)));
+    } else {
+        floor.insert(MeshMaterial3d(room));
+    }
     let walls = WallRect::front_right_floor(CAVE_M).expect("a 3 m CAVE");
     let eyes: &[Eye] = if layout.stereo {
         &[Eye::Left, Eye::Right]
@@ -226,13 +255,17 @@ fn spawn_cave(
                 ..default()
             };
             let name = Name::new(format!("wall {i}, {eye:?} eye"));
+            let tracer = layout.raytrace.then(GazeRayTracer::default);
             if k == 0 {
                 camera.viewport = Some(Viewport {
                     physical_position: UVec2::new(i as u32 * layout.px, 0),
                     physical_size: UVec2::splat(layout.px),
                     ..default()
                 });
-                commands.spawn((name, CaveView::new(wall, eye), camera));
+                let mut c = commands.spawn((name, CaveView::new(wall, eye), camera));
+                if let Some(t) = tracer {
+                    c.insert(t);
+                }
             } else {
                 // The right eye's images would go to their own projectors;
                 // here each goes to an image of its own, not shown.
@@ -243,7 +276,10 @@ fn spawn_cave(
                     None,
                 );
                 let target = RenderTarget::Image(images.add(target).into());
-                commands.spawn((name, CaveView::new(wall, eye), camera, target));
+                let mut c = commands.spawn((name, CaveView::new(wall, eye), camera, target));
+                if let Some(t) = tracer {
+                    c.insert(t);
+                }
             }
         }
     }

@@ -26,7 +26,10 @@
 //!   once, and draws the level its position in the visual field asks for;
 //! - for a CAVE, give each wall's camera a [`CaveView`] (two per wall, one
 //!   per eye, for stereo): it follows the tracked eye with the wall's
-//!   off-axis projection.
+//!   off-axis projection;
+//! - for the paper's own method, give a camera a [`GazeRayTracer`] and
+//!   meshes a [`RayTraced`] material: the view is ray traced on the GPU
+//!   with a level per ray (see below).
 //!
 //! ```no_run
 //! use bevy::prelude::*;
@@ -85,9 +88,10 @@
 //!
 //! ## What runs, and when
 //!
-//! Nothing runs for a scene without a [`GazeLod`] or a [`CaveView`]; the
-//! [`GazeState`] (the filtered gaze) is kept up to date only while one of
-//! them exists. Systems that read the head do nothing in a frame where it
+//! Nothing runs for a scene without a [`GazeLod`], a [`CaveView`] or a
+//! [`GazeRayTracer`]; the [`GazeState`] (the filtered gaze) is kept up to
+//! date only while one of them exists. The ray tracer queues its pipelines
+//! and runs its passes only for views with a [`GazeRayTracer`]. Systems that read the head do nothing in a frame where it
 //! did not change, except while a held gaze ages towards its timeout or an
 //! object waits out its dwell before being made coarser. LOD chains are
 //! built once per mesh and setting (meshoptimizer's simplification; a
@@ -143,13 +147,61 @@
 //! time against full quality in the same run, the image error by
 //! eccentricity band, the triangles drawn.
 //!
-//! ## Not yet
+//! ## The ray tracer (the paper's method)
 //!
-//! The paper's own method is a ray tracer with a level per ray (eq. 9 sets
-//! each ray's reflection depth, eq. 10 the mesh it intersects); the GPU ray
-//! tracer is still to come. The CPU tracer is
-//! `optica_optics::foveated_lod::render` (feature `reference`).
-
+//! Give a camera a [`GazeRayTracer`] and meshes a [`RayTraced`] material
+//! (and no `MeshMaterial3d`): the camera's image is then ray traced on the
+//! GPU, a Whitted tracer with reflection and refraction, each primary ray
+//! at the level of its direction in the visual field. Eq. 9 sets how many
+//! bounces it and its secondary rays may make, eq. 10 which mesh of each
+//! object's LOD chain they are tested against; rays outside the field are
+//! the background, untraced. The chains are the mesh path's, each LOD with
+//! its BVH built once on the CPU and uploaded once ([`TracedScene`]; built
+//! again only when an object, its transform or material, or a light
+//! changes). The CPU twin is `optica_optics::foveated_lod::render_layered`;
+//! the GPU image matches it on all but a few silhouette pixels (tested on
+//! lavapipe).
+//!
+//! ```no_run
+//! use bevy::prelude::*;
+//! use optica_foveated_lod::{FoveatedLodPlugin, GazeRayTracer, HeadSource, RayTraced, SimulatedGaze};
+//!
+//! fn setup(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>) {
+//!     let ball = meshes.add(Sphere::new(0.5).mesh().ico(5).unwrap());
+//!     commands.spawn((Mesh3d(ball.clone()), Transform::from_xyz(-0.6, 0.5, 0.0),
+//!         RayTraced::mirror(LinearRgba::gray(0.9), 0.7)));
+//!     commands.spawn((Mesh3d(ball), Transform::from_xyz(0.6, 0.5, 0.0),
+//!         RayTraced::glass(LinearRgba::WHITE, 0.8, 1.5)));
+//!     commands.spawn((PointLight::default(), Transform::from_xyz(1.0, 3.0, 2.0)));
+//!     commands.spawn((GazeRayTracer::default(), Transform::from_xyz(0.0, 1.2, 3.0).looking_at(Vec3::ZERO, Vec3::Y)));
+//! }
+//!
+//! App::new()
+//!     .add_plugins((DefaultPlugins, FoveatedLodPlugin))
+//!     .insert_resource(HeadSource::Simulated(SimulatedGaze::default()))
+//!     .add_systems(Startup, setup)
+//!     .run();
+//! ```
+//!
+//! Where the savings come from: wgpu has no variable-rate shading, so the
+//! tracer saves what it controls. Shallower recursion and coarser meshes
+//! (eq. 9, 10) save little with a BVH; rays outside the field save all
+//! their work; and the periphery (level below 1) is traced on a grid
+//! [`GazeRayTracer::periphery_scale`] times coarser (2: a quarter of the
+//! rays) and blended up, while the central field is traced at every pixel
+//! and matches full quality exactly. A peripheral pixel next to the
+//! central field is traced itself rather than blended with untraced
+//! texels. The tracer foveates only while the level map (sampled 32 × 32
+//! each frame) says it saves at least [`Foveation::min_saving`] of the
+//! primary rays ([`GazeRayTracerState`]): a gaze that holds the whole view
+//! in its central field is traced as full quality, at full quality's cost.
+//!
+//! Limits: the objects are tested one after another (no BVH over them;
+//! fine for tens of objects); shadow rays treat transparent objects as
+//! opaque (Whitted's tracer did); a [`PointLight`] lights traced objects
+//! at Bevy's default exposure ([`light_scale`]), other light types are
+//! ignored; at most [`MAX_REFLECT`] bounces.
+//!
 #![warn(missing_docs)]
 
 use bevy::asset::uuid_handle;

@@ -21,7 +21,7 @@ use optica_optics::foveated_lod::FieldAngles;
 
 use crate::{
     Eye, FieldBoundary, FieldEyes, Foveation, FoveationGate, FoveationWork, GazeLodState,
-    GazeState, HeadSource,
+    GazeRayTracer, GazeRayTracerState, GazeState, HeadSource, MAX_REFLECT, RayTraced,
 };
 
 /// Shows a "Foveated LOD" window: [`foveation_ui`], the simulated gaze (when
@@ -101,6 +101,8 @@ fn panel_window(
     work: Res<FoveationWork>,
     gate: Res<FoveationGate>,
     objects: Query<(Entity, Option<&Name>, &GazeLodState, &GlobalTransform)>,
+    traced: Query<(), With<RayTraced>>,
+    mut tracers: Query<(Entity, Option<&Name>, &mut GazeRayTracer, &GazeRayTracerState)>,
 ) -> Result {
     egui::Window::new("Foveated LOD").show(contexts.ctx_mut()?, |ui| {
         let mut f = foveation.clone();
@@ -138,6 +140,22 @@ fn panel_window(
                 "full meshes (too little to gain)"
             }
         ));
+        for (e, name, mut tracer, state) in &mut tracers {
+            ui.separator();
+            ui.label(format!(
+                "ray tracer {}: {} (saves ~{:.0} % of the primary rays; {:.0} % central, {:.0} % outside)",
+                name.map_or_else(|| e.to_string(), |n| n.to_string()),
+                if state.foveating { "foveating" } else { "full quality" },
+                100.0 * state.saving,
+                100.0 * state.central,
+                100.0 * state.outside,
+            ));
+            ui.horizontal(|ui| {
+                ui.checkbox(&mut tracer.foveate, "foveate");
+                ui.add(egui::Slider::new(&mut tracer.periphery_scale, 1..=8).text("periphery scale"));
+                ui.add(egui::Slider::new(&mut tracer.reflect_max, 0..=MAX_REFLECT).text("Reflect_max"));
+            });
+        }
         field_diagram(ui, &foveation, &gaze, &objects);
         ui.separator();
         egui::Grid::new("objects").striped(true).show(ui, |ui| {
@@ -148,6 +166,13 @@ fn panel_window(
             ui.end_row();
             for (e, name, s, _) in &objects {
                 ui.label(name.map_or_else(|| e.to_string(), |n| n.to_string()));
+                if traced.contains(e) {
+                    ui.label("per ray");
+                    ui.label("-");
+                    ui.label(format!("traced, {} LODs", s.chain.as_ref().map_or(0, |c| c.meshes.len())));
+                    ui.end_row();
+                    continue;
+                }
                 ui.label(format!("{:.2}", s.level));
                 ui.label(if s.hidden {
                     format!("{} (hidden)", s.step)

@@ -11,8 +11,8 @@ use bevy::prelude::*;
 use bevy::render::extract_component::ExtractComponent;
 use bevy::render::extract_resource::ExtractResource;
 use optica_optics::foveated_lod::{
-    EyeModel, FlatScene, LevelQuantization, LodObject, TracerLight, TracerMaterial, TracerScene,
-    TriangleMesh, VisualField,
+    EyeModel, FlatScene, Layers, LevelQuantization, LodObject, TracerLight, TracerMaterial,
+    TracerScene, TriangleMesh, VisualField,
 };
 use optica_optics::glam::{DAffine3, DMat3, DVec3};
 
@@ -37,8 +37,10 @@ const DEFAULT_EXPOSURE: f64 = 1.0 / (1.2 * 831.746_6);
 /// against, and a ray outside the field returns [`background`] untraced.
 ///
 /// Rays in the periphery (level below 1) are traced on a grid
-/// [`periphery_scale`] times coarser than the image and blended up; the
-/// central field is traced at every pixel. The tracer foveates only where
+/// [`periphery_scale`] times coarser than the image, those below
+/// [`outer_level`] on one twice coarser again, and blended up (Guenter et
+/// al.'s nested foveated layers, 2012); the central field is traced at
+/// every pixel. The tracer foveates only where
 /// that saves at least [`Foveation::min_saving`] of the primary rays
 /// (estimated each frame from the level map, see [`GazeRayTracerState`]);
 /// else it traces every pixel at full quality.
@@ -48,6 +50,7 @@ const DEFAULT_EXPOSURE: f64 = 1.0 / (1.2 * 831.746_6);
 ///
 /// [`background`]: GazeRayTracer::background
 /// [`periphery_scale`]: GazeRayTracer::periphery_scale
+/// [`outer_level`]: GazeRayTracer::outer_level
 /// [`Foveation::min_saving`]: crate::Foveation::min_saving
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
@@ -61,6 +64,9 @@ pub struct GazeRayTracer {
     /// Peripheral rays are traced on a grid this many times coarser per
     /// axis (1: every pixel; 2, the default, a quarter of the rays).
     pub periphery_scale: u32,
+    /// Rays of a level below this are traced on a grid twice coarser again
+    /// (the outer layer; 0.5 by default, 0 for none).
+    pub outer_level: f32,
     /// The colour of rays that hit nothing and of pixels outside the
     /// visual field (linear).
     pub background: LinearRgba,
@@ -74,8 +80,20 @@ impl Default for GazeRayTracer {
             reflect_max: 3,
             foveate: true,
             periphery_scale: 2,
+            outer_level: 0.5,
             background: LinearRgba::rgb(0.05, 0.06, 0.1),
             ambient: LinearRgba::rgb(0.08, 0.08, 0.08),
+        }
+    }
+}
+
+impl GazeRayTracer {
+    /// The layers as the CPU twin takes them
+    /// (`optica_optics::foveated_lod::render_layered`).
+    pub fn layers(&self) -> Layers {
+        Layers {
+            scale: self.periphery_scale.max(1),
+            outer_level: outer_level(self) as f64,
         }
     }
 }
@@ -87,8 +105,9 @@ pub struct GazeRayTracerState {
     /// Rays follow the visual field (else every pixel at level 1).
     pub foveating: bool,
     /// The estimated fraction of primary rays foveation saves against
-    /// tracing every pixel: 1 − (central + peripheral / scale²) over the
-    /// pixels, from a 32 × 32 sample of the level map.
+    /// tracing every pixel: 1 − (central + middle / scale² + outer /
+    /// (2·scale)²), the fractions of the image in each layer, from a
+    /// 32 × 32 sample of the level map.
     pub saving: f32,
     /// Fractions of the image in the central field (traced per pixel), the
     /// periphery (traced on the coarse grid) and outside the field.
@@ -342,6 +361,7 @@ pub(crate) struct TracerView {
     pub(crate) steps: u32,
     pub(crate) full_quality: bool,
     pub(crate) scale: u32,
+    pub(crate) outer_level: f32,
     pub(crate) reflect_max: u32,
     pub(crate) background: Vec3,
     pub(crate) ambient: Vec3,
@@ -380,7 +400,8 @@ pub(crate) fn prepare_tracer_views(
                 let world_from_clip = transform.to_matrix() * camera.clip_from_view().inverse();
                 let eye_pos = transform.translation();
                 let quant = LevelQuantization::Steps(steps);
-                let (mut central, mut outside) = (0u32, 0u32);
+                let outer = outer_level(tracer) as f64;
+                let (mut central, mut outside, mut far) = (0u32, 0u32, 0u32);
                 for j in 0..GATE_SAMPLES {
                     for i in 0..GATE_SAMPLES {
                         let ndc = Vec2::new(
@@ -394,6 +415,8 @@ pub(crate) fn prepare_tracer_views(
                             central += 1;
                         } else if level <= 0.0 {
                             outside += 1;
+                        } else if level < outer {
+                            far += 1;
                         }
                     }
                 }
@@ -401,7 +424,9 @@ pub(crate) fn prepare_tracer_views(
                 let central = central as f32 / n;
                 let outside = outside as f32 / n;
                 let peripheral = 1.0 - central - outside;
-                let saving = 1.0 - central - peripheral / (scale * scale) as f32;
+                let far = far as f32 / n;
+                let s2 = (scale * scale) as f32;
+                let saving = 1.0 - central - (peripheral - far) / s2 - far / (4.0 * s2);
                 // On at the threshold, off below half of it, as the mesh path.
                 let on = if state.foveating {
                     saving >= settings.min_saving / 2.0
@@ -435,10 +460,21 @@ pub(crate) fn prepare_tracer_views(
             steps,
             full_quality: !next.foveating,
             scale,
+            outer_level: outer_level(tracer),
             reflect_max: tracer.reflect_max.min(MAX_REFLECT),
             background: tracer.background.to_vec3(),
             ambient: tracer.ambient.to_vec3(),
         });
+    }
+}
+
+/// The outer layer's level threshold in use: in [0, 1], 0 (none) for NaN
+/// or when the periphery is traced per pixel.
+fn outer_level(tracer: &GazeRayTracer) -> f32 {
+    if tracer.periphery_scale <= 1 || tracer.outer_level.is_nan() {
+        0.0
+    } else {
+        tracer.outer_level.clamp(0.0, 1.0)
     }
 }
 

@@ -55,7 +55,10 @@ struct Params {
     full_quality: u32,
     object_count: u32,
     light_count: u32,
-    _pad: u32,
+    outer_level: f32,
+    origin: UVec2,
+    outer_width: u32,
+    outer_height: u32,
 }
 
 #[derive(Clone, Copy, Debug, Default, ShaderType)]
@@ -122,8 +125,8 @@ pub(crate) fn build(app: &mut App) {
 struct TracerShared {
     trace_layout: BindGroupLayoutDescriptor,
     blit_layout: BindGroupLayoutDescriptor,
-    /// `trace_low` and `trace_full`, queued with the first view.
-    trace: Option<[CachedComputePipelineId; 2]>,
+    /// `trace_mid`, `trace_outer` and `trace_full`, queued with the first view.
+    trace: Option<[CachedComputePipelineId; 3]>,
     /// Per target format.
     blits: HashMap<TextureFormat, CachedRenderPipelineId>,
 }
@@ -302,10 +305,15 @@ fn prepare_scene(
 struct ViewBuffers {
     params: UniformBuffer<Params>,
     image: Buffer,
+    /// The middle layer's texels, then the outer layer's.
     low: Buffer,
     size: UVec2,
     low_size: UVec2,
-    pipelines: [CachedComputePipelineId; 2],
+    outer_size: UVec2,
+    /// The outer layer is traced.
+    has_outer: bool,
+    origin: UVec2,
+    pipelines: [CachedComputePipelineId; 3],
     blit: CachedRenderPipelineId,
 }
 
@@ -346,7 +354,7 @@ fn prepare_views(
     for (entity, view, tv, buffers) in &mut views {
         let layout = shared.trace_layout.clone();
         let pipelines = *shared.trace.get_or_insert_with(|| {
-            ["trace_low", "trace_full"].map(|entry| {
+            ["trace_mid", "trace_outer", "trace_full"].map(|entry| {
                 pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
                     label: Some(format!("optica_foveated_lod_{entry}").into()),
                     layout: vec![layout.clone()],
@@ -380,6 +388,8 @@ fn prepare_views(
         let size = view.viewport.zw().max(UVec2::ONE);
         let scale = if tv.full_quality { 1 } else { tv.scale.max(1) };
         let low_size = UVec2::new(size.x.div_ceil(scale), size.y.div_ceil(scale));
+        let outer_size = UVec2::new(size.x.div_ceil(2 * scale), size.y.div_ceil(2 * scale));
+        let outer_level = if scale > 1 { tv.outer_level } else { 0.0 };
         let (central, ear, nose, upper, lower, boundary) = field_params(&tv.field);
         let params = Params {
             world_from_clip: view.world_from_view.to_matrix() * view.clip_from_view.inverse(),
@@ -406,14 +416,21 @@ fn prepare_views(
             full_quality: u32::from(tv.full_quality),
             object_count: gpu.object_count,
             light_count: gpu.light_count,
-            _pad: 0,
+            outer_level,
+            origin: view.viewport.xy(),
+            outer_width: outer_size.x,
+            outer_height: outer_size.y,
         };
         match buffers {
-            Some(mut b) if b.size == size && b.low_size == low_size => {
+            Some(mut b)
+                if b.size == size && b.low_size == low_size && b.outer_size == outer_size =>
+            {
+                b.has_outer = outer_level > 0.0;
                 b.params.set(params);
                 b.params.write_buffer(&device, &queue);
                 b.pipelines = pipelines;
                 b.blit = blit;
+                b.origin = view.viewport.xy();
             }
             _ => {
                 let buffer = |label: &'static str, n: UVec2| {
@@ -429,9 +446,15 @@ fn prepare_views(
                 commands.entity(entity).insert(ViewBuffers {
                     params: p,
                     image: buffer("optica_foveated_lod_image", size),
-                    low: buffer("optica_foveated_lod_low", low_size),
+                    low: buffer(
+                        "optica_foveated_lod_layers",
+                        UVec2::new(low_size.x * low_size.y + outer_size.x * outer_size.y, 1),
+                    ),
                     size,
                     low_size,
+                    outer_size,
+                    has_outer: outer_level > 0.0,
+                    origin: view.viewport.xy(),
                     pipelines,
                     blit,
                 });
@@ -451,9 +474,10 @@ fn trace_pass(
     let Some(gpu) = gpu else {
         return;
     };
-    let (Some(low), Some(full), Some(blit)) = (
+    let (Some(mid), Some(outer), Some(full), Some(blit)) = (
         pipeline_cache.get_compute_pipeline(buffers.pipelines[0]),
         pipeline_cache.get_compute_pipeline(buffers.pipelines[1]),
+        pipeline_cache.get_compute_pipeline(buffers.pipelines[2]),
         pipeline_cache.get_render_pipeline(buffers.blit),
     ) else {
         return;
@@ -512,12 +536,20 @@ fn trace_pass(
             });
         pass.set_bind_group(0, &trace_group, &[]);
         if !tv.full_quality && tv.scale > 1 {
-            pass.set_pipeline(low);
+            pass.set_pipeline(mid);
             pass.dispatch_workgroups(
                 buffers.low_size.x.div_ceil(8),
                 buffers.low_size.y.div_ceil(8),
                 1,
             );
+            if buffers.has_outer {
+                pass.set_pipeline(outer);
+                pass.dispatch_workgroups(
+                    buffers.outer_size.x.div_ceil(8),
+                    buffers.outer_size.y.div_ceil(8),
+                    1,
+                );
+            }
         }
         pass.set_pipeline(full);
         pass.dispatch_workgroups(buffers.size.x.div_ceil(8), buffers.size.y.div_ceil(8), 1);
@@ -538,6 +570,9 @@ fn trace_pass(
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
+        // Cameras that share a target draw into their own viewport.
+        let (origin, size) = (buffers.origin.as_vec2(), buffers.size.as_vec2());
+        pass.set_viewport(origin.x, origin.y, size.x, size.y, 0.0, 1.0);
         pass.set_bind_group(0, &blit_group, &[]);
         pass.set_pipeline(blit);
         pass.draw(0..3, 0..1);

@@ -11,7 +11,7 @@ use optica_foveated_lod::{
     Eye, FoveatedLodPlugin, Foveation, GazeRayTracer, GazeRayTracerState, GazeState, HeadSource,
     RayTraced, TracedScene, TrackedHead, reference_of,
 };
-use optica_harness::Headless;
+use optica_harness::{Adapter, Headless};
 use optica_optics::foveated_lod::{
     GazeEstimate, LevelQuantization, TraceSettings, TracerCamera, pixel_levels, render_layered,
 };
@@ -141,7 +141,7 @@ fn reference(seen: &Seen, tracer: &GazeRayTracer, foveated: bool) -> (Vec<Vec3>,
         field,
         &estimate,
         quant,
-        tracer.periphery_scale,
+        tracer.layers(),
     );
     (img.pixels.iter().map(|p| p.as_vec3()).collect(), levels)
 }
@@ -163,9 +163,10 @@ fn mismatches(a: &[Vec3], b: &[Vec3]) -> Vec<usize> {
 /// (no coarse periphery), the GPU image is the CPU tracer's with the same
 /// levels, pixel for pixel, on 99 % of the pixels (the rest are silhouette
 /// and step edges, where f32 and f64 can pick different triangles or a
-/// different level step); then the same gaze with the periphery traced at
-/// half resolution is again the CPU twin's image of that schedule, keeps
-/// every central-field pixel as it was, and the rest close.
+/// different level step); then the same gaze with the default layers
+/// (levels from ½ to 1 at half resolution, below ½ at quarter resolution)
+/// is again the CPU twin's image of that schedule, keeps every
+/// central-field pixel as it was, and the rest close.
 #[test]
 fn gpu_tracer_matches_the_cpu_reference() {
     let forward = (TARGET - EYE).normalize();
@@ -226,7 +227,7 @@ fn gpu_tracer_matches_the_cpu_reference() {
     }
     let rms = (rms / peripheral.max(1) as f32).sqrt();
     eprintln!(
-        "periphery at half resolution: RMS {rms:.4} (linear, clamped to 1) against per pixel"
+        "periphery in layers: RMS {rms:.4} (linear, clamped to 1) against per pixel"
     );
     assert!(rms < 0.1, "RMS {rms}");
 }
@@ -261,6 +262,56 @@ fn gpu_tracer_foveates_only_where_it_pays() {
         assert!(
             (*p - bg).abs().max_element() < 2e-3,
             "{p} vs background {bg}"
+        );
+    }
+}
+
+/// Leave out what a scene does not need: with the plugin and a plain camera
+/// no tracer pipeline is built; with a `GazeRayTracer` camera its four
+/// pipelines compile (wgpu's noop backend validates the shader).
+#[test]
+fn tracer_pipelines_only_for_tracer_cameras() {
+    let labels = |tracer: bool| {
+        Headless::new(32, 32)
+            .adapter(Adapter::Noop)
+            .frames(2)
+            .check_pipelines(move |app: &mut App| {
+                app.add_plugins(FoveatedLodPlugin).add_systems(
+                    Startup,
+                    move |mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>| {
+                        commands.spawn((
+                            Mesh3d(meshes.add(Sphere::new(0.5).mesh().ico(3).unwrap())),
+                            RayTraced::diffuse(LinearRgba::WHITE),
+                        ));
+                        let mut camera = commands.spawn(
+                            Transform::from_xyz(0.0, 0.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
+                        );
+                        if tracer {
+                            camera.insert(GazeRayTracer::default());
+                        } else {
+                            camera.insert(Camera3d::default());
+                        }
+                    },
+                );
+            })
+            .expect("pipelines compile")
+            .labels
+    };
+    let plain = labels(false);
+    assert!(
+        !plain.iter().any(|l| l.starts_with("optica_foveated_lod")),
+        "{plain:?}"
+    );
+    let traced = labels(true);
+    for want in [
+        "optica_foveated_lod_trace_mid",
+        "optica_foveated_lod_trace_outer",
+        "optica_foveated_lod_trace_full",
+        "optica_foveated_lod_blit",
+    ] {
+        assert!(
+            traced.iter().any(|l| l == want),
+            "{want} missing: {traced:?}"
         );
     }
 }

@@ -8,13 +8,17 @@
 // object it and its secondary rays are tested against (eq. 10); a level-0
 // ray returns the background without being traced (Step 2).
 //
-// `trace_low`: rays through a grid `scale` times coarser than the image for
-// the periphery (level below 1); texels in the central field are left
-// untraced (alpha 0). `trace_full`: every pixel of the central field (or
-// every pixel, when `full_quality` or `scale` is 1) is traced; a peripheral
-// pixel takes the bilinear blend of the coarse grid, or is traced itself
-// when a tap it needs was left untraced. `blit_*` copies the result into
-// the view.
+// The periphery is traced on nested coarser grids, as Guenter et al.'s
+// foveated layers (2012): `trace_mid`, a grid `scale` times coarser than the
+// image, traces its texels of level in [outer_level, 1); `trace_outer`, a
+// grid 2·scale times coarser, every texel of level below 1 (only when
+// outer_level > 0). Texels not traced are marked with alpha 0.
+// `trace_full`: every pixel of the central field (or every pixel, when
+// `full_quality` or `scale` is 1) is traced; a peripheral pixel takes the
+// bilinear blend of its layer (mid at level ≥ outer_level, else outer),
+// or of the other layer where a tap of its own was not traced, or is
+// traced itself where neither has all four taps. `blit_*` copies the result
+// into the view.
 
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 
@@ -46,7 +50,12 @@ struct Params {
     full_quality: u32,
     object_count: u32,
     light_count: u32,
-    _pad: u32,
+    // Levels below it use the outer layer (0: no outer layer).
+    outer_level: f32,
+    // The view's viewport in its target (px).
+    origin: vec2<u32>,
+    outer_width: u32,
+    outer_height: u32,
 }
 
 struct Node {
@@ -96,6 +105,8 @@ struct Light {
 @group(0) @binding(5) var<storage, read> objects: array<Object>;
 @group(0) @binding(6) var<storage, read> lights: array<Light>;
 @group(0) @binding(7) var<storage, read_write> image: array<vec4<f32>>;
+// The middle layer's texels, then the outer layer's (eight storage buffers
+// per stage is WebGPU's default limit).
 @group(0) @binding(8) var<storage, read_write> low: array<vec4<f32>>;
 #else
 @group(0) @binding(1) var<storage, read> image: array<vec4<f32>>;
@@ -472,19 +483,74 @@ fn primary_dir(px: vec2<f32>) -> vec3<f32> {
     return normalize(p.xyz / p.w - params.eye);
 }
 
+// The ray of a coarse texel `id` of a grid `k` times coarser, and whether
+// its level lies in [lo, 1): then it is traced (alpha 1), else marked (0).
+fn trace_texel(id: vec2<u32>, k: f32, lo: f32) -> vec4<f32> {
+    let d = primary_dir((vec2<f32>(id) + 0.5) * k);
+    let level = field_level(d);
+    if level < 1.0 && level >= lo {
+        return vec4(trace_ray(params.eye, d, level), 1.0);
+    }
+    return vec4(0.0);
+}
+
 @compute @workgroup_size(8, 8, 1)
-fn trace_low(@builtin(global_invocation_id) id: vec3<u32>) {
+fn trace_mid(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.low_width || id.y >= params.low_height {
         return;
     }
-    let k = f32(params.scale);
-    let d = primary_dir((vec2<f32>(id.xy) + 0.5) * k);
-    let level = field_level(d);
-    var c = vec4(0.0);
-    if level < 1.0 {
-        c = vec4(trace_ray(params.eye, d, level), 1.0);
+    low[id.y * params.low_width + id.x] = trace_texel(id.xy, f32(params.scale), params.outer_level);
+}
+
+fn outer_base() -> u32 {
+    return params.low_width * params.low_height;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn trace_outer(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= params.outer_width || id.y >= params.outer_height {
+        return;
     }
-    low[id.y * params.low_width + id.x] = c;
+    low[outer_base() + id.y * params.outer_width + id.x] = trace_texel(id.xy, f32(2u * params.scale), 0.0);
+}
+
+// Bilinear taps of a grid `k` times coarser than the image, whose texel i is
+// centred at (i + 0.5)·k: the four texel indices and the weights.
+struct Taps {
+    i00: u32,
+    i10: u32,
+    i01: u32,
+    i11: u32,
+    f: vec2<f32>,
+}
+
+fn taps(px: vec2<f32>, k: f32, size: vec2<u32>) -> Taps {
+    let g = px / k - 0.5;
+    let lo = clamp(floor(g), vec2(0.0), vec2<f32>(size - 1u));
+    let f = clamp(g - lo, vec2(0.0), vec2(1.0));
+    let i0 = vec2<u32>(lo);
+    let i1 = min(i0 + 1u, size - 1u);
+    return Taps(i0.y * size.x + i0.x, i0.y * size.x + i1.x, i1.y * size.x + i0.x, i1.y * size.x + i1.x, f);
+}
+
+fn blend(c00: vec4<f32>, c10: vec4<f32>, c01: vec4<f32>, c11: vec4<f32>, f: vec2<f32>) -> vec4<f32> {
+    let a = min(min(c00.a, c10.a), min(c01.a, c11.a));
+    let c = mix(mix(c00.rgb, c10.rgb, f.x), mix(c01.rgb, c11.rgb, f.x), f.y);
+    return vec4(c, a);
+}
+
+fn sample_mid(px: vec2<f32>) -> vec4<f32> {
+    let t = taps(px, f32(params.scale), vec2(params.low_width, params.low_height));
+    return blend(low[t.i00], low[t.i10], low[t.i01], low[t.i11], t.f);
+}
+
+fn sample_outer(px: vec2<f32>) -> vec4<f32> {
+    if params.outer_level <= 0.0 {
+        return vec4(0.0);
+    }
+    let t = taps(px, f32(2u * params.scale), vec2(params.outer_width, params.outer_height));
+    let o = outer_base();
+    return blend(low[o + t.i00], low[o + t.i10], low[o + t.i01], low[o + t.i11], t.f);
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -497,23 +563,24 @@ fn trace_full(@builtin(global_invocation_id) id: vec3<u32>) {
     let level = field_level(d);
     var c = params.background;
     if level > 0.0 {
-        var traced = level >= 1.0 || params.scale <= 1u;
-        if !traced {
-            // Bilinear from the coarse grid, whose texel i is centred at
-            // (i + 0.5)·scale.
-            let g = px / f32(params.scale) - 0.5;
-            let lo = clamp(floor(g), vec2(0.0), vec2(f32(params.low_width - 1u), f32(params.low_height - 1u)));
-            let f = clamp(g - lo, vec2(0.0), vec2(1.0));
-            let i0 = vec2<u32>(lo);
-            let i1 = min(i0 + 1u, vec2(params.low_width - 1u, params.low_height - 1u));
-            let c00 = low[i0.y * params.low_width + i0.x];
-            let c10 = low[i0.y * params.low_width + i1.x];
-            let c01 = low[i1.y * params.low_width + i0.x];
-            let c11 = low[i1.y * params.low_width + i1.x];
-            if min(min(c00.a, c10.a), min(c01.a, c11.a)) < 1.0 {
-                traced = true;
+        var traced = true;
+        if level < 1.0 && params.scale > 1u {
+            var first = sample_mid(px);
+            if level < params.outer_level {
+                first = sample_outer(px);
+            }
+            if first.a == 1.0 {
+                c = first.rgb;
+                traced = false;
             } else {
-                c = mix(mix(c00.rgb, c10.rgb, f.x), mix(c01.rgb, c11.rgb, f.x), f.y);
+                var second = sample_outer(px);
+                if level < params.outer_level {
+                    second = sample_mid(px);
+                }
+                if second.a == 1.0 {
+                    c = second.rgb;
+                    traced = false;
+                }
             }
         }
         if traced {
@@ -525,7 +592,7 @@ fn trace_full(@builtin(global_invocation_id) id: vec3<u32>) {
 #else
 @fragment
 fn blit_fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
-    let p = vec2<u32>(in.position.xy);
+    let p = vec2<u32>(in.position.xy) - params.origin;
     return image[p.y * params.width + p.x];
 }
 #endif

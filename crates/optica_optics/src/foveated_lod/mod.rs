@@ -128,6 +128,6 @@ pub use flat::{FlatMesh, FlatNode, FlatObject, FlatScene, FlatVertex, LEAF_BIT};
 pub use mesh::TriangleMesh;
 pub use scene::{DemoDetail, LodObject, TracerLight, TracerMaterial, TracerScene, demo_scene};
 pub use tracer::{
-    RenderedImage, TraceSettings, TraceStats, TracerCamera, pixel_levels, render,
+    Layers, RenderedImage, TraceSettings, TraceStats, TracerCamera, pixel_levels, render,
     render_full_quality, render_layered, trace_ray,
 };

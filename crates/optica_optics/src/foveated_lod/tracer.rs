@@ -438,16 +438,92 @@ pub fn render_full_quality(
     render_with(scene, camera, settings, |_| 1.0)
 }
 
+/// How the periphery's rays are spread (the plugin's `GazeRayTracer`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Layers {
+    /// Rays of level in [`outer_level`](Layers::outer_level), 1) are traced
+    /// on a grid this many times coarser per axis; 1 (or 0) traces every
+    /// pixel at its level.
+    pub scale: u32,
+    /// Rays of a level below it are traced on a grid 2·scale times coarser
+    /// (the outer layer); 0 for none.
+    pub outer_level: f64,
+}
+
+impl Layers {
+    /// Every pixel traced at its level: [`render`] with [`pixel_levels`].
+    pub const PER_PIXEL: Self = Self {
+        scale: 1,
+        outer_level: 0.0,
+    };
+}
+
+/// A grid `k` times coarser than the image, whose texel (i, j) holds the ray
+/// through ((i + ½)·k, (j + ½)·k), traced where its level lies in [lo, 1).
+struct Layer {
+    k: usize,
+    width: usize,
+    height: usize,
+    texels: Vec<(Option<DVec3>, TraceStats)>,
+}
+
+impl Layer {
+    fn trace(
+        k: usize,
+        lo: f64,
+        settings: &TraceSettings,
+        ray_level: &(impl Fn(f64, f64) -> (Ray, f64) + Sync),
+        scene: &TracerScene,
+    ) -> Self {
+        let (width, height) = (settings.width.div_ceil(k), settings.height.div_ceil(k));
+        let texels = (0..width * height)
+            .into_par_iter()
+            .map(|i| {
+                let mut st = TraceStats::default();
+                let (ray, l) = ray_level(
+                    ((i % width) as f64 + 0.5) * k as f64,
+                    ((i / width) as f64 + 0.5) * k as f64,
+                );
+                let c = (l < 1.0 && l >= lo)
+                    .then(|| trace_ray(scene, &ray, l, settings.reflect_max, &mut st));
+                (c, st)
+            })
+            .collect();
+        Self {
+            k,
+            width,
+            height,
+            texels,
+        }
+    }
+
+    /// The bilinear blend at image point (px, py), if all four taps were traced.
+    fn sample(&self, px: f64, py: f64) -> Option<DVec3> {
+        let k = self.k as f64;
+        let (gx, gy) = (px / k - 0.5, py / k - 0.5);
+        let x0 = gx.floor().clamp(0.0, (self.width - 1) as f64);
+        let y0 = gy.floor().clamp(0.0, (self.height - 1) as f64);
+        let (fx, fy) = ((gx - x0).clamp(0.0, 1.0), (gy - y0).clamp(0.0, 1.0));
+        let (x0, y0) = (x0 as usize, y0 as usize);
+        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
+        let tap = |x: usize, y: usize| self.texels[y * self.width + x].0;
+        let (c00, c10, c01, c11) = (tap(x0, y0)?, tap(x1, y0)?, tap(x0, y1)?, tap(x1, y1)?);
+        Some(c00.lerp(c10, fx).lerp(c01.lerp(c11, fx), fy))
+    }
+}
+
 /// Renders as the plugin's GPU tracer schedules its rays (the twin of
-/// `trace_low` and `trace_full` in its `raytrace.wgsl`): each ray's level is
-/// eq. 1–8 of its direction for `gaze`, quantised by `quant`. Rays of level
-/// 1 (the central field) are traced at every pixel; rays of a lower level
-/// on a grid `scale` times coarser per axis, whose texel (i, j) is the ray
-/// through image point ((i + ½)·scale, (j + ½)·scale); a peripheral pixel
-/// takes the bilinear blend of the four texels around its centre, or is
-/// traced itself where one of them lies in the central field (untraced);
-/// pixels of level 0 are background. `scale` ≤ 1 traces every pixel at its
-/// level, as [`render`] with [`pixel_levels`].
+/// `trace_mid`, `trace_outer` and `trace_full` in its `raytrace.wgsl`):
+/// each ray's level is eq. 1–8 of its direction for `gaze`, quantised by
+/// `quant`. Rays of level 1 (the central field) are traced at every pixel;
+/// rays of level in [outer_level, 1) on the middle layer, a grid
+/// `layers.scale` times coarser per axis (texel (i, j) is the ray through
+/// image point ((i + ½)·scale, (j + ½)·scale)), and with an outer layer,
+/// every ray of level below 1 on a grid 2·scale times coarser. A
+/// peripheral pixel takes the bilinear blend of its layer (the middle one
+/// at level ≥ outer_level, else the outer one), else of the other layer
+/// where one of its own taps was not traced, else it is traced itself;
+/// pixels of level 0 are background.
 pub fn render_layered(
     scene: &TracerScene,
     camera: &TracerCamera,
@@ -455,65 +531,54 @@ pub fn render_layered(
     field: &VisualField,
     gaze: &GazeEstimate,
     quant: LevelQuantization,
-    scale: u32,
+    layers: Layers,
 ) -> RenderedImage {
-    let level = |ray: &Ray| quant.apply(gaze.level(field, ray.dir()));
+    let ray_level = |px: f64, py: f64| {
+        let ray = camera.primary_ray_at(px, py, settings);
+        let l = quant.apply(gaze.level(field, ray.dir()));
+        (ray, l)
+    };
     let (w, h) = (settings.width, settings.height);
-    if scale <= 1 {
+    if layers.scale <= 1 {
         return render_with(scene, camera, settings, |i| {
-            level(&camera.primary_ray(i % w, i / w, settings))
+            ray_level((i % w) as f64 + 0.5, (i / w) as f64 + 0.5).1
         });
     }
-    let k = scale as usize;
-    let (lw, lh) = (w.div_ceil(k), h.div_ceil(k));
-    let low: Vec<(Option<DVec3>, TraceStats)> = (0..lw * lh)
-        .into_par_iter()
-        .map(|i| {
-            let mut st = TraceStats::default();
-            let ray = camera.primary_ray_at(
-                ((i % lw) as f64 + 0.5) * k as f64,
-                ((i / lw) as f64 + 0.5) * k as f64,
-                settings,
-            );
-            let l = level(&ray);
-            let c = (l < 1.0).then(|| trace_ray(scene, &ray, l, settings.reflect_max, &mut st));
-            (c, st)
-        })
-        .collect();
+    let k = layers.scale as usize;
+    let outer_level = layers.outer_level.clamp(0.0, 1.0);
+    let mid = Layer::trace(k, outer_level, settings, &ray_level, scene);
+    let outer =
+        (outer_level > 0.0).then(|| Layer::trace(2 * k, 0.0, settings, &ray_level, scene));
     let full: Vec<(DVec3, TraceStats)> = (0..w * h)
         .into_par_iter()
         .map(|i| {
             let mut st = TraceStats::default();
-            let (x, y) = (i % w, i / w);
-            let ray = camera.primary_ray(x, y, settings);
-            let l = level(&ray);
+            let (px, py) = ((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+            let (ray, l) = ray_level(px, py);
             if l <= 0.0 {
                 st.background_pixels += 1;
                 return (scene.background(), st);
             }
             if l < 1.0 {
-                let gx = (x as f64 + 0.5) / k as f64 - 0.5;
-                let gy = (y as f64 + 0.5) / k as f64 - 0.5;
-                let x0 = gx.floor().clamp(0.0, (lw - 1) as f64);
-                let y0 = gy.floor().clamp(0.0, (lh - 1) as f64);
-                let (fx, fy) = ((gx - x0).clamp(0.0, 1.0), (gy - y0).clamp(0.0, 1.0));
-                let (x0, y0) = (x0 as usize, y0 as usize);
-                let (x1, y1) = ((x0 + 1).min(lw - 1), (y0 + 1).min(lh - 1));
-                let tap = |xx: usize, yy: usize| low[yy * lw + xx].0;
-                if let (Some(c00), Some(c10), Some(c01), Some(c11)) =
-                    (tap(x0, y0), tap(x1, y0), tap(x0, y1), tap(x1, y1))
-                {
-                    let top = c00.lerp(c10, fx);
-                    let bottom = c01.lerp(c11, fx);
-                    return (top.lerp(bottom, fy), st);
+                let from_mid = || mid.sample(px, py);
+                let from_outer = || outer.as_ref().and_then(|o| o.sample(px, py));
+                let blended = if l < outer_level {
+                    from_outer().or_else(from_mid)
+                } else {
+                    from_mid().or_else(from_outer)
+                };
+                if let Some(c) = blended {
+                    return (c, st);
                 }
             }
             let c = trace_ray(scene, &ray, l, settings.reflect_max, &mut st);
             (c, st)
         })
         .collect();
-    let stats = low
+    let stats = mid
+        .texels
         .iter()
+        .chain(outer.iter().flat_map(|o| o.texels.iter()))
         .map(|(_, s)| *s)
         .chain(full.iter().map(|(_, s)| *s))
         .fold(TraceStats::default(), |a, s| a.add(s));
@@ -701,8 +766,15 @@ mod tests {
         let q = LevelQuantization::Steps(8);
         let lv = pixel_levels(&cam, &s, &field, &gaze, q);
         let per_pixel = render(&scene, &cam, &s, &lv).unwrap();
-        assert_eq!(render_layered(&scene, &cam, &s, &field, &gaze, q, 1), per_pixel);
-        let half = render_layered(&scene, &cam, &s, &field, &gaze, q, 2);
+        assert_eq!(
+            render_layered(&scene, &cam, &s, &field, &gaze, q, Layers::PER_PIXEL),
+            per_pixel
+        );
+        let two = Layers {
+            scale: 2,
+            outer_level: 0.0,
+        };
+        let half = render_layered(&scene, &cam, &s, &field, &gaze, q, two);
         let central = lv.iter().filter(|&&l| l >= 1.0).count() as u64;
         let peripheral = lv.iter().filter(|&&l| l > 0.0 && l < 1.0).count() as u64;
         assert!(central > 0 && peripheral > 0);
@@ -712,9 +784,23 @@ mod tests {
             }
         }
         assert!(half.stats.primary_rays < central + peripheral / 2);
+        // With the outer layer (levels below ½ on a quarter-resolution
+        // grid) fewer rays still, the central field again unchanged.
+        let nested = Layers {
+            scale: 2,
+            outer_level: 0.5,
+        };
+        let quarter = render_layered(&scene, &cam, &s, &field, &gaze, q, nested);
+        assert!(quarter.stats.primary_rays < half.stats.primary_rays);
+        for i in 0..lv.len() {
+            if lv[i] >= 1.0 {
+                assert_eq!(quarter.pixels[i], per_pixel.pixels[i]);
+            }
+            assert!(quarter.pixels[i].is_finite());
+        }
         let lost = GazeEstimate::FullQuality { last: None };
         assert_eq!(
-            render_layered(&scene, &cam, &s, &field, &lost, q, 2),
+            render_layered(&scene, &cam, &s, &field, &lost, q, nested),
             render_full_quality(&scene, &cam, &s)
         );
     }

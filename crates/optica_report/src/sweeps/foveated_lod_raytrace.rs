@@ -12,8 +12,8 @@
 //!   walls; C mirror, front; D diffuse, front) × gaze at the front wall and
 //!   60° down at the floor.
 //! * Time: the three walls' frame foveated (the defaults: eight level steps,
-//!   periphery at half resolution, foveation only where it saves a fifth of
-//!   the primary rays) against the same frame with `foveate: false` (every
+//!   periphery at half resolution, levels below ½ at quarter resolution,
+//!   foveation only where it saves a fifth of the primary rays) against the same frame with `foveate: false` (every
 //!   pixel traced at level 1), medians of the timed frames, same run.
 //! * Error: the front wall's image (8-bit sRGB, tonemapped) against full
 //!   quality, RMSE per eccentricity band (0–5°, 5–30°, beyond 30°) and
@@ -22,7 +22,7 @@
 //! * Work: the plugin's own estimate of the primary rays saved
 //!   (`GazeRayTracerState::saving`, front wall), whether the front wall
 //!   foveated, and from the CPU twin of the same schedule
-//!   (`render_layered`, the front wall at 64², quick 24²): all rays and
+//!   (`render_layered`, the three walls at 64², quick 24²): all rays and
 //!   ray–triangle tests, foveated over full quality.
 //! * Series "periphery scale": scene D with the floor gaze, the knob the
 //!   periphery's grid scale (1: every pixel at its level, only eq. 9 and 10
@@ -39,7 +39,8 @@ use optica_foveated_lod::{
     HeadSource, RayTraced, TracedScene, TrackedHead, WallRect, reference_of,
 };
 use optica_optics::foveated_lod::{
-    GazeEstimate, LevelQuantization, TraceSettings, TracerCamera, render_layered,
+    GazeEstimate, Layers, LevelQuantization, TraceSettings, TraceStats, TracerCamera,
+    render_layered,
 };
 
 use super::SweepError;
@@ -167,46 +168,51 @@ fn tracer(foveate: bool, scale: u32) -> GazeRayTracer {
     }
 }
 
-/// The CPU twin's work on the front wall, foveated over full quality.
+/// The CPU twin's work on the three walls, foveated over full quality.
 fn twin_work(seen: &Seen, t: &GazeRayTracer, size: usize) -> Result<(f64, f64), SweepError> {
+    let setup = |e: String| SweepError::Setup(e);
     let traced = seen
         .traced
         .as_ref()
-        .ok_or(SweepError::Setup("no traced scene".into()))?;
-    let scene = reference_of(traced, t).ok_or(SweepError::Setup("empty traced scene".into()))?;
-    let gaze = seen
-        .gaze
-        .as_ref()
-        .ok_or(SweepError::Setup("no gaze".into()))?;
-    let [front, _, _] = WallRect::front_right_floor(CAVE_M).expect("a 3 m CAVE");
-    let wall = front.wall().map_err(|e| SweepError::Setup(e.to_string()))?;
-    let camera =
-        TracerCamera::cave(wall, EYE.as_dvec3()).map_err(|e| SweepError::Setup(e.to_string()))?;
-    let settings = TraceSettings::new(size, size, t.reflect_max)
-        .map_err(|e| SweepError::Setup(e.to_string()))?;
+        .ok_or(setup("no traced scene".into()))?;
+    let scene = reference_of(traced, t).ok_or(setup("empty traced scene".into()))?;
+    let gaze = seen.gaze.as_ref().ok_or(setup("no gaze".into()))?;
+    let settings =
+        TraceSettings::new(size, size, t.reflect_max).map_err(|e| setup(e.to_string()))?;
     let field = gaze.field(Eye::Cyclopean);
     let quant = LevelQuantization::Steps(Foveation::default().steps);
-    let fov = render_layered(
-        &scene,
-        &camera,
-        &settings,
-        field,
-        gaze.estimate(Eye::Cyclopean),
-        quant,
-        t.periphery_scale,
-    );
-    let full = render_layered(
-        &scene,
-        &camera,
-        &settings,
-        field,
-        &GazeEstimate::FullQuality { last: None },
-        quant,
-        1,
-    );
+    let (mut fov, mut full) = (TraceStats::default(), TraceStats::default());
+    for wall in WallRect::front_right_floor(CAVE_M).expect("a 3 m CAVE") {
+        let wall = wall.wall().map_err(|e| setup(e.to_string()))?;
+        let camera = TracerCamera::cave(wall, EYE.as_dvec3()).map_err(|e| setup(e.to_string()))?;
+        let estimate = gaze.estimate(Eye::Cyclopean);
+        let f = render_layered(
+            &scene,
+            &camera,
+            &settings,
+            field,
+            estimate,
+            quant,
+            t.layers(),
+        );
+        let lost = GazeEstimate::FullQuality { last: None };
+        let q = render_layered(
+            &scene,
+            &camera,
+            &settings,
+            field,
+            &lost,
+            quant,
+            Layers::PER_PIXEL,
+        );
+        for (sum, s) in [(&mut fov, f.stats), (&mut full, q.stats)] {
+            sum.primary_rays += s.rays();
+            sum.triangle_tests += s.triangle_tests;
+        }
+    }
     Ok((
-        fov.stats.rays() as f64 / full.stats.rays().max(1) as f64,
-        fov.stats.triangle_tests as f64 / full.stats.triangle_tests.max(1) as f64,
+        fov.primary_rays as f64 / full.primary_rays.max(1) as f64,
+        fov.triangle_tests as f64 / full.triangle_tests.max(1) as f64,
     ))
 }
 

@@ -196,6 +196,18 @@
 //! primary rays ([`GazeRayTracerState`]): a gaze that holds the whole view
 //! in its central field is traced as full quality, at full quality's cost.
 //!
+//! Measured (`optica_report foveated_lod`, lavapipe, release; the paper's
+//! CAVE of three 256² walls, eight 5,780-triangle models and a floor, its
+//! four scenes and two gazes, frame time against `foveate: false` in the
+//! same run): 0.38–0.59 of full quality's frame with the defaults, the
+//! central field equal to full quality's and the image beyond 30° within an
+//! RMSE of 0.01–0.15 (8-bit sRGB, largest where the field's edge cuts
+//! models off). The CPU twin of the same schedule traces 16–27 % of full
+//! quality's rays; the rest of the frame (some 55 ms of 280–450 on
+//! lavapipe) is Bevy's own three-camera frame, which foveation cannot
+//! shorten. Coarser layers (`periphery_scale` 4, 8) bring it to 0.29–0.30
+//! at an RMSE beyond 30° of 0.017–0.028.
+//!
 //! Limits: the objects are tested one after another (no BVH over them;
 //! fine for tens of objects); shadow rays treat transparent objects as
 //! opaque (Whitted's tracer did); a [`PointLight`] lights traced objects
@@ -323,8 +335,7 @@ impl Plugin for FoveatedLodPlugin {
                         .in_set(FoveatedLodSystems::Levels),
                     (
                         raytrace::build_traced_scene.run_if(any_with_component::<RayTraced>),
-                        raytrace::prepare_tracer_views
-                            .run_if(any_with_component::<GazeRayTracer>),
+                        raytrace::prepare_tracer_views.run_if(any_with_component::<GazeRayTracer>),
                     )
                         .in_set(FoveatedLodSystems::Levels),
                 ),

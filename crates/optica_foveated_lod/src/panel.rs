@@ -93,6 +93,7 @@ pub fn foveation_ui(ui: &mut egui::Ui, f: &mut Foveation) -> bool {
     changed
 }
 
+#[allow(clippy::too_many_arguments)]
 fn panel_window(
     mut contexts: EguiContexts,
     mut foveation: ResMut<Foveation>,
@@ -102,7 +103,12 @@ fn panel_window(
     gate: Res<FoveationGate>,
     objects: Query<(Entity, Option<&Name>, &GazeLodState, &GlobalTransform)>,
     traced: Query<(), With<RayTraced>>,
-    mut tracers: Query<(Entity, Option<&Name>, &mut GazeRayTracer, &GazeRayTracerState)>,
+    mut tracers: Query<(
+        Entity,
+        Option<&Name>,
+        &mut GazeRayTracer,
+        &GazeRayTracerState,
+    )>,
 ) -> Result {
     egui::Window::new("Foveated LOD").show(contexts.ctx_mut()?, |ui| {
         let mut f = foveation.clone();

@@ -14,7 +14,7 @@ use optica_optics::foveated_lod::{
     EyeModel, FlatScene, Layers, LevelQuantization, LodObject, TracerLight, TracerMaterial,
     TracerScene, TriangleMesh, VisualField,
 };
-use optica_optics::glam::{DAffine3, DMat3, DVec3};
+use optica_optics::glam::{DAffine3, DVec3};
 
 use crate::cave::CaveView;
 use crate::head::{Eye, GazeState};
@@ -224,7 +224,7 @@ fn world_mesh(mesh: &Mesh, affine: &DAffine3) -> Option<TriangleMesh> {
     else {
         return None;
     };
-    let normal_matrix = DMat3::from(affine.matrix3).inverse().transpose();
+    let normal_matrix = affine.matrix3.inverse().transpose();
     let normals = match mesh.attribute(Mesh::ATTRIBUTE_NORMAL) {
         Some(VertexAttributeValues::Float32x3(n)) if n.len() == positions.len() => Some(
             n.iter()
@@ -371,6 +371,7 @@ pub(crate) struct TracerView {
 const GATE_SAMPLES: u32 = 32;
 
 /// Chooses each tracer view's gaze and field, and whether it foveates.
+#[allow(clippy::type_complexity)]
 pub(crate) fn prepare_tracer_views(
     mut commands: Commands,
     mut views: Query<(

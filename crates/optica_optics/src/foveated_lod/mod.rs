@@ -122,9 +122,9 @@ pub use level::{
 };
 pub use tracker::{GazeEstimate, GazeTracker, TrackerSample};
 
+pub use flat::{FlatMesh, FlatNode, FlatObject, FlatScene, FlatVertex, LEAF_BIT};
 #[cfg(feature = "reference")]
 pub use image_error::{rmse, weighted_rmse};
-pub use flat::{FlatMesh, FlatNode, FlatObject, FlatScene, FlatVertex, LEAF_BIT};
 pub use mesh::TriangleMesh;
 pub use scene::{DemoDetail, LodObject, TracerLight, TracerMaterial, TracerScene, demo_scene};
 pub use tracer::{

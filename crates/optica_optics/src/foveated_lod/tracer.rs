@@ -547,8 +547,7 @@ pub fn render_layered(
     let k = layers.scale as usize;
     let outer_level = layers.outer_level.clamp(0.0, 1.0);
     let mid = Layer::trace(k, outer_level, settings, &ray_level, scene);
-    let outer =
-        (outer_level > 0.0).then(|| Layer::trace(2 * k, 0.0, settings, &ray_level, scene));
+    let outer = (outer_level > 0.0).then(|| Layer::trace(2 * k, 0.0, settings, &ray_level, scene));
     let full: Vec<(DVec3, TraceStats)> = (0..w * h)
         .into_par_iter()
         .map(|i| {
@@ -744,7 +743,10 @@ mod tests {
         // wall, and the sphere's own (white ambient, 0.5) colour at half
         // weight on entry and a quarter on exit.
         let c = trace_ray(&ball(1.5, 0.5), &central, 1.0, 3, &mut st);
-        assert!((c - (DVec3::splat(0.375) + wall_colour * 0.25)).length() < 1e-9, "{c}");
+        assert!(
+            (c - (DVec3::splat(0.375) + wall_colour * 0.25)).length() < 1e-9,
+            "{c}"
+        );
         // Off centre at index 1.5 the ray is bent towards the axis and on
         // through the far side: it still sees the wall, not the background.
         let off = Ray::from_unit(DVec3::ZERO, DVec3::new(0.25, 0.0, -3.0).normalize());
@@ -778,8 +780,8 @@ mod tests {
         let central = lv.iter().filter(|&&l| l >= 1.0).count() as u64;
         let peripheral = lv.iter().filter(|&&l| l > 0.0 && l < 1.0).count() as u64;
         assert!(central > 0 && peripheral > 0);
-        for i in 0..lv.len() {
-            if lv[i] >= 1.0 {
+        for (i, &l) in lv.iter().enumerate() {
+            if l >= 1.0 {
                 assert_eq!(half.pixels[i], per_pixel.pixels[i]);
             }
         }
@@ -792,8 +794,8 @@ mod tests {
         };
         let quarter = render_layered(&scene, &cam, &s, &field, &gaze, q, nested);
         assert!(quarter.stats.primary_rays < half.stats.primary_rays);
-        for i in 0..lv.len() {
-            if lv[i] >= 1.0 {
+        for (i, &l) in lv.iter().enumerate() {
+            if l >= 1.0 {
                 assert_eq!(quarter.pixels[i], per_pixel.pixels[i]);
             }
             assert!(quarter.pixels[i].is_finite());

@@ -80,6 +80,19 @@ pub(super) const SCENES: [Scene; 4] = [
     },
 ];
 
+/// The paper's eight cases: each scene with the front and the floor gaze.
+pub(super) fn paper_cases() -> Vec<(Scene, bool)> {
+    SCENES
+        .into_iter()
+        .flat_map(|s| [(s, false), (s, true)])
+        .collect()
+}
+
+/// The name of the front (false) or floor (true) gaze in series names.
+pub(super) fn gaze_name(floor: bool) -> &'static str {
+    if floor { "floor gaze" } else { "front gaze" }
+}
+
 /// The gaze: at the front wall, or 60° down at the floor.
 pub(super) fn gaze(floor: bool) -> Vec3 {
     if floor {
@@ -220,7 +233,11 @@ pub(super) fn pixel_field(size: u32, floor_gaze: bool, central_deg: f32) -> Vec<
 
 /// RMSE (8-bit sRGB, colour channels, in [0, 1]) per band and weighted by
 /// level.
-pub(super) fn banded_error(a: &RgbaImage, b: &RgbaImage, field: &[(f64, f64)]) -> Vec<(&'static str, f64)> {
+pub(super) fn banded_error(
+    a: &RgbaImage,
+    b: &RgbaImage,
+    field: &[(f64, f64)],
+) -> Vec<(&'static str, f64)> {
     let mut sums = [(0.0, 0.0); 4];
     for (i, (pa, pb)) in a.pixels().zip(b.pixels()).enumerate() {
         let e2 = (0..3)
@@ -331,21 +348,13 @@ fn measure(
 
 /// Adds the mesh path's rows and stability cases to the `foveated_lod` report.
 pub fn mesh_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
-    let all: Vec<(Scene, bool)> = SCENES
-        .into_iter()
-        .flat_map(|s| [(s, false), (s, true)])
-        .collect();
     // Quick: two of the eight cases, one knob value.
-    let cases = ctx.pick(vec![(SCENES[1], true), (SCENES[3], false)], all);
+    let cases = ctx.pick(vec![(SCENES[1], true), (SCENES[3], false)], paper_cases());
     let centrals: Vec<f32> = ctx.pick(vec![10.0], vec![5.0, 10.0, 20.0]);
     let total = cases.len() + centrals.len();
     let mut step = 0;
     for (scene, floor_gaze) in cases {
-        let gaze_name = if floor_gaze {
-            "floor gaze"
-        } else {
-            "front gaze"
-        };
+        let gaze_name = gaze_name(floor_gaze);
         ctx.progress(
             step,
             total,

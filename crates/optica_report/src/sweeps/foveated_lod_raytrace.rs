@@ -45,7 +45,7 @@ use optica_optics::foveated_lod::{
 
 use super::SweepError;
 use super::foveated_lod_mesh::{
-    CAVE_M, EYE, SCENES, Scene, banded_error, gaze, pixel_field, positions,
+    CAVE_M, EYE, SCENES, Scene, banded_error, gaze, gaze_name, paper_cases, pixel_field, positions,
 };
 use crate::{Report, Row, SweepContext};
 
@@ -259,21 +259,13 @@ fn measure(
 
 /// Adds the ray tracer's rows to the `foveated_lod` report.
 pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
-    let all: Vec<(Scene, bool)> = SCENES
-        .into_iter()
-        .flat_map(|s| [(s, false), (s, true)])
-        .collect();
     // Quick: two of the eight cases, one knob value.
-    let cases = ctx.pick(vec![(SCENES[0], false), (SCENES[3], true)], all);
+    let cases = ctx.pick(vec![(SCENES[0], false), (SCENES[3], true)], paper_cases());
     let scales: Vec<u32> = ctx.pick(vec![4], vec![1, 2, 4, 8]);
     let total = cases.len() + scales.len();
     let mut step = 0;
     for (scene, floor_gaze) in cases {
-        let gaze_name = if floor_gaze {
-            "floor gaze"
-        } else {
-            "front gaze"
-        };
+        let gaze_name = gaze_name(floor_gaze);
         ctx.progress(
             step,
             total,

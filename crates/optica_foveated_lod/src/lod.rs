@@ -336,6 +336,9 @@ pub struct FoveationWork {
     pub chains_built: u64,
     /// CAVE cameras re-aimed.
     pub views_aimed: u64,
+    /// Ray-tracer views whose levels and foveation were worked out again
+    /// (after a gaze, camera or setting change).
+    pub tracer_views: u64,
 }
 
 /// Whether some object waits for its dwell before it may be made coarser:

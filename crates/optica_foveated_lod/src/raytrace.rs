@@ -297,13 +297,24 @@ pub(crate) fn build_traced_scene(
     for (entity, material, chain, transform) in &items {
         let affine = transform.affine();
         let affine = DAffine3::from_mat4(Mat4::from(affine).as_dmat4());
-        let lods: Option<Vec<TriangleMesh>> = chain
+        let Some(sources) = chain
             .meshes
             .iter()
-            .map(|h| meshes.get(h).and_then(|m| world_mesh(m, &affine)))
-            .collect();
-        let Some(lods) = lods else {
+            .map(|h| meshes.get(h))
+            .collect::<Option<Vec<&Mesh>>>()
+        else {
             lods_missing = true;
+            continue;
+        };
+        let Some(lods) = sources
+            .into_iter()
+            .map(|m| world_mesh(m, &affine))
+            .collect::<Option<Vec<TriangleMesh>>>()
+        else {
+            warn!(
+                "foveated LOD: {entity} is not traced: its mesh has no indexed Float32x3 positions, \
+                 or a non-finite one"
+            );
             continue;
         };
         match LodObject::new(lods, material.material()) {
@@ -376,16 +387,28 @@ pub(crate) fn prepare_tracer_views(
     mut commands: Commands,
     mut views: Query<(
         Entity,
-        &GazeRayTracer,
+        Ref<GazeRayTracer>,
         &mut GazeRayTracerState,
-        &Camera,
-        &GlobalTransform,
+        Ref<Camera>,
+        Ref<GlobalTransform>,
         Option<&CaveView>,
+        Has<TracerView>,
     )>,
     gaze: Res<GazeState>,
     settings: Res<CheckedFoveation>,
+    mut work: ResMut<crate::FoveationWork>,
 ) {
-    for (entity, tracer, mut state, camera, transform, cave) in &mut views {
+    for (entity, tracer, mut state, camera, transform, cave, prepared) in &mut views {
+        // Nothing to redo while the gaze, the settings and the view stand still.
+        let changed = gaze.is_changed()
+            || settings.is_changed()
+            || tracer.is_changed()
+            || camera.is_changed()
+            || transform.is_changed();
+        if prepared && !changed {
+            continue;
+        }
+        work.tracer_views += 1;
         let eye = match (settings.eyes, cave) {
             (FieldEyes::PerEye, Some(c)) => c.eye,
             _ => Eye::Cyclopean,
@@ -401,7 +424,7 @@ pub(crate) fn prepare_tracer_views(
                 let world_from_clip = transform.to_matrix() * camera.clip_from_view().inverse();
                 let eye_pos = transform.translation();
                 let quant = LevelQuantization::Steps(steps);
-                let outer = outer_level(tracer) as f64;
+                let outer = outer_level(&tracer) as f64;
                 let (mut central, mut outside, mut far) = (0u32, 0u32, 0u32);
                 for j in 0..GATE_SAMPLES {
                     for i in 0..GATE_SAMPLES {
@@ -461,7 +484,7 @@ pub(crate) fn prepare_tracer_views(
             steps,
             full_quality: !next.foveating,
             scale,
-            outer_level: outer_level(tracer),
+            outer_level: outer_level(&tracer),
             reflect_max: tracer.reflect_max.min(MAX_REFLECT),
             background: tracer.background.to_vec3(),
             ambient: tracer.ambient.to_vec3(),

@@ -8,8 +8,8 @@ use std::sync::{Arc, Mutex};
 
 use bevy::prelude::*;
 use optica_foveated_lod::{
-    Eye, FoveatedLodPlugin, Foveation, GazeRayTracer, GazeRayTracerState, GazeState, HeadSource,
-    RayTraced, TracedScene, TrackedHead, reference_of,
+    Eye, FoveatedLodPlugin, Foveation, FoveationWork, GazeRayTracer, GazeRayTracerState, GazeState,
+    HeadSource, RayTraced, TracedScene, TrackedHead, reference_of,
 };
 use optica_harness::{Adapter, Headless};
 use optica_optics::foveated_lod::{
@@ -28,13 +28,26 @@ struct Seen {
     traced: Option<TracedScene>,
     gaze: Option<GazeState>,
     state: Option<GazeRayTracerState>,
+    work: Option<FoveationWork>,
+}
+
+/// [`trace_head`] with the gaze `gaze` (world direction from the eye)
+/// tracked from the camera's eye.
+fn trace(gaze: Vec3, tracer: GazeRayTracer, min_saving: f32) -> (Vec<Vec3>, Seen) {
+    let head = TrackedHead::looking(EYE, Quat::IDENTITY, Some(gaze.normalize()), 0.0);
+    trace_head(head, tracer, min_saving, |_| {})
 }
 
 /// A mirror sphere, a glass sphere, a diffuse torus on a ground plane under
-/// one light, seen by a tracer camera, the gaze `gaze` (world direction from
-/// the eye) tracked, foveating where it saves `min_saving` of the rays.
+/// one light, seen by a tracer camera, the head `head` tracked, foveating
+/// where it saves `min_saving` of the rays; `extra` adds to the app.
 /// Returns the linear image and what the app saw.
-fn trace(gaze: Vec3, tracer: GazeRayTracer, min_saving: f32) -> (Vec<Vec3>, Seen) {
+fn trace_head(
+    head: TrackedHead,
+    tracer: GazeRayTracer,
+    min_saving: f32,
+    extra: impl FnOnce(&mut App),
+) -> (Vec<Vec3>, Seen) {
     let seen = Arc::new(Mutex::new(Seen::default()));
     let out = seen.clone();
     let frame = Headless::new(W, H)
@@ -47,12 +60,7 @@ fn trace(gaze: Vec3, tracer: GazeRayTracer, min_saving: f32) -> (Vec<Vec3>, Seen
                     min_saving,
                     ..default()
                 })
-                .insert_resource(TrackedHead::looking(
-                    EYE,
-                    Quat::IDENTITY,
-                    Some(gaze.normalize()),
-                    0.0,
-                ))
+                .insert_resource(head)
                 .add_systems(
                     Startup,
                     move |mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>| {
@@ -97,13 +105,16 @@ fn trace(gaze: Vec3, tracer: GazeRayTracer, min_saving: f32) -> (Vec<Vec3>, Seen
                     Last,
                     move |traced: Res<TracedScene>,
                           gaze: Res<GazeState>,
+                          work: Res<FoveationWork>,
                           states: Query<&GazeRayTracerState>| {
                         let mut s = out.lock().unwrap();
+                        s.work = Some(work.clone());
                         s.traced = Some(traced.clone());
                         s.gaze = Some(gaze.clone());
                         s.state = states.iter().next().cloned();
                     },
                 );
+            extra(app);
         })
         .expect("render");
     let img = frame.hdr().expect("an HDR frame");
@@ -226,9 +237,7 @@ fn gpu_tracer_matches_the_cpu_reference() {
         assert!(coarse[i].is_finite());
     }
     let rms = (rms / peripheral.max(1) as f32).sqrt();
-    eprintln!(
-        "periphery in layers: RMS {rms:.4} (linear, clamped to 1) against per pixel"
-    );
+    eprintln!("periphery in layers: RMS {rms:.4} (linear, clamped to 1) against per pixel");
     assert!(rms < 0.1, "RMS {rms}");
 }
 
@@ -313,5 +322,68 @@ fn tracer_pipelines_only_for_tracer_cameras() {
             traced.iter().any(|l| l == want),
             "{want} missing: {traced:?}"
         );
+    }
+}
+
+/// Hostile heads on the tracer: a NaN gaze and a zero gaze (full quality,
+/// as no valid gaze was ever seen), a head far outside the CAVE gazing
+/// along the seam of two walls, and a model with a NaN vertex (left out of
+/// the traced scene with a warning): every pixel finite. A still head does
+/// not make the tracer's view work again every frame.
+#[test]
+fn hostile_heads_and_meshes_give_no_nan_pixel() {
+    let seam = Vec3::new(1.0, 0.0, -1.0).normalize();
+    let bad_mesh = |app: &mut App| {
+        let mut mesh = Sphere::new(0.3).mesh().ico(3).unwrap();
+        if let Some(bevy::mesh::VertexAttributeValues::Float32x3(p)) =
+            mesh.attribute_mut(Mesh::ATTRIBUTE_POSITION)
+        {
+            p[5] = [f32::NAN, 0.0, 0.0];
+        }
+        let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
+        app.world_mut().spawn((
+            Mesh3d(mesh),
+            Transform::from_xyz(0.0, 1.0, 1.0),
+            RayTraced::diffuse(LinearRgba::WHITE),
+        ));
+    };
+    let cases = [
+        (
+            "NaN gaze",
+            TrackedHead::looking(EYE, Quat::IDENTITY, Some(Vec3::NAN), 0.0),
+        ),
+        (
+            "zero gaze",
+            TrackedHead::looking(EYE, Quat::IDENTITY, Some(Vec3::ZERO), 0.0),
+        ),
+        (
+            "outside the CAVE, gaze on a seam",
+            TrackedHead::looking(
+                Vec3::new(40.0, -3.0, 25.0),
+                Quat::IDENTITY,
+                Some(seam),
+                0.063,
+            ),
+        ),
+    ];
+    for (i, (what, head)) in cases.into_iter().enumerate() {
+        let (img, seen) = if i == 0 {
+            trace_head(head, GazeRayTracer::default(), 0.2, bad_mesh)
+        } else {
+            trace_head(head, GazeRayTracer::default(), 0.2, |_| {})
+        };
+        let bad = img.iter().filter(|p| !p.is_finite()).count();
+        assert_eq!(bad, 0, "{what}: {bad} non-finite pixels");
+        assert!(img.iter().any(|p| *p != img[0]), "{what}: a blank image");
+        let work = seen.work.unwrap();
+        eprintln!(
+            "{what}: tracer views prepared {} times in 3 frames",
+            work.tracer_views
+        );
+        assert!(work.tracer_views >= 1 && work.tracer_views < 3, "{what}");
+        if i == 0 {
+            // The NaN model is left out: the four good ones remain.
+            assert_eq!(seen.traced.unwrap().flat.objects.len(), 4);
+        }
     }
 }

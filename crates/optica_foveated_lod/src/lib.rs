@@ -240,7 +240,7 @@ pub use lod::{
 #[cfg(feature = "egui")]
 pub use panel::{FoveatedLodPanelPlugin, foveation_ui};
 pub use raytrace::{
-    GazeRayTracer, GazeRayTracerState, MAX_REFLECT, RayTraced, TracedScene, light_scale,
+    GazeRayTracer, GazeRayTracerState, MAX_PERIPHERY_SCALE, MAX_REFLECT, RayTraced, TracedScene, light_scale,
     reference_of,
 };
 pub use settings::{CheckedFoveation, FieldBoundary, FieldEyes, Foveation};

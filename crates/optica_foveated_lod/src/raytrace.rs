@@ -25,6 +25,12 @@ use crate::settings::{CheckedFoveation, FieldEyes};
 /// has eight slots).
 pub const MAX_REFLECT: u32 = 7;
 
+/// Nodes the shader's BVH walk can hold (`STACK` in `raytrace.wgsl`).
+const BVH_STACK: u32 = 40;
+
+/// The coarsest middle layer [`GazeRayTracer::periphery_scale`] may ask for.
+pub const MAX_PERIPHERY_SCALE: u32 = 64;
+
 /// Bevy's default camera exposure (EV100 9.7): traced light is scaled by it,
 /// so a [`PointLight`] lights a traced object about as it lights a
 /// rasterised one.
@@ -62,7 +68,8 @@ pub struct GazeRayTracer {
     /// Off: every ray at level 1, every pixel traced (the reference).
     pub foveate: bool,
     /// Peripheral rays are traced on a grid this many times coarser per
-    /// axis (1: every pixel; 2, the default, a quarter of the rays).
+    /// axis (1: every pixel; 2, the default, a quarter of the rays; at most
+    /// [`MAX_PERIPHERY_SCALE`]).
     pub periphery_scale: u32,
     /// Rays of a level below this are traced on a grid twice coarser again
     /// (the outer layer; 0.5 by default, 0 for none).
@@ -92,7 +99,7 @@ impl GazeRayTracer {
     /// (`optica_optics::foveated_lod::render_layered`).
     pub fn layers(&self) -> Layers {
         Layers {
-            scale: self.periphery_scale.max(1),
+            scale: self.periphery_scale.clamp(1, MAX_PERIPHERY_SCALE),
             outer_level: outer_level(self) as f64,
         }
     }
@@ -251,7 +258,7 @@ fn world_mesh(mesh: &Mesh, affine: &DAffine3) -> Option<TriangleMesh> {
 /// Rebuilds [`TracedScene`] when what it was built from changed.
 pub(crate) fn build_traced_scene(
     objects: Query<(Entity, &RayTraced, &GazeLodState, &GlobalTransform)>,
-    lights: Query<(&PointLight, &GlobalTransform)>,
+    lights: Query<(Entity, &PointLight, &GlobalTransform)>,
     meshes: Res<Assets<Mesh>>,
     mut traced: ResMut<TracedScene>,
 ) {
@@ -281,7 +288,11 @@ pub(crate) fn build_traced_scene(
             .map(|x| x.to_bits() as u64),
         );
     }
-    for (l, t) in &lights {
+    // By entity, so that a light moving between archetypes rebuilds nothing.
+    let mut lights: Vec<_> = lights.iter().collect();
+    lights.sort_by_key(|(e, ..)| *e);
+    for (e, l, t) in &lights {
+        signature.push(e.to_bits());
         let c = l.color.to_linear();
         let p = t.translation();
         signature.extend(
@@ -328,7 +339,7 @@ pub(crate) fn build_traced_scene(
     }
     let lights = lights
         .iter()
-        .map(|(l, t)| TracerLight {
+        .map(|(_, l, t)| TracerLight {
             position: t.translation().as_dvec3(),
             intensity: lin(l.color.to_linear()) * light_scale(l.intensity),
         })
@@ -336,6 +347,13 @@ pub(crate) fn build_traced_scene(
     match TracerScene::new(built, lights, DVec3::ZERO, DVec3::ZERO) {
         Ok(scene) => {
             traced.flat = Arc::new(FlatScene::from_scene(&scene));
+            if traced.flat.max_depth > BVH_STACK {
+                warn!(
+                    "foveated LOD: a traced mesh's BVH is {} deep, more than the tracer's stack of \
+                     {BVH_STACK}: rays may miss parts of it; split the mesh",
+                    traced.flat.max_depth
+                );
+            }
             traced.scene = Some(Arc::new(scene));
             traced.generation += 1;
             traced.build_ms = start.elapsed().as_secs_f32() * 1e3;
@@ -391,7 +409,7 @@ pub(crate) fn prepare_tracer_views(
         &mut GazeRayTracerState,
         Ref<Camera>,
         Ref<GlobalTransform>,
-        Option<&CaveView>,
+        Option<Ref<CaveView>>,
         Has<TracerView>,
     )>,
     gaze: Res<GazeState>,
@@ -404,25 +422,27 @@ pub(crate) fn prepare_tracer_views(
             || settings.is_changed()
             || tracer.is_changed()
             || camera.is_changed()
-            || transform.is_changed();
+            || transform.is_changed()
+            || cave.as_ref().is_some_and(|c| c.is_changed());
         if prepared && !changed {
             continue;
         }
         work.tracer_views += 1;
         let eye = match (settings.eyes, cave) {
-            (FieldEyes::PerEye, Some(c)) => c.eye,
+            (FieldEyes::PerEye, Some(ref c)) => c.eye,
             _ => Eye::Cyclopean,
         };
         let estimate = gaze.estimate(eye);
         let field = *gaze.field(eye);
         let steps = settings.hysteresis.steps();
-        let scale = tracer.periphery_scale.max(1);
+        let scale = tracer.periphery_scale.clamp(1, MAX_PERIPHERY_SCALE);
         let frame = estimate.frame().copied();
         let wants = settings.enabled && tracer.foveate;
         let next = match (frame, wants) {
             (Some(frame), true) => {
-                let world_from_clip = transform.to_matrix() * camera.clip_from_view().inverse();
-                let eye_pos = transform.translation();
+                // As the shader: rotation only, the near-plane point is the direction.
+                let (_, rotation, _) = transform.to_scale_rotation_translation();
+                let world_from_clip = Mat4::from_quat(rotation) * camera.clip_from_view().inverse();
                 let quant = LevelQuantization::Steps(steps);
                 let outer = outer_level(&tracer) as f64;
                 let (mut central, mut outside, mut far) = (0u32, 0u32, 0u32);
@@ -433,7 +453,7 @@ pub(crate) fn prepare_tracer_views(
                             1.0 - (2 * j + 1) as f32 / GATE_SAMPLES as f32,
                         );
                         let p = world_from_clip.project_point3(ndc.extend(1.0));
-                        let d = (p - eye_pos).as_dvec3();
+                        let d = p.as_dvec3();
                         let level = quant.apply(field.level(&frame, d));
                         if level >= 1.0 {
                             central += 1;

@@ -307,6 +307,8 @@ struct ViewBuffers {
     image: Buffer,
     /// The middle layer's texels, then the outer layer's.
     low: Buffer,
+    /// Texels `low` holds.
+    layer_capacity: u64,
     size: UVec2,
     low_size: UVec2,
     outer_size: UVec2,
@@ -390,9 +392,22 @@ fn prepare_views(
         let low_size = UVec2::new(size.x.div_ceil(scale), size.y.div_ceil(scale));
         let outer_size = UVec2::new(size.x.div_ceil(2 * scale), size.y.div_ceil(2 * scale));
         let outer_level = if scale > 1 { tv.outer_level } else { 0.0 };
+        // The layers' texels: none when every pixel is traced.
+        let texels = |n: UVec2| n.x as u64 * n.y as u64;
+        let layer_texels = if scale > 1 {
+            texels(low_size)
+                + if outer_level > 0.0 {
+                    texels(outer_size)
+                } else {
+                    0
+                }
+        } else {
+            0
+        };
         let (central, ear, nose, upper, lower, boundary) = field_params(&tv.field);
         let params = Params {
-            world_from_clip: view.world_from_view.to_matrix() * view.clip_from_view.inverse(),
+            world_from_clip: Mat4::from_quat(view.world_from_view.rotation())
+                * view.clip_from_view.inverse(),
             eye: view.world_from_view.translation(),
             width: size.x,
             gaze_forward: tv.gaze_forward,
@@ -422,9 +437,9 @@ fn prepare_views(
             outer_height: outer_size.y,
         };
         match buffers {
-            Some(mut b)
-                if b.size == size && b.low_size == low_size && b.outer_size == outer_size =>
-            {
+            Some(mut b) if b.size == size && b.layer_capacity >= layer_texels => {
+                b.low_size = low_size;
+                b.outer_size = outer_size;
                 b.has_outer = outer_level > 0.0;
                 b.params.set(params);
                 b.params.write_buffer(&device, &queue);
@@ -433,10 +448,10 @@ fn prepare_views(
                 b.origin = view.viewport.xy();
             }
             _ => {
-                let buffer = |label: &'static str, n: UVec2| {
+                let buffer = |label: &'static str, texels: u64| {
                     device.create_buffer(&BufferDescriptor {
                         label: Some(label),
-                        size: 16 * (n.x as u64 * n.y as u64).max(1),
+                        size: 16 * texels.max(1),
                         usage: BufferUsages::STORAGE,
                         mapped_at_creation: false,
                     })
@@ -445,11 +460,9 @@ fn prepare_views(
                 p.write_buffer(&device, &queue);
                 commands.entity(entity).insert(ViewBuffers {
                     params: p,
-                    image: buffer("optica_foveated_lod_image", size),
-                    low: buffer(
-                        "optica_foveated_lod_layers",
-                        UVec2::new(low_size.x * low_size.y + outer_size.x * outer_size.y, 1),
-                    ),
+                    image: buffer("optica_foveated_lod_image", size.x as u64 * size.y as u64),
+                    low: buffer("optica_foveated_lod_layers", layer_texels),
+                    layer_capacity: layer_texels,
                     size,
                     low_size,
                     outer_size,

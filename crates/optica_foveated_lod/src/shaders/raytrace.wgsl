@@ -23,6 +23,7 @@
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
 
 struct Params {
+    // The camera's rotation times its clip-to-view matrix (no translation).
     world_from_clip: mat4x4<f32>,
     eye: vec3<f32>,
     width: u32,
@@ -456,7 +457,9 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, level: f32) -> vec3<f32> {
             if entering {
                 eta = 1.0 / ob.ior;
             }
-            let t = refract(d, n, eta);
+            // WGSL's refract wants the normal against the ray; a smooth
+            // normal at a silhouette can lean the other way (the twin flips it too).
+            let t = refract(d, select(n, -n, dot(n, d) > 0.0), eta);
             if dot(t, t) == 0.0 {
                 kr += kt; // total internal reflection
             } else if sp < PENDING {
@@ -478,9 +481,11 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, level: f32) -> vec3<f32> {
 fn primary_dir(px: vec2<f32>) -> vec3<f32> {
     let size = vec2(f32(params.width), f32(params.height));
     let ndc = vec2(2.0 * px.x / size.x - 1.0, 1.0 - 2.0 * px.y / size.y);
-    // Bevy's reverse z: the near plane is at z = 1.
+    // Bevy's reverse z: the near plane is at z = 1. The matrix leaves the
+    // camera's translation out, so the near-plane point is the direction
+    // itself, exact far from the world's origin.
     let p = params.world_from_clip * vec4(ndc, 1.0, 1.0);
-    return normalize(p.xyz / p.w - params.eye);
+    return normalize(p.xyz / p.w);
 }
 
 // The ray of a coarse texel `id` of a grid `k` times coarser, and whether

@@ -86,6 +86,23 @@ pub struct FlatScene {
     pub objects: Vec<FlatObject>,
     /// Lights.
     pub lights: Vec<TracerLight>,
+    /// The deepest BVH's depth (a root alone is 1): a near-first walk keeps
+    /// at most this many nodes on its stack.
+    pub max_depth: u32,
+}
+
+/// The depth of the tree under node `root`.
+fn depth(nodes: &[FlatNode], root: u32) -> u32 {
+    let mut deepest = 0;
+    let mut stack = vec![(root, 1)];
+    while let Some((i, d)) = stack.pop() {
+        deepest = deepest.max(d);
+        let n = nodes[i as usize];
+        if n.a & LEAF_BIT == 0 {
+            stack.extend([(n.a, d + 1), (n.b, d + 1)]);
+        }
+    }
+    deepest
 }
 
 fn f3(v: glam::DVec3) -> [f32; 3] {
@@ -133,6 +150,7 @@ impl FlatScene {
                         b: b2,
                     }
                 }));
+                flat.max_depth = flat.max_depth.max(depth(&flat.nodes, node_base));
                 flat.meshes.push(FlatMesh {
                     root: node_base,
                     triangles: mesh.triangle_count() as u32,
@@ -168,7 +186,7 @@ impl FlatScene {
             + 16 * self.triangles.len()
             + 32 * self.vertices.len()
             + 8 * self.meshes.len()
-            + 64 * self.objects.len()
+            + 80 * self.objects.len()
             + 32 * self.lights.len()
     }
 }
@@ -243,6 +261,11 @@ mod tests {
         let scene = demo_scene(&DemoDetail::small()).unwrap();
         let flat = FlatScene::from_scene(&scene);
         assert_eq!(flat.objects.len(), scene.objects().len());
+        assert!(
+            flat.max_depth > 1 && flat.max_depth < 40,
+            "{}",
+            flat.max_depth
+        );
         let total: usize = scene
             .objects()
             .iter()

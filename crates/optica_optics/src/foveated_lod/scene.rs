@@ -126,7 +126,9 @@ impl LodObject {
         input::finite_vec3("material colour", m.color)?;
         input::finite("material diffuse weight", m.diffuse)?;
         input::finite("material specular weight", m.specular)?;
-        input::finite("material shininess", m.shininess)?;
+        // Phong's 0⁰ is 1 on the CPU and 0 on the GPU: a positive exponent
+        // keeps the two the same.
+        input::positive("material shininess", m.shininess)?;
         input::in_range("material reflectance", m.reflectance, 0.0, 1.0)?;
         input::in_range("material transmittance", m.transmittance, 0.0, 1.0)?;
         let kr = if m.reflective { m.reflectance } else { 0.0 };

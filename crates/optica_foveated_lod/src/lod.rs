@@ -155,11 +155,12 @@ impl LodChain {
         else {
             return Err(LodError::NoPositions);
         };
-        let indices: Vec<u32> = match mesh.indices() {
-            Some(Indices::U32(i)) => i.clone(),
-            Some(Indices::U16(i)) => i.iter().map(|&i| i as u32).collect(),
-            None => return Err(LodError::NotIndexed),
-        };
+        let indices: Vec<u32> = mesh
+            .indices()
+            .ok_or(LodError::NotIndexed)?
+            .iter()
+            .map(|i| i as u32)
+            .collect();
         if indices.len() < 3 || indices.iter().any(|&i| i as usize >= positions.len()) {
             return Err(LodError::Invalid);
         }

@@ -6,7 +6,7 @@
 
 use std::sync::Arc;
 
-use bevy::mesh::{Indices, VertexAttributeValues};
+use bevy::mesh::VertexAttributeValues;
 use bevy::prelude::*;
 use bevy::render::extract_component::ExtractComponent;
 use bevy::render::extract_resource::ExtractResource;
@@ -222,6 +222,8 @@ pub struct TracedScene {
     pub build_ms: f32,
     /// What the last rebuild saw, to tell whether anything changed.
     signature: Vec<u64>,
+    /// A chain's mesh was not loaded at the last rebuild: look again.
+    retry: bool,
 }
 
 /// Converts a Bevy triangle mesh, placed by `affine`, into the tracer's mesh.
@@ -240,10 +242,7 @@ fn world_mesh(mesh: &Mesh, affine: &DAffine3) -> Option<TriangleMesh> {
         ),
         _ => None,
     };
-    let indices: Vec<u32> = match mesh.indices()? {
-        Indices::U32(i) => i.clone(),
-        Indices::U16(i) => i.iter().map(|&i| i as u32).collect(),
-    };
+    let indices: Vec<u32> = mesh.indices()?.iter().map(|i| i as u32).collect();
     let triangles = indices
         .chunks_exact(3)
         .map(|t| [t[0], t[1], t[2]])
@@ -256,12 +255,33 @@ fn world_mesh(mesh: &Mesh, affine: &DAffine3) -> Option<TriangleMesh> {
 }
 
 /// Rebuilds [`TracedScene`] when what it was built from changed.
+#[allow(clippy::type_complexity)]
 pub(crate) fn build_traced_scene(
     objects: Query<(Entity, &RayTraced, &GazeLodState, &GlobalTransform)>,
     lights: Query<(Entity, &PointLight, &GlobalTransform)>,
+    touched: Query<
+        (),
+        (
+            Or<(With<RayTraced>, With<PointLight>)>,
+            Or<(
+                Changed<RayTraced>,
+                Changed<GazeLodState>,
+                Changed<GlobalTransform>,
+                Changed<PointLight>,
+            )>,
+        ),
+    >,
+    mut removed_objects: RemovedComponents<RayTraced>,
+    mut removed_lights: RemovedComponents<PointLight>,
     meshes: Res<Assets<Mesh>>,
     mut traced: ResMut<TracedScene>,
 ) {
+    // Most frames nothing was touched: no signature is computed. A touched
+    // component may still hold the same values; the signature tells.
+    let removed = removed_objects.read().count() + removed_lights.read().count() > 0;
+    if !removed && !traced.retry && touched.is_empty() {
+        return;
+    }
     let mut items: Vec<_> = objects
         .iter()
         .filter_map(|(e, m, s, t)| s.chain.as_ref().map(|c| (e, m, c, t)))
@@ -333,6 +353,7 @@ pub(crate) fn build_traced_scene(
             Err(e) => warn!("foveated LOD: {entity} is not traced: {e}"),
         }
     }
+    traced.retry = lods_missing;
     if lods_missing {
         // A chain's mesh is not in the assets yet: try again next frame.
         return;

@@ -175,13 +175,23 @@ pub(crate) struct SpanCollector {
 }
 
 impl SpanCollector {
+    /// Each render span's newest frame: its time, and the sum of what it
+    /// measured in that frame. A pass that runs once per view (three CAVE
+    /// walls, six cube faces) records its span once per view, and Bevy
+    /// stores those measurements under one path with one time; the span's
+    /// cost in the frame is their sum, not the last view's.
     fn render_paths(world: &World) -> impl Iterator<Item = (String, std::time::Instant, f64)> + '_ {
         let store = world.get_resource::<DiagnosticsStore>();
         store.into_iter().flat_map(|s| s.iter()).filter_map(|d| {
             let path = d.path().as_str();
-            let m = d.measurement()?;
+            let newest = d.measurement()?.time;
+            let sum = d
+                .measurements()
+                .filter(|m| m.time == newest)
+                .map(|m| m.value)
+                .sum();
             (path.starts_with(PREFIX) && (path.ends_with(GPU_SUFFIX) || path.ends_with(CPU_SUFFIX)))
-                .then(|| (path.to_string(), m.time, m.value))
+                .then(|| (path.to_string(), newest, sum))
         })
     }
 

@@ -53,25 +53,36 @@ fn clear_pass(
     // it for timing runs); without it the span costs nothing.
     let diagnostics = ctx.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
-    let span = diagnostics.time_span(ctx.command_encoder(), "my_plugin/clear");
-    ctx.command_encoder()
-        .begin_render_pass(&RenderPassDescriptor {
-            label: Some("my_plugin/clear"),
-            color_attachments: &[Some(RenderPassColorAttachment {
-                view: &view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: Operations {
-                    load: LoadOp::Clear(Default::default()),
-                    store: StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-    span.end(ctx.command_encoder());
+    // One span around one clear (the first touches the texture and costs
+    // more), another around the same clear again, and one span recorded
+    // twice in the frame (as a pass that runs once per view records it),
+    // each time around the same clear.
+    for name in [
+        "my_plugin/clear",
+        "my_plugin/clear_again",
+        "my_plugin/clear_twice",
+        "my_plugin/clear_twice",
+    ] {
+        let span = diagnostics.time_span(ctx.command_encoder(), name);
+        ctx.command_encoder()
+            .begin_render_pass(&RenderPassDescriptor {
+                label: Some(name),
+                color_attachments: &[Some(RenderPassColorAttachment {
+                    view: &view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: Operations {
+                        load: LoadOp::Clear(Default::default()),
+                        store: StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+        span.end(ctx.command_encoder());
+    }
 }
 
 fn scene(app: &mut App) {
@@ -138,6 +149,19 @@ fn a_plugin_pass_is_timed_on_the_gpu() {
         "{:?} vs frame {:?}",
         pass.ms,
         timings.frame_ms
+    );
+    // A span recorded twice in a frame counts both: about twice one clear's
+    // time (the last one alone would be about one).
+    let once = timings.pass("my_plugin/clear_again").expect("the span");
+    let twice = timings
+        .pass("my_plugin/clear_twice")
+        .expect("the twice-recorded span");
+    assert_eq!(twice.ms.n, 10, "one value per frame: {:?}", twice.ms);
+    assert!(
+        twice.ms.median > 1.3 * once.ms.median,
+        "twice {:?} vs once {:?}",
+        twice.ms,
+        once.ms
     );
     // Bevy's own passes are timed the same way.
     assert!(

@@ -6,6 +6,7 @@
 
 use std::sync::Arc;
 
+use bevy::light::cluster::ClusterConfig;
 use bevy::mesh::VertexAttributeValues;
 use bevy::prelude::*;
 use bevy::render::extract_component::ExtractComponent;
@@ -52,7 +53,10 @@ const DEFAULT_EXPOSURE: f64 = 1.0 / (1.2 * 831.746_6);
 /// else it traces every pixel at full quality.
 ///
 /// The traced image replaces whatever the camera rasterised: give traced
-/// meshes no material, so Bevy does not draw them too.
+/// meshes no material, so Bevy does not draw them too. For the same reason
+/// the camera requires [`ClusterConfig::Single`]: lights are clustered for
+/// a rasterised image nobody sees, so one cluster is enough (Bevy's GPU
+/// clustering cannot do without any: `ClusterConfig::None` fails there).
 ///
 /// [`background`]: GazeRayTracer::background
 /// [`periphery_scale`]: GazeRayTracer::periphery_scale
@@ -60,7 +64,7 @@ const DEFAULT_EXPOSURE: f64 = 1.0 / (1.2 * 831.746_6);
 /// [`Foveation::min_saving`]: crate::Foveation::min_saving
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
-#[require(Camera3d, GazeRayTracerState)]
+#[require(Camera3d, GazeRayTracerState, ClusterConfig = ClusterConfig::Single)]
 pub struct GazeRayTracer {
     /// Reflect_max of eq. 9: the bounces of a level-1 ray (the paper: 3;
     /// at most [`MAX_REFLECT`]).

@@ -19,6 +19,11 @@
 //!   quality, RMSE per eccentricity band (0–5°, 5–30°, beyond 30°) and
 //!   weighted by level. The central field (≤ 30°) is traced at level 1 at
 //!   every pixel, so it matches full quality.
+//! * `empty_scene_frame_ms`: the same three tracer cameras with the models
+//!   and the floor despawned (measured once per run). Every ray misses, so
+//!   this is Bevy's frame plus what the tracer's passes cost per pixel
+//!   whatever the scene: the part of both frame times that neither
+//!   foveation nor a cheaper scene saves.
 //! * Work: the plugin's own estimate of the primary rays saved
 //!   (`GazeRayTracerState::saving`, front wall), whether the front wall
 //!   foveated, and from the CPU twin of the same schedule
@@ -257,13 +262,38 @@ fn measure(
     })
 }
 
+/// The frame of the same three tracer cameras with an empty scene (the
+/// models and the floor despawned after startup): Bevy's frame plus the
+/// tracer's per-pixel cost when every ray misses.
+fn empty_scene_frame_ms(ctx: &SweepContext) -> Result<f64, SweepError> {
+    let size = ctx.pick(48, 256);
+    let (warmup, frames) = ctx.pick((2, 3), (4, 20));
+    let timing = ctx
+        .headless(size, size)
+        .frames(4)
+        .time_frames(warmup, frames, |app| {
+            setup(app, SCENES[1], false, tracer(false, 2), size, None);
+            app.add_systems(
+                PostStartup,
+                |mut commands: Commands, traced: Query<Entity, With<RayTraced>>| {
+                    for e in &traced {
+                        commands.entity(e).despawn();
+                    }
+                },
+            );
+        })?;
+    Ok(timing.frame_ms.median)
+}
+
 /// Adds the ray tracer's rows to the `foveated_lod` report.
 pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
     // Quick: two of the eight cases, one knob value.
     let cases = ctx.pick(vec![(SCENES[0], false), (SCENES[3], true)], paper_cases());
     let scales: Vec<u32> = ctx.pick(vec![4], vec![1, 2, 4, 8]);
-    let total = cases.len() + scales.len();
-    let mut step = 0;
+    let total = cases.len() + scales.len() + 1;
+    ctx.progress(0, total, "ray tracer, empty scene");
+    let fixed = empty_scene_frame_ms(ctx)?;
+    let mut step = 1;
     for (scene, floor_gaze) in cases {
         let gaze_name = gaze_name(floor_gaze);
         ctx.progress(
@@ -275,6 +305,7 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         let case = measure(ctx, scene, floor_gaze, 2, report)?;
         report.rows.push(row(
             &case,
+            fixed,
             30.0,
             &format!("ray tracer: {}, {gaze_name}", scene.name),
         ));
@@ -285,6 +316,7 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         let case = measure(ctx, SCENES[1], false, scale, report)?;
         report.rows.push(row(
             &case,
+            fixed,
             scale as f64,
             "ray tracer: periphery scale (B, front gaze)",
         ));
@@ -292,9 +324,10 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     Ok(())
 }
 
-fn row(case: &Case, knob: f64, series: &str) -> Row {
+fn row(case: &Case, fixed_ms: f64, knob: f64, series: &str) -> Row {
     let mut r = Row::new(knob, case.foveated_ms, case.full_ms)
         .series(series)
+        .timing("empty_scene_frame_ms", fixed_ms)
         .work("ray_saving_estimate", case.state.saving as f64)
         .work("foveating", case.state.foveating as u8 as f64)
         .work("central_fraction", case.state.central as f64)
@@ -324,6 +357,7 @@ mod tests {
                 r.series, r.knob, r.time_ms, r.baseline_time_ms, r.error, r.work
             );
             assert!(r.time_ms > 0.0 && r.baseline_time_ms > 0.0);
+            assert!(r.timings["empty_scene_frame_ms"] > 0.0, "{:?}", r.timings);
             assert!(
                 r.work["scene_triangles"] as usize > super::super::foveated_lod_mesh::MODELS * 5780
             );

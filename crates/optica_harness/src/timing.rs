@@ -184,14 +184,18 @@ impl SpanCollector {
         let store = world.get_resource::<DiagnosticsStore>();
         store.into_iter().flat_map(|s| s.iter()).filter_map(|d| {
             let path = d.path().as_str();
+            if !(path.starts_with(PREFIX)
+                && (path.ends_with(GPU_SUFFIX) || path.ends_with(CPU_SUFFIX)))
+            {
+                return None;
+            }
             let newest = d.measurement()?.time;
             let sum = d
                 .measurements()
                 .filter(|m| m.time == newest)
                 .map(|m| m.value)
                 .sum();
-            (path.starts_with(PREFIX) && (path.ends_with(GPU_SUFFIX) || path.ends_with(CPU_SUFFIX)))
-                .then(|| (path.to_string(), newest, sum))
+            Some((path.to_string(), newest, sum))
         })
     }
 

@@ -292,7 +292,7 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     let scales: Vec<u32> = ctx.pick(vec![4], vec![1, 2, 4, 8]);
     let total = cases.len() + scales.len() + 1;
     ctx.progress(0, total, "ray tracer, empty scene");
-    let fixed = empty_scene_frame_ms(ctx)?;
+    let empty_ms = empty_scene_frame_ms(ctx)?;
     let mut step = 1;
     for (scene, floor_gaze) in cases {
         let gaze_name = gaze_name(floor_gaze);
@@ -305,7 +305,7 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         let case = measure(ctx, scene, floor_gaze, 2, report)?;
         report.rows.push(row(
             &case,
-            fixed,
+            empty_ms,
             30.0,
             &format!("ray tracer: {}, {gaze_name}", scene.name),
         ));
@@ -316,7 +316,7 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         let case = measure(ctx, SCENES[1], false, scale, report)?;
         report.rows.push(row(
             &case,
-            fixed,
+            empty_ms,
             scale as f64,
             "ray tracer: periphery scale (B, front gaze)",
         ));
@@ -324,10 +324,10 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     Ok(())
 }
 
-fn row(case: &Case, fixed_ms: f64, knob: f64, series: &str) -> Row {
+fn row(case: &Case, empty_ms: f64, knob: f64, series: &str) -> Row {
     let mut r = Row::new(knob, case.foveated_ms, case.full_ms)
         .series(series)
-        .timing("empty_scene_frame_ms", fixed_ms)
+        .timing("empty_scene_frame_ms", empty_ms)
         .work("ray_saving_estimate", case.state.saving as f64)
         .work("foveating", case.state.foveating as u8 as f64)
         .work("central_fraction", case.state.central as f64)

@@ -28,6 +28,10 @@ use optica_optics::foveated_lod::{FlatScene, VisualField};
 
 use crate::raytrace::{TracedScene, TracerView, eye_model_code};
 
+/// `@workgroup_size` of the tracing passes (`LANES` invocations in
+/// `raytrace.wgsl`).
+const GROUP: UVec2 = UVec2::new(8, 4);
+
 /// `Params` in `raytrace.wgsl`.
 #[derive(Clone, Copy, Debug, Default, ShaderType)]
 struct Params {
@@ -551,21 +555,25 @@ fn trace_pass(
         if !tv.full_quality && tv.scale > 1 {
             pass.set_pipeline(mid);
             pass.dispatch_workgroups(
-                buffers.low_size.x.div_ceil(8),
-                buffers.low_size.y.div_ceil(8),
+                buffers.low_size.x.div_ceil(GROUP.x),
+                buffers.low_size.y.div_ceil(GROUP.y),
                 1,
             );
             if buffers.has_outer {
                 pass.set_pipeline(outer);
                 pass.dispatch_workgroups(
-                    buffers.outer_size.x.div_ceil(8),
-                    buffers.outer_size.y.div_ceil(8),
+                    buffers.outer_size.x.div_ceil(GROUP.x),
+                    buffers.outer_size.y.div_ceil(GROUP.y),
                     1,
                 );
             }
         }
         pass.set_pipeline(full);
-        pass.dispatch_workgroups(buffers.size.x.div_ceil(8), buffers.size.y.div_ceil(8), 1);
+        pass.dispatch_workgroups(
+            buffers.size.x.div_ceil(GROUP.x),
+            buffers.size.y.div_ceil(GROUP.y),
+            1,
+        );
     }
     {
         let mut pass = ctx

@@ -153,6 +153,14 @@ pub struct FlareParams {
     /// Rays traced (fewer than `rays` with symmetry: mirrored rows are
     /// not traced).
     pub threads: u32,
+    /// Where this frame's TAA jitter moved the depth buffer against the
+    /// light's unjittered image, NDC (set by the render world).
+    pub jitter_ndc: Vec2,
+    /// Frames in the view's jitter sequence whose raw visibilities are
+    /// averaged (0: no jitter).
+    pub jitter_cycle: u32,
+    /// The frame's slot in that sequence.
+    pub jitter_slot: u32,
 }
 
 /// What a flare camera's passes trace and draw this frame; no grids when
@@ -424,6 +432,9 @@ fn build(
             starburst_scale: starburst_scale(flare, ghosts, &paraxial, &mapping),
             ringing: u32::from(ghosts.ringing.is_some()),
             threads,
+            jitter_ndc: Vec2::ZERO,
+            jitter_cycle: 0,
+            jitter_slot: 0,
         },
         starburst: ghosts.starburst.as_ref().map(Handle::id),
         ringing: ghosts.ringing.as_ref().map(Handle::id),

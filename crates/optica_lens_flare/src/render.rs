@@ -10,8 +10,10 @@
 use bevy::asset::uuid_handle;
 use bevy::core_pipeline::tonemapping::tonemapping;
 use bevy::core_pipeline::{Core3d, Core3dSystems};
+use bevy::diagnostic::FrameCount;
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
+use bevy::render::camera::TemporalJitter;
 use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::extract_component::ExtractComponentPlugin;
 use bevy::render::render_asset::RenderAssets;
@@ -247,7 +249,14 @@ struct FlareBuffers {
     history_holds: bool,
     /// Whether the rays have been over the device's limit (warned once).
     warned_over_limit: bool,
+    /// The raw visibilities per light `visibility` holds (0: no TAA).
+    jitter_cycle: u32,
 }
+
+/// Frames in Bevy's TAA jitter sequence (eight Halton (2, 3) offsets, the
+/// one of frame n at n mod 8): the occlusion pass averages its last eight
+/// raw visibilities, one per offset.
+const JITTER_CYCLE: u32 = 8;
 
 /// A view with flare draws: its buffers once made, its depth and MSAA.
 type FlareView = (
@@ -257,6 +266,7 @@ type FlareView = (
     Option<&'static mut FlareBuffers>,
     Option<&'static ViewDepthTexture>,
     &'static Msaa,
+    Option<&'static TemporalJitter>,
 );
 
 #[allow(clippy::too_many_arguments)]
@@ -269,9 +279,23 @@ fn prepare_flare(
     render_queue: Res<RenderQueue>,
     images: Res<RenderAssets<GpuImage>>,
     fallback: Res<FallbackImage>,
+    frame: Res<FrameCount>,
 ) {
-    for (entity, view, draws, buffers, depth, msaa) in &mut views {
+    for (entity, view, draws, buffers, depth, msaa, jitter) in &mut views {
         let mut params = draws.params;
+        if let Some(jitter) = jitter {
+            // Where the jitter moves the image of a point this frame (with
+            // a perspective projection, the same for every point).
+            let mut jittered = view.clip_from_view;
+            jitter.jitter_projection(&mut jittered, view.viewport.zw().as_vec2());
+            let ndc = |m: Mat4| {
+                let c = m * Vec4::new(0.0, 0.0, -1.0, 1.0);
+                c.xy() / c.w
+            };
+            params.jitter_ndc = ndc(jittered) - ndc(view.clip_from_view);
+            params.jitter_cycle = JITTER_CYCLE;
+            params.jitter_slot = frame.0 % JITTER_CYCLE;
+        }
         if params.jobs == 0 || params.rays == 0 {
             commands.entity(entity).remove::<FlareBinding>();
             continue;
@@ -407,7 +431,7 @@ fn prepare_flare(
             occlusion_pipeline.is_some_and(|id| pipeline_cache.get_compute_pipeline(id).is_some());
         // Each light's visibility. Its history holds while the pass ran
         // last frame for the same lights.
-        let light_bytes = u64::from(params.lights.max(1)) * 4;
+        let light_bytes = u64::from(params.lights.max(1)) * 4 * u64::from(1 + params.jitter_cycle);
         let fresh = buffers
             .visibility
             .as_ref()
@@ -420,8 +444,13 @@ fn prepare_flare(
                 mapped_at_creation: false,
             }));
         }
-        params.reset_history =
-            u32::from(fresh || !buffers.history_holds || buffers.lights != draws.light_entities);
+        params.reset_history = u32::from(
+            fresh
+                || !buffers.history_holds
+                || buffers.lights != draws.light_entities
+                || buffers.jitter_cycle != params.jitter_cycle,
+        );
+        buffers.jitter_cycle = params.jitter_cycle;
         buffers.history_holds = occlusion_ready;
         buffers.lights.clone_from(&draws.light_entities);
         let Some(visibility) = buffers.visibility.clone() else {

@@ -208,7 +208,17 @@ impl ApertureSettings {
 /// ghosts. The disk makes the visibility soft (a light sliding behind an
 /// edge fades over the disk's width instead of popping), and the
 /// visibility is blended with the last frame's so that sub-pixel motion
-/// (TAA's jitter, a swaying branch) does not make the flare flicker.
+/// (a swaying branch) does not make the flare flicker.
+///
+/// Under Bevy's temporal anti-aliasing (`TemporalAntiAliasing`), the depth
+/// buffer is drawn with a projection jittered by a subpixel each frame:
+/// the disk follows the jitter, and the raw visibilities of the last eight
+/// frames (one for each offset of Bevy's jitter sequence) are averaged
+/// before the blend, so a static light half behind an edge keeps the same
+/// visibility every frame (tested on lavapipe, a sun half behind a wall:
+/// from one frame to the next its flare changed by 2.8 % with the default
+/// blend and by 21 % without one before; now by under 10⁻⁴, and not at
+/// all without the blend).
 ///
 /// Lights whose image is off the screen have no depth to read: the part
 /// of the disk outside the view counts as visible, so a light outside the

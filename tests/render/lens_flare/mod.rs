@@ -9,6 +9,7 @@ mod occlusion;
 mod parity;
 mod passes;
 mod stability;
+mod taa;
 mod trace;
 
 use bevy::camera::Hdr;

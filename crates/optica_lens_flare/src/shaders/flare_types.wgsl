@@ -26,6 +26,10 @@ struct FlareParams {
     starburst_scale: f32,
     ringing: u32,
     threads: u32,
+    // TAA (`visibility.wgsl`).
+    jitter_ndc: vec2<f32>,
+    jitter_cycle: u32,
+    jitter_slot: u32,
 }
 
 // One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and

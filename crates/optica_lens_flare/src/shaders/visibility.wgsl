@@ -3,6 +3,17 @@
 // blended with the last frame's (`FlareOcclusion`). One workgroup a light;
 // its 64 threads read 4 samples each and sum them. Appended by the plugin
 // to `flare_types.wgsl`; `MULTISAMPLED` reads sample 0 of an MSAA depth.
+//
+// Under TAA the depth buffer is drawn with a projection jittered by a
+// subpixel each frame: the disk follows the jitter (`jitter_ndc`), and
+// since the texels still sample the scene at other points each frame, the
+// raw fractions of the last `jitter_cycle` frames (one whole jitter
+// sequence, one slot per offset) are averaged before the history. A static
+// scene's visibility is then the same every frame instead of flickering
+// at an occluder's edge.
+//
+// `visibility` holds each light's visibility, then, per light,
+// `jitter_cycle` raw fractions.
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
 @group(0) @binding(1) var<storage, read> lights: array<LightProbe>;
@@ -24,7 +35,8 @@ var<workgroup> partial: array<f32, 64>;
 fn sample_visible(probe: LightProbe, k: u32, size: vec2<u32>) -> f32 {
     let r = params.occlusion_radius_px * sqrt((f32(k) + 0.5) / f32(SAMPLES));
     let a = f32(k) * GOLDEN_ANGLE;
-    let centre = (vec2<f32>(probe.ndc.x, -probe.ndc.y) * 0.5 + 0.5) * vec2<f32>(size);
+    let ndc = probe.ndc + params.jitter_ndc;
+    let centre = (vec2<f32>(ndc.x, -ndc.y) * 0.5 + 0.5) * vec2<f32>(size);
     let p = floor(centre + r * vec2<f32>(cos(a), sin(a)));
     // Off the screen: no depth to read, taken as visible.
     if p.x < 0.0 || p.y < 0.0 || p.x >= f32(size.x) || p.y >= f32(size.y) {
@@ -57,6 +69,21 @@ fn occlusion(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_
         var v = partial[0] / f32(SAMPLES);
         if probe.read_depth == 0u {
             v = 1.0;
+        }
+        let cycle = params.jitter_cycle;
+        if cycle > 0u {
+            let ring = params.lights + light * cycle;
+            if params.reset_history != 0u {
+                for (var k = 0u; k < cycle; k += 1u) {
+                    visibility[ring + k] = v;
+                }
+            }
+            visibility[ring + params.jitter_slot % cycle] = v;
+            var mean = 0.0;
+            for (var k = 0u; k < cycle; k += 1u) {
+                mean += visibility[ring + k];
+            }
+            v = mean / f32(cycle);
         }
         if params.reset_history == 0u {
             v = mix(v, visibility[light], params.occlusion_history);

@@ -83,6 +83,16 @@ pub struct SpanTiming {
     pub gpu_ms: Option<Stats>,
     /// CPU time spent encoding the span.
     pub cpu_ms: Option<Stats>,
+    /// The work the device counted in the span, per frame, by Bevy's name
+    /// (`vertex_shader_invocations`, `fragment_shader_invocations`,
+    /// `compute_shader_invocations`, `clipper_invocations`,
+    /// `clipper_primitives_out`): from pipeline-statistics queries, where
+    /// the adapter has them and the pass records its span with
+    /// `pass_span` (a `time_span` counts nothing). lavapipe has them, and
+    /// counts fragments in whole 4×4 blocks per triangle: a measure of its
+    /// rasteriser's work, not of covered pixels.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub counts: BTreeMap<String, Stats>,
 }
 
 /// Where a [`PassTime`] comes from.
@@ -166,6 +176,37 @@ impl FrameTimings {
 const PREFIX: &str = "render/";
 const GPU_SUFFIX: &str = "/elapsed_gpu";
 const CPU_SUFFIX: &str = "/elapsed_cpu";
+/// The pipeline statistics Bevy records per `pass_span`.
+const COUNTS: [&str; 5] = [
+    "vertex_shader_invocations",
+    "clipper_invocations",
+    "clipper_primitives_out",
+    "fragment_shader_invocations",
+    "compute_shader_invocations",
+];
+
+/// What a render diagnostic path measures.
+enum Measure<'a> {
+    Gpu,
+    Cpu,
+    Count(&'a str),
+}
+
+/// A render diagnostic's span name (without `render/`) and what it
+/// measures; `None` for any other diagnostic.
+fn parse_path(path: &str) -> Option<(&str, Measure<'_>)> {
+    let rest = path.strip_prefix(PREFIX)?;
+    if let Some(name) = rest.strip_suffix(GPU_SUFFIX) {
+        return Some((name, Measure::Gpu));
+    }
+    if let Some(name) = rest.strip_suffix(CPU_SUFFIX) {
+        return Some((name, Measure::Cpu));
+    }
+    COUNTS.iter().find_map(|count| {
+        let name = rest.strip_suffix(count)?.strip_suffix('/')?;
+        Some((name, Measure::Count(count)))
+    })
+}
 
 /// Gathers each render span's newest measurement after every frame.
 #[derive(Default)]
@@ -184,11 +225,7 @@ impl SpanCollector {
         let store = world.get_resource::<DiagnosticsStore>();
         store.into_iter().flat_map(|s| s.iter()).filter_map(|d| {
             let path = d.path().as_str();
-            if !(path.starts_with(PREFIX)
-                && (path.ends_with(GPU_SUFFIX) || path.ends_with(CPU_SUFFIX)))
-            {
-                return None;
-            }
+            parse_path(path)?;
             let newest = d.measurement()?.time;
             let sum = d
                 .measurements()
@@ -227,21 +264,24 @@ impl SpanCollector {
         let mut spans: BTreeMap<String, SpanTiming> = BTreeMap::new();
         for (path, (_, values)) in self.seen {
             let values = &values[..values.len().min(frames)];
-            let (name, gpu) = match path.strip_suffix(GPU_SUFFIX) {
-                Some(p) => (p, true),
-                None => (path.strip_suffix(CPU_SUFFIX).unwrap_or(&path), false),
+            let Some((name, measure)) = parse_path(&path) else {
+                continue;
             };
-            let name = name.strip_prefix(PREFIX).unwrap_or(name).to_string();
-            let span = spans.entry(name.clone()).or_insert(SpanTiming {
-                name,
+            let span = spans.entry(name.to_string()).or_insert(SpanTiming {
+                name: name.to_string(),
                 gpu_ms: None,
                 cpu_ms: None,
+                counts: BTreeMap::new(),
             });
             let stats = Stats::of(values);
-            if gpu {
-                span.gpu_ms = stats
-            } else {
-                span.cpu_ms = stats
+            match measure {
+                Measure::Gpu => span.gpu_ms = stats,
+                Measure::Cpu => span.cpu_ms = stats,
+                Measure::Count(count) => {
+                    if let Some(stats) = stats {
+                        span.counts.insert(count.to_string(), stats);
+                    }
+                }
             }
         }
         spans.into_values().collect()

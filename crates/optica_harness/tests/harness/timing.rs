@@ -179,3 +179,68 @@ fn a_pass_that_did_not_run_has_no_time() {
     assert!(timings.pass("my_plugin/clear").is_none());
     assert!(timings.span("main_opaque_pass_3d").is_some());
 }
+
+/// The main pass's counts of a unit sphere `distance` units out.
+fn sphere_counts(distance: f32) -> std::collections::BTreeMap<String, f64> {
+    let timings = Headless::new(128, 128)
+        .time_frames(2, 4, move |app: &mut App| {
+            scene(app);
+            app.add_systems(
+                PostStartup,
+                move |mut cameras: Query<&mut Transform, With<Camera3d>>| {
+                    for mut t in &mut cameras {
+                        *t =
+                            Transform::from_xyz(0.0, 0.0, distance).looking_at(Vec3::ZERO, Vec3::Y);
+                    }
+                },
+            );
+        })
+        .expect("timing run");
+    let main = timings
+        .span("main_opaque_pass_3d")
+        .expect("Bevy's main pass recorded no span");
+    eprintln!(
+        "{}: sphere {distance} out, main pass counts {:?}",
+        timings.adapter, main.counts
+    );
+    main.counts
+        .iter()
+        .map(|(k, v)| (k.clone(), v.median))
+        .collect()
+}
+
+#[test]
+fn a_pass_span_counts_the_work_of_its_shaders() {
+    // lavapipe has pipeline-statistics queries, and Bevy's main pass
+    // records its span with `pass_span`.
+    let near = sphere_counts(4.0);
+    let far = sphere_counts(8.0);
+    let count = |c: &std::collections::BTreeMap<String, f64>, name: &str| {
+        *c.get(name).unwrap_or_else(|| panic!("no {name} in {c:?}"))
+    };
+    // The sphere's image is a disk of radius 64 · tan(asin(1/d)) /
+    // tan(22.5°) px (Bevy's 45° field): ~5,000 px at 4 units, ~1,200 at
+    // 8. Every covered pixel is shaded at least once, and the nearer,
+    // larger image costs more. (lavapipe counts whole 4×4 blocks per
+    // triangle, so the count is not proportional to the area: 19,696 and
+    // 10,048 here.)
+    let disk = |d: f64| {
+        let r = 64.0 * (1.0 / d).asin().tan() / 22.5f64.to_radians().tan();
+        std::f64::consts::PI * r * r
+    };
+    let (n, f) = (
+        count(&near, "fragment_shader_invocations"),
+        count(&far, "fragment_shader_invocations"),
+    );
+    assert!(n >= disk(4.0) && f >= disk(8.0), "{n} and {f} fragments");
+    assert!(n > 1.5 * f, "{n} fragments near, {f} far");
+    // The same mesh is drawn: as many vertices either way.
+    assert!(count(&near, "vertex_shader_invocations") > 100.0);
+    assert_eq!(
+        count(&near, "vertex_shader_invocations"),
+        count(&far, "vertex_shader_invocations")
+    );
+    // A render pass counts no compute shaders (Bevy records that count
+    // for compute passes).
+    assert!(!near.contains_key("compute_shader_invocations"), "{near:?}");
+}

@@ -56,7 +56,10 @@
 //! ([`SensorMapping`]); a light's irradiance at the camera (illuminance, or
 //! a point light's lumens over 4πd²) times the camera's exposure scales its
 //! ghosts, so they sit in the scene's light levels. Pass time shows as the
-//! `optica/flare` diagnostic span.
+//! `optica/flare` diagnostic span, and each pass in it as
+//! `optica/flare/occlusion`, `optica/flare/trace` and `optica/flare/draw`,
+//! with the shader invocations it ran where the adapter has
+//! pipeline-statistics queries.
 //!
 //! ## The blog's speed-ups
 //!

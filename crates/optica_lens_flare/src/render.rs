@@ -568,9 +568,11 @@ fn flare_passes(
                 label: Some("optica_lens_flare_occlusion"),
                 timestamp_writes: None,
             });
+        let pass_span = diagnostics.pass_span(&mut pass, "occlusion");
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, group, &[]);
         pass.dispatch_workgroups(binding.lights, 1, 1);
+        pass_span.end(&mut pass);
     }
     {
         let mut pass = ctx
@@ -579,11 +581,13 @@ fn flare_passes(
                 label: Some("optica_lens_flare_trace"),
                 timestamp_writes: None,
             });
+        let pass_span = diagnostics.pass_span(&mut pass, "trace");
         pass.set_pipeline(trace);
         pass.set_bind_group(0, &binding.trace_group, &[]);
         let groups = binding.threads.div_ceil(64);
         let (x, y) = (groups.min(65535), groups.div_ceil(65535));
         pass.dispatch_workgroups(x, y, 1);
+        pass_span.end(&mut pass);
     }
     {
         let mut pass = ctx
@@ -596,6 +600,7 @@ fn flare_passes(
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
+        let pass_span = diagnostics.pass_span(&mut pass, "draw");
         pass.set_pipeline(draw);
         pass.set_bind_group(0, &binding.draw_group, &[]);
         // One draw per grid size (the instance index includes the first).
@@ -606,6 +611,7 @@ fn flare_passes(
             pass.set_pipeline(starburst);
             pass.draw(0..6, 0..binding.lights);
         }
+        pass_span.end(&mut pass);
     }
     span.end(ctx.command_encoder());
 }

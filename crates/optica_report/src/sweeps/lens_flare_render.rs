@@ -28,7 +28,7 @@ use bevy::camera::{Exposure, Hdr};
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
-use optica_harness::TimeSource;
+use optica_harness::{FrameTimings, TimeSource};
 use optica_lens_flare::{
     FlareGhosts, FlareSource, LensAsset, LensFlare, LensFlarePlugin, SensorMapping, spectral_weight,
 };
@@ -253,6 +253,52 @@ fn displayed(rgb: &[[f64; 3]], size: u32, white: f64) -> image::RgbaImage {
     })
 }
 
+/// The work the device counted per frame (medians), where it has
+/// pipeline-statistics queries: the flare's passes (`trace_invocations`,
+/// `occlusion_invocations`, `draw_vertices`, `draw_fragments`) and the
+/// scene's main pass (`main_vertices`, `main_fragments`), so that the
+/// flare's cost can be judged on any device. (lavapipe counts fragments
+/// in whole 4×4 blocks per triangle.)
+fn counted(mut row: Row, timed: &FrameTimings) -> Row {
+    for (key, span, count) in [
+        (
+            "trace_invocations",
+            "optica/flare/trace",
+            "compute_shader_invocations",
+        ),
+        (
+            "occlusion_invocations",
+            "optica/flare/occlusion",
+            "compute_shader_invocations",
+        ),
+        (
+            "draw_vertices",
+            "optica/flare/draw",
+            "vertex_shader_invocations",
+        ),
+        (
+            "draw_fragments",
+            "optica/flare/draw",
+            "fragment_shader_invocations",
+        ),
+        (
+            "main_vertices",
+            "main_opaque_pass_3d",
+            "vertex_shader_invocations",
+        ),
+        (
+            "main_fragments",
+            "main_opaque_pass_3d",
+            "fragment_shader_invocations",
+        ),
+    ] {
+        if let Some(c) = timed.span(span).and_then(|s| s.counts.get(count)) {
+            row = row.work(key, c.median);
+        }
+    }
+    row
+}
+
 /// One row: the flare of `setup` rendered on black against `reference`
 /// (when given), and the lit scene timed with it against `plain`.
 #[allow(clippy::too_many_arguments)]
@@ -299,6 +345,7 @@ fn row(
                 flare.is_some_and(|p| p.source == TimeSource::GpuTimestamps),
             )),
         );
+    row = counted(row, &timed);
     if let Some(reference) = reference {
         let img = frame
             .hdr()
@@ -487,14 +534,15 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             .as_ref()
             .map_or(0, |g| g.drawn().count());
         let flare = timed.pass("optica/flare");
-        report.rows.push(
+        report.rows.push(counted(
             Row::new(16.0, timed.frame_ms.median, plain_wide)
                 .series("zoom 1280x720")
                 .work("ghosts", drawn as f64)
                 .work("wavelengths", 3.0)
                 .work("size_px", f64::from(w))
                 .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median)),
-        );
+            &timed,
+        ));
     }
     Ok(())
 }
@@ -551,5 +599,24 @@ mod tests {
             (sym.error["rel_l1"] - whole.error["rel_l1"]).abs() < 0.5 * whole.error["rel_l1"],
             "{sym:?} vs {whole:?}"
         );
+        // lavapipe counts the passes' work: a finer grid traces more rays
+        // and draws more vertices; the scene's main pass is counted too.
+        for r in rows {
+            for key in [
+                "trace_invocations",
+                "draw_vertices",
+                "draw_fragments",
+                "main_fragments",
+            ] {
+                assert!(r.work.get(key).is_some_and(|&v| v > 0.0), "no {key}: {r:?}");
+            }
+        }
+        let (coarse, fine) = (find("fixed grid", 8.0), find("fixed grid", 32.0));
+        for key in ["trace_invocations", "draw_vertices"] {
+            assert!(
+                fine.work[key] > 4.0 * coarse.work[key],
+                "{key}: {coarse:?} vs {fine:?}"
+            );
+        }
     }
 }

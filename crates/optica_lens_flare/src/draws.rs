@@ -58,13 +58,19 @@ pub struct GridJob {
     /// Rows traced: all `n`, or with symmetry the first `⌈n/2⌉`, whose
     /// mirror images are the rest.
     rows: u32,
-    pad: u32,
+    /// Where its cells start among the cell pass's threads.
+    cell_base: u32,
 }
 
 impl GridJob {
     /// One past its last ray in the ray buffer.
     pub(crate) fn ray_end(&self) -> u32 {
         self.ray_base + self.n * self.n
+    }
+
+    /// One past its last cell among the cell pass's threads.
+    pub(crate) fn cell_end(&self) -> u32 {
+        self.cell_base + (self.n - 1) * (self.n - 1)
     }
 
     /// One past its last thread of the trace.
@@ -161,6 +167,8 @@ pub struct FlareParams {
     pub jitter_cycle: u32,
     /// The frame's slot in that sequence.
     pub jitter_slot: u32,
+    /// Cells in all the grids (the cell pass's threads).
+    pub cells: u32,
 }
 
 /// What a flare camera's passes trace and draw this frame; no grids when
@@ -176,9 +184,6 @@ pub struct FlareDraws {
     /// The lights, in the order of `lights` (a change resets the
     /// visibility's history).
     pub light_entities: Vec<Entity>,
-    /// The grids by size: (rays per side, first grid, grids), in the order
-    /// of `jobs`.
-    pub batches: Vec<[u32; 3]>,
     /// The starburst texture, when on.
     pub starburst: Option<AssetId<Image>>,
     /// The ringing texture, when on.
@@ -390,27 +395,23 @@ fn build(
                     thread_base: 0,
                     rotation: Vec2::from_angle(azimuth as f32),
                     rows: if flare.symmetry { n.div_ceil(2) } else { n },
-                    pad: 0,
+                    cell_base: 0,
                 });
             }
         }
     }
-    // Grids of a size next to each other, so that each size is one draw.
-    jobs.sort_by_key(|j| j.n);
-    let (mut rays, mut threads) = (0u32, 0u32);
-    let mut batches: Vec<[u32; 3]> = Vec::new();
-    for (k, job) in jobs.iter_mut().enumerate() {
+    // In light and brightness order, so that grids left out past the
+    // device's limit are the dimmest of the last light.
+    let (mut rays, mut threads, mut cells) = (0u32, 0u32, 0u32);
+    for job in &mut jobs {
         job.ray_base = rays;
         job.thread_base = threads;
+        job.cell_base = cells;
+        cells = cells.saturating_add((job.n - 1) * (job.n - 1));
         rays = rays.saturating_add(job.n * job.n);
         threads = threads.saturating_add(job.n * job.rows);
-        match batches.last_mut() {
-            Some(b) if b[0] == job.n => b[2] += 1,
-            _ => batches.push([job.n, k as u32, 1]),
-        }
     }
     Some(FlareDraws {
-        batches,
         params: FlareParams {
             rays,
             jobs: jobs.len() as u32,
@@ -435,6 +436,7 @@ fn build(
             jitter_ndc: Vec2::ZERO,
             jitter_cycle: 0,
             jitter_slot: 0,
+            cells,
         },
         starburst: ghosts.starburst.as_ref().map(Handle::id),
         ringing: ghosts.ringing.as_ref().map(Handle::id),

@@ -1,8 +1,9 @@
 //! The render world: per flare camera, a compute pass reads each light's
 //! visibility from the depth, a compute pass traces every ghost grid of
-//! [`FlareDraws`] into a storage buffer, and a draw pass adds their cells
-//! (with the ringing) and each light's starburst to the HDR view target
-//! before tonemapping (so that bloom and tonemapping treat the flare as
+//! [`FlareDraws`] into a storage buffer, a compute pass colours each cell
+//! and writes the triangles of those that add light, and a draw pass adds
+//! them (indexed: each ray shaded once, with the ringing) and each light's starburst to the
+//! HDR view target before tonemapping (so that bloom and tonemapping treat the flare as
 //! light). Pipelines are queued when the
 //! first flare camera needs them; views without `FlareDraws` (or with no
 //! grid this frame) run neither pass.
@@ -25,7 +26,7 @@ use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, BlendComponent,
     BlendFactor, BlendOperation, BlendState, Buffer, BufferDescriptor, BufferUsages,
     CachedComputePipelineId, CachedRenderPipelineId, ColorTargetState, ColorWrites,
-    ComputePassDescriptor, ComputePipelineDescriptor, FragmentState, PipelineCache,
+    ComputePassDescriptor, ComputePipelineDescriptor, FragmentState, IndexFormat, PipelineCache,
     RenderPassDescriptor, RenderPipelineDescriptor, ShaderStages, StorageBuffer, TextureFormat,
     TextureSampleType, TextureUsages, UniformBuffer, VertexState,
 };
@@ -42,11 +43,18 @@ use crate::{APERTURE_WGSL, LENS_TRACE_WGSL};
 const TRACE_SHADER: Handle<Shader> = uuid_handle!("6b1c7f0e-3d2a-4c55-9a61-0f6f6c1d2a71");
 /// The draw shader.
 const DRAW_SHADER: Handle<Shader> = uuid_handle!("b3e2a9d4-8f17-4e0b-a1c2-5d9e7f3a4b60");
+/// The cell shader.
+const CELLS_SHADER: Handle<Shader> = uuid_handle!("5a0e4f3c-9b7d-4d21-8c6e-2f1b3a9d7e48");
 /// The occlusion shader.
 const OCCLUSION_SHADER: Handle<Shader> = uuid_handle!("0f5d8c3e-7a61-4b2f-9e48-c1d0a7b9e253");
 
 /// Bytes per traced ray (`RayOut`: 12 floats).
 const RAY_BYTES: u64 = 48;
+/// Bytes per cell of the index buffer (two triangles of `u32`s).
+const CELL_INDEX_BYTES: u64 = 24;
+/// Bytes per ray of the cell colours (`vec4<f32>`).
+const CELL_COLOR_BYTES: u64 = 16;
+
 
 /// Adds the passes.
 pub(crate) struct FlareRenderPlugin;
@@ -71,6 +79,13 @@ impl Plugin for FlareRenderPlugin {
                         include_str!("shaders/ghost_draw.wgsl")
                     ),
                     "optica_lens_flare/shaders/ghost_draw.wgsl",
+                ),
+            );
+            let _ = shaders.insert(
+                CELLS_SHADER.id(),
+                Shader::from_wgsl(
+                    format!("{types}\n{}", include_str!("shaders/ghost_cells.wgsl")),
+                    "optica_lens_flare/shaders/ghost_cells.wgsl",
                 ),
             );
             let _ = shaders.insert(
@@ -104,10 +119,12 @@ impl Plugin for FlareRenderPlugin {
 #[derive(Resource)]
 struct FlareShared {
     trace_layout: BindGroupLayoutDescriptor,
+    cells_layout: BindGroupLayoutDescriptor,
     draw_layout: BindGroupLayoutDescriptor,
     /// The occlusion pass's layouts: single-sampled depth, then MSAA.
     occlusion_layouts: [BindGroupLayoutDescriptor; 2],
     trace: Option<CachedComputePipelineId>,
+    cells: Option<CachedComputePipelineId>,
     /// Per view format: the ghosts' and the starburst's pipelines.
     draws: HashMap<TextureFormat, [CachedRenderPipelineId; 2]>,
     occlusion: [Option<CachedComputePipelineId>; 2],
@@ -188,6 +205,20 @@ fn init_flare(mut commands: Commands) {
             ),
         ),
     );
+    let cells_layout = BindGroupLayoutDescriptor::new(
+        "optica_lens_flare_cells_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                uniform_buffer::<FlareParams>(false),
+                storage_buffer_read_only::<Vec<GridJob>>(false),
+                storage_buffer_read_only::<Vec<[f32; 12]>>(false),
+                storage_buffer_read_only::<Vec<f32>>(false),
+                storage_buffer::<Vec<[f32; 4]>>(false),
+                storage_buffer::<Vec<u32>>(false),
+            ),
+        ),
+    );
     let draw_layout = BindGroupLayoutDescriptor::new(
         "optica_lens_flare_draw_layout",
         &BindGroupLayoutEntries::sequential(
@@ -195,7 +226,7 @@ fn init_flare(mut commands: Commands) {
             ShaderStages::VERTEX_FRAGMENT,
             (
                 uniform_buffer::<FlareParams>(false),
-                storage_buffer_read_only::<Vec<GridJob>>(false),
+                storage_buffer_read_only::<Vec<[f32; 4]>>(false),
                 storage_buffer_read_only::<Vec<[f32; 12]>>(false),
                 storage_buffer_read_only::<Vec<f32>>(false),
                 storage_buffer_read_only::<Vec<LightProbe>>(false),
@@ -206,9 +237,11 @@ fn init_flare(mut commands: Commands) {
     );
     commands.insert_resource(FlareShared {
         trace_layout,
+        cells_layout,
         draw_layout,
         occlusion_layouts: [occlusion_layout(false), occlusion_layout(true)],
         trace: None,
+        cells: None,
         draws: HashMap::default(),
         occlusion: [None, None],
     });
@@ -218,16 +251,20 @@ fn init_flare(mut commands: Commands) {
 #[derive(Component)]
 struct FlareBinding {
     trace_group: BindGroup,
+    cells_group: BindGroup,
     draw_group: BindGroup,
     trace: CachedComputePipelineId,
+    cells: CachedComputePipelineId,
     draw: CachedRenderPipelineId,
     /// The starburst's pipeline, when it is drawn.
     starburst: Option<CachedRenderPipelineId>,
     /// The occlusion pass, when the view reads its depth.
     occlusion: Option<(BindGroup, CachedComputePipelineId)>,
     threads: u32,
-    /// (rays per side, first grid, grids) per size.
-    batches: Vec<[u32; 3]>,
+    /// The cell pass's threads.
+    cell_count: u32,
+    /// The cells' triangles.
+    indices: Buffer,
     lights: u32,
 }
 
@@ -240,6 +277,11 @@ struct FlareBuffers {
     jobs: StorageBuffer<Vec<GridJob>>,
     probes: StorageBuffer<Vec<LightProbe>>,
     rays: Option<Buffer>,
+    /// Per ray, the colour of the cell it is the first corner of.
+    cell_colors: Option<Buffer>,
+    /// The cells' triangles, written by the cell pass (empty where a cell
+    /// adds no light).
+    indices: Option<Buffer>,
     /// Each light's visibility, kept between frames for its history.
     visibility: Option<Buffer>,
     /// The lights whose visibility `visibility` holds.
@@ -312,6 +354,18 @@ fn prepare_flare(
                 zero_initialize_workgroup_memory: false,
             })
         });
+        let cells_layout = shared.cells_layout.clone();
+        let cells_pipeline = *shared.cells.get_or_insert_with(|| {
+            pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                label: Some("optica_lens_flare_cells".into()),
+                layout: vec![cells_layout],
+                immediate_size: 0,
+                shader: CELLS_SHADER,
+                shader_defs: vec![],
+                entry_point: Some("cells".into()),
+                zero_initialize_workgroup_memory: false,
+            })
+        });
         let format = view.target_format;
         let draw_layout = shared.draw_layout.clone();
         let [draw, starburst] = *shared.draws.entry(format).or_insert_with(|| {
@@ -360,7 +414,6 @@ fn prepare_flare(
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
         let max_rays = u32::try_from(max_bytes / RAY_BYTES).unwrap_or(u32::MAX);
-        let mut batches = draws.batches.clone();
         if params.rays > max_rays {
             let kept = draws
                 .jobs
@@ -381,24 +434,42 @@ fn prepare_flare(
             params.jobs = kept as u32;
             params.rays = last.map_or(0, |j| j.ray_end());
             params.threads = last.map_or(0, |j| j.thread_end());
-            batches.retain(|b| (b[1] as usize) < kept);
-            for b in &mut batches {
-                b[2] = b[2].min(kept as u32 - b[1]);
-            }
+            params.cells = last.map_or(0, |j| j.cell_end());
             if kept == 0 {
                 commands.entity(entity).remove::<FlareBinding>();
                 continue;
             }
         }
-        let rays = params.rays;
-        let size = u64::from(rays) * RAY_BYTES;
-        if buffers.rays.as_ref().is_none_or(|b| b.size() < size) {
-            buffers.rays = Some(render_device.create_buffer(&BufferDescriptor {
-                label: Some("optica_lens_flare_rays"),
-                size,
-                usage: BufferUsages::STORAGE,
-                mapped_at_creation: false,
-            }));
+        let rays = u64::from(params.rays);
+        let cells = u64::from(params.cells).max(1);
+        for (buffer, label, size, usage) in [
+            (
+                &mut buffers.rays,
+                "optica_lens_flare_rays",
+                rays * RAY_BYTES,
+                BufferUsages::STORAGE,
+            ),
+            (
+                &mut buffers.cell_colors,
+                "optica_lens_flare_cell_colors",
+                rays * CELL_COLOR_BYTES,
+                BufferUsages::STORAGE,
+            ),
+            (
+                &mut buffers.indices,
+                "optica_lens_flare_indices",
+                cells * CELL_INDEX_BYTES,
+                BufferUsages::STORAGE | BufferUsages::INDEX,
+            ),
+        ] {
+            if buffer.as_ref().is_none_or(|b| b.size() < size) {
+                *buffer = Some(render_device.create_buffer(&BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage,
+                    mapped_at_creation: false,
+                }));
+            }
         }
         // The depth is read when occlusion is on and the view's depth can
         // be bound (`make_depth_readable` asks for it); otherwise, and until
@@ -471,15 +542,27 @@ fn prepare_flare(
         buffers.surfaces.write_buffer(&render_device, &render_queue);
         buffers.jobs.get_mut().clone_from(&draws.jobs);
         buffers.jobs.write_buffer(&render_device, &render_queue);
-        let (Some(u), Some(s), Some(j), Some(probes), Some(ray_buffer)) = (
+        let (
+            Some(u),
+            Some(s),
+            Some(j),
+            Some(probes),
+            Some(ray_buffer),
+            Some(cell_colors),
+            Some(indices),
+        ) = (
             buffers.uniform.binding(),
             buffers.surfaces.binding(),
             buffers.jobs.binding(),
             buffers.probes.binding(),
             buffers.rays.as_ref(),
-        ) else {
+            buffers.cell_colors.as_ref(),
+            buffers.indices.as_ref(),
+        )
+        else {
             continue;
         };
+
         let trace_group = render_device.create_bind_group(
             "optica_lens_flare_trace",
             &pipeline_cache.get_bind_group_layout(&shared.trace_layout),
@@ -490,12 +573,24 @@ fn prepare_flare(
                 ray_buffer.as_entire_binding(),
             )),
         );
+        let cells_group = render_device.create_bind_group(
+            "optica_lens_flare_cells",
+            &pipeline_cache.get_bind_group_layout(&shared.cells_layout),
+            &BindGroupEntries::sequential((
+                u.clone(),
+                j,
+                ray_buffer.as_entire_binding(),
+                visibility.as_entire_binding(),
+                cell_colors.as_entire_binding(),
+                indices.as_entire_binding(),
+            )),
+        );
         let draw_group = render_device.create_bind_group(
             "optica_lens_flare_draw",
             &pipeline_cache.get_bind_group_layout(&shared.draw_layout),
             &BindGroupEntries::sequential((
                 u.clone(),
-                j,
+                cell_colors.as_entire_binding(),
                 ray_buffer.as_entire_binding(),
                 visibility.as_entire_binding(),
                 probes.clone(),
@@ -521,14 +616,17 @@ fn prepare_flare(
         };
         commands.entity(entity).insert(FlareBinding {
             trace_group,
+            cells_group,
             draw_group,
             trace,
+            cells: cells_pipeline,
             draw,
             starburst: (params.starburst_scale > 0.0 && params.starburst_half_ndc > 0.0)
                 .then_some(starburst),
             occlusion,
             threads: params.threads,
-            batches,
+            cell_count: params.cells,
+            indices: indices.clone(),
             lights: params.lights,
         });
         if let Some(new) = created {
@@ -544,8 +642,9 @@ fn flare_passes(
     mut ctx: RenderContext,
 ) {
     let (target, binding) = view.into_inner();
-    let (Some(trace), Some(draw)) = (
+    let (Some(trace), Some(cells), Some(draw)) = (
         pipeline_cache.get_compute_pipeline(binding.trace),
+        pipeline_cache.get_compute_pipeline(binding.cells),
         pipeline_cache.get_render_pipeline(binding.draw),
     ) else {
         return;
@@ -584,8 +683,21 @@ fn flare_passes(
         let pass_span = diagnostics.pass_span(&mut pass, "trace");
         pass.set_pipeline(trace);
         pass.set_bind_group(0, &binding.trace_group, &[]);
-        let groups = binding.threads.div_ceil(64);
-        let (x, y) = (groups.min(65535), groups.div_ceil(65535));
+        let (x, y) = groups_for(binding.threads);
+        pass.dispatch_workgroups(x, y, 1);
+        pass_span.end(&mut pass);
+    }
+    {
+        let mut pass = ctx
+            .command_encoder()
+            .begin_compute_pass(&ComputePassDescriptor {
+                label: Some("optica_lens_flare_cells"),
+                timestamp_writes: None,
+            });
+        let pass_span = diagnostics.pass_span(&mut pass, "cells");
+        pass.set_pipeline(cells);
+        pass.set_bind_group(0, &binding.cells_group, &[]);
+        let (x, y) = groups_for(binding.cell_count);
         pass.dispatch_workgroups(x, y, 1);
         pass_span.end(&mut pass);
     }
@@ -603,10 +715,8 @@ fn flare_passes(
         let pass_span = diagnostics.pass_span(&mut pass, "draw");
         pass.set_pipeline(draw);
         pass.set_bind_group(0, &binding.draw_group, &[]);
-        // One draw per grid size (the instance index includes the first).
-        for &[n, first, count] in &binding.batches {
-            pass.draw(0..6 * (n - 1) * (n - 1), first..first + count);
-        }
+        pass.set_index_buffer((*binding.indices).slice(..), IndexFormat::Uint32);
+        pass.draw_indexed(0..6 * binding.cell_count, 0, 0..1);
         if let Some(starburst) = starburst {
             pass.set_pipeline(starburst);
             pass.draw(0..6, 0..binding.lights);
@@ -614,6 +724,13 @@ fn flare_passes(
         pass_span.end(&mut pass);
     }
     span.end(ctx.command_encoder());
+}
+
+/// Workgroups of 64 for `threads` threads, as (x, y) within the 65535 a
+/// dimension allows (the shaders rebuild the index from both).
+fn groups_for(threads: u32) -> (u32, u32) {
+    let groups = threads.div_ceil(64);
+    (groups.min(65535), groups.div_ceil(65535))
 }
 
 /// The bytes of `values` as the GPU reads them (little-endian `f32`s).

@@ -30,6 +30,8 @@ struct FlareParams {
     jitter_ndc: vec2<f32>,
     jitter_cycle: u32,
     jitter_slot: u32,
+    // The cell pass (`ghost_cells.wgsl`).
+    cells: u32,
 }
 
 // One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and
@@ -38,7 +40,8 @@ struct FlareParams {
 // visibility; `n` rays per side, from `ray_base` in the ray buffer; its
 // first `rows` rows traced from `thread_base` among the trace's threads
 // (the rest, with symmetry, their mirror images), and turned by
-// `rotation` (cos, sin of the light's azimuth).
+// `rotation` (cos, sin of the light's azimuth); its cells from `cell_base`
+// among the cell pass's threads.
 struct GridJob {
     origin: vec3<f32>,
     first: u32,
@@ -55,7 +58,7 @@ struct GridJob {
     thread_base: u32,
     rotation: vec2<f32>,
     rows: u32,
-    pad: u32,
+    cell_base: u32,
 }
 
 // Where a light's depth is read: its image (NDC) and the largest scene

@@ -1,12 +1,12 @@
-// The flare's draw pass: every cell of every traced grid as two triangles
-// on the screen, its irradiance from its change of area with the bounded
-// gain (`optica_optics::lens_flare::cell_intensity`), clipped per pixel
-// where r_rel > 1 or outside the iris, scaled by its light's visibility,
-// added to the HDR view before tonemapping. Appended by the plugin to
-// `aperture.wgsl` and `flare_types.wgsl`.
+// The flare's draw pass: every cell the cell pass kept as two triangles on
+// the screen, in its colour (its irradiance, scaled by its light's
+// visibility, from `ghost_cells.wgsl`), clipped per pixel where r_rel > 1
+// or outside the iris, added to the HDR view before tonemapping. Appended
+// by the plugin to `aperture.wgsl` and `flare_types.wgsl`.
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
-@group(0) @binding(1) var<storage, read> jobs: array<GridJob>;
+// Per ray: the colour and wavelength of the cell it is the first corner of.
+@group(0) @binding(1) var<storage, read> cell_colors: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> rays: array<RayOut>;
 // Each light's visibility through the scene's depth (`visibility.wgsl`).
 @group(0) @binding(3) var<storage, read> visibility: array<f32>;
@@ -49,7 +49,9 @@ fn ringing_at(stop: vec2<f32>, wl: f32) -> f32 {
 
 struct VertexOut {
     @builtin(position) position: vec4<f32>,
-    @location(0) color: vec3<f32>,
+    // The cell's, from its first corner (the provoking vertex of both its
+    // triangles, `ghost_cells.wgsl`).
+    @location(0) @interpolate(flat) color: vec3<f32>,
     @location(1) r_rel: f32,
     // Where the ray crossed the stop plane (up to three times).
     @location(2) stop0: vec2<f32>,
@@ -58,61 +60,21 @@ struct VertexOut {
     @location(5) @interpolate(flat) wl: f32,
 }
 
-// Twice the signed area of the triangle a, b, c.
-fn triangle_area2(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>) -> f32 {
-    return (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
-}
-
+// One traced ray, shared by the (up to four) cells around it; indexed by
+// the cell pass's index buffer, which holds only the cells that add light.
 @vertex
-fn vertex(@builtin(vertex_index) vi: u32, @builtin(instance_index) job_index: u32) -> VertexOut {
+fn vertex(@builtin(vertex_index) ray: u32) -> VertexOut {
     var out: VertexOut;
-    // Outside the clip volume unless the cell is alive.
-    out.position = vec4<f32>(0.0, 0.0, -1.0, 1.0);
-    out.color = vec3<f32>(0.0);
-    out.r_rel = 2.0;
-    let n = jobs[job_index].n;
-    let m = n - 1u;
-    let cell = vi / 6u;
-    let ci = cell % m;
-    let cj = cell / m;
-    let base = jobs[job_index].ray_base;
-    var corners = array<RayOut, 4>(
-        rays[base + cj * n + ci],
-        rays[base + cj * n + ci + 1u],
-        rays[base + (cj + 1u) * n + ci + 1u],
-        rays[base + (cj + 1u) * n + ci],
-    );
-    if corners[0].alive * corners[1].alive * corners[2].alive * corners[3].alive < 0.5 {
-        return out;
-    }
-    // r_rel is interpolated over the cell: with every corner blocked (> 1)
-    // every pixel would be, so the cell is not rasterised at all.
-    if min(min(corners[0].r_rel, corners[1].r_rel), min(corners[2].r_rel, corners[3].r_rel)) > 1.0 {
-        return out;
-    }
-    let job = jobs[job_index];
-    let seen = clamp(visibility[job.light], 0.0, 1.0);
-    if seen <= 0.0 {
-        return out;
-    }
-    let a_p = job.cell_pupil_mm2;
-    // The area the two triangles cover, |s1| + |s2| (`cell_intensity`): a
-    // cell folded across a caustic crosses itself, and the signed quad
-    // area would cancel there and overstate its irradiance.
-    let a_s = 0.5 * (abs(triangle_area2(corners[0].sensor, corners[1].sensor, corners[2].sensor))
-        + abs(triangle_area2(corners[0].sensor, corners[2].sensor, corners[3].sensor)));
-    let mean_t = 0.25 * (corners[0].throughput + corners[1].throughput + corners[2].throughput + corners[3].throughput);
-    let irradiance = mean_t * a_p / max(a_s, a_p / params.max_gain);
-    var order = array<u32, 6>(0u, 1u, 2u, 0u, 2u, 3u);
-    let r = corners[order[vi % 6u]];
+    let r = rays[ray];
+    let cell = cell_colors[ray];
     let ndc = -r.sensor / vec2<f32>(params.half_height_mm * params.aspect, params.half_height_mm);
     out.position = vec4<f32>(ndc, 0.0, 1.0);
-    out.color = job.color.rgb * irradiance * params.intensity * seen;
+    out.color = cell.rgb;
     out.r_rel = r.r_rel;
     out.stop0 = r.stop0;
     out.stop1 = r.stop1;
     out.stop2 = r.stop2;
-    out.wl = job.color.w;
+    out.wl = cell.w;
     return out;
 }
 

@@ -10,15 +10,16 @@
 //! ```
 //!
 //! With the `window` feature and a display it opens a window, with an egui
-//! panel (lens, grid, wavelengths, blades, f-number, coating, ghost budget,
-//! intensity) when the `egui` feature is on; otherwise (or with `--out`) it
+//! panel (lens, grid, wavelengths, the ghosts' resolution, blades,
+//! f-number, coating, ghost budget, intensity, and the flare's share of the
+//! frame) when the `egui` feature is on; otherwise (or with `--out`) it
 //! renders headlessly and writes `lens_flare_0.png` … `_3.png` to `DIR`, by
 //! default `target/optica/`.
 
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 #[cfg(feature = "egui")]
-use optica::lens_flare::FlareGhosts;
+use optica::lens_flare::{FlareGhosts, GhostResolution};
 use optica::lens_flare::{FlareSource, LensFlare, LensFlarePlugin};
 
 const WIDTH: u32 = 960;
@@ -98,8 +99,13 @@ fn main() {
             clock.0 = time.elapsed_secs();
         });
         #[cfg(feature = "egui")]
-        app.add_plugins(bevy_egui::EguiPlugin::default())
-            .add_systems(bevy_egui::EguiPrimaryContextPass, panel);
+        app.add_plugins((
+            bevy_egui::EguiPlugin::default(),
+            // The flare's share of the frame, shown in the panel.
+            bevy::diagnostic::FrameTimeDiagnosticsPlugin::default(),
+            bevy::render::diagnostic::RenderDiagnosticsPlugin,
+        ))
+        .add_systems(bevy_egui::EguiPrimaryContextPass, panel);
         app.run();
     } else {
         let dir = args.out.unwrap_or_else(|| "target/optica".into());
@@ -246,6 +252,7 @@ fn panel(
     mut contexts: bevy_egui::EguiContexts,
     mut cameras: Query<(&mut LensFlare, Option<&FlareGhosts>)>,
     assets: Res<AssetServer>,
+    diagnostics: Res<bevy::diagnostic::DiagnosticsStore>,
 ) -> Result {
     use bevy_egui::egui;
     let Ok((mut flare, ghosts)) = cameras.single_mut() else {
@@ -280,6 +287,17 @@ fn panel(
         );
         ui.checkbox(&mut edit.adaptive_grid, "grid per ghost (adaptive)");
         ui.checkbox(&mut edit.symmetry, "trace half by symmetry");
+        ui.horizontal(|ui| {
+            ui.label("ghosts added up at");
+            for (resolution, name) in [
+                (GhostResolution::Full, "full"),
+                (GhostResolution::Half, "half"),
+                (GhostResolution::Quarter, "quarter"),
+            ] {
+                ui.radio_value(&mut edit.ghost_resolution, resolution, name);
+            }
+            ui.label("resolution");
+        });
         ui.add(egui::Slider::new(&mut edit.wavelengths, 1..=8).text("wavelengths"));
         ui.add(egui::Slider::new(&mut edit.aperture.blades, 0..=12).text("blades (0: round)"));
         ui.add(egui::Slider::new(&mut edit.aperture.roundness, 0.0..=1.0).text("blade roundness"));
@@ -349,6 +367,21 @@ fn panel(
                 ui.colored_label(egui::Color32::from_rgb(230, 120, 60), p);
             }
         }
+        // The flare's passes on the GPU (where the adapter has timestamp
+        // queries) against the whole frame.
+        let smoothed = |path: &'static str| {
+            diagnostics
+                .get(&bevy::diagnostic::DiagnosticPath::const_new(path))
+                .and_then(|d| d.smoothed())
+        };
+        let frame = smoothed("fps").map(|fps| 1000.0 / fps.max(1e-3));
+        match (smoothed("render/optica/flare/elapsed_gpu"), frame) {
+            (Some(flare), Some(frame)) => ui.label(format!(
+                "flare {flare:.2} ms of a {frame:.1} ms frame ({:.0} %)",
+                100.0 * flare / frame
+            )),
+            _ => ui.label("flare time: no GPU timestamps on this adapter"),
+        };
     });
     if edit != *flare {
         *flare = edit;

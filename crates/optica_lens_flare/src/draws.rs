@@ -13,10 +13,15 @@ use optica_optics::glass::LAMBDA_D_NM;
 use optica_optics::lens::{PreparedLens, TracePath};
 use optica_optics::lens_flare::{Beam, DEFAULT_MAX_GAIN};
 
+use crate::fit::{CameraFits, PassingFits, screen_grid};
 use crate::{
     FlareGhosts, FlareSource, LensFlare, SensorMapping, aperture_params, light_in_lens,
     pack_surfaces,
 };
+
+/// Cells of a row one invocation of the cell pass colours
+/// (`ghost_cells.wgsl`'s `SPAN_CELLS`).
+const SPAN_CELLS: u32 = 4;
 
 /// One surface as the shaders read it (`LensSurface`).
 #[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
@@ -58,8 +63,10 @@ pub struct GridJob {
     /// Rows traced: all `n`, or with symmetry the first `⌈n/2⌉`, whose
     /// mirror images are the rest.
     rows: u32,
-    /// Where its cells start among the cell pass's threads.
+    /// Where its cells start among all grids' cells.
     cell_base: u32,
+    /// Where its row spans start among the cell pass's threads.
+    span_base: u32,
 }
 
 impl GridJob {
@@ -68,9 +75,19 @@ impl GridJob {
         self.ray_base + self.n * self.n
     }
 
-    /// One past its last cell among the cell pass's threads.
+    /// One past its last cell among all grids' cells.
     pub(crate) fn cell_end(&self) -> u32 {
         self.cell_base + (self.n - 1) * (self.n - 1)
+    }
+
+    /// Row spans of [`SPAN_CELLS`] cells (the last one shorter) in its grid.
+    fn spans(&self) -> u32 {
+        (self.n - 1) * (self.n - 1).div_ceil(SPAN_CELLS)
+    }
+
+    /// One past its last span among the cell pass's threads.
+    pub(crate) fn span_end(&self) -> u32 {
+        self.span_base + self.spans()
     }
 
     /// One past its last thread of the trace.
@@ -167,8 +184,10 @@ pub struct FlareParams {
     pub jitter_cycle: u32,
     /// The frame's slot in that sequence.
     pub jitter_slot: u32,
-    /// Cells in all the grids (the cell pass's threads).
+    /// Cells in all the grids.
     pub cells: u32,
+    /// Row spans in all the grids (the cell pass's threads).
+    pub spans: u32,
 }
 
 /// What a flare camera's passes trace and draw this frame; no grids when
@@ -188,6 +207,9 @@ pub struct FlareDraws {
     pub starburst: Option<AssetId<Image>>,
     /// The ringing texture, when on.
     pub ringing: Option<AssetId<Image>>,
+    /// The view's size over the size the ghosts are added up at, per side
+    /// ([`crate::GhostResolution::divisor`]).
+    pub ghost_divisor: u32,
     /// Sizes and the sensor-to-screen mapping.
     pub params: FlareParams,
 }
@@ -250,10 +272,11 @@ type FlareLight = (
 #[allow(clippy::type_complexity)]
 pub(crate) fn prepare_draws(
     mut commands: Commands,
+    mut fits: Local<PassingFits>,
     cameras: Query<(
         Entity,
         &LensFlare,
-        &FlareGhosts,
+        Ref<FlareGhosts>,
         &Camera,
         &Projection,
         &GlobalTransform,
@@ -261,15 +284,28 @@ pub(crate) fn prepare_draws(
     )>,
     lights: Query<FlareLight>,
 ) {
+    fits.cameras.retain(|e, _| cameras.contains(*e));
     for (entity, flare, ghosts, camera, projection, transform, exposure) in &cameras {
+        let camera_fits = fits.cameras.entry(entity).or_default();
+        if ghosts.is_changed() {
+            camera_fits.clear();
+        }
         let draws = build(
-            flare, ghosts, camera, projection, transform, exposure, &lights,
+            flare,
+            &ghosts,
+            camera,
+            projection,
+            transform,
+            exposure,
+            &lights,
+            CameraFits(camera_fits),
         )
         .unwrap_or_default();
         commands.entity(entity).insert(draws);
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn build(
     flare: &LensFlare,
     ghosts: &FlareGhosts,
@@ -278,10 +314,12 @@ fn build(
     transform: &GlobalTransform,
     exposure: Option<&Exposure>,
     lights: &Query<FlareLight>,
+    mut fits: CameraFits,
 ) -> Option<FlareDraws> {
     flare.validate().ok()?;
     let lens = ghosts.lens.as_ref()?;
-    let (blades, rotation, radius, arc_w) = aperture_params(ghosts.aperture.as_ref()?);
+    let aperture = ghosts.aperture.as_ref()?;
+    let (blades, rotation, radius, arc_w) = aperture_params(aperture);
     let Projection::Perspective(perspective) = projection else {
         return None;
     };
@@ -317,6 +355,10 @@ fn build(
     let mut probes = Vec::new();
     let mut light_entities = Vec::new();
     let clip_from_view = camera.clip_from_view();
+    // Pixels per sensor mm where the ghosts are added up.
+    let ghost_px_per_mm = f64::from(size.y)
+        / f64::from(flare.ghost_resolution.divisor())
+        / (2.0 * mapping.half_height_mm);
     let light_radius = flare.occlusion.map_or(0.0, |o| o.light_radius);
     // In entity order, so that a light keeps its visibility's slot.
     let mut lights: Vec<_> = lights.iter().collect();
@@ -360,9 +402,22 @@ fn build(
             ..LightProbe::new(clip_from_view, towards, light_radius)
         });
         light_entities.push(light_entity);
-        for ((first, second), n) in ghosts.drawn_grids() {
-            let cells = f64::from((n - 1) * (n - 1));
+        for ((first, second), mut n) in ghosts.drawn_grids() {
             let path = TracePath::ghost(first, second);
+            // With symmetry, where the ghost's light gets through (none:
+            // the ghost is not drawn at this angle), and no more cells
+            // than pixels it covers where the ghosts are added up.
+            let passing = if flare.symmetry {
+                let middle = &prepared[prepared.len() / 2];
+                let Some(passing) = fits.passing(lens, middle, (first, second), aperture, d) else {
+                    continue;
+                };
+                n = screen_grid(n, &passing, ghost_px_per_mm);
+                Some(passing.pupil)
+            } else {
+                None
+            };
+            let cells = f64::from((n - 1) * (n - 1));
             for (w, &wl) in wavelengths.iter().enumerate() {
                 // With symmetry: the light turned into the x–z plane, half
                 // the rows traced and mirrored, the result turned back.
@@ -371,9 +426,12 @@ fn build(
                 } else {
                     Beam::for_path(lens, path, d, wl).map(|b| (b, 0.0))
                 };
-                let Ok((beam, azimuth)) = beam else {
+                let Ok((mut beam, azimuth)) = beam else {
                     continue;
                 };
+                if let Some(rect) = passing {
+                    beam = beam.within(rect, true);
+                }
                 let at = |u: f64, v: f64| beam.ray_at(u, v).map(|r| r.origin());
                 let (Ok(o), Ok(ou), Ok(ov)) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0)) else {
                     continue;
@@ -396,18 +454,21 @@ fn build(
                     rotation: Vec2::from_angle(azimuth as f32),
                     rows: if flare.symmetry { n.div_ceil(2) } else { n },
                     cell_base: 0,
+                    span_base: 0,
                 });
             }
         }
     }
     // In light and brightness order, so that grids left out past the
     // device's limit are the dimmest of the last light.
-    let (mut rays, mut threads, mut cells) = (0u32, 0u32, 0u32);
+    let (mut rays, mut threads, mut cells, mut spans) = (0u32, 0u32, 0u32, 0u32);
     for job in &mut jobs {
         job.ray_base = rays;
         job.thread_base = threads;
         job.cell_base = cells;
+        job.span_base = spans;
         cells = cells.saturating_add((job.n - 1) * (job.n - 1));
+        spans = spans.saturating_add(job.spans());
         rays = rays.saturating_add(job.n * job.n);
         threads = threads.saturating_add(job.n * job.rows);
     }
@@ -437,9 +498,11 @@ fn build(
             jitter_cycle: 0,
             jitter_slot: 0,
             cells,
+            spans,
         },
         starburst: ghosts.starburst.as_ref().map(Handle::id),
         ringing: ghosts.ringing.as_ref().map(Handle::id),
+        ghost_divisor: flare.ghost_resolution.divisor(),
         surfaces,
         jobs,
         lights: probes,

@@ -44,22 +44,27 @@
 //!
 //! For each drawn ghost, wavelength and [`FlareSource`] light whose light
 //! enters the lens (directional lights, point and spot lights, in view or
-//! not), a grid of parallel rays over the ghost's pupil bounds (the part of
-//! the pupil whose light gets through that ghost's path: the blog's bundle
-//! bounding) is traced through the lens by a compute pass
-//! (`shaders/lens_trace.wgsl`, [`LENS_TRACE_WGSL`], the WGSL twin of
-//! `PreparedLens::trace_to`, held to it by readback), keeping `r_rel` so
-//! the grid stays continuous. A draw pass then adds every grid cell to the
-//! HDR view target before tonemapping, with the irradiance its change of
-//! area gives (bounded gain), clipped per pixel where `r_rel > 1`. The
-//! sensor is sized so that the lens sees the camera's field of view
-//! ([`SensorMapping`]); a light's irradiance at the camera (illuminance, or
-//! a point light's lumens over 4πd²) times the camera's exposure scales its
-//! ghosts, so they sit in the scene's light levels. Pass time shows as the
-//! `optica/flare` diagnostic span, and each pass in it as
-//! `optica/flare/occlusion`, `optica/flare/trace` and `optica/flare/draw`,
-//! with the shader invocations it ran where the adapter has
-//! pipeline-statistics queries.
+//! not), a grid of parallel rays over the part of the pupil plane whose
+//! light gets through that ghost's path is traced through the lens by a
+//! compute pass (`shaders/lens_trace.wgsl`, [`LENS_TRACE_WGSL`], the WGSL
+//! twin of `PreparedLens::trace_to`, held to it by readback), keeping
+//! `r_rel` so the grid stays continuous. A second compute pass colours
+//! every grid cell once, with the irradiance its change of area gives
+//! (bounded gain), and writes the triangles of the cells that add light
+//! into an index buffer; a draw pass adds them (each ray shaded once,
+//! shared by its cells), clipped per pixel where `r_rel > 1`, at
+//! [`LensFlare::ghost_resolution`] (half the view's side by default),
+//! scaled up and added to the HDR view target before tonemapping. The
+//! rays are traced again only when the grids, the lens or the settings
+//! change: a still camera and lights trace them once. The sensor is sized
+//! so that the lens sees the camera's field of view ([`SensorMapping`]); a
+//! light's irradiance at the camera (illuminance, or a point light's lumens
+//! over 4πd²) times the camera's exposure scales its ghosts, so they sit in
+//! the scene's light levels. Pass time shows as the `optica/flare`
+//! diagnostic span, and each pass in it as `optica/flare/occlusion`,
+//! `/trace`, `/cells`, `/draw` and `/composite` (the scaling up), with the
+//! shader invocations it ran where the adapter has pipeline-statistics
+//! queries.
 //!
 //! ## The blog's speed-ups
 //!
@@ -74,6 +79,15 @@
 //!   for the light turned into one meridional plane, where the ghost is
 //!   mirror symmetric, so half its rows are traced; the rays are turned
 //!   back to the light's azimuth before the iris test.
+//! - *Bundle bounding*, measured: with symmetry, where each ghost's light
+//!   passes the lens is traced on a coarse grid ([`FIT_RAYS`]²) at every
+//!   degree of field angle ([`passing_at_step`], kept per camera until the
+//!   ghosts change), and the ghost's grid covers only that rectangle (the
+//!   union of the two degrees round the light's angle, grown by a coarse
+//!   step) instead of the pupil bounds' square, of which wide open only
+//!   about 15 % passes; a ghost that passes at neither is not traced. Each
+//!   grid is also cut to cells of at least [`CELL_PX`] pixels of the
+//!   target the ghosts are added up in ([`screen_grid`]).
 //! - *Intensity LOD* and *aperture culling*: [`FlareGhosts`].
 //!
 //! ## Diffraction
@@ -110,6 +124,7 @@ use bevy::prelude::*;
 mod asset;
 mod diffraction;
 mod draws;
+mod fit;
 mod frame;
 mod gpu_lens;
 mod precompute;
@@ -119,14 +134,17 @@ mod settings;
 pub use asset::{LensAsset, LensLoadError, LensLoader};
 pub use diffraction::RINGING_NM;
 pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob, LightProbe, spectral_weight};
+pub use fit::{
+    CELL_PX, FIT_RAYS, FIT_STEP_DEG, MIN_SCREEN_GRID, fit_steps, passing_at_step, screen_grid,
+};
 pub use frame::{SensorMapping, light_in_lens};
 pub use gpu_lens::{
     APERTURE_WGSL, LENS_TRACE_WGSL, SURFACE_FLOATS, aperture_params, pack_surfaces,
 };
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate, RANKING_FIELD_DEG, choose};
 pub use settings::{
-    ApertureSettings, CoatingSettings, FlareOcclusion, FlareSource, LensFlare, MAX_GRID,
-    MAX_WAVELENGTHS, RingingSettings, StarburstSettings,
+    ApertureSettings, CoatingSettings, FlareOcclusion, FlareSource, GhostResolution, LensFlare,
+    MAX_GRID, MAX_WAVELENGTHS, RingingSettings, StarburstSettings,
 };
 
 /// Adds [`LensAsset`] loading, [`LensFlare`] and [`FlareSource`]. Without a

@@ -10,7 +10,7 @@
 
 use bevy::asset::uuid_handle;
 use bevy::core_pipeline::tonemapping::tonemapping;
-use bevy::core_pipeline::{Core3d, Core3dSystems};
+use bevy::core_pipeline::{Core3d, Core3dSystems, FullscreenShader};
 use bevy::diagnostic::FrameCount;
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
@@ -19,7 +19,7 @@ use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::extract_component::ExtractComponentPlugin;
 use bevy::render::render_asset::RenderAssets;
 use bevy::render::render_resource::binding_types::{
-    storage_buffer, storage_buffer_read_only, texture_2d, texture_depth_2d,
+    sampler, storage_buffer, storage_buffer_read_only, texture_2d, texture_depth_2d,
     texture_depth_2d_multisampled, uniform_buffer,
 };
 use bevy::render::render_resource::{
@@ -29,6 +29,11 @@ use bevy::render::render_resource::{
     ComputePassDescriptor, ComputePipelineDescriptor, FragmentState, IndexFormat, PipelineCache,
     RenderPassDescriptor, RenderPipelineDescriptor, ShaderStages, StorageBuffer, TextureFormat,
     TextureSampleType, TextureUsages, UniformBuffer, VertexState,
+};
+use bevy::render::render_resource::{
+    Extent3d, FilterMode, LoadOp, Operations, RenderPassColorAttachment, Sampler,
+    SamplerBindingType, SamplerDescriptor, StoreOp, Texture, TextureDescriptor, TextureDimension,
+    TextureView, TextureViewDescriptor,
 };
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
 use bevy::render::texture::{FallbackImage, GpuImage};
@@ -45,16 +50,20 @@ const TRACE_SHADER: Handle<Shader> = uuid_handle!("6b1c7f0e-3d2a-4c55-9a61-0f6f6
 const DRAW_SHADER: Handle<Shader> = uuid_handle!("b3e2a9d4-8f17-4e0b-a1c2-5d9e7f3a4b60");
 /// The cell shader.
 const CELLS_SHADER: Handle<Shader> = uuid_handle!("5a0e4f3c-9b7d-4d21-8c6e-2f1b3a9d7e48");
+/// The shader that scales reduced-resolution ghosts up onto the view.
+const UPSAMPLE_SHADER: Handle<Shader> = uuid_handle!("c2d4e6f8-1a3b-4c5d-8e7f-9a0b1c2d3e4f");
 /// The occlusion shader.
 const OCCLUSION_SHADER: Handle<Shader> = uuid_handle!("0f5d8c3e-7a61-4b2f-9e48-c1d0a7b9e253");
 
 /// Bytes per traced ray (`RayOut`: 12 floats).
 const RAY_BYTES: u64 = 48;
+/// The format the ghosts are added up in at a reduced resolution (HDR, and
+/// filterable everywhere).
+const GHOST_FORMAT: TextureFormat = TextureFormat::Rgba16Float;
 /// Bytes per cell of the index buffer (two triangles of `u32`s).
 const CELL_INDEX_BYTES: u64 = 24;
 /// Bytes per ray of the cell colours (`vec4<f32>`).
 const CELL_COLOR_BYTES: u64 = 16;
-
 
 /// Adds the passes.
 pub(crate) struct FlareRenderPlugin;
@@ -86,6 +95,13 @@ impl Plugin for FlareRenderPlugin {
                 Shader::from_wgsl(
                     format!("{types}\n{}", include_str!("shaders/ghost_cells.wgsl")),
                     "optica_lens_flare/shaders/ghost_cells.wgsl",
+                ),
+            );
+            let _ = shaders.insert(
+                UPSAMPLE_SHADER.id(),
+                Shader::from_wgsl(
+                    include_str!("shaders/upsample.wgsl"),
+                    "optica_lens_flare/shaders/upsample.wgsl",
                 ),
             );
             let _ = shaders.insert(
@@ -127,6 +143,11 @@ struct FlareShared {
     cells: Option<CachedComputePipelineId>,
     /// Per view format: the ghosts' and the starburst's pipelines.
     draws: HashMap<TextureFormat, [CachedRenderPipelineId; 2]>,
+    /// Reduced-resolution ghosts: the layout, the bilinear sampler and,
+    /// per view format, the pipeline that adds them to the view.
+    upsample_layout: BindGroupLayoutDescriptor,
+    upsample_sampler: Sampler,
+    upsamples: HashMap<TextureFormat, CachedRenderPipelineId>,
     occlusion: [Option<CachedComputePipelineId>; 2],
 }
 
@@ -139,17 +160,37 @@ fn draw_pipeline(
     label: &'static str,
     prefix: &str,
 ) -> CachedRenderPipelineId {
-    pipeline_cache.queue_render_pipeline(RenderPipelineDescriptor {
-        label: Some(label.into()),
-        layout: vec![layout],
-        vertex: VertexState {
+    additive_pipeline(
+        pipeline_cache,
+        layout,
+        format,
+        label,
+        VertexState {
             shader: DRAW_SHADER,
             entry_point: Some(format!("{prefix}vertex").into()),
             ..default()
         },
+        (DRAW_SHADER, format!("{prefix}fragment")),
+    )
+}
+
+/// A pipeline that adds what `fragment` (shader, entry) returns to a
+/// `format` target.
+fn additive_pipeline(
+    pipeline_cache: &PipelineCache,
+    layout: BindGroupLayoutDescriptor,
+    format: TextureFormat,
+    label: &'static str,
+    vertex: VertexState,
+    fragment: (Handle<Shader>, String),
+) -> CachedRenderPipelineId {
+    pipeline_cache.queue_render_pipeline(RenderPipelineDescriptor {
+        label: Some(label.into()),
+        layout: vec![layout],
+        vertex,
         fragment: Some(FragmentState {
-            shader: DRAW_SHADER,
-            entry_point: Some(format!("{prefix}fragment").into()),
+            shader: fragment.0,
+            entry_point: Some(fragment.1.into()),
             targets: vec![Some(ColorTargetState {
                 format,
                 // Added: the flare is light.
@@ -192,7 +233,7 @@ fn occlusion_layout(multisampled: bool) -> BindGroupLayoutDescriptor {
     )
 }
 
-fn init_flare(mut commands: Commands) {
+fn init_flare(mut commands: Commands, render_device: Res<RenderDevice>) {
     let trace_layout = BindGroupLayoutDescriptor::new(
         "optica_lens_flare_trace_layout",
         &BindGroupLayoutEntries::sequential(
@@ -235,7 +276,26 @@ fn init_flare(mut commands: Commands) {
             ),
         ),
     );
+    let upsample_layout = BindGroupLayoutDescriptor::new(
+        "optica_lens_flare_upsample_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::FRAGMENT,
+            (
+                texture_2d(TextureSampleType::Float { filterable: true }),
+                sampler(SamplerBindingType::Filtering),
+            ),
+        ),
+    );
+    let upsample_sampler = render_device.create_sampler(&SamplerDescriptor {
+        label: Some("optica_lens_flare_upsample"),
+        mag_filter: FilterMode::Linear,
+        min_filter: FilterMode::Linear,
+        ..default()
+    });
     commands.insert_resource(FlareShared {
+        upsample_layout,
+        upsample_sampler,
+        upsamples: HashMap::default(),
         trace_layout,
         cells_layout,
         draw_layout,
@@ -250,6 +310,8 @@ fn init_flare(mut commands: Commands) {
 /// One view's buffers, bind groups and pipelines for this frame.
 #[derive(Component)]
 struct FlareBinding {
+    /// Whether the rays are traced this frame (else last frame's stand).
+    retrace: bool,
     trace_group: BindGroup,
     cells_group: BindGroup,
     draw_group: BindGroup,
@@ -260,9 +322,13 @@ struct FlareBinding {
     starburst: Option<CachedRenderPipelineId>,
     /// The occlusion pass, when the view reads its depth.
     occlusion: Option<(BindGroup, CachedComputePipelineId)>,
+    /// With reduced-resolution ghosts: their target, and the bind group
+    /// and pipeline that add it to the view.
+    reduced: Option<(TextureView, BindGroup, CachedRenderPipelineId)>,
     threads: u32,
-    /// The cell pass's threads.
+    /// The cells, and the cell pass's threads.
     cell_count: u32,
+    spans: u32,
     /// The cells' triangles.
     indices: Buffer,
     lights: u32,
@@ -284,6 +350,8 @@ struct FlareBuffers {
     indices: Option<Buffer>,
     /// Each light's visibility, kept between frames for its history.
     visibility: Option<Buffer>,
+    /// The reduced-resolution ghosts' target and its size.
+    reduced: Option<(UVec2, Texture, TextureView)>,
     /// The lights whose visibility `visibility` holds.
     lights: Vec<Entity>,
     /// Whether the occlusion pass ran last frame (else the buffer holds
@@ -291,8 +359,21 @@ struct FlareBuffers {
     history_holds: bool,
     /// Whether the rays have been over the device's limit (warned once).
     warned_over_limit: bool,
+    /// What the rays in `rays` were traced from; while a frame's grids,
+    /// lens and settings are the same (a still camera and lights), they
+    /// are not traced again.
+    traced: Option<TraceKey>,
     /// The raw visibilities per light `visibility` holds (0: no TAA).
     jitter_cycle: u32,
+}
+
+/// Everything the trace's result depends on: the grids, the lens at each
+/// wavelength and the settings.
+#[derive(PartialEq)]
+struct TraceKey {
+    jobs: Vec<GridJob>,
+    surfaces: Vec<GpuSurface>,
+    params: FlareParams,
 }
 
 /// Frames in Bevy's TAA jitter sequence (eight Halton (2, 3) offsets, the
@@ -322,6 +403,7 @@ fn prepare_flare(
     images: Res<RenderAssets<GpuImage>>,
     fallback: Res<FallbackImage>,
     frame: Res<FrameCount>,
+    fullscreen: Res<FullscreenShader>,
 ) {
     for (entity, view, draws, buffers, depth, msaa, jitter) in &mut views {
         let mut params = draws.params;
@@ -367,25 +449,30 @@ fn prepare_flare(
             })
         });
         let format = view.target_format;
-        let draw_layout = shared.draw_layout.clone();
-        let [draw, starburst] = *shared.draws.entry(format).or_insert_with(|| {
-            [
-                draw_pipeline(
-                    &pipeline_cache,
-                    draw_layout.clone(),
-                    format,
-                    "optica_lens_flare_draw",
-                    "",
-                ),
-                draw_pipeline(
-                    &pipeline_cache,
-                    draw_layout,
-                    format,
-                    "optica_lens_flare_starburst",
-                    "starburst_",
-                ),
-            ]
-        });
+        let divisor = draws.ghost_divisor.max(1);
+        let mut pipelines_for = |format: TextureFormat| {
+            let draw_layout = shared.draw_layout.clone();
+            *shared.draws.entry(format).or_insert_with(|| {
+                [
+                    draw_pipeline(
+                        &pipeline_cache,
+                        draw_layout.clone(),
+                        format,
+                        "optica_lens_flare_draw",
+                        "",
+                    ),
+                    draw_pipeline(
+                        &pipeline_cache,
+                        draw_layout,
+                        format,
+                        "optica_lens_flare_starburst",
+                        "starburst_",
+                    ),
+                ]
+            })
+        };
+        let [_, starburst] = pipelines_for(format);
+        let [draw, _] = pipelines_for(if divisor > 1 { GHOST_FORMAT } else { format });
         // The diffraction textures, once uploaded; until then (and when
         // off) the fallback, and the pass leaves them out.
         let texture = |id: Option<AssetId<Image>>| id.and_then(|id| images.get(id));
@@ -435,6 +522,7 @@ fn prepare_flare(
             params.rays = last.map_or(0, |j| j.ray_end());
             params.threads = last.map_or(0, |j| j.thread_end());
             params.cells = last.map_or(0, |j| j.cell_end());
+            params.spans = last.map_or(0, |j| j.span_end());
             if kept == 0 {
                 commands.entity(entity).remove::<FlareBinding>();
                 continue;
@@ -463,6 +551,7 @@ fn prepare_flare(
             ),
         ] {
             if buffer.as_ref().is_none_or(|b| b.size() < size) {
+                buffers.traced = None;
                 *buffer = Some(render_device.create_buffer(&BufferDescriptor {
                     label: Some(label),
                     size,
@@ -614,7 +703,76 @@ fn prepare_flare(
             }
             _ => None,
         };
+        // Reduced-resolution ghosts: their target, made again only when
+        // the view's size or the divisor changes.
+        let reduced = (divisor > 1).then(|| {
+            let size = view.viewport.zw().max(UVec2::ONE);
+            let size = UVec2::new(size.x.div_ceil(divisor), size.y.div_ceil(divisor));
+            if buffers.reduced.as_ref().is_none_or(|r| r.0 != size) {
+                let texture = render_device.create_texture(&TextureDescriptor {
+                    label: Some("optica_lens_flare_ghosts"),
+                    size: Extent3d {
+                        width: size.x,
+                        height: size.y,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: TextureDimension::D2,
+                    format: GHOST_FORMAT,
+                    usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                });
+                let texture_view = texture.create_view(&TextureViewDescriptor::default());
+                buffers.reduced = Some((size, texture, texture_view));
+            }
+            let layout = shared.upsample_layout.clone();
+            let pipeline = *shared.upsamples.entry(format).or_insert_with(|| {
+                additive_pipeline(
+                    &pipeline_cache,
+                    layout,
+                    format,
+                    "optica_lens_flare_upsample",
+                    fullscreen.to_vertex_state(),
+                    (UPSAMPLE_SHADER, "upsample".into()),
+                )
+            });
+            let texture_view = buffers.reduced.as_ref().map(|r| r.2.clone())?;
+            let group = render_device.create_bind_group(
+                "optica_lens_flare_upsample",
+                &pipeline_cache.get_bind_group_layout(&shared.upsample_layout),
+                &BindGroupEntries::sequential((&texture_view, &shared.upsample_sampler)),
+            );
+            Some((texture_view, group, pipeline))
+        });
+        if divisor == 1 {
+            buffers.reduced = None;
+        }
+        // Trace only when what the rays depend on changed, or they have
+        // not been traced into this buffer yet (the passes run only once
+        // every pipeline is compiled).
+        let key = TraceKey {
+            jobs: draws.jobs[..params.jobs as usize].to_vec(),
+            surfaces: draws.surfaces.clone(),
+            params: draws.params,
+        };
+        let retrace = buffers.traced.as_ref() != Some(&key);
+        let ready = [trace, cells_pipeline]
+            .into_iter()
+            .all(|id| pipeline_cache.get_compute_pipeline(id).is_some())
+            && [
+                Some(draw),
+                reduced.as_ref().and_then(|r| r.as_ref()).map(|r| r.2),
+            ]
+            .into_iter()
+            .flatten()
+            .all(|id| pipeline_cache.get_render_pipeline(id).is_some());
+        if ready {
+            buffers.traced = Some(key);
+        }
         commands.entity(entity).insert(FlareBinding {
+            retrace,
+            reduced: reduced.flatten(),
             trace_group,
             cells_group,
             draw_group,
@@ -626,6 +784,7 @@ fn prepare_flare(
             occlusion,
             threads: params.threads,
             cell_count: params.cells,
+            spans: params.spans,
             indices: indices.clone(),
             lights: params.lights,
         });
@@ -652,6 +811,13 @@ fn flare_passes(
     let starburst = binding
         .starburst
         .and_then(|id| pipeline_cache.get_render_pipeline(id));
+    let reduced = match &binding.reduced {
+        Some((texture, group, id)) => match pipeline_cache.get_render_pipeline(*id) {
+            Some(pipeline) => Some((texture, group, pipeline)),
+            None => return,
+        },
+        None => None,
+    };
     let diagnostics = ctx.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
     let occlusion = binding.occlusion.as_ref().and_then(|(group, id)| {
@@ -673,7 +839,7 @@ fn flare_passes(
         pass.dispatch_workgroups(binding.lights, 1, 1);
         pass_span.end(&mut pass);
     }
-    {
+    if binding.retrace {
         let mut pass = ctx
             .command_encoder()
             .begin_compute_pass(&ComputePassDescriptor {
@@ -697,16 +863,32 @@ fn flare_passes(
         let pass_span = diagnostics.pass_span(&mut pass, "cells");
         pass.set_pipeline(cells);
         pass.set_bind_group(0, &binding.cells_group, &[]);
-        let (x, y) = groups_for(binding.cell_count);
+        let (x, y) = groups_for(binding.spans);
         pass.dispatch_workgroups(x, y, 1);
         pass_span.end(&mut pass);
     }
+    // The ghosts: onto the view, or into their reduced-resolution target
+    // (cleared), which is then scaled up onto the view with the
+    // starburst.
+    let view_attachment = target.get_unsampled_color_attachment();
+    let ghost_attachment = match &reduced {
+        Some((texture, ..)) => RenderPassColorAttachment {
+            view: texture,
+            depth_slice: None,
+            resolve_target: None,
+            ops: Operations {
+                load: LoadOp::Clear(Default::default()),
+                store: StoreOp::Store,
+            },
+        },
+        None => view_attachment.clone(),
+    };
     {
         let mut pass = ctx
             .command_encoder()
             .begin_render_pass(&RenderPassDescriptor {
                 label: Some("optica_lens_flare_draw"),
-                color_attachments: &[Some(target.get_unsampled_color_attachment())],
+                color_attachments: &[Some(ghost_attachment)],
                 depth_stencil_attachment: None,
                 timestamp_writes: None,
                 occlusion_query_set: None,
@@ -717,8 +899,30 @@ fn flare_passes(
         pass.set_bind_group(0, &binding.draw_group, &[]);
         pass.set_index_buffer((*binding.indices).slice(..), IndexFormat::Uint32);
         pass.draw_indexed(0..6 * binding.cell_count, 0, 0..1);
+        if let (None, Some(starburst)) = (&reduced, starburst) {
+            pass.set_pipeline(starburst);
+            pass.draw(0..6, 0..binding.lights);
+        }
+        pass_span.end(&mut pass);
+    }
+    if let Some((_, group, upsample)) = reduced {
+        let mut pass = ctx
+            .command_encoder()
+            .begin_render_pass(&RenderPassDescriptor {
+                label: Some("optica_lens_flare_composite"),
+                color_attachments: &[Some(view_attachment)],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+        let pass_span = diagnostics.pass_span(&mut pass, "composite");
+        pass.set_pipeline(upsample);
+        pass.set_bind_group(0, group, &[]);
+        pass.draw(0..3, 0..1);
         if let Some(starburst) = starburst {
             pass.set_pipeline(starburst);
+            pass.set_bind_group(0, &binding.draw_group, &[]);
             pass.draw(0..6, 0..binding.lights);
         }
         pass_span.end(&mut pass);

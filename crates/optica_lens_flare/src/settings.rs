@@ -71,6 +71,41 @@ pub struct LensFlare {
     /// Ripples at the edge of each ghost (the aperture's Fresnel
     /// diffraction), or `None` for sharp-edged ghosts.
     pub ringing: Option<RingingSettings>,
+    /// The resolution the ghosts are added up at before they are scaled up
+    /// onto the view (the starburst is always drawn at full resolution).
+    pub ghost_resolution: GhostResolution,
+}
+
+/// The resolution a [`LensFlare`] adds its ghosts up at: the cost of the
+/// flare is mostly the ghosts' pixels (a wide lens's ghosts overlap a
+/// hundred deep), and most ghosts are smooth.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Default)]
+pub enum GhostResolution {
+    /// Every pixel: the sharpest iris edges.
+    Full,
+    /// Half the view's width and height (a quarter of the pixels), scaled
+    /// up bilinearly; the light each ghost adds is kept. The default: on
+    /// the double Gauss at 512² (83 ghosts, 3 wavelengths, 32²) it follows
+    /// the reference as closely as `Full` (relative L1 0.116 against
+    /// 0.117: the bilinear filter smooths the cells' steps as much as it
+    /// blurs the iris's edges) at about a third of the draw's cost.
+    #[default]
+    Half,
+    /// A quarter of the view's width and height (a sixteenth of the
+    /// pixels), scaled up bilinearly.
+    Quarter,
+}
+
+impl GhostResolution {
+    /// The view's size over the ghosts' target's, per side.
+    pub fn divisor(self) -> u32 {
+        match self {
+            Self::Full => 1,
+            Self::Half => 2,
+            Self::Quarter => 4,
+        }
+    }
 }
 
 impl LensFlare {
@@ -90,6 +125,7 @@ impl LensFlare {
             occlusion: Some(FlareOcclusion::default()),
             starburst: Some(StarburstSettings::default()),
             ringing: Some(RingingSettings::default()),
+            ghost_resolution: GhostResolution::Half,
         }
     }
 

@@ -32,6 +32,7 @@ struct FlareParams {
     jitter_slot: u32,
     // The cell pass (`ghost_cells.wgsl`).
     cells: u32,
+    spans: u32,
 }
 
 // One grid: the ray at pupil (u, v) starts at origin + u·du + v·dv and
@@ -41,7 +42,8 @@ struct FlareParams {
 // first `rows` rows traced from `thread_base` among the trace's threads
 // (the rest, with symmetry, their mirror images), and turned by
 // `rotation` (cos, sin of the light's azimuth); its cells from `cell_base`
-// among the cell pass's threads.
+// among all grids' cells, their row spans from `span_base` among the cell
+// pass's threads.
 struct GridJob {
     origin: vec3<f32>,
     first: u32,
@@ -59,6 +61,7 @@ struct GridJob {
     rotation: vec2<f32>,
     rows: u32,
     cell_base: u32,
+    span_base: u32,
 }
 
 // Where a light's depth is read: its image (NDC) and the largest scene

@@ -195,7 +195,11 @@ struct RayState {
     d: vec3<f32>,
     r_rel: f32,
     throughput: f32,
-    stops: array<vec2<f32>, 3>,
+    // The first three crossings of the stop plane (fields, not an array:
+    // a dynamically indexed local array costs every invocation).
+    stop0: vec2<f32>,
+    stop1: vec2<f32>,
+    stop2: vec2<f32>,
     crossings: u32,
 }
 
@@ -214,8 +218,17 @@ fn interact(st: ptr<function, RayState>, k: u32, forward: bool, reflect_here: bo
     let r = length(h.p.xy);
     (*st).r_rel = max((*st).r_rel, r / s.semi);
     if s.is_stop > 0.5 {
-        if (*st).crossings < 3u {
-            (*st).stops[(*st).crossings] = h.p.xy;
+        switch (*st).crossings {
+            case 0u: {
+                (*st).stop0 = h.p.xy;
+            }
+            case 1u: {
+                (*st).stop1 = h.p.xy;
+            }
+            case 2u: {
+                (*st).stop2 = h.p.xy;
+            }
+            default: {}
         }
         (*st).crossings += 1u;
         (*st).o = h.p;
@@ -265,24 +278,30 @@ fn interact(st: ptr<function, RayState>, k: u32, forward: bool, reflect_here: bo
 // path (first, second) — reflect at `first`, then at `second < first` — or,
 // with first == second, the primary path.
 fn trace_ray(o: vec3<f32>, d: vec3<f32>, first: u32, second: u32, sensor_z: f32, wl_nm: f32) -> TraceOut {
-    var st = RayState(true, o, d, 0.0, 1.0, array<vec2<f32>, 3>(), 0u);
+    var st = RayState(true, o, d, 0.0, 1.0, vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), 0u);
     let last = surface_count() - 1u;
-    if first == second {
-        for (var k = 0u; k <= last; k++) {
-            interact(&st, k, true, false, wl_nm);
+    // One loop over the path's steps (one call of `interact`, inlined
+    // once, instead of one per leg): forward to `first`, reflect, back to
+    // `second`, reflect, forward to the last surface.
+    let ghost = first != second;
+    let back_end = 2u * first - second;
+    let steps = select(last + 1u, back_end + 1u + last - second, ghost);
+    for (var step = 0u; step < steps && st.alive; step++) {
+        var k = step;
+        var forward = true;
+        if ghost && step > first {
+            if step < back_end {
+                k = 2u * first - step;
+                forward = false;
+            } else if step == back_end {
+                k = second;
+                forward = false;
+            } else {
+                k = step + 2u * second - 2u * first;
+            }
         }
-    } else {
-        for (var k = 0u; k < first; k++) {
-            interact(&st, k, true, false, wl_nm);
-        }
-        interact(&st, first, true, true, wl_nm);
-        for (var k = first - 1u; k > second; k--) {
-            interact(&st, k, false, false, wl_nm);
-        }
-        interact(&st, second, false, true, wl_nm);
-        for (var k = second + 1u; k <= last; k++) {
-            interact(&st, k, true, false, wl_nm);
-        }
+        let reflect_here = ghost && (step == first || step == back_end);
+        interact(&st, k, forward, reflect_here, wl_nm);
     }
     var out = TraceOut(false, vec2<f32>(0.0), 0.0, vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), 0.0);
     if !st.alive || !(st.d.z >= MIN_EXIT_DIR_Z) {
@@ -296,9 +315,9 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, first: u32, second: u32, sensor_z: f32,
     out.alive = true;
     out.sensor = p.xy;
     out.r_rel = st.r_rel;
-    out.stop0 = st.stops[0];
-    out.stop1 = select(st.stops[0], st.stops[1], st.crossings > 1u);
-    out.stop2 = select(st.stops[0], st.stops[2], st.crossings > 2u);
+    out.stop0 = st.stop0;
+    out.stop1 = select(st.stop0, st.stop1, st.crossings > 1u);
+    out.stop2 = select(st.stop0, st.stop2, st.crossings > 2u);
     out.throughput = st.throughput;
     return out;
 }

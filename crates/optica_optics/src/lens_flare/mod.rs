@@ -151,12 +151,16 @@ pub use ghosts::{
     DEFAULT_ESTIMATE_SIDE, DEFAULT_MIN_SPREAD_MM2, EstimateOptions, GhostEstimate, cull,
     estimate_ghost, estimate_ghosts,
 };
-pub use grid_trace::{GridOptions, GridStats, MAX_GRID, RayGrid, trace_grid, trace_grid_spectral};
+pub use grid_trace::{
+    GridOptions, GridStats, MAX_GRID, Passing, RayGrid, passing_rect, trace_grid,
+    trace_grid_spectral,
+};
 pub use intensity::{
     CellKind, DEFAULT_MAX_GAIN, GridCell, GridRay, cell_intensity, vertex_intensities,
 };
 pub use pupil::{
-    Beam, ENTRANCE_PUPIL_MARGIN, MIN_LIGHT_Z, PupilBounds, light_direction, light_from_field,
+    Beam, ENTRANCE_PUPIL_MARGIN, MIN_LIGHT_Z, PupilBounds, PupilRect, light_direction,
+    light_from_field,
 };
 #[cfg(feature = "reference")]
 pub use raster::{MAX_PIXELS, SensorImage, SensorWindow, rasterise, rasterise_into};

@@ -172,6 +172,26 @@ pub fn light_from_field(field_deg: f64, azimuth_deg: f64) -> DVec3 {
     DVec3::new(t.sin() * a.cos(), t.sin() * a.sin(), t.cos())
 }
 
+/// A rectangle of a beam's pupil plane, mm: where a ghost's light passes
+/// ([`super::passing_rect`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PupilRect {
+    /// The corner of least x and y.
+    pub min: DVec2,
+    /// The corner of greatest x and y.
+    pub max: DVec2,
+}
+
+impl PupilRect {
+    /// The smallest rectangle holding both.
+    pub fn union(self, other: Self) -> Self {
+        Self {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+}
+
 /// A collimated beam: a light direction and the pupil square it fills.
 ///
 /// The grid of rays over the square is regular, not random (the blog's
@@ -284,6 +304,35 @@ impl Beam {
         let p = self.pupil_point(u, v);
         let back = (self.bounds.plane_z - self.start_z) / self.direction.z;
         DVec3::new(p.x, p.y, self.bounds.plane_z) - self.direction * back
+    }
+
+    /// The beam over the smallest square of its plane that holds `rect`
+    /// (clipped to its own square), centred on `rect`; with `symmetric`
+    /// the square stays centred on the old square's y (a meridional
+    /// beam's mirror symmetry, [`Beam::meridional`], is kept). The rays
+    /// keep their direction and start plane, so a ray of the new grid is
+    /// the ray of the old one through the same pupil point.
+    pub fn within(&self, rect: PupilRect, symmetric: bool) -> Self {
+        let (c, h) = (self.bounds.center, self.bounds.half_width);
+        let lo = rect.min.clamp(c - h, c + h);
+        let hi = rect.max.clamp(c - h, c + h).max(lo);
+        let mut center = 0.5 * (lo + hi);
+        let mut half = 0.5 * (hi - lo);
+        if symmetric {
+            center.y = c.y;
+            half.y = (hi.y - c.y).abs().max((lo.y - c.y).abs());
+        }
+        // A square of at least a thousandth of the old side, never empty.
+        let half_width = half.x.max(half.y).max(1e-3 * h);
+        Self {
+            direction: self.direction,
+            bounds: PupilBounds {
+                plane_z: self.bounds.plane_z,
+                center,
+                half_width,
+            },
+            start_z: self.start_z,
+        }
     }
 
     /// Power of the whole square at unit irradiance normal to the beam:

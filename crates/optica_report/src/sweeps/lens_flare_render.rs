@@ -5,8 +5,11 @@
 //!   unblocked ghost of its 91 drawn in the full run, the 8 brightest in
 //!   the quick one), three wavelengths, a round iris, a sun 10° off axis.
 //! * Knobs: rays per side of every ghost's grid (the plugin's
-//!   `LensFlare::grid`), and in the series `wavelengths (32² fixed)` the
-//!   number of wavelengths (`LensFlare::wavelengths`).
+//!   `LensFlare::grid`), in the series `wavelengths (32² fixed)` the
+//!   number of wavelengths (`LensFlare::wavelengths`), and in `ghost
+//!   resolution (32² fixed)` the divisor of the view's side the ghosts are
+//!   added up at (`LensFlare::ghost_resolution`; the other series use the
+//!   default, half).
 //! * Error: the flare layer (a black scene, HDR readback, no tonemapping)
 //!   against the CPU reference of the same frame: every drawn ghost traced
 //!   at 512² rays (quick: 128²) per wavelength with
@@ -19,8 +22,12 @@
 //!   gamma 2.2).
 //! * Time: the frame of a lit scene (ground, pillars, shadows) with the
 //!   flare against the same frame without it, in the same run
-//!   (`baseline_time_ms`); `flare_ms` the flare's pass (GPU timestamps where
-//!   the adapter has them, else the frame's wall time — see `flare_source`).
+//!   (`baseline_time_ms`); `flare_ms` the flare's passes (GPU timestamps
+//!   where the adapter has them, else the frame's wall time — see
+//!   `flare_source`). The camera is still, so its rays are traced once
+//!   (`trace_frames`); the row `turning camera (32² fixed)` turns it a tenth
+//!   of a degree a frame, tracing every frame: the cost a game pays while
+//!   the view moves.
 
 use std::sync::{Arc, Mutex};
 
@@ -30,7 +37,8 @@ use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::{FrameTimings, TimeSource};
 use optica_lens_flare::{
-    FlareGhosts, FlareSource, LensAsset, LensFlare, LensFlarePlugin, SensorMapping, spectral_weight,
+    FlareGhosts, FlareSource, GhostResolution, LensAsset, LensFlare, LensFlarePlugin,
+    SensorMapping, spectral_weight,
 };
 use optica_optics::glam::DVec2;
 use optica_optics::glass::LAMBDA_D_NM;
@@ -62,6 +70,11 @@ struct Setup {
     /// the CPU reference, which has neither.
     diffraction: bool,
     wavelengths: u32,
+    /// The resolution the ghosts are added up at.
+    resolution: GhostResolution,
+    /// The timed camera turns a little every frame (its rays are traced
+    /// again each frame; a still camera's are traced once).
+    turning: bool,
 }
 
 impl Setup {
@@ -78,6 +91,8 @@ impl Setup {
             symmetry: true,
             diffraction: false,
             wavelengths: 3,
+            resolution: GhostResolution::Half,
+            turning: false,
         }
     }
 }
@@ -99,6 +114,7 @@ fn scene(
     log: Option<Arc<Mutex<Option<FlareGhosts>>>>,
 ) -> impl FnOnce(&mut App) {
     move |app: &mut App| {
+        let turning = lit && setup.as_ref().is_some_and(|s| s.turning);
         app.add_plugins(LensFlarePlugin);
         app.add_systems(
             Startup,
@@ -152,6 +168,7 @@ fn scene(
                         min_relative: 0.0,
                         starburst: defaults.starburst.filter(|_| setup.diffraction),
                         ringing: defaults.ringing.filter(|_| setup.diffraction),
+                        ghost_resolution: setup.resolution,
                         ..defaults
                     };
                     flare.aperture.blades = 0;
@@ -159,6 +176,18 @@ fn scene(
                 }
             },
         );
+        if turning {
+            // A tenth of a degree a frame: the sun moves across the lens's
+            // field, so every frame traces its rays again.
+            app.add_systems(
+                Update,
+                |mut cameras: Query<&mut Transform, With<LensFlare>>| {
+                    for mut t in &mut cameras {
+                        t.rotate_y(0.1f32.to_radians());
+                    }
+                },
+            );
+        }
         if let Some(log) = log {
             app.add_systems(Last, move |ghosts: Query<&FlareGhosts>| {
                 if let Ok(g) = ghosts.single() {
@@ -253,18 +282,36 @@ fn displayed(rgb: &[[f64; 3]], size: u32, white: f64) -> image::RgbaImage {
     })
 }
 
-/// The work the device counted per frame (medians), where it has
-/// pipeline-statistics queries: the flare's passes (`trace_invocations`,
-/// `occlusion_invocations`, `draw_vertices`, `draw_fragments`) and the
+/// The work the device counted per frame (medians of the frames a pass
+/// ran in), where it has pipeline-statistics queries: the flare's passes
+/// (`trace_invocations`, `cells_invocations`, `occlusion_invocations`,
+/// `draw_vertices`, `draw_fragments`, `composite_fragments`) and the
 /// scene's main pass (`main_vertices`, `main_fragments`), so that the
-/// flare's cost can be judged on any device. (lavapipe counts fragments
-/// in whole 4×4 blocks per triangle.)
+/// flare's cost can be judged on any device (lavapipe counts fragments in
+/// whole 4×4 blocks per triangle); and `trace_frames`, the timed frames
+/// the trace ran in (a still camera's rays are traced once).
 fn counted(mut row: Row, timed: &FrameTimings) -> Row {
+    let traced = timed
+        .span("optica/flare/trace")
+        .and_then(|s| s.counts.get("compute_shader_invocations"))
+        .filter(|c| c.median > 0.0)
+        .map_or(0, |c| c.n);
+    row = row.work("trace_frames", traced as f64);
     for (key, span, count) in [
         (
             "trace_invocations",
             "optica/flare/trace",
             "compute_shader_invocations",
+        ),
+        (
+            "cells_invocations",
+            "optica/flare/cells",
+            "compute_shader_invocations",
+        ),
+        (
+            "composite_fragments",
+            "optica/flare/composite",
+            "fragment_shader_invocations",
         ),
         (
             "occlusion_invocations",
@@ -387,9 +434,12 @@ fn row(
 /// symmetry), `fixed grid` (every ghost at grid², the default) and, at
 /// 32², `no symmetry` against the CPU reference at three wavelengths;
 /// `wavelengths (32² fixed)`, whose knob is the wavelength count, against
-/// a reference at 5 (quick) or 9 wavelengths; the full run adds
-/// `diffraction` (starburst and ringing on, timed only) and the zoom's
-/// scale case (every unblocked ghost of 528 at 16², 1280×720, timed only).
+/// a reference at 5 (quick) or 9 wavelengths; `ghost resolution (32²
+/// fixed)`, whose knob is the divisor of the view's side the ghosts are
+/// added up at (1 and 4 quick, 1, 2, 4 full); `turning camera (32² fixed)`
+/// (timed only); the full run adds `diffraction` (starburst and ringing
+/// on, timed only) and the zoom's scale case (every unblocked ghost of 528
+/// at 16², 1280×720, timed only).
 pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
     let size = ctx.pick(128, 512);
     let budget = ctx.pick(8, 91);
@@ -501,6 +551,52 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             knob,
         )?;
     }
+    // The third knob, the resolution the ghosts are added up at (the
+    // divisor of the view's side), and the default's cost when the camera
+    // turns, against the 3-wavelength reference.
+    let r = Some(reference_3.as_slice());
+    for resolution in ctx.pick(
+        vec![GhostResolution::Full, GhostResolution::Quarter],
+        vec![
+            GhostResolution::Full,
+            GhostResolution::Half,
+            GhostResolution::Quarter,
+        ],
+    ) {
+        let setup = Setup {
+            resolution,
+            adaptive: false,
+            ..Setup::double_gauss(32, budget)
+        };
+        let knob = f64::from(resolution.divisor());
+        row(
+            ctx,
+            report,
+            "ghost resolution (32² fixed)",
+            setup,
+            size,
+            r,
+            plain,
+            timing,
+            knob,
+        )?;
+    }
+    let turning = Setup {
+        turning: true,
+        adaptive: false,
+        ..Setup::double_gauss(32, budget)
+    };
+    row(
+        ctx,
+        report,
+        "turning camera (32² fixed)",
+        turning,
+        size,
+        None,
+        plain,
+        timing,
+        32.0,
+    )?;
     if !ctx.quick {
         ctx.progress(
             grids.len(),
@@ -569,7 +665,7 @@ mod tests {
                 .find(|r| r.series == series && r.knob == grid)
                 .unwrap_or_else(|| panic!("no {series} row at {grid}"))
         };
-        assert_eq!(rows.len(), 7, "{rows:?}");
+        assert_eq!(rows.len(), 10, "{rows:?}");
         for series in ["rendered", "fixed grid"] {
             let (coarse, fine) = (find(series, 8.0), find(series, 32.0));
             // A finer grid follows the reference more closely.
@@ -599,11 +695,11 @@ mod tests {
             (sym.error["rel_l1"] - whole.error["rel_l1"]).abs() < 0.5 * whole.error["rel_l1"],
             "{sym:?} vs {whole:?}"
         );
-        // lavapipe counts the passes' work: a finer grid traces more rays
+        // lavapipe counts the passes' work: a finer grid colours more cells
         // and draws more vertices; the scene's main pass is counted too.
         for r in rows {
             for key in [
-                "trace_invocations",
+                "cells_invocations",
                 "draw_vertices",
                 "draw_fragments",
                 "main_fragments",
@@ -612,11 +708,30 @@ mod tests {
             }
         }
         let (coarse, fine) = (find("fixed grid", 8.0), find("fixed grid", 32.0));
-        for key in ["trace_invocations", "draw_vertices"] {
+        for key in ["cells_invocations", "draw_vertices"] {
             assert!(
                 fine.work[key] > 4.0 * coarse.work[key],
                 "{key}: {coarse:?} vs {fine:?}"
             );
         }
+        // A still camera traces its rays once; a turning one every frame.
+        let turning = find("turning camera (32² fixed)", 32.0);
+        assert!(
+            fine.work["trace_frames"] < turning.work["trace_frames"],
+            "{fine:?} vs {turning:?}"
+        );
+        assert!(turning.work["trace_frames"] >= 3.0, "{turning:?}");
+        assert!(turning.work["trace_invocations"] > 0.0, "{turning:?}");
+        // Ghosts added up at a quarter of the resolution shade fewer
+        // fragments and keep their light.
+        let (full, quarter) = (
+            find("ghost resolution (32² fixed)", 1.0),
+            find("ghost resolution (32² fixed)", 4.0),
+        );
+        assert!(
+            quarter.work["draw_fragments"] < full.work["draw_fragments"],
+            "{full:?} vs {quarter:?}"
+        );
+        assert!(quarter.error["rel_energy"].abs() < 0.1, "{quarter:?}");
     }
 }

@@ -190,6 +190,19 @@ pub struct FlareParams {
     pub spans: u32,
 }
 
+impl FlareParams {
+    /// What of the uniform the trace reads: grids, threads, surfaces per
+    /// lens and the sensor plane (bits).
+    pub(crate) fn trace_inputs(&self) -> [u32; 4] {
+        [
+            self.jobs,
+            self.threads,
+            self.surfaces,
+            self.sensor_z.to_bits(),
+        ]
+    }
+}
+
 /// What a flare camera's passes trace and draw this frame; no grids when
 /// no light enters the lens.
 #[derive(Component, Clone, Debug, Default, ExtractComponent)]

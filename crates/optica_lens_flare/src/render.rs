@@ -368,12 +368,13 @@ struct FlareBuffers {
 }
 
 /// Everything the trace's result depends on: the grids, the lens at each
-/// wavelength and the settings.
+/// wavelength and what the trace reads of the uniform (not, say, the
+/// ringing's texture arriving, which changes only the draw).
 #[derive(PartialEq)]
 struct TraceKey {
     jobs: Vec<GridJob>,
     surfaces: Vec<GpuSurface>,
-    params: FlareParams,
+    params: [u32; 4],
 }
 
 /// Frames in Bevy's TAA jitter sequence (eight Halton (2, 3) offsets, the
@@ -754,7 +755,7 @@ fn prepare_flare(
         let key = TraceKey {
             jobs: draws.jobs[..params.jobs as usize].to_vec(),
             surfaces: draws.surfaces.clone(),
-            params: draws.params,
+            params: params.trace_inputs(),
         };
         let retrace = buffers.traced.as_ref() != Some(&key);
         let ready = [trace, cells_pipeline]
@@ -767,9 +768,17 @@ fn prepare_flare(
             .into_iter()
             .flatten()
             .all(|id| pipeline_cache.get_render_pipeline(id).is_some());
-        if ready {
-            buffers.traced = Some(key);
+        if !ready {
+            // The passes wait for every pipeline as this system saw them
+            // (the cache may finish one before the passes run), so that
+            // the rays traced are the ones `traced` records.
+            commands.entity(entity).remove::<FlareBinding>();
+            if let Some(new) = created {
+                commands.entity(entity).insert(new);
+            }
+            continue;
         }
+        buffers.traced = Some(key);
         commands.entity(entity).insert(FlareBinding {
             retrace,
             reduced: reduced.flatten(),

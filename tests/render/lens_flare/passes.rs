@@ -56,20 +56,7 @@ fn render(travel: Vec3) -> RenderedFrame {
 
 /// The flare's total light (sum of all channels) with `edit` applied.
 fn total(edit: impl Fn(&mut LensFlare) + Send + Sync + 'static) -> f64 {
-    let frame = Headless::new(SIZE, SIZE)
-        .hdr(true)
-        .frames(12)
-        .render(scene_with(
-            Vec3::new(-0.15, -0.15, 1.0).normalize(),
-            true,
-            edit,
-        ))
-        .expect("render");
-    let img = frame.hdr().expect("HDR");
-    img.as_raw()
-        .chunks(4)
-        .map(|p| f64::from(p[0] + p[1] + p[2]))
-        .sum()
+    layer(edit).iter().sum()
 }
 
 /// The iris clips the ghosts per pixel: five straight blades let through

@@ -13,7 +13,7 @@ use optica_optics::glass::LAMBDA_D_NM;
 use optica_optics::lens::{PreparedLens, TracePath};
 use optica_optics::lens_flare::{Beam, DEFAULT_MAX_GAIN};
 
-use crate::fit::{CameraFits, PassingFits, screen_grid};
+use crate::fit::{Fits, PassingFits, passing_for, screen_grid};
 use crate::{
     FlareGhosts, FlareSource, LensFlare, SensorMapping, aperture_params, light_in_lens,
     pack_surfaces,
@@ -311,7 +311,7 @@ pub(crate) fn prepare_draws(
             transform,
             exposure,
             &lights,
-            CameraFits(camera_fits),
+            camera_fits,
         )
         .unwrap_or_default();
         commands.entity(entity).insert(draws);
@@ -327,7 +327,7 @@ fn build(
     transform: &GlobalTransform,
     exposure: Option<&Exposure>,
     lights: &Query<FlareLight>,
-    mut fits: CameraFits,
+    fits: &mut Fits,
 ) -> Option<FlareDraws> {
     flare.validate().ok()?;
     let lens = ghosts.lens.as_ref()?;
@@ -422,7 +422,8 @@ fn build(
             // than pixels it covers where the ghosts are added up.
             let passing = if flare.symmetry {
                 let middle = &prepared[prepared.len() / 2];
-                let Some(passing) = fits.passing(lens, middle, (first, second), aperture, d) else {
+                let Some(passing) = passing_for(fits, lens, middle, (first, second), aperture, d)
+                else {
                     continue;
                 };
                 n = screen_grid(n, &passing, ghost_px_per_mm);

@@ -82,29 +82,24 @@ pub(crate) struct PassingFits {
     pub(crate) cameras: HashMap<Entity, Fits>,
 }
 
-/// One camera's fits, as [`crate::draws`] uses them.
-pub(crate) struct CameraFits<'a>(pub(crate) &'a mut Fits);
-
-impl CameraFits<'_> {
-    /// Where the light of the ghost passes for light travelling along `d`
-    /// (lens frame): the union of the fits at the two steps round its
-    /// angle; `None` when it passes at neither.
-    pub(crate) fn passing(
-        &mut self,
-        lens: &LensPrescription,
-        middle: &PreparedLens,
-        ghost: (usize, usize),
-        aperture: &Aperture,
-        d: DVec3,
-    ) -> Option<Passing> {
-        fit_steps(d)
-            .into_iter()
-            .filter_map(|step| {
-                *self
-                    .0
-                    .entry((ghost, step))
-                    .or_insert_with(|| passing_at_step(lens, middle, ghost, aperture, step))
-            })
-            .reduce(Passing::union)
-    }
+/// Where the light of the ghost passes, from a camera's `fits`, for light
+/// travelling along `d` (lens frame): the union of the fits at the two
+/// steps round its angle (made on first use); `None` when it passes at
+/// neither.
+pub(crate) fn passing_for(
+    fits: &mut Fits,
+    lens: &LensPrescription,
+    middle: &PreparedLens,
+    ghost: (usize, usize),
+    aperture: &Aperture,
+    d: DVec3,
+) -> Option<Passing> {
+    fit_steps(d)
+        .into_iter()
+        .filter_map(|step| {
+            *fits
+                .entry((ghost, step))
+                .or_insert_with(|| passing_at_step(lens, middle, ghost, aperture, step))
+        })
+        .reduce(Passing::union)
 }

@@ -1,12 +1,13 @@
 //! The render world: per flare camera, a compute pass reads each light's
 //! visibility from the depth, a compute pass traces every ghost grid of
-//! [`FlareDraws`] into a storage buffer, a compute pass colours each cell
-//! and writes the triangles of those that add light, and a draw pass adds
-//! them (indexed: each ray shaded once, with the ringing) and each light's starburst to the
-//! HDR view target before tonemapping (so that bloom and tonemapping treat the flare as
-//! light). Pipelines are queued when the
-//! first flare camera needs them; views without `FlareDraws` (or with no
-//! grid this frame) run neither pass.
+//! [`FlareDraws`] into a storage buffer (only when what the rays depend on
+//! changed), a compute pass colours each cell and writes the triangles of
+//! those that add light, and a draw pass adds them (indexed: each ray
+//! shaded once, with the ringing), at the ghosts' resolution, and each
+//! light's starburst to the HDR view target before tonemapping (so that
+//! bloom and tonemapping treat the flare as light). Pipelines are queued
+//! when the first flare camera needs them; views without `FlareDraws` (or
+//! with no grid this frame) run no pass.
 
 use bevy::asset::uuid_handle;
 use bevy::core_pipeline::tonemapping::tonemapping;
@@ -652,7 +653,6 @@ fn prepare_flare(
         else {
             continue;
         };
-
         let trace_group = render_device.create_bind_group(
             "optica_lens_flare_trace",
             &pipeline_cache.get_bind_group_layout(&shared.trace_layout),
@@ -709,24 +709,29 @@ fn prepare_flare(
         let reduced = (divisor > 1).then(|| {
             let size = view.viewport.zw().max(UVec2::ONE);
             let size = UVec2::new(size.x.div_ceil(divisor), size.y.div_ceil(divisor));
-            if buffers.reduced.as_ref().is_none_or(|r| r.0 != size) {
-                let texture = render_device.create_texture(&TextureDescriptor {
-                    label: Some("optica_lens_flare_ghosts"),
-                    size: Extent3d {
-                        width: size.x,
-                        height: size.y,
-                        depth_or_array_layers: 1,
-                    },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: TextureDimension::D2,
-                    format: GHOST_FORMAT,
-                    usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
-                    view_formats: &[],
-                });
-                let texture_view = texture.create_view(&TextureViewDescriptor::default());
-                buffers.reduced = Some((size, texture, texture_view));
-            }
+            let target = match buffers.reduced.take() {
+                Some(kept) if kept.0 == size => kept,
+                _ => {
+                    let texture = render_device.create_texture(&TextureDescriptor {
+                        label: Some("optica_lens_flare_ghosts"),
+                        size: Extent3d {
+                            width: size.x,
+                            height: size.y,
+                            depth_or_array_layers: 1,
+                        },
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: TextureDimension::D2,
+                        format: GHOST_FORMAT,
+                        usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
+                        view_formats: &[],
+                    });
+                    let texture_view = texture.create_view(&TextureViewDescriptor::default());
+                    (size, texture, texture_view)
+                }
+            };
+            let texture_view = target.2.clone();
+            buffers.reduced = Some(target);
             let layout = shared.upsample_layout.clone();
             let pipeline = *shared.upsamples.entry(format).or_insert_with(|| {
                 additive_pipeline(
@@ -738,13 +743,12 @@ fn prepare_flare(
                     (UPSAMPLE_SHADER, "upsample".into()),
                 )
             });
-            let texture_view = buffers.reduced.as_ref().map(|r| r.2.clone())?;
             let group = render_device.create_bind_group(
                 "optica_lens_flare_upsample",
                 &pipeline_cache.get_bind_group_layout(&shared.upsample_layout),
                 &BindGroupEntries::sequential((&texture_view, &shared.upsample_sampler)),
             );
-            Some((texture_view, group, pipeline))
+            (texture_view, group, pipeline)
         });
         if divisor == 1 {
             buffers.reduced = None;
@@ -761,13 +765,10 @@ fn prepare_flare(
         let ready = [trace, cells_pipeline]
             .into_iter()
             .all(|id| pipeline_cache.get_compute_pipeline(id).is_some())
-            && [
-                Some(draw),
-                reduced.as_ref().and_then(|r| r.as_ref()).map(|r| r.2),
-            ]
-            .into_iter()
-            .flatten()
-            .all(|id| pipeline_cache.get_render_pipeline(id).is_some());
+            && [Some(draw), reduced.as_ref().map(|r| r.2)]
+                .into_iter()
+                .flatten()
+                .all(|id| pipeline_cache.get_render_pipeline(id).is_some());
         if !ready {
             // The passes wait for every pipeline as this system saw them
             // (the cache may finish one before the passes run), so that
@@ -781,7 +782,7 @@ fn prepare_flare(
         buffers.traced = Some(key);
         commands.entity(entity).insert(FlareBinding {
             retrace,
-            reduced: reduced.flatten(),
+            reduced,
             trace_group,
             cells_group,
             draw_group,

@@ -285,7 +285,10 @@ fn panel(
                 .logarithmic(true)
                 .text("rays per side"),
         );
-        ui.checkbox(&mut edit.adaptive_grid, "grid per ghost (adaptive)");
+        ui.checkbox(
+            &mut edit.adaptive_grid,
+            "rays shared by power (mean per side above)",
+        );
         ui.checkbox(&mut edit.symmetry, "trace half by symmetry");
         ui.horizontal(|ui| {
             ui.label("ghosts added up at");

@@ -155,7 +155,7 @@ pub struct FlareParams {
     max_gain: f32,
     intensity: f32,
     /// The iris (`aperture_contains`'s parameters).
-    blades: u32,
+    pub(crate) blades: u32,
     rotation: f32,
     radius: f32,
     arc_w: f32,

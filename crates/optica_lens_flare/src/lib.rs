@@ -53,7 +53,8 @@
 //! (bounded gain), and writes the triangles of the cells that add light
 //! into an index buffer; a draw pass adds them (each ray shaded once,
 //! shared by its cells), clipped per pixel where `r_rel > 1`, at
-//! [`LensFlare::ghost_resolution`] (half the view's side by default),
+//! [`LensFlare::ghost_resolution`] (a quarter of the view's side by
+//! default),
 //! scaled up and added to the HDR view target before tonemapping. The
 //! rays are traced again only when the grids, the lens or the settings
 //! change: a still camera and lights trace them once. The sensor is sized
@@ -62,19 +63,24 @@
 //! over 4πd²) times the camera's exposure scales its ghosts, so they sit in
 //! the scene's light levels. Pass time shows as the `optica/flare`
 //! diagnostic span, and each pass in it as `optica/flare/occlusion`,
-//! `/trace`, `/cells`, `/draw` and `/composite` (the scaling up), with the
-//! shader invocations it ran where the adapter has pipeline-statistics
-//! queries.
+//! `/trace`, `/fill`, `/cells`, `/draw` and `/composite` (the scaling
+//! up), with the shader invocations it ran where the adapter has
+//! pipeline-statistics queries.
 //!
 //! ## The blog's speed-ups
 //!
-//! - *Adaptive resolution* ([`LensFlare::adaptive_grid`], off by default):
-//!   each ghost's deformation is measured once per lens and aperture (the
-//!   miss of a grid's midpoints from bilinear interpolation), and its grid
-//!   gets `grid · 2^k` rays per side (16² … 512²) following √deformation,
-//!   about `grid²` per ghost in all. The report measures it against fixed
-//!   grids; it does not pay off for the double Gauss (see the field's
-//!   docs), so it is there to try, not on.
+//! - *Adaptive resolution* ([`LensFlare::adaptive_grid`], on by default),
+//!   with power as the measure: the rays of `grid²` per ghost are shared so
+//!   that each ghost's grid follows the cube root of its estimated power
+//!   (8 … 512 rays per side), which least misplaces the flare's light for
+//!   the rays. The blog's measure, how much a ghost deforms, gave the
+//!   double Gauss's smooth bright ghosts too few rays; one of its ghosts
+//!   carries half the light, and by power it gets 73² of a mean 16².
+//! - *Dead rays continued*: a ray that misses a sphere dies, and the cells
+//!   around it would go undrawn though their part nearer the live rays
+//!   passes; a fill pass after the trace continues the live rays into the
+//!   dead ones beside them, and the per-pixel clip cuts those cells where
+//!   the light stops (coarse grids lost a tenth of their light without).
 //! - *Symmetry* ([`LensFlare::symmetry`], on by default): a grid is traced
 //!   for the light turned into one meridional plane, where the ghost is
 //!   mirror symmetric, so half its rows are traced; the rays are turned

@@ -5,14 +5,15 @@
 //! the diffraction textures are made then too.
 
 use bevy::prelude::*;
-use optica_optics::lens::{Coating, LensPrescription, PreparedLens, TracePath};
+use optica_optics::lens::{Coating, LensPrescription};
 use optica_optics::lens_flare::{
-    Aperture, Beam, EstimateOptions, GridOptions, coat_air_interfaces, estimate_ghosts, grid_sizes,
-    interpolation_error_mm, light_from_field, stopped_to_f_number, trace_grid,
+    Aperture, EstimateOptions, coat_air_interfaces, estimate_ghosts, grid_sizes_by_power,
+    light_from_field, stopped_to_f_number,
 };
 
 use crate::diffraction::{ringing_image, starburst_image};
-use crate::{LensAsset, LensFlare};
+use crate::fit::MIN_SCREEN_GRID;
+use crate::{LensAsset, LensFlare, MAX_GRID};
 
 /// Field angle of the light the ghosts are ranked for, degrees. The ranking
 /// is done once per lens and aperture, not per light; the order of the
@@ -44,9 +45,10 @@ pub struct GhostChoice {
     pub fate: GhostFate,
     /// Rays per side of its grid when drawn (0 when not).
     pub grid: u32,
-    /// Its interpolation error at 9 rays per side, mm on the sensor (the
-    /// measure the grid size follows), when drawn and measurable.
-    pub deformation_mm: Option<f64>,
+    /// Estimated power reaching the sensor relative to the most powerful
+    /// ghost's (what its grid size follows with
+    /// [`LensFlare::adaptive_grid`]).
+    pub power: f64,
 }
 
 /// On a [`LensFlare`] camera: the lens as traced and every ghost path with
@@ -190,53 +192,30 @@ pub(crate) fn choose_ghosts(
     }
 }
 
-/// Rays per side of the grid that measures a ghost's deformation (odd:
-/// its even-indexed rays make a grid of 9).
-const DEFORMATION_GRID: usize = 17;
-
 /// Gives each drawn ghost its grid size: `flare.grid`, or with
-/// [`LensFlare::adaptive_grid`] one that follows its deformation at the
-/// ranking field (`optica_optics::lens_flare::grid_sizes`), from
-/// `min(16, grid)` to 512 rays per side.
-fn size_grids(
-    flare: &LensFlare,
-    lens: &LensPrescription,
-    mut choices: Vec<GhostChoice>,
-) -> Result<Vec<GhostChoice>, String> {
+/// [`LensFlare::adaptive_grid`] one that follows the cube root of its
+/// power (`optica_optics::lens_flare::grid_sizes_by_power`), from
+/// [`MIN_SCREEN_GRID`] to [`MAX_GRID`] rays per side, the rays of `grid²`
+/// per ghost in all.
+fn size_grids(flare: &LensFlare, mut choices: Vec<GhostChoice>) -> Vec<GhostChoice> {
     let drawn: Vec<usize> = (0..choices.len())
         .filter(|&k| choices[k].fate == GhostFate::Drawn)
         .collect();
-    if !flare.adaptive_grid {
-        for &k in &drawn {
-            choices[k].grid = flare.grid;
-        }
-        return Ok(choices);
-    }
-    let light = light_from_field(RANKING_FIELD_DEG, 0.0);
-    let prepared = PreparedLens::new(lens, 550.0).map_err(|e| e.to_string())?;
-    let errors: Vec<Option<f64>> = drawn
-        .iter()
-        .map(|&k| {
-            let (first, second) = choices[k].path;
-            let path = TracePath::ghost(first, second);
-            let beam = Beam::for_path(lens, path, light, 550.0).ok()?;
-            let grid = trace_grid(
-                &prepared,
-                path,
-                &beam,
-                DEFORMATION_GRID,
-                &GridOptions::default(),
-            )
-            .ok()?;
-            interpolation_error_mm(&grid)
-        })
-        .collect();
-    let sizes = grid_sizes(&errors, flare.grid, flare.grid.min(16), crate::MAX_GRID);
-    for ((&k, size), error) in drawn.iter().zip(sizes).zip(errors) {
+    let sizes = if flare.adaptive_grid {
+        let powers: Vec<f64> = drawn.iter().map(|&k| choices[k].power).collect();
+        grid_sizes_by_power(
+            &powers,
+            flare.grid,
+            MIN_SCREEN_GRID.min(flare.grid),
+            MAX_GRID,
+        )
+    } else {
+        vec![flare.grid; drawn.len()]
+    };
+    for (&k, size) in drawn.iter().zip(sizes) {
         choices[k].grid = size;
-        choices[k].deformation_mm = error;
     }
-    Ok(choices)
+    choices
 }
 
 /// The prescription as `flare` traces it, its iris and its ghosts, ranked
@@ -276,6 +255,7 @@ pub fn choose(
     )
     .map_err(|e| e.to_string())?;
     let brightest = ranked.iter().map(|g| g.intensity).fold(0.0, f64::max);
+    let most_power = ranked.iter().map(|g| g.power).fold(0.0, f64::max);
     let mut drawn = 0u32;
     let choices = ranked
         .iter()
@@ -305,10 +285,14 @@ pub fn choose(
                 relative,
                 fate,
                 grid: 0,
-                deformation_mm: None,
+                power: if most_power > 0.0 {
+                    g.power / most_power
+                } else {
+                    0.0
+                },
             }
         })
         .collect();
-    let choices = size_grids(flare, &lens, choices)?;
+    let choices = size_grids(flare, choices);
     Ok((lens, aperture, choices))
 }

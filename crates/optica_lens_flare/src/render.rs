@@ -141,9 +141,12 @@ struct FlareShared {
     /// The occlusion pass's layouts: single-sampled depth, then MSAA.
     occlusion_layouts: [BindGroupLayoutDescriptor; 2],
     trace: Option<CachedComputePipelineId>,
+    fill: Option<CachedComputePipelineId>,
     cells: Option<CachedComputePipelineId>,
     /// Per view format: the ghosts' and the starburst's pipelines.
-    draws: HashMap<TextureFormat, [CachedRenderPipelineId; 2]>,
+    /// The draw and starburst pipelines per target format and whether
+    /// the iris has blades (`BLADED_IRIS`).
+    draws: HashMap<(TextureFormat, bool), [CachedRenderPipelineId; 2]>,
     /// Reduced-resolution ghosts: the layout, the bilinear sampler and,
     /// per view format, the pipeline that adds them to the view.
     upsample_layout: BindGroupLayoutDescriptor,
@@ -157,10 +160,15 @@ struct FlareShared {
 fn draw_pipeline(
     pipeline_cache: &PipelineCache,
     layout: BindGroupLayoutDescriptor,
-    format: TextureFormat,
+    (format, bladed): (TextureFormat, bool),
     label: &'static str,
     prefix: &str,
 ) -> CachedRenderPipelineId {
+    let shader_defs: Vec<bevy::shader::ShaderDefVal> = if bladed {
+        vec!["BLADED_IRIS".into()]
+    } else {
+        vec![]
+    };
     additive_pipeline(
         pipeline_cache,
         layout,
@@ -168,10 +176,11 @@ fn draw_pipeline(
         label,
         VertexState {
             shader: DRAW_SHADER,
+            shader_defs: shader_defs.clone(),
             entry_point: Some(format!("{prefix}vertex").into()),
             ..default()
         },
-        (DRAW_SHADER, format!("{prefix}fragment")),
+        (DRAW_SHADER, format!("{prefix}fragment"), shader_defs),
     )
 }
 
@@ -183,7 +192,7 @@ fn additive_pipeline(
     format: TextureFormat,
     label: &'static str,
     vertex: VertexState,
-    fragment: (Handle<Shader>, String),
+    fragment: (Handle<Shader>, String, Vec<bevy::shader::ShaderDefVal>),
 ) -> CachedRenderPipelineId {
     pipeline_cache.queue_render_pipeline(RenderPipelineDescriptor {
         label: Some(label.into()),
@@ -191,6 +200,7 @@ fn additive_pipeline(
         vertex,
         fragment: Some(FragmentState {
             shader: fragment.0,
+            shader_defs: fragment.2,
             entry_point: Some(fragment.1.into()),
             targets: vec![Some(ColorTargetState {
                 format,
@@ -209,7 +219,6 @@ fn additive_pipeline(
                 }),
                 write_mask: ColorWrites::ALL,
             })],
-            ..default()
         }),
         ..default()
     })
@@ -302,6 +311,7 @@ fn init_flare(mut commands: Commands, render_device: Res<RenderDevice>) {
         draw_layout,
         occlusion_layouts: [occlusion_layout(false), occlusion_layout(true)],
         trace: None,
+        fill: None,
         cells: None,
         draws: HashMap::default(),
         occlusion: [None, None],
@@ -317,6 +327,7 @@ struct FlareBinding {
     cells_group: BindGroup,
     draw_group: BindGroup,
     trace: CachedComputePipelineId,
+    fill: CachedComputePipelineId,
     cells: CachedComputePipelineId,
     draw: CachedRenderPipelineId,
     /// The starburst's pipeline, when it is drawn.
@@ -327,6 +338,8 @@ struct FlareBinding {
     /// and pipeline that add it to the view.
     reduced: Option<(TextureView, BindGroup, CachedRenderPipelineId)>,
     threads: u32,
+    /// The rays (the fill pass's threads).
+    rays: u32,
     /// The cells, and the cell pass's threads.
     cell_count: u32,
     spans: u32,
@@ -438,6 +451,18 @@ fn prepare_flare(
                 zero_initialize_workgroup_memory: false,
             })
         });
+        let fill_layout = shared.trace_layout.clone();
+        let fill = *shared.fill.get_or_insert_with(|| {
+            pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+                label: Some("optica_lens_flare_fill".into()),
+                layout: vec![fill_layout],
+                immediate_size: 0,
+                shader: TRACE_SHADER,
+                shader_defs: vec![],
+                entry_point: Some("fill".into()),
+                zero_initialize_workgroup_memory: false,
+            })
+        });
         let cells_layout = shared.cells_layout.clone();
         let cells_pipeline = *shared.cells.get_or_insert_with(|| {
             pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
@@ -452,21 +477,23 @@ fn prepare_flare(
         });
         let format = view.target_format;
         let divisor = draws.ghost_divisor.max(1);
+        let bladed = params.blades != 0;
         let mut pipelines_for = |format: TextureFormat| {
             let draw_layout = shared.draw_layout.clone();
-            *shared.draws.entry(format).or_insert_with(|| {
+            let key = (format, bladed);
+            *shared.draws.entry(key).or_insert_with(|| {
                 [
                     draw_pipeline(
                         &pipeline_cache,
                         draw_layout.clone(),
-                        format,
+                        key,
                         "optica_lens_flare_draw",
                         "",
                     ),
                     draw_pipeline(
                         &pipeline_cache,
                         draw_layout,
-                        format,
+                        key,
                         "optica_lens_flare_starburst",
                         "starburst_",
                     ),
@@ -740,7 +767,7 @@ fn prepare_flare(
                     format,
                     "optica_lens_flare_upsample",
                     fullscreen.to_vertex_state(),
-                    (UPSAMPLE_SHADER, "upsample".into()),
+                    (UPSAMPLE_SHADER, "upsample".into(), vec![]),
                 )
             });
             let group = render_device.create_bind_group(
@@ -762,7 +789,7 @@ fn prepare_flare(
             params: params.trace_inputs(),
         };
         let retrace = buffers.traced.as_ref() != Some(&key);
-        let ready = [trace, cells_pipeline]
+        let ready = [trace, fill, cells_pipeline]
             .into_iter()
             .all(|id| pipeline_cache.get_compute_pipeline(id).is_some())
             && [Some(draw), reduced.as_ref().map(|r| r.2)]
@@ -787,12 +814,14 @@ fn prepare_flare(
             cells_group,
             draw_group,
             trace,
+            fill,
             cells: cells_pipeline,
             draw,
             starburst: (params.starburst_scale > 0.0 && params.starburst_half_ndc > 0.0)
                 .then_some(starburst),
             occlusion,
             threads: params.threads,
+            rays: params.rays,
             cell_count: params.cells,
             spans: params.spans,
             indices: indices.clone(),
@@ -811,8 +840,9 @@ fn flare_passes(
     mut ctx: RenderContext,
 ) {
     let (target, binding) = view.into_inner();
-    let (Some(trace), Some(cells), Some(draw)) = (
+    let (Some(trace), Some(fill), Some(cells), Some(draw)) = (
         pipeline_cache.get_compute_pipeline(binding.trace),
+        pipeline_cache.get_compute_pipeline(binding.fill),
         pipeline_cache.get_compute_pipeline(binding.cells),
         pipeline_cache.get_render_pipeline(binding.draw),
     ) else {
@@ -860,6 +890,20 @@ fn flare_passes(
         pass.set_pipeline(trace);
         pass.set_bind_group(0, &binding.trace_group, &[]);
         let (x, y) = groups_for(binding.threads);
+        pass.dispatch_workgroups(x, y, 1);
+        pass_span.end(&mut pass);
+    }
+    if binding.retrace {
+        let mut pass = ctx
+            .command_encoder()
+            .begin_compute_pass(&ComputePassDescriptor {
+                label: Some("optica_lens_flare_fill"),
+                timestamp_writes: None,
+            });
+        let pass_span = diagnostics.pass_span(&mut pass, "fill");
+        pass.set_pipeline(fill);
+        pass.set_bind_group(0, &binding.trace_group, &[]);
+        let (x, y) = groups_for(binding.rays);
         pass.dispatch_workgroups(x, y, 1);
         pass_span.end(&mut pass);
     }

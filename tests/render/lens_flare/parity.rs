@@ -124,7 +124,8 @@ fn parity(lens_path: &'static str, budget: u32) -> (f64, f64) {
         let beam = beam.within(passing.pupil, true);
         let grid = trace_grid(&prepared, path, &beam, n, &GridOptions::default())
             .expect("grid")
-            .turned(azimuth);
+            .turned(azimuth)
+            .extrapolated();
         rasterise_into(&grid, &aperture, &mut cpu);
     }
     // The GPU frame as power per pixel: value / (illuminance · exposure) is

@@ -78,7 +78,8 @@ fn cells(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
 // right, below), and writes its triangles.
 fn cell(job: GridJob, index: u32, first: u32, seen: f32, c0: RayOut, c1: RayOut, c2: RayOut, c3: RayOut) {
     let at = 6u * index;
-    if c0.alive * c1.alive * c2.alive * c3.alive < 0.5 || seen <= 0.0
+    // (alive: 1 traced, 0.5 continued by the trace's fill, 0 dead.)
+    if min(min(c0.alive, c1.alive), min(c2.alive, c3.alive)) <= 0.0 || seen <= 0.0
         // r_rel is interpolated over the cell: with every corner blocked
         // (> 1) every pixel would be.
         || min(min(c0.r_rel, c1.r_rel), min(c2.r_rel, c3.r_rel)) > 1.0 {

@@ -1,9 +1,10 @@
-// The flare's compute pass: traces every ray of every ghost grid (one grid
+// The flare's compute passes: `trace` traces every ray of every ghost grid (one grid
 // per ghost, wavelength and light) through the lens. Appended by the plugin
 // to `lens_trace.wgsl` (whose `surface_count` and `surface_at` it
 // supplies) and `flare_types.wgsl`. A grid's ray at pupil (u, v) starts at
 // origin + u·du + v·dv and travels along dir; `lens_base` is where its
-// wavelength's lens starts in `lens`; color.w is the wavelength, nm.
+// wavelength's lens starts in `lens`; color.w is the wavelength, nm. Then
+// `fill` continues the traced rays into the dead ones next to them.
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
 @group(0) @binding(1) var<storage, read> lens: array<LensSurface>;
@@ -73,4 +74,78 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
 // `p` turned by the angle whose (cos, sin) is `cs`.
 fn turn(p: vec2<f32>, cs: vec2<f32>) -> vec2<f32> {
     return vec2<f32>(cs.x * p.x - cs.y * p.y, cs.y * p.x + cs.x * p.y);
+}
+
+// The grid that ray `i` belongs to (grids lie in order).
+fn job_of_ray(i: u32) -> u32 {
+    var lo = 0u;
+    var hi = params.jobs - 1u;
+    while lo < hi {
+        let mid = (lo + hi + 1u) / 2u;
+        if jobs[mid].ray_base <= i {
+            lo = mid;
+        } else {
+            hi = mid - 1u;
+        }
+    }
+    return lo;
+}
+
+// Whether the ray at column `col`, row `row` of `job`'s grid was traced
+// alive (alive 1; `fill` writes 0.5 into the rays it continues, and reads
+// only traced ones, so the order it runs in does not matter).
+fn traced(job: GridJob, col: i32, row: i32) -> bool {
+    let n = i32(job.n);
+    return col >= 0 && row >= 0 && col < n && row < n
+        && rays[job.ray_base + u32(row * n + col)].alive == 1.0;
+}
+
+fn ray_at(job: GridJob, col: i32, row: i32) -> RayOut {
+    return rays[job.ray_base + u32(row * i32(job.n) + col)];
+}
+
+// A dead ray next to traced ones gets their straight-line continuation:
+// from each side whose next two rays a, b of its row or column were traced
+// alive, 2a − b of their sensor and stop points and r_rel (the throughput
+// of a), averaged over those sides. A ray that missed a sphere would
+// otherwise leave every cell it is a corner of undrawn, though the part of
+// the cell nearer the live rays passes; continued, its corner usually lands
+// beyond a rim (r_rel > 1) and the draw's per-pixel clip cuts the cell
+// where the light stops. The CPU twin is
+// `optica_optics::lens_flare::RayGrid::extrapolated`.
+@compute @workgroup_size(64)
+fn fill(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = id.x + id.y * groups.x * 64u;
+    if i >= params.rays || rays[i].alive != 0.0 {
+        return;
+    }
+    let job = jobs[job_of_ray(i)];
+    let k = i - job.ray_base;
+    let col = i32(k % job.n);
+    let row = i32(k / job.n);
+    var sides = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(-1, 0), vec2<i32>(0, 1), vec2<i32>(0, -1));
+    var sum = RayOut(vec2<f32>(0.0), 0.0, 0.0, vec2<f32>(0.0), vec2<f32>(0.0), vec2<f32>(0.0), 0.0, 0.0);
+    var w = 0.0;
+    for (var s = 0; s < 4; s += 1) {
+        let d = sides[s];
+        if !traced(job, col + d.x, row + d.y) || !traced(job, col + 2 * d.x, row + 2 * d.y) {
+            continue;
+        }
+        let a = ray_at(job, col + d.x, row + d.y);
+        let b = ray_at(job, col + 2 * d.x, row + 2 * d.y);
+        sum.sensor += 2.0 * a.sensor - b.sensor;
+        sum.r_rel += 2.0 * a.r_rel - b.r_rel;
+        sum.throughput += a.throughput;
+        sum.stop0 += 2.0 * a.stop0 - b.stop0;
+        sum.stop1 += 2.0 * a.stop1 - b.stop1;
+        sum.stop2 += 2.0 * a.stop2 - b.stop2;
+        w += 1.0;
+    }
+    if w > 0.0 {
+        rays[i] = RayOut(
+            sum.sensor / w, sum.r_rel / w, sum.throughput / w,
+            sum.stop0 / w, sum.stop1 / w, sum.stop2 / w,
+            0.5, 0.0,
+        );
+    }
 }

@@ -8,8 +8,11 @@
 //! rays, interpolated bilinearly, as the draw pass does); the RMS miss on
 //! the sensor is the interpolation error at that spacing. Linear
 //! interpolation errs as the square of the spacing, so a ghost drawn with
-//! `N` rays per side errs by about `e · (m / N)²`: equal error over the
-//! ghosts asks `N_g ∝ √e_g`.
+//! `N` rays per side errs by about `e · (m / N)²`.
+//!
+//! What the image's error follows, though, is the power a ghost carries:
+//! sizing grids by deformation gave the double Gauss's smooth bright
+//! ghosts too few rays. [`grid_sizes_by_power`] sizes them by power.
 
 use super::RayGrid;
 
@@ -56,48 +59,66 @@ pub fn interpolation_error_mm(grid: &RayGrid) -> Option<f64> {
     (count > 0).then(|| (sum / count as f64).sqrt())
 }
 
-/// Grid sizes, rays per side, for ghosts whose interpolation errors are
-/// `errors` (any unit; `None` or not finite: the median's): `N_g ∝ √e_g`,
-/// scaled so that the ghosts trace as many rays in all as `base²` each
-/// would, then rounded to `base · 2^k` (so that ghosts of a size draw
-/// together) within `[min, max]`.
-pub fn grid_sizes(errors: &[Option<f64>], base: u32, min: u32, max: u32) -> Vec<u32> {
-    let known: Vec<f64> = errors
-        .iter()
-        .flatten()
-        .copied()
-        .filter(|e| e.is_finite() && *e >= 0.0)
-        .collect();
-    let median = if known.is_empty() {
-        1.0
-    } else {
-        let mut sorted = known.clone();
-        sorted.sort_by(f64::total_cmp);
-        sorted[sorted.len() / 2]
-    };
-    let errors: Vec<f64> = errors
-        .iter()
-        .map(|e| e.filter(|e| e.is_finite() && *e >= 0.0).unwrap_or(median))
-        .collect();
-    let total: f64 = errors.iter().sum();
+/// Grid sizes, rays per side, that spend the rays of `base²` per ghost
+/// where they lower the flare's error most, for ghosts carrying `powers`
+/// (any unit; not finite or negative counts as 0).
+///
+/// A ghost drawn with `N` rays per side errs by about `P · c / N` in the
+/// image (its power misplaced along its edges and folds, a band one cell
+/// wide), so the sum `Σ P_g / N_g` under the budget `Σ N_g² = G · base²`
+/// is least for `N_g ∝ P_g^(1/3)`. Sizes are whole numbers within
+/// `[min, max]` (`min` at least 2), scaled to spend at most the budget
+/// (all `min` when even that is over it).
+///
+/// Measured on the double Gauss at 512² (83 ghosts, 10° off axis, one of
+/// which carries half the flare's power and 84 % of a fixed grid's error):
+/// at the rays of 16² each, the summed error of the ghosts falls from 0.48
+/// of the flare's power (every ghost at 16²) to 0.15; every ghost at 32²
+/// errs by 0.20.
+pub fn grid_sizes_by_power(powers: &[f64], base: u32, min: u32, max: u32) -> Vec<u32> {
     let (min, max) = (min.max(2), max.max(min.max(2)));
-    errors
+    let weights: Vec<f64> = powers
         .iter()
-        .map(|&e| {
-            let ideal = if total > 0.0 {
-                f64::from(base) * (errors.len() as f64 * e / total).sqrt()
+        .map(|p| {
+            if p.is_finite() && *p > 0.0 {
+                p.cbrt()
             } else {
-                f64::from(base)
-            };
-            // Nearest base · 2^k in log scale.
-            let k = (ideal.max(1e-9) / f64::from(base))
-                .log2()
-                .round()
-                .clamp(-8.0, 8.0);
-            let n = (f64::from(base) * 2f64.powf(k)).round() as u32;
-            n.clamp(min, max)
+                0.0
+            }
         })
-        .collect()
+        .collect();
+    let budget = powers.len() as f64 * f64::from(base) * f64::from(base);
+    let sizes = |scale: f64| -> Vec<u32> {
+        weights
+            .iter()
+            .map(|w| (scale * w).round().clamp(f64::from(min), f64::from(max)) as u32)
+            .collect()
+    };
+    let spent = |sizes: &[u32]| {
+        sizes
+            .iter()
+            .map(|&n| f64::from(n) * f64::from(n))
+            .sum::<f64>()
+    };
+    // The largest scale within the budget, by bisection on a log scale
+    // (the spend only grows with the scale).
+    let top = weights.iter().copied().fold(0.0, f64::max);
+    if top <= 0.0 {
+        return vec![base.clamp(min, max); powers.len()];
+    }
+    let (mut lo, mut hi) = (0.0, f64::from(max) / top);
+    if spent(&sizes(hi)) <= budget {
+        return sizes(hi);
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if spent(&sizes(mid)) <= budget {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    sizes(lo)
 }
 
 #[cfg(test)]
@@ -160,33 +181,27 @@ mod tests {
     }
 
     #[test]
-    fn sizes_follow_the_square_root_of_the_error_within_the_budget() {
-        let sizes = grid_sizes(
-            &[Some(1.0), Some(4.0), Some(16.0), None, Some(f64::NAN)],
-            32,
-            16,
-            512,
-        );
-        // Median of the known errors is 4: the last two count as 4.
-        assert_eq!(sizes[1], sizes[3]);
-        assert_eq!(sizes[3], sizes[4]);
-        assert!(sizes[0] < sizes[1] && sizes[1] < sizes[2], "{sizes:?}");
-        for s in &sizes {
-            assert!(
-                (16..=512).contains(s) && (s / 16).is_power_of_two(),
-                "{sizes:?}"
-            );
+    fn sizes_follow_the_cube_root_of_the_power_within_the_budget() {
+        let sizes = grid_sizes_by_power(&[1.0, 8.0, 64.0, f64::NAN, -1.0], 32, 8, 512);
+        // Twice the size for 8× the power; no power: the least.
+        assert_eq!(sizes[3], 8);
+        assert_eq!(sizes[4], 8);
+        for pair in [(sizes[0], sizes[1]), (sizes[1], sizes[2])] {
+            let ratio = f64::from(pair.1) / f64::from(pair.0);
+            assert!((ratio - 2.0).abs() < 0.1, "{sizes:?}");
         }
-        // The budget: about as many rays as 32² each.
+        // The budget: at most the rays of 32² each, and nearly all of it.
         let rays: u32 = sizes.iter().map(|s| s * s).sum();
         let want = 5 * 32 * 32;
-        assert!(rays > want / 2 && rays < want * 2, "{rays} vs {want}");
-        // All equal: all base; all zero: all base.
-        assert_eq!(grid_sizes(&[Some(2.0); 3], 24, 4, 512), vec![24; 3]);
-        assert_eq!(grid_sizes(&[Some(0.0); 3], 24, 4, 512), vec![24; 3]);
-        assert!(grid_sizes(&[], 24, 4, 512).is_empty());
+        assert!(rays <= want && rays > want * 9 / 10, "{rays} vs {want}");
+        // All equal: all base; all zero: all base; none: none.
+        assert_eq!(grid_sizes_by_power(&[2.0; 3], 24, 4, 512), vec![24; 3]);
+        assert_eq!(grid_sizes_by_power(&[0.0; 3], 24, 4, 512), vec![24; 3]);
+        assert!(grid_sizes_by_power(&[], 24, 4, 512).is_empty());
         // A huge spread is held to the bounds.
-        let wide = grid_sizes(&[Some(1e-12), Some(1e6)], 32, 16, 128);
-        assert_eq!(wide, vec![16, 64]);
+        let wide = grid_sizes_by_power(&[1e-12, 1e6], 32, 16, 40);
+        assert_eq!(wide, vec![16, 40]);
+        // A budget below the least size: all the least.
+        assert_eq!(grid_sizes_by_power(&[1.0, 2.0], 4, 8, 512), vec![8, 8]);
     }
 }

@@ -10,7 +10,7 @@ use super::aperture::Aperture;
 use super::intensity::{CellKind, DEFAULT_MAX_GAIN, GridCell, GridRay, cell_intensity};
 use super::pupil::{Beam, PupilRect};
 use crate::input::{self, Expected, InvalidInput};
-use crate::lens::{LensPrescription, PreparedLens, TracePath};
+use crate::lens::{LensPrescription, MAX_STOP_CROSSINGS, PreparedLens, TracePath};
 
 /// Most rays per side of a grid: 1024² ≈ 10⁶ rays, about 100 MB of
 /// [`GridRay`]s and [`GridCell`]s. Hullin et al.'s adaptive resolution goes
@@ -86,6 +86,81 @@ impl RayGrid {
                 ..*r
             })
             .collect();
+        Self {
+            wavelength_nm: self.wavelength_nm,
+            ..Self::from_rays(self.n, self.path, self.cell_pupil_mm2, rays)
+        }
+    }
+
+    /// This grid with every dead ray that has live neighbours replaced by
+    /// their straight-line continuation: from each side where the next two
+    /// rays of its row or column were traced alive, `2·a − b` of their
+    /// sensor points, stop points and `r_rel` (the throughput of `a`),
+    /// averaged over those sides; a ray with no such side stays dead. The
+    /// CPU twin of the plugin's fill pass (`ghost_trace.wgsl`).
+    ///
+    /// Why: a ray that misses a sphere (outside its clear aperture) dies,
+    /// and every cell it is a corner of goes undrawn, though the part of
+    /// the cell nearer the live rays passes. With a coarse grid those cells
+    /// held much of a ghost's edge: the double Gauss's ghosts on fitted
+    /// 9² grids lost 12 % of their power (3 % at 16²). Continued, the dead
+    /// corner usually lands beyond a rim (`r_rel > 1`), and the per-pixel
+    /// clip cuts the cell where the light stops (+1.6 % at 9², +0.3 % at
+    /// 16²). Cells are recomputed with the default gain bound, as
+    /// [`RayGrid::turned`] does.
+    pub fn extrapolated(&self) -> Self {
+        let n = self.n;
+        let traced = |i: i64, j: i64| -> Option<&GridRay> {
+            let inside = (0..n as i64).contains(&i) && (0..n as i64).contains(&j);
+            inside
+                .then(|| &self.rays[j as usize * n + i as usize])
+                .filter(|r| r.alive)
+        };
+        let mut rays = self.rays.clone();
+        for (k, ray) in rays.iter_mut().enumerate().filter(|(_, r)| !r.alive) {
+            let (i, j) = ((k % n) as i64, (k / n) as i64);
+            let mut sum: Option<(GridRay, f64)> = None;
+            for (di, dj) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+                let (Some(a), Some(b)) = (traced(i + di, j + dj), traced(i + 2 * di, j + 2 * dj))
+                else {
+                    continue;
+                };
+                let (sensor, r_rel) = (2.0 * a.sensor - b.sensor, 2.0 * a.r_rel - b.r_rel);
+                let stop: [DVec2; MAX_STOP_CROSSINGS] =
+                    std::array::from_fn(|c| 2.0 * a.stop_xy[c] - b.stop_xy[c]);
+                sum = Some(match sum {
+                    None => (
+                        GridRay {
+                            alive: true,
+                            sensor,
+                            r_rel,
+                            stop_xy: stop,
+                            throughput: a.throughput,
+                        },
+                        1.0,
+                    ),
+                    Some((s, w)) => (
+                        GridRay {
+                            sensor: s.sensor + sensor,
+                            r_rel: s.r_rel + r_rel,
+                            stop_xy: std::array::from_fn(|c| s.stop_xy[c] + stop[c]),
+                            throughput: s.throughput + a.throughput,
+                            ..s
+                        },
+                        w + 1.0,
+                    ),
+                });
+            }
+            if let Some((s, w)) = sum {
+                *ray = GridRay {
+                    alive: true,
+                    sensor: s.sensor / w,
+                    r_rel: s.r_rel / w,
+                    stop_xy: s.stop_xy.map(|p| p / w),
+                    throughput: s.throughput / w,
+                };
+            }
+        }
         Self {
             wavelength_nm: self.wavelength_nm,
             ..Self::from_rays(self.n, self.path, self.cell_pupil_mm2, rays)
@@ -687,6 +762,91 @@ mod tests {
             cells += usize::from(passing == 4);
         }
         (power, cells)
+    }
+
+    #[test]
+    fn continued_dead_rays_give_back_the_light_coarse_grids_lose_at_the_rims() {
+        // Ghosts of the double Gauss, 10° off axis, on grids fitted to
+        // their passing light: at 9² rays the cells with a corner that
+        // missed a sphere held a tenth of the light, which a 97² grid
+        // draws. Continued, the dead corners let the per-pixel clip cut
+        // those cells where the light stops (measured on every fourth
+        // ghost: −13.3 % → −2.0 %).
+        use crate::lens_flare::{SensorImage, SensorWindow, rasterise_into};
+        let p = builtin::double_gauss();
+        let lens = PreparedLens::new(&p, 550.0).unwrap();
+        let aperture = Aperture::of_stop(&p);
+        let light = light_from_field(10.0, 0.0);
+        let half = p.paraxial(550.0).unwrap().efl_mm * 0.5;
+        let window = SensorWindow::new(DVec2::splat(-half), half / 64.0, 128, 128).unwrap();
+        let (mut fine, mut coarse, mut continued) = (
+            SensorImage::new(window),
+            SensorImage::new(window),
+            SensorImage::new(window),
+        );
+        let mut filled = 0;
+        for (i, j) in ghosts(&p).into_iter().step_by(4) {
+            let path = TracePath::ghost(i, j);
+            let (beam, _) = Beam::meridional(&p, path, light, 550.0).unwrap();
+            let Some(fit) = passing_rect(&lens, path, &beam, &aperture, 13).unwrap() else {
+                continue;
+            };
+            let beam = beam.within(fit.pupil, true);
+            let options = GridOptions::default();
+            rasterise_into(
+                &trace_grid(&lens, path, &beam, 97, &options).unwrap(),
+                &aperture,
+                &mut fine,
+            );
+            let grid = trace_grid(&lens, path, &beam, 9, &options).unwrap();
+            let extended = grid.extrapolated();
+            filled += extended.stats().alive_rays - grid.stats().alive_rays;
+            // A traced ray is never changed.
+            for (a, b) in grid.rays().iter().zip(extended.rays()) {
+                assert!(!a.alive || a == b);
+            }
+            rasterise_into(&grid, &aperture, &mut coarse);
+            rasterise_into(&extended, &aperture, &mut continued);
+        }
+        let want = fine.total();
+        let (lost, kept) = (coarse.total() / want - 1.0, continued.total() / want - 1.0);
+        eprintln!("9² fitted grids: {lost:+.4} as traced, {kept:+.4} continued ({filled} rays)");
+        assert!(filled > 0 && lost < -0.05, "{lost}");
+        assert!(kept.abs() < 0.03, "{kept}");
+    }
+
+    #[test]
+    fn a_lone_dead_ray_is_continued_along_its_row_and_column() {
+        // A slab's grid is affine: the continuation of its neighbours is
+        // the ray itself.
+        let p = slab();
+        let lens = PreparedLens::new(&p, 550.0).unwrap();
+        let bounds = PupilBounds::new(-1.0, DVec2::ZERO, 10.0).unwrap();
+        let beam = Beam::new(&p, DVec3::new(0.1, 0.05, 1.0).normalize(), bounds).unwrap();
+        let grid =
+            trace_grid(&lens, TracePath::Primary, &beam, 7, &GridOptions::default()).unwrap();
+        let want = *grid.ray(3, 2).unwrap();
+        let mut rays = grid.rays().to_vec();
+        rays[2 * 7 + 3] = GridRay {
+            alive: false,
+            ..want
+        };
+        rays[0] = GridRay {
+            alive: false,
+            ..rays[0]
+        };
+        let broken = RayGrid::from_rays(7, TracePath::Primary, grid.cell_pupil_mm2(), rays);
+        let fixed = broken.extrapolated();
+        let got = fixed.ray(3, 2).unwrap();
+        // (r_rel, a distance from the axis, is not affine: not compared.)
+        assert!(
+            got.alive
+                && got.sensor.distance(want.sensor) < 1e-9
+                && got.stop_xy[0].distance(want.stop_xy[0]) < 1e-9,
+            "{got:?} vs {want:?}"
+        );
+        assert!(fixed.ray(0, 0).unwrap().alive);
+        assert_eq!(fixed.stats().alive_cells, 36);
     }
 
     #[test]

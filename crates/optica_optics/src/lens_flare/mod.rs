@@ -137,7 +137,7 @@ mod raster;
 #[cfg(feature = "reference")]
 mod reference;
 
-pub use adaptive::{grid_sizes, interpolation_error_mm};
+pub use adaptive::{grid_sizes_by_power, interpolation_error_mm};
 pub use aperture::{
     Aperture, ApertureShape, MAX_APERTURE_BLADES, stopped_down, stopped_to_f_number,
 };

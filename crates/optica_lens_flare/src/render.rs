@@ -26,10 +26,10 @@ use bevy::render::render_resource::binding_types::{
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, BlendComponent,
     BlendFactor, BlendOperation, BlendState, Buffer, BufferDescriptor, BufferUsages,
-    CachedComputePipelineId, CachedRenderPipelineId, ColorTargetState, ColorWrites,
-    ComputePassDescriptor, ComputePipelineDescriptor, FragmentState, IndexFormat, PipelineCache,
-    RenderPassDescriptor, RenderPipelineDescriptor, ShaderStages, StorageBuffer, TextureFormat,
-    TextureSampleType, TextureUsages, UniformBuffer, VertexState,
+    CachedComputePipelineId, CachedRenderPipelineId, ColorTargetState, ColorWrites, CommandEncoder,
+    ComputePassDescriptor, ComputePipeline, ComputePipelineDescriptor, FragmentState, IndexFormat,
+    PipelineCache, RenderPassDescriptor, RenderPipelineDescriptor, ShaderStages, StorageBuffer,
+    TextureFormat, TextureSampleType, TextureUsages, UniformBuffer, VertexState,
 };
 use bevy::render::render_resource::{
     Extent3d, FilterMode, LoadOp, Operations, RenderPassColorAttachment, Sampler,
@@ -866,61 +866,40 @@ fn flare_passes(
             .map(|pipeline| (group, pipeline))
     });
     let span = diagnostics.time_span(ctx.command_encoder(), "optica/flare");
+    let encoder = ctx.command_encoder();
     if let Some((group, pipeline)) = occlusion {
-        let mut pass = ctx
-            .command_encoder()
-            .begin_compute_pass(&ComputePassDescriptor {
-                label: Some("optica_lens_flare_occlusion"),
-                timestamp_writes: None,
-            });
-        let pass_span = diagnostics.pass_span(&mut pass, "occlusion");
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(binding.lights, 1, 1);
-        pass_span.end(&mut pass);
+        let groups = (binding.lights, 1);
+        compute_pass(encoder, &diagnostics, "occlusion", pipeline, group, groups);
     }
     if binding.retrace {
-        let mut pass = ctx
-            .command_encoder()
-            .begin_compute_pass(&ComputePassDescriptor {
-                label: Some("optica_lens_flare_trace"),
-                timestamp_writes: None,
-            });
-        let pass_span = diagnostics.pass_span(&mut pass, "trace");
-        pass.set_pipeline(trace);
-        pass.set_bind_group(0, &binding.trace_group, &[]);
-        let (x, y) = groups_for(binding.threads);
-        pass.dispatch_workgroups(x, y, 1);
-        pass_span.end(&mut pass);
+        let groups = groups_for(binding.threads);
+        compute_pass(
+            encoder,
+            &diagnostics,
+            "trace",
+            trace,
+            &binding.trace_group,
+            groups,
+        );
+        let groups = groups_for(binding.rays);
+        compute_pass(
+            encoder,
+            &diagnostics,
+            "fill",
+            fill,
+            &binding.trace_group,
+            groups,
+        );
     }
-    if binding.retrace {
-        let mut pass = ctx
-            .command_encoder()
-            .begin_compute_pass(&ComputePassDescriptor {
-                label: Some("optica_lens_flare_fill"),
-                timestamp_writes: None,
-            });
-        let pass_span = diagnostics.pass_span(&mut pass, "fill");
-        pass.set_pipeline(fill);
-        pass.set_bind_group(0, &binding.trace_group, &[]);
-        let (x, y) = groups_for(binding.rays);
-        pass.dispatch_workgroups(x, y, 1);
-        pass_span.end(&mut pass);
-    }
-    {
-        let mut pass = ctx
-            .command_encoder()
-            .begin_compute_pass(&ComputePassDescriptor {
-                label: Some("optica_lens_flare_cells"),
-                timestamp_writes: None,
-            });
-        let pass_span = diagnostics.pass_span(&mut pass, "cells");
-        pass.set_pipeline(cells);
-        pass.set_bind_group(0, &binding.cells_group, &[]);
-        let (x, y) = groups_for(binding.spans);
-        pass.dispatch_workgroups(x, y, 1);
-        pass_span.end(&mut pass);
-    }
+    let groups = groups_for(binding.spans);
+    compute_pass(
+        encoder,
+        &diagnostics,
+        "cells",
+        cells,
+        &binding.cells_group,
+        groups,
+    );
     // The ghosts: onto the view, or into their reduced-resolution target
     // (cleared), which is then scaled up onto the view with the
     // starburst.
@@ -986,6 +965,28 @@ fn flare_passes(
 
 /// Workgroups of 64 for `threads` threads, as (x, y) within the 65535 a
 /// dimension allows (the shaders rebuild the index from both).
+/// Dispatches `groups` (x, y) workgroups of `pipeline` with `group` in a
+/// compute pass of its own, timed as `optica/flare/{span}`.
+fn compute_pass(
+    encoder: &mut CommandEncoder,
+    diagnostics: &impl RecordDiagnostics,
+    span: &'static str,
+    pipeline: &ComputePipeline,
+    group: &BindGroup,
+    (x, y): (u32, u32),
+) {
+    let label = format!("optica_lens_flare_{span}");
+    let mut pass = encoder.begin_compute_pass(&ComputePassDescriptor {
+        label: Some(&label),
+        timestamp_writes: None,
+    });
+    let pass_span = diagnostics.pass_span(&mut pass, span);
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, group, &[]);
+    pass.dispatch_workgroups(x, y, 1);
+    pass_span.end(&mut pass);
+}
+
 fn groups_for(threads: u32) -> (u32, u32) {
     let groups = threads.div_ceil(64);
     (groups.min(65535), groups.div_ceil(65535))

@@ -21,13 +21,14 @@ fn surface_at(k: u32) -> LensSurface {
     return lens[lens_base + k];
 }
 
-// The grid that thread `i` traces for (grids lie in order).
-fn job_of(i: u32) -> u32 {
+// The grid that thread `i` traces for or, with `by_ray`, that ray `i`
+// belongs to (grids lie in order).
+fn job_of(i: u32, by_ray: bool) -> u32 {
     var lo = 0u;
     var hi = params.jobs - 1u;
     while lo < hi {
         let mid = (lo + hi + 1u) / 2u;
-        if jobs[mid].thread_base <= i {
+        if select(jobs[mid].thread_base, jobs[mid].ray_base, by_ray) <= i {
             lo = mid;
         } else {
             hi = mid - 1u;
@@ -42,7 +43,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
     if i >= params.threads {
         return;
     }
-    let job = jobs[job_of(i)];
+    let job = jobs[job_of(i, false)];
     let n = job.n;
     let k = i - job.thread_base;
     let step = 1.0 / f32(n - 1u);
@@ -76,21 +77,6 @@ fn turn(p: vec2<f32>, cs: vec2<f32>) -> vec2<f32> {
     return vec2<f32>(cs.x * p.x - cs.y * p.y, cs.y * p.x + cs.x * p.y);
 }
 
-// The grid that ray `i` belongs to (grids lie in order).
-fn job_of_ray(i: u32) -> u32 {
-    var lo = 0u;
-    var hi = params.jobs - 1u;
-    while lo < hi {
-        let mid = (lo + hi + 1u) / 2u;
-        if jobs[mid].ray_base <= i {
-            lo = mid;
-        } else {
-            hi = mid - 1u;
-        }
-    }
-    return lo;
-}
-
 // Whether the ray at column `col`, row `row` of `job`'s grid was traced
 // alive (alive 1; `fill` writes 0.5 into the rays it continues, and reads
 // only traced ones, so the order it runs in does not matter).
@@ -119,7 +105,7 @@ fn fill(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
     if i >= params.rays || rays[i].alive != 0.0 {
         return;
     }
-    let job = jobs[job_of_ray(i)];
+    let job = jobs[job_of(i, true)];
     let k = i - job.ray_base;
     let col = i32(k % job.n);
     let row = i32(k / job.n);

@@ -14,6 +14,7 @@ use bevy::core_pipeline::tonemapping::tonemapping;
 use bevy::core_pipeline::{Core3d, Core3dSystems, FullscreenShader};
 use bevy::diagnostic::FrameCount;
 use bevy::platform::collections::HashMap;
+use bevy::post_process::bloom::bloom;
 use bevy::prelude::*;
 use bevy::render::camera::TemporalJitter;
 use bevy::render::diagnostic::RecordDiagnostics;
@@ -127,6 +128,7 @@ impl Plugin for FlareRenderPlugin {
                 Core3d,
                 flare_passes
                     .in_set(Core3dSystems::PostProcess)
+                    .before(bloom)
                     .before(tonemapping),
             );
     }

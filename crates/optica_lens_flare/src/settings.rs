@@ -13,6 +13,10 @@ pub const MAX_WAVELENGTHS: u32 = 16;
 /// Physically based lens flare on a camera: ghosts (light reflected twice
 /// inside the lens) traced through a real lens prescription.
 ///
+/// The ghosts are light: they are added to the camera's HDR target (the
+/// component requires [`Hdr`](bevy::camera::Hdr)) before bloom, which
+/// spreads them, and tonemapping.
+///
 /// ```no_run
 /// use bevy::prelude::*;
 /// use optica_lens_flare::{FlareSource, LensFlare};
@@ -27,6 +31,7 @@ pub const MAX_WAVELENGTHS: u32 = 16;
 /// ```
 #[derive(Component, Reflect, Clone, Debug, PartialEq)]
 #[reflect(Component)]
+#[require(bevy::camera::Hdr)]
 pub struct LensFlare {
     /// The lens the light passes through.
     pub lens: Handle<LensAsset>,

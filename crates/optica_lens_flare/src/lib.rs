@@ -54,9 +54,9 @@
 //! into an index buffer; a draw pass adds them (each ray shaded once,
 //! shared by its cells), clipped per pixel where `r_rel > 1`, at
 //! [`LensFlare::ghost_resolution`] (a quarter of the view's side by
-//! default),
-//! scaled up and added to the HDR view target (`LensFlare` requires
-//! `Hdr`) before bloom, which spreads the ghosts, and tonemapping. The
+//! default), scaled up and added to the HDR view target (`LensFlare`
+//! requires `Hdr`) before bloom, which spreads the ghosts, and
+//! tonemapping. The
 //! rays are traced again only when the grids, the lens or the settings
 //! change: a still camera and lights trace them once. The sensor is sized
 //! so that the lens sees the camera's field of view ([`SensorMapping`]); a

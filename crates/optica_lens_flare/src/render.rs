@@ -145,7 +145,6 @@ struct FlareShared {
     trace: Option<CachedComputePipelineId>,
     fill: Option<CachedComputePipelineId>,
     cells: Option<CachedComputePipelineId>,
-    /// Per view format: the ghosts' and the starburst's pipelines.
     /// The draw and starburst pipelines per target format and whether
     /// the iris has blades (`BLADED_IRIS`).
     draws: HashMap<(TextureFormat, bool), [CachedRenderPipelineId; 2]>,
@@ -965,8 +964,6 @@ fn flare_passes(
     span.end(ctx.command_encoder());
 }
 
-/// Workgroups of 64 for `threads` threads, as (x, y) within the 65535 a
-/// dimension allows (the shaders rebuild the index from both).
 /// Dispatches `groups` (x, y) workgroups of `pipeline` with `group` in a
 /// compute pass of its own, timed as `optica/flare/{span}`.
 fn compute_pass(
@@ -989,6 +986,8 @@ fn compute_pass(
     pass_span.end(&mut pass);
 }
 
+/// Workgroups of 64 for `threads` threads, as (x, y) within the 65535 a
+/// dimension allows (the shaders rebuild the index from both).
 fn groups_for(threads: u32) -> (u32, u32) {
     let groups = threads.div_ceil(64);
     (groups.min(65535), groups.div_ceil(65535))

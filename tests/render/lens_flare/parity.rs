@@ -125,7 +125,7 @@ fn parity(lens_path: &'static str, budget: u32) -> (f64, f64) {
         let grid = trace_grid(&prepared, path, &beam, n, &GridOptions::default())
             .expect("grid")
             .turned(azimuth)
-            .extrapolated();
+            .extrapolated(lens.stop_semi_aperture_mm());
         rasterise_into(&grid, &aperture, &mut cpu);
     }
     // The GPU frame as power per pixel: value / (illuminance · exposure) is

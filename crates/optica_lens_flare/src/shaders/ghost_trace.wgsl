@@ -93,7 +93,8 @@ fn ray_at(job: GridJob, col: i32, row: i32) -> RayOut {
 // A dead ray next to traced ones gets their straight-line continuation:
 // from each side whose next two rays a, b of its row or column were traced
 // alive, 2a − b of their sensor and stop points and r_rel (the throughput
-// of a), averaged over those sides. A ray that missed a sphere would
+// of a), averaged over those sides. A ray that missed a sphere or met total
+// internal reflection would
 // otherwise leave every cell it is a corner of undrawn, though the part of
 // the cell nearer the live rays passes; continued, its corner usually lands
 // beyond a rim (r_rel > 1) and the draw's per-pixel clip cuts the cell
@@ -128,9 +129,17 @@ fn fill(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
         w += 1.0;
     }
     if w > 0.0 {
+        // A traced ray's r_rel holds the stop's rim (the draw skips the
+        // test of a round iris for it); a straight-line r_rel can fall
+        // below its stop points', so it is raised to theirs.
+        let stop0 = sum.stop0 / w;
+        let stop1 = sum.stop1 / w;
+        let stop2 = sum.stop2 / w;
+        let farthest = max(length(stop0), max(length(stop1), length(stop2)));
+        let at_stop = select(0.0, farthest / params.radius, params.radius > 0.0);
         rays[i] = RayOut(
-            sum.sensor / w, sum.r_rel / w, sum.throughput / w,
-            sum.stop0 / w, sum.stop1 / w, sum.stop2 / w,
+            sum.sensor / w, max(sum.r_rel / w, at_stop), sum.throughput / w,
+            stop0, stop1, stop2,
             0.5, 0.0,
         );
     }

@@ -100,7 +100,7 @@ pub fn grid_sizes_by_power(powers: &[f64], base: u32, min: u32, max: u32) -> Vec
             .map(|&n| f64::from(n) * f64::from(n))
             .sum::<f64>()
     };
-    // The largest scale within the budget, by bisection on a log scale
+    // The largest scale within the budget, by bisection
     // (the spend only grows with the scale).
     let top = weights.iter().copied().fold(0.0, f64::max);
     if top <= 0.0 {

@@ -96,19 +96,24 @@ impl RayGrid {
     /// their straight-line continuation: from each side where the next two
     /// rays of its row or column were traced alive, `2·a − b` of their
     /// sensor points, stop points and `r_rel` (the throughput of `a`),
-    /// averaged over those sides; a ray with no such side stays dead. The
-    /// CPU twin of the plugin's fill pass (`ghost_trace.wgsl`).
+    /// averaged over those sides, with `r_rel` raised to the stop points'
+    /// `|p| / stop_semi_aperture_mm` where that is larger; a ray with no
+    /// such side stays dead. The CPU twin of the plugin's fill pass
+    /// (`ghost_trace.wgsl`).
     ///
-    /// Why: a ray that misses a sphere (outside its clear aperture) dies,
-    /// and every cell it is a corner of goes undrawn, though the part of
-    /// the cell nearer the live rays passes. With a coarse grid those cells
-    /// held much of a ghost's edge: the double Gauss's ghosts on fitted
-    /// 9² grids lost 12 % of their power (3 % at 16²). Continued, the dead
-    /// corner usually lands beyond a rim (`r_rel > 1`), and the per-pixel
-    /// clip cuts the cell where the light stops (+1.6 % at 9², +0.3 % at
-    /// 16²). Cells are recomputed with the default gain bound, as
-    /// [`RayGrid::turned`] does.
-    pub fn extrapolated(&self) -> Self {
+    /// Why: a ray that misses a sphere (no real intersection) or meets
+    /// total internal reflection dies, and every cell it is a corner of
+    /// goes undrawn, though the part of the cell nearer the live rays
+    /// passes. With a coarse grid those cells held much of a ghost's edge:
+    /// the double Gauss's ghosts on fitted 9² grids lost 12 % of their
+    /// power (3 % at 16²). Continued, the dead corner usually lands beyond
+    /// a rim (`r_rel > 1`), and the per-pixel clip cuts the cell where the
+    /// light stops (+1.6 % at 9², +0.3 % at 16²). A traced ray's `r_rel`
+    /// holds the stop's rim, so that a round iris needs no test of its own
+    /// per pixel; a continued one's would not (a straight-line `r_rel` can
+    /// fall below its stop point's), hence the raise. Cells are recomputed
+    /// with the default gain bound, as [`RayGrid::turned`] does.
+    pub fn extrapolated(&self, stop_semi_aperture_mm: f64) -> Self {
         let n = self.n;
         let traced = |i: i64, j: i64| -> Option<&GridRay> {
             let inside = (0..n as i64).contains(&i) && (0..n as i64).contains(&j);
@@ -152,11 +157,16 @@ impl RayGrid {
                 });
             }
             if let Some((s, w)) = sum {
+                let stop_xy = s.stop_xy.map(|p| p / w);
+                let at_stop = stop_xy
+                    .iter()
+                    .map(|p| p.length() / stop_semi_aperture_mm)
+                    .fold(0.0, f64::max);
                 *ray = GridRay {
                     alive: true,
                     sensor: s.sensor / w,
-                    r_rel: s.r_rel / w,
-                    stop_xy: s.stop_xy.map(|p| p / w),
+                    r_rel: (s.r_rel / w).max(at_stop),
+                    stop_xy,
                     throughput: s.throughput / w,
                 };
             }
@@ -799,11 +809,15 @@ mod tests {
                 &mut fine,
             );
             let grid = trace_grid(&lens, path, &beam, 9, &options).unwrap();
-            let extended = grid.extrapolated();
+            let extended = grid.extrapolated(p.stop_semi_aperture_mm());
             filled += extended.stats().alive_rays - grid.stats().alive_rays;
-            // A traced ray is never changed.
+            // A traced ray is never changed; a continued one's r_rel holds
+            // the stop's rim, as a traced one's does.
             for (a, b) in grid.rays().iter().zip(extended.rays()) {
                 assert!(!a.alive || a == b);
+                let at_stop = b.stop_xy.iter().map(|q| q.length()).fold(0.0, f64::max)
+                    / p.stop_semi_aperture_mm();
+                assert!(!b.alive || b.r_rel >= at_stop - 1e-12, "{b:?}");
             }
             rasterise_into(&grid, &aperture, &mut coarse);
             rasterise_into(&extended, &aperture, &mut continued);
@@ -836,7 +850,7 @@ mod tests {
             ..rays[0]
         };
         let broken = RayGrid::from_rays(7, TracePath::Primary, grid.cell_pupil_mm2(), rays);
-        let fixed = broken.extrapolated();
+        let fixed = broken.extrapolated(p.stop_semi_aperture_mm());
         let got = fixed.ray(3, 2).unwrap();
         // (r_rel, a distance from the axis, is not affine: not compared.)
         assert!(

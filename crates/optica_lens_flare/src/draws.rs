@@ -250,24 +250,10 @@ fn starburst_scale(
     if value.is_finite() { value as f32 } else { 0.0 }
 }
 
-/// The linear-RGB weight of the sample at `wl` nm among `samples` (the
-/// wavelengths a flare is traced at): smooth red, green and blue bands,
-/// each summing to 1 over the samples so that a white light's flare
-/// averages to white; (1, 1, 1) for a single sample.
+/// The linear-RGB weight of the sample at `wl` nm among `samples`, as
+/// [`optica_optics::lens_flare::spectral_weight`] gives it.
 pub fn spectral_weight(wl: f64, samples: &[f64]) -> Vec3 {
-    let band = |centre: f64, width: f64, w: f64| (-((w - centre) / width).powi(2)).exp();
-    let raw = |w: f64| {
-        Vec3::new(
-            band(610.0, 60.0, w) as f32,
-            band(545.0, 50.0, w) as f32,
-            band(450.0, 50.0, w) as f32,
-        )
-    };
-    let total = samples.iter().map(|&w| raw(w)).sum::<Vec3>();
-    if samples.len() == 1 {
-        return Vec3::ONE;
-    }
-    raw(wl) / total.max(Vec3::splat(1e-6))
+    optica_optics::lens_flare::spectral_weight(wl, samples).as_vec3()
 }
 
 /// A light that may flare: where it is, its [`FlareSource`] and which kind

@@ -3,6 +3,8 @@
 
 use bevy::prelude::*;
 
+use optica_optics::lens_flare::band_wavelengths;
+
 use crate::LensAsset;
 
 /// Most rays per side of a ghost's grid.
@@ -183,13 +185,7 @@ impl LensFlare {
 
     /// The wavelengths traced, nm: evenly over 420–680 nm (550 nm for one).
     pub fn wavelengths_nm(&self) -> Vec<f64> {
-        let n = self.wavelengths.clamp(1, MAX_WAVELENGTHS);
-        if n == 1 {
-            return vec![550.0];
-        }
-        (0..n)
-            .map(|k| 420.0 + 260.0 * f64::from(k) / f64::from(n - 1))
-            .collect()
+        band_wavelengths(self.wavelengths.clamp(1, MAX_WAVELENGTHS) as usize)
     }
 }
 

@@ -80,7 +80,8 @@
 //!
 //! Dispersion: everything above is per wavelength — the indices `n(λ)` and
 //! the coating reflectance change, so a ghost moves and changes colour
-//! ([`trace_grid_spectral`]).
+//! ([`trace_grid_spectral`]). A few wavelengths carry the whole band's
+//! light through per-ghost gains ([`GhostSpectrum`]).
 //!
 //! # What the plugin runs, and what it adds
 //!
@@ -136,6 +137,7 @@ mod pupil;
 mod raster;
 #[cfg(feature = "reference")]
 mod reference;
+mod spectrum;
 
 pub use adaptive::{grid_sizes_by_power, interpolation_error_mm};
 pub use aperture::{
@@ -167,6 +169,10 @@ pub use raster::{MAX_PIXELS, SensorImage, SensorWindow, rasterise, rasterise_int
 #[cfg(feature = "reference")]
 pub use reference::{
     ImageError, MAX_REFERENCE_SIDE, ReferenceImage, compare, downsample, reference_image,
+};
+pub use spectrum::{
+    BAND_NM, BAND_POINTS, GhostSpectrum, MAX_SPECTRAL_GAIN, SINGLE_SAMPLE_NM, SPECTRUM_RAYS,
+    SPECTRUM_SAMPLES, band_wavelengths, spectral_weight, spectrum_lenses,
 };
 
 // The types this module's signatures use, so that `lens_flare::*` is enough to call it.

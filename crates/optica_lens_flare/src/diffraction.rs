@@ -7,9 +7,11 @@
 use bevy::asset::RenderAssetUsages;
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
-use optica_optics::lens_flare::{Aperture, LensDirt, pupil_image, ringing, starburst};
+use optica_optics::lens_flare::{
+    Aperture, LensDirt, pupil_image, ringing, spectral_weight, starburst,
+};
 
-use crate::{LensFlare, spectral_weight};
+use crate::LensFlare;
 
 /// The wavelengths of the ringing texture's R, G and B, nm.
 pub const RINGING_NM: [f64; 3] = [650.0, 550.0, 450.0];
@@ -52,7 +54,7 @@ pub(crate) fn starburst_image(
     let wavelengths = flare.wavelengths_nm();
     let samples: Vec<(f64, [f64; 3])> = wavelengths
         .iter()
-        .map(|&wl| (wl, spectral_weight(wl, &wavelengths).as_dvec3().to_array()))
+        .map(|&wl| (wl, spectral_weight(wl, &wavelengths).to_array()))
         .collect();
     let shortest = wavelengths.iter().copied().fold(f64::INFINITY, f64::min);
     let burst = starburst(&pupil, &samples, shortest).map_err(|e| e.to_string())?;

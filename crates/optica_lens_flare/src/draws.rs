@@ -11,9 +11,9 @@ use bevy::render::extract_component::ExtractComponent;
 use bevy::render::render_resource::ShaderType;
 use optica_optics::glass::LAMBDA_D_NM;
 use optica_optics::lens::{PreparedLens, TracePath};
-use optica_optics::lens_flare::{Beam, DEFAULT_MAX_GAIN};
+use optica_optics::lens_flare::{Beam, DEFAULT_MAX_GAIN, spectral_weight};
 
-use crate::fit::{Fits, PassingFits, passing_for, screen_grid};
+use crate::fit::{Fits, PassingFits, fit_for, screen_grid};
 use crate::{
     FlareGhosts, FlareSource, LensFlare, SensorMapping, aperture_params, light_in_lens,
     pack_surfaces,
@@ -250,12 +250,6 @@ fn starburst_scale(
     if value.is_finite() { value as f32 } else { 0.0 }
 }
 
-/// The linear-RGB weight of the sample at `wl` nm among `samples`, as
-/// [`optica_optics::lens_flare::spectral_weight`] gives it.
-pub fn spectral_weight(wl: f64, samples: &[f64]) -> Vec3 {
-    optica_optics::lens_flare::spectral_weight(wl, samples).as_vec3()
-}
-
 /// A light that may flare: where it is, its [`FlareSource`] and which kind
 /// of light it is.
 type FlareLight = (
@@ -406,10 +400,13 @@ fn build(
             // With symmetry, where the ghost's light gets through (none:
             // the ghost is not drawn at this angle), and no more cells
             // than pixels it covers where the ghosts are added up.
+            let middle = &prepared[prepared.len() / 2];
+            let (passing, spectrum) = fit_for(fits, lens, middle, (first, second), aperture, d);
+            // The ghost's colour over the whole band, carried by the
+            // traced wavelengths.
+            let gains = spectrum.map_or(Vec3::ONE, |s| s.gains(&wavelengths).as_vec3());
             let passing = if flare.symmetry {
-                let middle = &prepared[prepared.len() / 2];
-                let Some(passing) = passing_for(fits, lens, middle, (first, second), aperture, d)
-                else {
+                let Some(passing) = passing else {
                     continue;
                 };
                 n = screen_grid(n, &passing, ghost_px_per_mm);
@@ -436,7 +433,7 @@ fn build(
                 let (Ok(o), Ok(ou), Ok(ov)) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0)) else {
                     continue;
                 };
-                let weight = spectral_weight(wl, &wavelengths);
+                let weight = spectral_weight(wl, &wavelengths).as_vec3() * gains;
                 jobs.push(GridJob {
                     origin: o.as_vec3(),
                     first: first as u32,

@@ -8,12 +8,17 @@
 //! drawn for nothing, and the cells that drew it were few. With the grid
 //! fitted to the passing light, the same 32² grid follows the reference
 //! more closely (relative L1 0.148 → 0.117 on the double Gauss at 512²).
+//!
+//! The same fits measure each ghost's throughput over the band
+//! ([`GhostSpectrum`]), from which its spectral gains follow.
 
 use bevy::math::DVec3;
 use bevy::platform::collections::HashMap;
 use bevy::prelude::Entity;
 use optica_optics::lens::{LensPrescription, PreparedLens, TracePath};
-use optica_optics::lens_flare::{Aperture, Beam, Passing, passing_rect};
+use optica_optics::lens_flare::{
+    Aperture, Beam, GhostSpectrum, Passing, SINGLE_SAMPLE_NM, passing_rect, spectrum_lenses,
+};
 
 /// Field angles, degrees, at which the passing light is measured; a light
 /// between two steps is given the union of both.
@@ -32,9 +37,19 @@ pub const MIN_SCREEN_GRID: u32 = 8;
 /// The two fit steps round the field angle of light travelling along `d`
 /// (lens frame).
 pub fn fit_steps(d: DVec3) -> [i32; 2] {
-    let theta = d.z.clamp(-1.0, 1.0).acos().to_degrees();
-    let below = (theta / FIT_STEP_DEG).floor() as i32;
+    let below = (field_deg(d) / FIT_STEP_DEG).floor() as i32;
     [below, below + 1]
+}
+
+/// The field angle of light travelling along `d` (lens frame), degrees.
+fn field_deg(d: DVec3) -> f64 {
+    d.z.clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+/// Light `step · FIT_STEP_DEG` off axis, in the x–z plane.
+fn step_light(step: i32) -> DVec3 {
+    let t = (f64::from(step) * FIT_STEP_DEG).to_radians();
+    DVec3::new(t.sin(), 0.0, t.cos())
 }
 
 /// Where the light of the ghost `(first, second)` passes at fit step
@@ -49,9 +64,7 @@ pub fn passing_at_step(
     step: i32,
 ) -> Option<Passing> {
     let path = TracePath::ghost(first, second);
-    let t = (f64::from(step) * FIT_STEP_DEG).to_radians();
-    let at = DVec3::new(t.sin(), 0.0, t.cos());
-    let (beam, _) = Beam::meridional(lens, path, at, middle.wavelength_nm()).ok()?;
+    let (beam, _) = Beam::meridional(lens, path, step_light(step), middle.wavelength_nm()).ok()?;
     passing_rect(middle, path, &beam, aperture, FIT_RAYS)
         .ok()
         .flatten()
@@ -72,8 +85,30 @@ pub fn screen_grid(n: u32, passing: &Passing, px_per_mm: f64) -> u32 {
     n.min((cells + 1).max(MIN_SCREEN_GRID))
 }
 
-/// One camera's fits: per ghost `(first, second)` and fit step.
-pub(crate) type Fits = HashMap<((usize, usize), i32), Option<Passing>>;
+/// What is measured of one ghost at one fit step: where its light passes
+/// (`None`: nowhere) and its throughput over the band (for the spectral
+/// gains).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct StepFit {
+    passing: Option<Passing>,
+    spectrum: Option<GhostSpectrum>,
+}
+
+/// One camera's fits: per ghost `(first, second)` and fit step, and the
+/// lens at the spectrum's wavelengths they are traced with.
+#[derive(Default)]
+pub(crate) struct Fits {
+    steps: HashMap<((usize, usize), i32), StepFit>,
+    spectrum_lenses: Option<Vec<PreparedLens>>,
+}
+
+impl Fits {
+    /// Forgets every fit (the ghosts or the lens changed).
+    pub(crate) fn clear(&mut self) {
+        self.steps.clear();
+        self.spectrum_lenses = None;
+    }
+}
 
 /// Per flare camera, the fits of each drawn ghost at each step, kept until
 /// its ghosts change: a camera that turns measures each degree once.
@@ -82,24 +117,87 @@ pub(crate) struct PassingFits {
     pub(crate) cameras: HashMap<Entity, Fits>,
 }
 
-/// Where the light of the ghost passes, from a camera's `fits`, for light
-/// travelling along `d` (lens frame): the union of the fits at the two
-/// steps round its angle (made on first use); `None` when it passes at
-/// neither.
-pub(crate) fn passing_for(
+/// A ghost's fit for light travelling along `d` (lens frame), from a
+/// camera's `fits` (made on first use at the two steps round its angle):
+/// where its light passes, the union of both steps (`None` when it passes
+/// at neither), and its throughput over the band, linear in the angle
+/// between them.
+pub(crate) fn fit_for(
     fits: &mut Fits,
     lens: &LensPrescription,
     middle: &PreparedLens,
     ghost: (usize, usize),
     aperture: &Aperture,
     d: DVec3,
-) -> Option<Passing> {
-    fit_steps(d)
-        .into_iter()
-        .filter_map(|step| {
-            *fits
-                .entry((ghost, step))
-                .or_insert_with(|| passing_at_step(lens, middle, ghost, aperture, step))
+) -> (Option<Passing>, Option<GhostSpectrum>) {
+    let lenses = fits
+        .spectrum_lenses
+        .get_or_insert_with(|| spectrum_lenses(lens).unwrap_or_default());
+    let steps = fit_steps(d);
+    let [below, above] = steps.map(|step| {
+        *fits.steps.entry((ghost, step)).or_insert_with(|| {
+            let passing = passing_at_step(lens, middle, ghost, aperture, step);
+            StepFit {
+                passing,
+                spectrum: spectrum_at_step(lens, lenses, ghost, aperture, step, passing),
+            }
         })
-        .reduce(Passing::union)
+    });
+    let passing = match (below.passing, above.passing) {
+        (Some(a), Some(b)) => Some(a.union(b)),
+        (a, b) => a.or(b),
+    };
+    let t = field_deg(d) / FIT_STEP_DEG - f64::from(steps[0]);
+    let spectrum = match (below.spectrum, above.spectrum) {
+        (Some(a), Some(b)) => Some(a.lerp(&b, t)),
+        (a, b) => a.or(b),
+    };
+    (passing, spectrum)
+}
+
+/// The spectral gains the plugin gives the ghost `(first, second)` of
+/// `lens` drawn at `samples` nm for light travelling along `d` (lens
+/// frame), as its drawing multiplies them into the samples' colours: the
+/// ghost's throughput over the band measured at the two fit steps round
+/// the light's angle, linear between them
+/// ([`GhostSpectrum::gains`](optica_optics::lens_flare::GhostSpectrum::gains));
+/// (1, 1, 1) where its light passes at neither. For CPU twins of the
+/// drawn flare; the plugin keeps these fits per camera.
+pub fn spectral_gains(
+    lens: &LensPrescription,
+    ghost: (usize, usize),
+    aperture: &Aperture,
+    d: DVec3,
+    samples: &[f64],
+) -> DVec3 {
+    // The passing light is fitted at the middle sample, as drawn.
+    let wl = samples
+        .get(samples.len() / 2)
+        .copied()
+        .unwrap_or(SINGLE_SAMPLE_NM);
+    let Ok(middle) = PreparedLens::new(lens, wl) else {
+        return DVec3::ONE;
+    };
+    let (_, spectrum) = fit_for(&mut Fits::default(), lens, &middle, ghost, aperture, d);
+    spectrum.map_or(DVec3::ONE, |s| s.gains(samples))
+}
+
+/// The ghost `(first, second)`'s throughput over the band at fit step
+/// `step` (as [`passing_at_step`]'s light), traced with `lenses` (from
+/// [`spectrum_lenses`]) over where its light passes (`passing`, from
+/// [`passing_at_step`]; `None`: nowhere, so no spectrum).
+pub fn spectrum_at_step(
+    lens: &LensPrescription,
+    lenses: &[PreparedLens],
+    (first, second): (usize, usize),
+    aperture: &Aperture,
+    step: i32,
+    passing: Option<Passing>,
+) -> Option<GhostSpectrum> {
+    let path = TracePath::ghost(first, second);
+    let (beam, _) = Beam::meridional(lens, path, step_light(step), SINGLE_SAMPLE_NM).ok()?;
+    let beam = beam.within(passing?.pupil, true);
+    GhostSpectrum::trace(lenses, path, &beam, aperture)
+        .ok()
+        .flatten()
 }

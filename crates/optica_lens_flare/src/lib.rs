@@ -50,7 +50,10 @@
 //! twin of `PreparedLens::trace_to`, held to it by readback), keeping
 //! `r_rel` so the grid stays continuous. A second compute pass colours
 //! every grid cell once, with the irradiance its change of area gives
-//! (bounded gain), and writes the triangles of the cells that add light
+//! (bounded gain) in the wavelength's colour scaled by the ghost's
+//! spectral gains (its throughput over the whole band, measured per
+//! degree of field angle, [`spectral_gains`], so that any wavelength
+//! count carries the band's light and colour), and writes the triangles of the cells that add light
 //! into an index buffer; a draw pass adds them (each ray shaded once,
 //! shared by its cells), clipped per pixel where `r_rel > 1`, at
 //! [`LensFlare::ghost_resolution`] (a quarter of the view's side by
@@ -140,9 +143,10 @@ mod settings;
 
 pub use asset::{LensAsset, LensLoadError, LensLoader};
 pub use diffraction::RINGING_NM;
-pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob, LightProbe, spectral_weight};
+pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob, LightProbe};
 pub use fit::{
     CELL_PX, FIT_RAYS, FIT_STEP_DEG, MIN_SCREEN_GRID, fit_steps, passing_at_step, screen_grid,
+    spectral_gains, spectrum_at_step,
 };
 pub use frame::{SensorMapping, light_in_lens};
 pub use gpu_lens::{

@@ -61,7 +61,11 @@ pub struct LensFlare {
     /// result is turned back to the light's azimuth.
     pub symmetry: bool,
     /// Wavelengths traced, `1..=16`, spread over 420–680 nm (dispersion:
-    /// ghosts move and change colour with the wavelength).
+    /// ghosts move and change colour with the wavelength). Each ghost's
+    /// light and colour are those of the whole band at any count: the
+    /// traced wavelengths are scaled per ghost by its throughput over the
+    /// band (`optica_optics::lens_flare::GhostSpectrum`), so fewer only
+    /// loses the colour fringes of dispersion.
     pub wavelengths: u32,
     /// The iris.
     pub aperture: ApertureSettings,

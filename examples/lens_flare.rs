@@ -10,11 +10,11 @@
 //! ```
 //!
 //! With the `window` feature and a display it opens a window, with an egui
-//! panel (lens, grid, wavelengths, the ghosts' resolution, blades,
-//! f-number, coating, ghost budget, intensity, and the flare's share of the
-//! frame) when the `egui` feature is on; otherwise (or with `--out`) it
-//! renders headlessly and writes `lens_flare_0.png` … `_3.png` to `DIR`, by
-//! default `target/optica/`.
+//! panel (lens, grid, wavelengths and where they merge, the ghosts'
+//! resolution, blades, f-number, coating, ghost budget, intensity, and the
+//! flare's share of the frame) when the `egui` feature is on; otherwise
+//! (or with `--out`) it renders headlessly and writes `lens_flare_0.png` …
+//! `_3.png` to `DIR`, by default `target/optica/`.
 
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
@@ -302,6 +302,10 @@ fn panel(
             ui.label("resolution");
         });
         ui.add(egui::Slider::new(&mut edit.wavelengths, 1..=8).text("wavelengths"));
+        ui.add(
+            egui::Slider::new(&mut edit.merge_wavelengths_px, 0.0..=4.0)
+                .text("merge wavelengths below (px)"),
+        );
         ui.add(egui::Slider::new(&mut edit.aperture.blades, 0..=12).text("blades (0: round)"));
         ui.add(egui::Slider::new(&mut edit.aperture.roundness, 0.0..=1.0).text("blade roundness"));
         let mut stopped = edit.aperture.f_number.is_some();

@@ -402,9 +402,21 @@ fn build(
             // than pixels it covers where the ghosts are added up.
             let middle = &prepared[prepared.len() / 2];
             let (passing, spectrum) = fit_for(fits, lens, middle, (first, second), aperture, d);
+            // A ghost whose wavelengths draw one image (it moves by less
+            // than `merge_wavelengths_px` across the band) is drawn once,
+            // at the middle wavelength: a third of the cells at three.
+            let merged = spectrum.is_some_and(|s| {
+                wavelengths.len() > 1
+                    && s.spread_mm() * ghost_px_per_mm < f64::from(flare.merge_wavelengths_px)
+            });
+            let drawn: &[f64] = if merged {
+                std::slice::from_ref(&wavelengths[wavelengths.len() / 2])
+            } else {
+                &wavelengths
+            };
             // The ghost's colour over the whole band, carried by the
-            // traced wavelengths.
-            let gains = spectrum.map_or(Vec3::ONE, |s| s.gains(&wavelengths).as_vec3());
+            // drawn wavelengths.
+            let gains = spectrum.map_or(Vec3::ONE, |s| s.gains(drawn).as_vec3());
             let passing = if flare.symmetry {
                 let Some(passing) = passing else {
                     continue;
@@ -416,6 +428,9 @@ fn build(
             };
             let cells = f64::from((n - 1) * (n - 1));
             for (w, &wl) in wavelengths.iter().enumerate() {
+                if merged && w != wavelengths.len() / 2 {
+                    continue;
+                }
                 // With symmetry: the light turned into the x–z plane, half
                 // the rows traced and mirrored, the result turned back.
                 let beam = if flare.symmetry {
@@ -433,7 +448,7 @@ fn build(
                 let (Ok(o), Ok(ou), Ok(ov)) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0)) else {
                     continue;
                 };
-                let weight = spectral_weight(wl, &wavelengths).as_vec3() * gains;
+                let weight = spectral_weight(wl, drawn).as_vec3() * gains;
                 jobs.push(GridJob {
                     origin: o.as_vec3(),
                     first: first as u32,

@@ -67,6 +67,14 @@ pub struct LensFlare {
     /// band (`optica_optics::lens_flare::GhostSpectrum`), so fewer only
     /// loses the colour fringes of dispersion.
     pub wavelengths: u32,
+    /// A ghost whose image moves by less than this many pixels across the
+    /// band (where the ghosts are added up: see
+    /// [`LensFlare::ghost_resolution`]) is drawn once, at the middle
+    /// wavelength, in the colour of the whole band, instead of once per
+    /// wavelength: its wavelengths would draw the same image. `0` draws
+    /// every wavelength of every ghost. Measured per ghost and degree of
+    /// field angle (`optica_optics::lens_flare::GhostSpectrum::spread_mm`).
+    pub merge_wavelengths_px: f32,
     /// The iris.
     pub aperture: ApertureSettings,
     /// A single-layer anti-reflection coating put on every glass–air
@@ -136,6 +144,7 @@ impl LensFlare {
             adaptive_grid: true,
             symmetry: true,
             wavelengths: 3,
+            merge_wavelengths_px: 1.0,
             aperture: ApertureSettings::default(),
             coating: Some(CoatingSettings::default()),
             intensity: 1.0,
@@ -164,6 +173,12 @@ impl LensFlare {
         }
         if !(self.intensity >= 0.0 && self.intensity.is_finite()) {
             return Err(format!("flare intensity {} is not >= 0", self.intensity));
+        }
+        if !(self.merge_wavelengths_px >= 0.0 && self.merge_wavelengths_px.is_finite()) {
+            return Err(format!(
+                "flare merge_wavelengths_px {} is not >= 0",
+                self.merge_wavelengths_px
+            ));
         }
         if !(0.0..=1.0).contains(&self.min_relative) {
             return Err(format!(

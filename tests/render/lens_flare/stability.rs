@@ -147,6 +147,30 @@ fn impossible_settings_and_malformed_files_are_refused() {
     );
 }
 
+/// Settings with no meaning are refused by name (the flare then draws
+/// nothing and says why, as above), never drawn as NaN.
+#[test]
+fn bad_numbers_in_the_settings_are_named() {
+    let flare = LensFlare::new(Handle::default());
+    assert_eq!(flare.validate(), Ok(()));
+    for bad in [f32::NAN, -1.0, f32::INFINITY] {
+        let err = LensFlare {
+            merge_wavelengths_px: bad,
+            ..flare.clone()
+        }
+        .validate()
+        .expect_err("refused");
+        assert!(err.contains("merge_wavelengths_px"), "{err}");
+    }
+    let err = LensFlare {
+        wavelengths: 0,
+        ..flare
+    }
+    .validate()
+    .expect_err("refused");
+    assert!(err.contains("wavelengths"), "{err}");
+}
+
 /// Hot reload keeps the last good lens: a `.lens` file overwritten with
 /// random bytes is refused on reload and the flare keeps drawing the
 /// Tessar's ghosts; overwritten with the double Gauss, it reloads and the

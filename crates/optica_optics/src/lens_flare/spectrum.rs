@@ -89,10 +89,12 @@ pub fn spectrum_lenses(prescription: &LensPrescription) -> Result<Vec<PreparedLe
 
 /// One ghost's throughput at the [`SPECTRUM_SAMPLES`] wavelengths: the
 /// summed throughput of a few rays of its beam that pass the lens and the
-/// iris, relative units (only its shape over the band is used).
+/// iris, relative units (only its shape over the band is used); and how
+/// far its image moves across the band ([`GhostSpectrum::spread_mm`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GhostSpectrum {
     throughput: [f64; SPECTRUM_SAMPLES],
+    spread_mm: f64,
 }
 
 impl GhostSpectrum {
@@ -113,7 +115,8 @@ impl GhostSpectrum {
             SPECTRUM_SAMPLES,
         )?;
         let mut throughput = [0.0; SPECTRUM_SAMPLES];
-        for (t, lens) in throughput.iter_mut().zip(lenses) {
+        let mut ends = Vec::with_capacity(2);
+        for (k, (t, lens)) in throughput.iter_mut().zip(lenses).enumerate() {
             let grid = trace_grid(lens, path, beam, SPECTRUM_RAYS, &GridOptions::default())?;
             *t = grid
                 .rays()
@@ -121,9 +124,25 @@ impl GhostSpectrum {
                 .filter(|r| r.passes(aperture))
                 .map(|r| r.throughput)
                 .sum();
+            if k == 0 || k == SPECTRUM_SAMPLES - 1 {
+                ends.push(grid);
+            }
         }
+        // The same ray at the band's two ends, where it shows at either.
+        let spread_mm = ends[0]
+            .rays()
+            .iter()
+            .zip(ends[1].rays())
+            .filter(|(a, b)| a.alive && b.alive && (a.passes(aperture) || b.passes(aperture)))
+            .map(|(a, b)| a.sensor.distance(b.sensor))
+            .fold(None, |m: Option<f64>, d| Some(m.map_or(d, |m| m.max(d))))
+            .filter(|d| d.is_finite())
+            .unwrap_or(f64::INFINITY);
         let any = throughput.iter().any(|&t| t > 0.0);
-        Ok(any.then_some(Self { throughput }))
+        Ok(any.then_some(Self {
+            throughput,
+            spread_mm,
+        }))
     }
 
     /// The spectrum a fraction `t` in [0, 1] of the way to `other`
@@ -138,7 +157,20 @@ impl GhostSpectrum {
         for (a, b) in throughput.iter_mut().zip(other.throughput) {
             *a += (b - *a) * t;
         }
-        Self { throughput }
+        Self {
+            throughput,
+            // Between two angles, the larger (a bound, not a guess).
+            spread_mm: self.spread_mm.max(other.spread_mm),
+        }
+    }
+
+    /// How far the ghost's image moves from one end of the band to the
+    /// other on the sensor, mm: the largest distance between a traced
+    /// ray's landing points at 420 and 680 nm (the rays that show at
+    /// either end); infinite when no ray lands at both. Below a pixel, the
+    /// ghost's wavelengths draw one image and may be drawn as one.
+    pub fn spread_mm(&self) -> f64 {
+        self.spread_mm
     }
 
     /// The throughput at `wl` nm, linear between the traced samples
@@ -220,6 +252,7 @@ mod tests {
     fn a_flat_spectrum_needs_no_gain() {
         let flat = GhostSpectrum {
             throughput: [0.3; SPECTRUM_SAMPLES],
+            spread_mm: 0.0,
         };
         for n in 1..=16 {
             let g = flat.gains(&band_wavelengths(n));
@@ -233,13 +266,17 @@ mod tests {
         // All the light at one end: the middle sample sees none.
         let mut throughput = [0.0; SPECTRUM_SAMPLES];
         throughput[0] = 1.0;
-        let s = GhostSpectrum { throughput };
+        let s = GhostSpectrum {
+            throughput,
+            spread_mm: 0.0,
+        };
         assert_eq!(s.gains(&[550.0]), DVec3::ONE);
         let g = s.gains(&band_wavelengths(2));
         assert!(g.is_finite() && g.max_element() <= MAX_SPECTRAL_GAIN);
         let half = s.lerp(
             &GhostSpectrum {
                 throughput: [1.0; SPECTRUM_SAMPLES],
+                spread_mm: 0.0,
             },
             f64::NAN,
         );
@@ -255,6 +292,54 @@ mod tests {
         let beam = Beam::for_path(&lens, path, DVec3::Z, 550.0).unwrap();
         let aperture = Aperture::of_stop(&lens);
         assert!(GhostSpectrum::trace(&prepared, path, &beam, &aperture).is_err());
+    }
+
+    /// Without dispersion every wavelength draws the same image (spread 0);
+    /// the double Gauss's glasses move its ghosts across the band.
+    #[test]
+    fn the_spread_is_the_image_moving_across_the_band() {
+        let lens = coated_double_gauss();
+        let flat = lens
+            .edited(|surfaces| {
+                for s in surfaces {
+                    s.glass_after =
+                        crate::glass::Glass::constant_checked(s.glass_after.nd()).unwrap();
+                }
+            })
+            .unwrap();
+        let aperture = Aperture::of_stop(&lens);
+        let t = 10f64.to_radians();
+        let d = DVec3::new(t.sin(), 0.0, t.cos());
+        let spreads = |lens: &LensPrescription| -> Vec<f64> {
+            let lenses = spectrum_lenses(lens).unwrap();
+            ghosts(lens)
+                .into_iter()
+                .filter_map(|(i, j)| {
+                    let path = TracePath::ghost(i, j);
+                    let beam = Beam::for_path(lens, path, d, SINGLE_SAMPLE_NM).unwrap();
+                    GhostSpectrum::trace(&lenses, path, &beam, &aperture).unwrap()
+                })
+                .map(|s| s.spread_mm())
+                .collect()
+        };
+        let (flat, dispersive) = (spreads(&flat), spreads(&lens));
+        assert!(flat.len() > 20, "{flat:?}");
+        assert!(flat.iter().all(|&s| s < 1e-9), "{flat:?}");
+        assert!(dispersive.iter().all(|s| !s.is_nan() && *s >= 0.0));
+        let moved = dispersive.iter().filter(|&&s| s > 0.01).count();
+        assert!(moved > dispersive.len() / 2, "{dispersive:?}");
+        // Between two angles the larger spread holds.
+        let (a, b) = (
+            GhostSpectrum {
+                throughput: [1.0; SPECTRUM_SAMPLES],
+                spread_mm: 0.2,
+            },
+            GhostSpectrum {
+                throughput: [1.0; SPECTRUM_SAMPLES],
+                spread_mm: 0.5,
+            },
+        );
+        assert_eq!(a.lerp(&b, 0.1).spread_mm(), 0.5);
     }
 
     /// Every ghost of the coated double Gauss 10° off axis: its power

@@ -78,6 +78,8 @@ struct Setup {
     /// the CPU reference, which has neither.
     diffraction: bool,
     wavelengths: u32,
+    /// `LensFlare::merge_wavelengths_px`.
+    merge_px: f32,
     /// The resolution the ghosts are added up at.
     resolution: GhostResolution,
     /// The timed camera turns a little every frame (its rays are traced
@@ -99,6 +101,7 @@ impl Setup {
             symmetry: true,
             diffraction: false,
             wavelengths: 3,
+            merge_px: 1.0,
             resolution: GhostResolution::default(),
             turning: false,
         }
@@ -172,6 +175,7 @@ fn scene(
                         adaptive_grid: setup.adaptive,
                         symmetry: setup.symmetry,
                         wavelengths: setup.wavelengths,
+                        merge_wavelengths_px: setup.merge_px,
                         ghost_budget: setup.budget,
                         min_relative: 0.0,
                         starburst: defaults.starburst.filter(|_| setup.diffraction),
@@ -468,10 +472,13 @@ fn row(
 /// `wavelengths (32² fixed)`, whose knob is the wavelength count, against
 /// the band integral (a reference at 33 wavelengths, plain weights); `ghost resolution
 /// (defaults)`, whose knob is the divisor of the view's side the ghosts
-/// are added up at (1 and 4 quick, 1, 2, 4 full); `turning camera
-/// (defaults)` (timed only); the full run adds `diffraction` (starburst
-/// and ringing on, timed only) and the zoom's scale case (every unblocked
-/// ghost of 528 with the default settings, 1280×720, timed only).
+/// are added up at (1 and 4 quick, 1, 2, 4 full); `merged wavelengths
+/// (defaults)`, whose knob is `merge_wavelengths_px` (0 and 1 quick; 0,
+/// 0.5, 1, 2 full); `turning camera (defaults)` (timed only); the full
+/// run adds `diffraction` (starburst and ringing on, timed only) and the
+/// zoom's scale case (every unblocked ghost of 528 with the default
+/// settings, and again with every wavelength drawn, 1280×720, timed
+/// only).
 pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
     let size = ctx.pick(128, 512);
     let budget = ctx.pick(8, 91);
@@ -568,6 +575,8 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         // ghosts' 32² target blurs them more than the wavelengths differ.)
         let setup = Setup {
             wavelengths,
+            // Every wavelength drawn: the knob's own effect.
+            merge_px: 0.0,
             adaptive: false,
             resolution: GhostResolution::Half,
             ..Setup::double_gauss(32, budget)
@@ -615,6 +624,25 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             knob,
         )?;
     }
+    // The fourth knob, the image spread below which a ghost's wavelengths
+    // are drawn as one (0: never), with the defaults.
+    for merge_px in ctx.pick(vec![0.0, 1.0], vec![0.0, 0.5, 1.0, 2.0]) {
+        let setup = Setup {
+            merge_px,
+            ..Setup::double_gauss(DEFAULT_GRID, budget)
+        };
+        row(
+            ctx,
+            report,
+            "merged wavelengths (defaults)",
+            setup,
+            size,
+            r,
+            plain,
+            timing,
+            f64::from(merge_px),
+        )?;
+    }
     let turning = Setup {
         turning: true,
         ..Setup::double_gauss(DEFAULT_GRID, budget)
@@ -647,30 +675,42 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             .time_frames(1, 4, scene(None, true, None))?
             .frame_ms
             .median;
-        let timed = ctx.headless(w, h).hdr(true).time_frames(
-            1,
-            4,
-            scene(Some(zoom_setup.clone()), true, None),
-        )?;
         let log = Arc::new(Mutex::new(None));
-        ctx.headless(64, 64)
-            .frames(8)
-            .render(scene(Some(zoom_setup), false, Some(log.clone())))?;
+        ctx.headless(64, 64).frames(8).render(scene(
+            Some(zoom_setup.clone()),
+            false,
+            Some(log.clone()),
+        ))?;
         let drawn = log
             .lock()
             .map_err(|_| SweepError::Setup("log".into()))?
             .as_ref()
             .map_or(0, |g| g.drawn().count());
-        let flare = timed.pass("optica/flare");
-        report.rows.push(counted(
-            Row::new(16.0, timed.frame_ms.median, plain_wide)
-                .series("zoom 1280x720")
-                .work("ghosts", drawn as f64)
-                .work("wavelengths", 3.0)
-                .work("size_px", f64::from(w))
-                .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median)),
-            &timed,
-        ));
+        // The defaults, then every wavelength of every ghost drawn.
+        for (series, merge_px) in [
+            ("zoom 1280x720", zoom_setup.merge_px),
+            ("zoom 1280x720, every wavelength drawn", 0.0),
+        ] {
+            let setup = Setup {
+                merge_px,
+                ..zoom_setup.clone()
+            };
+            let timed =
+                ctx.headless(w, h)
+                    .hdr(true)
+                    .time_frames(1, 4, scene(Some(setup), true, None))?;
+            let flare = timed.pass("optica/flare");
+            report.rows.push(counted(
+                Row::new(16.0, timed.frame_ms.median, plain_wide)
+                    .series(series)
+                    .work("ghosts", drawn as f64)
+                    .work("wavelengths", 3.0)
+                    .work("merge_wavelengths_px", f64::from(merge_px))
+                    .work("size_px", f64::from(w))
+                    .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median)),
+                &timed,
+            ));
+        }
     }
     Ok(())
 }
@@ -697,7 +737,7 @@ mod tests {
                 .find(|r| r.series == series && r.knob == grid)
                 .unwrap_or_else(|| panic!("no {series} row at {grid}"))
         };
-        assert_eq!(rows.len(), 10, "{rows:?}");
+        assert_eq!(rows.len(), 12, "{rows:?}");
         for series in ["rendered", "fixed grid"] {
             let (coarse, fine) = (find(series, 8.0), find(series, 32.0));
             // A finer grid follows the reference more closely.
@@ -723,6 +763,20 @@ mod tests {
         for r in [one, three] {
             assert!(r.error["rel_energy"].abs() < 0.05, "{r:?}");
         }
+        // Drawing a ghost's wavelengths as one where they coincide costs
+        // fewer cells and no visible error.
+        let (every, merged) = (
+            find("merged wavelengths (defaults)", 0.0),
+            find("merged wavelengths (defaults)", 1.0),
+        );
+        assert!(
+            merged.work["cells_invocations"] < every.work["cells_invocations"],
+            "{every:?} vs {merged:?}"
+        );
+        assert!(
+            merged.error["rel_l1"] < every.error["rel_l1"] + 0.02,
+            "{every:?} vs {merged:?}"
+        );
         for r in rows.iter().filter(|r| r.error.contains_key("flip_mean")) {
             assert!((0.0..1.0).contains(&r.error["flip_mean"]), "{r:?}");
         }

@@ -42,13 +42,14 @@ use bevy::render::view::Msaa;
 use optica_harness::{FrameTimings, TimeSource};
 use optica_lens_flare::{
     FlareGhosts, FlareSource, GhostResolution, LensAsset, LensFlare, LensFlarePlugin,
-    SensorMapping, spectral_gains,
+    SensorMapping, passing_at_step, spectral_gains, spectrum_at_step,
 };
 use optica_optics::glam::{DVec2, DVec3};
 use optica_optics::glass::LAMBDA_D_NM;
 use optica_optics::lens::{LensPrescription, PreparedLens, TracePath, builtin};
 use optica_optics::lens_flare::{
-    Beam, GridOptions, SensorImage, SensorWindow, rasterise_into, spectral_weight, trace_grid,
+    Beam, GridOptions, SensorImage, SensorWindow, rasterise_into, spectral_weight, spectrum_lenses,
+    trace_grid,
 };
 
 use super::SweepError;
@@ -208,6 +209,37 @@ fn scene(
             });
         }
     }
+}
+
+/// What a new degree of field angle costs the main thread, ms (a turning
+/// camera meets one per degree; a still one none): where each drawn
+/// ghost's light passes, and its spectrum over the band, at one fit step
+/// (10°, the report's sun), timed here on the CPU as the plugin makes them.
+fn fit_cost(ghosts: &FlareGhosts) -> Result<(f64, f64), SweepError> {
+    let setup = |e: String| SweepError::Setup(e);
+    let lens = ghosts
+        .lens
+        .as_ref()
+        .ok_or_else(|| setup("no lens".into()))?;
+    let aperture = ghosts.aperture.ok_or_else(|| setup("no aperture".into()))?;
+    let middle = PreparedLens::new(lens, 550.0).map_err(|e| setup(e.to_string()))?;
+    let lenses = spectrum_lenses(lens).map_err(|e| setup(e.to_string()))?;
+    let step = 10;
+    let start = std::time::Instant::now();
+    let passing: Vec<_> = ghosts
+        .drawn()
+        .map(|ghost| passing_at_step(lens, &middle, ghost, &aperture, step))
+        .collect();
+    let passing_ms = start.elapsed().as_secs_f64() * 1e3;
+    let start = std::time::Instant::now();
+    let spectra = ghosts
+        .drawn()
+        .zip(passing)
+        .filter_map(|(ghost, p)| spectrum_at_step(lens, &lenses, ghost, &aperture, step, p))
+        .count();
+    let spectrum_ms = start.elapsed().as_secs_f64() * 1e3;
+    std::hint::black_box(spectra);
+    Ok((passing_ms, spectrum_ms))
 }
 
 /// How the CPU reference weights its wavelengths.
@@ -681,11 +713,13 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             false,
             Some(log.clone()),
         ))?;
-        let drawn = log
+        let zoom_ghosts = log
             .lock()
             .map_err(|_| SweepError::Setup("log".into()))?
-            .as_ref()
-            .map_or(0, |g| g.drawn().count());
+            .clone()
+            .ok_or_else(|| SweepError::Setup("the zoom chose no ghosts".into()))?;
+        let drawn = zoom_ghosts.drawn().count();
+        let (passing_ms, spectrum_ms) = fit_cost(&zoom_ghosts)?;
         // The defaults, then every wavelength of every ghost drawn.
         for (series, merge_px) in [
             ("zoom 1280x720", zoom_setup.merge_px),
@@ -706,6 +740,8 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
                     .work("ghosts", drawn as f64)
                     .work("wavelengths", 3.0)
                     .work("merge_wavelengths_px", f64::from(merge_px))
+                    .work("fit_passing_ms_per_degree", passing_ms)
+                    .work("fit_spectrum_ms_per_degree", spectrum_ms)
                     .work("size_px", f64::from(w))
                     .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median)),
                 &timed,

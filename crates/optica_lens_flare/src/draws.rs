@@ -283,6 +283,7 @@ pub(crate) fn prepare_draws(
         if ghosts.is_changed() {
             camera_fits.clear();
         }
+        camera_fits.start_frame();
         let draws = build(
             flare,
             &ghosts,

@@ -97,7 +97,9 @@
 //!   step) instead of the pupil bounds' square, of which wide open only
 //!   about 15 % passes; a ghost that passes at neither is not traced. Each
 //!   grid is also cut to cells of at least [`CELL_PX`] pixels of the
-//!   target the ghosts are added up in ([`screen_grid`]).
+//!   target the ghosts are added up in ([`screen_grid`]). The ghost's
+//!   spectrum (for its spectral gains) is measured at the same degrees,
+//!   at most [`SPECTRUM_BUDGET_MS`] a frame once each ghost has one.
 //! - *Intensity LOD* and *aperture culling*: [`FlareGhosts`].
 //!
 //! ## Diffraction
@@ -145,8 +147,8 @@ pub use asset::{LensAsset, LensLoadError, LensLoader};
 pub use diffraction::RINGING_NM;
 pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob, LightProbe};
 pub use fit::{
-    CELL_PX, FIT_RAYS, FIT_STEP_DEG, MIN_SCREEN_GRID, fit_steps, passing_at_step, screen_grid,
-    spectral_gains, spectrum_at_step,
+    CELL_PX, FIT_RAYS, FIT_STEP_DEG, MIN_SCREEN_GRID, SPECTRUM_BUDGET_MS, fit_steps,
+    passing_at_step, screen_grid, spectral_gains, spectrum_at_step,
 };
 pub use frame::{SensorMapping, light_in_lens};
 pub use gpu_lens::{

@@ -42,7 +42,7 @@ use bevy::render::view::Msaa;
 use optica_harness::{FrameTimings, TimeSource};
 use optica_lens_flare::{
     FlareGhosts, FlareSource, GhostResolution, LensAsset, LensFlare, LensFlarePlugin,
-    SensorMapping, passing_at_step, spectral_gains, spectrum_at_step,
+    SPECTRUM_BUDGET_MS, SensorMapping, passing_at_step, spectral_gains, spectrum_at_step,
 };
 use optica_optics::glam::{DVec2, DVec3};
 use optica_optics::glass::LAMBDA_D_NM;
@@ -742,6 +742,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
                     .work("merge_wavelengths_px", f64::from(merge_px))
                     .work("fit_passing_ms_per_degree", passing_ms)
                     .work("fit_spectrum_ms_per_degree", spectrum_ms)
+                    .work("spectrum_budget_ms_per_frame", SPECTRUM_BUDGET_MS)
                     .work("size_px", f64::from(w))
                     .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median)),
                 &timed,

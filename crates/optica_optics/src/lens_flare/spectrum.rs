@@ -191,9 +191,20 @@ impl GhostSpectrum {
     /// A channel the samples give no light keeps gain 1; gains are at most
     /// [`MAX_SPECTRAL_GAIN`].
     pub fn gains(&self, samples: &[f64]) -> DVec3 {
+        // As `spectral_weight(wl, wls) * self.at(wl)` summed, with the
+        // bands' normalisation taken once: the plugin calls this per ghost
+        // and frame, and 65 points would otherwise cost 65² band responses.
         let weighted = |wls: &[f64]| {
+            if wls.len() <= 1 {
+                return wls
+                    .iter()
+                    .map(|&wl| DVec3::splat(self.at(wl)))
+                    .sum::<DVec3>();
+            }
+            let total = wls.iter().map(|&w| band_response(w)).sum::<DVec3>();
+            let total = total.max(DVec3::splat(1e-12));
             wls.iter()
-                .map(|&wl| spectral_weight(wl, wls) * self.at(wl))
+                .map(|&wl| band_response(wl) / total * self.at(wl))
                 .sum::<DVec3>()
         };
         let band = weighted(&band_wavelengths(BAND_POINTS));

@@ -19,7 +19,8 @@
 //!   coverage over the frame's sensor window, weighted like the plugin's
 //!   colours (each ghost's three samples scaled by its spectral gains;
 //!   for the wavelength series, the band integral: 33 samples at 128²
-//!   rays, quick 64², their weights alone). `rel_l1` = Σ|gpu − ref| / Σ ref over all channels,
+//!   rays, quick 64², their weights alone). `rel_l1` = Σ|gpu − ref| / Σ
+//!   ref over all channels,
 //!   `rel_energy` the signed total, `psnr_db` against the reference's
 //!   peak, `flip_mean` the mean ꟻLIP of the two layers shown as a person
 //!   sees them (divided by the reference's 99.5th percentile, clamped,

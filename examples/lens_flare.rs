@@ -19,7 +19,7 @@
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 #[cfg(feature = "egui")]
-use optica::lens_flare::{FlareGhosts, GhostResolution};
+use optica::lens_flare::{DEFAULT_COARSE_GHOST_PX, FlareGhosts, GhostResolution};
 use optica::lens_flare::{FlareSource, LensFlare, LensFlarePlugin};
 
 const WIDTH: u32 = 960;
@@ -306,6 +306,18 @@ fn panel(
             egui::Slider::new(&mut edit.merge_wavelengths_px, 0.0..=4.0)
                 .text("merge wavelengths below (px)"),
         );
+        let mut coarse = edit.coarse_ghost_px.is_some();
+        ui.checkbox(&mut coarse, "large ghosts at half that resolution");
+        if coarse {
+            let mut px = edit.coarse_ghost_px.unwrap_or(DEFAULT_COARSE_GHOST_PX);
+            ui.add(
+                egui::Slider::new(&mut px, 0.0..=256.0)
+                    .text("when wider than (px of the ghosts' target)"),
+            );
+            edit.coarse_ghost_px = Some(px);
+        } else {
+            edit.coarse_ghost_px = None;
+        }
         ui.add(egui::Slider::new(&mut edit.aperture.blades, 0..=12).text("blades (0: round)"));
         ui.add(egui::Slider::new(&mut edit.aperture.roundness, 0.0..=1.0).text("blade roundness"));
         let mut stopped = edit.aperture.f_number.is_some();

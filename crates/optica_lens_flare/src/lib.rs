@@ -67,9 +67,9 @@
 //! over 4πd²) times the camera's exposure scales its ghosts, so they sit in
 //! the scene's light levels. Pass time shows as the `optica/flare`
 //! diagnostic span, and each pass in it as `optica/flare/occlusion`,
-//! `/trace`, `/fill`, `/cells`, `/draw` and `/composite` (the scaling
-//! up), with the shader invocations it ran where the adapter has
-//! pipeline-statistics queries.
+//! `/trace`, `/fill`, `/cells`, `/coarse` (the large ghosts), `/draw`
+//! and `/composite` (the scaling up), with the shader invocations it ran
+//! where the adapter has pipeline-statistics queries.
 //!
 //! ## The blog's speed-ups
 //!
@@ -101,6 +101,14 @@
 //!   spectrum (for its spectral gains) is measured at the same degrees,
 //!   at most [`SPECTRUM_BUDGET_MS`] a frame once each ghost has one.
 //! - *Intensity LOD* and *aperture culling*: [`FlareGhosts`].
+//!
+//! Beyond the blog, two savings where the result would not differ:
+//! a ghost whose image moves by less than a pixel across the band is drawn
+//! once, at the middle wavelength, in the band's colour
+//! ([`LensFlare::merge_wavelengths_px`]); and a ghost wider than
+//! [`LensFlare::coarse_ghost_px`] (a defocused one, smooth inside) is
+//! added up at half the ghosts' resolution in a pass of its own
+//! (`optica/flare/coarse`) and scaled up into theirs.
 //!
 //! ## Diffraction
 //!
@@ -156,8 +164,8 @@ pub use gpu_lens::{
 };
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate, RANKING_FIELD_DEG, choose};
 pub use settings::{
-    ApertureSettings, CoatingSettings, FlareOcclusion, FlareSource, GhostResolution, LensFlare,
-    MAX_GRID, MAX_WAVELENGTHS, RingingSettings, StarburstSettings,
+    ApertureSettings, CoatingSettings, DEFAULT_COARSE_GHOST_PX, FlareOcclusion, FlareSource,
+    GhostResolution, LensFlare, MAX_GRID, MAX_WAVELENGTHS, RingingSettings, StarburstSettings,
 };
 
 /// Adds [`LensAsset`] loading, [`LensFlare`] and [`FlareSource`]. Without a

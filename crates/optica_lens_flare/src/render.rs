@@ -338,6 +338,17 @@ struct FlareBinding {
     /// With reduced-resolution ghosts: their target, and the bind group
     /// and pipeline that add it to the view.
     reduced: Option<(TextureView, BindGroup, CachedRenderPipelineId)>,
+    /// With large ghosts: their target, the bind group and pipeline that
+    /// add it to the ghosts' target, and their pipeline.
+    coarse: Option<(
+        TextureView,
+        BindGroup,
+        CachedRenderPipelineId,
+        CachedRenderPipelineId,
+    )>,
+    /// The cells added up at the ghosts' resolution (the rest are the
+    /// large ghosts').
+    fine_cells: u32,
     threads: u32,
     /// The rays (the fill pass's threads).
     rays: u32,
@@ -365,8 +376,10 @@ struct FlareBuffers {
     indices: Option<Buffer>,
     /// Each light's visibility, kept between frames for its history.
     visibility: Option<Buffer>,
-    /// The reduced-resolution ghosts' target and its size.
-    reduced: Option<(UVec2, Texture, TextureView)>,
+    /// The reduced-resolution ghosts' target.
+    reduced: Option<GhostTarget>,
+    /// The large ghosts' target, at half the ghosts' resolution.
+    coarse: Option<GhostTarget>,
     /// The lights whose visibility `visibility` holds.
     lights: Vec<Entity>,
     /// Whether the occlusion pass ran last frame (else the buffer holds
@@ -380,6 +393,39 @@ struct FlareBuffers {
     traced: Option<TraceKey>,
     /// The raw visibilities per light `visibility` holds (0: no TAA).
     jitter_cycle: u32,
+}
+
+/// A texture the ghosts are added up in before it is scaled up.
+struct GhostTarget {
+    size: UVec2,
+    /// Kept with its view, which is what the passes use.
+    _texture: Texture,
+    view: TextureView,
+}
+
+impl GhostTarget {
+    fn new(render_device: &RenderDevice, size: UVec2) -> Self {
+        let texture = render_device.create_texture(&TextureDescriptor {
+            label: Some("optica_lens_flare_ghosts"),
+            size: Extent3d {
+                width: size.x,
+                height: size.y,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: TextureDimension::D2,
+            format: GHOST_FORMAT,
+            usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&TextureViewDescriptor::default());
+        Self {
+            size,
+            _texture: texture,
+            view,
+        }
+    }
 }
 
 /// Everything the trace's result depends on: the grids, the lens at each
@@ -503,6 +549,7 @@ fn prepare_flare(
         };
         let [_, starburst] = pipelines_for(format);
         let [draw, _] = pipelines_for(if divisor > 1 { GHOST_FORMAT } else { format });
+        let [coarse_draw, _] = pipelines_for(GHOST_FORMAT);
         // The diffraction textures, once uploaded; until then (and when
         // off) the fallback, and the pass leaves them out.
         let texture = |id: Option<AssetId<Image>>| id.and_then(|id| images.get(id));
@@ -733,39 +780,21 @@ fn prepare_flare(
             _ => None,
         };
         // Reduced-resolution ghosts: their target, made again only when
-        // the view's size or the divisor changes.
-        let reduced = (divisor > 1).then(|| {
-            let size = view.viewport.zw().max(UVec2::ONE);
-            let size = UVec2::new(size.x.div_ceil(divisor), size.y.div_ceil(divisor));
-            let target = match buffers.reduced.take() {
-                Some(kept) if kept.0 == size => kept,
-                _ => {
-                    let texture = render_device.create_texture(&TextureDescriptor {
-                        label: Some("optica_lens_flare_ghosts"),
-                        size: Extent3d {
-                            width: size.x,
-                            height: size.y,
-                            depth_or_array_layers: 1,
-                        },
-                        mip_level_count: 1,
-                        sample_count: 1,
-                        dimension: TextureDimension::D2,
-                        format: GHOST_FORMAT,
-                        usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
-                        view_formats: &[],
-                    });
-                    let texture_view = texture.create_view(&TextureViewDescriptor::default());
-                    (size, texture, texture_view)
-                }
-            };
-            let texture_view = target.2.clone();
-            buffers.reduced = Some(target);
+        // the view's size or the divisor changes; and the large ghosts'
+        // target at half that resolution, when there are any.
+        let view_size = view.viewport.zw().max(UVec2::ONE);
+        let ghost_size = view_size.map(|side| side.div_ceil(divisor));
+        let mut upsampled_into = |target: &mut Option<GhostTarget>, size: UVec2, to| {
+            let kept = target.take().filter(|kept| kept.size == size);
+            let kept = kept.unwrap_or_else(|| GhostTarget::new(&render_device, size));
+            let texture_view = kept.view.clone();
+            *target = Some(kept);
             let layout = shared.upsample_layout.clone();
-            let pipeline = *shared.upsamples.entry(format).or_insert_with(|| {
+            let pipeline = *shared.upsamples.entry(to).or_insert_with(|| {
                 additive_pipeline(
                     &pipeline_cache,
                     layout,
-                    format,
+                    to,
                     "optica_lens_flare_upsample",
                     fullscreen.to_vertex_state(),
                     (UPSAMPLE_SHADER, "upsample".into(), vec![]),
@@ -777,9 +806,26 @@ fn prepare_flare(
                 &BindGroupEntries::sequential((&texture_view, &shared.upsample_sampler)),
             );
             (texture_view, group, pipeline)
-        });
+        };
+        let reduced =
+            (divisor > 1).then(|| upsampled_into(&mut buffers.reduced, ghost_size, format));
         if divisor == 1 {
             buffers.reduced = None;
+        }
+        // The cells before `fine_cells` are added up at the ghosts'
+        // resolution, the rest (the large ghosts') at half of it.
+        let fine_cells = draws
+            .jobs
+            .get(draws.coarse_from)
+            .map_or(params.cells, GridJob::cell_start)
+            .min(params.cells);
+        let ghost_format = if divisor > 1 { GHOST_FORMAT } else { format };
+        let coarse = (fine_cells < params.cells).then(|| {
+            let size = ghost_size.map(|side| side.div_ceil(2));
+            upsampled_into(&mut buffers.coarse, size, ghost_format)
+        });
+        if coarse.is_none() {
+            buffers.coarse = None;
         }
         // Trace only when what the rays depend on changed, or they have
         // not been traced into this buffer yet (the passes run only once
@@ -793,10 +839,15 @@ fn prepare_flare(
         let ready = [trace, fill, cells_pipeline]
             .into_iter()
             .all(|id| pipeline_cache.get_compute_pipeline(id).is_some())
-            && [Some(draw), reduced.as_ref().map(|r| r.2)]
-                .into_iter()
-                .flatten()
-                .all(|id| pipeline_cache.get_render_pipeline(id).is_some());
+            && [
+                Some(draw),
+                reduced.as_ref().map(|r| r.2),
+                coarse.as_ref().map(|c| c.2),
+                coarse.as_ref().map(|_| coarse_draw),
+            ]
+            .into_iter()
+            .flatten()
+            .all(|id| pipeline_cache.get_render_pipeline(id).is_some());
         if !ready {
             // The passes wait for every pipeline as this system saw them
             // (the cache may finish one before the passes run), so that
@@ -811,6 +862,8 @@ fn prepare_flare(
         commands.entity(entity).insert(FlareBinding {
             retrace,
             reduced,
+            coarse: coarse.map(|(view, group, upsample)| (view, group, upsample, coarse_draw)),
+            fine_cells,
             trace_group,
             cells_group,
             draw_group,
@@ -856,6 +909,16 @@ fn flare_passes(
         Some((texture, group, id)) => match pipeline_cache.get_render_pipeline(*id) {
             Some(pipeline) => Some((texture, group, pipeline)),
             None => return,
+        },
+        None => None,
+    };
+    let coarse = match &binding.coarse {
+        Some((texture, group, upsample, draw)) => match (
+            pipeline_cache.get_render_pipeline(*upsample),
+            pipeline_cache.get_render_pipeline(*draw),
+        ) {
+            (Some(upsample), Some(draw)) => Some((texture, group, upsample, draw)),
+            _ => return,
         },
         None => None,
     };
@@ -917,6 +980,34 @@ fn flare_passes(
         },
         None => view_attachment.clone(),
     };
+    // The large ghosts first, into their own target at half the
+    // resolution, which the ghosts' pass then scales up into its own.
+    if let Some((texture, _, _, coarse_draw)) = &coarse {
+        let mut pass = ctx
+            .command_encoder()
+            .begin_render_pass(&RenderPassDescriptor {
+                label: Some("optica_lens_flare_coarse"),
+                color_attachments: &[Some(RenderPassColorAttachment {
+                    view: texture,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: Operations {
+                        load: LoadOp::Clear(Default::default()),
+                        store: StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+        let pass_span = diagnostics.pass_span(&mut pass, "coarse");
+        pass.set_pipeline(coarse_draw);
+        pass.set_bind_group(0, &binding.draw_group, &[]);
+        pass.set_index_buffer((*binding.indices).slice(..), IndexFormat::Uint32);
+        pass.draw_indexed(6 * binding.fine_cells..6 * binding.cell_count, 0, 0..1);
+        pass_span.end(&mut pass);
+    }
     {
         let mut pass = ctx
             .command_encoder()
@@ -932,7 +1023,13 @@ fn flare_passes(
         pass.set_pipeline(draw);
         pass.set_bind_group(0, &binding.draw_group, &[]);
         pass.set_index_buffer((*binding.indices).slice(..), IndexFormat::Uint32);
-        pass.draw_indexed(0..6 * binding.cell_count, 0, 0..1);
+        pass.draw_indexed(0..6 * binding.fine_cells, 0, 0..1);
+        if let Some((_, group, upsample, _)) = coarse {
+            pass.set_pipeline(upsample);
+            pass.set_bind_group(0, group, &[]);
+            pass.draw(0..3, 0..1);
+            pass.set_bind_group(0, &binding.draw_group, &[]);
+        }
         if let (None, Some(starburst)) = (&reduced, starburst) {
             pass.set_pipeline(starburst);
             pass.draw(0..6, 0..binding.lights);

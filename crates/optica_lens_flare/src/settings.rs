@@ -11,6 +11,8 @@ use crate::LensAsset;
 pub const MAX_GRID: u32 = 512;
 /// Most wavelengths a flare is traced at.
 pub const MAX_WAVELENGTHS: u32 = 16;
+/// [`LensFlare::coarse_ghost_px`]'s default.
+pub const DEFAULT_COARSE_GHOST_PX: f32 = 64.0;
 
 /// Physically based lens flare on a camera: ghosts (light reflected twice
 /// inside the lens) traced through a real lens prescription.
@@ -98,6 +100,19 @@ pub struct LensFlare {
     /// The resolution the ghosts are added up at before they are scaled up
     /// onto the view (the starburst is always drawn at full resolution).
     pub ghost_resolution: GhostResolution,
+    /// A ghost whose image is wider than this many pixels where the ghosts
+    /// are added up (see [`LensFlare::ghost_resolution`]) is added up at
+    /// half that resolution, a quarter of its pixels, and scaled up with
+    /// the rest (its grid stays as fine). Large ghosts are the defocused
+    /// ones, smooth inside, and their softened iris edge is a small part of
+    /// their light; they are also most of the flare's pixels: on the zoom
+    /// (311 ghosts, 1280×720) the default cuts the fragments shaded from
+    /// 23.9 M to 9.0 M and the flare pass from about 400 ms to 230 ms on
+    /// lavapipe. The price is softer edges on the bright large ghosts: on
+    /// the double Gauss at 512² the relative L1 against the reference
+    /// goes from 0.10 to 0.14 (128 px: 0.13). `None` adds every ghost up
+    /// at `ghost_resolution`; `Some(0.0)` every ghost at half of it.
+    pub coarse_ghost_px: Option<f32>,
 }
 
 /// The resolution a [`LensFlare`] adds its ghosts up at: the cost of the
@@ -154,6 +169,7 @@ impl LensFlare {
             starburst: Some(StarburstSettings::default()),
             ringing: Some(RingingSettings::default()),
             ghost_resolution: GhostResolution::Quarter,
+            coarse_ghost_px: Some(DEFAULT_COARSE_GHOST_PX),
         }
     }
 
@@ -179,6 +195,11 @@ impl LensFlare {
                 "flare merge_wavelengths_px {} is not >= 0",
                 self.merge_wavelengths_px
             ));
+        }
+        if let Some(px) = self.coarse_ghost_px
+            && !(px >= 0.0 && px.is_finite())
+        {
+            return Err(format!("flare coarse_ghost_px {px} is not >= 0"));
         }
         if !(0.0..=1.0).contains(&self.min_relative) {
             return Err(format!(

@@ -77,6 +77,7 @@ fn parity(lens_path: &'static str, budget: u32) -> (f64, f64) {
                         ringing: None,
                         // Every pixel drawn, as the CPU rasterises.
                         ghost_resolution: GhostResolution::Full,
+                        coarse_ghost_px: None,
                         ..LensFlare::new(assets.load(lens_path))
                     };
                     flare.aperture.blades = 0;

@@ -320,6 +320,60 @@ fn ghosts_added_up_at_a_reduced_resolution_keep_their_light() {
     }
 }
 
+/// Large ghosts added up at half the ghosts' resolution
+/// ([`LensFlare::coarse_ghost_px`]) and scaled up with the rest keep their
+/// light and place, as a reduced resolution does; with every ghost coarse
+/// (a limit of 0 px) the frame is the ghosts at half resolution, with a
+/// coarse pass of its own, and with none there is no such pass.
+#[test]
+fn large_ghosts_added_up_at_half_resolution_keep_their_light() {
+    let at = |coarse: Option<f32>| {
+        move |f: &mut LensFlare| {
+            f.ghost_resolution = GhostResolution::Full;
+            f.coarse_ghost_px = coarse;
+        }
+    };
+    let fine = layer(at(None));
+    let coarse = layer(at(Some(0.0)));
+    let total = fine.iter().sum::<f64>();
+    assert!(total > 0.0);
+    let energy = coarse.iter().sum::<f64>() / total - 1.0;
+    let l1 = fine
+        .iter()
+        .zip(&coarse)
+        .map(|(a, b)| (a - b).abs())
+        .sum::<f64>()
+        / total;
+    eprintln!("every ghost coarse: light {energy:+.4}, relative L1 {l1:.4}");
+    assert!(energy.abs() < 0.03, "light {energy}");
+    assert!(l1 < 0.15, "relative L1 {l1}");
+    // The coarse pass runs where a ghost is large, and only there.
+    let travel = Vec3::new(-0.15, -0.15, 1.0).normalize();
+    let passes = |coarse: Option<f32>| {
+        let timed = Headless::new(SIZE, SIZE)
+            .hdr(true)
+            .time_frames(1, 2, scene_with(travel, true, at(coarse)))
+            .expect("timed");
+        let fragments = |pass: &str| {
+            timed
+                .span(&format!("optica/flare/{pass}"))
+                .and_then(|s| s.counts.get("fragment_shader_invocations"))
+                .map(|c| c.median)
+        };
+        (fragments("draw"), fragments("coarse"))
+    };
+    let (none_draw, none_coarse) = passes(None);
+    let (all_draw, all_coarse) = passes(Some(0.0));
+    eprintln!(
+        "fragments: fine only {none_draw:?}, coarse {none_coarse:?}; all coarse {all_draw:?}, {all_coarse:?}"
+    );
+    assert!(none_coarse.is_none(), "{none_coarse:?}");
+    let (Some(none_draw), Some(all_coarse)) = (none_draw, all_coarse) else {
+        panic!("uncounted: {none_draw:?} {all_coarse:?}");
+    };
+    assert!(all_coarse < 0.5 * none_draw, "{all_coarse} vs {none_draw}");
+}
+
 /// The rays depend only on the grids, the lens and the settings: a still
 /// camera traces them once, not every frame, while the cell pass still
 /// runs each frame (a light's visibility can change); a turning camera

@@ -161,6 +161,13 @@ fn bad_numbers_in_the_settings_are_named() {
         .validate()
         .expect_err("refused");
         assert!(err.contains("merge_wavelengths_px"), "{err}");
+        let err = LensFlare {
+            coarse_ghost_px: Some(bad),
+            ..flare.clone()
+        }
+        .validate()
+        .expect_err("refused");
+        assert!(err.contains("coarse_ghost_px"), "{err}");
     }
     let err = LensFlare {
         wavelengths: 0,

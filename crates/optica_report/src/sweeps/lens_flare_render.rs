@@ -42,8 +42,9 @@ use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::{FrameTimings, TimeSource};
 use optica_lens_flare::{
-    FlareGhosts, FlareSource, GhostResolution, LensAsset, LensFlare, LensFlarePlugin,
-    SPECTRUM_BUDGET_MS, SensorMapping, passing_at_step, spectral_gains, spectrum_at_step,
+    DEFAULT_COARSE_GHOST_PX, FlareGhosts, FlareSource, GhostResolution, LensAsset, LensFlare,
+    LensFlarePlugin, SPECTRUM_BUDGET_MS, SensorMapping, passing_at_step, spectral_gains,
+    spectrum_at_step,
 };
 use optica_optics::glam::{DVec2, DVec3};
 use optica_optics::glass::LAMBDA_D_NM;
@@ -82,6 +83,8 @@ struct Setup {
     wavelengths: u32,
     /// `LensFlare::merge_wavelengths_px`.
     merge_px: f32,
+    /// `LensFlare::coarse_ghost_px`.
+    coarse_px: Option<f32>,
     /// The resolution the ghosts are added up at.
     resolution: GhostResolution,
     /// The timed camera turns a little every frame (its rays are traced
@@ -104,6 +107,7 @@ impl Setup {
             diffraction: false,
             wavelengths: 3,
             merge_px: 1.0,
+            coarse_px: Some(DEFAULT_COARSE_GHOST_PX),
             resolution: GhostResolution::default(),
             turning: false,
         }
@@ -178,6 +182,7 @@ fn scene(
                         symmetry: setup.symmetry,
                         wavelengths: setup.wavelengths,
                         merge_wavelengths_px: setup.merge_px,
+                        coarse_ghost_px: setup.coarse_px,
                         ghost_budget: setup.budget,
                         min_relative: 0.0,
                         starburst: defaults.starburst.filter(|_| setup.diffraction),
@@ -353,7 +358,8 @@ fn displayed(rgb: &[[f64; 3]], size: u32, white: f64) -> image::RgbaImage {
 /// The work the device counted per frame (medians of the frames a pass
 /// ran in), where it has pipeline-statistics queries: the flare's passes
 /// (`trace_invocations`, `cells_invocations`, `occlusion_invocations`,
-/// `draw_vertices`, `draw_fragments`, `composite_fragments`) and the
+/// `draw_vertices`, `draw_fragments`, the large ghosts' `coarse_vertices`
+/// and `coarse_fragments`, `composite_fragments`) and the
 /// scene's main pass (`main_vertices`, `main_fragments`), so that the
 /// flare's cost can be judged on any device (lavapipe counts fragments in
 /// whole 4×4 blocks per triangle); and `trace_frames`, the timed frames
@@ -394,6 +400,16 @@ fn counted(mut row: Row, timed: &FrameTimings) -> Row {
         (
             "draw_fragments",
             "optica/flare/draw",
+            "fragment_shader_invocations",
+        ),
+        (
+            "coarse_vertices",
+            "optica/flare/coarse",
+            "vertex_shader_invocations",
+        ),
+        (
+            "coarse_fragments",
+            "optica/flare/coarse",
             "fragment_shader_invocations",
         ),
         (
@@ -507,7 +523,9 @@ fn row(
 /// (defaults)`, whose knob is the divisor of the view's side the ghosts
 /// are added up at (1 and 4 quick, 1, 2, 4 full); `merged wavelengths
 /// (defaults)`, whose knob is `merge_wavelengths_px` (0 and 1 quick; 0,
-/// 0.5, 1, 2 full); `turning camera (defaults)` (timed only); the full
+/// 0.5, 1, 2 full); `coarse ghosts (defaults)`, whose knob is
+/// `coarse_ghost_px` (16 quick; 32, 64, 128, 192 full), and `no coarse
+/// ghosts (defaults)`; `turning camera (defaults)` (timed only); the full
 /// run adds `diffraction` (starburst and ringing on, timed only) and the
 /// zoom's scale case (every unblocked ghost of 528 with the default
 /// settings, and again with every wavelength drawn, 1280×720, timed
@@ -608,8 +626,10 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         // ghosts' 32² target blurs them more than the wavelengths differ.)
         let setup = Setup {
             wavelengths,
-            // Every wavelength drawn: the knob's own effect.
+            // Every wavelength drawn, each at the ghosts' resolution: the
+            // knob's own effect.
             merge_px: 0.0,
+            coarse_px: None,
             adaptive: false,
             resolution: GhostResolution::Half,
             ..Setup::double_gauss(32, budget)
@@ -676,6 +696,23 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             f64::from(merge_px),
         )?;
     }
+    // The fifth knob, the image size above which a ghost is added up at
+    // half the ghosts' resolution, with the defaults; and with none so.
+    let coarse_knobs = ctx.pick(
+        vec![None, Some(16.0)],
+        vec![None, Some(32.0), Some(64.0), Some(128.0), Some(192.0)],
+    );
+    for coarse_px in coarse_knobs {
+        let setup = Setup {
+            coarse_px,
+            ..Setup::double_gauss(DEFAULT_GRID, budget)
+        };
+        let (series, knob) = match coarse_px {
+            Some(px) => ("coarse ghosts (defaults)", f64::from(px)),
+            None => ("no coarse ghosts (defaults)", f64::from(DEFAULT_GRID)),
+        };
+        row(ctx, report, series, setup, size, r, plain, timing, knob)?;
+    }
     let turning = Setup {
         turning: true,
         ..Setup::double_gauss(DEFAULT_GRID, budget)
@@ -692,63 +729,77 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         f64::from(DEFAULT_GRID),
     )?;
     if !ctx.quick {
-        ctx.progress(
-            grids.len(),
-            grids.len(),
-            "zoom, every unblocked ghost, 16² on average",
-        );
-        let (w, h) = (1280, 720);
-        let zoom_setup = Setup {
-            lens: zoom()?,
-            ..Setup::double_gauss(DEFAULT_GRID, 528)
+        zoom_rows(ctx, report)?;
+    }
+    Ok(())
+}
+
+/// The zoom's scale case, timed only: every unblocked ghost of 528 with the
+/// default settings at 1280×720, then with every wavelength drawn, then
+/// with no ghost added up at half resolution.
+fn zoom_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
+    ctx.progress(1, 1, "zoom, every unblocked ghost, 16² on average");
+    let (w, h) = (1280, 720);
+    let zoom_setup = Setup {
+        lens: zoom()?,
+        ..Setup::double_gauss(DEFAULT_GRID, 528)
+    };
+    let plain_wide = ctx
+        .headless(w, h)
+        .hdr(true)
+        .time_frames(1, 4, scene(None, true, None))?
+        .frame_ms
+        .median;
+    let log = Arc::new(Mutex::new(None));
+    ctx.headless(64, 64).frames(8).render(scene(
+        Some(zoom_setup.clone()),
+        false,
+        Some(log.clone()),
+    ))?;
+    let zoom_ghosts = log
+        .lock()
+        .map_err(|_| SweepError::Setup("log".into()))?
+        .clone()
+        .ok_or_else(|| SweepError::Setup("the zoom chose no ghosts".into()))?;
+    let drawn = zoom_ghosts.drawn().count();
+    let (passing_ms, spectrum_ms) = fit_cost(&zoom_ghosts)?;
+    // The defaults, then every wavelength of every ghost drawn, then
+    // every ghost added up at the ghosts' resolution.
+    for (series, merge_px, coarse_px) in [
+        ("zoom 1280x720", zoom_setup.merge_px, zoom_setup.coarse_px),
+        (
+            "zoom 1280x720, every wavelength drawn",
+            0.0,
+            zoom_setup.coarse_px,
+        ),
+        ("zoom 1280x720, no coarse ghosts", zoom_setup.merge_px, None),
+    ] {
+        let setup = Setup {
+            merge_px,
+            coarse_px,
+            ..zoom_setup.clone()
         };
-        let plain_wide = ctx
-            .headless(w, h)
-            .hdr(true)
-            .time_frames(1, 4, scene(None, true, None))?
-            .frame_ms
-            .median;
-        let log = Arc::new(Mutex::new(None));
-        ctx.headless(64, 64).frames(8).render(scene(
-            Some(zoom_setup.clone()),
-            false,
-            Some(log.clone()),
-        ))?;
-        let zoom_ghosts = log
-            .lock()
-            .map_err(|_| SweepError::Setup("log".into()))?
-            .clone()
-            .ok_or_else(|| SweepError::Setup("the zoom chose no ghosts".into()))?;
-        let drawn = zoom_ghosts.drawn().count();
-        let (passing_ms, spectrum_ms) = fit_cost(&zoom_ghosts)?;
-        // The defaults, then every wavelength of every ghost drawn.
-        for (series, merge_px) in [
-            ("zoom 1280x720", zoom_setup.merge_px),
-            ("zoom 1280x720, every wavelength drawn", 0.0),
-        ] {
-            let setup = Setup {
-                merge_px,
-                ..zoom_setup.clone()
-            };
-            let timed =
-                ctx.headless(w, h)
-                    .hdr(true)
-                    .time_frames(1, 4, scene(Some(setup), true, None))?;
-            let flare = timed.pass("optica/flare");
-            report.rows.push(counted(
-                Row::new(16.0, timed.frame_ms.median, plain_wide)
-                    .series(series)
-                    .work("ghosts", drawn as f64)
-                    .work("wavelengths", 3.0)
-                    .work("merge_wavelengths_px", f64::from(merge_px))
-                    .work("fit_passing_ms_per_degree", passing_ms)
-                    .work("fit_spectrum_ms_per_degree", spectrum_ms)
-                    .work("spectrum_budget_ms_per_frame", SPECTRUM_BUDGET_MS)
-                    .work("size_px", f64::from(w))
-                    .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median)),
-                &timed,
-            ));
+        let timed =
+            ctx.headless(w, h)
+                .hdr(true)
+                .time_frames(1, 4, scene(Some(setup), true, None))?;
+        let flare = timed.pass("optica/flare");
+        let mut row = Row::new(16.0, timed.frame_ms.median, plain_wide);
+        if let Some(px) = coarse_px {
+            row = row.work("coarse_ghost_px", f64::from(px));
         }
+        report.rows.push(counted(
+            row.series(series)
+                .work("ghosts", drawn as f64)
+                .work("wavelengths", 3.0)
+                .work("merge_wavelengths_px", f64::from(merge_px))
+                .work("fit_passing_ms_per_degree", passing_ms)
+                .work("fit_spectrum_ms_per_degree", spectrum_ms)
+                .work("spectrum_budget_ms_per_frame", SPECTRUM_BUDGET_MS)
+                .work("size_px", f64::from(w))
+                .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median)),
+            &timed,
+        ));
     }
     Ok(())
 }
@@ -775,7 +826,7 @@ mod tests {
                 .find(|r| r.series == series && r.knob == grid)
                 .unwrap_or_else(|| panic!("no {series} row at {grid}"))
         };
-        assert_eq!(rows.len(), 12, "{rows:?}");
+        assert_eq!(rows.len(), 14, "{rows:?}");
         for series in ["rendered", "fixed grid"] {
             let (coarse, fine) = (find(series, 8.0), find(series, 32.0));
             // A finer grid follows the reference more closely.
@@ -814,6 +865,27 @@ mod tests {
         assert!(
             merged.error["rel_l1"] < every.error["rel_l1"] + 0.02,
             "{every:?} vs {merged:?}"
+        );
+        // Large ghosts added up at half the resolution shade fewer
+        // fragments and keep their light (the quick run's small grids
+        // themselves miss it by several per cent); their edges soften (at
+        // 128² the coarse target is 16²: more than at full size).
+        let (fine, coarse) = (
+            find("no coarse ghosts (defaults)", 16.0),
+            find("coarse ghosts (defaults)", 16.0),
+        );
+        let shaded = |r: &Row| {
+            r.work["draw_fragments"] + r.work.get("coarse_fragments").copied().unwrap_or(0.0)
+        };
+        assert!(coarse.work["coarse_fragments"] > 0.0, "{coarse:?}");
+        assert!(shaded(coarse) < shaded(fine), "{fine:?} vs {coarse:?}");
+        assert!(
+            coarse.error["rel_energy"].abs() < fine.error["rel_energy"].abs() + 0.03,
+            "{fine:?} vs {coarse:?}"
+        );
+        assert!(
+            coarse.error["rel_l1"] < fine.error["rel_l1"] + 0.25,
+            "{fine:?} vs {coarse:?}"
         );
         for r in rows.iter().filter(|r| r.error.contains_key("flip_mean")) {
             assert!((0.0..1.0).contains(&r.error["flip_mean"]), "{r:?}");

@@ -47,7 +47,7 @@ pub struct GridJob {
     dv: Vec3,
     lens_base: u32,
     dir: Vec3,
-    cell_pupil_mm2: f32,
+    cell_pupil_area: f32,
     /// Linear RGB added per unit irradiance; w: the wavelength, nm.
     color: Vec4,
     /// The light's index in [`FlareDraws::lights`].
@@ -483,7 +483,7 @@ fn build(
                     dv: (ov - o).as_vec3(),
                     lens_base: w as u32 * count,
                     dir: DVec3::as_vec3(beam.direction()),
-                    cell_pupil_mm2: (beam.cross_section_mm2() / cells) as f32,
+                    cell_pupil_area: (beam.cross_section_mm2() / cells) as f32,
                     color: (rgb * weight).extend(wl as f32),
                     light,
                     n,

@@ -5,15 +5,19 @@ use optica_optics::lens::PreparedLens;
 use optica_optics::lens_flare::{Aperture, ApertureShape};
 
 /// The trace shader library (`shaders/lens_trace.wgsl`), the WGSL twin of
-/// `optica_optics::lens::PreparedLens::trace_to`. It reads the lens through
+/// `optica_optics::lens::PreparedLens::trace_to`, the shader library
+/// `optica_lens_flare::lens_trace`. It reads the lens through the virtual
 /// `surface_count()` and `surface_at(k)`, which the including shader
-/// defines.
+/// overrides; pasted into plain WGSL (a readback test), its
+/// `#define_import_path` line and those two defaults are left out and the
+/// two defined instead.
 pub const LENS_TRACE_WGSL: &str = include_str!("shaders/lens_trace.wgsl");
 
 /// The aperture test (`shaders/aperture.wgsl`), the WGSL twin of
 /// `optica_optics::lens_flare::Aperture::contains`:
 /// `aperture_contains(p, blades, rotation, radius, arc_w)` with
-/// [`aperture_params`] (blades 0 = round).
+/// [`aperture_params`] (blades 0 = round); the shader library
+/// `optica_lens_flare::aperture`.
 pub const APERTURE_WGSL: &str = include_str!("shaders/aperture.wgsl");
 
 /// The aperture as `aperture_contains` takes it: blades (0 = round),

@@ -9,7 +9,7 @@
 //! when the first flare camera needs them; views without `FlareDraws` (or
 //! with no grid this frame) run no pass.
 
-use bevy::asset::uuid_handle;
+use bevy::asset::embedded_asset;
 use bevy::core_pipeline::tonemapping::tonemapping;
 use bevy::core_pipeline::{Core3d, Core3dSystems, FullscreenShader};
 use bevy::diagnostic::FrameCount;
@@ -42,20 +42,26 @@ use bevy::render::texture::{FallbackImage, GpuImage};
 use bevy::render::view::{ExtractedView, Msaa, ViewDepthTexture, ViewTarget};
 use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use bevy::shader::Shader;
+use bevy::shader::load_shader_library;
 
 use crate::draws::{FlareDraws, FlareParams, GpuSurface, GridJob, LightProbe};
-use crate::{APERTURE_WGSL, LENS_TRACE_WGSL};
 
-/// The compute shader: the trace library and the pass's bindings.
-const TRACE_SHADER: Handle<Shader> = uuid_handle!("6b1c7f0e-3d2a-4c55-9a61-0f6f6c1d2a71");
-/// The draw shader.
-const DRAW_SHADER: Handle<Shader> = uuid_handle!("b3e2a9d4-8f17-4e0b-a1c2-5d9e7f3a4b60");
-/// The cell shader.
-const CELLS_SHADER: Handle<Shader> = uuid_handle!("5a0e4f3c-9b7d-4d21-8c6e-2f1b3a9d7e48");
-/// The shader that scales reduced-resolution ghosts up onto the view.
-const UPSAMPLE_SHADER: Handle<Shader> = uuid_handle!("c2d4e6f8-1a3b-4c5d-8e7f-9a0b1c2d3e4f");
-/// The occlusion shader.
-const OCCLUSION_SHADER: Handle<Shader> = uuid_handle!("0f5d8c3e-7a61-4b2f-9e48-c1d0a7b9e253");
+/// Where `embedded_asset!` puts the passes' shaders; they import the
+/// libraries `optica_lens_flare::{types, lens_trace, aperture}`.
+const TRACE_SHADER: &str = "embedded://optica_lens_flare/shaders/ghost_trace.wgsl";
+const DRAW_SHADER: &str = "embedded://optica_lens_flare/shaders/ghost_draw.wgsl";
+const CELLS_SHADER: &str = "embedded://optica_lens_flare/shaders/ghost_cells.wgsl";
+const UPSAMPLE_SHADER: &str = "embedded://optica_lens_flare/shaders/upsample.wgsl";
+const OCCLUSION_SHADER: &str = "embedded://optica_lens_flare/shaders/visibility.wgsl";
+
+/// The passes' shaders, loaded once.
+struct FlareShaders {
+    trace: Handle<Shader>,
+    draw: Handle<Shader>,
+    cells: Handle<Shader>,
+    upsample: Handle<Shader>,
+    occlusion: Handle<Shader>,
+}
 
 /// Bytes per traced ray (`RayOut`: 12 floats).
 const RAY_BYTES: u64 = 48;
@@ -72,48 +78,14 @@ pub(crate) struct FlareRenderPlugin;
 
 impl Plugin for FlareRenderPlugin {
     fn build(&self, app: &mut App) {
-        if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
-            let types = include_str!("shaders/flare_types.wgsl");
-            let trace = format!(
-                "{LENS_TRACE_WGSL}\n{types}\n{}",
-                include_str!("shaders/ghost_trace.wgsl")
-            );
-            let _ = shaders.insert(
-                TRACE_SHADER.id(),
-                Shader::from_wgsl(trace, "optica_lens_flare/shaders/ghost_trace.wgsl"),
-            );
-            let _ = shaders.insert(
-                DRAW_SHADER.id(),
-                Shader::from_wgsl(
-                    format!(
-                        "{APERTURE_WGSL}\n{types}\n{}",
-                        include_str!("shaders/ghost_draw.wgsl")
-                    ),
-                    "optica_lens_flare/shaders/ghost_draw.wgsl",
-                ),
-            );
-            let _ = shaders.insert(
-                CELLS_SHADER.id(),
-                Shader::from_wgsl(
-                    format!("{types}\n{}", include_str!("shaders/ghost_cells.wgsl")),
-                    "optica_lens_flare/shaders/ghost_cells.wgsl",
-                ),
-            );
-            let _ = shaders.insert(
-                UPSAMPLE_SHADER.id(),
-                Shader::from_wgsl(
-                    include_str!("shaders/upsample.wgsl"),
-                    "optica_lens_flare/shaders/upsample.wgsl",
-                ),
-            );
-            let _ = shaders.insert(
-                OCCLUSION_SHADER.id(),
-                Shader::from_wgsl(
-                    format!("{types}\n{}", include_str!("shaders/visibility.wgsl")),
-                    "optica_lens_flare/shaders/visibility.wgsl",
-                ),
-            );
-        }
+        load_shader_library!(app, "shaders/flare_types.wgsl");
+        load_shader_library!(app, "shaders/lens_trace.wgsl");
+        load_shader_library!(app, "shaders/aperture.wgsl");
+        embedded_asset!(app, "shaders/ghost_trace.wgsl");
+        embedded_asset!(app, "shaders/ghost_cells.wgsl");
+        embedded_asset!(app, "shaders/ghost_draw.wgsl");
+        embedded_asset!(app, "shaders/upsample.wgsl");
+        embedded_asset!(app, "shaders/visibility.wgsl");
         app.add_plugins(ExtractComponentPlugin::<FlareDraws>::default());
         let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
             return;
@@ -137,6 +109,7 @@ impl Plugin for FlareRenderPlugin {
 /// Layouts and the pipelines, queued on first use.
 #[derive(Resource)]
 struct FlareShared {
+    shaders: FlareShaders,
     trace_layout: BindGroupLayoutDescriptor,
     cells_layout: BindGroupLayoutDescriptor,
     draw_layout: BindGroupLayoutDescriptor,
@@ -160,6 +133,7 @@ struct FlareShared {
 /// `entry` (`vertex` / `fragment` with the prefix).
 fn draw_pipeline(
     pipeline_cache: &PipelineCache,
+    shader: &Handle<Shader>,
     layout: BindGroupLayoutDescriptor,
     (format, bladed): (TextureFormat, bool),
     label: &'static str,
@@ -176,12 +150,12 @@ fn draw_pipeline(
         format,
         label,
         VertexState {
-            shader: DRAW_SHADER,
+            shader: shader.clone(),
             shader_defs: shader_defs.clone(),
             entry_point: Some(format!("{prefix}vertex").into()),
             ..default()
         },
-        (DRAW_SHADER, format!("{prefix}fragment"), shader_defs),
+        (shader.clone(), format!("{prefix}fragment"), shader_defs),
     )
 }
 
@@ -244,7 +218,11 @@ fn occlusion_layout(multisampled: bool) -> BindGroupLayoutDescriptor {
     )
 }
 
-fn init_flare(mut commands: Commands, render_device: Res<RenderDevice>) {
+fn init_flare(
+    mut commands: Commands,
+    render_device: Res<RenderDevice>,
+    asset_server: Res<AssetServer>,
+) {
     let trace_layout = BindGroupLayoutDescriptor::new(
         "optica_lens_flare_trace_layout",
         &BindGroupLayoutEntries::sequential(
@@ -304,6 +282,13 @@ fn init_flare(mut commands: Commands, render_device: Res<RenderDevice>) {
         ..default()
     });
     commands.insert_resource(FlareShared {
+        shaders: FlareShaders {
+            trace: asset_server.load(TRACE_SHADER),
+            draw: asset_server.load(DRAW_SHADER),
+            cells: asset_server.load(CELLS_SHADER),
+            upsample: asset_server.load(UPSAMPLE_SHADER),
+            occlusion: asset_server.load(OCCLUSION_SHADER),
+        },
         upsample_layout,
         upsample_sampler,
         upsamples: HashMap::default(),
@@ -458,7 +443,7 @@ type FlareView = (
 fn prepare_flare(
     mut commands: Commands,
     mut views: Query<FlareView>,
-    mut shared: ResMut<FlareShared>,
+    shared: ResMut<FlareShared>,
     pipeline_cache: Res<PipelineCache>,
     render_device: Res<RenderDevice>,
     render_queue: Res<RenderQueue>,
@@ -467,6 +452,8 @@ fn prepare_flare(
     frame: Res<FrameCount>,
     fullscreen: Res<FullscreenShader>,
 ) {
+    // Borrowed as a plain reference, so that its fields borrow apart.
+    let shared = shared.into_inner();
     for (entity, view, draws, buffers, depth, msaa, jitter) in &mut views {
         let mut params = draws.params;
         if let Some(jitter) = jitter {
@@ -492,7 +479,7 @@ fn prepare_flare(
                 label: Some("optica_lens_flare_trace".into()),
                 layout: vec![trace_layout],
                 immediate_size: 0,
-                shader: TRACE_SHADER,
+                shader: shared.shaders.trace.clone(),
                 shader_defs: vec![],
                 entry_point: Some("trace".into()),
                 zero_initialize_workgroup_memory: false,
@@ -504,7 +491,7 @@ fn prepare_flare(
                 label: Some("optica_lens_flare_fill".into()),
                 layout: vec![fill_layout],
                 immediate_size: 0,
-                shader: TRACE_SHADER,
+                shader: shared.shaders.trace.clone(),
                 shader_defs: vec![],
                 entry_point: Some("fill".into()),
                 zero_initialize_workgroup_memory: false,
@@ -516,7 +503,7 @@ fn prepare_flare(
                 label: Some("optica_lens_flare_cells".into()),
                 layout: vec![cells_layout],
                 immediate_size: 0,
-                shader: CELLS_SHADER,
+                shader: shared.shaders.cells.clone(),
                 shader_defs: vec![],
                 entry_point: Some("cells".into()),
                 zero_initialize_workgroup_memory: false,
@@ -525,6 +512,7 @@ fn prepare_flare(
         let format = view.target_format;
         let divisor = draws.ghost_divisor.max(1);
         let bladed = params.blades != 0;
+        let draw_shader = shared.shaders.draw.clone();
         let mut pipelines_for = |format: TextureFormat| {
             let draw_layout = shared.draw_layout.clone();
             let key = (format, bladed);
@@ -532,6 +520,7 @@ fn prepare_flare(
                 [
                     draw_pipeline(
                         &pipeline_cache,
+                        &draw_shader,
                         draw_layout.clone(),
                         key,
                         "optica_lens_flare_draw",
@@ -539,6 +528,7 @@ fn prepare_flare(
                     ),
                     draw_pipeline(
                         &pipeline_cache,
+                        &draw_shader,
                         draw_layout,
                         key,
                         "optica_lens_flare_starburst",
@@ -653,7 +643,7 @@ fn prepare_flare(
                     label: Some("optica_lens_flare_occlusion".into()),
                     layout: vec![occlusion_layout.clone()],
                     immediate_size: 0,
-                    shader: OCCLUSION_SHADER,
+                    shader: shared.shaders.occlusion.clone(),
                     shader_defs: if multisampled {
                         vec!["MULTISAMPLED".into()]
                     } else {
@@ -797,7 +787,7 @@ fn prepare_flare(
                     to,
                     "optica_lens_flare_upsample",
                     fullscreen.to_vertex_state(),
-                    (UPSAMPLE_SHADER, "upsample".into(), vec![]),
+                    (shared.shaders.upsample.clone(), "upsample".into(), vec![]),
                 )
             });
             let group = render_device.create_bind_group(

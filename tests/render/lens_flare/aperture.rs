@@ -11,7 +11,7 @@ use optica_optics::lens_flare::Aperture;
 
 fn kernel() -> String {
     format!(
-        "{APERTURE_WGSL}
+        "{}
 @group(0) @binding(0) var<storage, read> input: array<f32>;
 @group(0) @binding(1) var<storage, read_write> output: array<f32>;
 @compute @workgroup_size(64)
@@ -20,7 +20,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
     if i >= arrayLength(&output) {{ return; }}
     let p = vec2<f32>(input[4u + 2u * i], input[5u + 2u * i]);
     output[i] = select(0.0, 1.0, aperture_contains(p, u32(input[0]), input[1], input[2], input[3]));
-}}"
+}}",
+        super::pasted(APERTURE_WGSL)
     )
 }
 

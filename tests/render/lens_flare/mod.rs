@@ -45,3 +45,24 @@ pub fn black_hdr_camera() -> impl Bundle {
         Msaa::Off,
     )
 }
+
+/// A shader library as plain WGSL, for a readback kernel to paste in: its
+/// `#define_import_path` line and its `virtual fn` defaults (each up to the
+/// first line that is a lone `}`; the kernel defines them instead) left
+/// out.
+fn pasted(library: &str) -> String {
+    let mut kept = Vec::new();
+    let mut in_virtual = false;
+    for line in library.lines() {
+        if line.starts_with("virtual fn") {
+            in_virtual = true;
+        }
+        if !in_virtual && !line.starts_with("#define_import_path") {
+            kept.push(line);
+        }
+        if in_virtual && line == "}" {
+            in_virtual = false;
+        }
+    }
+    kept.join("\n")
+}

@@ -352,7 +352,7 @@ fn large_ghosts_added_up_at_half_resolution_keep_their_light() {
     let passes = |coarse: Option<f32>| {
         let timed = Headless::new(SIZE, SIZE)
             .hdr(true)
-            .time_frames(1, 2, scene_with(travel, true, at(coarse)))
+            .time_frames(4, 2, scene_with(travel, true, at(coarse)))
             .expect("timed");
         let fragments = |pass: &str| {
             timed

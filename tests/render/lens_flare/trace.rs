@@ -28,7 +28,7 @@ const OUT: usize = 11;
 /// records, then origin and direction per ray.
 fn kernel() -> String {
     format!(
-        "{LENS_TRACE_WGSL}
+        "{}
 @group(0) @binding(0) var<storage, read> input: array<f32>;
 @group(0) @binding(1) var<storage, read_write> output: array<f32>;
 const HEADER: u32 = 6u;
@@ -53,13 +53,14 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
     output[w + 2u] = r.sensor.y;
     output[w + 3u] = r.r_rel;
     output[w + 4u] = r.throughput;
-    output[w + 5u] = r.stop0.x;
-    output[w + 6u] = r.stop0.y;
-    output[w + 7u] = r.stop1.x;
-    output[w + 8u] = r.stop1.y;
-    output[w + 9u] = r.stop2.x;
-    output[w + 10u] = r.stop2.y;
-}}"
+    output[w + 5u] = r.stop_first.x;
+    output[w + 6u] = r.stop_first.y;
+    output[w + 7u] = r.stop_second.x;
+    output[w + 8u] = r.stop_second.y;
+    output[w + 9u] = r.stop_third.x;
+    output[w + 10u] = r.stop_third.y;
+}}",
+        super::pasted(LENS_TRACE_WGSL)
     )
 }
 

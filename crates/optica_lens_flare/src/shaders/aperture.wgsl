@@ -1,3 +1,5 @@
+#define_import_path optica_lens_flare::aperture
+
 // The iris: whether points of the stop plane are inside the opening, the
 // WGSL twin of `optica_optics::lens_flare::Aperture::contains`. `blades` 0
 // is a round iris of `radius`; otherwise a regular polygon with one vertex
@@ -5,7 +7,7 @@
 // docs): `½ w |p|² + (1 − w r cos h)(p·n) <= r cos h − ½ w r² cos 2h` for
 // every edge normal n, h = π/blades.
 fn aperture_contains(p: vec2<f32>, blades: u32, rotation: f32, radius: f32, arc_w: f32) -> bool {
-    return aperture_contains3(p, p, p, blades, rotation, radius, arc_w);
+    return aperture_contains_all(p, p, p, blades, rotation, radius, arc_w);
 }
 
 // Whether all of p0, p1, p2 are inside (a ghost's up to three crossings of
@@ -13,7 +15,7 @@ fn aperture_contains(p: vec2<f32>, blades: u32, rotation: f32, radius: f32, arc_
 // instead of each taking a sine and cosine, and each serves all three
 // points, so that the draw's pixels pay two sines and cosines, not a pair
 // per edge and point.
-fn aperture_contains3(p0: vec2<f32>, p1: vec2<f32>, p2: vec2<f32>, blades: u32, rotation: f32, radius: f32, arc_w: f32) -> bool {
+fn aperture_contains_all(p0: vec2<f32>, p1: vec2<f32>, p2: vec2<f32>, blades: u32, rotation: f32, radius: f32, arc_w: f32) -> bool {
     if radius <= 0.0 {
         return false;
     }

@@ -1,5 +1,7 @@
+#define_import_path optica_lens_flare::types
+
 // The records the flare's passes share (`FlareParams`, `GridJob`,
-// `RayOut`, `LightProbe`), prepended to each by the plugin; the Rust side
+// `RayOut`, `LightProbe`), imported by each; the Rust side
 // is `draws.rs` (`FlareParams`, `GridJob`, `LightProbe`) and the ray
 // buffer's 48 bytes.
 
@@ -52,7 +54,7 @@ struct GridJob {
     dv: vec3<f32>,
     lens_base: u32,
     dir: vec3<f32>,
-    cell_pupil_mm2: f32,
+    cell_pupil_area: f32,
     color: vec4<f32>,
     light: u32,
     n: u32,
@@ -77,9 +79,9 @@ struct RayOut {
     sensor: vec2<f32>,
     r_rel: f32,
     throughput: f32,
-    stop0: vec2<f32>,
-    stop1: vec2<f32>,
-    stop2: vec2<f32>,
+    stop_first: vec2<f32>,
+    stop_second: vec2<f32>,
+    stop_third: vec2<f32>,
     alive: f32,
     pad: f32,
 }

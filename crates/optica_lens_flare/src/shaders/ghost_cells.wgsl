@@ -10,7 +10,8 @@
 // then shades each ray once (shared vertices) instead of six times per
 // cell, and adds the cells in the same order every frame (an order that
 // changed would change the sum's rounding, and the flare would shimmer).
-// Appended by the plugin to `flare_types.wgsl`.
+
+#import optica_lens_flare::types::{FlareParams, GridJob, RayOut}
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
 @group(0) @binding(1) var<storage, read> jobs: array<GridJob>;
@@ -91,7 +92,7 @@ fn cell(job: GridJob, index: u32, first: u32, seen: f32, c0: RayOut, c1: RayOut,
     // The area the two triangles cover, |s1| + |s2| (`cell_intensity`): a
     // cell folded across a caustic crosses itself, and the signed quad
     // area would cancel there and overstate its irradiance.
-    let a_p = job.cell_pupil_mm2;
+    let a_p = job.cell_pupil_area;
     let a_s = 0.5 * (abs(triangle_area2(c0.sensor, c1.sensor, c2.sensor))
         + abs(triangle_area2(c0.sensor, c2.sensor, c3.sensor)));
     let mean_t = 0.25 * (c0.throughput + c1.throughput + c2.throughput + c3.throughput);

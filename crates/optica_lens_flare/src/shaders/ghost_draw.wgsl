@@ -1,8 +1,12 @@
 // The flare's draw pass: every cell the cell pass kept as two triangles on
 // the screen, in its colour (its irradiance, scaled by its light's
 // visibility, from `ghost_cells.wgsl`), clipped per pixel where r_rel > 1
-// or outside the iris, added to the HDR view before tonemapping. Appended
-// by the plugin to `aperture.wgsl` and `flare_types.wgsl`.
+// or outside the iris, added to the HDR view before tonemapping.
+
+#import optica_lens_flare::types::{FlareParams, LightProbe, RayOut}
+#ifdef BLADED_IRIS
+#import optica_lens_flare::aperture::aperture_contains_all
+#endif
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
 // Per ray: the colour and wavelength of the cell it is the first corner of.
@@ -56,10 +60,10 @@ struct VertexOut {
     // Where the ray crossed the stop plane (up to three times; with a
     // round iris r_rel already holds the stop's rim, so only the first is
     // kept, for the ringing).
-    @location(2) stop0: vec2<f32>,
+    @location(2) stop_first: vec2<f32>,
 #ifdef BLADED_IRIS
-    @location(3) stop1: vec2<f32>,
-    @location(4) stop2: vec2<f32>,
+    @location(3) stop_second: vec2<f32>,
+    @location(4) stop_third: vec2<f32>,
 #endif
     @location(5) @interpolate(flat) wl: f32,
 }
@@ -75,10 +79,10 @@ fn vertex(@builtin(vertex_index) ray: u32) -> VertexOut {
     out.position = vec4<f32>(ndc, 0.0, 1.0);
     out.color = cell.rgb;
     out.r_rel = r.r_rel;
-    out.stop0 = r.stop0;
+    out.stop_first = r.stop_first;
 #ifdef BLADED_IRIS
-    out.stop1 = r.stop1;
-    out.stop2 = r.stop2;
+    out.stop_second = r.stop_second;
+    out.stop_third = r.stop_third;
 #endif
     out.wl = cell.w;
     return out;
@@ -94,13 +98,13 @@ fn fragment(in: VertexOut) -> @location(0) vec4<f32> {
         discard;
     }
 #ifdef BLADED_IRIS
-    if !aperture_contains3(in.stop0, in.stop1, in.stop2, params.blades, params.rotation, params.radius, params.arc_w) {
+    if !aperture_contains_all(in.stop_first, in.stop_second, in.stop_third, params.blades, params.rotation, params.radius, params.arc_w) {
         discard;
     }
 #endif
     var ring = 1.0;
     if params.ringing != 0u {
-        ring = ringing_at(in.stop0, in.wl);
+        ring = ringing_at(in.stop_first, in.wl);
     }
     return vec4<f32>(in.color * ring, 0.0);
 }

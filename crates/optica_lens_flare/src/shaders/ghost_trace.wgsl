@@ -1,10 +1,14 @@
-// The flare's compute passes: `trace` traces every ray of every ghost grid (one grid
-// per ghost, wavelength and light) through the lens. Appended by the plugin
-// to `lens_trace.wgsl` (whose `surface_count` and `surface_at` it
-// supplies) and `flare_types.wgsl`. A grid's ray at pupil (u, v) starts at
+// The flare's compute passes: `trace` traces every ray of every ghost grid
+// (one grid per ghost, wavelength and light) through the lens with
+// `lens_trace.wgsl`, whose `surface_count` and `surface_at` it overrides to
+// read the lens of the grid's wavelength. A grid's ray at pupil (u, v) starts at
 // origin + u·du + v·dv and travels along dir; `lens_base` is where its
 // wavelength's lens starts in `lens`; color.w is the wavelength, nm. Then
 // `fill` continues the traced rays into the dead ones next to them.
+
+#import optica_lens_flare::types::{FlareParams, GridJob, RayOut}
+#import optica_lens_flare::lens_trace
+#import optica_lens_flare::lens_trace::{LensSurface, trace_ray}
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
 @group(0) @binding(1) var<storage, read> lens: array<LensSurface>;
@@ -13,11 +17,11 @@
 
 var<private> lens_base: u32;
 
-fn surface_count() -> u32 {
+override fn optica_lens_flare::lens_trace::surface_count() -> u32 {
     return params.surfaces;
 }
 
-fn surface_at(k: u32) -> LensSurface {
+override fn optica_lens_flare::lens_trace::surface_at(k: u32) -> LensSurface {
     return lens[lens_base + k];
 }
 
@@ -57,7 +61,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
     let alive = select(0.0, 1.0, r.alive);
     rays[job.ray_base + row * n + col] = RayOut(
         turn(r.sensor, job.rotation), r.r_rel, r.throughput,
-        turn(r.stop0, job.rotation), turn(r.stop1, job.rotation), turn(r.stop2, job.rotation),
+        turn(r.stop_first, job.rotation), turn(r.stop_second, job.rotation), turn(r.stop_third, job.rotation),
         alive, 0.0,
     );
     // With symmetry the mirror row lands at (x, −y) before the turn.
@@ -66,7 +70,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
         let m = vec2<f32>(1.0, -1.0);
         rays[job.ray_base + mirror * n + col] = RayOut(
             turn(r.sensor * m, job.rotation), r.r_rel, r.throughput,
-            turn(r.stop0 * m, job.rotation), turn(r.stop1 * m, job.rotation), turn(r.stop2 * m, job.rotation),
+            turn(r.stop_first * m, job.rotation), turn(r.stop_second * m, job.rotation), turn(r.stop_third * m, job.rotation),
             alive, 0.0,
         );
     }
@@ -123,23 +127,23 @@ fn fill(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
         sum.sensor += 2.0 * a.sensor - b.sensor;
         sum.r_rel += 2.0 * a.r_rel - b.r_rel;
         sum.throughput += a.throughput;
-        sum.stop0 += 2.0 * a.stop0 - b.stop0;
-        sum.stop1 += 2.0 * a.stop1 - b.stop1;
-        sum.stop2 += 2.0 * a.stop2 - b.stop2;
+        sum.stop_first += 2.0 * a.stop_first - b.stop_first;
+        sum.stop_second += 2.0 * a.stop_second - b.stop_second;
+        sum.stop_third += 2.0 * a.stop_third - b.stop_third;
         w += 1.0;
     }
     if w > 0.0 {
         // A traced ray's r_rel holds the stop's rim (the draw skips the
         // test of a round iris for it); a straight-line r_rel can fall
         // below its stop points', so it is raised to theirs.
-        let stop0 = sum.stop0 / w;
-        let stop1 = sum.stop1 / w;
-        let stop2 = sum.stop2 / w;
-        let farthest = max(length(stop0), max(length(stop1), length(stop2)));
+        let stop_first = sum.stop_first / w;
+        let stop_second = sum.stop_second / w;
+        let stop_third = sum.stop_third / w;
+        let farthest = max(length(stop_first), max(length(stop_second), length(stop_third)));
         let at_stop = select(0.0, farthest / params.radius, params.radius > 0.0);
         rays[i] = RayOut(
             sum.sensor / w, max(sum.r_rel / w, at_stop), sum.throughput / w,
-            stop0, stop1, stop2,
+            stop_first, stop_second, stop_third,
             0.5, 0.0,
         );
     }

@@ -1,12 +1,14 @@
+#define_import_path optica_lens_flare::lens_trace
+
 // Real-ray tracing of one ray through a sequential lens along a ghost path
 // (two reflections) or the primary path: the WGSL twin of
 // `optica_optics::lens::PreparedLens::trace_to`, in f32.
 //
-// Not a `#define_import_path` library: the lens reaches it through two
-// functions the including shader defines, so that the plugin's compute pass
-// (storage buffers) and the readback test (a flat input array) share it:
-//   fn surface_count() -> u32
-//   fn surface_at(k: u32) -> LensSurface
+// The lens reaches it through two virtual functions, which the including
+// shader overrides (an `override fn` of each), so that the
+// plugin's compute pass (storage buffers) and the readback test (a flat
+// input array, with the library pasted in and these two defined instead)
+// share it.
 //
 // Conventions as in `optica_optics::lens`: mm, +z from object to sensor, the
 // first vertex at z = 0, curvature c = 1/R (flat is exactly 0), indices
@@ -29,6 +31,18 @@ struct LensSurface {
     coat_d_nm: f32,
 }
 
+virtual fn surface_count() -> u32 {
+    // How many surfaces the lens has: overridden by the including shader.
+    // (No comment may stand right above a `virtual fn`: naga_oil's rewrite
+    // of the keyword joins the line to the one before it.)
+    return 0u;
+}
+
+virtual fn surface_at(k: u32) -> LensSurface {
+    // Surface `k`, the first at z = 0: overridden by the including shader.
+    return LensSurface(0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0);
+}
+
 struct SurfaceHit {
     ok: bool,
     p: vec3<f32>,
@@ -41,9 +55,9 @@ struct TraceOut {
     sensor: vec2<f32>,
     r_rel: f32,
     // Every crossing of the stop plane; unused entries repeat the first.
-    stop0: vec2<f32>,
-    stop1: vec2<f32>,
-    stop2: vec2<f32>,
+    stop_first: vec2<f32>,
+    stop_second: vec2<f32>,
+    stop_third: vec2<f32>,
     throughput: f32,
 }
 
@@ -197,9 +211,9 @@ struct RayState {
     throughput: f32,
     // The first three crossings of the stop plane (fields, not an array:
     // a dynamically indexed local array costs every invocation).
-    stop0: vec2<f32>,
-    stop1: vec2<f32>,
-    stop2: vec2<f32>,
+    stop_first: vec2<f32>,
+    stop_second: vec2<f32>,
+    stop_third: vec2<f32>,
     crossings: u32,
 }
 
@@ -220,13 +234,13 @@ fn interact(st: ptr<function, RayState>, k: u32, forward: bool, reflect_here: bo
     if s.is_stop > 0.5 {
         switch (*st).crossings {
             case 0u: {
-                (*st).stop0 = h.p.xy;
+                (*st).stop_first = h.p.xy;
             }
             case 1u: {
-                (*st).stop1 = h.p.xy;
+                (*st).stop_second = h.p.xy;
             }
             case 2u: {
-                (*st).stop2 = h.p.xy;
+                (*st).stop_third = h.p.xy;
             }
             default: {}
         }
@@ -315,9 +329,9 @@ fn trace_ray(o: vec3<f32>, d: vec3<f32>, first: u32, second: u32, sensor_z: f32,
     out.alive = true;
     out.sensor = p.xy;
     out.r_rel = st.r_rel;
-    out.stop0 = st.stop0;
-    out.stop1 = select(st.stop0, st.stop1, st.crossings > 1u);
-    out.stop2 = select(st.stop0, st.stop2, st.crossings > 2u);
+    out.stop_first = st.stop_first;
+    out.stop_second = select(st.stop_first, st.stop_second, st.crossings > 1u);
+    out.stop_third = select(st.stop_first, st.stop_third, st.crossings > 2u);
     out.throughput = st.throughput;
     return out;
 }

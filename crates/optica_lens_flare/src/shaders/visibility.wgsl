@@ -1,8 +1,8 @@
 // The flare's occlusion pass: for each flaring light, the fraction of a
 // fixed disk of depth samples round its image that lies behind the light,
 // blended with the last frame's (`FlareOcclusion`). One workgroup a light;
-// its 64 threads read 4 samples each and sum them. Appended by the plugin
-// to `flare_types.wgsl`; `MULTISAMPLED` reads sample 0 of an MSAA depth.
+// its 64 threads read 4 samples each and sum them.
+// `MULTISAMPLED` reads sample 0 of an MSAA depth.
 //
 // Under TAA the depth buffer is drawn with a projection jittered by a
 // subpixel each frame: the disk follows the jitter (`jitter_ndc`), and
@@ -14,6 +14,8 @@
 //
 // `visibility` holds each light's visibility, then, per light,
 // `jitter_cycle` raw fractions.
+
+#import optica_lens_flare::types::{FlareParams, LightProbe}
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
 @group(0) @binding(1) var<storage, read> lights: array<LightProbe>;

@@ -747,7 +747,7 @@ fn zoom_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> 
     let plain_wide = ctx
         .headless(w, h)
         .hdr(true)
-        .time_frames(1, 4, scene(None, true, None))?
+        .time_frames(3, 4, scene(None, true, None))?
         .frame_ms
         .median;
     let log = Arc::new(Mutex::new(None));
@@ -782,7 +782,7 @@ fn zoom_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> 
         let timed =
             ctx.headless(w, h)
                 .hdr(true)
-                .time_frames(1, 4, scene(Some(setup), true, None))?;
+                .time_frames(3, 4, scene(Some(setup), true, None))?;
         let flare = timed.pass("optica/flare");
         let mut row = Row::new(16.0, timed.frame_ms.median, plain_wide);
         if let Some(px) = coarse_px {

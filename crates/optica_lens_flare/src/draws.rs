@@ -14,10 +14,9 @@ use optica_optics::lens::{PreparedLens, TracePath};
 use optica_optics::lens_flare::{Beam, DEFAULT_MAX_GAIN, spectral_weight};
 
 use crate::fit::{Fits, PassingFits, fit_for, screen_grid};
-use crate::{
-    FlareGhosts, FlareSource, LensFlare, SensorMapping, aperture_params, light_in_lens,
-    pack_surfaces,
-};
+use crate::frame::{SensorMapping, light_in_lens};
+use crate::gpu_lens::{aperture_params, pack_surfaces};
+use crate::{FlareGhosts, FlareSource, LensFlare};
 
 /// Cells of a row one invocation of the cell pass colours
 /// (`ghost_cells.wgsl`'s `SPAN_CELLS`).
@@ -25,7 +24,7 @@ const SPAN_CELLS: u32 = 4;
 
 /// One surface as the shaders read it (`LensSurface`).
 #[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
-pub struct GpuSurface {
+pub(crate) struct GpuSurface {
     z: f32,
     c: f32,
     semi: f32,
@@ -39,7 +38,7 @@ pub struct GpuSurface {
 /// One grid of rays (`GridJob`): the ray at pupil `(u, v)` starts at
 /// `origin + u·du + v·dv`.
 #[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
-pub struct GridJob {
+pub(crate) struct GridJob {
     origin: Vec3,
     first: u32,
     du: Vec3,
@@ -104,7 +103,7 @@ impl GridJob {
 /// Where a light's occlusion is read (`LightProbe`): its image in NDC and
 /// the largest depth (reverse Z) that does not hide it.
 #[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
-pub struct LightProbe {
+pub(crate) struct LightProbe {
     /// The light's image, NDC.
     pub ndc: Vec2,
     /// Scene depths above this (nearer) hide the light.
@@ -147,7 +146,7 @@ impl LightProbe {
 
 /// The uniform of both passes (`FlareParams`).
 #[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
-pub struct FlareParams {
+pub(crate) struct FlareParams {
     /// Rays in all the grids.
     pub rays: u32,
     /// Grids.
@@ -211,7 +210,7 @@ impl FlareParams {
 /// What a flare camera's passes trace and draw this frame; no grids when
 /// no light enters the lens.
 #[derive(Component, Clone, Debug, Default, ExtractComponent)]
-pub struct FlareDraws {
+pub(crate) struct FlareDraws {
     /// The lens at each wavelength, one after the other.
     pub surfaces: Vec<GpuSurface>,
     /// The grids.

@@ -46,13 +46,13 @@
 //! enters the lens (directional lights, point and spot lights, in view or
 //! not), a grid of parallel rays over the part of the pupil plane whose
 //! light gets through that ghost's path is traced through the lens by a
-//! compute pass (`shaders/lens_trace.wgsl`, [`LENS_TRACE_WGSL`], the WGSL
+//! compute pass (`shaders/lens_trace.wgsl`, [`LENS_TRACE_WGSL`](twins::LENS_TRACE_WGSL), the WGSL
 //! twin of `PreparedLens::trace_to`, held to it by readback), keeping
 //! `r_rel` so the grid stays continuous. A second compute pass colours
 //! every grid cell once, with the irradiance its change of area gives
 //! (bounded gain) in the wavelength's colour scaled by the ghost's
 //! spectral gains (its throughput over the whole band, measured per
-//! degree of field angle, [`spectral_gains`], so that any wavelength
+//! degree of field angle, [`spectral_gains`](twins::spectral_gains), so that any wavelength
 //! count carries the band's light and colour), and writes the triangles of the cells that add light
 //! into an index buffer; a draw pass adds them (each ray shaded once,
 //! shared by its cells), clipped per pixel where `r_rel > 1`, at
@@ -62,7 +62,7 @@
 //! tonemapping. The
 //! rays are traced again only when the grids, the lens or the settings
 //! change: a still camera and lights trace them once. The sensor is sized
-//! so that the lens sees the camera's field of view ([`SensorMapping`]); a
+//! so that the lens sees the camera's field of view ([`SensorMapping`](twins::SensorMapping)); a
 //! light's irradiance at the camera (illuminance, or a point light's lumens
 //! over 4πd²) times the camera's exposure scales its ghosts, so they sit in
 //! the scene's light levels. Pass time shows as the `optica/flare`
@@ -90,16 +90,16 @@
 //!   mirror symmetric, so half its rows are traced; the rays are turned
 //!   back to the light's azimuth before the iris test.
 //! - *Bundle bounding*, measured: with symmetry, where each ghost's light
-//!   passes the lens is traced on a coarse grid ([`FIT_RAYS`]²) at every
-//!   degree of field angle ([`passing_at_step`], kept per camera until the
+//!   passes the lens is traced on a coarse grid ([`FIT_RAYS`](twins::FIT_RAYS)²) at every
+//!   degree of field angle ([`passing_at_step`](twins::passing_at_step), kept per camera until the
 //!   ghosts change), and the ghost's grid covers only that rectangle (the
 //!   union of the two degrees round the light's angle, grown by a coarse
 //!   step) instead of the pupil bounds' square, of which wide open only
 //!   about 15 % passes; a ghost that passes at neither is not traced. Each
-//!   grid is also cut to cells of at least [`CELL_PX`] pixels of the
-//!   target the ghosts are added up in ([`screen_grid`]). The ghost's
+//!   grid is also cut to cells of at least [`CELL_PX`](twins::CELL_PX) pixels of the
+//!   target the ghosts are added up in ([`screen_grid`](twins::screen_grid)). The ghost's
 //!   spectrum (for its spectral gains) is measured at the same degrees,
-//!   at most [`SPECTRUM_BUDGET_MS`] a frame once each ghost has one.
+//!   at most [`SPECTRUM_BUDGET_MS`](twins::SPECTRUM_BUDGET_MS) a frame once each ghost has one.
 //! - *Intensity LOD* and *aperture culling*: [`FlareGhosts`].
 //!
 //! Beyond the blog, two savings where the result would not differ:
@@ -152,21 +152,27 @@ mod render;
 mod settings;
 
 pub use asset::{LensAsset, LensLoadError, LensLoader};
-pub use diffraction::RINGING_NM;
-pub use draws::{FlareDraws, FlareParams, GpuSurface, GridJob, LightProbe};
-pub use fit::{
-    CELL_PX, FIT_RAYS, FIT_STEP_DEG, MIN_SCREEN_GRID, SPECTRUM_BUDGET_MS, fit_steps,
-    passing_at_step, screen_grid, spectral_gains, spectrum_at_step,
-};
-pub use frame::{SensorMapping, light_in_lens};
-pub use gpu_lens::{
-    APERTURE_WGSL, LENS_TRACE_WGSL, SURFACE_FLOATS, aperture_params, pack_surfaces,
-};
-pub use precompute::{FlareGhosts, GhostChoice, GhostFate, RANKING_FIELD_DEG, choose};
+pub use precompute::{FlareGhosts, GhostChoice, GhostFate};
 pub use settings::{
     ApertureSettings, CoatingSettings, DEFAULT_COARSE_GHOST_PX, FlareOcclusion, FlareSource,
     GhostResolution, LensFlare, MAX_GRID, MAX_WAVELENGTHS, RingingSettings, StarburstSettings,
 };
+
+/// The CPU and WGSL twins of what the flare's passes compute, and the
+/// constants they share: what the readback tests and the report hold the
+/// shaders to. An app using the plugin needs none of it.
+pub mod twins {
+    pub use crate::diffraction::RINGING_NM;
+    pub use crate::fit::{
+        CELL_PX, FIT_RAYS, FIT_STEP_DEG, MIN_SCREEN_GRID, SPECTRUM_BUDGET_MS, fit_steps,
+        passing_at_step, screen_grid, spectral_gains, spectrum_at_step,
+    };
+    pub use crate::frame::{SensorMapping, light_in_lens};
+    pub use crate::gpu_lens::{
+        APERTURE_WGSL, LENS_TRACE_WGSL, SURFACE_FLOATS, aperture_params, pack_surfaces,
+    };
+    pub use crate::precompute::{RANKING_FIELD_DEG, choose};
+}
 
 /// Adds [`LensAsset`] loading, [`LensFlare`] and [`FlareSource`]. Without a
 /// `LensFlare` camera it does no per-frame work.

@@ -5,7 +5,7 @@
 //! gets the same answer (f32 against f64 decides the points on it).
 
 use optica_harness::Headless;
-use optica_lens_flare::{APERTURE_WGSL, aperture_params};
+use optica_lens_flare::twins::{APERTURE_WGSL, aperture_params};
 use optica_optics::glam::DVec2;
 use optica_optics::lens_flare::Aperture;
 

@@ -7,7 +7,7 @@
 //! mapping is off by tenths.
 
 use bevy::math::{DVec2, Vec3};
-use optica_lens_flare::{SensorMapping, light_in_lens};
+use optica_lens_flare::twins::{SensorMapping, light_in_lens};
 use optica_optics::glass::LAMBDA_D_NM;
 use optica_optics::lens::{PreparedLens, TracePath, builtin};
 use optica_optics::lens_flare::{Beam, GridOptions, trace_grid};

@@ -16,10 +16,10 @@ use std::sync::{Arc, Mutex};
 use bevy::camera::Exposure;
 use bevy::prelude::*;
 use optica_harness::Headless;
-use optica_lens_flare::{
-    FlareGhosts, GhostResolution, LensFlare, LensFlarePlugin, SensorMapping, fit_steps,
-    passing_at_step, screen_grid, spectral_gains,
+use optica_lens_flare::twins::{
+    SensorMapping, fit_steps, passing_at_step, screen_grid, spectral_gains,
 };
+use optica_lens_flare::{FlareGhosts, GhostResolution, LensFlare, LensFlarePlugin};
 use optica_optics::glam::DVec2;
 use optica_optics::glass::LAMBDA_D_NM;
 use optica_optics::lens::{PreparedLens, TracePath};

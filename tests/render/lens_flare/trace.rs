@@ -13,7 +13,7 @@
 //! surface's edge of existence (a miss or total internal reflection).
 
 use optica_harness::Headless;
-use optica_lens_flare::{LENS_TRACE_WGSL, SURFACE_FLOATS, pack_surfaces};
+use optica_lens_flare::twins::{LENS_TRACE_WGSL, SURFACE_FLOATS, pack_surfaces};
 use optica_optics::lens::{self, Coating, LensPrescription, PreparedLens, TracePath, builtin};
 use optica_optics::lens_flare::{Beam, coat_air_interfaces, light_from_field};
 

@@ -41,10 +41,12 @@ use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::{FrameTimings, TimeSource};
+use optica_lens_flare::twins::{
+    SPECTRUM_BUDGET_MS, SensorMapping, passing_at_step, spectral_gains, spectrum_at_step,
+};
 use optica_lens_flare::{
     DEFAULT_COARSE_GHOST_PX, FlareGhosts, FlareSource, GhostResolution, LensAsset, LensFlare,
-    LensFlarePlugin, SPECTRUM_BUDGET_MS, SensorMapping, passing_at_step, spectral_gains,
-    spectrum_at_step,
+    LensFlarePlugin,
 };
 use optica_optics::glam::{DVec2, DVec3};
 use optica_optics::glass::LAMBDA_D_NM;
@@ -252,7 +254,7 @@ fn fit_cost(ghosts: &FlareGhosts) -> Result<(f64, f64), SweepError> {
 #[derive(Clone, Copy, PartialEq)]
 enum Spectrum {
     /// As the plugin does: each ghost's samples scaled by the plugin's own
-    /// spectral gains (`optica_lens_flare::spectral_gains`), so that the
+    /// spectral gains (`optica_lens_flare::twins::spectral_gains`), so that the
     /// reference differs from the plugin by the grids and the drawing only
     /// (the gains' own error is the wavelength series').
     Gained,

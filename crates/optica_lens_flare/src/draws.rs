@@ -15,25 +15,12 @@ use optica_optics::lens_flare::{Beam, DEFAULT_MAX_GAIN, spectral_weight};
 
 use crate::fit::{Fits, PassingFits, fit_for, screen_grid};
 use crate::frame::{SensorMapping, light_in_lens};
-use crate::gpu_lens::{aperture_params, pack_surfaces};
+use crate::gpu_lens::{GpuSurface, aperture_params, gpu_surfaces};
 use crate::{FlareGhosts, FlareSource, LensFlare};
 
 /// Cells of a row one invocation of the cell pass colours
 /// (`ghost_cells.wgsl`'s `SPAN_CELLS`).
 const SPAN_CELLS: u32 = 4;
-
-/// One surface as the shaders read it (`LensSurface`).
-#[derive(ShaderType, Clone, Copy, Debug, Default, PartialEq)]
-pub(crate) struct GpuSurface {
-    z: f32,
-    c: f32,
-    semi: f32,
-    n_before: f32,
-    n_after: f32,
-    is_stop: f32,
-    coat_n: f32,
-    coat_d_nm: f32,
-}
 
 /// One grid of rays (`GridJob`): the ray at pupil `(u, v)` starts at
 /// `origin + u·du + v·dv`.
@@ -334,20 +321,7 @@ fn build(
         .iter()
         .map(|&wl| PreparedLens::new(lens, wl).ok())
         .collect::<Option<_>>()?;
-    let surfaces: Vec<GpuSurface> = prepared
-        .iter()
-        .flat_map(pack_surfaces)
-        .map(|s| GpuSurface {
-            z: s[0],
-            c: s[1],
-            semi: s[2],
-            n_before: s[3],
-            n_after: s[4],
-            is_stop: s[5],
-            coat_n: s[6],
-            coat_d_nm: s[7],
-        })
-        .collect();
+    let surfaces: Vec<GpuSurface> = prepared.iter().flat_map(gpu_surfaces).collect();
     let count = lens.surfaces().len() as u32;
     let exposure = exposure.copied().unwrap_or_default().exposure();
     let view_from_world = transform.affine().inverse();

@@ -44,7 +44,8 @@ use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use bevy::shader::Shader;
 use bevy::shader::load_shader_library;
 
-use crate::draws::{FlareDraws, FlareParams, GpuSurface, GridJob, LightProbe};
+use crate::draws::{FlareDraws, FlareParams, GridJob, LightProbe};
+use crate::gpu_lens::GpuSurface;
 
 /// Where `embedded_asset!` puts the passes' shaders; they import the
 /// libraries `optica_lens_flare::{types, lens_trace, aperture}`.

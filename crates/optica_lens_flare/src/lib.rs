@@ -139,7 +139,9 @@
 
 #![warn(missing_docs)]
 
+use bevy::asset::embedded_asset;
 use bevy::prelude::*;
+use bevy::shader::load_shader_library;
 
 mod asset;
 mod diffraction;
@@ -180,6 +182,14 @@ pub struct LensFlarePlugin;
 
 impl Plugin for LensFlarePlugin {
     fn build(&self, app: &mut App) {
+        load_shader_library!(app, "shaders/flare_types.wgsl");
+        load_shader_library!(app, "shaders/lens_trace.wgsl");
+        load_shader_library!(app, "shaders/aperture.wgsl");
+        embedded_asset!(app, "shaders/ghost_trace.wgsl");
+        embedded_asset!(app, "shaders/ghost_cells.wgsl");
+        embedded_asset!(app, "shaders/ghost_draw.wgsl");
+        embedded_asset!(app, "shaders/upsample.wgsl");
+        embedded_asset!(app, "shaders/visibility.wgsl");
         app.init_asset::<LensAsset>()
             .init_asset_loader::<LensLoader>()
             .register_type::<LensFlare>()

@@ -256,7 +256,17 @@ fn no_flare_camera_no_flare_pipeline() {
         "{:?}",
         without.labels
     );
-    let with = pipelines(scene(travel, true));
+    // Without a starburst there is no starburst pipeline; with one, it
+    // compiles with the rest.
+    let plain = pipelines(scene(travel, true));
+    assert!(
+        !plain.labels.iter().any(|l| l == "optica_lens_flare_starburst"),
+        "{:?}",
+        plain.labels
+    );
+    let with = pipelines(scene_with(travel, true, |f| {
+        f.starburst = Some(StarburstSettings::default());
+    }));
     eprintln!("{:?}", with.labels);
     for want in [
         "optica_lens_flare_trace",

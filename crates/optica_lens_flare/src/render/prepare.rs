@@ -1,0 +1,477 @@
+//! Each flare view's GPU resources and bind groups for the frame: its
+//! buffers (kept between frames, grown when a frame needs more), the
+//! reduced-resolution targets, and what the passes bind, as a
+//! [`FlareBinding`](super::FlareBinding); views whose pipelines are not
+//! compiled yet get none and run no pass.
+
+use bevy::diagnostic::FrameCount;
+use bevy::prelude::*;
+use bevy::render::camera::TemporalJitter;
+use bevy::render::render_asset::RenderAssets;
+use bevy::render::render_resource::{
+    BindGroupEntries, Buffer, BufferDescriptor, BufferUsages, Extent3d, PipelineCache,
+    StorageBuffer, Texture, TextureDescriptor, TextureDimension, TextureUsages, TextureView,
+    TextureViewDescriptor, UniformBuffer,
+};
+use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::texture::{FallbackImage, GpuImage};
+use bevy::render::view::{ExtractedView, Msaa, ViewDepthTexture};
+
+use super::pipelines::{FlarePipelineIds, FlarePipelines};
+use super::{CELL_COLOR_BYTES, CELL_INDEX_BYTES, FlareBinding, GHOST_FORMAT, RAY_BYTES};
+use crate::draws::{FlareDraws, FlareParams, GridJob, LightProbe};
+use crate::gpu_lens::GpuSurface;
+
+/// One view's GPU buffers, kept between frames: rewritten in place, and
+/// reallocated only when a frame needs more room than they have.
+#[derive(Component, Default)]
+pub(super) struct FlareBuffers {
+    uniform: UniformBuffer<FlareParams>,
+    surfaces: StorageBuffer<Vec<GpuSurface>>,
+    jobs: StorageBuffer<Vec<GridJob>>,
+    probes: StorageBuffer<Vec<LightProbe>>,
+    rays: Option<Buffer>,
+    /// Per ray, the colour of the cell it is the first corner of.
+    cell_colors: Option<Buffer>,
+    /// The cells' triangles, written by the cell pass (empty where a cell
+    /// adds no light).
+    indices: Option<Buffer>,
+    /// Each light's visibility, kept between frames for its history.
+    visibility: Option<Buffer>,
+    /// The reduced-resolution ghosts' target.
+    reduced: Option<GhostTarget>,
+    /// The large ghosts' target, at half the ghosts' resolution.
+    coarse: Option<GhostTarget>,
+    /// The lights whose visibility `visibility` holds.
+    lights: Vec<Entity>,
+    /// Whether the occlusion pass ran last frame (else the buffer holds
+    /// ones, not a history to blend with).
+    history_holds: bool,
+    /// Whether the rays have been over the device's limit (warned once).
+    warned_over_limit: bool,
+    /// What the rays in `rays` were traced from; while a frame's grids,
+    /// lens and settings are the same (a still camera and lights), they
+    /// are not traced again.
+    traced: Option<TraceKey>,
+    /// The raw visibilities per light `visibility` holds (0: no TAA).
+    jitter_cycle: u32,
+}
+
+/// A texture the ghosts are added up in before it is scaled up.
+struct GhostTarget {
+    size: UVec2,
+    /// Kept with its view, which is what the passes use.
+    _texture: Texture,
+    view: TextureView,
+}
+
+impl GhostTarget {
+    fn new(render_device: &RenderDevice, size: UVec2) -> Self {
+        let texture = render_device.create_texture(&TextureDescriptor {
+            label: Some("optica_lens_flare_ghosts"),
+            size: Extent3d {
+                width: size.x,
+                height: size.y,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: TextureDimension::D2,
+            format: GHOST_FORMAT,
+            usage: TextureUsages::RENDER_ATTACHMENT | TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&TextureViewDescriptor::default());
+        Self {
+            size,
+            _texture: texture,
+            view,
+        }
+    }
+}
+
+/// Everything the trace's result depends on: the grids, the lens at each
+/// wavelength and what the trace reads of the uniform (not, say, the
+/// ringing's texture arriving, which changes only the draw).
+#[derive(PartialEq)]
+struct TraceKey {
+    jobs: Vec<GridJob>,
+    surfaces: Vec<GpuSurface>,
+    params: [u32; 4],
+}
+
+/// Frames in Bevy's TAA jitter sequence (eight Halton (2, 3) offsets, the
+/// one of frame n at n mod 8): the occlusion pass averages its last eight
+/// raw visibilities, one per offset.
+const JITTER_CYCLE: u32 = 8;
+
+/// A view with flare draws: its buffers once made, its depth and MSAA.
+type FlareView = (
+    Entity,
+    &'static ExtractedView,
+    &'static FlareDraws,
+    Option<&'static FlarePipelineIds>,
+    Option<&'static mut FlareBuffers>,
+    Option<&'static ViewDepthTexture>,
+    &'static Msaa,
+    Option<&'static TemporalJitter>,
+);
+
+#[allow(clippy::too_many_arguments)]
+pub(super) fn prepare_flare(
+    mut commands: Commands,
+    mut views: Query<FlareView>,
+    pipelines: Res<FlarePipelines>,
+    pipeline_cache: Res<PipelineCache>,
+    render_device: Res<RenderDevice>,
+    render_queue: Res<RenderQueue>,
+    images: Res<RenderAssets<GpuImage>>,
+    fallback: Res<FallbackImage>,
+    frame: Res<FrameCount>,
+) {
+    for (entity, view, draws, ids, buffers, depth, msaa, jitter) in &mut views {
+        let mut params = draws.params;
+        if let Some(jitter) = jitter {
+            // Where the jitter moves the image of a point this frame (with
+            // a perspective projection, the same for every point).
+            let mut jittered = view.clip_from_view;
+            jitter.jitter_projection(&mut jittered, view.viewport.zw().as_vec2());
+            let ndc = |m: Mat4| {
+                let c = m * Vec4::new(0.0, 0.0, -1.0, 1.0);
+                c.xy() / c.w
+            };
+            params.jitter_ndc = ndc(jittered) - ndc(view.clip_from_view);
+            params.jitter_cycle = JITTER_CYCLE;
+            params.jitter_slot = frame.0 % JITTER_CYCLE;
+        }
+        if params.jobs == 0 || params.rays == 0 {
+            commands.entity(entity).remove::<FlareBinding>();
+            continue;
+        }
+        let Some(ids) = ids else {
+            commands.entity(entity).remove::<FlareBinding>();
+            continue;
+        };
+        let divisor = draws.ghost_divisor.max(1);
+        // The diffraction textures, once uploaded; until then (and when
+        // off) the fallback, and the pass leaves them out.
+        let texture = |id: Option<AssetId<Image>>| id.and_then(|id| images.get(id));
+        let ringing = texture(draws.ringing);
+        let burst = texture(draws.starburst);
+        if ringing.is_none() {
+            params.ringing = 0;
+        }
+        if burst.is_none() {
+            params.starburst_scale = 0.0;
+        }
+        let fallback_view = &fallback.d2.texture_view;
+        let ringing_view = ringing.map_or(fallback_view, |i| &i.texture_view);
+        let burst_view = burst.map_or(fallback_view, |i| &i.texture_view);
+        let mut created = None;
+        let buffers = match buffers {
+            Some(b) => b.into_inner(),
+            None => created.insert(FlareBuffers::default()),
+        };
+        // More rays than one storage binding holds (128 MiB on many
+        // devices: 2.8 M rays, e.g. 83 ghosts × 3 wavelengths at 128²): the
+        // grids past it (the dimmest of the last light) are left out, with
+        // one warning, instead of failing to bind.
+        let limits = render_device.limits();
+        let max_bytes = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        let max_rays = u32::try_from(max_bytes / RAY_BYTES).unwrap_or(u32::MAX);
+        if params.rays > max_rays {
+            let kept = draws
+                .jobs
+                .iter()
+                .take_while(|j| j.ray_end() <= max_rays)
+                .count();
+            if !buffers.warned_over_limit {
+                warn!(
+                    "optica_lens_flare: {} rays exceed the device's storage binding ({} rays); \
+                     drawing {kept} of {} grids (lower LensFlare::grid, wavelengths or ghost_budget)",
+                    params.rays,
+                    max_rays,
+                    draws.jobs.len()
+                );
+                buffers.warned_over_limit = true;
+            }
+            let last = kept.checked_sub(1).map(|k| draws.jobs[k]);
+            params.jobs = kept as u32;
+            params.rays = last.map_or(0, |j| j.ray_end());
+            params.threads = last.map_or(0, |j| j.thread_end());
+            params.cells = last.map_or(0, |j| j.cell_end());
+            params.spans = last.map_or(0, |j| j.span_end());
+            if kept == 0 {
+                commands.entity(entity).remove::<FlareBinding>();
+                continue;
+            }
+        }
+        let rays = u64::from(params.rays);
+        let cells = u64::from(params.cells).max(1);
+        for (buffer, label, size, usage) in [
+            (
+                &mut buffers.rays,
+                "optica_lens_flare_rays",
+                rays * RAY_BYTES,
+                BufferUsages::STORAGE,
+            ),
+            (
+                &mut buffers.cell_colors,
+                "optica_lens_flare_cell_colors",
+                rays * CELL_COLOR_BYTES,
+                BufferUsages::STORAGE,
+            ),
+            (
+                &mut buffers.indices,
+                "optica_lens_flare_indices",
+                cells * CELL_INDEX_BYTES,
+                BufferUsages::STORAGE | BufferUsages::INDEX,
+            ),
+        ] {
+            if buffer.as_ref().is_none_or(|b| b.size() < size) {
+                buffers.traced = None;
+                *buffer = Some(render_device.create_buffer(&BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage,
+                    mapped_at_creation: false,
+                }));
+            }
+        }
+        // The depth is read when occlusion is on and the view's depth can
+        // be bound (`make_depth_readable` asks for it); otherwise, and until
+        // the occlusion pipeline is compiled, every light is fully visible.
+        let readable_depth = depth.filter(|d| {
+            params.occlusion_radius_px > 0.0
+                && params.lights > 0
+                && d.texture.usage().contains(TextureUsages::TEXTURE_BINDING)
+        });
+        let multisampled = msaa.samples() > 1;
+        let occlusion_layout = &pipelines.occlusion_layouts[usize::from(multisampled)];
+        let occlusion_pipeline = readable_depth.and(ids.occlusion);
+        let occlusion_ready =
+            occlusion_pipeline.is_some_and(|id| pipeline_cache.get_compute_pipeline(id).is_some());
+        // Each light's visibility. Its history holds while the pass ran
+        // last frame for the same lights.
+        let light_bytes = u64::from(params.lights.max(1)) * 4 * u64::from(1 + params.jitter_cycle);
+        let fresh = buffers
+            .visibility
+            .as_ref()
+            .is_none_or(|b| b.size() < light_bytes);
+        if fresh {
+            buffers.visibility = Some(render_device.create_buffer(&BufferDescriptor {
+                label: Some("optica_lens_flare_visibility"),
+                size: light_bytes,
+                usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        params.reset_history = u32::from(
+            fresh
+                || !buffers.history_holds
+                || buffers.lights != draws.light_entities
+                || buffers.jitter_cycle != params.jitter_cycle,
+        );
+        buffers.jitter_cycle = params.jitter_cycle;
+        buffers.history_holds = occlusion_ready;
+        buffers.lights.clone_from(&draws.light_entities);
+        let Some(visibility) = buffers.visibility.clone() else {
+            continue;
+        };
+        if !occlusion_ready {
+            let ones = vec![1f32; params.lights.max(1) as usize];
+            render_queue.write_buffer(&visibility, 0, &f32_bytes(&ones));
+        }
+        buffers.uniform.set(params);
+        buffers.uniform.write_buffer(&render_device, &render_queue);
+        buffers.probes.get_mut().clone_from(&draws.lights);
+        if buffers.probes.get().is_empty() {
+            buffers.probes.get_mut().push(LightProbe::default());
+        }
+        buffers.probes.write_buffer(&render_device, &render_queue);
+        buffers.surfaces.get_mut().clone_from(&draws.surfaces);
+        buffers.surfaces.write_buffer(&render_device, &render_queue);
+        buffers.jobs.get_mut().clone_from(&draws.jobs);
+        buffers.jobs.write_buffer(&render_device, &render_queue);
+        let (
+            Some(u),
+            Some(s),
+            Some(j),
+            Some(probes),
+            Some(ray_buffer),
+            Some(cell_colors),
+            Some(indices),
+        ) = (
+            buffers.uniform.binding(),
+            buffers.surfaces.binding(),
+            buffers.jobs.binding(),
+            buffers.probes.binding(),
+            buffers.rays.as_ref(),
+            buffers.cell_colors.as_ref(),
+            buffers.indices.as_ref(),
+        )
+        else {
+            continue;
+        };
+        let trace_group = render_device.create_bind_group(
+            "optica_lens_flare_trace",
+            &pipeline_cache.get_bind_group_layout(&pipelines.trace_layout),
+            &BindGroupEntries::sequential((
+                u.clone(),
+                s,
+                j.clone(),
+                ray_buffer.as_entire_binding(),
+            )),
+        );
+        let cells_group = render_device.create_bind_group(
+            "optica_lens_flare_cells",
+            &pipeline_cache.get_bind_group_layout(&pipelines.cells_layout),
+            &BindGroupEntries::sequential((
+                u.clone(),
+                j,
+                ray_buffer.as_entire_binding(),
+                visibility.as_entire_binding(),
+                cell_colors.as_entire_binding(),
+                indices.as_entire_binding(),
+            )),
+        );
+        let draw_group = render_device.create_bind_group(
+            "optica_lens_flare_draw",
+            &pipeline_cache.get_bind_group_layout(&pipelines.draw_layout),
+            &BindGroupEntries::sequential((
+                u.clone(),
+                cell_colors.as_entire_binding(),
+                ray_buffer.as_entire_binding(),
+                visibility.as_entire_binding(),
+                probes.clone(),
+                ringing_view,
+                burst_view,
+            )),
+        );
+        let occlusion = match (readable_depth, occlusion_pipeline) {
+            (Some(depth), Some(pipeline)) if occlusion_ready => {
+                let group = render_device.create_bind_group(
+                    "optica_lens_flare_occlusion",
+                    &pipeline_cache.get_bind_group_layout(occlusion_layout),
+                    &BindGroupEntries::sequential((
+                        u,
+                        probes,
+                        depth.view(),
+                        visibility.as_entire_binding(),
+                    )),
+                );
+                Some((group, pipeline))
+            }
+            _ => None,
+        };
+        // Reduced-resolution ghosts: their target, made again only when
+        // the view's size or the divisor changes; and the large ghosts'
+        // target at half that resolution, when there are any.
+        let view_size = view.viewport.zw().max(UVec2::ONE);
+        let ghost_size = view_size.map(|side| side.div_ceil(divisor));
+        let upsampled = |target: &mut Option<GhostTarget>, size: UVec2, pipeline| {
+            let kept = target.take().filter(|kept| kept.size == size);
+            let kept = kept.unwrap_or_else(|| GhostTarget::new(&render_device, size));
+            let texture_view = kept.view.clone();
+            *target = Some(kept);
+            let group = render_device.create_bind_group(
+                "optica_lens_flare_upsample",
+                &pipeline_cache.get_bind_group_layout(&pipelines.upsample_layout),
+                &BindGroupEntries::sequential((&texture_view, &pipelines.upsample_sampler)),
+            );
+            (texture_view, group, pipeline)
+        };
+        let reduced = match ids.upsample_view {
+            Some(pipeline) if divisor > 1 => {
+                Some(upsampled(&mut buffers.reduced, ghost_size, pipeline))
+            }
+            _ => None,
+        };
+        if reduced.is_none() {
+            buffers.reduced = None;
+        }
+        // The cells before `fine_cells` are added up at the ghosts'
+        // resolution, the rest (the large ghosts') at half of it.
+        let fine_cells = draws
+            .jobs
+            .get(draws.coarse_from)
+            .map_or(params.cells, GridJob::cell_start)
+            .min(params.cells);
+        let coarse = match (ids.coarse, ids.upsample_ghosts) {
+            (Some(draw), Some(upsample)) if fine_cells < params.cells => {
+                let size = ghost_size.map(|side| side.div_ceil(2));
+                let (view, group, upsample) = upsampled(&mut buffers.coarse, size, upsample);
+                Some((view, group, upsample, draw))
+            }
+            _ => None,
+        };
+        if coarse.is_none() {
+            buffers.coarse = None;
+        }
+        // Trace only when what the rays depend on changed, or they have
+        // not been traced into this buffer yet (the passes run only once
+        // every pipeline is compiled).
+        let key = TraceKey {
+            jobs: draws.jobs[..params.jobs as usize].to_vec(),
+            surfaces: draws.surfaces.clone(),
+            params: params.trace_inputs(),
+        };
+        let retrace = buffers.traced.as_ref() != Some(&key);
+        let ready = [ids.trace, ids.fill, ids.cells]
+            .into_iter()
+            .all(|id| pipeline_cache.get_compute_pipeline(id).is_some())
+            && [
+                Some(ids.ghosts),
+                reduced.as_ref().map(|r| r.2),
+                coarse.as_ref().map(|c| c.2),
+                coarse.as_ref().map(|c| c.3),
+            ]
+            .into_iter()
+            .flatten()
+            .all(|id| pipeline_cache.get_render_pipeline(id).is_some());
+        if !ready {
+            // The passes wait for every pipeline as this system saw them
+            // (the cache may finish one before the passes run), so that
+            // the rays traced are the ones `traced` records.
+            commands.entity(entity).remove::<FlareBinding>();
+            if let Some(new) = created {
+                commands.entity(entity).insert(new);
+            }
+            continue;
+        }
+        buffers.traced = Some(key);
+        commands.entity(entity).insert(FlareBinding {
+            retrace,
+            reduced,
+            coarse,
+            fine_cells,
+            trace_group,
+            cells_group,
+            draw_group,
+            trace: ids.trace,
+            fill: ids.fill,
+            cells: ids.cells,
+            draw: ids.ghosts,
+            starburst: ids
+                .starburst
+                .filter(|_| params.starburst_scale > 0.0 && params.starburst_half_ndc > 0.0),
+            occlusion,
+            threads: params.threads,
+            rays: params.rays,
+            cell_count: params.cells,
+            spans: params.spans,
+            indices: indices.clone(),
+            lights: params.lights,
+        });
+        if let Some(new) = created {
+            commands.entity(entity).insert(new);
+        }
+    }
+}
+
+/// The bytes of `values` as the GPU reads them (little-endian `f32`s).
+fn f32_bytes(values: &[f32]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}

@@ -13,7 +13,7 @@
 //! | `compound_eye` | [`compound_eye`]: a material for insect compound eyes (Sagawa 2014), `CompoundEyePlugin` |
 //! | `dome` | [`dome`]: a fisheye dome camera, equidistant projection per vertex with refinement (Johjima and Fujimura) or a resampled cube map, `DomePlugin` |
 //! | `foveated_lod` | [`foveated_lod`]: gaze-driven level of detail (Mochizuki and Makino): a tracked head, LOD chains switched by the visual field, off-axis CAVE walls, `FoveatedLodPlugin`; the paper's ray tracer is still to come |
-//! | `lens_flare` | [`lens_flare`]: physically based lens flare (Hullin et al. 2011), `LensFlarePlugin`; work in progress (ghosts traced and drawn on the GPU; no starburst, occlusion or blade shape yet) |
+//! | `lens_flare` | [`lens_flare`]: physically based lens flare (Hullin et al. 2011), `LensFlarePlugin`: ghosts traced through real lens prescriptions on the GPU, bladed iris, starburst, ringing, occlusion by the scene's depth |
 //! | `spectacles` | [`spectacles`]: see through a prescription (Kakimoto et al.): the eye's defocus by clone rendering, corrected through the lens's voxel field, `SpectaclesPlugin` |
 //! | `egui` | settings panels (bevy_egui) of the plugins that are on |
 //! | `window` | opens a real window in the examples (winit + X11); without it, or without a display, they render to PNG |

@@ -9,9 +9,9 @@ use bevy::prelude::*;
 use bevy::render::camera::TemporalJitter;
 use bevy::render::render_asset::RenderAssets;
 use bevy::render::render_resource::{
-    BindGroupEntries, Buffer, BufferDescriptor, BufferUsages, Extent3d, PipelineCache,
-    StorageBuffer, Texture, TextureDescriptor, TextureDimension, TextureUsages, TextureView,
-    TextureViewDescriptor, UniformBuffer,
+    BindGroup, BindGroupEntries, Buffer, BufferDescriptor, BufferId, BufferUsages, Extent3d,
+    PipelineCache, StorageBuffer, Texture, TextureDescriptor, TextureDimension, TextureUsages,
+    TextureView, TextureViewDescriptor, TextureViewId, UniformBuffer,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::texture::{FallbackImage, GpuImage};
@@ -49,6 +49,8 @@ pub(super) struct FlareBuffers {
     history_holds: bool,
     /// Whether the rays have been over the device's limit (warned once).
     warned_over_limit: bool,
+    /// The bind groups and what they were made from.
+    groups: Option<(GroupSources, BindGroups)>,
     /// What the rays in `rays` were traced from; while a frame's grids,
     /// lens and settings are the same (a still camera and lights), they
     /// are not traced again.
@@ -63,10 +65,17 @@ struct GhostTarget {
     /// Kept with its view, which is what the passes use.
     _texture: Texture,
     view: TextureView,
+    /// The bind group that reads it to scale it up.
+    upsample_group: BindGroup,
 }
 
 impl GhostTarget {
-    fn new(render_device: &RenderDevice, size: UVec2) -> Self {
+    fn new(
+        render_device: &RenderDevice,
+        pipeline_cache: &PipelineCache,
+        pipelines: &FlarePipelines,
+        size: UVec2,
+    ) -> Self {
         let texture = render_device.create_texture(&TextureDescriptor {
             label: Some("optica_lens_flare_ghosts"),
             size: Extent3d {
@@ -82,12 +91,36 @@ impl GhostTarget {
             view_formats: &[],
         });
         let view = texture.create_view(&TextureViewDescriptor::default());
+        let upsample_group = render_device.create_bind_group(
+            "optica_lens_flare_upsample",
+            &pipeline_cache.get_bind_group_layout(&pipelines.upsample_layout),
+            &BindGroupEntries::sequential((&view, &pipelines.upsample_sampler)),
+        );
         Self {
             size,
             _texture: texture,
             view,
+            upsample_group,
         }
     }
+}
+
+/// The buffers and texture views a view's bind groups bind.
+#[derive(PartialEq)]
+struct GroupSources {
+    buffers: [Option<BufferId>; 8],
+    views: [TextureViewId; 2],
+    /// The depth the occlusion pass reads, when it runs.
+    depth: Option<TextureViewId>,
+}
+
+/// A view's bind groups, kept while what they bind is the same.
+#[derive(Clone)]
+struct BindGroups {
+    trace: BindGroup,
+    cells: BindGroup,
+    draw: BindGroup,
+    occlusion: Option<BindGroup>,
 }
 
 /// Everything the trace's result depends on: the grids, the lens at each
@@ -315,57 +348,79 @@ pub(super) fn prepare_flare(
         else {
             continue;
         };
-        let trace_group = render_device.create_bind_group(
-            "optica_lens_flare_trace",
-            &pipeline_cache.get_bind_group_layout(&pipelines.trace_layout),
-            &BindGroupEntries::sequential((
-                u.clone(),
-                s,
-                j.clone(),
-                ray_buffer.as_entire_binding(),
-            )),
-        );
-        let cells_group = render_device.create_bind_group(
-            "optica_lens_flare_cells",
-            &pipeline_cache.get_bind_group_layout(&pipelines.cells_layout),
-            &BindGroupEntries::sequential((
-                u.clone(),
-                j,
-                ray_buffer.as_entire_binding(),
-                visibility.as_entire_binding(),
-                cell_colors.as_entire_binding(),
-                indices.as_entire_binding(),
-            )),
-        );
-        let draw_group = render_device.create_bind_group(
-            "optica_lens_flare_draw",
-            &pipeline_cache.get_bind_group_layout(&pipelines.draw_layout),
-            &BindGroupEntries::sequential((
-                u.clone(),
-                cell_colors.as_entire_binding(),
-                ray_buffer.as_entire_binding(),
-                visibility.as_entire_binding(),
-                probes.clone(),
-                ringing_view,
-                burst_view,
-            )),
-        );
-        let occlusion = match (readable_depth, occlusion_pipeline) {
-            (Some(depth), Some(pipeline)) if occlusion_ready => {
-                let group = render_device.create_bind_group(
-                    "optica_lens_flare_occlusion",
-                    &pipeline_cache.get_bind_group_layout(occlusion_layout),
-                    &BindGroupEntries::sequential((
-                        u,
-                        probes,
-                        depth.view(),
-                        visibility.as_entire_binding(),
-                    )),
-                );
-                Some((group, pipeline))
-            }
-            _ => None,
+        // The bind groups, made again only when a buffer or texture they
+        // bind is new (grown, resized, or a texture arrived).
+        let occlusion_depth =
+            readable_depth.filter(|_| occlusion_ready && occlusion_pipeline.is_some());
+        let made_from = GroupSources {
+            buffers: [
+                buffers.uniform.buffer(),
+                buffers.surfaces.buffer(),
+                buffers.jobs.buffer(),
+                buffers.probes.buffer(),
+                Some(ray_buffer),
+                Some(cell_colors),
+                Some(indices),
+                Some(&visibility),
+            ]
+            .map(|b| b.map(Buffer::id)),
+            views: [ringing_view.id(), burst_view.id()],
+            depth: occlusion_depth.map(|d| d.view().id()),
         };
+        let groups = match buffers.groups.take() {
+            Some((kept_from, groups)) if kept_from == made_from => groups,
+            _ => BindGroups {
+                trace: render_device.create_bind_group(
+                    "optica_lens_flare_trace",
+                    &pipeline_cache.get_bind_group_layout(&pipelines.trace_layout),
+                    &BindGroupEntries::sequential((
+                        u.clone(),
+                        s,
+                        j.clone(),
+                        ray_buffer.as_entire_binding(),
+                    )),
+                ),
+                cells: render_device.create_bind_group(
+                    "optica_lens_flare_cells",
+                    &pipeline_cache.get_bind_group_layout(&pipelines.cells_layout),
+                    &BindGroupEntries::sequential((
+                        u.clone(),
+                        j,
+                        ray_buffer.as_entire_binding(),
+                        visibility.as_entire_binding(),
+                        cell_colors.as_entire_binding(),
+                        indices.as_entire_binding(),
+                    )),
+                ),
+                draw: render_device.create_bind_group(
+                    "optica_lens_flare_draw",
+                    &pipeline_cache.get_bind_group_layout(&pipelines.draw_layout),
+                    &BindGroupEntries::sequential((
+                        u.clone(),
+                        cell_colors.as_entire_binding(),
+                        ray_buffer.as_entire_binding(),
+                        visibility.as_entire_binding(),
+                        probes.clone(),
+                        ringing_view,
+                        burst_view,
+                    )),
+                ),
+                occlusion: occlusion_depth.map(|depth| {
+                    render_device.create_bind_group(
+                        "optica_lens_flare_occlusion",
+                        &pipeline_cache.get_bind_group_layout(occlusion_layout),
+                        &BindGroupEntries::sequential((
+                            u,
+                            probes,
+                            depth.view(),
+                            visibility.as_entire_binding(),
+                        )),
+                    )
+                }),
+            },
+        };
+        buffers.groups = Some((made_from, groups.clone()));
+        let occlusion = groups.occlusion.clone().zip(occlusion_pipeline);
         // Reduced-resolution ghosts: their target, made again only when
         // the view's size or the divisor changes; and the large ghosts'
         // target at half that resolution, when there are any.
@@ -373,15 +428,12 @@ pub(super) fn prepare_flare(
         let ghost_size = view_size.map(|side| side.div_ceil(divisor));
         let upsampled = |target: &mut Option<GhostTarget>, size: UVec2, pipeline| {
             let kept = target.take().filter(|kept| kept.size == size);
-            let kept = kept.unwrap_or_else(|| GhostTarget::new(&render_device, size));
-            let texture_view = kept.view.clone();
+            let kept = kept.unwrap_or_else(|| {
+                GhostTarget::new(&render_device, &pipeline_cache, &pipelines, size)
+            });
+            let made = (kept.view.clone(), kept.upsample_group.clone(), pipeline);
             *target = Some(kept);
-            let group = render_device.create_bind_group(
-                "optica_lens_flare_upsample",
-                &pipeline_cache.get_bind_group_layout(&pipelines.upsample_layout),
-                &BindGroupEntries::sequential((&texture_view, &pipelines.upsample_sampler)),
-            );
-            (texture_view, group, pipeline)
+            made
         };
         let reduced = match ids.upsample_view {
             Some(pipeline) if divisor > 1 => {
@@ -447,9 +499,9 @@ pub(super) fn prepare_flare(
             reduced,
             coarse,
             fine_cells,
-            trace_group,
-            cells_group,
-            draw_group,
+            trace_group: groups.trace,
+            cells_group: groups.cells,
+            draw_group: groups.draw,
             trace: ids.trace,
             fill: ids.fill,
             cells: ids.cells,

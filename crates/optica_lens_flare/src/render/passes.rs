@@ -7,6 +7,7 @@ use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::render_resource::{
     BindGroup, CommandEncoder, ComputePassDescriptor, ComputePipeline, IndexFormat, LoadOp,
     Operations, PipelineCache, RenderPassColorAttachment, RenderPassDescriptor, StoreOp,
+    TextureView,
 };
 use bevy::render::renderer::{RenderContext, ViewQuery};
 use bevy::render::view::ViewTarget;
@@ -95,38 +96,16 @@ pub(super) fn flare_passes(
     // starburst.
     let view_attachment = target.get_unsampled_color_attachment();
     let ghost_attachment = match &reduced {
-        Some((texture, ..)) => RenderPassColorAttachment {
-            view: texture,
-            depth_slice: None,
-            resolve_target: None,
-            ops: Operations {
-                load: LoadOp::Clear(Default::default()),
-                store: StoreOp::Store,
-            },
-        },
+        Some((texture, ..)) => cleared(texture),
         None => view_attachment.clone(),
     };
     // The large ghosts first, into their own target at half the
     // resolution, which the ghosts' pass then scales up into its own.
     if let Some((texture, _, _, coarse_draw)) = &coarse {
+        let attachments = [Some(cleared(texture))];
         let mut pass = ctx
             .command_encoder()
-            .begin_render_pass(&RenderPassDescriptor {
-                label: Some("optica_lens_flare_coarse"),
-                color_attachments: &[Some(RenderPassColorAttachment {
-                    view: texture,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: Operations {
-                        load: LoadOp::Clear(Default::default()),
-                        store: StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            .begin_render_pass(&only_into("optica_lens_flare_coarse", &attachments));
         let pass_span = diagnostics.pass_span(&mut pass, "coarse");
         pass.set_pipeline(coarse_draw);
         pass.set_bind_group(0, &binding.draw_group, &[]);
@@ -135,16 +114,10 @@ pub(super) fn flare_passes(
         pass_span.end(&mut pass);
     }
     {
+        let attachments = [Some(ghost_attachment)];
         let mut pass = ctx
             .command_encoder()
-            .begin_render_pass(&RenderPassDescriptor {
-                label: Some("optica_lens_flare_draw"),
-                color_attachments: &[Some(ghost_attachment)],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            .begin_render_pass(&only_into("optica_lens_flare_draw", &attachments));
         let pass_span = diagnostics.pass_span(&mut pass, "draw");
         pass.set_pipeline(draw);
         pass.set_bind_group(0, &binding.draw_group, &[]);
@@ -163,16 +136,10 @@ pub(super) fn flare_passes(
         pass_span.end(&mut pass);
     }
     if let Some((_, group, upsample)) = reduced {
+        let attachments = [Some(view_attachment)];
         let mut pass = ctx
             .command_encoder()
-            .begin_render_pass(&RenderPassDescriptor {
-                label: Some("optica_lens_flare_composite"),
-                color_attachments: &[Some(view_attachment)],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            .begin_render_pass(&only_into("optica_lens_flare_composite", &attachments));
         let pass_span = diagnostics.pass_span(&mut pass, "composite");
         pass.set_pipeline(upsample);
         pass.set_bind_group(0, group, &[]);
@@ -185,6 +152,34 @@ pub(super) fn flare_passes(
         pass_span.end(&mut pass);
     }
     span.end(ctx.command_encoder());
+}
+
+/// A render pass drawing into `attachments` alone.
+fn only_into<'a>(
+    label: &'a str,
+    attachments: &'a [Option<RenderPassColorAttachment<'a>>],
+) -> RenderPassDescriptor<'a> {
+    RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: attachments,
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    }
+}
+
+/// An attachment of `view`, cleared before the pass adds to it.
+fn cleared(view: &TextureView) -> RenderPassColorAttachment<'_> {
+    RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: Operations {
+            load: LoadOp::Clear(Default::default()),
+            store: StoreOp::Store,
+        },
+    }
 }
 
 /// Dispatches `groups` (x, y) workgroups of `pipeline` with `group` in a

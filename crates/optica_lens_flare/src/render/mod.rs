@@ -11,8 +11,8 @@
 //!
 //! In bloom's shape: [`pipelines`] specialises each view's pipelines
 //! (`RenderSystems::Prepare`), [`prepare`] writes its buffers and targets
-//! and makes its bind groups (`PrepareBindGroups`) into a
-//! [`FlareBinding`], and [`passes`] records them in the view's `Core3d`
+//! (`PrepareResources`) and makes its bind groups (`PrepareBindGroups`)
+//! into a [`FlareBinding`], and [`passes`] records them in the view's `Core3d`
 //! schedule, before bloom.
 
 use bevy::core_pipeline::tonemapping::tonemapping;
@@ -34,7 +34,7 @@ mod prepare;
 
 use passes::flare_passes;
 use pipelines::{FlarePipelines, init_flare_pipelines, prepare_flare_pipelines};
-use prepare::prepare_flare;
+use prepare::{prepare_flare_bind_groups, prepare_flare_resources};
 
 /// Bytes per traced ray (`RayOut`: 12 floats).
 const RAY_BYTES: u64 = 48;
@@ -62,8 +62,13 @@ impl Plugin for FlareRenderPlugin {
             .add_systems(
                 Render,
                 (
-                    prepare_flare_pipelines.in_set(RenderSystems::Prepare),
-                    prepare_flare.in_set(RenderSystems::PrepareBindGroups),
+                    // Before the resources, so that a view's first frame
+                    // with pipelines queued also gets its buffers.
+                    prepare_flare_pipelines
+                        .in_set(RenderSystems::Prepare)
+                        .before(RenderSystems::PrepareResources),
+                    prepare_flare_resources.in_set(RenderSystems::PrepareResources),
+                    prepare_flare_bind_groups.in_set(RenderSystems::PrepareBindGroups),
                 ),
             )
             .add_systems(

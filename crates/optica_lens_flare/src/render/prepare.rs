@@ -1,17 +1,20 @@
-//! Each flare view's GPU resources and bind groups for the frame: its
-//! buffers (kept between frames, grown when a frame needs more), the
-//! reduced-resolution targets, and what the passes bind, as a
-//! [`FlareBinding`](super::FlareBinding); views whose pipelines are not
+//! Each flare view's GPU resources and bind groups for the frame, in two
+//! systems as Bevy's own passes do: [`prepare_flare_resources`] grows and
+//! writes its buffers (kept between frames) and its reduced-resolution
+//! targets; [`prepare_flare_bind_groups`] binds them, as a
+//! [`FlareBinding`](super::FlareBinding). Views whose pipelines are not
 //! compiled yet get none and run no pass.
 
 use bevy::diagnostic::FrameCount;
+use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use bevy::render::camera::TemporalJitter;
 use bevy::render::render_asset::RenderAssets;
 use bevy::render::render_resource::{
-    BindGroup, BindGroupEntries, Buffer, BufferDescriptor, BufferId, BufferUsages, Extent3d,
-    PipelineCache, StorageBuffer, Texture, TextureDescriptor, TextureDimension, TextureUsages,
-    TextureView, TextureViewDescriptor, TextureViewId, UniformBuffer,
+    BindGroup, BindGroupEntries, Buffer, BufferDescriptor, BufferId, BufferUsages,
+    CachedComputePipelineId, Extent3d, PipelineCache, StorageBuffer, Texture, TextureDescriptor,
+    TextureDimension, TextureUsages, TextureView, TextureViewDescriptor, TextureViewId,
+    UniformBuffer,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::texture::{FallbackImage, GpuImage};
@@ -57,6 +60,8 @@ pub(super) struct FlareBuffers {
     traced: Option<TraceKey>,
     /// The raw visibilities per light `visibility` holds (0: no TAA).
     jitter_cycle: u32,
+    /// This frame's inputs to the bind groups, from the resources system.
+    frame: Option<FrameInputs>,
 }
 
 /// A texture the ghosts are added up in before it is scaled up.
@@ -65,17 +70,12 @@ struct GhostTarget {
     /// Kept with its view, which is what the passes use.
     _texture: Texture,
     view: TextureView,
-    /// The bind group that reads it to scale it up.
-    upsample_group: BindGroup,
+    /// The bind group that reads it to scale it up, once made.
+    upsample_group: Option<BindGroup>,
 }
 
 impl GhostTarget {
-    fn new(
-        render_device: &RenderDevice,
-        pipeline_cache: &PipelineCache,
-        pipelines: &FlarePipelines,
-        size: UVec2,
-    ) -> Self {
+    fn new(render_device: &RenderDevice, size: UVec2) -> Self {
         let texture = render_device.create_texture(&TextureDescriptor {
             label: Some("optica_lens_flare_ghosts"),
             size: Extent3d {
@@ -91,16 +91,11 @@ impl GhostTarget {
             view_formats: &[],
         });
         let view = texture.create_view(&TextureViewDescriptor::default());
-        let upsample_group = render_device.create_bind_group(
-            "optica_lens_flare_upsample",
-            &pipeline_cache.get_bind_group_layout(&pipelines.upsample_layout),
-            &BindGroupEntries::sequential((&view, &pipelines.upsample_sampler)),
-        );
         Self {
             size,
             _texture: texture,
             view,
-            upsample_group,
+            upsample_group: None,
         }
     }
 }
@@ -138,6 +133,21 @@ struct TraceKey {
 /// raw visibilities, one per offset.
 const JITTER_CYCLE: u32 = 8;
 
+/// What the resources system worked out for a view this frame, for the
+/// bind-group system; absent when the view runs no pass.
+struct FrameInputs {
+    params: FlareParams,
+    /// The cells added up at the ghosts' resolution (the rest are the
+    /// large ghosts').
+    fine_cells: u32,
+    /// The diffraction textures (the fallback until they arrive).
+    ringing_view: TextureView,
+    burst_view: TextureView,
+    /// The depth the occlusion pass reads, its pipeline, and whether the
+    /// depth is multisampled; absent when the pass does not run.
+    occlusion: Option<(TextureView, CachedComputePipelineId, bool)>,
+}
+
 /// A view with flare draws: its buffers once made, its depth and MSAA.
 type FlareView = (
     Entity,
@@ -150,377 +160,453 @@ type FlareView = (
     Option<&'static TemporalJitter>,
 );
 
-#[allow(clippy::too_many_arguments)]
-pub(super) fn prepare_flare(
+/// The devices and assets the resources system reads.
+#[derive(SystemParam)]
+pub(super) struct ResourceInputs<'w> {
+    pipeline_cache: Res<'w, PipelineCache>,
+    render_device: Res<'w, RenderDevice>,
+    render_queue: Res<'w, RenderQueue>,
+    images: Res<'w, RenderAssets<GpuImage>>,
+    fallback: Res<'w, FallbackImage>,
+    frame: Res<'w, FrameCount>,
+}
+
+/// Per flare view, in `PrepareResources`: its buffers grown and written,
+/// its reduced-resolution targets, and the [`FrameInputs`] the bind-group
+/// system binds.
+pub(super) fn prepare_flare_resources(
     mut commands: Commands,
     mut views: Query<FlareView>,
-    pipelines: Res<FlarePipelines>,
-    pipeline_cache: Res<PipelineCache>,
-    render_device: Res<RenderDevice>,
-    render_queue: Res<RenderQueue>,
-    images: Res<RenderAssets<GpuImage>>,
-    fallback: Res<FallbackImage>,
-    frame: Res<FrameCount>,
+    inputs: ResourceInputs,
 ) {
     for (entity, view, draws, ids, buffers, depth, msaa, jitter) in &mut views {
-        let mut params = draws.params;
-        if let Some(jitter) = jitter {
-            // Where the jitter moves the image of a point this frame (with
-            // a perspective projection, the same for every point).
-            let mut jittered = view.clip_from_view;
-            jitter.jitter_projection(&mut jittered, view.viewport.zw().as_vec2());
-            let ndc = |m: Mat4| {
-                let c = m * Vec4::new(0.0, 0.0, -1.0, 1.0);
-                c.xy() / c.w
-            };
-            params.jitter_ndc = ndc(jittered) - ndc(view.clip_from_view);
-            params.jitter_cycle = JITTER_CYCLE;
-            params.jitter_slot = frame.0 % JITTER_CYCLE;
-        }
-        if params.jobs == 0 || params.rays == 0 {
-            commands.entity(entity).remove::<FlareBinding>();
-            continue;
-        }
-        let Some(ids) = ids else {
-            commands.entity(entity).remove::<FlareBinding>();
-            continue;
-        };
-        let divisor = draws.ghost_divisor.max(1);
-        // The diffraction textures, once uploaded; until then (and when
-        // off) the fallback, and the pass leaves them out.
-        let texture = |id: Option<AssetId<Image>>| id.and_then(|id| images.get(id));
-        let ringing = texture(draws.ringing);
-        let burst = texture(draws.starburst);
-        if ringing.is_none() {
-            params.ringing = 0;
-        }
-        if burst.is_none() {
-            params.starburst_scale = 0.0;
-        }
-        let fallback_view = &fallback.d2.texture_view;
-        let ringing_view = ringing.map_or(fallback_view, |i| &i.texture_view);
-        let burst_view = burst.map_or(fallback_view, |i| &i.texture_view);
         let mut created = None;
         let buffers = match buffers {
             Some(b) => b.into_inner(),
             None => created.insert(FlareBuffers::default()),
         };
-        // More rays than one storage binding holds (128 MiB on many
-        // devices: 2.8 M rays, e.g. 83 ghosts × 3 wavelengths at 128²): the
-        // grids past it (the dimmest of the last light) are left out, with
-        // one warning, instead of failing to bind.
-        let limits = render_device.limits();
-        let max_bytes = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
-        let max_rays = u32::try_from(max_bytes / RAY_BYTES).unwrap_or(u32::MAX);
-        if params.rays > max_rays {
-            let kept = draws
-                .jobs
-                .iter()
-                .take_while(|j| j.ray_end() <= max_rays)
-                .count();
-            if !buffers.warned_over_limit {
-                warn!(
-                    "optica_lens_flare: {} rays exceed the device's storage binding ({} rays); \
-                     drawing {kept} of {} grids (lower LensFlare::grid, wavelengths or ghost_budget)",
-                    params.rays,
-                    max_rays,
-                    draws.jobs.len()
-                );
-                buffers.warned_over_limit = true;
-            }
-            let last = kept.checked_sub(1).map(|k| draws.jobs[k]);
-            params.jobs = kept as u32;
-            params.rays = last.map_or(0, |j| j.ray_end());
-            params.threads = last.map_or(0, |j| j.thread_end());
-            params.cells = last.map_or(0, |j| j.cell_end());
-            params.spans = last.map_or(0, |j| j.span_end());
-            if kept == 0 {
-                commands.entity(entity).remove::<FlareBinding>();
-                continue;
-            }
-        }
-        let rays = u64::from(params.rays);
-        let cells = u64::from(params.cells).max(1);
-        for (buffer, label, size, usage) in [
-            (
-                &mut buffers.rays,
-                "optica_lens_flare_rays",
-                rays * RAY_BYTES,
-                BufferUsages::STORAGE,
-            ),
-            (
-                &mut buffers.cell_colors,
-                "optica_lens_flare_cell_colors",
-                rays * CELL_COLOR_BYTES,
-                BufferUsages::STORAGE,
-            ),
-            (
-                &mut buffers.indices,
-                "optica_lens_flare_indices",
-                cells * CELL_INDEX_BYTES,
-                BufferUsages::STORAGE | BufferUsages::INDEX,
-            ),
-        ] {
-            if buffer.as_ref().is_none_or(|b| b.size() < size) {
-                buffers.traced = None;
-                *buffer = Some(render_device.create_buffer(&BufferDescriptor {
-                    label: Some(label),
-                    size,
-                    usage,
-                    mapped_at_creation: false,
-                }));
-            }
-        }
-        // The depth is read when occlusion is on and the view's depth can
-        // be bound (`make_depth_readable` asks for it); otherwise, and until
-        // the occlusion pipeline is compiled, every light is fully visible.
-        let readable_depth = depth.filter(|d| {
-            params.occlusion_radius_px > 0.0
-                && params.lights > 0
-                && d.texture.usage().contains(TextureUsages::TEXTURE_BINDING)
-        });
-        let multisampled = msaa.samples() > 1;
-        let occlusion_layout = &pipelines.occlusion_layouts[usize::from(multisampled)];
-        let occlusion_pipeline = readable_depth.and(ids.occlusion);
-        let occlusion_ready =
-            occlusion_pipeline.is_some_and(|id| pipeline_cache.get_compute_pipeline(id).is_some());
-        // Each light's visibility. Its history holds while the pass ran
-        // last frame for the same lights.
-        let light_bytes = u64::from(params.lights.max(1)) * 4 * u64::from(1 + params.jitter_cycle);
-        let fresh = buffers
-            .visibility
-            .as_ref()
-            .is_none_or(|b| b.size() < light_bytes);
-        if fresh {
-            buffers.visibility = Some(render_device.create_buffer(&BufferDescriptor {
-                label: Some("optica_lens_flare_visibility"),
-                size: light_bytes,
-                usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }));
-        }
-        params.reset_history = u32::from(
-            fresh
-                || !buffers.history_holds
-                || buffers.lights != draws.light_entities
-                || buffers.jitter_cycle != params.jitter_cycle,
-        );
-        buffers.jitter_cycle = params.jitter_cycle;
-        buffers.history_holds = occlusion_ready;
-        buffers.lights.clone_from(&draws.light_entities);
-        let Some(visibility) = buffers.visibility.clone() else {
-            continue;
-        };
-        if !occlusion_ready {
-            let ones = vec![1f32; params.lights.max(1) as usize];
-            render_queue.write_buffer(&visibility, 0, &f32_bytes(&ones));
-        }
-        buffers.uniform.set(params);
-        buffers.uniform.write_buffer(&render_device, &render_queue);
-        buffers.probes.get_mut().clone_from(&draws.lights);
-        if buffers.probes.get().is_empty() {
-            buffers.probes.get_mut().push(LightProbe::default());
-        }
-        buffers.probes.write_buffer(&render_device, &render_queue);
-        buffers.surfaces.get_mut().clone_from(&draws.surfaces);
-        buffers.surfaces.write_buffer(&render_device, &render_queue);
-        buffers.jobs.get_mut().clone_from(&draws.jobs);
-        buffers.jobs.write_buffer(&render_device, &render_queue);
-        let (
-            Some(u),
-            Some(s),
-            Some(j),
-            Some(probes),
-            Some(ray_buffer),
-            Some(cell_colors),
-            Some(indices),
-        ) = (
-            buffers.uniform.binding(),
-            buffers.surfaces.binding(),
-            buffers.jobs.binding(),
-            buffers.probes.binding(),
-            buffers.rays.as_ref(),
-            buffers.cell_colors.as_ref(),
-            buffers.indices.as_ref(),
-        )
-        else {
-            continue;
-        };
-        // The bind groups, made again only when a buffer or texture they
-        // bind is new (grown, resized, or a texture arrived).
-        let occlusion_depth =
-            readable_depth.filter(|_| occlusion_ready && occlusion_pipeline.is_some());
-        let made_from = GroupSources {
-            buffers: [
-                buffers.uniform.buffer(),
-                buffers.surfaces.buffer(),
-                buffers.jobs.buffer(),
-                buffers.probes.buffer(),
-                Some(ray_buffer),
-                Some(cell_colors),
-                Some(indices),
-                Some(&visibility),
-            ]
-            .map(|b| b.map(Buffer::id)),
-            views: [ringing_view.id(), burst_view.id()],
-            depth: occlusion_depth.map(|d| d.view().id()),
-        };
-        let groups = match buffers.groups.take() {
-            Some((kept_from, groups)) if kept_from == made_from => groups,
-            _ => BindGroups {
-                trace: render_device.create_bind_group(
-                    "optica_lens_flare_trace",
-                    &pipeline_cache.get_bind_group_layout(&pipelines.trace_layout),
-                    &BindGroupEntries::sequential((
-                        u.clone(),
-                        s,
-                        j.clone(),
-                        ray_buffer.as_entire_binding(),
-                    )),
-                ),
-                cells: render_device.create_bind_group(
-                    "optica_lens_flare_cells",
-                    &pipeline_cache.get_bind_group_layout(&pipelines.cells_layout),
-                    &BindGroupEntries::sequential((
-                        u.clone(),
-                        j,
-                        ray_buffer.as_entire_binding(),
-                        visibility.as_entire_binding(),
-                        cell_colors.as_entire_binding(),
-                        indices.as_entire_binding(),
-                    )),
-                ),
-                draw: render_device.create_bind_group(
-                    "optica_lens_flare_draw",
-                    &pipeline_cache.get_bind_group_layout(&pipelines.draw_layout),
-                    &BindGroupEntries::sequential((
-                        u.clone(),
-                        cell_colors.as_entire_binding(),
-                        ray_buffer.as_entire_binding(),
-                        visibility.as_entire_binding(),
-                        probes.clone(),
-                        ringing_view,
-                        burst_view,
-                    )),
-                ),
-                occlusion: occlusion_depth.map(|depth| {
-                    render_device.create_bind_group(
-                        "optica_lens_flare_occlusion",
-                        &pipeline_cache.get_bind_group_layout(occlusion_layout),
-                        &BindGroupEntries::sequential((
-                            u,
-                            probes,
-                            depth.view(),
-                            visibility.as_entire_binding(),
-                        )),
-                    )
-                }),
-            },
-        };
-        buffers.groups = Some((made_from, groups.clone()));
-        let occlusion = groups.occlusion.clone().zip(occlusion_pipeline);
-        // Reduced-resolution ghosts: their target, made again only when
-        // the view's size or the divisor changes; and the large ghosts'
-        // target at half that resolution, when there are any.
-        let view_size = view.viewport.zw().max(UVec2::ONE);
-        let ghost_size = view_size.map(|side| side.div_ceil(divisor));
-        let upsampled = |target: &mut Option<GhostTarget>, size: UVec2, pipeline| {
-            let kept = target.take().filter(|kept| kept.size == size);
-            let kept = kept.unwrap_or_else(|| {
-                GhostTarget::new(&render_device, &pipeline_cache, &pipelines, size)
-            });
-            let made = (kept.view.clone(), kept.upsample_group.clone(), pipeline);
-            *target = Some(kept);
-            made
-        };
-        let reduced = match ids.upsample_view {
-            Some(pipeline) if divisor > 1 => {
-                Some(upsampled(&mut buffers.reduced, ghost_size, pipeline))
-            }
-            _ => None,
-        };
-        if reduced.is_none() {
-            buffers.reduced = None;
-        }
-        // The cells before `fine_cells` are added up at the ghosts'
-        // resolution, the rest (the large ghosts') at half of it.
-        let fine_cells = draws
-            .jobs
-            .get(draws.coarse_from)
-            .map_or(params.cells, GridJob::cell_start)
-            .min(params.cells);
-        let coarse = match (ids.coarse, ids.upsample_ghosts) {
-            (Some(draw), Some(upsample)) if fine_cells < params.cells => {
-                let size = ghost_size.map(|side| side.div_ceil(2));
-                let (view, group, upsample) = upsampled(&mut buffers.coarse, size, upsample);
-                Some((view, group, upsample, draw))
-            }
-            _ => None,
-        };
-        if coarse.is_none() {
-            buffers.coarse = None;
-        }
-        // Trace only when what the rays depend on changed, or they have
-        // not been traced into this buffer yet (the passes run only once
-        // every pipeline is compiled).
-        let key = TraceKey {
-            jobs: draws.jobs[..params.jobs as usize].to_vec(),
-            surfaces: draws.surfaces.clone(),
-            params: params.trace_inputs(),
-        };
-        let retrace = buffers.traced.as_ref() != Some(&key);
-        let ready = [ids.trace, ids.fill, ids.cells]
-            .into_iter()
-            .all(|id| pipeline_cache.get_compute_pipeline(id).is_some())
-            && [
-                Some(ids.ghosts),
-                reduced.as_ref().map(|r| r.2),
-                coarse.as_ref().map(|c| c.2),
-                coarse.as_ref().map(|c| c.3),
-            ]
-            .into_iter()
-            .flatten()
-            .all(|id| pipeline_cache.get_render_pipeline(id).is_some());
-        if !ready {
-            // The passes wait for every pipeline as this system saw them
-            // (the cache may finish one before the passes run), so that
-            // the rays traced are the ones `traced` records.
-            commands.entity(entity).remove::<FlareBinding>();
-            if let Some(new) = created {
-                commands.entity(entity).insert(new);
-            }
-            continue;
-        }
-        buffers.traced = Some(key);
-        commands.entity(entity).insert(FlareBinding {
-            retrace,
-            reduced,
-            coarse,
-            fine_cells,
-            trace_group: groups.trace,
-            cells_group: groups.cells,
-            draw_group: groups.draw,
-            trace: ids.trace,
-            fill: ids.fill,
-            cells: ids.cells,
-            draw: ids.ghosts,
-            starburst: ids
-                .starburst
-                .filter(|_| params.starburst_scale > 0.0 && params.starburst_half_ndc > 0.0),
-            occlusion,
-            threads: params.threads,
-            rays: params.rays,
-            cell_count: params.cells,
-            spans: params.spans,
-            indices: indices.clone(),
-            lights: params.lights,
+        buffers.frame = ids.and_then(|ids| {
+            let view = ViewInputs {
+                view,
+                draws,
+                ids,
+                depth,
+                multisampled: msaa.samples() > 1,
+                jitter,
+            };
+            prepare_view(buffers, &view, &inputs)
         });
         if let Some(new) = created {
             commands.entity(entity).insert(new);
         }
     }
+}
+
+/// What one view brings to [`prepare_view`].
+struct ViewInputs<'a> {
+    view: &'a ExtractedView,
+    draws: &'a FlareDraws,
+    ids: &'a FlarePipelineIds,
+    depth: Option<&'a ViewDepthTexture>,
+    multisampled: bool,
+    jitter: Option<&'a TemporalJitter>,
+}
+
+/// One view's resources; `None` when it has nothing to draw.
+fn prepare_view(
+    buffers: &mut FlareBuffers,
+    view: &ViewInputs,
+    inputs: &ResourceInputs,
+) -> Option<FrameInputs> {
+    let ResourceInputs {
+        pipeline_cache,
+        render_device,
+        render_queue,
+        images,
+        fallback,
+        frame,
+    } = inputs;
+    let draws = view.draws;
+    let mut params = draws.params;
+    if let Some(jitter) = view.jitter {
+        // Where the jitter moves the image of a point this frame (with a
+        // perspective projection, the same for every point).
+        let clip_from_view = view.view.clip_from_view;
+        let mut jittered = clip_from_view;
+        jitter.jitter_projection(&mut jittered, view.view.viewport.zw().as_vec2());
+        let ndc = |m: Mat4| {
+            let c = m * Vec4::new(0.0, 0.0, -1.0, 1.0);
+            c.xy() / c.w
+        };
+        params.jitter_ndc = ndc(jittered) - ndc(clip_from_view);
+        params.jitter_cycle = JITTER_CYCLE;
+        params.jitter_slot = frame.0 % JITTER_CYCLE;
+    }
+    if params.jobs == 0 || params.rays == 0 {
+        return None;
+    }
+    // The diffraction textures, once uploaded; until then (and when off)
+    // the fallback, and the pass leaves them out.
+    let texture = |id: Option<AssetId<Image>>| id.and_then(|id| images.get(id));
+    let ringing = texture(draws.ringing);
+    let burst = texture(draws.starburst);
+    if ringing.is_none() {
+        params.ringing = 0;
+    }
+    if burst.is_none() {
+        params.starburst_scale = 0.0;
+    }
+    let fallback_view = &fallback.d2.texture_view;
+    let ringing_view = ringing.map_or(fallback_view, |i| &i.texture_view).clone();
+    let burst_view = burst.map_or(fallback_view, |i| &i.texture_view).clone();
+    // More rays than one storage binding holds (128 MiB on many devices:
+    // 2.8 M rays, e.g. 83 ghosts × 3 wavelengths at 128²): the grids past
+    // it (the dimmest of the last light) are left out, with one warning,
+    // instead of failing to bind.
+    let limits = render_device.limits();
+    let max_bytes = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let max_rays = u32::try_from(max_bytes / RAY_BYTES).unwrap_or(u32::MAX);
+    if params.rays > max_rays {
+        let kept = draws
+            .jobs
+            .iter()
+            .take_while(|j| j.ray_end() <= max_rays)
+            .count();
+        if !buffers.warned_over_limit {
+            warn!(
+                "optica_lens_flare: {} rays exceed the device's storage binding ({} rays); \
+                 drawing {kept} of {} grids (lower LensFlare::grid, wavelengths or ghost_budget)",
+                params.rays,
+                max_rays,
+                draws.jobs.len()
+            );
+            buffers.warned_over_limit = true;
+        }
+        let last = draws.jobs[..kept].last()?;
+        params.jobs = kept as u32;
+        params.rays = last.ray_end();
+        params.threads = last.thread_end();
+        params.cells = last.cell_end();
+        params.spans = last.span_end();
+    }
+    let rays = u64::from(params.rays);
+    let cells = u64::from(params.cells).max(1);
+    for (buffer, label, size, usage) in [
+        (
+            &mut buffers.rays,
+            "optica_lens_flare_rays",
+            rays * RAY_BYTES,
+            BufferUsages::STORAGE,
+        ),
+        (
+            &mut buffers.cell_colors,
+            "optica_lens_flare_cell_colors",
+            rays * CELL_COLOR_BYTES,
+            BufferUsages::STORAGE,
+        ),
+        (
+            &mut buffers.indices,
+            "optica_lens_flare_indices",
+            cells * CELL_INDEX_BYTES,
+            BufferUsages::STORAGE | BufferUsages::INDEX,
+        ),
+    ] {
+        if buffer.as_ref().is_none_or(|b| b.size() < size) {
+            buffers.traced = None;
+            *buffer = Some(render_device.create_buffer(&BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            }));
+        }
+    }
+    // The depth is read when occlusion is on and the view's depth can be
+    // bound (`make_depth_readable` asks for it); otherwise, and until the
+    // occlusion pipeline is compiled, every light is fully visible.
+    let occlusion = view
+        .depth
+        .filter(|d| {
+            params.occlusion_radius_px > 0.0
+                && params.lights > 0
+                && d.texture.usage().contains(TextureUsages::TEXTURE_BINDING)
+        })
+        .zip(view.ids.occlusion)
+        .filter(|(_, id)| pipeline_cache.get_compute_pipeline(*id).is_some())
+        .map(|(depth, id)| (depth.view().clone(), id, view.multisampled));
+    // Each light's visibility. Its history holds while the pass ran last
+    // frame for the same lights.
+    let light_bytes = u64::from(params.lights.max(1)) * 4 * u64::from(1 + params.jitter_cycle);
+    let fresh = buffers
+        .visibility
+        .as_ref()
+        .is_none_or(|b| b.size() < light_bytes);
+    if fresh {
+        buffers.visibility = Some(render_device.create_buffer(&BufferDescriptor {
+            label: Some("optica_lens_flare_visibility"),
+            size: light_bytes,
+            usage: BufferUsages::STORAGE | BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        }));
+    }
+    params.reset_history = u32::from(
+        fresh
+            || !buffers.history_holds
+            || buffers.lights != draws.light_entities
+            || buffers.jitter_cycle != params.jitter_cycle,
+    );
+    buffers.jitter_cycle = params.jitter_cycle;
+    buffers.history_holds = occlusion.is_some();
+    buffers.lights.clone_from(&draws.light_entities);
+    if occlusion.is_none()
+        && let Some(visibility) = &buffers.visibility
+    {
+        let ones = vec![1f32; params.lights.max(1) as usize];
+        render_queue.write_buffer(visibility, 0, &f32_bytes(&ones));
+    }
+    buffers.uniform.set(params);
+    buffers.uniform.write_buffer(render_device, render_queue);
+    buffers.probes.get_mut().clone_from(&draws.lights);
+    if buffers.probes.get().is_empty() {
+        buffers.probes.get_mut().push(LightProbe::default());
+    }
+    buffers.probes.write_buffer(render_device, render_queue);
+    buffers.surfaces.get_mut().clone_from(&draws.surfaces);
+    buffers.surfaces.write_buffer(render_device, render_queue);
+    buffers.jobs.get_mut().clone_from(&draws.jobs);
+    buffers.jobs.write_buffer(render_device, render_queue);
+    // Reduced-resolution ghosts: their target, made again only when the
+    // view's size or the divisor changes; and the large ghosts' target at
+    // half that resolution, when there are any. The cells before
+    // `fine_cells` are added up at the ghosts' resolution, the rest at
+    // half of it.
+    let divisor = draws.ghost_divisor.max(1);
+    let view_size = view.view.viewport.zw().max(UVec2::ONE);
+    let ghost_size = view_size.map(|side| side.div_ceil(divisor));
+    let fine_cells = draws
+        .jobs
+        .get(draws.coarse_from)
+        .map_or(params.cells, GridJob::cell_start)
+        .min(params.cells);
+    let ids = view.ids;
+    let reduced = (divisor > 1 && ids.upsample_view.is_some()).then_some(ghost_size);
+    let coarse =
+        (fine_cells < params.cells && ids.coarse.is_some() && ids.upsample_ghosts.is_some())
+            .then(|| ghost_size.map(|side| side.div_ceil(2)));
+    for (target, size) in [
+        (&mut buffers.reduced, reduced),
+        (&mut buffers.coarse, coarse),
+    ] {
+        *target = size.map(|size| match target.take() {
+            Some(kept) if kept.size == size => kept,
+            _ => GhostTarget::new(render_device, size),
+        });
+    }
+    Some(FrameInputs {
+        params,
+        fine_cells,
+        ringing_view,
+        burst_view,
+        occlusion,
+    })
+}
+
+/// Per flare view, in `PrepareBindGroups`: its bind groups (kept while
+/// what they bind is the same) and, once every pipeline it needs is
+/// compiled, its [`FlareBinding`].
+pub(super) fn prepare_flare_bind_groups(
+    mut commands: Commands,
+    mut views: Query<(
+        Entity,
+        &FlareDraws,
+        Option<&FlarePipelineIds>,
+        Option<&mut FlareBuffers>,
+    )>,
+    pipelines: Res<FlarePipelines>,
+    pipeline_cache: Res<PipelineCache>,
+    render_device: Res<RenderDevice>,
+) {
+    for (entity, draws, ids, buffers) in &mut views {
+        let binding = ids.zip(buffers).and_then(|(ids, buffers)| {
+            bind_view(
+                buffers.into_inner(),
+                draws,
+                ids,
+                &pipelines,
+                &pipeline_cache,
+                &render_device,
+            )
+        });
+        match binding {
+            Some(binding) => commands.entity(entity).insert(binding),
+            None => commands.entity(entity).remove::<FlareBinding>(),
+        };
+    }
+}
+
+/// One view's binding; `None` until its resources and pipelines are ready.
+fn bind_view(
+    buffers: &mut FlareBuffers,
+    draws: &FlareDraws,
+    ids: &FlarePipelineIds,
+    pipelines: &FlarePipelines,
+    pipeline_cache: &PipelineCache,
+    render_device: &RenderDevice,
+) -> Option<FlareBinding> {
+    let frame = buffers.frame.take()?;
+    let params = frame.params;
+    let u = buffers.uniform.binding()?;
+    let s = buffers.surfaces.binding()?;
+    let j = buffers.jobs.binding()?;
+    let probes = buffers.probes.binding()?;
+    let ray_buffer = buffers.rays.as_ref()?;
+    let cell_colors = buffers.cell_colors.as_ref()?;
+    let indices = buffers.indices.as_ref()?;
+    let visibility = buffers.visibility.as_ref()?;
+    // The bind groups, made again only when a buffer or texture they bind
+    // is new (grown, resized, or a texture arrived).
+    let made_from = GroupSources {
+        buffers: [
+            buffers.uniform.buffer(),
+            buffers.surfaces.buffer(),
+            buffers.jobs.buffer(),
+            buffers.probes.buffer(),
+            Some(ray_buffer),
+            Some(cell_colors),
+            Some(indices),
+            Some(visibility),
+        ]
+        .map(|b| b.map(Buffer::id)),
+        views: [frame.ringing_view.id(), frame.burst_view.id()],
+        depth: frame.occlusion.as_ref().map(|(depth, ..)| depth.id()),
+    };
+    let layout = |descriptor| pipeline_cache.get_bind_group_layout(descriptor);
+    let groups = match buffers.groups.take() {
+        Some((kept_from, groups)) if kept_from == made_from => groups,
+        _ => BindGroups {
+            trace: render_device.create_bind_group(
+                "optica_lens_flare_trace",
+                &layout(&pipelines.trace_layout),
+                &BindGroupEntries::sequential((
+                    u.clone(),
+                    s,
+                    j.clone(),
+                    ray_buffer.as_entire_binding(),
+                )),
+            ),
+            cells: render_device.create_bind_group(
+                "optica_lens_flare_cells",
+                &layout(&pipelines.cells_layout),
+                &BindGroupEntries::sequential((
+                    u.clone(),
+                    j,
+                    ray_buffer.as_entire_binding(),
+                    visibility.as_entire_binding(),
+                    cell_colors.as_entire_binding(),
+                    indices.as_entire_binding(),
+                )),
+            ),
+            draw: render_device.create_bind_group(
+                "optica_lens_flare_draw",
+                &layout(&pipelines.draw_layout),
+                &BindGroupEntries::sequential((
+                    u.clone(),
+                    cell_colors.as_entire_binding(),
+                    ray_buffer.as_entire_binding(),
+                    visibility.as_entire_binding(),
+                    probes.clone(),
+                    &frame.ringing_view,
+                    &frame.burst_view,
+                )),
+            ),
+            occlusion: frame.occlusion.as_ref().map(|(depth, _, multisampled)| {
+                render_device.create_bind_group(
+                    "optica_lens_flare_occlusion",
+                    &layout(&pipelines.occlusion_layouts[usize::from(*multisampled)]),
+                    &BindGroupEntries::sequential((
+                        u,
+                        probes,
+                        depth,
+                        visibility.as_entire_binding(),
+                    )),
+                )
+            }),
+        },
+    };
+    buffers.groups = Some((made_from, groups.clone()));
+    let occlusion = groups
+        .occlusion
+        .clone()
+        .zip(frame.occlusion.map(|(_, id, _)| id));
+    // The ghost targets' upsampling groups, made with their targets.
+    let upsampled = |target: &mut Option<GhostTarget>, pipeline: Option<_>| {
+        let target = target.as_mut()?;
+        let group = target.upsample_group.get_or_insert_with(|| {
+            render_device.create_bind_group(
+                "optica_lens_flare_upsample",
+                &layout(&pipelines.upsample_layout),
+                &BindGroupEntries::sequential((&target.view, &pipelines.upsample_sampler)),
+            )
+        });
+        Some((target.view.clone(), group.clone(), pipeline?))
+    };
+    let reduced = upsampled(&mut buffers.reduced, ids.upsample_view);
+    let coarse = upsampled(&mut buffers.coarse, ids.upsample_ghosts)
+        .zip(ids.coarse)
+        .map(|((view, group, upsample), draw)| (view, group, upsample, draw));
+    // Trace only when what the rays depend on changed, or they have not
+    // been traced into this buffer yet (the passes run only once every
+    // pipeline is compiled).
+    let key = TraceKey {
+        jobs: draws.jobs[..params.jobs as usize].to_vec(),
+        surfaces: draws.surfaces.clone(),
+        params: params.trace_inputs(),
+    };
+    let retrace = buffers.traced.as_ref() != Some(&key);
+    // The passes wait for every pipeline as this system saw them (the
+    // cache may finish one before the passes run), so that the rays traced
+    // are the ones `traced` records.
+    let ready = [ids.trace, ids.fill, ids.cells]
+        .into_iter()
+        .all(|id| pipeline_cache.get_compute_pipeline(id).is_some())
+        && [
+            Some(ids.ghosts),
+            reduced.as_ref().map(|r| r.2),
+            coarse.as_ref().map(|c| c.2),
+            coarse.as_ref().map(|c| c.3),
+        ]
+        .into_iter()
+        .flatten()
+        .all(|id| pipeline_cache.get_render_pipeline(id).is_some());
+    if !ready {
+        return None;
+    }
+    buffers.traced = Some(key);
+    Some(FlareBinding {
+        retrace,
+        reduced,
+        coarse,
+        fine_cells: frame.fine_cells,
+        trace_group: groups.trace,
+        cells_group: groups.cells,
+        draw_group: groups.draw,
+        trace: ids.trace,
+        fill: ids.fill,
+        cells: ids.cells,
+        draw: ids.ghosts,
+        starburst: ids
+            .starburst
+            .filter(|_| params.starburst_scale > 0.0 && params.starburst_half_ndc > 0.0),
+        occlusion,
+        threads: params.threads,
+        rays: params.rays,
+        cell_count: params.cells,
+        spans: params.spans,
+        indices: indices.clone(),
+        lights: params.lights,
+    })
 }
 
 /// The bytes of `values` as the GPU reads them (little-endian `f32`s).

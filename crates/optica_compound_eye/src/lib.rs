@@ -53,7 +53,16 @@
 //!   `U = J_P·J_t⁻¹` is the triangle's own axis pair, exactly (up to f32).
 //!   That needs no mesh preprocessing and no custom vertex shader, so any
 //!   UV-mapped mesh works and the prepass and shadow passes stay Bevy's own.
-//!   The lattice plane is the triangle's (flat) plane, as in the thesis.
+//! - **The lattice bends with the surface.** The thesis lays it in each
+//!   triangle's flat plane, which shows a coarse mesh's triangles as kinks
+//!   in the pseudopupil. Here the axes are projected into the plane of the
+//!   mesh's interpolated normal (`TextureAxes::on_normal` in
+//!   `optica_optics`), which is continuous across edges: on a
+//!   196-triangle sphere the output steps 1.28× as much across an edge as
+//!   within a triangle, against 1.66× in the triangle's plane. What is
+//!   left comes from the mesh's piecewise-linear UVs, whose stretch changes
+//!   at each edge; a finer mesh removes it (1.07× at 48 × 24 segments). A
+//!   normal more than 60° off the triangle's is ignored.
 //! - **Degenerate UVs** (a triangle whose UVs collapse onto a line or a
 //!   point: the facet coordinate's screen-space gradients parallel to within
 //!   `1e-4` in sine) get no lattice: they render as the plain base material.
@@ -64,8 +73,16 @@
 //!   rectangles (or stretched hexagons): the lenses stay spheres, sized to
 //!   the cell's inradius, so they never overlap.
 //! - A mesh **without UVs** renders as its base material.
-//! - **Forward rendering only**: with the deferred renderer the base
-//!   material's deferred shader runs and the lattice is not drawn.
+//! - **Every render path.** Forward and deferred: in the deferred
+//!   renderer the same shader writes the G-buffer, with the pigment in the
+//!   base colour, so Bevy's lighting pass lights the lattice. A ray that
+//!   leaves the eye shows a mirror; the G-buffer holds one material per
+//!   pixel, so there the mirror's parameters are blended in rather than
+//!   its lit colour (the same but in the prefilter's transition). An
+//!   `unlit` base material shows its base colour times the pigment.
+//!   The deferred variant is checked for validity on wgpu's noop backend
+//!   only: Mesa 22.3's lavapipe crashes compiling it, so its pixels are not
+//!   compared there.
 //! - The lattice lives under the surface only optically: depth, shadows and
 //!   the silhouette are those of the mesh.
 //!
@@ -130,6 +147,11 @@ impl Plugin for CompoundEyePlugin {
 
 impl MaterialExtension for CompoundEye {
     fn fragment_shader() -> ShaderRef {
+        SHADER_PATH.into()
+    }
+
+    /// The same shader writes the G-buffer for the deferred renderer.
+    fn deferred_fragment_shader() -> ShaderRef {
         SHADER_PATH.into()
     }
 }

@@ -7,6 +7,7 @@ mod goldens;
 mod parity;
 mod pipelines;
 mod pseudopupil;
+mod render_paths;
 mod stability;
 mod texture;
 

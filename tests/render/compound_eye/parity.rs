@@ -41,6 +41,21 @@ struct Setup {
     options: ShadeOptions,
     pigment: DarkCentre,
     fresnel: bool,
+    /// `CompoundEye::lens_radius` and the lens's index and depth.
+    lens: (f64, f64, f64),
+}
+
+impl Setup {
+    /// The lattice the shader builds at `at` with the mesh's normal
+    /// `shading`: the axes laid on it, the lens sized to their cell.
+    fn on_normal(&self, at: DVec3, shading: DVec3) -> Lattice {
+        let axes = self.lattice.axes().on_normal(at, shading);
+        let kind = self.lattice.kind();
+        let (radius, index, depth) = self.lens;
+        let r = radius * kind.cell_inradius(axes.u(), axes.v());
+        let lens = LensParams::new(r, index, depth * r).expect("valid lens");
+        Lattice::with_kind(axes, lens, kind).unwrap()
+    }
 }
 
 fn cpu_setup(eye: &CompoundEye, quad: &Mesh) -> Setup {
@@ -82,6 +97,11 @@ fn cpu_setup(eye: &CompoundEye, quad: &Mesh) -> Setup {
         options,
         pigment,
         fresnel: eye.fresnel,
+        lens: (
+            eye.lens_radius as f64,
+            eye.lens_index as f64,
+            eye.pigment_depth as f64,
+        ),
     }
 }
 
@@ -138,6 +158,21 @@ fn footprint(axes: &TextureAxes, i: u32, j: u32) -> Option<f64> {
 }
 
 fn compare_on(quad: Mesh, eye: CompoundEye) -> Agreement {
+    compare_on_normal(quad, eye, None, true)
+}
+
+/// `compare_on` with every vertex normal of `quad` set to `shading` when
+/// given; the CPU lattice is laid on it, pixel by pixel, when `cpu_follows`.
+fn compare_on_normal(
+    mut quad: Mesh,
+    eye: CompoundEye,
+    shading: Option<Vec3>,
+    cpu_follows: bool,
+) -> Agreement {
+    if let Some(m) = shading {
+        let count = quad.count_vertices();
+        quad.insert_attribute(Mesh::ATTRIBUTE_NORMAL, vec![m.to_array(); count]);
+    }
     let eye = CompoundEye {
         output: EyeOutput::PigmentOnly,
         ..eye
@@ -162,12 +197,20 @@ fn compare_on(quad: Mesh, eye: CompoundEye) -> Agreement {
             let Some(ray) = cpu_fragment(i, j) else {
                 continue;
             };
+            let on_normal;
+            let lattice = match shading.filter(|_| cpu_follows) {
+                Some(m) => {
+                    on_normal = setup.on_normal(ray.origin(), m.as_dvec3());
+                    &on_normal
+                }
+                None => &setup.lattice,
+            };
             let cpu = if prefilter {
-                let Some(footprint) = footprint(setup.lattice.axes(), i, j) else {
+                let Some(footprint) = footprint(lattice.axes(), i, j) else {
                     continue;
                 };
                 facet_response_prefiltered(
-                    &setup.lattice,
+                    lattice,
                     &ray,
                     &setup.options,
                     &setup.pigment,
@@ -175,13 +218,7 @@ fn compare_on(quad: Mesh, eye: CompoundEye) -> Agreement {
                     footprint,
                 )
             } else {
-                facet_response(
-                    &setup.lattice,
-                    &ray,
-                    &setup.options,
-                    &setup.pigment,
-                    setup.fresnel,
-                )
+                facet_response(lattice, &ray, &setup.options, &setup.pigment, setup.fresnel)
             };
             let [m, e, lenses, _] = gpu.get_pixel(i, j).0;
             let cpu_e = cpu.escape.map_or(0.0, |(_, w)| w);
@@ -198,12 +235,9 @@ fn compare_on(quad: Mesh, eye: CompoundEye) -> Agreement {
             if prefilter {
                 continue;
             }
-            if let Some(hit) = optica_optics::compound_eye::shade_fragment_with(
-                &setup.lattice,
-                &ray,
-                &setup.options,
-            )
-            .hit()
+            if let Some(hit) =
+                optica_optics::compound_eye::shade_fragment_with(lattice, &ray, &setup.options)
+                    .hit()
             {
                 hits += 1;
                 counts += usize::from((lenses - hit.lenses as f32 / 4.0).abs() < 0.01);
@@ -310,4 +344,30 @@ fn prefiltered_small_facets_match_their_cpu_twin() {
     };
     let a = compare_on(quad(), eye);
     assert_agrees("prefiltered, 1.5–1.9 facets per pixel", &a);
+}
+
+/// A quad whose vertex normals lean 20° off its plane (as a curved mesh's
+/// interpolated normal does): the shader lays the lattice on that normal,
+/// as `TextureAxes::on_normal` does.
+#[test]
+fn lattice_on_a_leaning_vertex_normal_matches_its_cpu_twin() {
+    let eye = CompoundEye {
+        facets_per_uv: 7.0,
+        lattice: EyeLattice::Hexagonal,
+        slices: 12,
+        prefilter: false,
+        ..default()
+    };
+    let leaning = Vec3::new(0.28, -0.21, 1.0).normalize();
+    let a = compare_on_normal(quad(), eye.clone(), Some(leaning), true);
+    assert_agrees("hexagonal, leaning normal", &a);
+    // The lean matters: against the triangle's own lattice the render is
+    // far off.
+    let flat = compare_on_normal(quad(), eye, Some(leaning), false);
+    eprintln!(
+        "against the flat lattice: {:.2} % within 0.02, mean {:.4}",
+        100.0 * flat.within,
+        flat.mean
+    );
+    assert!(flat.within < 0.9, "{:.4} within 0.02", flat.within);
 }

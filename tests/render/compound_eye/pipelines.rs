@@ -157,3 +157,59 @@ fn the_material_casts_shadows_and_works_with_prepasses() {
         "ground in the eye's shadow {shadowed}, in the light {lit}"
     );
 }
+
+/// The deferred renderer: the material's G-buffer variant (the same
+/// shader under `PREPASS_PIPELINE`) compiles and is built for a deferred
+/// camera. Pixels are not compared on lavapipe: Mesa 22.3's llvmpipe
+/// corrupts its heap compiling that variant (a crash inside the driver,
+/// with the lattice's normal dotted with the view vector).
+#[test]
+fn the_material_builds_its_deferred_pipeline_on_noop() {
+    use bevy::core_pipeline::prepass::{DeferredPrepass, DepthPrepass};
+    use bevy::pbr::DefaultOpaqueRendererMethod;
+    fn deferred(app: &mut App) {
+        app.insert_resource(DefaultOpaqueRendererMethod::deferred());
+        app.add_systems(
+            PostStartup,
+            |cameras: Query<Entity, With<Camera3d>>, mut commands: Commands| {
+                for camera in &cameras {
+                    commands
+                        .entity(camera)
+                        .insert((DepthPrepass, DeferredPrepass));
+                }
+            },
+        );
+    }
+    let plain = pipelines(|app| {
+        scene(sphere(), Transform::IDENTITY, None, camera(), ortho(2.0))(app);
+        deferred(app);
+    });
+    // The same plain sphere, and a compound-eye sphere beside it.
+    let eye = pipelines(|app| {
+        scene(
+            sphere(),
+            Transform::from_xyz(0.6, 0.0, 0.0),
+            Some(CompoundEye::default()),
+            camera(),
+            ortho(2.0),
+        )(app);
+        deferred(app);
+        app.add_systems(
+            Startup,
+            |mut commands: Commands,
+             mut meshes: ResMut<Assets<Mesh>>,
+             mut plain: ResMut<Assets<StandardMaterial>>| {
+                commands.spawn((
+                    Mesh3d(meshes.add(sphere())),
+                    MeshMaterial3d(plain.add(base())),
+                ));
+            },
+        );
+    });
+    eprintln!("deferred pipelines: plain {}, with the eye {}", plain.ok, eye.ok);
+    assert!(
+        eye.ok > plain.ok,
+        "no pipeline of the material's own: {:?}",
+        eye.labels
+    );
+}

@@ -5,9 +5,22 @@
 
 #import bevy_pbr::{
     pbr_fragment::pbr_input_from_standard_material,
-    pbr_functions::{alpha_discard, apply_pbr_lighting, main_pass_post_lighting_processing},
+    pbr_functions::alpha_discard,
+    pbr_types::{PbrInput, STANDARD_MATERIAL_FLAGS_UNLIT_BIT},
+}
+#ifdef PREPASS_PIPELINE
+// The deferred renderer's G-buffer pass: the lattice changes the material
+// the G-buffer holds, and Bevy's lighting pass lights it.
+#import bevy_pbr::{
+    prepass_io::{VertexOutput, FragmentOutput},
+    pbr_deferred_functions::deferred_output,
+}
+#else
+#import bevy_pbr::{
+    pbr_functions::{apply_pbr_lighting, main_pass_post_lighting_processing},
     forward_io::{VertexOutput, FragmentOutput},
 }
+#endif
 #import optica::compound_eye as eye
 
 struct CompoundEyeUniform {
@@ -84,17 +97,15 @@ fn facet_response(l: eye::Lattice, p: vec3<f32>, d: vec3<f32>, shift: vec2<f32>,
     return r;
 }
 
-@fragment
-fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> FragmentOutput {
-    var pbr_input = pbr_input_from_standard_material(in, is_front);
-    pbr_input.material.base_color = alpha_discard(pbr_input.material, pbr_input.material.base_color);
-
+// The lattice's response at the fragment seen along `-view` with the
+// mesh's interpolated normal `normal`: c_t·T, or the weight and direction
+// of a ray that leaves the eye. Called in uniform control flow (it takes
+// derivatives).
+fn lattice_response(in: VertexOutput, view: vec3<f32>, normal: vec3<f32>) -> Response {
     var response: Response;
     response.multiplier = 1.0;
     response.escape_weight = 0.0;
-
 #ifdef VERTEX_UVS_A
-    // Derivatives first, in uniform control flow (WGSL forbids them later).
     // The lattice's texture axes U_p, V_p (eq. 6.8–6.15) are the triangle's
     // ∂P/∂t, recovered exactly from the screen-space derivatives of the
     // interpolated position and facet coordinate: both are affine in the
@@ -123,9 +134,17 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
     if (material.flags & FLAG_ENABLED) != 0u && abs(det) > UV_DET_REL_EPS * length(dtx) * length(dty) && frame_ok {
         var n = normalize(cross(u, v));
         // Lenses lie on the far side from the viewer.
-        if dot(n, pbr_input.V) < 0.0 {
+        if dot(n, view) < 0.0 {
             n = -n;
         }
+        // texture_axes.rs `TextureAxes::on_normal`: the lattice lies in the
+        // plane of the interpolated normal, not the triangle's, so that it
+        // bends with the surface and a coarse mesh shows no seams at its
+        // edges (the axes are continuous across an edge in that plane).
+        let curved = eye::axes_on_normal(u, v, n, normal);
+        u = curved[0];
+        v = curved[1];
+        n = curved[2];
         var kind = eye::KIND_SQUARE;
         if (material.flags & FLAG_HEXAGONAL) != 0u {
             kind = eye::KIND_HEXAGONAL;
@@ -144,7 +163,7 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
         l.r = material.lens_radius * eye::cell_inradius(kind, u, v);
         l.index = material.lens_index;
         l.depth = material.pigment_depth * l.r;
-        let d = -pbr_input.V;
+        let d = -view;
         // pigment.rs `facet_response_prefiltered`: the fragment's own ray,
         // blended by `w` into the facet average. Where the average replaces
         // it entirely (`w = 1`), the own ray is not traced (its lens count
@@ -169,32 +188,75 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
         }
     }
 #endif
+    return response;
+}
 
+// What an escaping ray sees: the surface as a mirror whose reflection
+// points along the ray, i.e. the view's environment map (or ambient light
+// and light highlights without one).
+fn as_mirror(pbr_input: PbrInput, escape_dir: vec3<f32>) -> PbrInput {
+    var mirror = pbr_input;
+    mirror.material.base_color = vec4<f32>(1.0);
+    mirror.material.metallic = 1.0;
+    mirror.material.perceptual_roughness = 0.089;
+    mirror.material.emissive = vec4<f32>(0.0);
+    mirror.N = normalize(pbr_input.V + escape_dir);
+    return mirror;
+}
+
+// The optics alone, unlit: c_t·T, the environment weight, lenses/4.
+fn optics_colour(response: Response) -> vec4<f32> {
+    return vec4<f32>(response.multiplier, response.escape_weight, f32(response.lenses) / 4.0, 1.0);
+}
+
+@fragment
+fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> FragmentOutput {
+    var pbr_input = pbr_input_from_standard_material(in, is_front);
+    pbr_input.material.base_color = alpha_discard(pbr_input.material, pbr_input.material.base_color);
+    let response = lattice_response(in, pbr_input.V, pbr_input.world_normal);
+    let unlit = (pbr_input.material.flags & STANDARD_MATERIAL_FLAGS_UNLIT_BIT) != 0u;
+    // Eq. 6.30, c = c_t (a + d) + s: c_t scales the colour that diffuse and
+    // ambient light act on; Bevy's specular term is left as it is. Unlit,
+    // c_t scales the base colour shown as it is.
+    var lattice = pbr_input;
+    lattice.material.base_color = vec4<f32>(pbr_input.material.base_color.rgb * response.multiplier,
+        pbr_input.material.base_color.a);
+
+#ifdef PREPASS_PIPELINE
+    // The G-buffer holds one material per pixel, so an escaping ray's
+    // mirror is blended into the material's parameters rather than into
+    // the lit colour (the same where the weight is 0 or 1, i.e. everywhere
+    // but the prefilter's transition).
+    if (material.flags & FLAG_PIGMENT_ONLY) != 0u {
+        lattice.material.base_color = optics_colour(response);
+        lattice.material.flags |= STANDARD_MATERIAL_FLAGS_UNLIT_BIT;
+    } else if response.escape_weight > 0.0 && !unlit {
+        let w = response.escape_weight;
+        let mirror = as_mirror(pbr_input, response.escape_dir);
+        lattice.material.base_color = mix(lattice.material.base_color, mirror.material.base_color, w);
+        lattice.material.metallic = mix(lattice.material.metallic, 1.0, w);
+        lattice.material.perceptual_roughness = mix(lattice.material.perceptual_roughness,
+            mirror.material.perceptual_roughness, w);
+        lattice.material.emissive = mix(lattice.material.emissive, vec4<f32>(0.0), w);
+        lattice.N = normalize(mix(lattice.N, mirror.N, w));
+    }
+    return deferred_output(in, lattice);
+#else
     var out: FragmentOutput;
     if (material.flags & FLAG_PIGMENT_ONLY) != 0u {
-        // The optics alone, unlit: c_t·T, the environment weight, lenses/4.
-        out.color = vec4<f32>(response.multiplier, response.escape_weight, f32(response.lenses) / 4.0, 1.0);
+        out.color = optics_colour(response);
         return out;
     }
-
-    // Eq. 6.30, c = c_t (a + d) + s: c_t scales the colour that diffuse and
-    // ambient light act on; Bevy's specular term is left as it is.
-    pbr_input.material.base_color = vec4<f32>(pbr_input.material.base_color.rgb * response.multiplier,
-        pbr_input.material.base_color.a);
-    out.color = apply_pbr_lighting(pbr_input);
-    if response.escape_weight > 0.0 {
-        // What the escaping ray sees: the surface lit as a mirror whose
-        // reflection points along the ray, i.e. the view's environment map
-        // (or ambient light and light highlights without one).
-        var mirror = pbr_input;
-        mirror.material.base_color = vec4<f32>(1.0);
-        mirror.material.metallic = 1.0;
-        mirror.material.perceptual_roughness = 0.089;
-        mirror.material.emissive = vec4<f32>(0.0);
-        mirror.N = normalize(pbr_input.V + response.escape_dir);
-        let seen = apply_pbr_lighting(mirror);
-        out.color = vec4<f32>(mix(out.color.rgb, seen.rgb, response.escape_weight), out.color.a);
+    if unlit {
+        out.color = lattice.material.base_color;
+    } else {
+        out.color = apply_pbr_lighting(lattice);
+        if response.escape_weight > 0.0 {
+            let seen = apply_pbr_lighting(as_mirror(pbr_input, response.escape_dir));
+            out.color = vec4<f32>(mix(out.color.rgb, seen.rgb, response.escape_weight), out.color.a);
+        }
     }
     out.color = main_pass_post_lighting_processing(pbr_input, out.color);
     return out;
+#endif
 }

@@ -68,6 +68,36 @@ struct Trace {
     dir: vec3<f32>,
 }
 
+// texture_axes.rs MIN_SHADING_COS: the shading normal is followed within
+// 60° of the lattice's.
+const MIN_SHADING_COS: f32 = 0.5;
+
+// texture_axes.rs `TextureAxes::on_normal`: the axes `u`, `v` (normal `n`)
+// projected into the plane perpendicular to the shading normal `s`, taken
+// on n's side; returns (u, v, normal). Unchanged where `s` is zero or not
+// finite, more than 60° off `n`, or the projected axes are (nearly)
+// parallel (the shader's UV_DET_REL_EPS, 1e-4).
+fn axes_on_normal(u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, s: vec3<f32>) -> array<vec3<f32>, 3> {
+    let kept = array<vec3<f32>, 3>(u, v, n);
+    let len = length(s);
+    if !(len > 0.0 && len < 3.0e38) {
+        return kept;
+    }
+    var m = s / len;
+    if dot(m, n) < 0.0 {
+        m = -m;
+    }
+    if !(dot(m, n) > MIN_SHADING_COS) {
+        return kept;
+    }
+    let pu = u - dot(u, m) * m;
+    let pv = v - dot(v, m) * m;
+    if !(length(cross(pu, pv)) > 1e-4 * length(pu) * length(pv)) {
+        return kept;
+    }
+    return array<vec3<f32>, 3>(pu, pv, m);
+}
+
 fn make_lattice(origin: vec3<f32>, u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, kind: u32) -> Lattice {
     var l: Lattice;
     l.origin = origin;

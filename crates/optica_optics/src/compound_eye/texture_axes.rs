@@ -30,6 +30,12 @@ pub const AREA_REL_EPS: f64 = 1e-12;
 /// stored normal is then exactly `±(U_p × V_p)/|U_p × V_p|`.
 pub const NORMAL_COS_EPS: f64 = 1e-9;
 
+/// The smallest cosine between a shading normal and the lattice's normal
+/// that [`TextureAxes::on_normal`] follows (60°). Further off, the shading
+/// normal is not the surface's own (a hard edge averaged away, or a broken
+/// normal), and the triangle's plane is kept.
+pub const MIN_SHADING_COS: f64 = 0.5;
+
 /// Eq. 6.1: texture coordinates sent to the shader are the mesh's scaled by
 /// the texture resolution `R_t` (facets per UV unit), so `R_t` sets how many
 /// facets cover the surface. `R_t` must be finite and positive and `t_obj`
@@ -42,6 +48,10 @@ pub fn scale_uv(t_obj: DVec2, texture_resolution: f64) -> Result<DVec2, InvalidI
     let t = input::finite_vec2("mesh texture coordinate (UV units)", t_obj)?;
     Ok(r_t * t)
 }
+
+/// The shader's degeneracy threshold for `f32` axes (its
+/// `UV_DET_REL_EPS`).
+const SHADER_UV_DET_REL_EPS: f64 = 1e-4;
 
 /// The side of the fallback frame's facets when the caller's is not finite
 /// and positive: one mesh unit.
@@ -352,6 +362,38 @@ impl TextureAxes {
         (area / self.v.length(), area / self.u.length())
     }
 
+    /// The lattice through `at` laid into the plane perpendicular to a
+    /// shading normal (the mesh's interpolated vertex normal), so that it
+    /// bends with a curved surface instead of following each flat triangle:
+    /// `U_p`, `V_p` are projected into that plane, `N` becomes the shading
+    /// normal (on this normal's side) and `at` keeps its texture coordinate.
+    /// Across a triangle edge the projected axes of the two triangles agree
+    /// to second order in the angle between them, so a coarse mesh shows
+    /// no seams.
+    ///
+    /// Returns `self` unchanged when `shading` is not finite or zero, is
+    /// more than 60° off `N` (see [`MIN_SHADING_COS`]), or the projected
+    /// axes are (nearly) parallel. `UV_DET_REL_EPS` is the shader's `f32`
+    /// threshold here (`1e-4`), since this is what the shader does per
+    /// fragment.
+    pub fn on_normal(&self, at: DVec3, shading: DVec3) -> Self {
+        let Some(m) = shading.try_normalize() else {
+            return *self;
+        };
+        let m = if m.dot(self.normal) < 0.0 { -m } else { m };
+        if !(m.dot(self.normal) > MIN_SHADING_COS) {
+            return *self;
+        }
+        let u = self.u - self.u.dot(m) * m;
+        let v = self.v - self.v.dot(m) * m;
+        if !(u.cross(v).length() > SHADER_UV_DET_REL_EPS * u.length() * v.length()) {
+            return *self;
+        }
+        let t = self.uv_of(at);
+        let origin = at - t.x * u - t.y * v;
+        Self::assemble(origin, u, v, m, self.handedness, self.fallback)
+    }
+
     /// A tangent in Bevy's `Mesh::ATTRIBUTE_TANGENT` convention: `xyz` is
     /// `U_p` normalised, `w` the handedness, so that `w · (N × T)` points
     /// along `V_p`'s component orthogonal to `U_p`.
@@ -409,6 +451,36 @@ mod tests {
         }
         // uv_of ignores the normal component (least squares = projection).
         assert!((a.uv_of(p[1] + 5.0 * a.normal) - t[1]).length() < 1e-12);
+    }
+
+    #[test]
+    fn axes_laid_on_a_shading_normal_bend_with_it_and_keep_the_point() {
+        let a = TextureAxes::from_axes(
+            DVec3::new(0.3, -0.2, 0.0),
+            DVec3::new(1.0, 0.2, 0.0),
+            DVec3::new(-0.1, 0.9, 0.0),
+            DVec3::Z,
+        )
+        .unwrap();
+        let at = DVec3::new(2.0, 1.5, 0.0);
+        let m = DVec3::new(0.3, -0.2, 1.0).normalize();
+        // Given on either side, the normal is taken on the lattice's side.
+        for shading in [m, -2.0 * m] {
+            let b = a.on_normal(at, shading);
+            assert!(close(b.normal(), m, 1e-15));
+            assert!(b.u().dot(m).abs() < 1e-15 && b.v().dot(m).abs() < 1e-15);
+            // The invariant: N along ±(U × V), with the same handedness.
+            assert!(close(b.u().cross(b.v()).normalize(), m, 1e-14));
+            assert_eq!(b.handedness(), a.handedness());
+            assert!((b.uv_of(at) - a.uv_of(at)).length() < 1e-13);
+            // The axes only lose their component along the normal.
+            assert!(close(b.u() + a.u().dot(m) * m, a.u(), 1e-15));
+        }
+        // The triangle's own normal changes nothing; a wild or broken one is ignored.
+        assert!(close(a.on_normal(at, DVec3::Z).u(), a.u(), 1e-15));
+        for bad in [DVec3::X, DVec3::ZERO, DVec3::NAN, DVec3::new(1.0, 0.0, 0.5)] {
+            assert_eq!(a.on_normal(at, bad), a);
+        }
     }
 
     #[test]

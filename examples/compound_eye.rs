@@ -12,10 +12,10 @@
 //! `compound_eye_0.png` … `_3.png` (four points of the orbit) to `DIR`, by
 //! default `target/optica/`.
 
-use bevy::mesh::VertexAttributeValues;
+use bevy::mesh::MeshBuilder;
 use bevy::prelude::*;
 use optica::compound_eye::{
-    CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyePreset, presets,
+    CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyeCap, EyePreset, presets,
 };
 
 const WIDTH: u32 = 960;
@@ -138,18 +138,6 @@ struct Orbit {
     speed: f32,
 }
 
-/// A UV sphere whose facets come out square at its equator: Bevy's UV
-/// sphere spans the longitude (2πr) with u and the latitude (πr) with v.
-fn eye_mesh() -> Mesh {
-    let mut mesh = Sphere::new(1.0).mesh().uv(96, 48);
-    if let Some(VertexAttributeValues::Float32x2(uv)) = mesh.attribute_mut(Mesh::ATTRIBUTE_UV_0) {
-        for t in uv.iter_mut() {
-            t[1] *= 0.5;
-        }
-    }
-    mesh
-}
-
 fn spawn_head(
     mut commands: Commands,
     start: Res<StartEye>,
@@ -198,9 +186,17 @@ fn spawn_head(
                 .with_rotation(Quat::from_rotation_x(3.0)),
         ));
     }
-    // The compound eyes: large bulges on both sides; the UV sphere's poles
-    // point forward and back, so each eye's equator faces sideways.
-    let eye_mesh = meshes.add(eye_mesh());
+    // The compound eyes: large bulges on both sides. Each is an `EyeCap`,
+    // whose UVs have no pole (a UV sphere would show one as rings of
+    // shrinking facets), its axis pointing out of the head and its rim,
+    // 130° from the axis, sunk into the head.
+    let eye_mesh = meshes.add(
+        EyeCap {
+            half_angle: 130f32.to_radians(),
+            ..default()
+        }
+        .build(),
+    );
     for side in [-1.0f32, 1.0] {
         let material = eyes.add(CompoundEyeMaterial {
             base: StandardMaterial {
@@ -214,7 +210,10 @@ fn spawn_head(
             Eye,
             Mesh3d(eye_mesh.clone()),
             MeshMaterial3d(material),
-            Transform::from_xyz(0.62 * side, 0.12, -0.18).with_scale(Vec3::new(0.5, 0.62, 0.58)),
+            Transform::from_xyz(0.62 * side, 0.12, -0.18)
+                .with_rotation(Quat::from_rotation_arc(Vec3::Z, side * Vec3::X))
+                // The cap's own axes: across (world z), up, and out.
+                .with_scale(Vec3::new(0.58, 0.62, 0.5)),
         ));
     }
     commands.spawn((

@@ -24,13 +24,18 @@
 //! extension. See [`CompoundEye`] for every setting and
 //! [`CompoundEye::from_preset`] for real insects ([`presets`]).
 //!
+//! Any UV-mapped mesh works; [`EyeCap`] is a sphere cap whose UVs have no
+//! pole (a UV sphere shows its poles as rings of shrinking facets).
+//!
 //! ```no_run
+//! use bevy::mesh::MeshBuilder;
 //! use bevy::prelude::*;
-//! use optica_compound_eye::{CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, presets};
+//! use optica_compound_eye::{CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyeCap, presets};
 //!
 //! fn setup(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<CompoundEyeMaterial>>) {
 //!     commands.spawn((
-//!         Mesh3d(meshes.add(Sphere::new(0.5).mesh().uv(96, 48))),
+//!         // The cap's axis is +Z: towards the camera.
+//!         Mesh3d(meshes.add(EyeCap::default().build())),
 //!         MeshMaterial3d(materials.add(CompoundEyeMaterial {
 //!             base: StandardMaterial { base_color: Color::srgb(0.6, 0.15, 0.1), perceptual_roughness: 0.3, ..default() },
 //!             extension: CompoundEye::from_preset(&presets::HONEYBEE),
@@ -113,6 +118,7 @@ use bevy::pbr::MaterialExtension;
 use bevy::prelude::*;
 use bevy::shader::{ShaderRef, load_shader_library};
 
+mod eye_cap;
 #[cfg(feature = "egui")]
 mod panel;
 pub mod presets;
@@ -120,6 +126,7 @@ mod settings;
 
 #[cfg(feature = "egui")]
 pub use panel::{CompoundEyePanel, CompoundEyePanelPlugin, compound_eye_ui};
+pub use eye_cap::EyeCap;
 pub use presets::EyePreset;
 pub use settings::{
     CompoundEye, CompoundEyeMaterial, CompoundEyeUniform, EyeLattice, EyeOutput, MAX_DEPTH,
@@ -141,6 +148,7 @@ impl Plugin for CompoundEyePlugin {
         embedded_asset!(app, "shaders/compound_eye.wgsl");
         app.add_plugins(MaterialPlugin::<CompoundEyeMaterial>::default())
             .register_type::<CompoundEye>()
+            .register_type::<EyeCap>()
             .add_systems(PostUpdate, warn_about_invalid_settings);
     }
 }

@@ -3,6 +3,7 @@
 //! without it.
 
 mod environment;
+mod eye_cap;
 mod goldens;
 mod parity;
 mod pipelines;

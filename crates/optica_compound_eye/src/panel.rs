@@ -122,8 +122,11 @@ pub fn compound_eye_ui(ui: &mut egui::Ui, eye: &mut CompoundEye) -> bool {
             ui.label("pigment depth (lens radii)");
             ui.add(egui::Slider::new(&mut eye.pigment_depth, 2.0..=6.0));
             ui.end_row();
+            ui.label("lens search");
+            ui.checkbox(&mut eye.exact, "exact (walk the lattice)");
+            ui.end_row();
             ui.label("slice planes K");
-            ui.add(egui::Slider::new(&mut eye.slices, 0..=64));
+            ui.add_enabled(!eye.exact, egui::Slider::new(&mut eye.slices, 0..=64));
             ui.end_row();
             ui.label("neighbouring lenses");
             ui.checkbox(&mut eye.follow_neighbours, "follow the ray on");

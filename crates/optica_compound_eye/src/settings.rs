@@ -2,7 +2,9 @@
 
 use bevy::prelude::*;
 use bevy::render::render_resource::{AsBindGroup, ShaderType};
-use optica_optics::compound_eye::{DarkCentre, LatticeKind, LensParams, MAX_LENSES, MAX_SLICES};
+use optica_optics::compound_eye::{
+    DarkCentre, LatticeKind, LensParams, MAX_EXACT_LENSES, MAX_LENSES, MAX_SLICES,
+};
 use optica_optics::input::{self, InvalidInput};
 
 /// A compound eye on any UV-mapped mesh: a `StandardMaterial` (colour,
@@ -126,13 +128,21 @@ pub struct CompoundEye {
     /// paraxial focus of a ball lens lies at `1 + n/(2(n−1))` radii, 2.5 for
     /// `n = 1.5`, which the presets use.
     pub pigment_depth: f32,
-    /// Slice planes of the lens search (`K`, §6.4), clamped to 64: the
-    /// quality knob. 0 looks only at the surface; 8 (the default) finds the
-    /// right lens for all but grazing rays; 32 reaches the method's floor at
-    /// every angle. Raise it for eyes mostly seen edge-on.
+    /// Follow the exact path (the default): the view ray is walked cell by
+    /// cell across the whole lens layer, so it finds the lens it really
+    /// meets at any angle (entered below the sphere's equator too), and
+    /// each exit ray is walked the same way, through up to 16 lenses with
+    /// `follow_neighbours`. Off: the thesis's slice search with `slices`,
+    /// exact near the axis and falling away at oblique incidence.
+    pub exact: bool,
+    /// Slice planes of the thesis's lens search (`K`, §6.4), clamped to 64,
+    /// when `exact` is off. 0 looks only at the surface; 8 finds the right
+    /// lens for all but grazing rays; 32 reaches the method's floor at
+    /// every angle.
     pub slices: u32,
-    /// Follow a ray that leaves one lens into its neighbours (up to 4
-    /// lenses); off is the thesis's model (one lens).
+    /// Follow a ray that leaves one lens into its neighbours (up to 16
+    /// lenses on the exact path, 4 with the slice search); off is the
+    /// thesis's model (one lens).
     pub follow_neighbours: bool,
     /// Count the light the lens surfaces reflect (unpolarised Fresnel at
     /// entry and exit): the pigment's contribution is scaled by what is
@@ -162,8 +172,8 @@ pub struct CompoundEye {
 
 impl Default for CompoundEye {
     /// Hexagonal touching lenses of index 1.5 with the pigment at the
-    /// thesis's `d = 2r`, 8 slices, neighbours, Fresnel and the prefilter
-    /// on, 40 facets per UV unit.
+    /// thesis's `d = 2r`, the exact path, neighbours, Fresnel and the
+    /// prefilter on, 40 facets per UV unit.
     fn default() -> Self {
         Self {
             facets_per_uv: 40.0,
@@ -171,6 +181,7 @@ impl Default for CompoundEye {
             lens_radius: 1.0,
             lens_index: 1.5,
             pigment_depth: 2.0,
+            exact: true,
             slices: 8,
             follow_neighbours: true,
             fresnel: true,
@@ -186,12 +197,14 @@ impl Default for CompoundEye {
 
 impl CompoundEye {
     /// The thesis's model: square lattice, touching lenses, `d = 2r`, one
-    /// lens per ray, no Fresnel, no prefilter, `slices` slice planes.
+    /// lens per ray found by `slices` slice planes, no Fresnel, no
+    /// prefilter.
     pub fn thesis(facets_per_uv: f32, lens_index: f32, slices: u32) -> Self {
         Self {
             facets_per_uv,
             lattice: EyeLattice::Square,
             lens_index,
+            exact: false,
             slices,
             follow_neighbours: false,
             fresnel: false,
@@ -259,6 +272,7 @@ mod flags {
     pub const PREFILTER: u32 = 8;
     pub const TEXTURE: u32 = 16;
     pub const PIGMENT_ONLY: u32 = 32;
+    pub const EXACT: u32 = 64;
 }
 
 /// The uniform the shader reads (`CompoundEyeUniform` in `compound_eye.wgsl`).
@@ -286,7 +300,8 @@ impl From<&CompoundEye> for CompoundEyeUniform {
             | flag(e.fresnel, flags::FRESNEL)
             | flag(e.prefilter, flags::PREFILTER)
             | flag(e.pigment_texture.is_some(), flags::TEXTURE)
-            | flag(e.output == EyeOutput::PigmentOnly, flags::PIGMENT_ONLY);
+            | flag(e.output == EyeOutput::PigmentOnly, flags::PIGMENT_ONLY)
+            | flag(e.exact, flags::EXACT);
         Self {
             facets_per_uv: e.facets_per_uv,
             lens_radius: e.lens_radius,
@@ -298,7 +313,11 @@ impl From<&CompoundEye> for CompoundEyeUniform {
             slices: e.slices.min(MAX_SLICES),
             pigment_scale: e.pigment_uv_scale,
             pigment_offset: e.pigment_uv_offset,
-            max_lenses: if e.follow_neighbours { MAX_LENSES } else { 1 },
+            max_lenses: match (e.follow_neighbours, e.exact) {
+                (false, _) => 1,
+                (true, true) => MAX_EXACT_LENSES,
+                (true, false) => MAX_LENSES,
+            },
             flags,
         }
     }

@@ -15,8 +15,8 @@ use bevy::prelude::*;
 use optica_compound_eye::{CompoundEye, EyeLattice, EyeOutput};
 use optica_harness::Headless;
 use optica_optics::compound_eye::{
-    DarkCentre, Lattice, LensParams, Ray, ShadeOptions, TextureAxes, facet_response,
-    facet_response_prefiltered,
+    DarkCentre, Lattice, LensParams, MAX_EXACT_LENSES, Ray, ShadeOptions, TextureAxes,
+    facet_response, facet_response_prefiltered,
 };
 use optica_optics::glam::{DVec2, DVec3};
 
@@ -31,8 +31,8 @@ fn view_dir() -> Vec3 {
     Vec3::new(-0.6, -0.35, -1.0).normalize()
 }
 
-fn camera() -> Transform {
-    Transform::from_translation(-5.0 * view_dir()).looking_to(view_dir(), Vec3::Y)
+fn camera(dir: Vec3) -> Transform {
+    Transform::from_translation(-5.0 * dir).looking_to(dir, Vec3::Y)
 }
 
 /// The quad, its CPU lattice for `eye`, and the CPU ray through each pixel.
@@ -88,9 +88,11 @@ fn cpu_setup(eye: &CompoundEye, quad: &Mesh) -> Setup {
         eye.pigment.darkness as f64,
     )
     .unwrap();
-    let options = ShadeOptions {
-        slices: eye.slices,
-        max_lenses: if eye.follow_neighbours { 4 } else { 1 },
+    let options = match (eye.exact, eye.follow_neighbours) {
+        (true, true) => ShadeOptions::exact(MAX_EXACT_LENSES),
+        (true, false) => ShadeOptions::exact(1),
+        (false, true) => ShadeOptions::neighbours(eye.slices),
+        (false, false) => ShadeOptions::thesis(eye.slices),
     };
     Setup {
         lattice: Lattice::with_kind(axes, lens, kind).unwrap(),
@@ -107,15 +109,15 @@ fn cpu_setup(eye: &CompoundEye, quad: &Mesh) -> Setup {
 
 /// The CPU ray through the centre of pixel (i, j), where it meets the quad
 /// (z = 0), if inside it with a margin of two pixels.
-fn cpu_fragment(i: u32, j: u32) -> Option<Ray> {
-    let cam = camera();
+fn cpu_fragment(i: u32, j: u32, view: Vec3) -> Option<Ray> {
+    let cam = camera(view);
     let px = VIEW_SPAN / SIZE as f32;
     let x = ((i as f32 + 0.5) / SIZE as f32 - 0.5) * VIEW_SPAN;
     let y = (0.5 - (j as f32 + 0.5) / SIZE as f32) * VIEW_SPAN;
     let origin = (cam.translation + cam.right() * x + cam.up() * y).as_dvec3();
-    let dir = view_dir().as_dvec3();
+    let dir = view.as_dvec3();
     let p = origin + dir * (-origin.z / dir.z);
-    let margin = 1.0 - 2.0 * px as f64 / view_dir().z.abs() as f64;
+    let margin = 1.0 - 2.0 * px as f64 / view.z.abs() as f64;
     (p.x.abs() < margin && p.y.abs() < margin).then(|| Ray::new(p, dir).unwrap())
 }
 
@@ -126,6 +128,8 @@ struct Agreement {
     /// `None` with the prefilter on (no own ray to count).
     lens_count_agree: Option<f64>,
     escaping: usize,
+    /// Pixels whose outcome (escaping or not) is the CPU's.
+    same_outcome: usize,
 }
 
 /// The plain quad, its UVs as Bevy makes them.
@@ -147,8 +151,8 @@ fn compare(eye: CompoundEye) -> Agreement {
 /// The facet footprint of pixel (i, j), in facets per pixel, as the shader
 /// takes it from its derivatives: the larger of the facet-coordinate steps
 /// to the next pixel right and down.
-fn footprint(axes: &TextureAxes, i: u32, j: u32) -> Option<f64> {
-    let at = |i, j| cpu_fragment(i, j).map(|r| axes.uv_of(r.origin()));
+fn footprint(axes: &TextureAxes, i: u32, j: u32, view: Vec3) -> Option<f64> {
+    let at = |i, j| cpu_fragment(i, j, view).map(|r| axes.uv_of(r.origin()));
     let here = at(i, j)?;
     Some(
         (at(i + 1, j)? - here)
@@ -158,7 +162,7 @@ fn footprint(axes: &TextureAxes, i: u32, j: u32) -> Option<f64> {
 }
 
 fn compare_on(quad: Mesh, eye: CompoundEye) -> Agreement {
-    compare_on_normal(quad, eye, None, true)
+    compare_on_normal(quad, eye, None, true, view_dir())
 }
 
 /// `compare_on` with every vertex normal of `quad` set to `shading` when
@@ -168,6 +172,7 @@ fn compare_on_normal(
     eye: CompoundEye,
     shading: Option<Vec3>,
     cpu_follows: bool,
+    view: Vec3,
 ) -> Agreement {
     if let Some(m) = shading {
         let count = quad.count_vertices();
@@ -185,16 +190,17 @@ fn compare_on_normal(
             quad,
             Transform::IDENTITY,
             Some(eye),
-            camera(),
+            camera(view),
             ortho(VIEW_SPAN),
         ))
         .expect("render");
     let gpu = frame.hdr().expect("an HDR frame");
     let (mut n, mut within, mut sum, mut escaping) = (0usize, 0usize, 0.0, 0usize);
+    let mut same_outcome = 0usize;
     let (mut hits, mut counts) = (0usize, 0usize);
     for j in 0..SIZE {
         for i in 0..SIZE {
-            let Some(ray) = cpu_fragment(i, j) else {
+            let Some(ray) = cpu_fragment(i, j, view) else {
                 continue;
             };
             let on_normal;
@@ -206,7 +212,7 @@ fn compare_on_normal(
                 None => &setup.lattice,
             };
             let cpu = if prefilter {
-                let Some(footprint) = footprint(lattice.axes(), i, j) else {
+                let Some(footprint) = footprint(lattice.axes(), i, j, view) else {
                     continue;
                 };
                 facet_response_prefiltered(
@@ -229,6 +235,7 @@ fn compare_on_normal(
             sum += d;
             within += usize::from(d <= 0.02);
             escaping += usize::from(cpu_e > 0.0);
+            same_outcome += usize::from((cpu_e > 0.0) == (e > 0.5));
             // The lens count of the rays that reach the pigment (the shader
             // writes the count of the fragment's own ray, not the average).
             // Where the prefilter takes over, the shader skips that ray.
@@ -250,6 +257,7 @@ fn compare_on_normal(
         mean: sum / n as f64,
         lens_count_agree: (hits > 0).then(|| counts as f64 / hits as f64),
         escaping,
+        same_outcome,
     }
 }
 
@@ -359,15 +367,72 @@ fn lattice_on_a_leaning_vertex_normal_matches_its_cpu_twin() {
         ..default()
     };
     let leaning = Vec3::new(0.28, -0.21, 1.0).normalize();
-    let a = compare_on_normal(quad(), eye.clone(), Some(leaning), true);
+    let a = compare_on_normal(quad(), eye.clone(), Some(leaning), true, view_dir());
     assert_agrees("hexagonal, leaning normal", &a);
     // The lean matters: against the triangle's own lattice the render is
     // far off.
-    let flat = compare_on_normal(quad(), eye, Some(leaning), false);
+    let flat = compare_on_normal(quad(), eye, Some(leaning), false, view_dir());
     eprintln!(
         "against the flat lattice: {:.2} % within 0.02, mean {:.4}",
         100.0 * flat.within,
         flat.mean
     );
     assert!(flat.within < 0.9, "{:.4} within 0.02", flat.within);
+}
+
+/// The default exact path against the exact tracer (`trace_exact` with the
+/// shader's walk cap), by incidence band: a flat lattice seen from 0° to
+/// 80° off its normal, square and hexagonal, lens index 1.33 to 1.7, rays
+/// followed through up to 16 lenses. Goal: the outcome (pigment or
+/// escape) agrees on at least 99.5 % of pixels and the value within 0.02
+/// on at least 99 %, in every band.
+#[test]
+fn the_exact_path_matches_the_exact_tracer_at_every_incidence() {
+    let bands: [(&str, &[f32]); 3] = [
+        ("0–30°", &[0.0, 25.0]),
+        ("30–60°", &[45.0, 60.0]),
+        ("60–80°", &[70.0, 80.0]),
+    ];
+    let lattices = [
+        (EyeLattice::Square, 1.33),
+        (EyeLattice::Hexagonal, 1.5),
+        (EyeLattice::Hexagonal, 1.7),
+    ];
+    for (band, angles) in bands {
+        let (mut n, mut within, mut same, mut escaping) = (0usize, 0.0, 0usize, 0usize);
+        for &(lattice, index) in &lattices {
+            for &angle in angles {
+                let (polar, azimuth) = (angle.to_radians(), 0.52f32);
+                let view = Vec3::new(
+                    polar.sin() * azimuth.cos(),
+                    polar.sin() * azimuth.sin(),
+                    -polar.cos(),
+                );
+                // Straight down the camera's up vector would be degenerate.
+                let view = (view + Vec3::new(1e-3, 0.0, 0.0)).normalize();
+                let eye = CompoundEye {
+                    facets_per_uv: 7.0,
+                    lattice,
+                    lens_index: index,
+                    prefilter: false,
+                    ..default()
+                };
+                let a = compare_on_normal(quad(), eye, None, true, view);
+                n += a.pixels;
+                within += a.within * a.pixels as f64;
+                same += a.same_outcome;
+                escaping += a.escaping;
+            }
+        }
+        let (within, same) = (within / n as f64, same as f64 / n as f64);
+        eprintln!(
+            "exact path {band}: {n} px, outcome agrees on {:.3} %, value within 0.02 on {:.3} %, {escaping} escaping",
+            100.0 * same,
+            100.0 * within
+        );
+        assert!(
+            same >= 0.995 && within >= 0.99,
+            "{band}: outcome {same:.4}, within {within:.4}"
+        );
+    }
 }

@@ -45,6 +45,7 @@ const FLAG_FRESNEL: u32 = 4u;
 const FLAG_PREFILTER: u32 = 8u;
 const FLAG_TEXTURE: u32 = 16u;
 const FLAG_PIGMENT_ONLY: u32 = 32u;
+const FLAG_EXACT: u32 = 64u;
 
 // texture_axes.rs UV_DET_REL_EPS for f32 derivatives: a triangle whose
 // facet-coordinate gradients (or world axes U, V) are closer to parallel than
@@ -82,7 +83,12 @@ fn facet_response(l: eye::Lattice, p: vec3<f32>, d: vec3<f32>, shift: vec2<f32>,
     var r: Response;
     r.multiplier = 1.0;
     r.escape_weight = 0.0;
-    let trace = eye::shade_fragment(l, p, d, material.slices, material.max_lenses);
+    var trace: eye::Trace;
+    if (material.flags & FLAG_EXACT) != 0u {
+        trace = eye::shade_exact(l, p, d, material.max_lenses);
+    } else {
+        trace = eye::shade_fragment(l, p, d, material.slices, material.max_lenses);
+    }
     r.lenses = trace.lenses;
     if trace.outcome == eye::OUTCOME_PIGMENT {
         var transmittance = 1.0;

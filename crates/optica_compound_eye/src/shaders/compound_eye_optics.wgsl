@@ -17,6 +17,10 @@ const LENGTH_REL_EPS: f32 = 1e-4;
 // shading_path.rs MAX_SLICES and MAX_LENSES: the loop bounds.
 const MAX_SLICES: u32 = 64u;
 const MAX_LENSES: u32 = 4u;
+// exact_tracer.rs MAX_WALK_CELLS and MAX_EXACT_LENSES: the exact path's
+// loop bounds.
+const MAX_WALK_CELLS: u32 = 64u;
+const MAX_EXACT_LENSES: u32 = 16u;
 // shading_path.rs NEIGHBOUR_SPAN_CELLS.
 const NEIGHBOUR_SPAN_CELLS: f32 = 4.0;
 // pigment.rs PREFILTER_START / PREFILTER_FULL.
@@ -438,6 +442,173 @@ fn shade_fragment(l: Lattice, p: vec3<f32>, d: vec3<f32>, slices: u32, max_lense
         cell = next.cell;
         centre = next.centre;
         t_entry = next.t;
+    }
+    return finish(l, o, dir, count, transmittance);
+}
+
+// lattice_kind.rs `lattice_rate`: a texture-coordinate step in lattice
+// coordinates (the square cells, or the hexagonal lattice's axial ones).
+fn lattice_rate(kind: u32, duv: vec2<f32>) -> vec2<f32> {
+    if kind == KIND_HEXAGONAL {
+        let dj = duv.y / ROW;
+        return vec2<f32>(duv.x - 0.5 * dj, dj);
+    }
+    return duv;
+}
+
+// lattice_kind.rs `to_lattice`.
+fn to_lattice(kind: u32, uv: vec2<f32>) -> vec2<f32> {
+    if kind == KIND_HEXAGONAL {
+        return lattice_rate(kind, uv);
+    }
+    return uv - vec2<f32>(0.5);
+}
+
+// What a walk across the lens layer found.
+const WALK_NONE: u32 = 0u;
+const WALK_FOUND: u32 = 1u;
+const WALK_LIMIT: u32 = 2u;
+
+struct Walk {
+    status: u32,
+    index: vec2<f32>,
+    centre: vec3<f32>,
+    t: f32,
+}
+
+// 1/|x|, or "never" for 0 (f32 division by zero is not defined in WGSL).
+fn inv_abs(x: f32) -> f32 {
+    return select(1.0 / abs(x), 3.0e38, x == 0.0);
+}
+
+// exact_tracer.rs `next` in `first_lens`: where the ray leaves cell `c`
+// along one lattice coordinate.
+fn next_boundary(c: f32, u: f32, d: f32, t_start: f32) -> f32 {
+    if d > 0.0 {
+        return t_start + (c + 1.0 - u) / d;
+    } else if d < 0.0 {
+        return t_start + (c - u) / d;
+    }
+    return 3.0e38;
+}
+
+// exact_tracer.rs `first_lens`: the nearest lens the ray (o, d) enters in
+// the lens layer (depth 0 to 2r), not `exclude` when `has_exclude`, by a
+// 2-D Amanatides–Woo walk over the lattice's unit cells, testing at each
+// cell every lens whose cell can hold a point of it (a box of offsets;
+// those the previous cell's box held are not tested twice).
+fn walk_first_lens(l: Lattice, o: vec3<f32>, d: vec3<f32>, exclude: vec2<f32>, has_exclude: bool) -> Walk {
+    var w: Walk;
+    w.status = WALK_NONE;
+    let eps = LENGTH_REL_EPS * l.r;
+    let h0 = depth_of(l, o);
+    let down = -dot(d, l.n);
+    let lo = -eps;
+    let hi = 2.0 * l.r + eps;
+    var t_start = 0.0;
+    var t_end = 0.0;
+    if down > 0.0 {
+        t_start = max((lo - h0) / down, 0.0);
+        t_end = (hi - h0) / down;
+    } else if down < 0.0 {
+        t_start = max((hi - h0) / down, 0.0);
+        t_end = (lo - h0) / down;
+    } else if h0 >= lo && h0 <= hi {
+        t_end = 3.0e38;
+    } else {
+        return w;
+    }
+    if !(t_end >= t_start) {
+        return w;
+    }
+    let uv0 = to_lattice(l.kind, uv_of(l, o + t_start * d));
+    let duv = lattice_rate(l.kind, uv_rate(l, d));
+    var cell = floor(uv0);
+    let step = sign(duv);
+    var t_max = vec2<f32>(next_boundary(cell.x, uv0.x, duv.x, t_start),
+        next_boundary(cell.y, uv0.y, duv.y, t_start));
+    let t_delta = vec2<f32>(inv_abs(duv.x), inv_abs(duv.y));
+    // lattice_kind.rs `walk_neighbourhood`: offsets −1..1 (square) or
+    // −1..2 (hexagonal) on both axes.
+    let lo_off = -1.0;
+    let hi_off = select(1.0, 2.0, l.kind == KIND_HEXAGONAL);
+    var prev = cell;
+    for (var k = 0u; k < MAX_WALK_CELLS; k++) {
+        for (var dj = lo_off; dj <= hi_off; dj += 1.0) {
+            for (var di = lo_off; di <= hi_off; di += 1.0) {
+                let index = cell + vec2<f32>(di, dj);
+                let rel = index - prev;
+                let seen = k > 0u && all(rel >= vec2<f32>(lo_off)) && all(rel <= vec2<f32>(hi_off));
+                if seen || (has_exclude && all(index == exclude)) {
+                    continue;
+                }
+                let c = lens_centre(l, centre_of_index(l.kind, index));
+                let t = lens_entry(l, o, d, c);
+                if t >= 0.0 && (w.status != WALK_FOUND || t < w.t) {
+                    w.status = WALK_FOUND;
+                    w.index = index;
+                    w.centre = c;
+                    w.t = t;
+                }
+            }
+        }
+        let t_exit = min(t_max.x, t_max.y);
+        // Every lens entered before t_exit has been tested (lenses stay in
+        // their columns), so the nearest hit so far is final.
+        if (w.status == WALK_FOUND && w.t <= t_exit) || t_exit >= t_end {
+            return w;
+        }
+        prev = cell;
+        if t_max.x < t_max.y {
+            cell.x += step.x;
+            t_max.x += t_delta.x;
+        } else {
+            cell.y += step.y;
+            t_max.y += t_delta.y;
+        }
+    }
+    w.status = WALK_LIMIT;
+    return w;
+}
+
+// exact_tracer.rs `trace_exact_capped` from the fragment `p` on the polygon
+// along `d`: the first lens the ray really meets, refracted in and out, then
+// every lens the exit ray meets in turn, up to `max_lenses_in`, then the
+// pigment plane.
+fn shade_exact(l: Lattice, p: vec3<f32>, d: vec3<f32>, max_lenses_in: u32) -> Trace {
+    var t: Trace;
+    if !(-dot(d, l.n) > MIN_COS) {
+        t.outcome = OUTCOME_FALLBACK;
+        return t;
+    }
+    let max_lenses = clamp(max_lenses_in, 1u, MAX_EXACT_LENSES);
+    var o = p;
+    var dir = d;
+    var transmittance = 1.0;
+    var count = 0u;
+    var last = vec2<f32>(0.0);
+    for (var guard = 0u; guard < MAX_EXACT_LENSES; guard++) {
+        if count >= max_lenses {
+            break;
+        }
+        let w = walk_first_lens(l, o, dir, last, count > 0u);
+        if w.status == WALK_LIMIT {
+            t.outcome = OUTCOME_FALLBACK;
+            return t;
+        }
+        if w.status == WALK_NONE {
+            break;
+        }
+        let out = refract_through_ball(o + w.t * dir, dir, w.centre, l);
+        if !out.ok {
+            t.outcome = OUTCOME_FALLBACK;
+            return t;
+        }
+        o = out.exit;
+        dir = out.dir;
+        transmittance *= out.transmittance;
+        count += 1u;
+        last = w.index;
     }
     return finish(l, o, dir, count, transmittance);
 }

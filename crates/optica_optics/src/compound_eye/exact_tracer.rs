@@ -2,7 +2,6 @@
 //! against.
 
 use glam::{DVec2, DVec3};
-use rayon::prelude::*;
 
 use super::ball_lens::refract_through_ball;
 use super::lattice::Lattice;
@@ -20,6 +19,17 @@ pub const MAX_CELLS: u32 = 1 << 16;
 
 /// The thesis's model: the first lens only, then the pigment plane.
 pub const THESIS_MAX_LENSES: u32 = 1;
+
+/// Cells one walk visits in the shader's exact path ([`ShadeOptions::exact`](super::ShadeOptions::exact))
+/// before the ray is given up as a fallback: a ray crossing the lens layer
+/// at `θ` from the normal walks about `2·tan θ` facets, 11 at 80°; 64 cells
+/// bind only beyond about 88°, where a pixel spans many facets anyway.
+pub const MAX_WALK_CELLS: u32 = 64;
+
+/// Most lenses the shader's exact path follows a ray through: rays seen
+/// obliquely pass through several lenses before they reach the pigment or
+/// leave the eye.
+pub const MAX_EXACT_LENSES: u32 = 16;
 
 /// Traces `ray` exactly through the lattice: the first lens it really meets
 /// (searched over every reachable lens), both refractions, then on through at
@@ -44,6 +54,13 @@ pub const THESIS_MAX_LENSES: u32 = 1;
 /// lenses on its way — the repeated refraction the thesis leaves for future
 /// work (§6.5).
 pub fn trace_exact(lattice: &Lattice, ray: &Ray, max_lenses: u32) -> Shade {
+    trace_exact_capped(lattice, ray, max_lenses, MAX_CELLS)
+}
+
+/// [`trace_exact`] with each walk across the lens layer cut off after
+/// `max_cells` cells (a [`ShadeFallback::TraversalLimit`]): the shader's
+/// exact path, with [`MAX_WALK_CELLS`].
+pub fn trace_exact_capped(lattice: &Lattice, ray: &Ray, max_lenses: u32, max_cells: u32) -> Shade {
     let mut path = match polygon_entry(lattice, ray) {
         Ok(fragment) => fragment,
         Err(f) => return Shade::Fallback(f),
@@ -53,7 +70,7 @@ pub fn trace_exact(lattice: &Lattice, ray: &Ray, max_lenses: u32) -> Shade {
     let mut count = 0;
     let mut transmittance = 1.0;
     while count < max_lenses {
-        let (cell, centre, t) = match first_lens(lattice, &path, last) {
+        let (cell, centre, t) = match first_lens(lattice, &path, last, max_cells) {
             Ok(Some(hit)) => hit,
             Ok(None) => break,
             Err(f) => return Shade::Fallback(f),
@@ -74,18 +91,22 @@ pub fn trace_exact(lattice: &Lattice, ray: &Ray, max_lenses: u32) -> Shade {
 }
 
 /// [`trace_exact`] over many rays, in parallel.
+#[cfg(feature = "reference")]
 pub fn trace_exact_batch(lattice: &Lattice, rays: &[Ray], max_lenses: u32) -> Vec<Shade> {
+    use rayon::prelude::*;
     rays.par_iter()
         .map(|r| trace_exact(lattice, r, max_lenses))
         .collect()
 }
 
 /// The nearest lens `view` enters while in the lens layer, skipping the lens
-/// `exclude` (the one it just left): `(cell, centre, t_entry)`.
+/// `exclude` (the one it just left): `(cell, centre, t_entry)`; a
+/// [`ShadeFallback::TraversalLimit`] after `max_cells` cells.
 pub(crate) fn first_lens(
     lattice: &Lattice,
     view: &Ray,
     exclude: Option<[i64; 2]>,
+    max_cells: u32,
 ) -> Result<Option<([i64; 2], DVec3, f64)>, ShadeFallback> {
     let (origin, dir) = (view.origin(), view.dir());
     let axes = lattice.axes();
@@ -128,7 +149,7 @@ pub(crate) fn first_lens(
     let mut t_max = DVec2::new(next(cell.x, uv0.x, duv.x), next(cell.y, uv0.y, duv.y));
     let t_delta = DVec2::new(inv_abs(duv.x), inv_abs(duv.y));
     let mut best: Option<([i64; 2], DVec3, f64)> = None;
-    for _ in 0..MAX_CELLS {
+    for _ in 0..max_cells {
         for [di, dj] in kind.walk_neighbourhood() {
             let index = [cell.x as i64 + di, cell.y as i64 + dj];
             if Some(index) == exclude {
@@ -348,7 +369,7 @@ mod tests {
                 let l = Lattice::with_kind(axes, LensParams::thesis(r, 1.5).unwrap(), kind).unwrap();
                 let ray = ray_at(x, y, polar, azimuth);
                 let fragment = polygon_entry(&l, &ray).unwrap();
-                let walk = first_lens(&l, &fragment, None).unwrap();
+                let walk = first_lens(&l, &fragment, None, MAX_CELLS).unwrap();
                 let brute = brute_first_lens(&l, &ray);
                 prop_assert_eq!(walk.map(|w| w.0), brute.map(|b| b.0), "{:?}", kind);
                 if let (Some(w), Some(b)) = (walk, brute) {

@@ -113,7 +113,6 @@ impl LatticeKind {
     /// and their neighbours (every point of a parallelogram of the hexagonal
     /// lattice is nearest to one of its corners: it lies in one of its two
     /// equilateral triangles).
-    #[cfg(feature = "reference")]
     pub(crate) fn walk_neighbourhood(self) -> &'static [[i64; 2]] {
         const SQUARE: [[i64; 2]; 9] = [
             [-1, -1],

@@ -89,8 +89,9 @@
 //! - Refraction into neighbouring spheres after the exit is left for future
 //!   work in the thesis (§6.5); the shading path follows the thesis (one
 //!   lens, [`ShadeOptions::thesis`]) or the exit ray into up to
-//!   [`MAX_LENSES`] neighbours ([`ShadeOptions::neighbours`]); the exact
-//!   tracer (feature `reference`) can follow any number.
+//!   [`MAX_LENSES`] neighbours ([`ShadeOptions::neighbours`]), or, by the
+//!   exact tracer's walk, through every lens the ray meets (up to
+//!   [`MAX_EXACT_LENSES`], [`ShadeOptions::exact`]).
 //! - Fresnel at the lens surfaces is left for future work too (§6.7's last
 //!   line); every traced hit carries the power the lens surfaces transmit,
 //!   and [`facet_response`] multiplies it into `c_t` on request.
@@ -116,7 +117,8 @@
 //! | [`Shade`], [`PigmentHit`], [`ShadeFallback`] | what a traced view ray returns |
 //! | [`facet_lattice`], [`ray_to_facet`], [`shows_dark_centre`] | facet frames on a curved eye and the pseudopupil test |
 //! | [`CompoundEyeError`], [`InvalidInput`] | why a constructor refused its input |
-//! | `trace_exact`, `trace_exact_batch`, `shade_batch`, `MAX_CELLS`, `THESIS_MAX_LENSES` | (feature `reference`) the exact lattice tracer, the report's reference, and batches |
+//! | [`trace_exact`], [`trace_exact_capped`], [`MAX_CELLS`], [`MAX_WALK_CELLS`], [`MAX_EXACT_LENSES`], [`THESIS_MAX_LENSES`] | the exact lattice tracer: the report's reference, and (capped) the shader's exact path |
+//! | `trace_exact_batch`, `shade_batch` | (feature `reference`) batches in parallel |
 //!
 //! ```
 //! use optica_optics::compound_eye::{Lattice, LensParams, Ray, TextureAxes, shade};
@@ -135,7 +137,6 @@
 
 mod ball_lens;
 mod error;
-#[cfg(feature = "reference")]
 mod exact_tracer;
 mod lattice;
 mod lattice_kind;
@@ -151,7 +152,10 @@ pub use crate::ray::Ray;
 pub use ball_lens::{BallExit, BallFailure, ball_focal_length, refract_through_ball};
 pub use error::CompoundEyeError;
 #[cfg(feature = "reference")]
-pub use exact_tracer::{MAX_CELLS, THESIS_MAX_LENSES, trace_exact, trace_exact_batch};
+pub use exact_tracer::trace_exact_batch;
+pub use exact_tracer::{
+    MAX_CELLS, MAX_EXACT_LENSES, MAX_WALK_CELLS, THESIS_MAX_LENSES, trace_exact, trace_exact_capped,
+};
 pub use lattice::{Lattice, LensParams, MAX_SLICES, MIN_COS, PigmentPlaneHit};
 pub use lattice_kind::{LatticeKind, LensCell};
 pub use outcome::{PigmentHit, Shade, ShadeFallback};

@@ -5,6 +5,7 @@ use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
 use super::ball_lens::{BallFailure, refract_through_ball};
+use super::exact_tracer::{MAX_EXACT_LENSES, MAX_WALK_CELLS, trace_exact_capped};
 use super::lattice::{Lattice, MAX_SLICES, MIN_COS, PigmentPlaneHit};
 use super::lattice_kind::LensCell;
 use super::outcome::{PigmentHit, Shade, ShadeFallback};
@@ -57,8 +58,16 @@ pub struct ShadeOptions {
     /// Most lenses a ray is followed through (clamped to `1..=`[`MAX_LENSES`]):
     /// 1 is the thesis's model (one lens, then the pigment plane); more
     /// follows the exit ray into neighbouring lenses, the repeated refraction
-    /// the thesis leaves for future work (§6.5).
+    /// the thesis leaves for future work (§6.5). With `exact`, clamped to
+    /// `1..=`[`MAX_EXACT_LENSES`].
     pub max_lenses: u32,
+    /// Follow the exact tracer's path instead of the slice search: the
+    /// view ray walked cell by cell across the whole lens layer, every lens
+    /// it can reach tested (spheres entered below their equator too), each
+    /// exit ray walked the same way ([`trace_exact_capped`] with
+    /// [`MAX_WALK_CELLS`]). `slices` is then unused.
+    #[serde(default)]
+    pub exact: bool,
 }
 
 impl ShadeOptions {
@@ -67,6 +76,7 @@ impl ShadeOptions {
         Self {
             slices,
             max_lenses: 1,
+            exact: false,
         }
     }
 
@@ -76,6 +86,17 @@ impl ShadeOptions {
         Self {
             slices,
             max_lenses: MAX_LENSES,
+            exact: false,
+        }
+    }
+
+    /// The exact tracer's path through up to `max_lenses` lenses (1: the
+    /// thesis's one lens, found exactly).
+    pub fn exact(max_lenses: u32) -> Self {
+        Self {
+            slices: 0,
+            max_lenses,
+            exact: true,
         }
     }
 }
@@ -152,6 +173,10 @@ pub fn shade_fragment(lattice: &Lattice, fragment: &Ray, slices: u32) -> Shade {
 /// Steps 2–4 of [`shade_with`]; a fragment ray that does not point into the
 /// surface is a [`ShadeFallback::PolygonMiss`].
 pub fn shade_fragment_with(lattice: &Lattice, fragment: &Ray, options: &ShadeOptions) -> Shade {
+    if options.exact {
+        let lenses = options.max_lenses.clamp(1, MAX_EXACT_LENSES);
+        return trace_exact_capped(lattice, fragment, lenses, MAX_WALK_CELLS);
+    }
     let axes = lattice.axes();
     let lens = lattice.lens();
     let r = lens.radius();

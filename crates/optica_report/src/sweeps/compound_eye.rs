@@ -1,6 +1,8 @@
-//! Compound eye (Sagawa, thesis ch. 6), rendered: the material's slice count
+//! Compound eye (Sagawa, thesis ch. 6), rendered: the thesis's slice count
 //! `K` against the exact lattice tracer, with the thesis's one-lens model and
-//! with rays followed into neighbouring lenses.
+//! with rays followed into neighbouring lenses; and the material's default
+//! exact path (series `exact path`, its knob the lens cap), with its
+//! agreement by incidence band.
 //!
 //! Scene: a flat eye (a square of the compound-eye material) seen from above
 //! at an angle by a perspective camera, so one frame holds every incidence
@@ -26,8 +28,8 @@ use optica_compound_eye::{
 };
 use optica_harness::{FrameTimings, TimeSource};
 use optica_optics::compound_eye::{
-    CompoundEyeError, DarkCentre, Lattice, LensParams, MAX_LENSES, Ray, Shade, ShadeFallback,
-    TextureAxes, dark_patch_centroid, shade, trace_exact,
+    CompoundEyeError, DarkCentre, Lattice, LensParams, MAX_EXACT_LENSES, MAX_LENSES, Ray, Shade,
+    ShadeFallback, TextureAxes, dark_patch_centroid, shade, trace_exact,
 };
 use optica_optics::glam::{DVec2, DVec3};
 
@@ -65,6 +67,7 @@ fn eye_settings(
     CompoundEye {
         facets_per_uv,
         lattice: EyeLattice::Hexagonal,
+        exact: false,
         slices,
         follow_neighbours: neighbours,
         prefilter: false,
@@ -317,9 +320,97 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
             report.rows.push(row);
         }
     }
+    exact_path(ctx, &mut report, size, facets_per_uv, (warmup, frames))?;
     costs(ctx, &mut report, size, facets_per_uv, (warmup, frames))?;
     stability(ctx, &mut report, size)?;
     Ok(report)
+}
+
+/// Incidence bands (degrees from the normal) the exact path's agreement is
+/// counted in; the sweep's frame reaches about 66°.
+const BANDS: [(f64, f64); 3] = [(0.0, 30.0), (30.0, 60.0), (60.0, 90.0)];
+
+/// The exact path (the material's default), through one lens and through
+/// up to `MAX_EXACT_LENSES`: its output against `trace_exact` with as many
+/// lenses, pixel by pixel, by incidence band: the share of pixels whose
+/// outcome (escape or not) agrees and whose factor is within 0.02. The
+/// knob (the table's `slices` column) is the lens cap.
+fn exact_path(
+    ctx: &SweepContext,
+    report: &mut Report,
+    size: u32,
+    facets_per_uv: f32,
+    (warmup, frames): (u32, u32),
+) -> Result<(), SweepError> {
+    use rayon::prelude::*;
+    let headless = ctx.headless(size, size);
+    for lenses in [1, MAX_EXACT_LENSES] {
+        ctx.progress(0, 1, &format!("exact path, up to {lenses} lenses"));
+        let eye = |output| CompoundEye {
+            exact: true,
+            ..eye_settings(facets_per_uv, 0, lenses > 1, output)
+        };
+        let cpu =
+            cpu_eye(&eye(EyeOutput::PigmentOnly)).map_err(|e| SweepError::Setup(e.to_string()))?;
+        let shades: Vec<Shade> = (0..size * size)
+            .into_par_iter()
+            .map(|k| trace_exact(&cpu.lattice, &pixel_ray(k % size, k / size, size), lenses))
+            .collect();
+        let reference: Vec<f64> = shades.iter().map(|&s| factor(&cpu, s)).collect();
+        let frame = headless
+            .clone()
+            .hdr(true)
+            .render(scene(Some(eye(EyeOutput::PigmentOnly))))?;
+        let img = frame
+            .hdr()
+            .ok_or(SweepError::Setup("no HDR frame".into()))?;
+        let gpu: Vec<[f32; 4]> = img.pixels().map(|p| p.0).collect();
+        let gpu_factor: Vec<f64> = gpu.iter().map(|p| f64::from(p[0])).collect();
+        let m = optica_harness::metrics::compare(&grey(&reference, size), &grey(&gpu_factor, size))
+            .map_err(|e| SweepError::Setup(e.to_string()))?;
+        let timings = headless.time_frames(warmup, frames, scene(Some(eye(EyeOutput::Shaded))))?;
+        let plain = headless.time_frames(warmup, frames, scene(None))?;
+        let mut row = Row::new(
+            f64::from(lenses),
+            timings.frame_ms.median,
+            plain.frame_ms.median,
+        )
+        .series("exact path")
+        .err("psnr_db", m.psnr_db)
+        .err("flip_mean", m.flip_mean)
+        .err("one_minus_ssim", 1.0 - m.ssim)
+        .timing("frame_iqr_ms", timings.frame_ms.iqr());
+        for (lo, hi) in BANDS {
+            let (mut n, mut same, mut within) = (0usize, 0usize, 0usize);
+            for k in 0..(size * size) as usize {
+                let ray = pixel_ray(k as u32 % size, k as u32 / size, size);
+                let cos = -ray.dir().z;
+                let incidence = cos.clamp(-1.0, 1.0).acos().to_degrees();
+                // Pixels that see the eye (the ray reaches z = 0 inside it).
+                let t = -ray.origin().z / ray.dir().z;
+                let p = ray.at(t);
+                let inside = t > 0.0
+                    && p.x.abs() < 0.5 * EYE_SIDE as f64
+                    && p.y.abs() < 0.5 * EYE_SIDE as f64;
+                if !inside || incidence < lo || incidence >= hi {
+                    continue;
+                }
+                let escaped = matches!(shades[k], Shade::Fallback(ShadeFallback::Escaped { .. }));
+                n += 1;
+                same += usize::from(escaped == (gpu[k][1] > 0.5));
+                within += usize::from((gpu_factor[k] - reference[k]).abs() <= 0.02);
+            }
+            let share = |x: usize| if n > 0 { x as f64 / n as f64 } else { f64::NAN };
+            let name = format!("{lo:.0}_{hi:.0}");
+            row = row
+                .err(&format!("outcome_agrees_{name}"), share(same))
+                .err(&format!("within_0_02_{name}"), share(within))
+                .work(&format!("pixels_{name}"), n as f64);
+        }
+        row = with_pass_times(row, &timings, &plain);
+        report.rows.push(row);
+    }
+    Ok(())
 }
 
 /// Adds the main pass's GPU time of both frames, where the adapter has
@@ -370,9 +461,8 @@ fn costs(
         "cost at the material's defaults",
         defaults.is_finite(),
         format!(
-            "prefilter on, K = {}, neighbours, Fresnel, {facets_per_uv} facets per UV: frame {defaults:.2} ms, \
-             {:.2}× the plain material ({base_ms:.2} ms, timed right after)",
-            CompoundEye::default().slices,
+            "exact path, neighbours (up to {MAX_EXACT_LENSES} lenses), prefilter on, Fresnel, {facets_per_uv} facets \
+             per UV: frame {defaults:.2} ms, {:.2}× the plain material ({base_ms:.2} ms, timed right after)",
             defaults / base_ms
         ),
     );
@@ -544,6 +634,31 @@ mod tests {
                 "{series}: pseudopupil {} facets off",
                 last["centroid_facets"]
             );
+        }
+        // The exact path agrees with the exact tracer in every band the
+        // frame holds.
+        let exact: Vec<&Row> = r
+            .rows
+            .iter()
+            .filter(|row| row.series == "exact path")
+            .collect();
+        assert_eq!(exact.len(), 2);
+        for row in exact {
+            for (lo, hi) in BANDS {
+                let name = format!("{lo:.0}_{hi:.0}");
+                if row.work[&format!("pixels_{name}")] < 100.0 {
+                    continue;
+                }
+                let (same, within) = (
+                    row.error[&format!("outcome_agrees_{name}")],
+                    row.error[&format!("within_0_02_{name}")],
+                );
+                assert!(
+                    same >= 0.995 && within >= 0.99,
+                    "exact path, {} lenses, {name}°: outcome {same}, within {within}",
+                    row.knob
+                );
+            }
         }
     }
 }

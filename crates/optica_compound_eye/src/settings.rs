@@ -162,6 +162,15 @@ pub struct CompoundEye {
     #[texture(101)]
     #[sampler(102)]
     pub pigment_texture: Option<Handle<Image>>,
+    /// The prefilter's table of facet averages ([`PrefilterTable`]), made
+    /// by the plugin from the other settings whenever they change (shared
+    /// between materials with the same optics): leave it `None`. Until it
+    /// is made, and with a pigment texture, the prefilter traces nine rays
+    /// a fragment instead.
+    ///
+    /// [`PrefilterTable`]: optica_optics::compound_eye::PrefilterTable
+    #[texture(103, sample_type = "float", filterable = false)]
+    pub prefilter_table: Option<Handle<Image>>,
     /// Pigment texture coordinate per facet: `tex = facet · scale + offset`.
     pub pigment_uv_scale: Vec2,
     /// See `pigment_uv_scale`.
@@ -188,6 +197,7 @@ impl Default for CompoundEye {
             prefilter: true,
             pigment: PigmentDisc::default(),
             pigment_texture: None,
+            prefilter_table: None,
             pigment_uv_scale: Vec2::ONE,
             pigment_uv_offset: Vec2::ZERO,
             output: EyeOutput::Shaded,
@@ -273,6 +283,7 @@ mod flags {
     pub const TEXTURE: u32 = 16;
     pub const PIGMENT_ONLY: u32 = 32;
     pub const EXACT: u32 = 64;
+    pub const TABLE: u32 = 128;
 }
 
 /// The uniform the shader reads (`CompoundEyeUniform` in `compound_eye.wgsl`).
@@ -301,7 +312,8 @@ impl From<&CompoundEye> for CompoundEyeUniform {
             | flag(e.prefilter, flags::PREFILTER)
             | flag(e.pigment_texture.is_some(), flags::TEXTURE)
             | flag(e.output == EyeOutput::PigmentOnly, flags::PIGMENT_ONLY)
-            | flag(e.exact, flags::EXACT);
+            | flag(e.exact, flags::EXACT)
+            | flag(e.prefilter_table.is_some(), flags::TABLE);
         Self {
             facets_per_uv: e.facets_per_uv,
             lens_radius: e.lens_radius,

@@ -15,8 +15,8 @@ use bevy::prelude::*;
 use optica_compound_eye::{CompoundEye, EyeLattice, EyeOutput};
 use optica_harness::Headless;
 use optica_optics::compound_eye::{
-    DarkCentre, Lattice, LensParams, MAX_EXACT_LENSES, Ray, ShadeOptions, TextureAxes,
-    facet_response, facet_response_prefiltered,
+    DarkCentre, Lattice, LensParams, MAX_EXACT_LENSES, PrefilterTable, Ray, ShadeOptions,
+    TextureAxes, facet_response, facet_response_tabled,
 };
 use optica_optics::glam::{DVec2, DVec3};
 
@@ -184,6 +184,19 @@ fn compare_on_normal(
     };
     let setup = cpu_setup(&eye, &quad);
     let prefilter = eye.prefilter;
+    // The plugin's table for these settings, made the same way.
+    let table = prefilter.then(|| {
+        PrefilterTable::build(
+            eye.lattice_kind(),
+            eye.lens_radius as f64,
+            eye.lens_index as f64,
+            eye.pigment_depth as f64,
+            &setup.pigment,
+            eye.fresnel,
+            &setup.options,
+        )
+        .expect("a table")
+    });
     let frame = Headless::new(SIZE, SIZE)
         .hdr(true)
         .render(scene(
@@ -211,17 +224,18 @@ fn compare_on_normal(
                 }
                 None => &setup.lattice,
             };
-            let cpu = if prefilter {
+            let cpu = if let Some(table) = &table {
                 let Some(footprint) = footprint(lattice.axes(), i, j, view) else {
                     continue;
                 };
-                facet_response_prefiltered(
+                facet_response_tabled(
                     lattice,
                     &ray,
                     &setup.options,
                     &setup.pigment,
                     setup.fresnel,
                     footprint,
+                    table,
                 )
             } else {
                 facet_response(lattice, &ray, &setup.options, &setup.pigment, setup.fresnel)
@@ -339,8 +353,9 @@ fn mirrored_and_sheared_uvs_match_the_cpu_axes() {
     assert_agrees("hexagonal, mirrored and sheared UVs", &a);
 }
 
-/// Facets well below a pixel: the shader's prefilter (the facet average of
-/// nine rays, blended in by the footprint) against `facet_response_prefiltered`.
+/// Facets well below a pixel: the shader's prefilter (the facet average
+/// read from the plugin's table, blended in by the footprint) against
+/// `facet_response_tabled` with a table built on the CPU.
 #[test]
 fn prefiltered_small_facets_match_their_cpu_twin() {
     let eye = CompoundEye {

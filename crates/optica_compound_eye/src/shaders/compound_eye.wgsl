@@ -46,6 +46,7 @@ const FLAG_PREFILTER: u32 = 8u;
 const FLAG_TEXTURE: u32 = 16u;
 const FLAG_PIGMENT_ONLY: u32 = 32u;
 const FLAG_EXACT: u32 = 64u;
+const FLAG_TABLE: u32 = 128u;
 
 // texture_axes.rs UV_DET_REL_EPS for f32 derivatives: a triangle whose
 // facet-coordinate gradients (or world axes U, V) are closer to parallel than
@@ -58,6 +59,55 @@ const PREFILTER_SAMPLES: u32 = 9u;
 @group(#{MATERIAL_BIND_GROUP}) @binding(100) var<uniform> material: CompoundEyeUniform;
 @group(#{MATERIAL_BIND_GROUP}) @binding(101) var pigment_texture: texture_2d<f32>;
 @group(#{MATERIAL_BIND_GROUP}) @binding(102) var pigment_sampler: sampler;
+@group(#{MATERIAL_BIND_GROUP}) @binding(103) var prefilter_table: texture_2d<f32>;
+
+// prefilter_table.rs TABLE_AZIMUTHS and TABLE_POLARS.
+const TABLE_AZIMUTHS: i32 = 16;
+const TABLE_POLARS: i32 = 32;
+
+// prefilter_table.rs `PrefilterTable::sample`: the facet average for a ray
+// along `d` into the lattice `l`, bilinear between texel centres (read by
+// hand: the float texture is not filterable everywhere), repeating in
+// azimuth, clamped in the polar angle. Returns (mean factor, escape share,
+// mean escape direction in world space).
+struct TableSample {
+    multiplier: f32,
+    escape: f32,
+    escape_dir: vec3<f32>,
+}
+
+fn table_texel(i: i32, j: i32) -> vec4<f32> {
+    let x = ((i % TABLE_AZIMUTHS) + TABLE_AZIMUTHS) % TABLE_AZIMUTHS;
+    return textureLoad(prefilter_table, vec2<i32>(x, clamp(j, 0, TABLE_POLARS - 1)), 0);
+}
+
+fn table_sample(l: eye::Lattice, d: vec3<f32>) -> TableSample {
+    let u_hat = normalize(l.u);
+    let w_hat = normalize(l.v - dot(l.v, u_hat) * u_hat);
+    let polar = acos(clamp(-dot(d, l.n), -1.0, 1.0));
+    let azimuth = atan2(dot(d, w_hat), dot(d, u_hat));
+    var period = 1.5707964;
+    if l.kind == eye::KIND_HEXAGONAL {
+        period = 1.0471976;
+    }
+    let x = azimuth / period * f32(TABLE_AZIMUTHS) - 0.5;
+    let y = clamp(polar / 1.5707964 * f32(TABLE_POLARS) - 0.5, 0.0, f32(TABLE_POLARS - 1));
+    let x0 = floor(x);
+    let y0 = floor(y);
+    let f = vec2<f32>(x - x0, y - y0);
+    let i = i32(x0);
+    let j = i32(y0);
+    let v = mix(mix(table_texel(i, j), table_texel(i + 1, j), f.x),
+        mix(table_texel(i, j + 1), table_texel(i + 1, j + 1), f.x), f.y);
+    let tangent = v.z * u_hat + v.w * w_hat;
+    let up = sqrt(max(1.0 - dot(tangent, tangent), 0.0));
+    var s: TableSample;
+    s.multiplier = v.x;
+    s.escape = v.y;
+    let dir = tangent + up * l.n;
+    s.escape_dir = select(vec3<f32>(0.0), normalize(dir), dot(dir, dir) > 0.0);
+    return s;
+}
 
 struct Response {
     multiplier: f32,
@@ -181,7 +231,16 @@ fn lattice_response(in: VertexOutput, view: vec3<f32>, normal: vec3<f32>) -> Res
         if w < 1.0 {
             response = facet_response(l, vec3<f32>(0.0), d, shift, lod);
         }
-        if w > 0.0 {
+        let tabled = (material.flags & FLAG_TABLE) != 0u && (material.flags & FLAG_TEXTURE) == 0u;
+        if w > 0.0 && tabled {
+            // pigment.rs `facet_response_tabled`.
+            let s = table_sample(l, d);
+            if response.escape_weight == 0.0 {
+                response.escape_dir = s.escape_dir;
+            }
+            response.multiplier = mix(response.multiplier, s.multiplier, w);
+            response.escape_weight = mix(response.escape_weight, s.escape, w);
+        } else if w > 0.0 {
             let centre = eye::cell_of(kind, t).centre_uv;
             var sum = 0.0;
             for (var i = 0u; i < PREFILTER_SAMPLES; i++) {

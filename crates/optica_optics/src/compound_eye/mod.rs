@@ -102,7 +102,9 @@
 //!   unrefracted ray goes on to the pigment plane (§6.4, last paragraph); an
 //!   escaping ray reports its direction, so a renderer shows what lies that
 //!   way.
-//! - Facets smaller than a pixel: [`facet_response_prefiltered`].
+//! - Facets smaller than a pixel: [`facet_response_prefiltered`] (nine
+//!   traced rays), or the facet average per view direction precomputed
+//!   into a [`PrefilterTable`] ([`facet_response_tabled`]).
 //! - Degenerate and mirrored UV triangles: see [`TextureAxes`].
 //!
 //! ## API
@@ -142,6 +144,7 @@ mod lattice;
 mod lattice_kind;
 mod outcome;
 mod pigment;
+mod prefilter_table;
 mod pseudopupil;
 mod shading_path;
 mod texture_axes;
@@ -161,7 +164,10 @@ pub use lattice_kind::{LatticeKind, LensCell};
 pub use outcome::{PigmentHit, Shade, ShadeFallback};
 pub use pigment::{
     DarkCentre, FacetResponse, PREFILTER_FULL, PREFILTER_OFFSETS, PREFILTER_START, facet_response,
-    facet_response_prefiltered,
+    facet_response_prefiltered, facet_response_tabled,
+};
+pub use prefilter_table::{
+    PrefilterTable, TABLE_AZIMUTHS, TABLE_POLARS, TABLE_SAMPLES, TableSample,
 };
 #[cfg(feature = "reference")]
 pub use pseudopupil::dark_patch_centroid;

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::lattice::Lattice;
 use super::outcome::{Shade, ShadeFallback};
+use super::prefilter_table::PrefilterTable;
 use super::shading_path::{ShadeOptions, shade_fragment_with};
 use crate::input::{self, InvalidInput};
 use crate::ray::Ray;
@@ -228,6 +229,53 @@ pub fn facet_response_prefiltered(
     FacetResponse {
         multiplier: (1.0 - w) * point.multiplier + w * average,
         escape: point.escape.map(|(dir, e)| (dir, e * (1.0 - w))),
+    }
+}
+
+/// The shader's prefilter with a [`PrefilterTable`] (its default where the
+/// pigment is the procedural one): [`facet_response`] where facets are
+/// large, blended (smoothstep from [`PREFILTER_START`] to
+/// [`PREFILTER_FULL`]) into the table's facet average for the fragment's
+/// view direction where they shrink below a pixel. The escape weight is
+/// blended the same way; its direction is the fragment's own ray's where
+/// that escapes, the table's mean otherwise. Where the table alone counts
+/// (`w = 1`), the fragment's own ray is not traced.
+pub fn facet_response_tabled(
+    lattice: &Lattice,
+    fragment: &Ray,
+    options: &ShadeOptions,
+    pigment: &DarkCentre,
+    fresnel: bool,
+    footprint: f64,
+    table: &PrefilterTable,
+) -> FacetResponse {
+    let w = smoothstep(
+        PREFILTER_START,
+        PREFILTER_FULL,
+        if footprint.is_finite() {
+            footprint
+        } else {
+            0.0
+        },
+    );
+    let point = if w < 1.0 {
+        facet_response(lattice, fragment, options, pigment, fresnel)
+    } else {
+        FacetResponse {
+            multiplier: 1.0,
+            escape: None,
+        }
+    };
+    if w <= 0.0 {
+        return point;
+    }
+    let t = table.sample(lattice.axes(), fragment.dir());
+    let own = point.escape.map_or(0.0, |(_, e)| e);
+    let escape = (1.0 - w) * own + w * t.escape;
+    let dir = point.escape.map_or(t.escape_dir, |(d, _)| d);
+    FacetResponse {
+        multiplier: (1.0 - w) * point.multiplier + w * t.multiplier,
+        escape: (escape > 0.0).then_some((dir, escape)),
     }
 }
 

@@ -429,6 +429,79 @@ fn with_pass_times(row: Row, eye: &FrameTimings, plain: &FrameTimings) -> Row {
     }
 }
 
+/// Samples per axis of the supersampled renders the prefilter is measured
+/// against (64 a pixel).
+const SUPERSAMPLE: u32 = 8;
+
+/// The most ꟻLIP against the supersampled render the prefilter may leave
+/// where facets are a pixel or smaller (the issue's goal at 0.5 px).
+const MAX_SUB_PIXEL_FLIP: f64 = 0.08;
+
+/// The prefilter's error at one facet size.
+struct PrefilterError {
+    /// Pixels per facet at the pseudopupil.
+    facet_px: f64,
+    /// ꟻLIP and PSNR of the prefiltered render against the supersampled one.
+    prefiltered: (f64, f64),
+    /// The same without the prefilter.
+    unfiltered: (f64, f64),
+}
+
+/// The material's defaults (the exact path, the prefilter's table) at
+/// `facets_per_uv`, optics only, against an [`SUPERSAMPLE`]× supersampled
+/// render without the prefilter, box-filtered in linear light.
+fn prefilter_flip(
+    ctx: &SweepContext,
+    size: u32,
+    facets_per_uv: f32,
+) -> Result<PrefilterError, SweepError> {
+    let ss = SUPERSAMPLE;
+    let eye = |prefilter: bool| CompoundEye {
+        prefilter,
+        exact: true,
+        ..eye_settings(facets_per_uv, 0, true, EyeOutput::PigmentOnly)
+    };
+    let factor_image = |frame: &optica_harness::RenderedFrame| -> Vec<f64> {
+        frame
+            .hdr()
+            .map(|img| img.pixels().map(|p| p.0[0] as f64).collect())
+            .unwrap_or_default()
+    };
+    let fine = ctx
+        .headless(size * ss, size * ss)
+        .hdr(true)
+        .render(scene(Some(eye(false))))?;
+    let fine = factor_image(&fine);
+    let supersampled: Vec<f64> = (0..size * size)
+        .map(|k| {
+            let (x, y) = (k % size, k / size);
+            let mut sum = 0.0;
+            for dy in 0..ss {
+                for dx in 0..ss {
+                    sum += fine[((y * ss + dy) * size * ss + x * ss + dx) as usize];
+                }
+            }
+            sum / (ss * ss) as f64
+        })
+        .collect();
+    let target = grey(&supersampled, size);
+    let mut flips = Vec::new();
+    for prefilter in [true, false] {
+        let frame = ctx
+            .headless(size, size)
+            .hdr(true)
+            .render(scene(Some(eye(prefilter))))?;
+        let m = optica_harness::metrics::compare(&target, &grey(&factor_image(&frame), size))
+            .map_err(|e| SweepError::Setup(e.to_string()))?;
+        flips.push((m.flip_mean, m.psnr_db));
+    }
+    Ok(PrefilterError {
+        facet_px: pixels_per_facet(&eye(true), size),
+        prefiltered: flips[0],
+        unfiltered: flips[1],
+    })
+}
+
 /// Facets per UV unit that make facets ~0.5 px wide at the pseudopupil.
 fn sub_pixel_facets_per_uv(ctx: &SweepContext) -> f32 {
     ctx.pick(533.0, 1365.0)
@@ -469,7 +542,8 @@ fn costs(
     let tiny = sub_pixel_facets_per_uv(ctx);
     let sub_pixel = |prefilter| CompoundEye {
         prefilter,
-        ..eye_settings(tiny, 8, true, EyeOutput::Shaded)
+        exact: true,
+        ..eye_settings(tiny, 0, true, EyeOutput::Shaded)
     };
     let (on, off) = (time(Some(sub_pixel(true)))?, time(Some(sub_pixel(false)))?);
     let base_ms = time(None)?;
@@ -477,8 +551,8 @@ fn costs(
         "cost of the prefilter at sub-pixel facets",
         on.is_finite() && off.is_finite(),
         format!(
-            "~0.5 px per facet, K = 8, neighbours: prefiltered {on:.2} ms ({:.2}× plain), unfiltered {off:.2} ms \
-             ({:.2}× plain)",
+            "~0.5 px per facet, exact path, neighbours: prefiltered {on:.2} ms ({:.2}× plain), unfiltered \
+             {off:.2} ms ({:.2}× plain)",
             on / base_ms,
             off / base_ms
         ),
@@ -493,54 +567,66 @@ fn stability(ctx: &SweepContext, report: &mut Report, size: u32) -> Result<(), S
     // Facets of ~0.5 px at the pseudopupil: the prefiltered render against
     // an 8× supersampled one (prefilter off, box-filtered in linear light;
     // 64 samples a pixel, about 16 a facet).
-    let ss = 8;
     let tiny = sub_pixel_facets_per_uv(ctx);
-    let eye = |prefilter: bool| CompoundEye {
-        prefilter,
-        ..eye_settings(tiny, 8, true, EyeOutput::PigmentOnly)
-    };
-    let factor_image = |frame: &optica_harness::RenderedFrame| -> Vec<f64> {
-        frame
-            .hdr()
-            .map(|img| img.pixels().map(|p| p.0[0] as f64).collect())
-            .unwrap_or_default()
-    };
-    let fine = ctx
-        .headless(size * ss, size * ss)
-        .hdr(true)
-        .render(scene(Some(eye(false))))?;
-    let fine = factor_image(&fine);
-    let supersampled: Vec<f64> = (0..size * size)
-        .map(|k| {
-            let (x, y) = (k % size, k / size);
-            let mut sum = 0.0;
-            for dy in 0..ss {
-                for dx in 0..ss {
-                    sum += fine[((y * ss + dy) * size * ss + x * ss + dx) as usize];
-                }
-            }
-            sum / (ss * ss) as f64
-        })
-        .collect();
-    let target = grey(&supersampled, size);
-    let mut flips = Vec::new();
-    for prefilter in [true, false] {
-        let frame = ctx
-            .headless(size, size)
-            .hdr(true)
-            .render(scene(Some(eye(prefilter))))?;
-        let m = optica_harness::metrics::compare(&target, &grey(&factor_image(&frame), size))
-            .map_err(|e| SweepError::Setup(e.to_string()))?;
-        flips.push((m.flip_mean, m.psnr_db));
-    }
-    let facet_px = pixels_per_facet(&eye(true), size);
+    let at_half = prefilter_flip(ctx, size, tiny)?;
     report.case(
         "facets below a pixel (moiré)",
-        flips[0].0 < flips[1].0,
+        at_half.prefiltered.0 < at_half.unfiltered.0,
         format!(
-            "{facet_px:.2} px per facet at the pseudopupil; against a {ss}× supersampled render: prefiltered ꟻLIP {:.4} \
+            "{:.2} px per facet at the pseudopupil; against an {SUPERSAMPLE}× supersampled render: prefiltered ꟻLIP {:.4} \
              (PSNR {:.1} dB), unfiltered ꟻLIP {:.4} (PSNR {:.1} dB)",
-            flips[0].0, flips[0].1, flips[1].0, flips[1].1
+            at_half.facet_px,
+            at_half.prefiltered.0,
+            at_half.prefiltered.1,
+            at_half.unfiltered.0,
+            at_half.unfiltered.1
+        ),
+    );
+    // A zoom-out: the same eye from 4 px per facet to a quarter of a
+    // pixel. Moiré shows as error against the supersampled render that the
+    // prefilter does not remove: the measure is the largest ꟻLIP over the
+    // sequence.
+    let mut steps = Vec::new();
+    let mut no_moire = true;
+    for px in [4.0, 2.0, 1.0, 0.5, 0.25] {
+        let facets = tiny * (at_half.facet_px / px) as f32;
+        let f = prefilter_flip(ctx, size, facets)?;
+        // Moiré arises once facets shrink below a pixel; larger facets
+        // show their own edges, aliased as any sharp detail is.
+        no_moire &= f.prefiltered.0 <= f.unfiltered.0
+            && (f.facet_px > 1.5 || f.prefiltered.0 <= MAX_SUB_PIXEL_FLIP);
+        steps.push(format!(
+            "{:.2} px: {:.4} (unfiltered {:.4})",
+            f.facet_px, f.prefiltered.0, f.unfiltered.0
+        ));
+        // The lit eye at the material's defaults, against the plain square.
+        let (warmup, frames) = ctx.pick((1, 4), (4, 20));
+        let headless = ctx.headless(size, size);
+        let lit = headless.time_frames(
+            warmup,
+            frames,
+            scene(Some(CompoundEye {
+                facets_per_uv: facets,
+                ..default()
+            })),
+        )?;
+        let plain = headless.time_frames(warmup, frames, scene(None))?;
+        report.rows.push(
+            Row::new(f.facet_px, lit.frame_ms.median, plain.frame_ms.median)
+                .series("zoom-out (prefilter)")
+                .err("flip_mean", f.prefiltered.0)
+                .err("psnr_db", f.prefiltered.1)
+                .err("unfiltered_flip_mean", f.unfiltered.0),
+        );
+    }
+    report.case(
+        "zoom-out without moiré",
+        no_moire,
+        format!(
+            "defaults (exact path, prefilter table), ꟻLIP against an {SUPERSAMPLE}× supersampled render at each \
+             size of facet (ok: never above the unfiltered render's, and at most {MAX_SUB_PIXEL_FLIP} from a pixel \
+             per facet down): {}",
+            steps.join(", ")
         ),
     );
 

@@ -24,8 +24,8 @@ fn sphere() -> Mesh {
     Sphere::new(0.5).mesh().uv(32, 16)
 }
 
-/// The same scene as `scene(.., None, ..)`, without the plugin.
-fn without_plugin(app: &mut App) {
+/// Adds a plain sphere (the base material) at the origin.
+fn with_plain_sphere(app: &mut App) {
     app.add_systems(
         Startup,
         |mut commands: Commands,
@@ -35,17 +35,24 @@ fn without_plugin(app: &mut App) {
                 Mesh3d(meshes.add(sphere())),
                 MeshMaterial3d(plain.add(base())),
             ));
-            commands.spawn((
-                DirectionalLight {
-                    illuminance: 6_000.0,
-                    shadow_maps_enabled: false,
-                    ..default()
-                },
-                Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
-            ));
-            commands.spawn((Camera3d::default(), Msaa::Off, ortho(2.0), camera()));
         },
     );
+}
+
+/// The same scene as `scene(.., None, ..)`, without the plugin.
+fn without_plugin(app: &mut App) {
+    with_plain_sphere(app);
+    app.add_systems(Startup, |mut commands: Commands| {
+        commands.spawn((
+            DirectionalLight {
+                illuminance: 6_000.0,
+                shadow_maps_enabled: false,
+                ..default()
+            },
+            Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
+        ));
+        commands.spawn((Camera3d::default(), Msaa::Off, ortho(2.0), camera()));
+    });
 }
 
 #[test]
@@ -67,17 +74,7 @@ fn no_material_no_pipeline_and_the_material_compiles_on_noop() {
             camera(),
             ortho(2.0),
         )(app);
-        app.add_systems(
-            Startup,
-            |mut commands: Commands,
-             mut meshes: ResMut<Assets<Mesh>>,
-             mut plain: ResMut<Assets<StandardMaterial>>| {
-                commands.spawn((
-                    Mesh3d(meshes.add(sphere())),
-                    MeshMaterial3d(plain.add(base())),
-                ));
-            },
-        );
+        with_plain_sphere(app);
     });
     eprintln!(
         "pipelines: without the plugin {}, plugin without material {}, with material {}",
@@ -194,19 +191,12 @@ fn the_material_builds_its_deferred_pipeline_on_noop() {
             ortho(2.0),
         )(app);
         deferred(app);
-        app.add_systems(
-            Startup,
-            |mut commands: Commands,
-             mut meshes: ResMut<Assets<Mesh>>,
-             mut plain: ResMut<Assets<StandardMaterial>>| {
-                commands.spawn((
-                    Mesh3d(meshes.add(sphere())),
-                    MeshMaterial3d(plain.add(base())),
-                ));
-            },
-        );
+        with_plain_sphere(app);
     });
-    eprintln!("deferred pipelines: plain {}, with the eye {}", plain.ok, eye.ok);
+    eprintln!(
+        "deferred pipelines: plain {}, with the eye {}",
+        plain.ok, eye.ok
+    );
     assert!(
         eye.ok > plain.ok,
         "no pipeline of the material's own: {:?}",

@@ -46,6 +46,14 @@ fn render_quad(eye: Option<CompoundEye>, tweak: impl FnOnce(&mut App)) -> Render
         .expect("render")
 }
 
+/// Where the ray through the centre of pixel (i, j) of a `size`² view of
+/// an orthographic `camera` spanning `span` starts.
+fn pixel_origin(camera: Transform, span: f32, size: u32, i: u32, j: u32) -> Vec3 {
+    let x = ((i as f32 + 0.5) / size as f32 - 0.5) * span;
+    let y = (0.5 - (j as f32 + 0.5) / size as f32) * span;
+    camera.translation + camera.right() * x + camera.up() * y
+}
+
 /// The pixels whose centre's ray meets the quad (z = 0) at least two
 /// pixels inside its edge.
 fn covered() -> Vec<(u32, u32)> {
@@ -55,9 +63,7 @@ fn covered() -> Vec<(u32, u32)> {
     let mut pixels = Vec::new();
     for j in 0..SIZE {
         for i in 0..SIZE {
-            let x = ((i as f32 + 0.5) / SIZE as f32 - 0.5) * span;
-            let y = (0.5 - (j as f32 + 0.5) / SIZE as f32) * span;
-            let origin = cam.translation + cam.right() * x + cam.up() * y;
+            let origin = pixel_origin(cam, span, SIZE, i, j);
             let dir = cam.forward();
             let p = origin + dir * (-origin.z / dir.z);
             let margin = 1.0 - 2.0 * px / dir.z.abs();
@@ -158,9 +164,7 @@ fn triangle_per_pixel(mesh: &Mesh) -> Vec<Option<usize>> {
     let mut hits = Vec::new();
     for j in 0..SPHERE_SIZE {
         for i in 0..SPHERE_SIZE {
-            let x = ((i as f32 + 0.5) / SPHERE_SIZE as f32 - 0.5) * SPHERE_SPAN;
-            let y = (0.5 - (j as f32 + 0.5) / SPHERE_SIZE as f32) * SPHERE_SPAN;
-            let origin = cam.translation + cam.right() * x + cam.up() * y;
+            let origin = pixel_origin(cam, SPHERE_SPAN, SPHERE_SIZE, i, j);
             let mut best: Option<(f32, usize)> = None;
             for (k, tri) in index.chunks_exact(3).enumerate() {
                 let [a, b, c] = [tri[0], tri[1], tri[2]].map(|v| Vec3::from(p[v]));

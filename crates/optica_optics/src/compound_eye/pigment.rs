@@ -178,6 +178,18 @@ pub const PREFILTER_OFFSETS: [[f64; 2]; 9] = [
     [1.0 / 3.0, 1.0 / 3.0],
 ];
 
+/// How much of the facet average a fragment whose pixel spans `footprint`
+/// facets shows: smoothstep from [`PREFILTER_START`] to [`PREFILTER_FULL`]
+/// (0 for a footprint that is not finite).
+fn prefilter_weight(footprint: f64) -> f64 {
+    let footprint = if footprint.is_finite() {
+        footprint
+    } else {
+        0.0
+    };
+    smoothstep(PREFILTER_START, PREFILTER_FULL, footprint)
+}
+
 /// The prefiltered facet response of a fragment whose pixel spans
 /// `footprint` facets: [`facet_response`] where facets are large, blended
 /// (smoothstep from [`PREFILTER_START`] to [`PREFILTER_FULL`]) into the
@@ -199,15 +211,7 @@ pub fn facet_response_prefiltered(
     footprint: f64,
 ) -> FacetResponse {
     let point = facet_response(lattice, fragment, options, pigment, fresnel);
-    let w = smoothstep(
-        PREFILTER_START,
-        PREFILTER_FULL,
-        if footprint.is_finite() {
-            footprint
-        } else {
-            0.0
-        },
-    );
+    let w = prefilter_weight(footprint);
     if w <= 0.0 {
         return point;
     }
@@ -249,15 +253,7 @@ pub fn facet_response_tabled(
     footprint: f64,
     table: &PrefilterTable,
 ) -> FacetResponse {
-    let w = smoothstep(
-        PREFILTER_START,
-        PREFILTER_FULL,
-        if footprint.is_finite() {
-            footprint
-        } else {
-            0.0
-        },
-    );
+    let w = prefilter_weight(footprint);
     let point = if w < 1.0 {
         facet_response(lattice, fragment, options, pigment, fresnel)
     } else {

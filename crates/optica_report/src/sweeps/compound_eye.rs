@@ -509,8 +509,8 @@ fn sub_pixel_facets_per_uv(ctx: &SweepContext) -> f32 {
 
 /// What the settings the table leaves out cost: the material's defaults
 /// (prefilter on, 8 slices, neighbours, Fresnel) at the sweep's facet size,
-/// and the prefilter where facets are ~0.5 px (all of the eye blended into
-/// the nine-ray facet average), each as a ratio to the plain material.
+/// and the prefilter where facets are ~0.5 px (all of the eye read from the
+/// prefilter's table), each as a ratio to the plain material.
 fn costs(
     ctx: &SweepContext,
     report: &mut Report,

@@ -14,15 +14,16 @@ use optica_optics::compound_eye::{
 use crate::{CompoundEye, CompoundEyeMaterial};
 
 /// The tables made so far, by the settings they were made from: materials
-/// with the same optics share one.
+/// with the same optics share one. Only the materials hold them, so a table
+/// no material uses any more (a slider dragged past its setting) is freed.
 #[derive(Resource, Default)]
 pub(crate) struct PrefilterTables {
-    by_key: HashMap<TableKey, Handle<Image>>,
+    by_key: HashMap<TableKey, AssetId<Image>>,
 }
 
 /// Every setting a table depends on, bit for bit.
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
-struct TableKey([u32; 10]);
+struct TableKey([u32; 9]);
 
 fn key(e: &CompoundEye) -> TableKey {
     TableKey([
@@ -35,7 +36,6 @@ fn key(e: &CompoundEye) -> TableKey {
         e.pigment.darkness.to_bits(),
         u32::from(e.fresnel) | u32::from(e.exact) << 1 | u32::from(e.follow_neighbours) << 2,
         if e.exact { 0 } else { e.slices },
-        0,
     ])
 }
 
@@ -112,14 +112,18 @@ pub(crate) fn build_prefilter_tables(
             continue;
         }
         let k = key(eye);
-        let handle = match tables.by_key.get(&k) {
-            Some(handle) => handle.clone(),
+        let kept = tables
+            .by_key
+            .get(&k)
+            .and_then(|&id| images.get_strong_handle(id));
+        let handle = match kept {
+            Some(handle) => handle,
             None => {
                 let Some(image) = table_image(eye) else {
                     continue;
                 };
                 let handle = images.add(image);
-                tables.by_key.insert(k, handle.clone());
+                tables.by_key.insert(k, handle.id());
                 handle
             }
         };

@@ -39,6 +39,19 @@ fn with_plain_sphere(app: &mut App) {
     );
 }
 
+/// The plain sphere of `without_plugin`, and a compound-eye sphere beside
+/// it.
+fn eye_beside_plain_sphere(app: &mut App) {
+    scene(
+        sphere(),
+        Transform::from_xyz(0.6, 0.0, 0.0),
+        Some(CompoundEye::default()),
+        camera(),
+        ortho(2.0),
+    )(app);
+    with_plain_sphere(app);
+}
+
 /// The same scene as `scene(.., None, ..)`, without the plugin.
 fn without_plugin(app: &mut App) {
     with_plain_sphere(app);
@@ -65,17 +78,7 @@ fn no_material_no_pipeline_and_the_material_compiles_on_noop() {
         camera(),
         ortho(2.0),
     ));
-    // The same plain sphere, and a compound-eye sphere beside it.
-    let with_material = pipelines(|app| {
-        scene(
-            sphere(),
-            Transform::from_xyz(0.6, 0.0, 0.0),
-            Some(CompoundEye::default()),
-            camera(),
-            ortho(2.0),
-        )(app);
-        with_plain_sphere(app);
-    });
+    let with_material = pipelines(eye_beside_plain_sphere);
     eprintln!(
         "pipelines: without the plugin {}, plugin without material {}, with material {}",
         plain.ok, plugin_no_material.ok, with_material.ok
@@ -181,17 +184,9 @@ fn the_material_builds_its_deferred_pipeline_on_noop() {
         scene(sphere(), Transform::IDENTITY, None, camera(), ortho(2.0))(app);
         deferred(app);
     });
-    // The same plain sphere, and a compound-eye sphere beside it.
     let eye = pipelines(|app| {
-        scene(
-            sphere(),
-            Transform::from_xyz(0.6, 0.0, 0.0),
-            Some(CompoundEye::default()),
-            camera(),
-            ortho(2.0),
-        )(app);
+        eye_beside_plain_sphere(app);
         deferred(app);
-        with_plain_sphere(app);
     });
     eprintln!(
         "deferred pipelines: plain {}, with the eye {}",

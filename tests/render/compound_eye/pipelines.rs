@@ -184,6 +184,12 @@ fn the_material_builds_its_deferred_pipeline_on_noop() {
         scene(sphere(), Transform::IDENTITY, None, camera(), ortho(2.0))(app);
         deferred(app);
     });
+    // The G-buffer pass runs the material's own shader, not the base's.
+    let shader = <CompoundEye as bevy::pbr::MaterialExtension>::deferred_fragment_shader();
+    assert!(
+        matches!(&shader, bevy::shader::ShaderRef::Path(p) if p.to_string().ends_with("compound_eye.wgsl")),
+        "the deferred pass would run the base material's shader"
+    );
     let eye = pipelines(|app| {
         eye_beside_plain_sphere(app);
         deferred(app);

@@ -124,8 +124,8 @@
 //! with neighbours; the pseudopupil within 0.01–0.02 facet of the exact
 //! tracer's) for 1.4–1.7× the plain material's frame; `K = 0` leaves the
 //! pseudopupil 0.2 facet off. The exact path reaches 42.0 dB through one
-//! lens for 1.72–1.76× the plain frame (the slice search's 32.5 dB floor costs
-//! 1.72×), and 31.8 dB through up to 16 lenses for 2.11–2.25× (rays through
+//! lens for 1.72–1.85× the plain frame (the slice search's 32.5 dB floor costs
+//! 1.72×), and 31.8 dB through up to 16 lenses for 2.11–2.30× (rays through
 //! many lenses part f32 from f64 ways; 99.6 % of pixels stay within 0.02
 //! of the reference in every incidence band). In the render test it agrees
 //! with the exact tracer on the outcome of at least 99.95 % of pixels at
@@ -142,8 +142,9 @@
 //! into the table's entry as facets shrink from 4 px to 1 px, where it no
 //! longer traces at all. With a pigment texture (whose average is not
 //! periodic) it averages nine traced rays of the fragment's facet instead.
-//! Measured (lavapipe, 256²): at the defaults the eye costs 1.83× the
-//! plain frame; at 0.52 px per facet its ꟻLIP against an 8× supersampled
+//! Measured (lavapipe, 256²): at the defaults the eye costs 1.83×, 2.30×
+//! and 2.26× the plain frame in three runs (the 16-lens exact path is most
+//! of it); at 0.52 px per facet its ꟻLIP against an 8× supersampled
 //! render is 0.052 (nine traced rays: 0.143; no prefilter: 0.171, moiré).
 //! Over a zoom-out from 4 px to 0.25 px per facet the ꟻLIP stays at
 //! 0.047–0.052 from 1 px down and below the unfiltered render's

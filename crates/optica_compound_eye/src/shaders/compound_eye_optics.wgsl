@@ -495,8 +495,7 @@ fn next_boundary(c: f32, u: f32, d: f32, t_start: f32) -> f32 {
 // exact_tracer.rs `first_lens`: the nearest lens the ray (o, d) enters in
 // the lens layer (depth 0 to 2r), not `exclude` when `has_exclude`, by a
 // 2-D Amanatides–Woo walk over the lattice's unit cells, testing at each
-// cell every lens whose cell can hold a point of it (a box of offsets;
-// those the previous cell's box held are not tested twice).
+// cell the lenses at its corners, the only ones whose columns reach it.
 fn walk_first_lens(l: Lattice, o: vec3<f32>, d: vec3<f32>, exclude: vec2<f32>, has_exclude: bool) -> Walk {
     var w: Walk;
     w.status = WALK_NONE;
@@ -528,28 +527,25 @@ fn walk_first_lens(l: Lattice, o: vec3<f32>, d: vec3<f32>, exclude: vec2<f32>, h
     var t_max = vec2<f32>(next_boundary(cell.x, uv0.x, duv.x, t_start),
         next_boundary(cell.y, uv0.y, duv.y, t_start));
     let t_delta = vec2<f32>(inv_abs(duv.x), inv_abs(duv.y));
-    // lattice_kind.rs `walk_neighbourhood`: offsets −1..1 (square) or
-    // −1..2 (hexagonal) on both axes.
-    let lo_off = -1.0;
-    let hi_off = select(1.0, 2.0, l.kind == KIND_HEXAGONAL);
+    // lattice_kind.rs `WALK_CORNERS`: the cell's four corners. A step to
+    // the next cell brings two new ones; the two it shares with the
+    // previous cell are not tested again.
     var prev = cell;
     for (var k = 0u; k < MAX_WALK_CELLS; k++) {
-        for (var dj = lo_off; dj <= hi_off; dj += 1.0) {
-            for (var di = lo_off; di <= hi_off; di += 1.0) {
-                let index = cell + vec2<f32>(di, dj);
-                let rel = index - prev;
-                let seen = k > 0u && all(rel >= vec2<f32>(lo_off)) && all(rel <= vec2<f32>(hi_off));
-                if seen || (has_exclude && all(index == exclude)) {
-                    continue;
-                }
-                let c = lens_centre(l, centre_of_index(l.kind, index));
-                let t = lens_entry(l, o, d, c);
-                if t >= 0.0 && (w.status != WALK_FOUND || t < w.t) {
-                    w.status = WALK_FOUND;
-                    w.index = index;
-                    w.centre = c;
-                    w.t = t;
-                }
+        for (var corner = 0u; corner < 4u; corner++) {
+            let index = cell + vec2<f32>(f32(corner & 1u), f32(corner >> 1u));
+            let rel = index - prev;
+            let seen = k > 0u && all(rel >= vec2<f32>(0.0)) && all(rel <= vec2<f32>(1.0));
+            if seen || (has_exclude && all(index == exclude)) {
+                continue;
+            }
+            let c = lens_centre(l, centre_of_index(l.kind, index));
+            let t = lens_entry(l, o, d, c);
+            if t >= 0.0 && (w.status != WALK_FOUND || t < w.t) {
+                w.status = WALK_FOUND;
+                w.index = index;
+                w.centre = c;
+                w.t = t;
             }
         }
         let t_exit = min(t_max.x, t_max.y);

@@ -5,6 +5,7 @@ use glam::{DVec2, DVec3};
 
 use super::ball_lens::refract_through_ball;
 use super::lattice::Lattice;
+use super::lattice_kind::WALK_CORNERS;
 use super::outcome::{Shade, ShadeFallback};
 use super::shading_path::{ball_fallback, finish, polygon_entry};
 use crate::ray::Ray;
@@ -150,7 +151,7 @@ pub(crate) fn first_lens(
     let t_delta = DVec2::new(inv_abs(duv.x), inv_abs(duv.y));
     let mut best: Option<([i64; 2], DVec3, f64)> = None;
     for _ in 0..max_cells {
-        for [di, dj] in kind.walk_neighbourhood() {
+        for [di, dj] in WALK_CORNERS {
             let index = [cell.x as i64 + di, cell.y as i64 + dj];
             if Some(index) == exclude {
                 continue;
@@ -340,11 +341,23 @@ mod tests {
     /// Brute force: the nearest lens entry over a 61 × 61 block of lenses.
     fn brute_first_lens(l: &Lattice, ray: &Ray) -> Option<([i64; 2], f64)> {
         let view = polygon_entry(l, ray).ok()?;
+        brute_next_lens(l, &view, None)
+    }
+
+    /// Brute force from a point already past the polygon, skipping `exclude`.
+    fn brute_next_lens(
+        l: &Lattice,
+        view: &Ray,
+        exclude: Option<[i64; 2]>,
+    ) -> Option<([i64; 2], f64)> {
         let mut best: Option<([i64; 2], f64)> = None;
         for i in -30..=30 {
             for j in -30..=30 {
+                if Some([i, j]) == exclude {
+                    continue;
+                }
                 let c = l.lens_centre(l.kind().centre_of_index([i, j]));
-                if let Some(t) = l.lens_entry(&view, c)
+                if let Some(t) = l.lens_entry(view, c)
                     && best.is_none_or(|b| t < b.1)
                 {
                     best = Some(([i, j], t));
@@ -354,16 +367,40 @@ mod tests {
         best
     }
 
+    /// The lenses `ray` passes, found by the walk or by brute force.
+    fn lens_sequence(l: &Lattice, ray: &Ray, brute: bool) -> Vec<[i64; 2]> {
+        let mut path = polygon_entry(l, ray).unwrap();
+        let mut seen = Vec::new();
+        while seen.len() < MAX_EXACT_LENSES as usize {
+            let last = seen.last().copied();
+            let hit = if brute {
+                brute_next_lens(l, &path, last)
+                    .map(|(c, t)| (c, l.lens_centre(l.kind().centre_of_index(c)), t))
+            } else {
+                first_lens(l, &path, last, MAX_CELLS).unwrap()
+            };
+            let Some((cell, centre, t)) = hit else { break };
+            let Ok(out) =
+                refract_through_ball(&Ray::from_unit(path.at(t), path.dir()), centre, l.lens())
+            else {
+                break;
+            };
+            path = out.ray();
+            seen.push(cell);
+        }
+        seen
+    }
+
     proptest! {
-        #![proptest_config(ProptestConfig::with_cases(200))]
+        #![proptest_config(ProptestConfig::with_cases(1000))]
         #[test]
         fn cell_walk_finds_the_brute_force_first_lens(
             x in 0.0f64..1.0, y in 0.0f64..1.0,
             polar in 0.0f64..86.0, azimuth in 0.0f64..360.0,
-            skew in -0.4f64..0.4, r_frac in 0.5f64..1.0,
+            skew in -0.9f64..0.9, r_frac in 0.05f64..1.0, stretch in 0.3f64..3.0,
         ) {
-            // A skewed lattice: cells are parallelograms.
-            let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::new(skew, 1.0, 0.0), DVec3::Z).unwrap();
+            // A skewed, stretched lattice: cells are parallelograms.
+            let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X * stretch, DVec3::new(skew, 1.0, 0.0), DVec3::Z).unwrap();
             for kind in [LatticeKind::Square, LatticeKind::Hexagonal] {
                 let r = r_frac * kind.cell_inradius(axes.u(), axes.v());
                 let l = Lattice::with_kind(axes, LensParams::thesis(r, 1.5).unwrap(), kind).unwrap();
@@ -375,6 +412,23 @@ mod tests {
                 if let (Some(w), Some(b)) = (walk, brute) {
                     prop_assert!((w.2 - b.1).abs() < 1e-12);
                 }
+            }
+        }
+
+        #[test]
+        fn exit_ray_walks_find_the_brute_force_lenses(
+            x in 0.0f64..1.0, y in 0.0f64..1.0,
+            polar in 30.0f64..86.0, azimuth in 0.0f64..360.0,
+            skew in -0.6f64..0.6, r_frac in 0.5f64..1.0, index in 1.2f64..1.8,
+        ) {
+            // Exit rays start on a sphere, anywhere in the layer, and may
+            // climb out of it: every lens they meet, in order, up to the cap.
+            let axes = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::new(skew, 1.0, 0.0), DVec3::Z).unwrap();
+            for kind in [LatticeKind::Square, LatticeKind::Hexagonal] {
+                let r = r_frac * kind.cell_inradius(axes.u(), axes.v());
+                let l = Lattice::with_kind(axes, LensParams::thesis(r, index).unwrap(), kind).unwrap();
+                let ray = ray_at(x, y, polar, azimuth);
+                prop_assert_eq!(lens_sequence(&l, &ray, false), lens_sequence(&l, &ray, true), "{:?}", kind);
             }
         }
     }

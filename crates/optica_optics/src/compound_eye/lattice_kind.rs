@@ -45,6 +45,17 @@ pub struct LensCell {
     pub centre_uv: DVec2,
 }
 
+/// The offsets (in lattice coordinates) of the lenses whose columns can hold
+/// a point of the lattice cell `[k, k + 1)²`: the cell's four corners, for
+/// both kinds. A lens of at most the cell inradius lies inside its own cell
+/// (the unit square around it, or its hexagon), and the lattice cell is
+/// covered by its corners' cells: the square one by four quarters of them,
+/// the hexagonal parallelogram by two equilateral triangles whose every point
+/// is nearest to one of their corners. Every other lens keeps half a facet
+/// away (square) or 0.37 of one (hexagonal) on undistorted axes, far beyond
+/// the walk's round-off.
+pub(crate) const WALK_CORNERS: [[i64; 2]; 4] = [[0, 0], [1, 0], [0, 1], [1, 1]];
+
 impl LatticeKind {
     /// The lens whose cell holds `uv` (facets): for the square lattice the
     /// thesis's rule (eq. 6.17–6.20: `⌊x⌋ + ½` for `x ≥ 0`, `⌈x⌉ − ½` for
@@ -104,48 +115,6 @@ impl LatticeKind {
                 let dj = duv.y / ROW;
                 DVec2::new(duv.x - 0.5 * dj, dj)
             }
-        }
-    }
-
-    /// The offsets (in lattice coordinates) of the lenses whose cells can
-    /// hold a point of the lattice cell `[k, k + 1)²` of `w`: the 3×3 block
-    /// around the square cell's own lens, or the parallelogram's four corners
-    /// and their neighbours (every point of a parallelogram of the hexagonal
-    /// lattice is nearest to one of its corners: it lies in one of its two
-    /// equilateral triangles).
-    pub(crate) fn walk_neighbourhood(self) -> &'static [[i64; 2]] {
-        const SQUARE: [[i64; 2]; 9] = [
-            [-1, -1],
-            [0, -1],
-            [1, -1],
-            [-1, 0],
-            [0, 0],
-            [1, 0],
-            [-1, 1],
-            [0, 1],
-            [1, 1],
-        ];
-        const HEX: [[i64; 2]; 16] = [
-            [-1, -1],
-            [0, -1],
-            [1, -1],
-            [2, -1],
-            [-1, 0],
-            [0, 0],
-            [1, 0],
-            [2, 0],
-            [-1, 1],
-            [0, 1],
-            [1, 1],
-            [2, 1],
-            [-1, 2],
-            [0, 2],
-            [1, 2],
-            [2, 2],
-        ];
-        match self {
-            LatticeKind::Square => &SQUARE,
-            LatticeKind::Hexagonal => &HEX,
         }
     }
 

@@ -502,6 +502,76 @@ fn prefilter_flip(
     })
 }
 
+/// The lit eye with the prefilter against the unfiltered lit eye
+/// supersampled (box-filtered in linear light): where rays escape, the
+/// prefilter lights one material with the escape mirror's parameters mixed
+/// in by the escape share, rather than mixing two lit colours as the
+/// supersampled reference does. Returns the errors and the escaping share
+/// of the supersampled pixels.
+fn shaded_prefilter_flip(
+    ctx: &SweepContext,
+    size: u32,
+    facets_per_uv: f32,
+) -> Result<(PrefilterError, f64), SweepError> {
+    let ss = SUPERSAMPLE;
+    let eye = |prefilter: bool, output| CompoundEye {
+        prefilter,
+        exact: true,
+        ..eye_settings(facets_per_uv, 0, true, output)
+    };
+    let render = |side: u32, eye: CompoundEye| -> Result<image::Rgba32FImage, SweepError> {
+        let frame = ctx
+            .headless(side, side)
+            .hdr(true)
+            .render(scene(Some(eye)))?;
+        frame
+            .hdr()
+            .cloned()
+            .ok_or(SweepError::Setup("no HDR frame".into()))
+    };
+    let box_down = |fine: &image::Rgba32FImage| {
+        image::Rgba32FImage::from_fn(size, size, |x, y| {
+            let mut sum = [0.0f32; 4];
+            for dy in 0..ss {
+                for dx in 0..ss {
+                    let p = fine.get_pixel(x * ss + dx, y * ss + dy).0;
+                    for c in 0..4 {
+                        sum[c] += p[c];
+                    }
+                }
+            }
+            image::Rgba(sum.map(|v| v / (ss * ss) as f32))
+        })
+    };
+    let srgb = |img: &image::Rgba32FImage| {
+        RgbaImage::from_fn(size, size, |x, y| {
+            let [r, g, b, _] = img.get_pixel(x, y).0;
+            let [r, g, b, _] = Srgba::from(LinearRgba::rgb(r, g, b)).to_u8_array();
+            image::Rgba([r, g, b, 255])
+        })
+    };
+    let escaping = box_down(&render(size * ss, eye(false, EyeOutput::PigmentOnly))?);
+    let escape_share =
+        escaping.pixels().map(|p| f64::from(p.0[1])).sum::<f64>() / f64::from(size * size);
+    let target = srgb(&box_down(&render(
+        size * ss,
+        eye(false, EyeOutput::Shaded),
+    )?));
+    let mut out = Vec::new();
+    for prefilter in [true, false] {
+        let test = srgb(&render(size, eye(prefilter, EyeOutput::Shaded))?);
+        let m = optica_harness::metrics::compare(&target, &test)
+            .map_err(|e| SweepError::Setup(e.to_string()))?;
+        out.push((m.flip_mean, m.psnr_db));
+    }
+    let errors = PrefilterError {
+        facet_px: pixels_per_facet(&eye(true, EyeOutput::Shaded), size),
+        prefiltered: out[0],
+        unfiltered: out[1],
+    };
+    Ok((errors, escape_share))
+}
+
 /// Facets per UV unit that make facets ~0.5 px wide at the pseudopupil.
 fn sub_pixel_facets_per_uv(ctx: &SweepContext) -> f32 {
     ctx.pick(533.0, 1365.0)
@@ -569,6 +639,21 @@ fn stability(ctx: &SweepContext, report: &mut Report, size: u32) -> Result<(), S
     // 64 samples a pixel, about 16 a facet).
     let tiny = sub_pixel_facets_per_uv(ctx);
     let at_half = prefilter_flip(ctx, size, tiny)?;
+    let (lit, escape_share) = shaded_prefilter_flip(ctx, size, tiny)?;
+    let (lit, lit_unfiltered) = (lit.prefiltered, lit.unfiltered);
+    report.case(
+        "facets below a pixel, lit (the escape mirror mixed into the material)",
+        lit.0 < lit_unfiltered.0,
+        format!(
+            "the same eye lit ({:.1} % of the supersampled rays escape): prefiltered ꟻLIP {:.4} (PSNR {:.1} dB), \
+             unfiltered ꟻLIP {:.4} (PSNR {:.1} dB)",
+            100.0 * escape_share,
+            lit.0,
+            lit.1,
+            lit_unfiltered.0,
+            lit_unfiltered.1
+        ),
+    );
     report.case(
         "facets below a pixel (moiré)",
         at_half.prefiltered.0 < at_half.unfiltered.0,

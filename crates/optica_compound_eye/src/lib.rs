@@ -96,10 +96,11 @@
 //! - **Every render path.** Forward and deferred: in the deferred
 //!   renderer the same shader writes the G-buffer, with the pigment in the
 //!   base colour, so Bevy's lighting pass lights the lattice. A ray that
-//!   leaves the eye shows a mirror; the G-buffer holds one material per
-//!   pixel, so there the mirror's parameters are blended in rather than
-//!   its lit colour (the same but in the prefilter's transition). An
-//!   `unlit` base material shows its base colour times the pigment.
+//!   leaves the eye shows a mirror along its direction. Where the
+//!   prefilter leaves a share of escaping rays in a pixel, the pixel shows
+//!   the mirror with that probability (a fixed dither, the same in both
+//!   paths), so that it is lit once. An `unlit` base material shows its
+//!   base colour times the pigment.
 //!   The deferred variant is checked for validity on wgpu's noop backend
 //!   only: Mesa 22.3's lavapipe crashes compiling it, so its pixels are not
 //!   compared there.
@@ -122,12 +123,13 @@
 //! eye seen at 0–66°, 5.5 px facets at the pseudopupil) the slice search
 //! reaches its error floor at `K = 2`–`8` (PSNR 32.5 dB one lens, 30.7 dB
 //! with neighbours; the pseudopupil within 0.01–0.02 facet of the exact
-//! tracer's) for 1.4–1.7× the plain material's frame; `K = 0` leaves the
+//! tracer's) for 1.25–1.49× the plain material's frame; `K = 0` leaves the
 //! pseudopupil 0.2 facet off. The exact path reaches 42.0 dB through one
-//! lens for 1.72–1.85× the plain frame (the slice search's 32.5 dB floor costs
-//! 1.72×), and 31.8 dB through up to 16 lenses for 2.11–2.30× (rays through
-//! many lenses part f32 from f64 ways; 99.6 % of pixels stay within 0.02
-//! of the reference in every incidence band). In the render test it agrees
+//! lens for 1.26–1.27× the plain frame, and 31.8 dB through up to 16
+//! lenses for 1.41–1.46× (rays through many lenses part f32 from f64 ways;
+//! 99.6 % of pixels stay within 0.02 of the reference in every incidence
+//! band). Its walk across the lattice tests only the four lenses at the
+//! corners of each cell it crosses, the only ones that can reach it. In the render test it agrees
 //! with the exact tracer on the outcome of at least 99.95 % of pixels at
 //! every incidence from 0° to 80° (square and hexagonal lattices, index
 //! 1.33–1.7).
@@ -142,10 +144,13 @@
 //! into the table's entry as facets shrink from 4 px to 1 px, where it no
 //! longer traces at all. With a pigment texture (whose average is not
 //! periodic) it averages nine traced rays of the fragment's facet instead.
-//! Measured (lavapipe, 256²): at the defaults the eye costs 1.83×, 2.30×
-//! and 2.26× the plain frame in three runs (the 16-lens exact path is most
-//! of it); at 0.52 px per facet its ꟻLIP against an 8× supersampled
-//! render is 0.052 (nine traced rays: 0.143; no prefilter: 0.171, moiré).
+//! Measured (lavapipe, 256²): at the defaults the eye costs 1.37×, 1.42×,
+//! 1.41× and 1.49× the plain frame in four runs; at 0.52 px per facet its
+//! ꟻLIP against an 8× supersampled render is 0.052 (nine traced rays:
+//! 0.143; no prefilter: 0.171, moiré), and lit, with 3.2 % of the rays
+//! escaping, 0.054 (no prefilter: 0.110; mixing the two lit colours
+//! instead of the dither: 0.053, for a second lighting call that costs
+//! 0.4× the plain frame on lavapipe).
 //! Over a zoom-out from 4 px to 0.25 px per facet the ꟻLIP stays at
 //! 0.047–0.052 from 1 px down and below the unfiltered render's
 //! everywhere; at 2–4 px per facet (0.11–0.12) it is the facets' own

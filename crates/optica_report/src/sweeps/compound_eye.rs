@@ -503,11 +503,11 @@ fn prefilter_flip(
 }
 
 /// The lit eye with the prefilter against the unfiltered lit eye
-/// supersampled (box-filtered in linear light): where rays escape, the
-/// prefilter lights one material with the escape mirror's parameters mixed
-/// in by the escape share, rather than mixing two lit colours as the
-/// supersampled reference does. Returns the errors and the escaping share
-/// of the supersampled pixels.
+/// supersampled (box-filtered in linear light): where the prefilter leaves
+/// a share of escaping rays, each pixel shows the escape mirror with that
+/// probability (a fixed dither) rather than the mean of the two lit colours
+/// the supersampled reference holds. Returns the errors and the escaping
+/// share of the supersampled pixels.
 fn shaded_prefilter_flip(
     ctx: &SweepContext,
     size: u32,
@@ -642,7 +642,7 @@ fn stability(ctx: &SweepContext, report: &mut Report, size: u32) -> Result<(), S
     let (lit, escape_share) = shaded_prefilter_flip(ctx, size, tiny)?;
     let (lit, lit_unfiltered) = (lit.prefiltered, lit.unfiltered);
     report.case(
-        "facets below a pixel, lit (the escape mirror mixed into the material)",
+        "facets below a pixel, lit (a partial escape share dithered)",
         lit.0 < lit_unfiltered.0,
         format!(
             "the same eye lit ({:.1} % of the supersampled rays escape): prefiltered ꟻLIP {:.4} (PSNR {:.1} dB), \

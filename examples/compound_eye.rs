@@ -69,6 +69,9 @@ fn main() {
         facets_per_uv: CompoundEye::from_preset(&args.preset)
             .facets_per_uv
             .min(70.0),
+        // The caps' UVs are conformal: their tangents lose nothing and
+        // leave no seams.
+        tangent_axes: true,
         ..CompoundEye::from_preset(&args.preset)
     };
     println!(

@@ -11,6 +11,9 @@ use bevy::prelude::*;
 /// `θ` from the axis (0.41 at the default 100° rim). A UV sphere, by
 /// contrast, shows its poles as rings of facets shrinking to a point.
 ///
+/// The mesh carries tangents, so [`CompoundEye::tangent_axes`](crate::CompoundEye::tangent_axes)
+/// lays a lattice on it without seams at its triangle edges.
+///
 /// The UVs are centred on `(0.5, 0.5)` and fill a disc of area 1, so an
 /// [`EyePreset`](crate::EyePreset)'s facet count covers the cap. Turn the
 /// cap so its axis points out of the head and sink its rim into the head:
@@ -58,7 +61,8 @@ impl EyeCap {
     /// The rim angle the mesh is built with (see [`EyeCap::half_angle`]).
     pub fn rim_angle(&self) -> f32 {
         if self.half_angle.is_finite() {
-            self.half_angle.clamp(1f32.to_radians(), 170f32.to_radians())
+            self.half_angle
+                .clamp(1f32.to_radians(), 170f32.to_radians())
         } else {
             DEFAULT_HALF_ANGLE
         }
@@ -104,13 +108,20 @@ impl MeshBuilder for EyeCap {
             }
         }
         let normals = positions.clone();
-        Mesh::new(
+        let mesh = Mesh::new(
             PrimitiveTopology::TriangleList,
             RenderAssetUsages::default(),
         )
         .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
         .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
         .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
-        .with_inserted_indices(Indices::U32(indices))
+        .with_inserted_indices(Indices::U32(indices));
+        // Tangents, for `CompoundEye::tangent_axes` (and normal maps). The
+        // mesh has everything mikktspace needs, so this does not fail; if
+        // it ever did, the mesh would still render along its UVs' axes.
+        match mesh.clone().with_generated_tangents() {
+            Ok(with_tangents) => with_tangents,
+            Err(_) => mesh,
+        }
     }
 }

@@ -83,6 +83,11 @@
 //!   left comes from the mesh's piecewise-linear UVs, whose stretch changes
 //!   at each edge; a finer mesh removes it (1.07× at 48 × 24 segments). A
 //!   normal more than 60° off the triangle's is ignored.
+//!   With [`CompoundEye::tangent_axes`] the axes follow the mesh's
+//!   interpolated tangents instead (`TextureAxes::on_tangent`): square
+//!   facets of the UVs' cell area, continuous across edges, 1.04× on the
+//!   same sphere, i.e. no seam. It gives up the UVs' stretch and shear, so
+//!   it suits (nearly) conformal UVs; [`EyeCap`] has them, and tangents.
 //! - **Degenerate UVs** (a triangle whose UVs collapse onto a line or a
 //!   point: the facet coordinate's screen-space gradients parallel to within
 //!   `1e-4` in sine) get no lattice: they render as the plain base material.

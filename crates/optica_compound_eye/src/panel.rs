@@ -122,6 +122,9 @@ pub fn compound_eye_ui(ui: &mut egui::Ui, eye: &mut CompoundEye) -> bool {
             ui.label("pigment depth (lens radii)");
             ui.add(egui::Slider::new(&mut eye.pigment_depth, 2.0..=6.0));
             ui.end_row();
+            ui.label("lattice axes");
+            ui.checkbox(&mut eye.tangent_axes, "along the mesh's tangents");
+            ui.end_row();
             ui.label("lens search");
             ui.checkbox(&mut eye.exact, "exact (walk the lattice)");
             ui.end_row();

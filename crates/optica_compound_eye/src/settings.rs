@@ -115,6 +115,16 @@ pub struct CompoundEye {
     pub facets_per_uv: f32,
     /// The lens arrangement.
     pub lattice: EyeLattice,
+    /// Lay the lattice along the mesh's tangents (`Mesh::ATTRIBUTE_TANGENT`,
+    /// e.g. from `Mesh::with_generated_tangents`) instead of its UVs' axes:
+    /// facets keep one shape (square, or regular hexagons) and the area the
+    /// UVs give them, and since tangents are interpolated across triangle
+    /// edges, a coarse mesh shows no seams (the UVs' own axes change at
+    /// every edge where UVs are piecewise linear). The UVs' stretch and
+    /// shear are not followed: use it on meshes whose UVs are (nearly)
+    /// conformal, such as [`EyeCap`](crate::EyeCap). Without tangents on
+    /// the mesh the UVs' axes are used.
+    pub tangent_axes: bool,
     /// Lens (sphere) radius as a fraction of the cell's inradius, `(0, 1]`;
     /// 1 = neighbouring lenses touch.
     pub lens_radius: f32,
@@ -187,6 +197,7 @@ impl Default for CompoundEye {
         Self {
             facets_per_uv: 40.0,
             lattice: EyeLattice::Hexagonal,
+            tangent_axes: false,
             lens_radius: 1.0,
             lens_index: 1.5,
             pigment_depth: 2.0,
@@ -284,6 +295,7 @@ mod flags {
     pub const PIGMENT_ONLY: u32 = 32;
     pub const EXACT: u32 = 64;
     pub const TABLE: u32 = 128;
+    pub const TANGENT_AXES: u32 = 256;
 }
 
 /// The uniform the shader reads (`CompoundEyeUniform` in `compound_eye.wgsl`).
@@ -313,7 +325,8 @@ impl From<&CompoundEye> for CompoundEyeUniform {
             | flag(e.pigment_texture.is_some(), flags::TEXTURE)
             | flag(e.output == EyeOutput::PigmentOnly, flags::PIGMENT_ONLY)
             | flag(e.exact, flags::EXACT)
-            | flag(e.prefilter_table.is_some(), flags::TABLE);
+            | flag(e.prefilter_table.is_some(), flags::TABLE)
+            | flag(e.tangent_axes, flags::TANGENT_AXES);
         Self {
             facets_per_uv: e.facets_per_uv,
             lens_radius: e.lens_radius,

@@ -66,6 +66,25 @@ fn the_eye_cap_has_square_facets_and_no_pole() {
         (ratio / expected - 1.0).abs() < 0.05,
         "{ratio} against {expected}"
     );
+    // Tangents for `tangent_axes`: unit, in the surface.
+    let mesh = cap.build();
+    let Some(bevy::mesh::VertexAttributeValues::Float32x4(tangents)) =
+        mesh.attribute(Mesh::ATTRIBUTE_TANGENT)
+    else {
+        panic!("no tangents")
+    };
+    let Some(bevy::mesh::VertexAttributeValues::Float32x3(normals)) =
+        mesh.attribute(Mesh::ATTRIBUTE_NORMAL)
+    else {
+        panic!("no normals")
+    };
+    for (t, n) in tangents.iter().zip(normals) {
+        let (t, n) = (Vec3::new(t[0], t[1], t[2]), Vec3::from(*n));
+        assert!(
+            (t.length() - 1.0).abs() < 1e-3 && t.dot(n).abs() < 1e-3,
+            "{t} at {n}"
+        );
+    }
 }
 
 #[test]

@@ -47,6 +47,7 @@ const FLAG_TEXTURE: u32 = 16u;
 const FLAG_PIGMENT_ONLY: u32 = 32u;
 const FLAG_EXACT: u32 = 64u;
 const FLAG_TABLE: u32 = 128u;
+const FLAG_TANGENT_AXES: u32 = 256u;
 
 // texture_axes.rs UV_DET_REL_EPS for f32 derivatives: a triangle whose
 // facet-coordinate gradients (or world axes U, V) are closer to parallel than
@@ -201,6 +202,15 @@ fn lattice_response(in: VertexOutput, view: vec3<f32>, normal: vec3<f32>) -> Res
         u = curved[0];
         v = curved[1];
         n = curved[2];
+#ifdef VERTEX_TANGENTS
+        // texture_axes.rs `TextureAxes::on_tangent`: along the interpolated
+        // tangent frame, continuous across triangle edges.
+        if (material.flags & FLAG_TANGENT_AXES) != 0u {
+            let along = eye::axes_on_tangent(u, v, n, in.world_tangent.xyz);
+            u = along[0];
+            v = along[1];
+        }
+#endif
         var kind = eye::KIND_SQUARE;
         if (material.flags & FLAG_HEXAGONAL) != 0u {
             kind = eye::KIND_HEXAGONAL;

@@ -102,6 +102,27 @@ fn axes_on_normal(u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, s: vec3<f32>) -> arr
     return array<vec3<f32>, 3>(pu, pv, m);
 }
 
+// texture_axes.rs `TextureAxes::on_tangent`: the axes `u`, `v` (normal `n`)
+// turned to follow the in-plane part of `tangent`, square and of the same
+// cell area; returns (u, v). Unchanged where the tangent is zero, not
+// finite or (within 1e-4 in sine) along the normal.
+fn axes_on_tangent(u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, tangent: vec3<f32>) -> array<vec3<f32>, 2> {
+    let in_plane = tangent - dot(tangent, n) * n;
+    if !(length(in_plane) > 1e-4 * length(tangent)) {
+        return array<vec3<f32>, 2>(u, v);
+    }
+    var t = normalize(in_plane);
+    if dot(t, u) < 0.0 {
+        t = -t;
+    }
+    var b = cross(n, t);
+    if dot(b, v) < 0.0 {
+        b = -b;
+    }
+    let side = sqrt(length(cross(u, v)));
+    return array<vec3<f32>, 2>(side * t, side * b);
+}
+
 fn make_lattice(origin: vec3<f32>, u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, kind: u32) -> Lattice {
     var l: Lattice;
     l.origin = origin;

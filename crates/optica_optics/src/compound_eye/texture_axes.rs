@@ -394,6 +394,37 @@ impl TextureAxes {
         Self::assemble(origin, u, v, m, self.handedness, self.fallback)
     }
 
+    /// The lattice through `at` laid along a tangent frame (the mesh's
+    /// interpolated `Mesh::ATTRIBUTE_TANGENT`): `U_p` along the tangent
+    /// projected into the lattice's plane, `V_p` perpendicular to it on
+    /// `V_p`'s side, both as long as the square root of the cell's area,
+    /// so that facets keep their area and one shape (square, or regular
+    /// hexagons). Unlike the UVs' own axes, which change at every triangle
+    /// edge of a mesh whose UVs are piecewise linear, the tangent frame is
+    /// interpolated across the edges, so the lattice shows no seams; what
+    /// it gives up is the UVs' stretch and shear. `N` and the texture
+    /// coordinate of `at` are kept.
+    ///
+    /// Returns `self` unchanged when `tangent` is not finite, zero, or
+    /// within `1e-4` (in sine) of the normal.
+    pub fn on_tangent(&self, at: DVec3, tangent: DVec3) -> Self {
+        let n = self.normal;
+        let in_plane = tangent - tangent.dot(n) * n;
+        // Also false for a zero, NaN or infinite tangent.
+        if !(in_plane.length() > SHADER_UV_DET_REL_EPS * tangent.length()) {
+            return *self;
+        }
+        let t = in_plane.normalize();
+        let t = if t.dot(self.u) < 0.0 { -t } else { t };
+        let b = n.cross(t);
+        let b = if b.dot(self.v) < 0.0 { -b } else { b };
+        let side = self.gram.sqrt().sqrt();
+        let (u, v) = (side * t, side * b);
+        let uv = self.uv_of(at);
+        let origin = at - uv.x * u - uv.y * v;
+        Self::assemble(origin, u, v, n, self.handedness, self.fallback)
+    }
+
     /// A tangent in Bevy's `Mesh::ATTRIBUTE_TANGENT` convention: `xyz` is
     /// `U_p` normalised, `w` the handedness, so that `w · (N × T)` points
     /// along `V_p`'s component orthogonal to `U_p`.
@@ -480,6 +511,41 @@ mod tests {
         assert!(close(a.on_normal(at, DVec3::Z).u(), a.u(), 1e-15));
         for bad in [DVec3::X, DVec3::ZERO, DVec3::NAN, DVec3::new(1.0, 0.0, 0.5)] {
             assert_eq!(a.on_normal(at, bad), a);
+        }
+    }
+
+    #[test]
+    fn axes_laid_on_a_tangent_keep_area_and_point_and_turn_square() {
+        let a = TextureAxes::from_axes(
+            DVec3::new(0.3, -0.2, 0.0),
+            DVec3::new(1.0, 0.2, 0.0),
+            DVec3::new(-0.4, 0.6, 0.0),
+            DVec3::Z,
+        )
+        .unwrap();
+        let at = DVec3::new(2.0, 1.5, 0.0);
+        // A tangent off the plane and off U: its in-plane part is followed.
+        let t = DVec3::new(0.9, 0.3, 0.4);
+        for tangent in [t, -3.0 * t] {
+            let b = a.on_tangent(at, tangent);
+            let along = DVec3::new(0.9, 0.3, 0.0).normalize();
+            assert!(close(b.u().normalize(), along, 1e-14));
+            assert!(b.u().dot(b.v()).abs() < 1e-14);
+            assert!((b.u().length() - b.v().length()).abs() < 1e-14);
+            // Area kept: |U × V| as before.
+            assert!((b.u().cross(b.v()).length() - a.u().cross(a.v()).length()).abs() < 1e-14);
+            // V on V's side, N and the point's coordinate kept.
+            assert!(b.v().dot(a.v()) > 0.0);
+            assert!(close(b.normal(), a.normal(), 1e-15));
+            assert_eq!(b.handedness(), a.handedness());
+            assert!((b.uv_of(at) - a.uv_of(at)).length() < 1e-13);
+        }
+        // Mirrored UVs (V on the other side of U) stay mirrored.
+        let m = TextureAxes::from_axes(DVec3::ZERO, DVec3::X, DVec3::new(0.2, -1.0, 0.0), DVec3::Z)
+            .unwrap();
+        assert!(m.on_tangent(at, DVec3::X).v().y < 0.0);
+        for bad in [DVec3::Z, DVec3::ZERO, DVec3::NAN, DVec3::INFINITY] {
+            assert_eq!(a.on_tangent(at, bad), a);
         }
     }
 

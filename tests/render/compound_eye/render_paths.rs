@@ -265,10 +265,12 @@ fn along_its_tangents_a_coarse_sphere_shows_no_seams() {
 /// The deferred renderer draws the lattice as the forward one does: the
 /// G-buffer pass runs the material's own shader, and Bevy's lighting pass
 /// lights its output. Ignored on lavapipe, not skipped: Mesa 22.3's
-/// llvmpipe crashes (SIGSEGV) compiling the deferred variant, the lattice's
-/// derivative-built normal with the view vector (still so with the normal
-/// oriented by the screen-space triangle normal, or fine derivatives).
-/// Run it with `--ignored` on another driver.
+/// llvmpipe crashes (SIGSEGV) compiling the deferred variant. The smallest
+/// shader found that crashes writes only the lattice normal, built from the
+/// screen-space derivatives and turned towards the viewer (by `if`,
+/// `select` or `faceForward`); unturned it compiles. Turned towards the
+/// vertex normal instead, the whole shader still crashes. Run it with
+/// `--ignored` on another driver.
 #[test]
 #[ignore = "Mesa 22.3 lavapipe crashes compiling the deferred variant; run with --ignored on another driver"]
 fn the_deferred_renderer_draws_the_lattice_as_forward_does() {

@@ -6,11 +6,16 @@
 
 use std::ops::Range;
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use bevy::app::AppExit;
 use bevy::camera::RenderTarget;
 use bevy::prelude::*;
+use bevy::render::render_resource::{CachedPipelineState, PipelineCache};
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured, save_to_disk};
+use bevy::render::{Render, RenderApp, RenderSystems};
+use bevy::shader::ShaderCacheError;
 
 use crate::DomeCamera;
 
@@ -56,9 +61,13 @@ pub struct DomeExport {
     pub frames: Range<u32>,
     /// Frames per second of the show (sets [`DomeShowClock::fps`]).
     pub fps: f32,
-    /// Updates rendered before the first capture, so that assets and
-    /// pipelines are ready (2 is enough with synchronous pipeline
-    /// compilation; raise it for asynchronous compilation).
+    /// Updates rendered on the first frame, with every pipeline ready,
+    /// before its capture: the scene's frame-driven state settles (the
+    /// dome's twins are refined for the frame) whatever came before, so the
+    /// first frame of a range is the frame rendered mid-range. Pipelines
+    /// still compiling or waiting for a shader to load do not count: the
+    /// export waits for them (up to [`MAX_PIPELINE_WAIT_UPDATES`]), since a
+    /// frame captured before then misses whatever they draw.
     pub warmup_updates: u32,
     /// Whether the app exits once the last frame is written.
     pub exit_when_done: bool,
@@ -116,9 +125,41 @@ pub fn parse_frame_range(text: &str) -> Result<Range<u32>, String> {
     Ok(range)
 }
 
+/// How many updates the export waits for pipelines to be ready before it
+/// gives up (and exits with an error when it exits when done): a shader
+/// that never loads would otherwise hold the job forever.
+pub const MAX_PIPELINE_WAIT_UPDATES: u32 = 600;
+
 /// Renders [`DomeExport`]'s frames one by one: sets the show clock, waits
-/// for the frame's capture to be written, moves on.
+/// until every pipeline is ready and the frame has settled, captures it,
+/// waits for the capture to be written, moves on.
 pub struct DomeExportPlugin(pub DomeExport);
+
+/// Pipelines the render world's cache has not made yet (queued, compiling,
+/// or waiting for a shader), as its last frame counted them; shared
+/// between the main and the render world.
+#[derive(Resource, Clone, Default, Debug)]
+struct PendingPipelines(Arc<AtomicUsize>);
+
+/// Counts the pipelines not yet made, at the end of each render.
+fn count_pending_pipelines(cache: Res<PipelineCache>, pending: Res<PendingPipelines>) {
+    let count = cache
+        .pipelines()
+        .filter(|p| match &p.state {
+            CachedPipelineState::Ok(_) => false,
+            // A shader still loading is retried by the cache.
+            CachedPipelineState::Err(
+                ShaderCacheError::ShaderNotLoaded(_)
+                | ShaderCacheError::ShaderImportNotYetAvailable,
+            ) => true,
+            // A pipeline that failed for good will not be made: waiting
+            // would not help (the cache logs why).
+            CachedPipelineState::Err(_) => false,
+            _ => true,
+        })
+        .count();
+    pending.0.store(count, Ordering::Relaxed);
+}
 
 impl Plugin for DomeExportPlugin {
     fn build(&self, app: &mut App) {
@@ -126,7 +167,20 @@ impl Plugin for DomeExportPlugin {
             error!("optica_dome export: {why}; nothing is exported");
             return;
         }
-        app.insert_resource(self.0.clone())
+        // Until the render world has counted, assume something is pending.
+        let pending = PendingPipelines(Arc::new(AtomicUsize::new(usize::MAX)));
+        match app.get_sub_app_mut(RenderApp) {
+            Some(render_app) => {
+                render_app.insert_resource(pending.clone()).add_systems(
+                    Render,
+                    count_pending_pipelines.in_set(RenderSystems::Cleanup),
+                );
+            }
+            // Nothing renders, so nothing to wait for (and nothing to capture).
+            None => pending.0.store(0, Ordering::Relaxed),
+        }
+        app.insert_resource(pending)
+            .insert_resource(self.0.clone())
             .insert_resource(DomeShowClock {
                 frame: self.0.frames.start,
                 fps: self.0.fps,
@@ -135,6 +189,7 @@ impl Plugin for DomeExportPlugin {
                 next: self.0.frames.start,
                 capturing: false,
                 warmup: self.0.warmup_updates,
+                waited: 0,
             })
             .add_systems(First, set_show_clock)
             .add_systems(Last, capture_frame);
@@ -147,7 +202,10 @@ struct ExportState {
     next: u32,
     /// A capture of `next` is on its way.
     capturing: bool,
+    /// Updates with every pipeline ready still to render before the capture.
     warmup: u32,
+    /// Updates spent waiting for pipelines so far.
+    waited: u32,
 }
 
 fn set_show_clock(state: Res<ExportState>, mut clock: ResMut<DomeShowClock>) {
@@ -160,9 +218,31 @@ fn capture_frame(
     mut commands: Commands,
     mut state: ResMut<ExportState>,
     export: Res<DomeExport>,
+    pending: Res<PendingPipelines>,
     cameras: Query<&RenderTarget, With<DomeCamera>>,
+    mut exit: MessageWriter<AppExit>,
 ) {
     if state.capturing || state.next >= export.frames.end {
+        return;
+    }
+    let waiting = pending.0.load(Ordering::Relaxed);
+    if waiting > 0 {
+        state.waited += 1;
+        if state.waited == MAX_PIPELINE_WAIT_UPDATES {
+            error!(
+                "optica_dome export: {} pipelines still not ready after {MAX_PIPELINE_WAIT_UPDATES} updates; \
+                 frame {} not written",
+                if waiting == usize::MAX {
+                    "the render world's".into()
+                } else {
+                    waiting.to_string()
+                },
+                state.next
+            );
+            if export.exit_when_done {
+                exit.write(AppExit::error());
+            }
+        }
         return;
     }
     if state.warmup > 0 {
@@ -201,4 +281,44 @@ fn capture_frame(
                 }
             },
         );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn app(dir: &str) -> App {
+        let mut app = App::new();
+        let dir = std::env::temp_dir().join(format!("optica_dome_{dir}_{}", std::process::id()));
+        app.add_plugins(DomeExportPlugin(DomeExport::new(dir, 5..7, 24.0)));
+        app
+    }
+
+    #[test]
+    fn the_first_capture_waits_until_every_pipeline_is_made() {
+        let mut app = app("wait");
+        let pending = app.world().resource::<PendingPipelines>().clone();
+        pending.0.store(3, Ordering::Relaxed);
+        for _ in 0..10 {
+            app.update();
+        }
+        let state = app.world().resource::<ExportState>();
+        assert_eq!((state.warmup, state.waited, state.next), (2, 10, 5));
+        assert_eq!(app.world().resource::<DomeShowClock>().frame, 5);
+        // Ready: the warm-up on the first frame runs, then the capture.
+        pending.0.store(0, Ordering::Relaxed);
+        app.update();
+        assert_eq!(app.world().resource::<ExportState>().warmup, 1);
+    }
+
+    #[test]
+    fn a_pipeline_that_never_comes_ends_the_job_with_an_error() {
+        let mut app = app("never");
+        let pending = app.world().resource::<PendingPipelines>().clone();
+        pending.0.store(1, Ordering::Relaxed);
+        for _ in 0..MAX_PIPELINE_WAIT_UPDATES {
+            app.update();
+        }
+        assert!(matches!(app.should_exit(), Some(AppExit::Error(_))));
+    }
 }

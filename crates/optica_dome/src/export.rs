@@ -61,13 +61,15 @@ pub struct DomeExport {
     pub frames: Range<u32>,
     /// Frames per second of the show (sets [`DomeShowClock::fps`]).
     pub fps: f32,
-    /// Updates rendered on the first frame, with every pipeline ready,
-    /// before its capture: the scene's frame-driven state settles (the
-    /// dome's twins are refined for the frame) whatever came before, so the
-    /// first frame of a range is the frame rendered mid-range. Pipelines
-    /// still compiling or waiting for a shader to load do not count: the
-    /// export waits for them (up to [`MAX_PIPELINE_WAIT_UPDATES`]), since a
-    /// frame captured before then misses whatever they draw.
+    /// Updates rendered on each frame before its capture that count as
+    /// settled: every pipeline made (the export waits for pipelines still
+    /// compiling or waiting for a shader, up to
+    /// [`MAX_PIPELINE_WAIT_UPDATES`]) and no dome twin rebuilt in the
+    /// update (the twins an update refines are drawn from the next one
+    /// on). So each frame is captured from the same settled state whatever
+    /// came before it, and frame `n` is the same image, bit for bit,
+    /// whichever range rendered it. Each frame costs at least this many
+    /// updates plus the one that moves the scene to it.
     pub warmup_updates: u32,
     /// Whether the app exits once the last frame is written.
     pub exit_when_done: bool,
@@ -131,8 +133,9 @@ pub fn parse_frame_range(text: &str) -> Result<Range<u32>, String> {
 pub const MAX_PIPELINE_WAIT_UPDATES: u32 = 600;
 
 /// Renders [`DomeExport`]'s frames one by one: sets the show clock, waits
-/// until every pipeline is ready and the frame has settled, captures it,
-/// waits for the capture to be written, moves on.
+/// until every pipeline is ready and the frame has settled (see
+/// [`DomeExport::warmup_updates`]), captures it, waits for the capture to
+/// be written, moves on.
 pub struct DomeExportPlugin(pub DomeExport);
 
 /// Pipelines the render world's cache has not made yet (queued, compiling,
@@ -219,6 +222,7 @@ fn capture_frame(
     mut state: ResMut<ExportState>,
     export: Res<DomeExport>,
     pending: Res<PendingPipelines>,
+    refined: Option<Res<crate::DomeRefineStats>>,
     cameras: Query<&RenderTarget, With<DomeCamera>>,
     mut exit: MessageWriter<AppExit>,
 ) {
@@ -245,8 +249,14 @@ fn capture_frame(
         }
         return;
     }
-    if state.warmup > 0 {
-        state.warmup -= 1;
+    // An update that rebuilt twins has not settled: the twins it made are
+    // drawn from the next one on.
+    let rebuilt = refined.is_some_and(|r| r.rebuilt > 0);
+    if state.warmup > 0 || rebuilt {
+        state.warmup = state.warmup.saturating_sub(1);
+        if rebuilt {
+            state.warmup = state.warmup.max(1);
+        }
         return;
     }
     let Some(target) = cameras.iter().next() else {
@@ -273,9 +283,9 @@ fn capture_frame(
                 info!("optica_dome export: frame {frame} written");
                 state.capturing = false;
                 state.next = frame + 1;
-                // The capture may arrive after this update's clock was set:
-                // one whole update on the new frame before its capture.
-                state.warmup = 1;
+                // Every frame settles as the first one does, so that its
+                // image does not depend on the frame before it.
+                state.warmup = export.warmup_updates;
                 if state.next >= export.frames.end && export.exit_when_done {
                     exit.write(AppExit::Success);
                 }

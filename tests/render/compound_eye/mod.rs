@@ -94,3 +94,21 @@ pub fn ortho(size: f32) -> Projection {
         ..OrthographicProjection::default_3d()
     })
 }
+
+/// Renders with the deferred renderer: the default opaque method and a
+/// deferred prepass on every camera.
+pub fn deferred(app: &mut App) {
+    use bevy::core_pipeline::prepass::{DeferredPrepass, DepthPrepass};
+    use bevy::pbr::DefaultOpaqueRendererMethod;
+    app.insert_resource(DefaultOpaqueRendererMethod::deferred());
+    app.add_systems(
+        PostStartup,
+        |cameras: Query<Entity, With<Camera3d>>, mut commands: Commands| {
+            for camera in &cameras {
+                commands
+                    .entity(camera)
+                    .insert((DepthPrepass, DeferredPrepass));
+            }
+        },
+    );
+}

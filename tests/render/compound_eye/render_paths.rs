@@ -9,7 +9,7 @@ use bevy::prelude::*;
 use optica_compound_eye::{CompoundEye, CompoundEyeMaterial, EyeLattice, EyeOutput};
 use optica_harness::{Headless, RenderedFrame};
 
-use super::{base, ortho, scene};
+use super::{base, deferred, ortho, scene};
 
 const SIZE: u32 = 96;
 
@@ -274,27 +274,9 @@ fn along_its_tangents_a_coarse_sphere_shows_no_seams() {
 #[test]
 #[ignore = "Mesa 22.3 lavapipe crashes compiling the deferred variant; run with --ignored on another driver"]
 fn the_deferred_renderer_draws_the_lattice_as_forward_does() {
-    use bevy::core_pipeline::prepass::{DeferredPrepass, DepthPrepass};
-    use bevy::pbr::DefaultOpaqueRendererMethod;
-    fn deferred(app: &mut App) {
-        app.insert_resource(DefaultOpaqueRendererMethod::deferred());
-        app.add_systems(
-            PostStartup,
-            |cameras: Query<Entity, With<Camera3d>>, mut commands: Commands| {
-                for camera in &cameras {
-                    commands
-                        .entity(camera)
-                        .insert((DepthPrepass, DeferredPrepass));
-                }
-            },
-        );
-    }
     let forward = render_quad(Some(eye(EyeOutput::Shaded)), |_| {}).to_rgba8();
+    let plain = render_quad(None, deferred).to_rgba8();
     let deferred = render_quad(Some(eye(EyeOutput::Shaded)), deferred).to_rgba8();
-    let plain = render_quad(None, deferred_plain).to_rgba8();
-    fn deferred_plain(app: &mut App) {
-        app.insert_resource(DefaultOpaqueRendererMethod::deferred());
-    }
     let px = covered();
     let close = |a: &image::RgbaImage, b: &image::RgbaImage, tol: i32| {
         px.iter()

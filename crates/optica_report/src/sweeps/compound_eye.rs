@@ -471,19 +471,8 @@ fn prefilter_flip(
         .headless(size * ss, size * ss)
         .hdr(true)
         .render(scene(Some(eye(false))))?;
-    let fine = factor_image(&fine);
-    let supersampled: Vec<f64> = (0..size * size)
-        .map(|k| {
-            let (x, y) = (k % size, k / size);
-            let mut sum = 0.0;
-            for dy in 0..ss {
-                for dx in 0..ss {
-                    sum += fine[((y * ss + dy) * size * ss + x * ss + dx) as usize];
-                }
-            }
-            sum / (ss * ss) as f64
-        })
-        .collect();
+    let fine = fine.hdr().ok_or(SweepError::Setup("no HDR frame".into()))?;
+    let supersampled: Vec<f64> = box_down(fine, size).iter().map(|p| p[0]).collect();
     let target = grey(&supersampled, size);
     let mut flips = Vec::new();
     for prefilter in [true, false] {
@@ -529,37 +518,28 @@ fn shaded_prefilter_flip(
             .cloned()
             .ok_or(SweepError::Setup("no HDR frame".into()))
     };
-    let box_down = |fine: &image::Rgba32FImage| {
-        image::Rgba32FImage::from_fn(size, size, |x, y| {
-            let mut sum = [0.0f32; 4];
-            for dy in 0..ss {
-                for dx in 0..ss {
-                    let p = fine.get_pixel(x * ss + dx, y * ss + dy).0;
-                    for c in 0..4 {
-                        sum[c] += p[c];
-                    }
-                }
-            }
-            image::Rgba(sum.map(|v| v / (ss * ss) as f32))
-        })
-    };
-    let srgb = |img: &image::Rgba32FImage| {
+    let srgb = |px: &[[f64; 4]]| {
         RgbaImage::from_fn(size, size, |x, y| {
-            let [r, g, b, _] = img.get_pixel(x, y).0;
+            let [r, g, b, _] = px[(y * size + x) as usize].map(|v| v as f32);
             let [r, g, b, _] = Srgba::from(LinearRgba::rgb(r, g, b)).to_u8_array();
             image::Rgba([r, g, b, 255])
         })
     };
-    let escaping = box_down(&render(size * ss, eye(false, EyeOutput::PigmentOnly))?);
-    let escape_share =
-        escaping.pixels().map(|p| f64::from(p.0[1])).sum::<f64>() / f64::from(size * size);
-    let target = srgb(&box_down(&render(
-        size * ss,
-        eye(false, EyeOutput::Shaded),
-    )?));
+    let escaping = box_down(
+        &render(size * ss, eye(false, EyeOutput::PigmentOnly))?,
+        size,
+    );
+    let escape_share = escaping.iter().map(|p| p[1]).sum::<f64>() / f64::from(size * size);
+    let target = srgb(&box_down(
+        &render(size * ss, eye(false, EyeOutput::Shaded))?,
+        size,
+    ));
     let mut out = Vec::new();
     for prefilter in [true, false] {
-        let test = srgb(&render(size, eye(prefilter, EyeOutput::Shaded))?);
+        let test = srgb(&box_down(
+            &render(size, eye(prefilter, EyeOutput::Shaded))?,
+            size,
+        ));
         let m = optica_harness::metrics::compare(&target, &test)
             .map_err(|e| SweepError::Setup(e.to_string()))?;
         out.push((m.flip_mean, m.psnr_db));
@@ -570,6 +550,28 @@ fn shaded_prefilter_flip(
         unfiltered: out[1],
     };
     Ok((errors, escape_share))
+}
+
+/// `fine`, a render of a `size`² view at a whole multiple of its side,
+/// box-filtered down to `size`² in linear light (in f64): RGBA per pixel,
+/// row by row. At the same side it is the render itself.
+fn box_down(fine: &image::Rgba32FImage, size: u32) -> Vec<[f64; 4]> {
+    let ss = fine.width() / size;
+    (0..size * size)
+        .map(|k| {
+            let (x, y) = (k % size, k / size);
+            let mut sum = [0.0f64; 4];
+            for dy in 0..ss {
+                for dx in 0..ss {
+                    let p = fine.get_pixel(x * ss + dx, y * ss + dy).0;
+                    for (s, v) in sum.iter_mut().zip(p) {
+                        *s += f64::from(v);
+                    }
+                }
+            }
+            sum.map(|v| v / f64::from(ss * ss))
+        })
+        .collect()
 }
 
 /// Facets per UV unit that make facets ~0.5 px wide at the pseudopupil.

@@ -251,12 +251,11 @@ fn capture_frame(
     }
     // An update that rebuilt twins has not settled: the twins it made are
     // drawn from the next one on.
-    let rebuilt = refined.is_some_and(|r| r.rebuilt > 0);
-    if state.warmup > 0 || rebuilt {
-        state.warmup = state.warmup.saturating_sub(1);
-        if rebuilt {
-            state.warmup = state.warmup.max(1);
-        }
+    if refined.is_some_and(|r| r.rebuilt > 0) {
+        return;
+    }
+    if state.warmup > 0 {
+        state.warmup -= 1;
         return;
     }
     let Some(target) = cameras.iter().next() else {

@@ -25,6 +25,7 @@ use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
 use super::error::DomeError;
+use super::lens::{FisheyeLens, RadialMap};
 use crate::input;
 
 /// Smallest field of view accepted, in degrees. Below it the scale
@@ -56,9 +57,17 @@ pub struct DomeSettings {
     /// Forward tilt of the dome in degrees (typical tilted domes: 10–30).
     /// Any finite value.
     pub tilt_deg: f64,
-    /// Width and height of the square domemaster in pixels (2048, 4096,
-    /// 8192), at least 1.
+    /// Width of the image in pixels, and its height too unless
+    /// `height_px` says otherwise (square domemasters: 2048, 4096, 8192),
+    /// at least 1.
     pub size_px: u32,
+    /// Height of the image in pixels when it is not square, at least 1.
+    /// The image circle fits the shorter side, centred.
+    #[serde(default)]
+    pub height_px: Option<u32>,
+    /// The radial mapping (equidistant by default).
+    #[serde(default)]
+    pub lens: FisheyeLens,
 }
 
 impl Default for DomeSettings {
@@ -68,6 +77,8 @@ impl Default for DomeSettings {
             fov_deg: 180.0,
             tilt_deg: 0.0,
             size_px: 4096,
+            height_px: None,
+            lens: FisheyeLens::Equidistant,
         }
     }
 }
@@ -75,11 +86,6 @@ impl Default for DomeSettings {
 /// θ_max = FOV/2 in radians.
 fn theta_max(fov_deg: f64) -> f64 {
     0.5 * fov_deg.to_radians()
-}
-
-/// f = (size/2)/θ_max in px per radian.
-fn focal_px(fov_deg: f64, size_px: u32) -> f64 {
-    0.5 * f64::from(size_px) / theta_max(fov_deg)
 }
 
 /// A validated dome camera with its frame and scale precomputed; all the
@@ -95,24 +101,37 @@ pub struct DomeProjection {
     right: DVec3,
     /// Half the field of view, radians (the rim's polar angle).
     theta_max: f64,
-    /// f in px per radian.
+    /// f in px per unit of g (px per radian for the equidistant lens).
     focal_px: f64,
-    /// size/2 in px: the image centre's coordinates and the rim radius.
-    half_size: f64,
+    /// Half the width and height in px: the image centre.
+    half: DVec2,
+    /// The rim's radius in px: half the shorter side.
+    rim_px: f64,
+    /// The lens's mapping g, checked for this field of view.
+    map: RadialMap,
 }
 
 impl DomeProjection {
     /// Checks `camera` and builds its frame. Errors ([`DomeError::Input`]):
     /// a field of view that is not finite, below [`MIN_FOV_DEG`] or not below
-    /// 360°; a tilt that is not finite; a size of 0 px.
+    /// 360° (180° included for the orthographic lens); a tilt that is not
+    /// finite; a size of 0 px; a polynomial lens with a coefficient that is
+    /// not finite or k₁ ≤ 0. [`DomeError::LensFolds`]: a polynomial whose
+    /// radius stops rising inside the field of view.
     pub fn new(camera: &DomeSettings) -> Result<Self, DomeError> {
         const FOV: &str = "dome field of view (deg)";
         input::in_range(FOV, camera.fov_deg, MIN_FOV_DEG, FOV_LIMIT_DEG.next_down())?;
         input::finite("dome tilt (deg)", camera.tilt_deg)?;
         input::positive("domemaster size (px)", f64::from(camera.size_px))?;
+        let height = camera.height_px.unwrap_or(camera.size_px);
+        input::positive("domemaster height (px)", f64::from(height))?;
+        let theta_max = theta_max(camera.fov_deg);
+        let map = RadialMap::new(camera.lens, camera.fov_deg, theta_max)?;
+        let rim_px = 0.5 * f64::from(camera.size_px.min(height));
+        let focal_px = rim_px / map.g_max();
         // The FOV bound keeps f finite (≤ ~5·10¹⁷ px/rad at 2³² px, see
         // MIN_FOV_DEG), hence every pixel finite.
-        debug_assert!(focal_px(camera.fov_deg, camera.size_px).is_finite());
+        debug_assert!(focal_px.is_finite());
         let camera = *camera;
         let tau = camera.tilt_deg.to_radians();
         let (s, c) = tau.sin_cos();
@@ -121,10 +140,22 @@ impl DomeProjection {
             axis: DVec3::new(0.0, -s, -c),
             up: DVec3::new(0.0, c, -s),
             right: DVec3::X,
-            theta_max: theta_max(camera.fov_deg),
-            focal_px: focal_px(camera.fov_deg, camera.size_px),
-            half_size: 0.5 * f64::from(camera.size_px),
+            theta_max,
+            focal_px,
+            half: 0.5 * DVec2::new(f64::from(camera.size_px), f64::from(height)),
+            rim_px,
+            map,
         })
+    }
+
+    /// The radial mapping.
+    pub fn lens(&self) -> FisheyeLens {
+        self.map.lens()
+    }
+
+    /// The lens's mapping, checked for this field of view.
+    pub(crate) fn map(&self) -> &RadialMap {
+        &self.map
     }
 
     /// The settings this projection was built from.
@@ -152,24 +183,31 @@ impl DomeProjection {
         self.theta_max
     }
 
-    /// f = (size/2)/θ_max in px per radian (D3). 4K/180° gives 1303.8.
+    /// f = R/g(θ_max), R the rim radius (D3, D9): px per unit of the
+    /// lens's g, px per radian for the equidistant lens. 4K/180°
+    /// equidistant gives 1303.8.
     pub fn focal_px(&self) -> f64 {
         self.focal_px
     }
 
-    /// Side of the square domemaster in px.
+    /// Width of the image in px (the side of a square domemaster).
     pub fn size_px(&self) -> f64 {
-        2.0 * self.half_size
+        2.0 * self.half.x
     }
 
-    /// Radius of the image circle in px (= size/2).
+    /// Height of the image in px.
+    pub fn height_px(&self) -> f64 {
+        2.0 * self.half.y
+    }
+
+    /// Radius of the image circle in px: half the shorter side.
     pub fn rim_radius_px(&self) -> f64 {
-        self.half_size
+        self.rim_px
     }
 
     /// The image centre (zenith) in pixel coordinates.
     pub fn centre_px(&self) -> DVec2 {
-        DVec2::splat(self.half_size)
+        self.half
     }
 
     /// Whether geometry is clipped against the view plane z = 0 of the dome
@@ -270,6 +308,7 @@ mod tests {
             fov_deg,
             tilt_deg,
             size_px,
+            ..Default::default()
         })
     }
 
@@ -356,7 +395,9 @@ mod tests {
             DomeSettings {
                 fov_deg: 180.0,
                 tilt_deg: 0.0,
-                size_px: 4096
+                size_px: 4096,
+                height_px: None,
+                lens: crate::dome::FisheyeLens::Equidistant,
             }
         );
     }

@@ -35,6 +35,15 @@ pub enum DomeError {
     /// `reference`; the refiners clip or cull there instead).
     #[error("the arc passes through the antipode of the dome axis")]
     Antipode,
+    /// A polynomial fisheye whose radius stops rising inside the field of
+    /// view: two directions would land on one pixel.
+    #[error(
+        "the polynomial fisheye's radius stops rising at {theta_deg:.2} deg, inside the field of view"
+    )]
+    LensFolds {
+        /// The first polar angle checked where dr/dθ ≤ 0, degrees.
+        theta_deg: f64,
+    },
     /// A triangle refers to a vertex that does not exist.
     #[error("triangle index {index} is out of range for {len} vertices")]
     IndexOutOfRange {

@@ -1,4 +1,4 @@
-//! # Dome — equidistant fisheye projection with adaptive refinement
+//! # Dome — fisheye projection with adaptive refinement
 //!
 //! The CPU reference of the dome plugin, after Yuna Johjima and Masao
 //! Fujimura (城島由奈・藤村真生), *Fragment refinement for real-time
@@ -78,6 +78,19 @@
 //! * **D8** (ours) — exact error of a chord: the largest pixel distance from
 //!   the projected great-circle arc to the chord between the projected
 //!   endpoints (`chord_error_px`, feature `reference`).
+//! * **D9** (the radial fisheye models; Kannala and Brandt's polynomial for
+//!   calibrated lenses) — the paper's r = f·θ generalised to `r = f·g(θ)`:
+//!   equidistant θ, equisolid 2 sin(θ/2), stereographic 2 tan(θ/2),
+//!   orthographic sin θ, polynomial k₁θ + k₂θ³ + k₃θ⁵ + k₄θ⁷, with
+//!   `f = R/g(θ_max)` so the rim lies on the image circle of radius R (half
+//!   the shorter side of the image). See [`FisheyeLens`].
+//! * **D10** (ours, D6 for any g) — the normal acceleration of the image of
+//!   a great circle under r = F(θ): velocity `(F′ cos ψ, F sin ψ/sin θ)`,
+//!   acceleration `(F″ cos²ψ + F′ cos θ sin²ψ/sin θ − F sin²ψ/sin²θ,
+//!   2 cos ψ sin ψ (F′/sin θ − F cos θ/sin²θ))` in the image's polar frame,
+//!   `N = |v × a|/|v|`. It equals D6 for F = fθ. The chord-gap rule takes
+//!   its largest value over samples along the arc (for the equidistant lens
+//!   the arc's largest θ, where D6 is largest).
 //!
 //! ## Conventions
 //!
@@ -124,9 +137,10 @@
 //! | file | what |
 //! |---|---|
 //! | `camera.rs` | [`DomeSettings`] settings, [`DomeProjection`] frame |
-//! | `projection.rs` | D1–D3 forward and inverse, [`Projected`] |
+//! | `lens.rs` | D9: [`FisheyeLens`], the radial mappings and their inverses |
+//! | `projection.rs` | D1–D3, D9 forward and inverse, [`Projected`] |
 //! | `arc.rs` | D4, D7: subtended angles, split points |
-//! | `rule.rs` | D4–D6: [`SplitRule`] |
+//! | `rule.rs` | D4–D6, D10: [`SplitRule`] |
 //! | `clip.rs` | view-plane and guard-cone clipping |
 //! | `refine.rs` | §3.2: segments and polylines |
 //! | `triangle.rs` | §3.3: triangles and meshes, crack-free |
@@ -148,6 +162,7 @@ mod classify;
 mod clip;
 mod error;
 mod interior;
+mod lens;
 #[cfg(feature = "reference")]
 mod measure;
 mod projection;
@@ -164,6 +179,7 @@ pub use classify::{
 };
 pub use clip::clip_segment;
 pub use error::DomeError;
+pub use lens::FisheyeLens;
 #[cfg(feature = "reference")]
 pub use measure::{EdgeErrors, SAMPLES, chord_error_px, polyline_error_px};
 pub use projection::{ANTIPODE_EPS_RAD, ImagePoint, Projected};
@@ -187,6 +203,20 @@ pub(crate) fn test_dome(fov: f64, tilt: f64, size: u32) -> DomeProjection {
         fov_deg: fov,
         tilt_deg: tilt,
         size_px: size,
+        ..Default::default()
+    })
+    .expect("valid test dome")
+}
+
+/// [`test_dome`] with another lens.
+#[cfg(test)]
+pub(crate) fn test_lens_dome(lens: FisheyeLens, fov: f64, tilt: f64, size: u32) -> DomeProjection {
+    DomeProjection::new(&DomeSettings {
+        fov_deg: fov,
+        tilt_deg: tilt,
+        size_px: size,
+        lens,
+        ..Default::default()
     })
     .expect("valid test dome")
 }

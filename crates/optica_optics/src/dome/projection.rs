@@ -1,14 +1,15 @@
-//! Equidistant projection of view-space points to domemaster pixels and back.
+//! Fisheye projection of view-space points to domemaster pixels and back.
 //!
-//! Forward (D1, D2): in dome coordinates (x, y, z) = (right, up, axis) of the
-//! point, ρ = √(x² + y²), θ = atan2(ρ, z), and the pixel is
-//! `centre + f·θ·(x, −y)/ρ` (image rows grow downwards). The atan2 form is
+//! Forward (D1, D2, D9): in dome coordinates (x, y, z) = (right, up, axis)
+//! of the point, ρ = √(x² + y²), θ = atan2(ρ, z), and the pixel is
+//! `centre + f·g(θ)·(x, −y)/ρ` (image rows grow downwards; g(θ) = θ for
+//! the equidistant lens). The atan2 form is
 //! accurate for every θ in [0, π]; `acos(z/|p|)` loses half the digits near the
 //! zenith and near the antipode. Near the zenith θ/ρ → 1/z, so no special case
 //! is needed there; at the antipode (ρ = 0, z > 0) the azimuth is undefined and
 //! the result is [`Projected::Antipode`].
 //!
-//! Inverse: r = |pixel − centre|, θ = r/f, direction
+//! Inverse: r = |pixel − centre|, θ = g⁻¹(r/f), direction
 //! `sin θ·(Δu, −Δv)/r` across and `cos θ` along the axis.
 
 use std::f64::consts::PI;
@@ -137,7 +138,7 @@ impl DomeProjection {
             // On the axis in front (the antipode was handled above).
             return Some((centre, 0.0));
         }
-        let k = self.focal_px() * theta / rho;
+        let k = self.focal_px() * self.map().radius(theta) / rho;
         Some((centre + DVec2::new(k * q.x, -k * q.y), theta))
     }
 
@@ -154,7 +155,7 @@ impl DomeProjection {
         if r > self.rim_radius_px() * (1.0 + RIM_SLACK_REL) {
             return None;
         }
-        let theta = r / self.focal_px();
+        let theta = self.map().theta_of_radius(r / self.focal_px());
         let (s, c) = theta.sin_cos();
         let q = if r == 0.0 {
             DVec3::Z
@@ -301,11 +302,82 @@ mod tests {
         }
     }
 
+    #[test]
+    fn every_lens_puts_its_rim_on_the_circle_and_known_angles_where_they_belong() {
+        // 180° at 4096 px, R = 2048: θ = 45° lands at R·g(45°)/g(90°).
+        use crate::dome::FisheyeLens::*;
+        let h = |t: f64| (0.5 * t).tan();
+        let s = |t: f64| (0.5 * t).sin();
+        let q = PI / 4.0;
+        let k = [1.0, -0.04, 0.003, -0.0001];
+        let poly = |t: f64| t * (k[0] + t * t * (k[1] + t * t * (k[2] + t * t * k[3])));
+        for (lens, want) in [
+            (Equidistant, 0.5),
+            (Equisolid, s(q) / s(2.0 * q)),
+            (Stereographic, h(q) / h(2.0 * q)),
+            (Orthographic, q.sin()),
+            (Polynomial { k }, poly(q) / poly(2.0 * q)),
+        ] {
+            let p = crate::dome::test_lens_dome(lens, 180.0, 0.0, 4096);
+            let rim = p.project(DVec3::X).visible_pixel().unwrap();
+            assert!(
+                (rim - DVec2::new(4096.0, 2048.0)).length() < 1e-9,
+                "{lens:?}"
+            );
+            let px = p
+                .project(DVec3::new(1.0, 0.0, -1.0))
+                .visible_pixel()
+                .unwrap();
+            assert!(
+                (px.x - 2048.0 - 2048.0 * want).abs() < 1e-9,
+                "{lens:?}: {px}"
+            );
+            // Every singular input stays typed, every finite one finite.
+            assert_eq!(p.project(DVec3::ZERO), Projected::Origin);
+            assert_eq!(p.project(DVec3::Z), Projected::Antipode);
+            assert_eq!(p.project(DVec3::splat(f64::NAN)), Projected::Invalid);
+            for v in [
+                DVec3::new(1e-300, 0.0, -1e-300),
+                DVec3::new(1e150, -1e150, 1e150),
+            ] {
+                let ip = p.project(v).image_point().unwrap();
+                assert!(ip.pixel.is_finite(), "{lens:?} {v}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_wide_target_fits_the_circle_to_its_height() {
+        // 1920 × 1080: the circle has radius 540 around (960, 540).
+        let p = DomeProjection::new(&crate::dome::DomeSettings {
+            fov_deg: 180.0,
+            size_px: 1920,
+            height_px: Some(1080),
+            ..Default::default()
+        })
+        .unwrap();
+        assert_eq!(
+            (p.size_px(), p.height_px(), p.rim_radius_px()),
+            (1920.0, 1080.0, 540.0)
+        );
+        assert_eq!(p.centre_px(), DVec2::new(960.0, 540.0));
+        let right = p.project(DVec3::X).visible_pixel().unwrap();
+        assert!((right - DVec2::new(1500.0, 540.0)).length() < 1e-9);
+        let front = p.project(DVec3::NEG_Y).visible_pixel().unwrap();
+        assert!((front - DVec2::new(960.0, 1080.0)).length() < 1e-9);
+        // The corners beyond the circle see nothing; a pixel inside round-trips.
+        assert_eq!(p.unproject(DVec2::new(100.0, 540.0)), None);
+        let d = p.unproject(DVec2::new(1200.0, 300.0)).unwrap();
+        let back = p.project(d).visible_pixel().unwrap();
+        assert!((back - DVec2::new(1200.0, 300.0)).length() < 1e-9);
+    }
+
     proptest! {
         #[test]
         fn pixel_round_trip(fov in 10.0f64..359.0, tilt in -40.0f64..40.0,
-                            u in 0.0f64..1.0, v in 0.0f64..1.0) {
-            let p = dome(fov, tilt, 4096);
+                            u in 0.0f64..1.0, v in 0.0f64..1.0, lens in 0usize..5) {
+            let lens = crate::dome::rule::tests::TEST_LENSES[lens];
+            let p = crate::dome::test_lens_dome(lens, fov.min(lens.max_fov_deg()), tilt, 4096);
             let px = DVec2::new(u, v) * 4096.0;
             match p.unproject(px) {
                 None => prop_assert!((px - p.centre_px()).length() > 2048.0 * (1.0 - 1e-9)),

@@ -47,6 +47,7 @@ use glam::DVec3;
 use super::arc::{Arc, canonical_less};
 use super::camera::DomeProjection;
 use super::error::DomeError;
+use super::lens::FisheyeLens;
 use crate::input::{self, InvalidInput};
 
 /// Largest number of pieces one edge is split into. Reached only for
@@ -117,6 +118,7 @@ pub(crate) fn tangential_chord_gap_px(focal_px: f64, alpha: f64, theta: f64) -> 
 
 /// Largest subtended angle of a tangential piece at polar angle `theta`
 /// whose chord gap (D5) is `tolerance_px`: `√(8·tol/(f·g(θ)))`.
+#[cfg(test)]
 pub(crate) fn max_tangential_piece_rad(focal_px: f64, theta: f64, tolerance_px: f64) -> f64 {
     (8.0 * tolerance_px / (focal_px * tangential_factor(theta))).sqrt()
 }
@@ -179,8 +181,9 @@ impl SplitRule {
         tolerance_px: f64,
     ) -> Result<Self, InvalidInput> {
         let tolerance_px = input::positive("pixel tolerance (px)", tolerance_px)?;
-        let max_piece_rad =
-            max_tangential_piece_rad(proj.focal_px(), proj.theta_reach(), tolerance_px).min(PI);
+        let max_piece_rad = (8.0 * tolerance_px / worst_normal_acceleration_px(proj))
+            .sqrt()
+            .min(PI);
         // A tolerance so small that Δ underflows to 0 gives n = ∞ pieces,
         // which the cap turns into MAX_PIECES: the documented fallback.
         Ok(Self(Rule::VisualAngle { max_piece_rad }))
@@ -237,9 +240,8 @@ impl SplitRule {
             Rule::VisualAngle { max_piece_rad } => arc.alpha / max_piece_rad,
             Rule::ChordGap { tolerance_px } => {
                 let at = |theta: f64| {
-                    arc.alpha
-                        * (arc_normal_acceleration_px(proj, arc, theta) / (8.0 * tolerance_px))
-                            .sqrt()
+                    let n = arc_normal_acceleration_px(proj, arc, range.min, theta);
+                    arc.alpha * (n / (8.0 * tolerance_px)).sqrt()
                 };
                 if leaves {
                     // Kept pieces end inside the guard cone and bulge past it
@@ -257,24 +259,104 @@ impl SplitRule {
     }
 }
 
-/// Largest N (D6) on an arc whose largest polar angle is `theta_max`,
-/// limited to [`DomeProjection::theta_reach`] (no kept piece goes further).
-pub(crate) fn arc_normal_acceleration_px(proj: &DomeProjection, arc: &Arc, theta_max: f64) -> f64 {
-    let theta = theta_max
-        .min(proj.theta_reach())
-        .min(PI - CURVATURE_ANTIPODE_GAP_RAD);
-    let sin_theta0 = arc.pole().dot(proj.axis()).abs();
-    let s = theta.sin();
-    let sin_psi = if s > 0.0 {
-        (sin_theta0 / s).min(1.0)
+/// Polar angles at which a lens other than the equidistant has its
+/// curvature N (D10) sampled along an arc, ends included. For the
+/// equidistant lens N is known to grow with θ along a great circle, so its
+/// largest θ suffices; for the others (equisolid, stereographic,
+/// orthographic, polynomial) no such proof is at hand, so the largest of
+/// these samples stands for the maximum, and the proptest
+/// `every_lens_meets_the_tolerance` holds the result to the exact error.
+const LENS_CURVATURE_SAMPLES: u32 = 8;
+
+/// N of D10: the normal acceleration, in px per rad², of the image of a
+/// great circle crossing polar angle `theta` at angle ψ to the meridian,
+/// for any radial lens r = F(θ) = f·g(θ). With θ' = cos ψ, φ' = sin ψ/sin θ
+/// along the circle (unit speed) and the sphere's geodesic equations
+/// θ'' = cos θ sin²ψ/sin θ, φ'' = −2 cos θ cos ψ sin ψ/sin²θ, the image
+/// (polar: r = F, φ) has velocity (F' cos ψ, F sin ψ/sin θ) and
+/// acceleration (F'' cos²ψ + F' θ'' − F φ'², F φ'' + 2F' cos ψ φ'); N is
+/// |v × a|/|v|. For the equidistant lens it equals D6.
+pub(crate) fn lens_normal_acceleration_px(proj: &DomeProjection, theta: f64, sin_psi: f64) -> f64 {
+    let map = proj.map();
+    let t = theta.max(SMALL_THETA);
+    let sp = sin_psi.clamp(0.0, 1.0);
+    let cp = (1.0 - sp * sp).sqrt();
+    let (s, c) = t.sin_cos();
+    let (f0, f1, f2) = (map.radius(t), map.slope(t), map.bend(t));
+    let (vr, vphi) = (f1 * cp, f0 * sp / s);
+    let ar = f2 * cp * cp + f1 * c * sp * sp / s - f0 * sp * sp / (s * s);
+    let aphi = 2.0 * cp * sp * (f1 / s - f0 * c / (s * s));
+    let speed = vr.hypot(vphi);
+    if speed > 0.0 {
+        proj.focal_px() * (vr * aphi - vphi * ar).abs() / speed
     } else {
-        1.0
+        0.0
+    }
+}
+
+/// Largest N (D6, D10) on an arc whose polar angles span `theta_lo ..=
+/// theta_hi`, limited to [`DomeProjection::theta_reach`] (no kept piece
+/// goes further).
+pub(crate) fn arc_normal_acceleration_px(
+    proj: &DomeProjection,
+    arc: &Arc,
+    theta_lo: f64,
+    theta_hi: f64,
+) -> f64 {
+    let limit = proj.theta_reach().min(PI - CURVATURE_ANTIPODE_GAP_RAD);
+    let hi = theta_hi.min(limit);
+    let sin_theta0 = arc.pole().dot(proj.axis()).abs();
+    let sin_psi = |theta: f64| {
+        let s = theta.sin();
+        if s > 0.0 {
+            (sin_theta0 / s).min(1.0)
+        } else {
+            1.0
+        }
     };
-    normal_acceleration_px(proj.focal_px(), theta, sin_psi)
+    if proj.lens() == FisheyeLens::Equidistant {
+        return normal_acceleration_px(proj.focal_px(), hi, sin_psi(hi));
+    }
+    let lo = theta_lo.min(hi);
+    let at = |theta: f64| lens_normal_acceleration_px(proj, theta, sin_psi(theta));
+    let samples = (0..=LENS_CURVATURE_SAMPLES)
+        .map(|i| at(lo + (hi - lo) * f64::from(i) / f64::from(LENS_CURVATURE_SAMPLES)))
+        .fold(0.0, f64::max);
+    // The rim, from both sides: where a continued lens (orthographic,
+    // polynomial) changes its second derivative, N jumps.
+    let rim = proj.theta_max();
+    if (lo..=hi).contains(&rim) {
+        samples.max(at(rim)).max(at(rim.next_up()))
+    } else {
+        samples
+    }
+}
+
+/// The largest N (D6, D10) of any piece of geometry kept: tangential at
+/// [`DomeProjection::theta_reach`] for the equidistant lens (D5); for the
+/// other lenses the largest over a grid of polar angles up to it and of
+/// orientations.
+fn worst_normal_acceleration_px(proj: &DomeProjection) -> f64 {
+    let reach = proj.theta_reach().min(PI - CURVATURE_ANTIPODE_GAP_RAD);
+    if proj.lens() == FisheyeLens::Equidistant {
+        return proj.focal_px() * tangential_factor(reach);
+    }
+    let mut worst = 0.0f64;
+    for i in 1..=64 {
+        let theta = reach * f64::from(i) / 64.0;
+        for j in 0..=16 {
+            worst = worst.max(lens_normal_acceleration_px(
+                proj,
+                theta,
+                f64::from(j) / 16.0,
+            ));
+        }
+    }
+    worst
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::input::Expected;
 
@@ -331,6 +413,72 @@ mod tests {
             let n = normal_acceleration_px(f, th, s0 / th.sin());
             assert!(n >= prev, "θ = {k}°");
             prev = n;
+        }
+    }
+
+    /// The lenses of the tests: every mapping, a calibrated-looking
+    /// polynomial among them.
+    pub(crate) const TEST_LENSES: [FisheyeLens; 5] = [
+        FisheyeLens::Equidistant,
+        FisheyeLens::Equisolid,
+        FisheyeLens::Stereographic,
+        FisheyeLens::Orthographic,
+        FisheyeLens::Polynomial {
+            k: [1.0, -0.04, 0.003, -0.0001],
+        },
+    ];
+
+    #[test]
+    fn lens_curvature_is_d6_for_the_equidistant_lens() {
+        let p = dome(200.0);
+        for theta in [1e-3, 0.3, 1.0, PI / 2.0, 2.0, 2.8] {
+            for sp in [0.0, 0.1, 0.5, 0.9, 1.0] {
+                let d6 = normal_acceleration_px(p.focal_px(), theta, sp);
+                let d10 = lens_normal_acceleration_px(&p, theta, sp);
+                assert!(
+                    (d10 - d6).abs() <= 1e-9 * d6.max(1.0),
+                    "θ {theta}, sin ψ {sp}: {d10} vs {d6}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn lens_curvature_matches_finite_differences_of_the_projection() {
+        // Along great circles at several closest approaches, N (D10) against
+        // the curvature of the projected pixels (central differences).
+        for lens in TEST_LENSES {
+            let fov = lens.max_fov_deg().min(240.0);
+            let p = crate::dome::test_lens_dome(lens, fov, 0.0, 4096);
+            let mut checked = 0;
+            for theta0_deg in [5.0, 30.0, 60.0, 85.0] {
+                let t0 = f64::to_radians(theta0_deg);
+                // The circle through (θ0, φ = 0) perpendicular to the meridian.
+                let a = p.from_dome(DVec3::new(t0.sin(), 0.0, t0.cos()));
+                let w = p.from_dome(DVec3::Y);
+                for k in 0..40 {
+                    let beta = f64::from(k) * 0.04;
+                    let dir = |b: f64| b.cos() * a + b.sin() * w;
+                    let theta = p.theta(dir(beta));
+                    if theta > p.theta_max() - 0.01 || theta < 1e-2 {
+                        continue;
+                    }
+                    let h = 1e-4;
+                    let px = |b: f64| p.pixel_of_direction(dir(b)).unwrap();
+                    let (x0, x1, x2) = (px(beta - h), px(beta), px(beta + h));
+                    let v = (x2 - x0) / (2.0 * h);
+                    let acc = (x2 - 2.0 * x1 + x0) / (h * h);
+                    let fd = v.perp_dot(acc).abs() / v.length();
+                    let sin_psi = (t0.sin() / theta.sin()).min(1.0);
+                    let n = lens_normal_acceleration_px(&p, theta, sin_psi);
+                    assert!(
+                        (n - fd).abs() <= 2e-3 * fd.max(n) + 0.05,
+                        "{lens:?} θ0 {theta0_deg}° θ {theta}: N {n} vs {fd}"
+                    );
+                    checked += 1;
+                }
+            }
+            assert!(checked > 40, "{lens:?}: {checked}");
         }
     }
 

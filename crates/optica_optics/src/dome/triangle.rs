@@ -860,6 +860,24 @@ mod tests {
         }
 
         #[test]
+        fn every_lens_meets_the_tolerance(
+            lens in 0usize..5, fov in 60.0f64..250.0, tilt in -30.0f64..30.0, tol in 0.5f64..8.0,
+            a in v3(), b in v3(), c in v3(),
+        ) {
+            // As above, for every radial lens (D10 sampled along each arc).
+            let lens = crate::dome::rule::tests::TEST_LENSES[lens];
+            let fov = fov.min(lens.max_fov_deg());
+            let p = crate::dome::test_lens_dome(lens, fov, tilt, 4096);
+            let r = refine_triangle(&p, [a, b, c], chord_gap(tol)).unwrap();
+            prop_assert!(r.mesh.positions.iter().all(|v| v.is_finite()));
+            if r.stats.capped_edges == 0 {
+                let e = crate::dome::EdgeErrors::of_mesh(&p, &r.mesh);
+                prop_assert_eq!(e.failed, 0);
+                prop_assert!(e.max_px <= tol, "{:?} {:?} tol {}", lens, e, tol);
+            }
+        }
+
+        #[test]
         fn two_triangles_sharing_an_edge_leave_no_crack(
             fov in 90.0f64..250.0, tilt in -30.0f64..30.0, tol in 0.5f64..8.0,
             a in v3(), b in v3(), c in v3(), d in v3(),

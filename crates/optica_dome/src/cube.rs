@@ -156,6 +156,13 @@ struct CubeParams {
     up: [Vec4; 6],
     theta_max: f32,
     tan_half: f32,
+    /// NDC per image-circle radius along x and y (the circle fits the
+    /// target's shorter side), from the view's size.
+    scale: Vec2,
+    /// A polynomial lens's shape, (k₂, k₃, k₄)/k₁.
+    shape: Vec3,
+    /// The lens's number (`DomeClip::lens_code`).
+    lens: u32,
 }
 
 /// Spawns, rebuilds or removes the face cameras of every dome camera whose
@@ -250,14 +257,19 @@ pub(crate) fn sync_cube_faces(
             table_images[face] = face_images[slot].clone();
             forward[face].w = 1.0;
         }
-        let (right, up_axis, axis) = DomeClip::of(dome).frame();
+        let clip = DomeClip::of(dome);
+        let (right, up_axis, axis) = clip.frame();
         let view_from_dome = Mat3::from_cols(right, up_axis, axis);
+        let (lens, shape) = clip.lens_code();
         let params = CubeParams {
             cube_from_dome: layout.view_from_cube.transpose() * view_from_dome,
             forward,
             up,
             theta_max: 0.5 * dome.fov_deg.to_radians(),
             tan_half,
+            scale: Vec2::ONE,
+            shape,
+            lens,
         };
         commands.entity(entity).insert((
             DomeCubeFaces {
@@ -421,11 +433,17 @@ fn prepare_resample(
                 ..default()
             })
         });
-        let made_from = (std::array::from_fn(|k| textures[k].id()), sampling.params);
+        // The image circle fits the view's shorter side.
+        let size = view.viewport.zw().max(UVec2::ONE).as_vec2();
+        let params = CubeParams {
+            scale: Vec2::splat(size.min_element()) / size,
+            ..sampling.params
+        };
+        let made_from = (std::array::from_fn(|k| textures[k].id()), params);
         if binding.is_some_and(|b| b.pipeline == pipeline && b.made_from == made_from) {
             continue;
         }
-        let mut uniform = UniformBuffer::from(sampling.params);
+        let mut uniform = UniformBuffer::from(params);
         uniform.write_buffer(&render_device, &render_queue);
         let Some(params) = uniform.binding() else {
             continue;

@@ -140,7 +140,7 @@ pub use projection::DomeClip;
 pub use refine::{
     DOME_LAYER, DomeApparentSize, DomeMaterialPlugin, DomeRefineStats, DomeTwin, DomeTwinOf,
 };
-pub use settings::{DomeCamera, DomeMode, FACE_PX_RANGE, MAX_FOV_DEG};
+pub use settings::{DomeCamera, DomeLens, DomeMode, FACE_PX_RANGE, MAX_FOV_DEG};
 pub use twin_mesh::{pre_subdivide_mesh_asset, refine_mesh_asset};
 
 /// Adds [`DomeCamera`]: keeps each dome camera's projection in step with
@@ -150,7 +150,7 @@ pub struct DomePlugin;
 
 impl Plugin for DomePlugin {
     fn build(&self, app: &mut App) {
-        load_shader_library!(app, "shaders/equidistant.wgsl");
+        load_shader_library!(app, "shaders/projection.wgsl");
         embedded_asset!(app, "shaders/rim_mask.wgsl");
         embedded_asset!(app, "shaders/cube_resample.wgsl");
         app.add_plugins(FullscreenMaterialPlugin::<DomeRimMask>::default())

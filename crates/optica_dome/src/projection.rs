@@ -1,6 +1,6 @@
 //! The dome camera's `Projection`: what Bevy's CPU side (culling, light
 //! clusters, shadow cascades) sees, and the parameters the vertex shader
-//! reads back from `clip_from_view` (`shaders/equidistant.wgsl`).
+//! reads back from `clip_from_view` (`shaders/projection.wgsl`).
 
 use bevy::camera::CameraProjection;
 use bevy::camera::primitives::Frustum;
@@ -8,13 +8,15 @@ use bevy::math::primitives::{HalfSpace, ViewFrustum};
 use bevy::math::{Mat4, Vec3, Vec3A, Vec4};
 use bevy::prelude::*;
 
-/// Focal length of the perspective part of `clip_from_view`: any non-zero
-/// value works; 1 keeps the matrix well conditioned. The shader checks it.
-pub(crate) const FOCAL: f32 = 1.0;
 /// `clip_from_view[2][2] = THETA_SCALE·θ_max`: small, so that Bevy's CPU
 /// code, which reads the matrix as an infinite reverse-Z perspective, sees
 /// depths off by at most 3e-4 in NDC.
 pub(crate) const THETA_SCALE: f32 = 1.0e-4;
+/// `clip_from_view[3][0] = LENS_MARK·(1 + lens)`, the lens's number (0
+/// equidistant … 4 polynomial): it marks the matrix as a dome camera's for
+/// the shader. A clip-space x offset of 1e-3 at most 5e-3, which no
+/// ordinary projection has.
+pub(crate) const LENS_MARK: f32 = 1.0e-3;
 
 /// The projection of a [`crate::DomeCamera`], kept in the camera's
 /// `Projection::custom` by the plugin. Not meant to be built by hand.
@@ -28,6 +30,12 @@ pub struct DomeClip {
     pub near: f32,
     /// Farthest distance culling considers.
     pub far: f32,
+    /// The radial mapping.
+    pub lens: crate::DomeLens,
+    /// NDC per image-circle radius along x and y: 1 on the shorter side of
+    /// the target, less on the longer one (the circle fits the shorter
+    /// side). Kept up to date from the target's size by Bevy.
+    pub scale: Vec2,
 }
 
 impl DomeClip {
@@ -38,6 +46,20 @@ impl DomeClip {
             tilt: camera.tilt_deg.to_radians(),
             near: camera.near,
             far: camera.far,
+            lens: camera.lens,
+            scale: Vec2::ONE,
+        }
+    }
+
+    /// The lens's number in the shader (`projection.wgsl`) and its
+    /// polynomial's shape k₂/k₁, k₃/k₁, k₄/k₁ (zero for the other lenses).
+    pub fn lens_code(&self) -> (u32, Vec3) {
+        match self.lens {
+            crate::DomeLens::Equidistant => (0, Vec3::ZERO),
+            crate::DomeLens::Equisolid => (1, Vec3::ZERO),
+            crate::DomeLens::Stereographic => (2, Vec3::ZERO),
+            crate::DomeLens::Orthographic => (3, Vec3::ZERO),
+            crate::DomeLens::Polynomial { k } => (4, Vec3::new(k[1], k[2], k[3]) / k[0]),
         }
     }
 
@@ -50,8 +72,13 @@ impl DomeClip {
     }
 
     /// `clip_from_view` = S·R: R rotates view space into the dome frame
-    /// with the axis along −Z, S is the infinite reverse-Z perspective of
-    /// focal 1 and near plane `near`, with `S[2][2]` carrying θ_max.
+    /// with the axis along −Z, S is an infinite reverse-Z perspective of
+    /// focals `scale` and near plane `near` that carries the rest of the
+    /// projection for the vertex shader (`projection.wgsl`): θ_max in
+    /// `S[2][2]`, the lens's number in the clip-x offset, and a
+    /// polynomial's shape in the clip-y offset and the x column of rows y
+    /// and z (entries the shader reads back directly, since image right is
+    /// view +X).
     pub fn clip_from_view(&self) -> Mat4 {
         let (right, up, axis) = self.frame();
         // Rows of R: right, up, −axis.
@@ -61,11 +88,13 @@ impl DomeClip {
             Vec4::new(right.z, up.z, -axis.z, 0.0),
             Vec4::W,
         );
+        let (lens, shape) = self.lens_code();
+        let mark = LENS_MARK * (1 + lens) as f32;
         let s = Mat4::from_cols(
-            Vec4::new(FOCAL, 0.0, 0.0, 0.0),
-            Vec4::new(0.0, FOCAL, 0.0, 0.0),
+            Vec4::new(self.scale.x, shape.y, shape.z, 0.0),
+            Vec4::new(0.0, self.scale.y, 0.0, 0.0),
             Vec4::new(0.0, 0.0, THETA_SCALE * self.theta_max, -1.0),
-            Vec4::new(0.0, 0.0, self.near, 0.0),
+            Vec4::new(mark, shape.x, self.near, 0.0),
         );
         s * r
     }
@@ -87,8 +116,12 @@ impl CameraProjection for DomeClip {
         self.clip_from_view()
     }
 
-    fn update(&mut self, _width: f32, _height: f32) {
-        // The domemaster is square and its scale is the field of view alone.
+    fn update(&mut self, width: f32, height: f32) {
+        // The image circle fits the shorter side.
+        if width > 0.0 && height > 0.0 {
+            let short = width.min(height);
+            self.scale = Vec2::new(short / width, short / height);
+        }
     }
 
     fn far(&self) -> f32 {

@@ -110,7 +110,7 @@ impl DomeTwin {
 struct BuiltFor {
     mesh: AssetId<Mesh>,
     camera: DomeCamera,
-    size_px: u32,
+    size_px: UVec2,
     placement: Placement,
 }
 
@@ -288,8 +288,9 @@ pub(crate) fn refine_twins(
     }
     let size_px = render
         .physical_target_size()
-        .map_or(DEFAULT_SIZE_PX, |s| s.x.max(s.y).max(1));
-    let Ok(projection) = camera.projection(size_px) else {
+        .unwrap_or(UVec2::splat(DEFAULT_SIZE_PX))
+        .max(UVec2::ONE);
+    let Ok(projection) = camera.projection_of_target(size_px.x, size_px.y) else {
         return;
     };
     let tolerance = f64::from(camera.tolerance_px);

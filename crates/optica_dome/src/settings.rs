@@ -1,12 +1,14 @@
 //! The user-facing dome camera component.
 
 use bevy::prelude::*;
-use optica_optics::dome::{DomeError, DomeProjection, DomeSettings};
+use optica_optics::dome::{DomeError, DomeProjection, DomeSettings, FisheyeLens};
 
-/// A fisheye dome camera: add it to a `Camera3d` and the camera renders an
-/// equidistant (f-θ) domemaster — a square image with the inscribed image
-/// circle, the zenith (dome axis) at the centre and the audience front at
-/// the bottom.
+/// A fisheye dome camera: add it to a `Camera3d` and the camera renders a
+/// domemaster — the image circle inscribed in the target (fitted to its
+/// shorter side when the target is not square), the zenith (dome axis) at
+/// the centre and the audience front at the bottom. The lens is
+/// equidistant (f-θ, the domemaster standard) unless [`DomeCamera::lens`]
+/// says otherwise.
 ///
 /// Mount the camera like a fisheye pointing at the zenith: its −Z is the
 /// dome axis at `tilt_deg = 0`, its +Y the image's up, so the audience front
@@ -47,6 +49,71 @@ pub struct DomeCamera {
     /// How the domemaster is made: by projecting vertices (the paper) or by
     /// resampling a cube of ordinary cameras.
     pub mode: DomeMode,
+    /// How polar angle maps to image radius: equidistant by default.
+    pub lens: DomeLens,
+}
+
+/// The radial mapping of a [`DomeCamera`]: a direction at angle θ from the
+/// dome axis lands at radius `r = f·g(θ)` from the image centre, with f set
+/// so that the rim (θ = FOV/2) lies on the image circle.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq, Default)]
+pub enum DomeLens {
+    /// g = θ: equal angles, equal radii. The domemaster standard.
+    #[default]
+    Equidistant,
+    /// g = 2 sin(θ/2): equal solid angles cover equal areas (most
+    /// photographic fisheyes).
+    Equisolid,
+    /// g = 2 tan(θ/2): conformal, shapes kept, stretched towards the rim.
+    Stereographic,
+    /// g = sin θ: a hemisphere seen from afar. At most 180°.
+    Orthographic,
+    /// g = k₁θ + k₂θ³ + k₃θ⁵ + k₄θ⁷, the Kannala–Brandt model calibration
+    /// tools (OpenCV's `fisheye`, Kalibr) fit to real lenses: paste their
+    /// coefficients and set the field of view the lens covers. k₁ > 0, and
+    /// r must rise over the whole field of view.
+    Polynomial {
+        /// k₁ … k₄.
+        k: [f32; 4],
+    },
+}
+
+impl DomeLens {
+    /// Every lens, for menus (the polynomial with a mildly barrelled
+    /// example lens).
+    pub const ALL: [DomeLens; 5] = [
+        DomeLens::Equidistant,
+        DomeLens::Equisolid,
+        DomeLens::Stereographic,
+        DomeLens::Orthographic,
+        DomeLens::Polynomial {
+            k: [1.0, -0.04, 0.003, -0.0001],
+        },
+    ];
+
+    /// The lens's name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            DomeLens::Equidistant => "equidistant",
+            DomeLens::Equisolid => "equisolid",
+            DomeLens::Stereographic => "stereographic",
+            DomeLens::Orthographic => "orthographic",
+            DomeLens::Polynomial { .. } => "polynomial",
+        }
+    }
+
+    /// The CPU twin's lens.
+    pub fn fisheye(&self) -> FisheyeLens {
+        match *self {
+            DomeLens::Equidistant => FisheyeLens::Equidistant,
+            DomeLens::Equisolid => FisheyeLens::Equisolid,
+            DomeLens::Stereographic => FisheyeLens::Stereographic,
+            DomeLens::Orthographic => FisheyeLens::Orthographic,
+            DomeLens::Polynomial { k } => FisheyeLens::Polynomial {
+                k: k.map(f64::from),
+            },
+        }
+    }
 }
 
 /// How a [`DomeCamera`] makes its image.
@@ -89,19 +156,32 @@ impl Default for DomeCamera {
             near: 0.1,
             far: 1000.0,
             mode: DomeMode::Vertex,
+            lens: DomeLens::Equidistant,
         }
     }
 }
 
 impl DomeCamera {
-    /// The CPU twin's projection for a domemaster of `size_px`, the
+    /// The CPU twin's projection for a square domemaster of `size_px`, the
     /// reference the plugin's shaders are tested against. Errors for a
-    /// field of view or tilt the projection cannot take.
+    /// field of view, tilt or lens the projection cannot take.
     pub fn projection(&self, size_px: u32) -> Result<DomeProjection, DomeError> {
+        self.projection_of_target(size_px, size_px)
+    }
+
+    /// [`Self::projection`] for a target of `width` × `height` pixels (the
+    /// image circle fits the shorter side).
+    pub fn projection_of_target(
+        &self,
+        width: u32,
+        height: u32,
+    ) -> Result<DomeProjection, DomeError> {
         DomeProjection::new(&DomeSettings {
             fov_deg: f64::from(self.fov_deg),
             tilt_deg: f64::from(self.tilt_deg),
-            size_px,
+            size_px: width,
+            height_px: Some(height),
+            lens: self.lens.fisheye(),
         })
     }
 
@@ -140,6 +220,10 @@ impl DomeCamera {
                 FACE_PX_RANGE.end()
             ));
         }
-        Ok(())
+        // The lens against the field of view (an orthographic lens beyond
+        // 180°, a polynomial that folds back): the CPU twin's own checks.
+        self.projection(256)
+            .map(|_| ())
+            .map_err(|why| format!("dome {} lens: {why}", self.lens.name()))
     }
 }

@@ -111,7 +111,7 @@ fn patched(source: &str) -> Result<String, &'static str> {
     let at = text.find(ANCHOR_IMPORT).ok_or(ANCHOR_IMPORT)? + ANCHOR_IMPORT.len();
     text.insert_str(
         at,
-        &format!("\n{MARKER}\n#import optica_dome::equidistant as dome_projection"),
+        &format!("\n{MARKER}\n#import optica_dome::projection as dome_projection"),
     );
     for (signature, branch) in BRANCHES {
         let at = text.find(signature).ok_or(signature)? + signature.len();

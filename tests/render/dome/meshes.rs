@@ -66,6 +66,7 @@ fn dome() -> DomeProjection {
         fov_deg: 180.0,
         tilt_deg: 0.0,
         size_px: 1024,
+        ..Default::default()
     })
     .unwrap()
 }

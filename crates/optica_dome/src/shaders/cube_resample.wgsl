@@ -1,7 +1,8 @@
 // cube.rs: the domemaster resampled from the cube's face images, one
-// direction per output pixel (the inverse of the equidistant projection,
+// direction per output pixel (the inverse of the dome's lens,
 // `DomeProjection::unproject` on the CPU).
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
+#import optica_dome::projection::{Lens, lens_theta}
 
 struct CubeParams {
     // Dome coordinates (image right, image up, along the axis) → cube frame.
@@ -14,6 +15,12 @@ struct CubeParams {
     // tan of half a face camera's field of view (one guard texel wider
     // than the cube's quarter).
     tan_half: f32,
+    // NDC per image-circle radius along x and y.
+    scale: vec2<f32>,
+    // A polynomial lens's shape, (k₂, k₃, k₄)/k₁.
+    shape: vec3<f32>,
+    // The lens's number.
+    lens: u32,
 }
 
 @group(0) @binding(0) var face0: texture_2d<f32>;
@@ -38,12 +45,13 @@ fn sample_face(face: u32, uv: vec2<f32>) -> vec4<f32> {
 
 @fragment
 fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
-    // NDC of the pixel centre, y up; the image circle has radius 1.
-    let ndc = vec2<f32>(in.uv.x * 2.0 - 1.0, 1.0 - in.uv.y * 2.0);
+    // The pixel centre in units of the image circle's radius, y up.
+    let ndc = vec2<f32>(in.uv.x * 2.0 - 1.0, 1.0 - in.uv.y * 2.0) / params.scale;
     let r = length(ndc);
     // Pixels outside the circle repeat the rim (the rim mask paints them),
     // so that no direction beyond the field of view is looked up.
-    let theta = min(r, 1.0) * params.theta_max;
+    let lens = Lens(i32(params.lens), params.shape, params.theta_max);
+    let theta = lens_theta(lens, r);
     var azimuth = vec2<f32>(0.0);
     if r > 0.0 {
         azimuth = ndc / r;

@@ -273,7 +273,7 @@ impl DomeProjection {
     /// or culled geometry never meets it; pieces of at most
     /// [`Self::max_unclipped_piece_rad`] straddling it lie far outside the
     /// image circle and cannot wrap around the antipode. The vertex shader
-    /// (`equidistant.wgsl`) applies it.
+    /// (`projection.wgsl`) applies it.
     pub fn theta_draw_limit(&self) -> f64 {
         self.theta_max + 0.875 * (PI - self.theta_max)
     }

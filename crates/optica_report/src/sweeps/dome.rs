@@ -53,6 +53,7 @@ fn dome(fov_deg: f64) -> DomeProjection {
         fov_deg,
         tilt_deg: 0.0,
         size_px: 4096,
+        ..Default::default()
     })
     .expect("valid dome")
 }

@@ -116,12 +116,15 @@ pub(super) fn nearest_face(p: [u8; 4]) -> usize {
 /// corners are black.
 pub(super) fn faces_shown(frame: &RenderedFrame, dome_settings: DomeCamera) -> f64 {
     let img = frame.to_rgba8();
-    let dome = dome_settings.projection(SIZE).expect("a valid dome");
+    let (width, height) = img.dimensions();
+    let dome = dome_settings
+        .projection_of_target(width, height)
+        .expect("a valid dome");
     let rotation = zenith().rotation.as_dquat();
     let (mut inside, mut matching, mut outside) = (0usize, 0usize, 0usize);
     let mut misses = Vec::new();
-    for y in 0..SIZE {
-        for x in 0..SIZE {
+    for y in 0..height {
+        for x in 0..width {
             let pixel = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
             let r = (pixel - dome.centre_px()).length();
             // Outside the circle the rim mask paints black (the walls

@@ -3,8 +3,8 @@
 //! light and a point light: Bevy's lights and shadows on the refined twins.
 
 use bevy::prelude::*;
-use optica_dome::{DomeCamera, DomeMode, DomePlugin};
-use optica_harness::{Headless, assert_golden};
+use optica_dome::{DomeCamera, DomeLens, DomeMode, DomePlugin};
+use optica_harness::{Golden, Headless, Tolerance, assert_golden, golden_name};
 
 use super::dome_camera;
 
@@ -14,6 +14,12 @@ fn lit_room(app: &mut App) {
 
 /// The lit room through a tilted dome camera in `mode`.
 fn lit_room_drawn_by(mode: DomeMode) -> impl FnOnce(&mut App) {
+    lit_room_through(mode, DomeLens::Equidistant, 180.0)
+}
+
+/// The lit room through a tilted dome camera in `mode` with `lens` and a
+/// field of view of `fov_deg`.
+fn lit_room_through(mode: DomeMode, lens: DomeLens, fov_deg: f32) -> impl FnOnce(&mut App) {
     move |app: &mut App| {
         app.add_plugins(DomePlugin);
         app.add_systems(
@@ -77,6 +83,8 @@ fn lit_room_drawn_by(mode: DomeMode) -> impl FnOnce(&mut App) {
                     DomeCamera {
                         tilt_deg: 20.0,
                         mode,
+                        lens,
+                        fov_deg,
                         ..default()
                     },
                     Transform::from_xyz(0.0, 1.2, 1.0).looking_to(Vec3::Y, Vec3::Z),
@@ -90,6 +98,25 @@ fn lit_room_drawn_by(mode: DomeMode) -> impl FnOnce(&mut App) {
 fn lit_room_through_a_tilted_dome() {
     let frame = Headless::new(128, 128).render(lit_room).expect("render");
     assert_golden!(&frame);
+}
+
+/// The lit room through every other lens (the equidistant one is the
+/// golden above), each at a field of view it is made for: a golden each.
+#[test]
+fn lit_room_through_every_lens() {
+    let goldens = Golden::new(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden"));
+    for (lens, fov) in [
+        (DomeLens::Equisolid, 200.0),
+        (DomeLens::Stereographic, 180.0),
+        (DomeLens::Orthographic, 180.0),
+        (DomeLens::ALL[4], 220.0),
+    ] {
+        let frame = Headless::new(128, 128)
+            .render(lit_room_through(DomeMode::Vertex, lens, fov))
+            .expect("render");
+        let name = format!("{}__{}", golden_name!(), lens.name());
+        goldens.assert_matches(&name, &frame, Tolerance::default());
+    }
 }
 
 /// The same room in the cube-map mode (4 faces of 96 px for a 128 px

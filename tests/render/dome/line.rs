@@ -9,7 +9,7 @@
 use bevy::asset::RenderAssetUsages;
 use bevy::mesh::PrimitiveTopology;
 use bevy::prelude::*;
-use optica_dome::{DomeCamera, DomePlugin};
+use optica_dome::{DomeCamera, DomeLens, DomePlugin};
 use optica_harness::Headless;
 use optica_optics::glam::DVec2;
 
@@ -32,6 +32,16 @@ enum Drawn {
 /// The largest distance, in px, from a lit pixel centre to the analytic
 /// arc, and the number of lit pixels.
 fn farthest_lit_pixel(tolerance_px: f32, drawn: Drawn) -> (f64, usize) {
+    farthest_lit_pixel_through(DomeLens::Equidistant, tolerance_px, drawn)
+}
+
+/// [`farthest_lit_pixel`] through a dome camera with `lens`.
+fn farthest_lit_pixel_through(lens: DomeLens, tolerance_px: f32, drawn: Drawn) -> (f64, usize) {
+    let camera = DomeCamera {
+        tolerance_px,
+        lens,
+        ..default()
+    };
     let frame = Headless::new(SIZE, SIZE)
         .render(move |app: &mut App| {
             app.add_plugins(DomePlugin);
@@ -53,20 +63,12 @@ fn farthest_lit_pixel(tolerance_px: f32, drawn: Drawn) -> (f64, usize) {
                         flat(&mut materials, Color::WHITE),
                         Transform::from_translation(CENTRE),
                     ));
-                    commands.spawn(dome_camera(
-                        DomeCamera {
-                            tolerance_px,
-                            ..default()
-                        },
-                        zenith(),
-                    ));
+                    commands.spawn(dome_camera(camera, zenith()));
                 },
             );
         })
         .expect("render");
-    let dome = DomeCamera::default()
-        .projection(SIZE)
-        .expect("a valid dome");
+    let dome = camera.projection(SIZE).expect("a valid dome");
     // The analytic image: the segment's axis, finely sampled, projected.
     let view_from_world = zenith().compute_affine().inverse();
     let arc: Vec<DVec2> = (0..=20_000)
@@ -133,4 +135,27 @@ fn a_line_mesh_lies_on_its_analytic_arc() {
     let (loose, _) = farthest_lit_pixel(30.0, Drawn::Line(PrimitiveTopology::LineList));
     eprintln!("line at 30 px: farthest {loose:.2} px from the arc");
     assert!(loose > 3.0, "30 px drew the line within {loose:.2} px");
+}
+
+/// Every lens: the segment drawn as a line mesh at 0.5 px lies on its
+/// analytic curve in that lens's image (a lit pixel centre within the
+/// tolerance plus ~0.75 px of sampling), and at 30 px it does not.
+#[test]
+fn a_straight_line_lies_on_its_analytic_curve_through_every_lens() {
+    for lens in DomeLens::ALL {
+        let line = Drawn::Line(PrimitiveTopology::LineList);
+        let (refined, lit) = farthest_lit_pixel_through(lens, 0.5, line);
+        let (loose, _) = farthest_lit_pixel_through(lens, 30.0, line);
+        eprintln!(
+            "{}: {lit} lit pixels, farthest {refined:.2} px from the curve at 0.5 px, {loose:.2} px at 30 px",
+            lens.name()
+        );
+        assert!(lit > 100, "{}: the line is missing ({lit} px)", lens.name());
+        assert!(
+            refined <= 0.5 + 0.75,
+            "{}: a lit pixel {refined:.2} px off the curve",
+            lens.name()
+        );
+        assert!(loose > 2.0, "{}: 30 px drew the line within {loose:.2} px", lens.name());
+    }
 }

@@ -250,3 +250,70 @@ fn the_cube_mode_on_the_stiff_scene() {
     let refused = render(cube(180.0, 0.0, 4));
     green_share(&refused, 0.0..1.0, |_, _| true);
 }
+
+/// Every lens on the stiff scene: behind a 180° dome the ground does not
+/// show and the bad lines leave no streak; round a 250° one the ground is
+/// a ring outside the horizon's circle (where each lens puts 90°), with no
+/// wrap-around; at the widest field of view each lens takes (350°, 180°
+/// for the orthographic) nothing wraps into the horizon's circle and no
+/// pixel is non-finite. A lens the field of view cannot take (an
+/// orthographic 200°, a polynomial that folds back) is refused, and the
+/// app keeps running.
+#[test]
+fn every_lens_on_the_stiff_scene() {
+    use optica_dome::{DomeLens, MAX_FOV_DEG};
+    use optica_optics::glam::DVec3;
+    for lens in DomeLens::ALL {
+        let camera = |fov_deg: f32| DomeCamera {
+            fov_deg,
+            lens,
+            ..default()
+        };
+        let name = lens.name();
+        let behind = render(camera(180.0));
+        let (share, _) = green_share(&behind, 0.0..0.97, |_, _| true);
+        assert_eq!(share, 0.0, "{name}: the ground behind a 180° dome shows");
+        let red = red_share(&behind, 0.3..0.97);
+        assert_eq!(red, 0.0, "{name}: red on {red} of the disk");
+        if lens == DomeLens::Orthographic {
+            continue;
+        }
+        for fov_deg in [250.0, MAX_FOV_DEG] {
+            // Where this lens puts the horizon (90° from the zenith).
+            let dome = camera(fov_deg).projection(SIZE).expect("a valid dome");
+            let horizon = dome
+                .project(DVec3::X)
+                .image_point()
+                .map(|p| ((p.pixel - dome.centre_px()).length() / dome.rim_radius_px()) as f32)
+                .expect("the horizon projects");
+            let frame = render(camera(fov_deg));
+            let (inner, _) = green_share(&frame, 0.0..horizon - 0.05, |_, _| true);
+            assert_eq!(inner, 0.0, "{name} {fov_deg}°: the ground wrapped in");
+            if fov_deg == 250.0 {
+                let (ring, n) = green_share(&frame, horizon + 0.05..0.97, |_, _| true);
+                assert!(
+                    n > 500 && ring > 0.98,
+                    "{name} {fov_deg}°: the ground ring {ring} of {n} px (horizon at {horizon:.2})"
+                );
+            }
+        }
+    }
+    for refused in [
+        DomeCamera {
+            fov_deg: 200.0,
+            lens: DomeLens::Orthographic,
+            ..default()
+        },
+        DomeCamera {
+            fov_deg: 200.0,
+            lens: DomeLens::Polynomial {
+                k: [1.0, -0.2, 0.0, 0.0],
+            },
+            ..default()
+        },
+    ] {
+        let why = refused.validate().expect_err("refused");
+        assert!(why.contains("lens"), "{why}");
+        green_share(&render(refused), 0.0..1.0, |_, _| true);
+    }
+}

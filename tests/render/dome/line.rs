@@ -156,6 +156,10 @@ fn a_straight_line_lies_on_its_analytic_curve_through_every_lens() {
             "{}: a lit pixel {refined:.2} px off the curve",
             lens.name()
         );
-        assert!(loose > 2.0, "{}: 30 px drew the line within {loose:.2} px", lens.name());
+        assert!(
+            loose > 2.0,
+            "{}: 30 px drew the line within {loose:.2} px",
+            lens.name()
+        );
     }
 }

@@ -24,14 +24,20 @@
 //!   a room of single-quad faces at one output size, measured from the
 //!   pixels (see `dome_render.rs`); their frame times compare at equal
 //!   `pixel_max_px`.
+//! * Series `lens: <name>` (knob: tolerance): the same random edges and
+//!   room through each other radial lens (equisolid, stereographic,
+//!   orthographic at 180°; the polynomial at 220°), the chord-gap rule
+//!   measuring curvature in that lens's image (D10): `max_px`, `mean_px`,
+//!   `mesh_max_px` by D8 in that image; time_ms: clip + refine + project,
+//!   as above.
 //! * Stability: cases that run the whole path (clip, refine, measure) on
 //!   scenes the unit tests do not cover end to end.
 
 use std::f64::consts::PI;
 
 use optica_optics::dome::{
-    DomeError, DomeProjection, DomeSettings, EdgeErrors, Projected, RefinedSegment, SplitRule,
-    TriMesh, chord_error_px, clip_segment, polyline_error_px, random_edges, refine_mesh,
+    DomeError, DomeProjection, DomeSettings, EdgeErrors, FisheyeLens, Projected, RefinedSegment,
+    SplitRule, TriMesh, chord_error_px, clip_segment, polyline_error_px, random_edges, refine_mesh,
     refine_segment, refine_segments,
 };
 use optica_optics::glam::DVec3;
@@ -49,14 +55,34 @@ fn room() -> TriMesh {
 
 /// A 4K dome of `fov_deg`, untilted.
 fn dome(fov_deg: f64) -> DomeProjection {
+    lens_dome(FisheyeLens::Equidistant, fov_deg)
+}
+
+/// A 4K dome of `fov_deg` with `lens`, untilted.
+fn lens_dome(lens: FisheyeLens, fov_deg: f64) -> DomeProjection {
     DomeProjection::new(&DomeSettings {
         fov_deg,
         tilt_deg: 0.0,
         size_px: 4096,
+        lens,
         ..Default::default()
     })
     .expect("valid dome")
 }
+
+/// The other lenses of the `lens:` series, with their fields of view.
+const LENSES: [(&str, FisheyeLens, f64); 4] = [
+    ("equisolid", FisheyeLens::Equisolid, 180.0),
+    ("stereographic", FisheyeLens::Stereographic, 180.0),
+    ("orthographic", FisheyeLens::Orthographic, 180.0),
+    (
+        "polynomial",
+        FisheyeLens::Polynomial {
+            k: [1.0, -0.04, 0.003, -0.0001],
+        },
+        220.0,
+    ),
+];
 
 /// The chord-gap rule at `tolerance_px`.
 fn chord_gap(tolerance_px: f64) -> SplitRule {
@@ -182,10 +208,60 @@ pub fn run(ctx: &SweepContext) -> Result<Report, super::SweepError> {
         debug_assert_eq!(segments, emitted.0);
     }
 
+    lenses(&mut report, ctx, &tolerances);
     super::dome_render::rendered_rows(ctx, &mut report)?;
     stability(&mut report, ctx);
     classification(&mut report, ctx);
     Ok(report)
+}
+
+/// The `lens:` series: the random edges and the room through every other
+/// radial lens, refined and measured in that lens's own image.
+fn lenses(report: &mut Report, ctx: &SweepContext, tolerances: &[f64]) {
+    let n_edges = ctx.pick(200, 2000);
+    let (runs, budget) = ctx.pick((2, 20.0), (5, 200.0));
+    let room = room();
+    for (k, &(name, lens, fov)) in LENSES.iter().enumerate() {
+        ctx.progress(k + 1, LENSES.len(), &format!("lens {name}"));
+        let proj = lens_dome(lens, fov);
+        let edges = random_edges(&proj, n_edges, 89f64.to_radians(), 1.0..60.0, 0x00D0_3E01);
+        let (base_ms, _) = time_ms(runs, budget, || {
+            edges
+                .iter()
+                .flatten()
+                .filter(|p| matches!(proj.project(**p), Projected::Visible(_)))
+                .count()
+        });
+        let (un_max, un_mean) = unrefined_errors(&proj, &edges);
+        for &tol in tolerances {
+            let rule = chord_gap(tol);
+            let (ms, emitted) = time_ms(runs, budget, || {
+                let r = refine_segments(&proj, &edges, rule);
+                let visible = r
+                    .strips
+                    .iter()
+                    .flatten()
+                    .filter(|p| matches!(proj.project(**p), Projected::Visible(_)))
+                    .count();
+                (r.stats.emitted, visible)
+            });
+            let (max, mean, _) = per_edge_errors(&proj, &edges, rule);
+            let mesh = refine_mesh(&proj, &room, rule);
+            let mesh_err = EdgeErrors::of_mesh(&proj, &mesh.mesh);
+            report.rows.push(
+                Row::new(tol, ms, base_ms)
+                    .series(&format!("lens: {name} {fov}°"))
+                    .err("max_px", max)
+                    .err("mean_px", mean)
+                    .err("mesh_max_px", mesh_err.max_px)
+                    .err("unrefined_max_px", un_max)
+                    .err("unrefined_mean_px", un_mean)
+                    .work("segments", emitted.0 as f64)
+                    .work("input_edges", edges.len() as f64)
+                    .work("mesh_triangles", mesh.mesh.triangles().len() as f64),
+            );
+        }
+    }
 }
 
 /// The paper's classification (§3.1) on sky art: split once with the
@@ -484,9 +560,20 @@ mod tests {
         assert!(problems.is_empty(), "{problems:#?}");
         let (cpu, rendered): (Vec<&Row>, Vec<&Row>) =
             r.rows.iter().partition(|row| row.series.is_empty());
+        let (lenses, rendered): (Vec<&Row>, Vec<&Row>) = rendered
+            .into_iter()
+            .partition(|row| row.series.starts_with("lens"));
         let (rendered, cube): (Vec<&Row>, Vec<&Row>) = rendered
             .into_iter()
             .partition(|row| row.series.starts_with("vertex"));
+        // Every lens holds the tolerance on edges and on the room, in its
+        // own image, and refining is what does it.
+        assert_eq!(lenses.len(), 4 * 3);
+        for row in &lenses {
+            assert!(row.error["max_px"] <= row.knob, "{row:?}");
+            assert!(row.error["mesh_max_px"] <= row.knob, "{row:?}");
+            assert!(row.error["unrefined_max_px"] > 10.0 * row.knob, "{row:?}");
+        }
         assert_eq!(cpu.len(), 3);
         assert_eq!(rendered.len(), 3);
         assert_eq!(cube.len(), 3);

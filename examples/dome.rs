@@ -9,13 +9,18 @@
 //! ordinary cameras instead.
 //!
 //! ```sh
-//! cargo run --example dome --features dome,egui,window -- [--fov 180] [--tilt 0] [--tolerance 0.5] [--cube FACE_PX] [--out DIR]
+//! cargo run --example dome --features dome,egui,window -- [--fov 180] [--tilt 0] [--tolerance 0.5] [--lens equisolid] [--cube FACE_PX] [--out DIR]
 //! # A render farm's job: frames 0..240 of the show, 4K, to ./show
 //! cargo run --release --example dome --features dome -- --export show --frames 0..240 --size 4096
 //! ```
 //!
+//! `--lens` picks the radial mapping: `equidistant` (the default and the
+//! domemaster standard), `equisolid`, `stereographic`, `orthographic`, or
+//! `polynomial` with `--k k1,k2,k3,k4` (a calibrated lens's Kannala–Brandt
+//! coefficients).
+//!
 //! With the `window` feature and a display it opens a window (an egui panel
-//! for mode, field of view, tilt and tolerance with the `egui` feature);
+//! for mode, lens, field of view, tilt and tolerance with the `egui` feature);
 //! otherwise (or with `--out`) it renders headlessly and writes
 //! `dome_0.png` … `dome_3.png` (2 s of show apart) to `DIR`, by default
 //! `target/optica/`. `--export DIR` writes the domemaster PNG sequence
@@ -28,7 +33,7 @@
 use bevy::prelude::*;
 use optica::dome::lines::{self, Graticule};
 use optica::dome::{
-    DomeApparentSize, DomeCamera, DomeExport, DomeExportPlugin, DomeMode, DomePlugin,
+    DomeApparentSize, DomeCamera, DomeExport, DomeExportPlugin, DomeLens, DomeMode, DomePlugin,
     DomeRefineStats, DomeShowClock, parse_frame_range,
 };
 
@@ -65,6 +70,32 @@ fn parse_args() -> Result<Args, String> {
             "--fov" => dome.fov_deg = number(value()?)?,
             "--tilt" => dome.tilt_deg = number(value()?)?,
             "--tolerance" => dome.tolerance_px = number(value()?)?,
+            "--lens" => {
+                let name = value()?;
+                let k = match dome.lens {
+                    DomeLens::Polynomial { k } => k,
+                    _ => [1.0, -0.04, 0.003, -0.0001],
+                };
+                dome.lens = match name.as_str() {
+                    "polynomial" => DomeLens::Polynomial { k },
+                    _ => *DomeLens::ALL
+                        .iter()
+                        .find(|l| l.name() == name)
+                        .ok_or(format!("--lens: `{name}` is not a lens"))?,
+                };
+            }
+            "--k" => {
+                let v = value()?;
+                let k: Vec<f32> = v
+                    .split(',')
+                    .map(|c| c.trim().parse())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| format!("--k: `{v}` is not four numbers"))?;
+                let k: [f32; 4] = k
+                    .try_into()
+                    .map_err(|_| format!("--k: `{v}` is not four numbers"))?;
+                dome.lens = DomeLens::Polynomial { k };
+            }
             "--cube" => {
                 let face_px = value()?;
                 let face_px = face_px
@@ -445,7 +476,26 @@ fn panel(
             }
             (true, DomeMode::Vertex) => DomeMode::CubeMap { face_px: 768 },
         };
-        ui.add(egui::Slider::new(&mut edit.fov_deg, 60.0..=250.0).text("field of view (°)"));
+        egui::ComboBox::from_label("lens")
+            .selected_text(edit.lens.name())
+            .show_ui(ui, |ui| {
+                for lens in DomeLens::ALL {
+                    let chosen =
+                        std::mem::discriminant(&edit.lens) == std::mem::discriminant(&lens);
+                    if ui.selectable_label(chosen, lens.name()).clicked() && !chosen {
+                        edit.lens = lens;
+                    }
+                }
+            });
+        if let DomeLens::Polynomial { k } = &mut edit.lens {
+            ui.horizontal(|ui| {
+                for (i, c) in k.iter_mut().enumerate() {
+                    ui.label(format!("k{}", i + 1));
+                    ui.add(egui::DragValue::new(c).speed(0.001).max_decimals(5));
+                }
+            });
+        }
+        ui.add(egui::Slider::new(&mut edit.fov_deg, 60.0..=350.0).text("field of view (°)"));
         ui.add(egui::Slider::new(&mut edit.tilt_deg, -30.0..=90.0).text("tilt (°)"));
         ui.add(
             egui::Slider::new(&mut edit.tolerance_px, 0.1..=40.0)

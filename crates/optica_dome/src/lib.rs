@@ -1,10 +1,14 @@
 //! # optica_dome — a fisheye dome camera for Bevy
 //!
-//! Renders an **equidistant (f-θ) domemaster** for planetarium domes, after
-//! Yuna Johjima and Masao Fujimura, *Fragment refinement for real-time
+//! Renders a **fisheye domemaster** for planetarium domes, after Yuna
+//! Johjima and Masao Fujimura, *Fragment refinement for real-time
 //! equidistant projection* (Osaka Institute of Technology): every vertex is
-//! projected equidistantly in the vertex shader, so ordinary lit meshes
-//! (`StandardMaterial`, Bevy's lights and shadows) appear on the dome.
+//! projected in the vertex shader, so ordinary lit meshes
+//! (`StandardMaterial`, Bevy's lights and shadows) appear on the dome. The
+//! lens ([`DomeLens`]) is the paper's equidistant (f-θ) one by default, or
+//! equisolid, stereographic, orthographic, or a calibrated lens's
+//! Kannala–Brandt polynomial; the image circle fits the target's shorter
+//! side, so non-square targets work too.
 //!
 //! ```no_run
 //! use bevy::prelude::*;
@@ -32,15 +36,16 @@
 //! `VIEW_PROJECTION_NONSTANDARD`; the plugin adds to Bevy's
 //! `position_world_to_clip` (the one function every mesh, prepass and
 //! material vertex shader reaches clip space through) a branch that
-//! projects equidistantly for dome views. So a user's own material takes
+//! projects through the dome's lens for dome views. So a user's own material takes
 //! part as long as its vertex shader goes through
 //! `bevy_pbr::view_transformations` (or `mesh_functions`), as Bevy's do;
 //! other cameras in the same app render as before. The branch is added
 //! when the first `DomeCamera` appears; a scene without one keeps Bevy's
 //! shader untouched.
 //!
-//! Clip space: NDC radius `θ/θ_max` along the point's azimuth (the image
-//! circle is the inscribed circle of the square target), depth `near/|p|`
+//! Clip space: NDC radius `g(θ)/g(θ_max)` along the point's azimuth (g the
+//! lens's mapping; the image circle is inscribed in the target's shorter
+//! side), depth `near/|p|`
 //! (radial, reverse-Z) and `w = |p|`, so attributes interpolate by radial
 //! distance. The shader twin is tested against
 //! `optica_optics::dome::DomeProjection::project` by readback.
@@ -54,7 +59,8 @@
 //! (`optica_optics::dome::refine_triangle`): clipped behind the viewer
 //! (FOV ≤ 180°; next to 180° carried 1° on past the rim so that the rim
 //! itself is covered) or culled at the antipode guard (wider), and split until
-//! every chord is within [`DomeCamera::tolerance_px`]; neighbours split
+//! every chord is within [`DomeCamera::tolerance_px`], measured in the
+//! lens's own image (its curvature there, `optica_optics::dome` D10); neighbours split
 //! their shared edges identically, so no crack opens. A twin is rebuilt only
 //! when its mesh, its placement relative to the camera or the camera's
 //! settings change. Twins live on the render layer [`DOME_LAYER`], which
@@ -144,7 +150,7 @@ pub use settings::{DomeCamera, DomeLens, DomeMode, FACE_PX_RANGE, MAX_FOV_DEG};
 pub use twin_mesh::{pre_subdivide_mesh_asset, refine_mesh_asset};
 
 /// Adds [`DomeCamera`]: keeps each dome camera's projection in step with
-/// its settings and, once a dome camera exists, puts the equidistant
+/// its settings and, once a dome camera exists, puts the fisheye
 /// branch into Bevy's vertex path.
 pub struct DomePlugin;
 
@@ -157,6 +163,7 @@ impl Plugin for DomePlugin {
             .add_plugins(cube::CubeResamplePlugin)
             .register_type::<DomeCamera>()
             .register_type::<DomeMode>()
+            .register_type::<DomeLens>()
             .register_type::<DomeApparentSize>()
             .register_type::<DomeRefineStats>()
             .init_resource::<DomeRefineStats>()

@@ -2,7 +2,7 @@
 //! vertex shaders all go to clip space through
 //! `bevy_pbr::view_transformations::position_world_to_clip`. The plugin
 //! adds a branch to that function (and to `position_view_to_clip`) that
-//! projects equidistantly when the view is a dome camera — recognised by
+//! projects through the dome's lens when the view is a dome camera — recognised by
 //! the mesh pipeline's `VIEW_PROJECTION_NONSTANDARD` shader def, which Bevy
 //! sets for custom projections, and by the parameters the dome's
 //! `clip_from_view` carries. Other views take Bevy's own path unchanged.

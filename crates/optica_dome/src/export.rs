@@ -64,7 +64,7 @@ pub struct DomeExport {
     /// Updates rendered on each frame before its capture that count as
     /// settled: every pipeline made (the export waits for pipelines still
     /// compiling or waiting for a shader, up to
-    /// [`MAX_PIPELINE_WAIT_UPDATES`]) and no dome twin rebuilt in the
+    /// 600 updates) and no dome twin rebuilt in the
     /// update (the twins an update refines are drawn from the next one
     /// on). So each frame is captured from the same settled state whatever
     /// came before it, and frame `n` is the same image, bit for bit,

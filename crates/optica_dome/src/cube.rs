@@ -42,7 +42,7 @@ use bevy::render::view::{ExtractedView, Msaa, ViewTarget};
 use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use bevy::shader::Shader;
 
-use crate::{DomeCamera, DomeClip, DomeMode, DomeRimMask};
+use crate::{DomeCamera, DomeClip, DomeMode, DomeRimMask, DomeSees};
 
 /// Where `embedded_asset!` puts the resampling shader.
 const SHADER_PATH: &str = "embedded://optica_dome/shaders/cube_resample.wgsl";
@@ -177,12 +177,13 @@ pub(crate) fn sync_cube_faces(
             &Camera,
             Option<&Msaa>,
             Option<&DomeCubeFaces>,
+            Option<&DomeSees>,
         ),
         Changed<DomeCamera>,
     >,
     mut images: ResMut<Assets<Image>>,
 ) {
-    for (entity, dome, camera, msaa, faces) in &cameras {
+    for (entity, dome, camera, msaa, faces, sees) in &cameras {
         let face_px = match dome.mode {
             DomeMode::CubeMap { face_px } if dome.validate().is_ok() => Some(face_px),
             _ => None,
@@ -238,7 +239,7 @@ pub(crate) fn sync_cube_faces(
                     Tonemapping::None,
                     msaa.copied().unwrap_or_default(),
                     layout.face_transform(face),
-                    RenderLayers::default(),
+                    sees.map_or_else(RenderLayers::default, |s| s.0.clone()),
                     DomeCubeFace { dome: entity, face },
                     ChildOf(entity),
                 ))
@@ -282,6 +283,19 @@ pub(crate) fn sync_cube_faces(
                 params,
             },
         ));
+    }
+}
+
+/// Keeps the face cameras' layers in step with their dome camera's
+/// [`DomeSees`].
+pub(crate) fn follow_dome_sees(
+    domes: Query<(&DomeSees, &DomeCubeFaces), Changed<DomeSees>>,
+    mut commands: Commands,
+) {
+    for (sees, cube) in &domes {
+        for &face in &cube.cameras {
+            commands.entity(face).insert(sees.0.clone());
+        }
     }
 }
 

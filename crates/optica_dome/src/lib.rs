@@ -109,8 +109,10 @@
 //!
 //! ## Status and limits
 //!
-//! One dome camera per app refines (the first in the vertex mode; any
-//! number may use the cube mode). Lines are one pixel wide whatever the
+//! Any number of dome cameras, in either mode: each vertex-mode camera gets
+//! twins refined for it, on its own render layer, and sees the meshes
+//! and lights whose `RenderLayers` meet its [`DomeSees`] (the camera's
+//! own layers when it was made a dome camera). Lines are one pixel wide whatever the
 //! domemaster's size (draw wide lines as thin meshes, refined like any
 //! triangle). Skinned and morphed meshes are refined in their rest pose. The square's
 //! corners outside the image circle are painted by a full-screen pass
@@ -144,7 +146,8 @@ pub use export::{DomeExport, DomeExportPlugin, DomeShowClock, parse_frame_range}
 pub use mask::DomeRimMask;
 pub use projection::DomeClip;
 pub use refine::{
-    DOME_LAYER, DomeApparentSize, DomeMaterialPlugin, DomeRefineStats, DomeTwin, DomeTwinOf,
+    DOME_LAYER, DomeApparentSize, DomeLayer, DomeMaterialPlugin, DomeRefineStats, DomeSees,
+    DomeTwin, DomeTwinOf, DomeTwins,
 };
 pub use settings::{DomeCamera, DomeLens, DomeMode, FACE_PX_RANGE, MAX_FOV_DEG};
 pub use twin_mesh::{pre_subdivide_mesh_asset, refine_mesh_asset};
@@ -177,7 +180,11 @@ impl Plugin for DomePlugin {
             )
             .add_systems(
                 PostUpdate,
-                (cube::sync_cube_faces, cube::follow_dome_camera)
+                (
+                    cube::sync_cube_faces,
+                    cube::follow_dome_camera,
+                    cube::follow_dome_sees,
+                )
                     .after(sync_projection)
                     .before(bevy::transform::TransformSystems::Propagate),
             )
@@ -198,16 +205,37 @@ impl Plugin for DomePlugin {
 }
 
 /// Gives every new or changed [`DomeCamera`] its projection, a single
-/// light cluster, the dome's render layer (replacing the camera's own
-/// `RenderLayers`) and, when it has none, a [`DomeRimMask`]; invalid
-/// settings keep the last good projection and log why.
+/// light cluster, its render layers and, when it has none, a
+/// [`DomeRimMask`]; invalid settings keep the last good projection and log
+/// why. The camera's own `RenderLayers` become its [`DomeSees`] the first
+/// time; a vertex-mode camera then draws its own [`DomeLayer`] (the
+/// lowest from [`DOME_LAYER`] up that no other dome camera has), a
+/// cube-mode camera nothing (its faces draw).
+#[allow(clippy::type_complexity)]
 fn sync_projection(
     mut commands: Commands,
-    cameras: Query<(Entity, &DomeCamera, Has<DomeRimMask>), Changed<DomeCamera>>,
+    cameras: Query<
+        (
+            Entity,
+            &DomeCamera,
+            Has<DomeRimMask>,
+            Option<&DomeSees>,
+            Option<&DomeLayer>,
+            Option<&RenderLayers>,
+        ),
+        Changed<DomeCamera>,
+    >,
+    taken: Query<(Entity, &DomeLayer)>,
 ) {
-    for (entity, dome, has_mask) in &cameras {
+    let mut used: Vec<usize> = taken.iter().map(|(_, l)| l.0).collect();
+    for (entity, dome, has_mask, sees, layer, layers) in &cameras {
         if !has_mask {
             commands.entity(entity).insert(DomeRimMask::default());
+        }
+        if sees.is_none() {
+            commands
+                .entity(entity)
+                .insert(DomeSees(layers.cloned().unwrap_or_default()));
         }
         if let Err(why) = dome.validate() {
             warn!("optica_dome: {why}; the camera keeps its last projection");
@@ -217,7 +245,20 @@ fn sync_projection(
         // A cube-mode camera draws nothing itself (its faces do): no layer,
         // so no mesh, light or shadow work for its view.
         let layers = match dome.mode {
-            DomeMode::Vertex => RenderLayers::layer(DOME_LAYER),
+            DomeMode::Vertex => {
+                let layer = layer.map_or_else(
+                    || {
+                        let free = (DOME_LAYER..)
+                            .find(|l| !used.contains(l))
+                            .unwrap_or(DOME_LAYER);
+                        used.push(free);
+                        commands.entity(entity).insert(DomeLayer(free));
+                        free
+                    },
+                    |l| l.0,
+                );
+                RenderLayers::layer(layer)
+            }
             DomeMode::CubeMap { .. } => RenderLayers::none(),
         };
         commands

@@ -13,12 +13,14 @@
 //! [`DomeApparentSize::NearlyConstant`] (stars, sky art) is split once for
 //! every view direction and rebuilt only when the viewer moves in its space.
 //!
-//! Twins live on the render layer [`DOME_LAYER`], which only dome cameras
-//! see (and which every light is given), so other cameras keep drawing the
-//! originals. A twin carries its original's material when that material's
+//! Each vertex-mode dome camera draws its own render layer ([`DomeLayer`],
+//! from [`DOME_LAYER`] up) where its twins live (and which the lights that
+//! light its scene are given), so other cameras keep drawing the originals
+//! and several dome cameras (a preview and a master, a stereo pair) each
+//! see the twins refined for them. A camera sees the meshes whose
+//! `RenderLayers` meet its [`DomeSees`]. A twin carries its original's material when that material's
 //! type has a [`crate::DomeMaterialPlugin`] (`StandardMaterial` has one by
-//! default); it casts no shadow (its original does). A twin is seen by the
-//! dome whatever the original's own `RenderLayers`; float vertex attributes
+//! default); it casts no shadow (its original does). Float vertex attributes
 //! (`Float32x2/3/4`) are carried, others (joints, integer data) are not.
 
 use std::marker::PhantomData;
@@ -34,8 +36,25 @@ use optica_optics::dome::{
 use crate::DomeCamera;
 use crate::twin_mesh::{pre_subdivide_mesh_asset, primitive_kind, refine_mesh_asset};
 
-/// The render layer of the refined twins and of dome cameras.
+/// The first render layer of the refined twins and of dome cameras: each
+/// vertex-mode dome camera gets its own ([`DomeLayer`]), from this one up,
+/// and sees only the twins refined for it.
 pub const DOME_LAYER: usize = 29;
+
+/// On a vertex-mode dome camera: the render layer it draws, where its
+/// twins live. Given by the plugin.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DomeLayer(pub usize);
+
+/// On a dome camera: the render layers of the scene it sees. Taken from
+/// the camera's own `RenderLayers` when its [`DomeCamera`] is added (layer
+/// 0 without one), since the plugin then gives the camera its dome layer
+/// instead; change this component, not the camera's `RenderLayers`,
+/// afterwards. A mesh gets a twin for the camera only when its own layers
+/// meet these, a light lights the camera only when its layers do, and
+/// the cube mode's faces see these layers.
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct DomeSees(pub RenderLayers);
 
 /// How a mesh's apparent size changes while the app runs: the paper's
 /// classification (§3.1), which decides how its dome twin is refined. Put
@@ -79,9 +98,16 @@ impl From<DomeApparentSize> for ApparentSize {
     }
 }
 
-/// On an original mesh entity: its twin and what the twin was built for.
-#[derive(Component, Debug)]
+/// On an original mesh entity: its twins, one per vertex-mode dome camera
+/// that sees it.
+#[derive(Component, Debug, Default)]
+pub struct DomeTwins(pub Vec<DomeTwin>);
+
+/// One twin of a mesh and what it was built for.
+#[derive(Debug)]
 pub struct DomeTwin {
+    /// The dome camera it was refined for.
+    pub camera: Entity,
     /// The twin entity (a child of the original).
     pub twin: Entity,
     /// The twin's mesh, rewritten in place when it is refined again: a new
@@ -227,32 +253,76 @@ fn copy_material<M: Material>(
 /// Any of Bevy's lights.
 type AnyLight = Or<(With<DirectionalLight>, With<PointLight>, With<SpotLight>)>;
 
-/// Gives every light the dome layer too, so that dome cameras are lit.
+/// Gives every light the layer of each dome camera that sees it (the
+/// light's own layers meet the camera's [`DomeSees`]), and takes away the
+/// dome layers of cameras that do not, so that dome cameras are lit as
+/// their scene is.
 pub(crate) fn light_the_dome_layer(
     mut commands: Commands,
     lights: Query<(Entity, Option<&RenderLayers>), AnyLight>,
+    cameras: Query<(&DomeLayer, Option<&DomeSees>), With<DomeCamera>>,
+    mut known: Local<Vec<usize>>,
 ) {
+    // Every dome layer ever given out, so that a freed one is taken away.
+    for (layer, _) in &cameras {
+        if !known.contains(&layer.0) {
+            known.push(layer.0);
+        }
+    }
     for (entity, layers) in &lights {
         let layers = layers.cloned().unwrap_or_default();
-        if !layers.intersects(&RenderLayers::layer(DOME_LAYER)) {
-            commands.entity(entity).insert(layers.with(DOME_LAYER));
+        let own = known.iter().fold(layers.clone(), |l, &d| l.without(d));
+        let mut want = own.clone();
+        for (layer, sees) in &cameras {
+            let sees = sees.map_or_else(RenderLayers::default, |s| s.0.clone());
+            if sees.intersects(&own) {
+                want = want.with(layer.0);
+            }
+        }
+        if want != layers {
+            commands.entity(entity).insert(want);
         }
     }
 }
 
-/// Builds or rebuilds the twin of every mesh the (first) dome camera may
-/// see, when what it was built for changed (see [`BuiltFor`]).
+/// A vertex-mode dome camera as the refinement sees it.
+struct DomeView<'a> {
+    entity: Entity,
+    camera: &'a DomeCamera,
+    layer: usize,
+    sees: RenderLayers,
+    size_px: UVec2,
+    view_from_world: Affine3A,
+    projection: optica_optics::dome::DomeProjection,
+    rule: SplitRule,
+    piece: f64,
+}
+
+/// Builds or rebuilds, for every vertex-mode dome camera, the twin of every
+/// mesh it may see (its [`DomeSees`] layers meet the mesh's
+/// `RenderLayers`), when what the twin was built for changed (see
+/// [`BuiltFor`]); removes the twins of cameras that are gone, left the
+/// vertex mode or no longer see the mesh. A camera whose settings are
+/// invalid keeps its twins as they were.
 #[allow(clippy::type_complexity)]
 pub(crate) fn refine_twins(
     mut commands: Commands,
-    cameras: Query<(&DomeCamera, &Camera, &GlobalTransform)>,
+    cameras: Query<(
+        Entity,
+        &DomeCamera,
+        &Camera,
+        &GlobalTransform,
+        Option<&DomeLayer>,
+        Option<&DomeSees>,
+    )>,
     mut originals: Query<
         (
             Entity,
             &Mesh3d,
             &GlobalTransform,
             Option<&DomeApparentSize>,
-            Option<&mut DomeTwin>,
+            Option<&RenderLayers>,
+            Option<&mut DomeTwins>,
         ),
         Without<DomeTwinOf>,
     >,
@@ -270,122 +340,157 @@ pub(crate) fn refine_twins(
         AssetEvent::Modified { id } => Some(*id),
         _ => None,
     }));
-    let Some((camera, render, camera_transform)) = cameras
-        .iter()
-        .find(|(camera, ..)| camera.mode == crate::DomeMode::Vertex)
-    else {
-        // No vertex-mode camera: twins are not needed.
-        for (entity, _, _, _, twin) in &originals {
-            if let Some(twin) = twin {
-                commands.entity(twin.twin).despawn();
-                commands.entity(entity).remove::<DomeTwin>();
-            }
-        }
-        return;
-    };
-    if camera.validate().is_err() {
-        return;
-    }
-    let size_px = render
-        .physical_target_size()
-        .unwrap_or(UVec2::splat(DEFAULT_SIZE_PX))
-        .max(UVec2::ONE);
-    let Ok(projection) = camera.projection_of_target(size_px.x, size_px.y) else {
-        return;
-    };
-    let tolerance = f64::from(camera.tolerance_px);
-    let (Ok(rule), Ok(piece)) = (
-        SplitRule::chord_gap(tolerance),
-        pre_subdivision_piece_rad(&projection, tolerance),
-    ) else {
-        return;
-    };
-    let view_from_world = camera_transform.affine().inverse();
-    for (entity, mesh3d, transform, size, twin) in &mut originals {
-        let view_from_local = view_from_world * transform.affine();
-        let source = meshes.get(&mesh3d.0);
-        if source.is_none()
-            && twin
-                .as_ref()
-                .is_some_and(|t| t.built_for.mesh == mesh3d.id())
-        {
-            // Its asset is gone for now (being reloaded): keep the twin.
-            continue;
-        }
-        // Nothing to draw (a mesh not loaded yet, points, a triangle strip,
-        // no positions, a scale of zero): no twin, and none left showing
-        // what the mesh used to be.
-        let invertible = view_from_local.matrix3.determinant().is_normal();
-        let kind = source.filter(|_| invertible).and_then(primitive_kind);
-        let (Some(source), Some(kind)) = (source, kind) else {
-            if let Some(twin) = twin {
-                commands.entity(twin.twin).despawn();
-                commands.entity(entity).remove::<DomeTwin>();
-            }
+    // Cameras whose twins stay as they are (invalid settings for now).
+    let mut frozen = Vec::new();
+    let mut views = Vec::new();
+    for (entity, camera, render, transform, layer, sees) in &cameras {
+        let Some(layer) = layer.filter(|_| camera.mode == crate::DomeMode::Vertex) else {
             continue;
         };
-        let treatment = classify(kind, size.copied().unwrap_or_default().into());
-        let built_for = BuiltFor {
-            mesh: mesh3d.id(),
-            camera: *camera,
-            size_px,
-            placement: Placement::of(treatment, view_from_local),
-        };
-        let fresh = twin.as_ref().is_some_and(|t| {
-            t.built_for.serves(&built_for, t.extent) && !edited.contains(&built_for.mesh)
+        let size_px = render
+            .physical_target_size()
+            .unwrap_or(UVec2::splat(DEFAULT_SIZE_PX))
+            .max(UVec2::ONE);
+        let tolerance = f64::from(camera.tolerance_px);
+        let ready = camera.validate().ok().and_then(|_| {
+            let projection = camera.projection_of_target(size_px.x, size_px.y).ok()?;
+            let rule = SplitRule::chord_gap(tolerance).ok()?;
+            let piece = pre_subdivision_piece_rad(&projection, tolerance).ok()?;
+            Some((projection, rule, piece))
         });
-        if fresh {
-            pass.kept += 1;
+        let Some((projection, rule, piece)) = ready else {
+            frozen.push(entity);
+            continue;
+        };
+        views.push(DomeView {
+            entity,
+            camera,
+            layer: layer.0,
+            sees: sees.map_or_else(RenderLayers::default, |s| s.0.clone()),
+            size_px,
+            view_from_world: transform.affine().inverse(),
+            projection,
+            rule,
+            piece,
+        });
+    }
+    for (entity, mesh3d, transform, size, layers, twins) in &mut originals {
+        if twins.is_none() && views.is_empty() {
             continue;
         }
-        let refined = match treatment {
-            Treatment::Dynamic => refine_mesh_asset(source, view_from_local, &projection, rule),
-            Treatment::PreSubdivided => pre_subdivide_mesh_asset(source, view_from_local, piece),
-        };
-        let Some(refined) = refined else {
-            if let Some(twin) = twin {
-                commands.entity(twin.twin).despawn();
-                commands.entity(entity).remove::<DomeTwin>();
+        let mut created = Vec::new();
+        let mut holder;
+        let list: &mut Vec<DomeTwin> = match twins {
+            Some(t) => {
+                holder = t;
+                &mut holder.0
             }
-            continue;
+            None => &mut created,
         };
-        let extent = extent_of(source);
-        pass.rebuilt += 1;
-        pass.vertices += refined.count_vertices();
-        match twin {
-            Some(mut twin) => {
-                if let Some(mut mesh) = meshes.get_mut(&twin.twin_mesh) {
-                    *mesh = refined;
-                } else {
-                    twin.twin_mesh = meshes.add(refined);
-                    commands
-                        .entity(twin.twin)
-                        .insert(Mesh3d(twin.twin_mesh.clone()));
+        let layers = layers.cloned().unwrap_or_default();
+        // Twins of cameras that are gone, not in the vertex mode or no
+        // longer seeing this mesh go; frozen cameras keep theirs.
+        list.retain(|t| {
+            let keep = frozen.contains(&t.camera)
+                || views
+                    .iter()
+                    .any(|v| v.entity == t.camera && v.sees.intersects(&layers));
+            if !keep {
+                commands.entity(t.twin).despawn();
+            }
+            keep
+        });
+        for view in views.iter().filter(|v| v.sees.intersects(&layers)) {
+            let slot = list.iter().position(|t| t.camera == view.entity);
+            let view_from_local = view.view_from_world * transform.affine();
+            let source = meshes.get(&mesh3d.0);
+            if source.is_none() && slot.is_some_and(|i| list[i].built_for.mesh == mesh3d.id()) {
+                // Its asset is gone for now (being reloaded): keep the twin.
+                continue;
+            }
+            // Nothing to draw (a mesh not loaded yet, points, a triangle
+            // strip, no positions, a scale of zero): no twin, and none left
+            // showing what the mesh used to be.
+            let invertible = view_from_local.matrix3.determinant().is_normal();
+            let kind = source.filter(|_| invertible).and_then(primitive_kind);
+            let (Some(source), Some(kind)) = (source, kind) else {
+                if let Some(i) = slot {
+                    commands.entity(list.remove(i).twin).despawn();
                 }
-                twin.built_for = built_for;
-                twin.extent = extent;
+                continue;
+            };
+            let treatment = classify(kind, size.copied().unwrap_or_default().into());
+            let built_for = BuiltFor {
+                mesh: mesh3d.id(),
+                camera: *view.camera,
+                size_px: view.size_px,
+                placement: Placement::of(treatment, view_from_local),
+            };
+            let fresh = slot.is_some_and(|i| {
+                let t = &list[i];
+                t.built_for.serves(&built_for, t.extent) && !edited.contains(&built_for.mesh)
+            });
+            if fresh {
+                pass.kept += 1;
+                continue;
             }
-            None => {
-                let handle = meshes.add(refined);
-                let twin = commands
-                    .spawn((
-                        Mesh3d(handle.clone()),
-                        Transform::IDENTITY,
-                        // Right from the first frame (propagation has run).
-                        *transform,
-                        ChildOf(entity),
-                        RenderLayers::layer(DOME_LAYER),
-                        NotShadowCaster,
-                        DomeTwinOf(entity),
-                    ))
-                    .id();
-                commands.entity(entity).insert(DomeTwin {
-                    twin,
-                    twin_mesh: handle,
-                    built_for,
-                    extent,
-                });
+            let refined = match treatment {
+                Treatment::Dynamic => {
+                    refine_mesh_asset(source, view_from_local, &view.projection, view.rule)
+                }
+                Treatment::PreSubdivided => {
+                    pre_subdivide_mesh_asset(source, view_from_local, view.piece)
+                }
+            };
+            let extent = extent_of(source);
+            let Some(refined) = refined else {
+                if let Some(i) = slot {
+                    commands.entity(list.remove(i).twin).despawn();
+                }
+                continue;
+            };
+            pass.rebuilt += 1;
+            pass.vertices += refined.count_vertices();
+            match slot {
+                Some(i) => {
+                    let twin = &mut list[i];
+                    if let Some(mut mesh) = meshes.get_mut(&twin.twin_mesh) {
+                        *mesh = refined;
+                    } else {
+                        twin.twin_mesh = meshes.add(refined);
+                        commands
+                            .entity(twin.twin)
+                            .insert(Mesh3d(twin.twin_mesh.clone()));
+                    }
+                    twin.built_for = built_for;
+                    twin.extent = extent;
+                }
+                None => {
+                    let handle = meshes.add(refined);
+                    let twin = commands
+                        .spawn((
+                            Mesh3d(handle.clone()),
+                            Transform::IDENTITY,
+                            // Right from the first frame (propagation has run).
+                            *transform,
+                            ChildOf(entity),
+                            RenderLayers::layer(view.layer),
+                            NotShadowCaster,
+                            DomeTwinOf(entity),
+                        ))
+                        .id();
+                    list.push(DomeTwin {
+                        camera: view.entity,
+                        twin,
+                        twin_mesh: handle,
+                        built_for,
+                        extent,
+                    });
+                }
             }
+        }
+        if !created.is_empty() {
+            commands.entity(entity).insert(DomeTwins(created));
         }
     }
     edited.clear();

@@ -8,7 +8,7 @@
 use std::sync::{Arc, Mutex};
 
 use bevy::prelude::*;
-use optica_dome::{DomeApparentSize, DomeCamera, DomeRefineStats, DomeTwin};
+use optica_dome::{DomeApparentSize, DomeCamera, DomeRefineStats, DomeTwin, DomeTwins};
 use optica_harness::Headless;
 use optica_optics::dome::Treatment;
 
@@ -39,9 +39,10 @@ fn turning_room(size: DomeApparentSize) -> (f64, Vec<(DomeRefineStats, Vec<Treat
                 Update,
                 move |mut cameras: Query<&mut Transform, With<DomeCamera>>,
                       stats: Res<DomeRefineStats>,
-                      twins: Query<&DomeTwin>| {
+                      twins: Query<&DomeTwins>| {
                     let mut log = log.lock().expect("log");
-                    log.push((*stats, twins.iter().map(DomeTwin::treatment).collect()));
+                    let treatments = twins.iter().flat_map(|t| &t.0).map(DomeTwin::treatment);
+                    log.push((*stats, treatments.collect()));
                     // Frame 1 turns, frame 2 turns back and moves (the
                     // viewer's place in the room changes), frame 3 moves
                     // back; then the camera rests where it started.

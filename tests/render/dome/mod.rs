@@ -1,6 +1,7 @@
 //! The dome camera on lavapipe: the WGSL projection against its CPU twin,
 //! a scene seen through the dome, and nothing built without a dome camera.
 
+mod cameras;
 mod classify;
 mod cube;
 mod export;

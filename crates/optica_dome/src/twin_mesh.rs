@@ -18,6 +18,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::math::{Affine3A, DAffine3, DVec3};
 use bevy::mesh::{Indices, MeshVertexAttribute, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
+use bevy::tasks::{ComputeTaskPool, ParallelSlice, TaskPool};
 use optica_optics::dome::{
     DomeProjection, PrimitiveKind, SplitRule, TriMesh, pre_subdivide, refine_segment,
     refine_triangle,
@@ -88,6 +89,11 @@ pub fn pre_subdivide_mesh_asset(
     }))
 }
 
+/// Triangles refined by one task of the compute pool: enough to outweigh
+/// a task's cost (~µs), few enough that a 1,000-triangle mesh still spreads
+/// over a few threads.
+const TRIANGLES_PER_TASK: usize = 128;
+
 /// A user's mesh read for refinement: positions in view space, indices,
 /// and the attributes to carry.
 struct Source {
@@ -136,24 +142,39 @@ impl Source {
     /// `None` drops it), attributes mixed by barycentric weights.
     fn triangles(
         &self,
-        refine: impl Fn([DVec3; 3]) -> Option<(Vec<DVec3>, Vec<[u32; 3]>)>,
+        refine: impl Fn([DVec3; 3]) -> Option<(Vec<DVec3>, Vec<[u32; 3]>)> + Sync,
     ) -> Mesh {
-        let mut out = Output::new(self);
-        for t in self.indices.chunks_exact(3) {
+        // Triangles are refined independently (shared edges split alike
+        // from both sides), so in parallel on Bevy's compute pool, in
+        // chunks; then gathered in order, so the twin is the same
+        // whatever the thread count.
+        let refined = |t: &[u32]| {
             let ids = [t[0] as usize, t[1] as usize, t[2] as usize];
             if ids.iter().any(|&i| i >= self.view.len()) {
-                continue;
+                return None;
             }
             let corners = ids.map(|i| self.view[i]);
-            let Some((points, triangles)) = refine(corners) else {
-                continue;
-            };
-            let base = out.positions.len() as u32;
-            for p in &points {
-                out.push(self, *p, ids, barycentric(corners, *p));
-            }
-            out.indices
-                .extend(triangles.iter().flatten().map(|i| base + i));
+            refine(corners).map(|r| (ids, corners, r))
+        };
+        let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+        let parts = self
+            .indices
+            .par_chunk_map(pool, 3 * TRIANGLES_PER_TASK, |_, chunk| {
+                let mut out = Output::new(self);
+                for (ids, corners, (points, triangles)) in chunk.chunks_exact(3).filter_map(refined)
+                {
+                    let base = out.positions.len() as u32;
+                    for p in &points {
+                        out.push(self, *p, ids, barycentric(corners, *p));
+                    }
+                    out.indices
+                        .extend(triangles.iter().flatten().map(|i| base + i));
+                }
+                out
+            });
+        let mut out = Output::new(self);
+        for part in parts {
+            out.append(part);
         }
         out.finish(self, PrimitiveTopology::TriangleList)
     }
@@ -210,6 +231,17 @@ impl Output {
             carried: source.carried.iter().map(|(_, v)| v.empty()).collect(),
             indices: Vec::new(),
         }
+    }
+
+    /// Appends `other`'s vertices and triangles after this one's.
+    fn append(&mut self, other: Output) {
+        let base = self.positions.len() as u32;
+        self.positions.extend(other.positions);
+        for (mine, theirs) in self.carried.iter_mut().zip(other.carried) {
+            mine.append(theirs);
+        }
+        self.indices
+            .extend(other.indices.into_iter().map(|i| base + i));
     }
 
     /// Appends the view-space point `p`, its attributes `Σ w_k · a[ids_k]`.
@@ -272,6 +304,16 @@ impl Interpolated {
             Self::X2(_) => Self::X2(Vec::new()),
             Self::X3(_) => Self::X3(Vec::new()),
             Self::X4(_) => Self::X4(Vec::new()),
+        }
+    }
+
+    /// Appends `other`'s values (of the same kind).
+    fn append(&mut self, other: Self) {
+        match (self, other) {
+            (Self::X2(a), Self::X2(b)) => a.extend(b),
+            (Self::X3(a), Self::X3(b)) => a.extend(b),
+            (Self::X4(a), Self::X4(b)) => a.extend(b),
+            _ => {}
         }
     }
 

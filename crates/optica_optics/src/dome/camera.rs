@@ -109,6 +109,9 @@ pub struct DomeProjection {
     rim_px: f64,
     /// The lens's mapping g, checked for this field of view.
     map: RadialMap,
+    /// The largest image curvature N (D6, D10) of any kept piece, px/rad²:
+    /// an edge short enough for it needs no split, whatever its place.
+    worst_curvature_px: f64,
 }
 
 impl DomeProjection {
@@ -135,7 +138,7 @@ impl DomeProjection {
         let camera = *camera;
         let tau = camera.tilt_deg.to_radians();
         let (s, c) = tau.sin_cos();
-        Ok(Self {
+        let mut proj = Self {
             camera,
             axis: DVec3::new(0.0, -s, -c),
             up: DVec3::new(0.0, c, -s),
@@ -145,7 +148,18 @@ impl DomeProjection {
             half: 0.5 * DVec2::new(f64::from(camera.size_px), f64::from(height)),
             rim_px,
             map,
-        })
+            worst_curvature_px: 0.0,
+        };
+        proj.worst_curvature_px = super::rule::worst_normal_acceleration_px(&proj);
+        Ok(proj)
+    }
+
+    /// The largest image curvature N of any piece of geometry kept, px per
+    /// rad² (see [`SplitRule`](super::SplitRule)): the tangential D5 at
+    /// [`Self::theta_reach`] for the equidistant lens, the largest of a grid
+    /// of places and orientations (D10) for the others.
+    pub fn worst_curvature_px(&self) -> f64 {
+        self.worst_curvature_px
     }
 
     /// The radial mapping.

@@ -181,7 +181,7 @@ impl SplitRule {
         tolerance_px: f64,
     ) -> Result<Self, InvalidInput> {
         let tolerance_px = input::positive("pixel tolerance (px)", tolerance_px)?;
-        let max_piece_rad = (8.0 * tolerance_px / worst_normal_acceleration_px(proj))
+        let max_piece_rad = (8.0 * tolerance_px / proj.worst_curvature_px())
             .sqrt()
             .min(PI);
         // A tolerance so small that Δ underflows to 0 gives n = ∞ pieces,
@@ -216,13 +216,44 @@ impl SplitRule {
         Ok(self.pieces_of_arc(proj, &arc))
     }
 
+    /// Whether an arc subtending `alpha` needs one piece wherever it lies:
+    /// under the chord gap, if even the worst curvature of the projection
+    /// ([`DomeProjection::worst_curvature_px`]) keeps it within the
+    /// tolerance (for lenses other than the equidistant, whose worst
+    /// curvature is sampled, with a margin of 2); under the visual angle,
+    /// if it is within the step; and, where there is a guard cone, if it is
+    /// within the guard piece. The full rule gives one piece then too; the
+    /// test skips the arc's polar angles and curvature for most edges of
+    /// distant geometry. `alpha` must be the arc's subtended angle as
+    /// [`split_segment`](super::split_segment) computes it, symmetric in
+    /// the endpoints bit for bit, so that both triangles sharing an edge
+    /// agree.
+    pub(crate) fn is_short(&self, proj: &DomeProjection, alpha: f64) -> bool {
+        let short = match self.0 {
+            Rule::VisualAngle { max_piece_rad } => alpha <= max_piece_rad,
+            Rule::ChordGap { tolerance_px } => {
+                let margin = if proj.lens() == FisheyeLens::Equidistant {
+                    1.0
+                } else {
+                    2.0
+                };
+                alpha * alpha * proj.worst_curvature_px() * margin <= 8.0 * tolerance_px
+            }
+        };
+        short && proj.guard_piece_rad().is_none_or(|piece| alpha <= piece)
+    }
+
     /// Pieces of an arc built in canonical order.
     pub(crate) fn pieces_of_arc(&self, proj: &DomeProjection, arc: &Arc) -> Pieces {
+        const WHOLE: Pieces = Pieces {
+            n: 1,
+            capped: false,
+        };
         if arc.is_point() {
-            return Pieces {
-                n: 1,
-                capped: false,
-            };
+            return WHOLE;
+        }
+        if self.is_short(proj, arc.alpha) {
+            return WHOLE;
         }
         let range = arc.theta_range(proj.axis());
         // An arc leaving the guard cone (FOV > 180°, triangles: they are
@@ -336,7 +367,7 @@ pub(crate) fn arc_normal_acceleration_px(
 /// [`DomeProjection::theta_reach`] for the equidistant lens (D5); for the
 /// other lenses the largest over a grid of polar angles up to it and of
 /// orientations.
-fn worst_normal_acceleration_px(proj: &DomeProjection) -> f64 {
+pub(crate) fn worst_normal_acceleration_px(proj: &DomeProjection) -> f64 {
     let reach = proj.theta_reach().min(PI - CURVATURE_ANTIPODE_GAP_RAD);
     if proj.lens() == FisheyeLens::Equidistant {
         return proj.focal_px() * tangential_factor(reach);

@@ -191,6 +191,10 @@ pub(crate) fn subdivide_triangle(
         let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
         let pc = pieces(&Arc::new(c0, c1)?);
         capped |= pc.capped;
+        if pc.n == 1 {
+            // Whole (the arc above has checked the endpoints).
+            return Ok(vec![i0, i1]);
+        }
         let pts = split_points(p, q, pc.n)?;
         let mut idx = Vec::with_capacity(pts.len());
         idx.push(i0);
@@ -231,8 +235,12 @@ pub(crate) fn subdivide_triangle(
         let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
         Arc::new(c0, c1).is_ok_and(|arc| pieces(&arc).n > 1)
     };
-    let budget = INTERIOR_BUDGET_FACTOR * mesh.triangles.len() + INTERIOR_BUDGET_EXTRA;
-    capped |= bisect_interior(&mut mesh, &needs_split, budget);
+    // A triangle left whole has no interior edge (the common case for
+    // distant geometry): skip the bisection's bookkeeping.
+    if mesh.triangles.len() > 1 {
+        let budget = INTERIOR_BUDGET_FACTOR * mesh.triangles.len() + INTERIOR_BUDGET_EXTRA;
+        capped |= bisect_interior(&mut mesh, &needs_split, budget);
+    }
     Ok((mesh, capped))
 }
 
@@ -321,6 +329,39 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
         input: 1,
         ..Default::default()
     };
+    // Most triangles of a large scene are small and wholly in front: each
+    // edge whole under the rule's own short-arc test (the one the full
+    // path applies first, so a neighbour refined the long way splits the
+    // shared edge alike). Such a triangle is its own refinement.
+    let lengths = tri.map(|v| v.length());
+    let scale = lengths.iter().fold(0.0, |m: f64, &l| m.max(l));
+    let in_front = tri.iter().all(|v| v.dot(proj.axis()) >= 0.0);
+    let off_origin = lengths.iter().all(|&l| l > AT_ORIGIN_REL * scale);
+    if proj.clips_at_view_plane() && tri.iter().all(|v| v.dot(proj.axis()) < 0.0) {
+        // Wholly behind the view plane (half of every scene around a
+        // dome): nothing to clip or split.
+        stats.clipped_away = 1;
+        return RefinedMesh {
+            mesh: TriMesh::default(),
+            stats,
+        };
+    }
+    if proj.clips_at_view_plane() && in_front && off_origin {
+        let whole = (0..3).all(|i| {
+            let (a, b) = (tri[i], tri[(i + 1) % 3]);
+            rule.is_short(proj, subtended_angle(a, b))
+        });
+        if whole {
+            stats.emitted = 1;
+            return RefinedMesh {
+                mesh: TriMesh {
+                    positions: tri.to_vec(),
+                    triangles: vec![[0, 1, 2]],
+                },
+                stats,
+            };
+        }
+    }
     let parts = if proj.clips_at_view_plane() {
         clip_triangle_plane(proj.axis(), tri)
     } else {
@@ -336,11 +377,11 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
     if parts.is_empty() {
         stats.clipped_away = 1;
     }
-    let scale = tri.iter().map(|v| v.length()).fold(0.0, f64::max);
     let pieces = |arc: &Arc| rule.pieces_of_arc(proj, arc);
     let mut welder = Welder::default();
     // One count per input triangle and cause, however many parts it hits.
     let mut dropped = RefineStats::default();
+    let single = parts.len() == 1;
     for part in parts {
         let subdivided = if part.iter().any(|v| v.length() <= AT_ORIGIN_REL * scale) {
             Err(ArcError::AtOrigin)
@@ -370,6 +411,15 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
                 v.iter().all(|&p| proj.theta(p) <= limit) && !covers_direction(&v, anti)
             });
             stats.culled += before - local.triangles.len();
+        }
+        // One part left whole (most distant geometry): nothing to weld.
+        let [a, b, c] = local.positions[..] else {
+            welder.add(&local);
+            continue;
+        };
+        if single && local.triangles.len() == 1 && a != b && b != c && a != c {
+            welder.mesh = local;
+            continue;
         }
         welder.add(&local);
     }

@@ -30,6 +30,8 @@
 //!   measuring curvature in that lens's image (D10): `max_px`, `mean_px`,
 //!   `mesh_max_px` by D8 in that image; time_ms: clip + refine + project,
 //!   as above.
+//! * Series `scene size, moving camera`: the plugin's per-frame
+//!   refinement over scenes of 1k–1M triangles (see `dome_scale.rs`).
 //! * Stability: cases that run the whole path (clip, refine, measure) on
 //!   scenes the unit tests do not cover end to end.
 
@@ -209,6 +211,7 @@ pub fn run(ctx: &SweepContext) -> Result<Report, super::SweepError> {
     }
 
     lenses(&mut report, ctx, &tolerances);
+    super::dome_scale::scene_size(&mut report, ctx);
     super::dome_render::rendered_rows(ctx, &mut report)?;
     stability(&mut report, ctx);
     classification(&mut report, ctx);
@@ -563,6 +566,17 @@ mod tests {
         let (lenses, rendered): (Vec<&Row>, Vec<&Row>) = rendered
             .into_iter()
             .partition(|row| row.series.starts_with("lens"));
+        let (scale, rendered): (Vec<&Row>, Vec<&Row>) = rendered
+            .into_iter()
+            .partition(|row| row.series.starts_with("scene size"));
+        // The scene-size series: finite times, work growing with the scene.
+        assert_eq!(scale.len(), 2);
+        assert!(
+            scale
+                .iter()
+                .all(|r| r.time_ms.is_finite() && r.time_ms > 0.0)
+        );
+        assert!(scale[1].work["twin_vertices"] > scale[0].work["twin_vertices"]);
         let (rendered, cube): (Vec<&Row>, Vec<&Row>) = rendered
             .into_iter()
             .partition(|row| row.series.starts_with("vertex"));

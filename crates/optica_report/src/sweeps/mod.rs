@@ -8,6 +8,7 @@ use crate::{Report, SweepContext};
 pub mod compound_eye;
 pub mod dome;
 pub mod dome_render;
+pub mod dome_scale;
 pub mod foveated_lod;
 pub mod foveated_lod_mesh;
 pub mod foveated_lod_raytrace;

@@ -121,6 +121,12 @@
 //! projection. Screen-space effects that rebuild positions from depth
 //! (SSAO, SSR, TAA, depth of field) assume a planar projection too and do
 //! not work on a vertex-mode dome camera (they do on the cube mode's faces).
+//!
+//! Only radial (fisheye) lenses: an equirectangular panorama is not offered
+//! yet. A moving camera refines every twin again each frame, on Bevy's
+//! compute pool: about 0.45 µs a triangle of the scene on two cores
+//! (the `dome` report's `scene size` series), so a 100k-triangle scene
+//! costs ~45 ms a frame while the camera moves and nothing while it rests.
 
 #![warn(missing_docs)]
 

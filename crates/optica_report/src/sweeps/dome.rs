@@ -154,8 +154,9 @@ pub fn run(ctx: &SweepContext) -> Result<Report, super::SweepError> {
     let mut report = Report::cpu("dome", "tolerance_px (cube mode: face_px)");
     report.baseline =
         "projecting both endpoints of every random edge (one unrefined chord per edge)".into();
-    report.reference = "exact chord error D8: largest pixel distance between the equidistant image of the \
-                        great-circle arc an edge subtends and the drawn chord (sampling + golden-section search)"
+    report.reference = "exact chord error D8: largest pixel distance between the image of the great-circle \
+                        arc an edge subtends (equidistant; the `lens:` rows through their own lens) and the \
+                        drawn chord (sampling + golden-section search)"
         .into();
 
     let proj = dome(180.0);

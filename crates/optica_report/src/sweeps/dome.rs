@@ -32,6 +32,11 @@
 //!   as above.
 //! * Series `scene size, moving camera`: the plugin's per-frame
 //!   refinement over scenes of 1k–1M triangles (see `dome_scale.rs`).
+//! * Series `textured room, …` and `star field, …` (vertex mode, with and
+//!   without 4× MSAA, knob: tolerance; cube mode, knob: face size): the
+//!   two modes on a checkerboard room and one-pixel stars against a
+//!   per-pixel reference of rays cast by the CPU twin, by ꟻLIP and PSNR,
+//!   with frame times and fragments (see `dome_textured.rs`).
 //! * Stability: cases that run the whole path (clip, refine, measure) on
 //!   scenes the unit tests do not cover end to end.
 
@@ -214,6 +219,7 @@ pub fn run(ctx: &SweepContext) -> Result<Report, super::SweepError> {
     lenses(&mut report, ctx, &tolerances);
     super::dome_scale::scene_size(&mut report, ctx);
     super::dome_render::rendered_rows(ctx, &mut report)?;
+    super::dome_textured::textured_rows(ctx, &mut report)?;
     stability(&mut report, ctx);
     classification(&mut report, ctx);
     Ok(report)
@@ -570,6 +576,52 @@ mod tests {
         let (scale, rendered): (Vec<&Row>, Vec<&Row>) = rendered
             .into_iter()
             .partition(|row| row.series.starts_with("scene size"));
+        let (textured, rendered): (Vec<&Row>, Vec<&Row>) = rendered.into_iter().partition(|row| {
+            row.series.starts_with("textured room") || row.series.starts_with("star field")
+        });
+        // The textured comparison: per scene one vertex row and two cube
+        // rows; finite metrics; larger faces resample closer to the
+        // reference; the vertex mode's mapping is exact enough that it
+        // matches the point-sampled reference better than the cube mode at
+        // the small face does.
+        assert_eq!(textured.len(), 8, "{textured:#?}");
+        for row in &textured {
+            assert!(row.error.values().all(|e| e.is_finite()), "{row:?}");
+            assert!(row.time_ms > 0.0 && row.baseline_time_ms > 0.0, "{row:?}");
+            assert!(row.work["fragments"] > 0.0, "{row:?}");
+        }
+        for scene in ["textured room", "star field"] {
+            let of = |mode: &str| -> Vec<&Row> {
+                textured
+                    .iter()
+                    .copied()
+                    .filter(|r| r.series == format!("{scene}, {mode}"))
+                    .collect()
+            };
+            let (vertex, cube) = (of("vertex mode"), of("cube mode"));
+            assert_eq!((vertex.len(), cube.len()), (1, 2), "{scene}");
+            assert!(cube[1].knob > cube[0].knob);
+            assert!(
+                cube[1].error["flip_mean"] < cube[0].error["flip_mean"],
+                "{scene}: {cube:#?}"
+            );
+            assert!(
+                vertex[0].error["flip_point"] < cube[0].error["flip_point"],
+                "{scene}: {vertex:#?} {cube:#?}"
+            );
+            let msaa = of("vertex mode, 4× MSAA");
+            assert_eq!(msaa.len(), 1, "{scene}");
+            if scene == "star field" {
+                // Stars are never refined: the vertex mode puts each where a
+                // ray through the pixel centre finds it, and 4× MSAA brings
+                // the one-pixel squares nearer the anti-aliased reference.
+                assert!(vertex[0].error["flip_point"] < 0.01, "{vertex:#?}");
+                assert!(
+                    msaa[0].error["flip_mean"] < vertex[0].error["flip_mean"],
+                    "{msaa:#?}"
+                );
+            }
+        }
         // The scene-size series: finite times, work growing with the scene.
         assert_eq!(scale.len(), 2);
         assert!(

@@ -9,6 +9,7 @@ pub mod compound_eye;
 pub mod dome;
 pub mod dome_render;
 pub mod dome_scale;
+pub mod dome_textured;
 pub mod foveated_lod;
 pub mod foveated_lod_mesh;
 pub mod foveated_lod_raytrace;

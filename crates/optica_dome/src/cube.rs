@@ -75,10 +75,17 @@ pub const FIVE_FACE_MAX_FOV_DEG: f32 = 250.0;
 
 impl CubeLayout {
     /// The layout for `camera`'s field of view and tilt (the counts of
-    /// SGCT: 4 faces up to 180°, 5 up to 250°, 6 beyond).
+    /// SGCT: 4 faces up to 180°, 5 up to 250°, 6 beyond and for the
+    /// equirectangular panorama).
     pub fn of(camera: &DomeCamera) -> Self {
         let (right, up, axis) = DomeClip::of(camera).frame();
-        if camera.fov_deg <= 180.0 {
+        let panorama = camera.lens == crate::DomeLens::Equirectangular;
+        if panorama {
+            Self {
+                view_from_cube: Mat3::from_cols(right, up, -axis),
+                faces: &[0, 1, 2, 3, 4, 5],
+            }
+        } else if camera.fov_deg <= 180.0 {
             // The axis between the cube's +Y and −Z faces: directions with
             // d·axis ≥ 0 have y ≥ z, so −Y and +Z are never the nearest.
             let s = std::f32::consts::FRAC_1_SQRT_2;

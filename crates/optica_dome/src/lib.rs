@@ -8,7 +8,8 @@
 //! lens ([`DomeLens`]) is the paper's equidistant (f-θ) one by default, or
 //! equisolid, stereographic, orthographic, or a calibrated lens's
 //! Kannala–Brandt polynomial; the image circle fits the target's shorter
-//! side, so non-square targets work too.
+//! side, so non-square targets work too. Or it is no fisheye at all but an
+//! equirectangular panorama of the whole sphere, drawn by the same method.
 //!
 //! ```no_run
 //! use bevy::prelude::*;
@@ -26,6 +27,10 @@
 //!     })
 //!     .run();
 //! ```
+//!
+//! A 360° panorama: `DomeCamera { lens: DomeLens::Equirectangular,
+//! ..default() }` on a camera looking at the horizon, rendering into a 2:1
+//! target; its −Z is the image centre, its +Y the top row.
 //!
 //! ## How meshes reach the dome
 //!
@@ -122,8 +127,11 @@
 //! (SSAO, SSR, TAA, depth of field) assume a planar projection too and do
 //! not work on a vertex-mode dome camera (they do on the cube mode's faces).
 //!
-//! Only radial (fisheye) lenses: an equirectangular panorama is not offered
-//! yet. A moving camera refines every twin again each frame, on Bevy's
+//! [`DomeLens::Equirectangular`] draws the whole sphere as a longitude–latitude
+//! panorama (a 2:1 target for square pixels), by either mode: in the vertex
+//! mode triangles and lines crossing its ±180° seam are cut there, and
+//! those over a pole fill the pole's row (`optica_optics::dome`, E1–E2);
+//! there is no rim to mask. A moving camera refines every twin again each frame, on Bevy's
 //! compute pool: about 0.45 µs a triangle of the scene on two cores
 //! (the `dome` report's `scene size` series), so a 100k-triangle scene
 //! costs ~45 ms a frame while the camera moves and nothing while it rests.
@@ -235,7 +243,10 @@ fn sync_projection(
 ) {
     let mut used: Vec<usize> = taken.iter().map(|(_, l)| l.0).collect();
     for (entity, dome, has_mask, sees, layer, layers) in &cameras {
-        if !has_mask {
+        // The panorama fills its target: nothing to mask.
+        if dome.lens == DomeLens::Equirectangular {
+            commands.entity(entity).remove::<DomeRimMask>();
+        } else if !has_mask {
             commands.entity(entity).insert(DomeRimMask::default());
         }
         if sees.is_none() {

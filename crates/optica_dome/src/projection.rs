@@ -13,9 +13,9 @@ use bevy::prelude::*;
 /// depths off by at most 3e-4 in NDC.
 pub(crate) const THETA_SCALE: f32 = 1.0e-4;
 /// `clip_from_view[3][0] = LENS_MARK·(1 + lens)`, the lens's number (0
-/// equidistant … 4 polynomial): it marks the matrix as a dome camera's for
-/// the shader. A clip-space x offset of 1e-3 at most 5e-3, which no
-/// ordinary projection has.
+/// equidistant … 4 polynomial, 5 equirectangular): it marks the matrix as
+/// a dome camera's for the shader. A clip-space x offset of 1e-3 at most
+/// 6e-3, which no ordinary projection has.
 pub(crate) const LENS_MARK: f32 = 1.0e-3;
 
 /// The projection of a [`crate::DomeCamera`], kept in the camera's
@@ -41,8 +41,15 @@ pub struct DomeClip {
 impl DomeClip {
     /// The projection of `camera`'s settings.
     pub fn of(camera: &crate::DomeCamera) -> Self {
+        // The panorama has no rim; the shader only needs a valid angle to
+        // recognise the matrix.
+        let theta_max = if camera.lens == crate::DomeLens::Equirectangular {
+            std::f32::consts::FRAC_PI_2
+        } else {
+            0.5 * camera.fov_deg.to_radians()
+        };
         Self {
-            theta_max: 0.5 * camera.fov_deg.to_radians(),
+            theta_max,
             tilt: camera.tilt_deg.to_radians(),
             near: camera.near,
             far: camera.far,
@@ -60,6 +67,7 @@ impl DomeClip {
             crate::DomeLens::Stereographic => (2, Vec3::ZERO),
             crate::DomeLens::Orthographic => (3, Vec3::ZERO),
             crate::DomeLens::Polynomial { k } => (4, Vec3::new(k[1], k[2], k[3]) / k[0]),
+            crate::DomeLens::Equirectangular => (5, Vec3::ZERO),
         }
     }
 
@@ -100,9 +108,10 @@ impl DomeClip {
     }
 
     /// Whether the visible set lies in front of the dome's view plane
-    /// (FOV ≤ 180°).
+    /// (a fisheye of FOV ≤ 180°; the panorama sees all around).
     pub fn hemisphere(&self) -> bool {
-        self.theta_max <= std::f32::consts::FRAC_PI_2
+        self.lens != crate::DomeLens::Equirectangular
+            && self.theta_max <= std::f32::consts::FRAC_PI_2
     }
 }
 
@@ -117,8 +126,11 @@ impl CameraProjection for DomeClip {
     }
 
     fn update(&mut self, width: f32, height: f32) {
-        // The image circle fits the shorter side.
-        if width > 0.0 && height > 0.0 {
+        // The image circle fits the shorter side; the panorama fills the
+        // target.
+        if self.lens == crate::DomeLens::Equirectangular {
+            self.scale = Vec2::ONE;
+        } else if width > 0.0 && height > 0.0 {
             let short = width.min(height);
             self.scale = Vec2::new(short / width, short / height);
         }

@@ -293,9 +293,11 @@ struct DomeView<'a> {
     sees: RenderLayers,
     size_px: UVec2,
     view_from_world: Affine3A,
-    projection: optica_optics::dome::DomeProjection,
+    projection: optica_optics::dome::Panorama,
     rule: SplitRule,
-    piece: f64,
+    /// The pre-subdivision's piece angle; `None` for the panorama, whose
+    /// seam cuts depend on the view, so it refines every mesh from it.
+    piece: Option<f64>,
 }
 
 /// Builds or rebuilds, for every vertex-mode dome camera, the twin of every
@@ -353,9 +355,12 @@ pub(crate) fn refine_twins(
             .max(UVec2::ONE);
         let tolerance = f64::from(camera.tolerance_px);
         let ready = camera.validate().ok().and_then(|_| {
-            let projection = camera.projection_of_target(size_px.x, size_px.y).ok()?;
+            let projection = camera.panorama(size_px.x, size_px.y).ok()?;
             let rule = SplitRule::chord_gap(tolerance).ok()?;
-            let piece = pre_subdivision_piece_rad(&projection, tolerance).ok()?;
+            let piece = match projection.fisheye() {
+                Some(fisheye) => Some(pre_subdivision_piece_rad(fisheye, tolerance).ok()?),
+                None => None,
+            };
             Some((projection, rule, piece))
         });
         let Some((projection, rule, piece)) = ready else {
@@ -419,7 +424,10 @@ pub(crate) fn refine_twins(
                 }
                 continue;
             };
-            let treatment = classify(kind, size.copied().unwrap_or_default().into());
+            let treatment = match view.piece {
+                Some(_) => classify(kind, size.copied().unwrap_or_default().into()),
+                None => Treatment::Dynamic,
+            };
             let built_for = BuiltFor {
                 mesh: mesh3d.id(),
                 camera: *view.camera,
@@ -438,9 +446,9 @@ pub(crate) fn refine_twins(
                 Treatment::Dynamic => {
                     refine_mesh_asset(source, view_from_local, &view.projection, view.rule)
                 }
-                Treatment::PreSubdivided => {
-                    pre_subdivide_mesh_asset(source, view_from_local, view.piece)
-                }
+                Treatment::PreSubdivided => view
+                    .piece
+                    .and_then(|piece| pre_subdivide_mesh_asset(source, view_from_local, piece)),
             };
             let extent = extent_of(source);
             let Some(refined) = refined else {

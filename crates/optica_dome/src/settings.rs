@@ -1,7 +1,10 @@
 //! The user-facing dome camera component.
 
 use bevy::prelude::*;
-use optica_optics::dome::{DomeError, DomeProjection, DomeSettings, FisheyeLens};
+use optica_optics::dome::{
+    DomeError, DomeProjection, DomeSettings, EquirectProjection, EquirectSettings, FisheyeLens,
+    Panorama,
+};
 
 /// A fisheye dome camera: add it to a `Camera3d` and the camera renders a
 /// domemaster — the image circle inscribed in the target (fitted to its
@@ -33,7 +36,8 @@ use optica_optics::dome::{DomeError, DomeProjection, DomeSettings, FisheyeLens};
 #[require(Camera3d)]
 pub struct DomeCamera {
     /// Full field of view in degrees: 180 is the standard dome, 210–250 are
-    /// wide fisheyes. Valid: `(0, 350]`.
+    /// wide fisheyes. Valid: `(0, 350]`. Not used by
+    /// [`DomeLens::Equirectangular`], which sees the whole sphere.
     pub fov_deg: f32,
     /// Forward tilt of the dome axis in degrees (tilted domes: 10–30).
     pub tilt_deg: f32,
@@ -49,13 +53,16 @@ pub struct DomeCamera {
     /// How the domemaster is made: by projecting vertices (the paper) or by
     /// resampling a cube of ordinary cameras.
     pub mode: DomeMode,
-    /// How polar angle maps to image radius: equidistant by default.
+    /// How directions map to the image: a fisheye's radial mapping
+    /// (equidistant by default), or the equirectangular panorama.
     pub lens: DomeLens,
 }
 
-/// The radial mapping of a [`DomeCamera`]: a direction at angle θ from the
-/// dome axis lands at radius `r = f·g(θ)` from the image centre, with f set
-/// so that the rim (θ = FOV/2) lies on the image circle.
+/// The projection of a [`DomeCamera`]. The fisheyes are radial: a
+/// direction at angle θ from the dome axis lands at radius `r = f·g(θ)`
+/// from the image centre, with f set so that the rim (θ = FOV/2) lies on
+/// the image circle. [`DomeLens::Equirectangular`] is the longitude–latitude
+/// panorama of the whole sphere.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq, Default)]
 pub enum DomeLens {
     /// g = θ: equal angles, equal radii. The domemaster standard.
@@ -76,12 +83,20 @@ pub enum DomeLens {
         /// k₁ … k₄.
         k: [f32; 4],
     },
+    /// Not a fisheye: longitude across (360°, the camera's −Z at the
+    /// centre, its +X a quarter of the width to the right), latitude up
+    /// (180°, the camera's +Y along the top row), filling the target (make
+    /// it 2:1 for square pixels). `fov_deg` is not used; `tilt_deg` pitches
+    /// the image centre down. Triangles and lines crossing the ±180° seam
+    /// are split at it, and those over a pole fill the pole's row. Vertex
+    /// mode meshes marked [`crate::DomeApparentSize::NearlyConstant`] are
+    /// refined from the view like any other (the seam depends on it).
+    Equirectangular,
 }
 
 impl DomeLens {
-    /// Every lens, for menus (the polynomial with a mildly barrelled
-    /// example lens).
-    pub const ALL: [DomeLens; 5] = [
+    /// The fisheyes (the polynomial with a mildly barrelled example lens).
+    pub const FISHEYES: [DomeLens; 5] = [
         DomeLens::Equidistant,
         DomeLens::Equisolid,
         DomeLens::Stereographic,
@@ -89,6 +104,19 @@ impl DomeLens {
         DomeLens::Polynomial {
             k: [1.0, -0.04, 0.003, -0.0001],
         },
+    ];
+
+    /// Every projection, for menus: the fisheyes and the equirectangular
+    /// panorama.
+    pub const ALL: [DomeLens; 6] = [
+        DomeLens::Equidistant,
+        DomeLens::Equisolid,
+        DomeLens::Stereographic,
+        DomeLens::Orthographic,
+        DomeLens::Polynomial {
+            k: [1.0, -0.04, 0.003, -0.0001],
+        },
+        DomeLens::Equirectangular,
     ];
 
     /// The lens's name.
@@ -99,12 +127,13 @@ impl DomeLens {
             DomeLens::Stereographic => "stereographic",
             DomeLens::Orthographic => "orthographic",
             DomeLens::Polynomial { .. } => "polynomial",
+            DomeLens::Equirectangular => "equirectangular",
         }
     }
 
-    /// The CPU twin's lens.
-    pub fn fisheye(&self) -> FisheyeLens {
-        match *self {
+    /// The CPU twin's lens; `None` for the equirectangular panorama.
+    pub fn fisheye(&self) -> Option<FisheyeLens> {
+        Some(match *self {
             DomeLens::Equidistant => FisheyeLens::Equidistant,
             DomeLens::Equisolid => FisheyeLens::Equisolid,
             DomeLens::Stereographic => FisheyeLens::Stereographic,
@@ -112,7 +141,8 @@ impl DomeLens {
             DomeLens::Polynomial { k } => FisheyeLens::Polynomial {
                 k: k.map(f64::from),
             },
-        }
+            DomeLens::Equirectangular => return None,
+        })
     }
 }
 
@@ -162,9 +192,11 @@ impl Default for DomeCamera {
 }
 
 impl DomeCamera {
-    /// The CPU twin's projection for a square domemaster of `size_px`, the
-    /// reference the plugin's shaders are tested against. Errors for a
-    /// field of view, tilt or lens the projection cannot take.
+    /// The CPU twin's fisheye projection for a square domemaster of
+    /// `size_px`, the reference the plugin's shaders are tested against.
+    /// Errors for a field of view, tilt or lens the projection cannot take,
+    /// and [`DomeError::NotAFisheye`] for the equirectangular panorama (see
+    /// [`Self::panorama`]).
     pub fn projection(&self, size_px: u32) -> Result<DomeProjection, DomeError> {
         self.projection_of_target(size_px, size_px)
     }
@@ -181,13 +213,30 @@ impl DomeCamera {
             tilt_deg: f64::from(self.tilt_deg),
             size_px: width,
             height_px: Some(height),
-            lens: self.lens.fisheye(),
+            lens: self.lens.fisheye().ok_or(DomeError::NotAFisheye)?,
         })
+    }
+
+    /// The CPU twin of any projection, fisheye or equirectangular, for a
+    /// target of `width` × `height` pixels.
+    pub fn panorama(&self, width: u32, height: u32) -> Result<Panorama, DomeError> {
+        if self.lens == DomeLens::Equirectangular {
+            let settings = EquirectSettings {
+                width_px: width,
+                height_px: Some(height),
+                tilt_deg: f64::from(self.tilt_deg),
+            };
+            return Ok(Panorama::Equirectangular(EquirectProjection::new(
+                &settings,
+            )?));
+        }
+        Ok(Panorama::Fisheye(self.projection_of_target(width, height)?))
     }
 
     /// Checks every number; the first one that is wrong, in words.
     pub fn validate(&self) -> Result<(), String> {
-        if !(self.fov_deg > 0.0 && self.fov_deg <= MAX_FOV_DEG) {
+        let fisheye = self.lens != DomeLens::Equirectangular;
+        if fisheye && !(self.fov_deg > 0.0 && self.fov_deg <= MAX_FOV_DEG) {
             return Err(format!(
                 "dome field of view {} deg is outside (0, {MAX_FOV_DEG}]",
                 self.fov_deg
@@ -222,7 +271,7 @@ impl DomeCamera {
         }
         // The lens against the field of view (an orthographic lens beyond
         // 180°, a polynomial that folds back): the CPU twin's own checks.
-        self.projection(256)
+        self.panorama(256, 256)
             .map(|_| ())
             .map_err(|why| format!("dome {} lens: {why}", self.lens.name()))
     }

@@ -19,10 +19,7 @@ use bevy::math::{Affine3A, DAffine3, DVec3};
 use bevy::mesh::{Indices, MeshVertexAttribute, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, ParallelSlice, TaskPool};
-use optica_optics::dome::{
-    DomeProjection, PrimitiveKind, SplitRule, TriMesh, pre_subdivide, refine_segment,
-    refine_triangle,
-};
+use optica_optics::dome::{Panorama, PrimitiveKind, SplitRule, TriMesh, pre_subdivide};
 
 /// The kind of primitive a mesh is made of, for the paper's classification;
 /// `None` for points.
@@ -44,13 +41,14 @@ pub(crate) fn primitive_kind(mesh: &Mesh) -> Option<PrimitiveKind> {
 pub fn refine_mesh_asset(
     source: &Mesh,
     view_from_local: Affine3A,
-    projection: &DomeProjection,
+    projection: &Panorama,
     rule: SplitRule,
 ) -> Option<Mesh> {
     let source = Source::of(source, view_from_local)?;
     match source.topology {
         PrimitiveTopology::TriangleList => Some(source.triangles(|corners| {
-            refine_triangle(projection, corners, rule)
+            projection
+                .refine_triangle(corners, rule)
                 .ok()
                 .map(|r| r.mesh.into_parts())
         })),
@@ -181,7 +179,7 @@ impl Source {
 
     /// A line list: each segment clipped and split by `rule`, attributes
     /// mixed along the segment.
-    fn lines(&self, projection: &DomeProjection, rule: SplitRule) -> Mesh {
+    fn lines(&self, projection: &Panorama, rule: SplitRule) -> Mesh {
         let pairs: Vec<[u32; 2]> = match self.topology {
             PrimitiveTopology::LineStrip => self.indices.windows(2).map(|w| [w[0], w[1]]).collect(),
             _ => self.indices.chunks_exact(2).map(|w| [w[0], w[1]]).collect(),
@@ -194,7 +192,7 @@ impl Source {
             }
             let (a, b) = (self.view[i], self.view[j]);
             // Non-finite ends, a segment through the viewer: left out.
-            let Ok(refined) = refine_segment(projection, a, b, rule) else {
+            let Ok(refined) = projection.refine_segment(a, b, rule) else {
                 continue;
             };
             let d = b - a;

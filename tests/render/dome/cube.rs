@@ -46,7 +46,7 @@ fn the_room_resampled_from_four_five_and_six_faces() {
 /// target's pixels right, most misses along an edge's sagging band.
 #[test]
 fn every_lens_in_both_modes_shows_each_pixel_its_face() {
-    for lens in DomeLens::ALL {
+    for lens in DomeLens::FISHEYES {
         for mode in [DomeMode::Vertex, DomeMode::CubeMap { face_px: 96 }] {
             for (w, h) in [(SIZE, SIZE), (160, 96)] {
                 let camera = DomeCamera {

@@ -92,7 +92,7 @@ fn an_indexed_line_strip_becomes_split_segments_with_mixed_colours() {
         .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, colours.to_vec())
         .with_inserted_indices(Indices::U16(vec![0, 2, 1, 3]));
     let rule = SplitRule::chord_gap(0.5).unwrap();
-    let out = refine_mesh_asset(&strip, Affine3A::IDENTITY, &dome(), rule).unwrap();
+    let out = refine_mesh_asset(&strip, Affine3A::IDENTITY, &dome().into(), rule).unwrap();
     assert_eq!(out.primitive_topology(), PrimitiveTopology::LineList);
     let p = positions(&out);
     let Some(Indices::U32(idx)) = out.indices() else {
@@ -134,12 +134,12 @@ fn unsupported_meshes_give_none() {
     let rule = SplitRule::chord_gap(0.5).unwrap();
     let points = Mesh::new(PrimitiveTopology::PointList, RenderAssetUsages::default())
         .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32, 0.0, -1.0]]);
-    assert!(refine_mesh_asset(&points, Affine3A::IDENTITY, &dome(), rule).is_none());
+    assert!(refine_mesh_asset(&points, Affine3A::IDENTITY, &dome().into(), rule).is_none());
     let bare = Mesh::new(
         PrimitiveTopology::TriangleList,
         RenderAssetUsages::default(),
     );
-    assert!(refine_mesh_asset(&bare, Affine3A::IDENTITY, &dome(), rule).is_none());
+    assert!(refine_mesh_asset(&bare, Affine3A::IDENTITY, &dome().into(), rule).is_none());
     let tri = Mesh::from(Triangle3d::default());
     assert!(pre_subdivide_mesh_asset(&tri, Affine3A::IDENTITY, f64::NAN).is_none());
     assert!(pre_subdivide_mesh_asset(&tri, Affine3A::IDENTITY, 0.1).is_some());

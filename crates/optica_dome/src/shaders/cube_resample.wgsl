@@ -1,8 +1,9 @@
 // cube.rs: the domemaster resampled from the cube's face images, one
 // direction per output pixel (the inverse of the dome's lens,
-// `DomeProjection::unproject` on the CPU).
+// `DomeProjection::unproject` on the CPU, or of the equirectangular
+// panorama, `EquirectProjection::unproject`).
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
-#import optica_dome::projection::{Lens, lens_theta}
+#import optica_dome::projection::{Lens, lens_theta, PI}
 
 struct CubeParams {
     // Dome coordinates (image right, image up, along the axis) → cube frame.
@@ -45,18 +46,27 @@ fn sample_face(face: u32, uv: vec2<f32>) -> vec4<f32> {
 
 @fragment
 fn fragment(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
-    // The pixel centre in units of the image circle's radius, y up.
-    let ndc = vec2<f32>(in.uv.x * 2.0 - 1.0, 1.0 - in.uv.y * 2.0) / params.scale;
-    let r = length(ndc);
-    // Pixels outside the circle repeat the rim (the rim mask paints them),
-    // so that no direction beyond the field of view is looked up.
-    let lens = Lens(i32(params.lens), params.shape, params.theta_max);
-    let theta = lens_theta(lens, r);
-    var azimuth = vec2<f32>(0.0);
-    if r > 0.0 {
-        azimuth = ndc / r;
+    var q: vec3<f32>;
+    if params.lens == 5u {
+        // The equirectangular panorama (E1 of the CPU twin): longitude
+        // across, latitude up, filling the target.
+        let lon = (in.uv.x * 2.0 - 1.0) * PI;
+        let lat = (0.5 - in.uv.y) * PI;
+        q = vec3<f32>(cos(lat) * sin(lon), sin(lat), cos(lat) * cos(lon));
+    } else {
+        // The pixel centre in units of the image circle's radius, y up.
+        let ndc = vec2<f32>(in.uv.x * 2.0 - 1.0, 1.0 - in.uv.y * 2.0) / params.scale;
+        let r = length(ndc);
+        // Pixels outside the circle repeat the rim (the rim mask paints
+        // them), so that no direction beyond the field of view is looked up.
+        let lens = Lens(i32(params.lens), params.shape, params.theta_max);
+        let theta = lens_theta(lens, r);
+        var azimuth = vec2<f32>(0.0);
+        if r > 0.0 {
+            azimuth = ndc / r;
+        }
+        q = vec3<f32>(sin(theta) * azimuth, cos(theta));
     }
-    let q = vec3<f32>(sin(theta) * azimuth, cos(theta));
     let d = params.cube_from_dome * q;
     // The drawn face the direction is most nearly along: for the cube's
     // own faces that is the face containing it; among drawn faces only, a

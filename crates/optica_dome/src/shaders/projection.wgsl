@@ -27,6 +27,7 @@ const EQUISOLID: i32 = 1;
 const STEREOGRAPHIC: i32 = 2;
 const ORTHOGRAPHIC: i32 = 3;
 const POLYNOMIAL: i32 = 4;
+const EQUIRECTANGULAR: i32 = 5;
 
 // θ_max (half the field of view, radians) encoded in `m`; 0 when `m` does
 // not carry one.
@@ -43,7 +44,7 @@ fn theta_max_of(m: mat4x4<f32>) -> f32 {
 fn lens_of(m: mat4x4<f32>) -> i32 {
     let k = m[3][0] / LENS_MARK;
     let n = round(k);
-    if abs(k - n) > 1.0e-3 || n < 1.0 || n > 5.0 {
+    if abs(k - n) > 1.0e-3 || n < 1.0 || n > 6.0 {
         return -1;
     }
     return i32(n) - 1;
@@ -171,6 +172,20 @@ fn dome_clip(q: vec3<f32>, near: f32, lens: Lens, scale: vec2<f32>) -> vec4<f32>
     return vec4<f32>(ndc * w, z, w);
 }
 
+// Clip position of frame coordinates `q` (right, up, the image centre's
+// direction) in the equirectangular panorama (E1 of the CPU twin,
+// `optica_optics::dome::EquirectProjection`): NDC x = λ/π, y = φ/(π/2),
+// filling the target; depth and w as `dome_clip`. The refinement has moved
+// vertices on the seam and the poles off them (to their side), so atan2
+// lands each where its triangle needs it.
+fn equirect_clip(q: vec3<f32>, near: f32) -> vec4<f32> {
+    let lon = atan2(q.x, q.z);
+    let lat = atan2(q.y, length(q.xz));
+    let w = max(length(q), 1.0e-30);
+    let ndc = vec2<f32>(lon / PI, lat / (0.5 * PI));
+    return vec4<f32>(ndc * w, near, w);
+}
+
 // Clip position of the view-space point `p` under the dome camera whose
 // clip_from_view is `m` (check `is_dome(m)` first).
 fn clip_of_view(p: vec3<f32>, m: mat4x4<f32>) -> vec4<f32> {
@@ -178,6 +193,10 @@ fn clip_of_view(p: vec3<f32>, m: mat4x4<f32>) -> vec4<f32> {
     let axis = vec3<f32>(m[0][3], m[1][3], m[2][3]);
     let up = cross(vec3<f32>(1.0, 0.0, 0.0), axis);
     let q = vec3<f32>(p.x, dot(up, p), dot(axis, p));
+    let lens = lens_from(m);
+    if lens.kind == EQUIRECTANGULAR {
+        return equirect_clip(q, m[3][2]);
+    }
     let scale = vec2<f32>(m[0][0], length(vec2<f32>(m[1][1], m[2][1])));
-    return dome_clip(q, m[3][2], lens_from(m), scale);
+    return dome_clip(q, m[3][2], lens, scale);
 }

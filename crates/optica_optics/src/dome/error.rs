@@ -44,6 +44,10 @@ pub enum DomeError {
         /// The first polar angle checked where dr/dθ ≤ 0, degrees.
         theta_deg: f64,
     },
+    /// A fisheye's projection was asked of an equirectangular panorama,
+    /// which has no image circle, focal length or axis of its own.
+    #[error("an equirectangular panorama is not a fisheye")]
+    NotAFisheye,
     /// A triangle refers to a vertex that does not exist.
     #[error("triangle index {index} is out of range for {len} vertices")]
     IndexOutOfRange {

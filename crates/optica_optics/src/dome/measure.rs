@@ -47,7 +47,7 @@ pub const SAMPLES: usize = 16;
 /// resolution of E itself.
 const SEARCH_REL: f64 = 1e-12;
 
-fn dist_to_segment(x: DVec2, p0: DVec2, p1: DVec2) -> f64 {
+pub(crate) fn dist_to_segment(x: DVec2, p0: DVec2, p1: DVec2) -> f64 {
     let v = p1 - p0;
     let l2 = v.length_squared();
     let t = if l2 > 0.0 {

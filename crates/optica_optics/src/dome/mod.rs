@@ -91,6 +91,10 @@
 //!   `N = |v × a|/|v|`. It equals D6 for F = fθ. The chord-gap rule takes
 //!   its largest value over samples along the arc (for the equidistant lens
 //!   the arc's largest θ, where D6 is largest).
+//! * **E1, E2** (the equirectangular panorama, not a fisheye: longitude
+//!   and latitude on a 2:1 image, and the curvature of a great circle's
+//!   image there) — see [`EquirectProjection`]; its seam and poles are cut
+//!   and mended by [`refine_mesh_equirect`].
 //!
 //! ## Conventions
 //!
@@ -145,6 +149,9 @@
 //! | `refine.rs` | §3.2: segments and polylines |
 //! | `triangle.rs` | §3.3: triangles and meshes, crack-free |
 //! | `interior.rs` | conforming bisection of interior edges (our addition) |
+//! | `equirect.rs` | E1, E2: [`EquirectProjection`], the 360° × 180° panorama |
+//! | `equirect_refine.rs` | panorama refinement: quarter cuts, seam and poles |
+//! | `panorama.rs` | [`Panorama`]: either projection behind one type |
 //! | `classify.rs` | §3.1: dynamic vs pre-subdivided primitives |
 //! | `error.rs` | [`DomeError`] |
 //! | `measure.rs` | D8: exact chord error (feature `reference`) |
@@ -160,11 +167,14 @@ mod arc;
 mod camera;
 mod classify;
 mod clip;
+mod equirect;
+mod equirect_refine;
 mod error;
 mod interior;
 mod lens;
 #[cfg(feature = "reference")]
 mod measure;
+mod panorama;
 mod projection;
 mod refine;
 mod rule;
@@ -178,10 +188,20 @@ pub use classify::{
     ApparentSize, PrimitiveKind, Treatment, classify, pre_subdivide, pre_subdivision_piece_rad,
 };
 pub use clip::clip_segment;
+#[cfg(feature = "reference")]
+pub use equirect::equirect_chord_error_px;
+pub use equirect::{
+    CURVATURE_SAMPLES, EquirectProjection, EquirectSettings, POLE_EPS_RAD, SEAM_NUDGE_RAD,
+};
+pub use equirect_refine::{
+    refine_mesh_equirect, refine_segment_equirect, refine_segments_equirect,
+    refine_triangle_equirect,
+};
 pub use error::DomeError;
 pub use lens::FisheyeLens;
 #[cfg(feature = "reference")]
 pub use measure::{EdgeErrors, SAMPLES, chord_error_px, polyline_error_px};
+pub use panorama::Panorama;
 pub use projection::{ANTIPODE_EPS_RAD, ImagePoint, Projected};
 pub use refine::{
     RefineStats, RefinedLines, RefinedSegment, refine_polyline, refine_segment, refine_segments,

@@ -59,6 +59,10 @@ pub enum Projected {
     OutsideFov(ImagePoint),
     /// Within [`ANTIPODE_EPS_RAD`] of the antipode: no defined pixel.
     Antipode,
+    /// On a pole of an equirectangular panorama (within
+    /// [`POLE_EPS_RAD`](super::POLE_EPS_RAD)): a whole row of the image,
+    /// no one pixel.
+    Pole,
     /// The camera origin itself (all coordinates exactly zero): no direction.
     Origin,
     /// A coordinate is NaN or infinite.

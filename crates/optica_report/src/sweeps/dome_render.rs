@@ -370,7 +370,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
                     refine_mesh_asset(
                         mesh,
                         view_from_world * transform.compute_affine(),
-                        &dome,
+                        &dome.into(),
                         rule,
                     )
                 })

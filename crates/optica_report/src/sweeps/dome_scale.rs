@@ -96,7 +96,9 @@ pub fn scene_size(report: &mut Report, ctx: &SweepContext) {
             let view = camera_at(step);
             places
                 .iter()
-                .filter_map(|place| refine_mesh_asset(&mesh, view * *place, &projection, rule))
+                .filter_map(|place| {
+                    refine_mesh_asset(&mesh, view * *place, &projection.into(), rule)
+                })
                 .map(|m| m.count_vertices())
                 .sum::<usize>()
         });

@@ -431,7 +431,8 @@ fn twin_coverage(
 ) -> (f64, usize) {
     let rule = SplitRule::chord_gap(tolerance).expect("positive tolerance");
     let view_from_world = camera().compute_affine().inverse();
-    let Some(twin) = refine_mesh_asset(&content.mesh(size), view_from_world, dome, rule) else {
+    let Some(twin) = refine_mesh_asset(&content.mesh(size), view_from_world, &(*dome).into(), rule)
+    else {
         return (0.0, 0);
     };
     let Some(bevy::mesh::VertexAttributeValues::Float32x3(positions)) =

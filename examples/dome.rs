@@ -14,10 +14,11 @@
 //! cargo run --release --example dome --features dome -- --export show --frames 0..240 --size 4096
 //! ```
 //!
-//! `--lens` picks the radial mapping: `equidistant` (the default and the
-//! domemaster standard), `equisolid`, `stereographic`, `orthographic`, or
-//! `polynomial` with `--k k1,k2,k3,k4` (a calibrated lens's Kannala–Brandt
-//! coefficients).
+//! `--lens` picks the projection: the radial mappings `equidistant` (the
+//! default and the domemaster standard), `equisolid`, `stereographic`,
+//! `orthographic`, or `polynomial` with `--k k1,k2,k3,k4` (a calibrated
+//! lens's Kannala–Brandt coefficients); or `equirectangular`, a 360° × 180°
+//! panorama on a 2:1 image, the camera looking at the horizon.
 //!
 //! With the `window` feature and a display it opens a window (an egui panel
 //! for mode, lens, field of view, tilt and tolerance with the `egui` feature);
@@ -147,13 +148,14 @@ fn main() {
         app.add_plugins(DefaultPlugins.set(WindowPlugin {
             primary_window: Some(Window {
                 title: "optica dome".into(),
-                resolution: (SIZE, SIZE).into(),
+                resolution: target_size(&dome, SIZE).into(),
                 ..default()
             }),
             ..default()
         }));
         setup_app(&mut app, dome);
-        app.add_systems(First, run_show_clock);
+        app.add_systems(First, run_show_clock)
+            .add_systems(Update, fit_window);
         #[cfg(feature = "egui")]
         app.add_plugins(bevy_egui::EguiPlugin::default())
             .add_systems(bevy_egui::EguiPrimaryContextPass, panel);
@@ -162,7 +164,8 @@ fn main() {
         let dir = out.unwrap_or_else(|| "target/optica".into());
         let _ = std::fs::create_dir_all(&dir);
         for k in 0..4 {
-            let frame = optica_harness::Headless::new(SIZE, SIZE)
+            let (w, h) = target_size(&dome, SIZE);
+            let frame = optica_harness::Headless::new(w, h)
                 .adapter(optica_harness::Adapter::Auto)
                 .render(|app| {
                     setup_app(app, dome);
@@ -219,8 +222,8 @@ fn export_sequence(dome: DomeCamera, export: DomeExport, size: u32) {
         move |mut commands: Commands,
               mut images: ResMut<Assets<Image>>,
               cameras: Query<Entity, With<DomeCamera>>| {
-            let mut image =
-                Image::new_target_texture(size, size, TextureFormat::Rgba8UnormSrgb, None);
+            let (w, h) = target_size(&dome, size);
+            let mut image = Image::new_target_texture(w, h, TextureFormat::Rgba8UnormSrgb, None);
             image.texture_descriptor.usage |=
                 bevy::render::render_resource::TextureUsages::COPY_SRC;
             let handle = images.add(image);
@@ -234,10 +237,45 @@ fn export_sequence(dome: DomeCamera, export: DomeExport, size: u32) {
     let start = std::time::Instant::now();
     app.run();
     println!(
-        "dome: frames {frames:?} at {size}² in {:.1} s",
+        "dome: frames {frames:?} at {size} px across in {:.1} s",
         start.elapsed().as_secs_f64()
     );
 }
+
+/// The image for `dome` at `size` px across: square for a fisheye, 2:1 for
+/// the panorama.
+fn target_size(dome: &DomeCamera, size: u32) -> (u32, u32) {
+    match dome.lens {
+        DomeLens::Equirectangular => (size, size / 2),
+        _ => (size, size),
+    }
+}
+
+/// How the camera is mounted: a fisheye looks at the zenith, the audience
+/// facing −Z; the panorama looks at the horizon (−Z) with +Y up.
+fn mount(dome: &DomeCamera) -> Quat {
+    match dome.lens {
+        DomeLens::Equirectangular => Transform::IDENTITY.looking_to(Vec3::NEG_Z, Vec3::Y),
+        _ => Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z),
+    }
+    .rotation
+}
+
+/// Keeps the window's shape that of the image (2:1 for the panorama) when
+/// the panel changes the projection.
+#[cfg(feature = "window")]
+fn fit_window(cameras: Query<&DomeCamera, Changed<DomeCamera>>, mut windows: Query<&mut Window>) {
+    let (Ok(dome), Ok(mut window)) = (cameras.single(), windows.single_mut()) else {
+        return;
+    };
+    let (w, h) = target_size(dome, SIZE);
+    if window.resolution.physical_height() * w != window.resolution.physical_width() * h {
+        window.resolution.set(w as f32, h as f32);
+    }
+}
+
+#[cfg(not(feature = "window"))]
+fn fit_window() {}
 
 /// In a window, the show clock follows real time.
 fn run_show_clock(time: Res<Time>, mut clock: ResMut<DomeShowClock>) {
@@ -415,24 +453,23 @@ fn spawn_planetarium(
         },
         Transform::from_xyz(-1.0, 2.0, 0.5).looking_at(Vec3::ZERO, Vec3::Y),
     ));
-    // The dome: a fisheye at the zenith, the audience facing −Z.
+    // The dome: a fisheye at the zenith, the audience facing −Z (or the
+    // panorama looking at the horizon).
     commands.spawn((
         dome,
         Camera {
             clear_color: ClearColorConfig::Custom(Color::srgb(0.01, 0.015, 0.04)),
             ..default()
         },
-        Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z),
+        Transform::from_rotation(mount(&dome)),
     ));
 }
 
 /// Turns the dome camera about the zenith with the show clock (the twins
 /// follow: refined again as the scene moves relative to the camera).
-fn turn(clock: Res<DomeShowClock>, mut cameras: Query<&mut Transform, With<DomeCamera>>) {
-    let rotation = Quat::from_rotation_y(TURN * clock.seconds())
-        * Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z).rotation;
-    for mut transform in &mut cameras {
-        transform.rotation = rotation;
+fn turn(clock: Res<DomeShowClock>, mut cameras: Query<(&mut Transform, &DomeCamera)>) {
+    for (mut transform, dome) in &mut cameras {
+        transform.rotation = Quat::from_rotation_y(TURN * clock.seconds()) * mount(dome);
     }
 }
 
@@ -476,7 +513,7 @@ fn panel(
             }
             (true, DomeMode::Vertex) => DomeMode::CubeMap { face_px: 768 },
         };
-        egui::ComboBox::from_label("lens")
+        egui::ComboBox::from_label("projection")
             .selected_text(edit.lens.name())
             .show_ui(ui, |ui| {
                 for lens in DomeLens::ALL {
@@ -495,7 +532,10 @@ fn panel(
                 }
             });
         }
-        ui.add(egui::Slider::new(&mut edit.fov_deg, 60.0..=350.0).text("field of view (°)"));
+        // The panorama sees the whole sphere: no field of view to set.
+        if edit.lens != DomeLens::Equirectangular {
+            ui.add(egui::Slider::new(&mut edit.fov_deg, 60.0..=350.0).text("field of view (°)"));
+        }
         ui.add(egui::Slider::new(&mut edit.tilt_deg, -30.0..=90.0).text("tilt (°)"));
         ui.add(
             egui::Slider::new(&mut edit.tolerance_px, 0.1..=40.0)

@@ -20,14 +20,34 @@ use super::rule::SplitRule;
 use super::triangle::{RefinedMesh, TriMesh, Welder, subdivide_triangle};
 use crate::input;
 
+/// Points this close to a pole's axis (relative: √(x² + z²) ≤ this·|q|)
+/// are put on it. A vertex meant to be on a pole (the zenith of a sky
+/// computed in f32) lands ~1e-7 off it, at a longitude that is rounding
+/// noise; left there, the edges to it would run a meridian up to the pole's
+/// row and then along that row to the noise's longitude, which the
+/// curvature rule cannot follow (N grows as 1/h² there). On the axis, it is
+/// fanned out like any pole vertex. The move is invisible: 1e-6 rad is
+/// 0.003 px of latitude at 8K.
+pub const POLE_SNAP_RAD: f64 = 1e-6;
+
+/// `q` put on a pole's axis when it lies within [`POLE_SNAP_RAD`] of it.
+fn snap_to_pole(q: DVec3) -> DVec3 {
+    if q.x.hypot(q.z) <= POLE_SNAP_RAD * q.length() && q.y != 0.0 {
+        DVec3::new(0.0, q.y, 0.0)
+    } else {
+        q
+    }
+}
+
 /// The cut of edge p–q by the coordinate plane `c` (0: x, 2: z), from the
-/// canonically ordered edge, the cut coordinate set to exactly 0.
+/// canonically ordered edge, the cut coordinate set to exactly 0 (and the
+/// point put on a pole's axis when it lies next to it).
 fn cut(p: DVec3, q: DVec3, c: usize) -> DVec3 {
     let (p, q) = if canonical_less(q, p) { (q, p) } else { (p, q) };
     let t = p[c] / (p[c] - q[c]);
     let mut r = p + t * (q - p);
     r[c] = 0.0;
-    r
+    snap_to_pole(r)
 }
 
 /// The part of a convex polygon on the `side` (±1) of coordinate plane `c`
@@ -112,6 +132,7 @@ fn refine_in_frame(
     out: &mut Welder,
     stats: &mut RefineStats,
 ) {
+    let tri = tri.map(snap_to_pole);
     let pieces = |arc: &Arc| proj.pieces_of_arc(rule, arc);
     for (sx, sz) in QUARTERS {
         let poly = clip_polygon(&clip_polygon(&tri, 0, sx), 2, sz);
@@ -284,8 +305,8 @@ pub fn refine_segment_equirect(
 ) -> Result<RefinedSegment, DomeError> {
     Ok(refine_segment_in_frame(
         proj,
-        proj.to_frame(a),
-        proj.to_frame(b),
+        snap_to_pole(proj.to_frame(a)),
+        snap_to_pole(proj.to_frame(b)),
         rule,
     )?)
 }
@@ -304,7 +325,8 @@ pub fn refine_segments_equirect(
                 input: 1,
                 ..Default::default()
             };
-            match refine_segment_in_frame(proj, proj.to_frame(a), proj.to_frame(b), rule) {
+            let (a, b) = (proj.to_frame(a), proj.to_frame(b));
+            match refine_segment_in_frame(proj, snap_to_pole(a), snap_to_pole(b), rule) {
                 Err(cause) => {
                     st.drop_for(cause);
                     (Vec::new(), st)
@@ -518,9 +540,10 @@ mod tests {
             "ground covers {area} of {half}"
         );
         assert!(span < 300.0);
-        // A vertex exactly on each pole, a triangle a micrometre across
-        // round the zenith, one of 1e-100 and one of 1e150: finite pixels,
-        // the tiny ones whole.
+        // A vertex exactly on each pole, a triangle 0.1 mm across round the
+        // zenith 2 m up, one of 1e-100 and one of 1e150: finite pixels, the
+        // tiny ones whole. (A micrometre one would lie within
+        // POLE_SNAP_RAD of the pole and be put on it: nothing to draw.)
         let tiny = |s: f64, y: f64| {
             [
                 DVec3::new(-s, y, -s),
@@ -539,7 +562,7 @@ mod tests {
                 DVec3::new(-1.0, -3.0, 1.0),
                 DVec3::new(1.0, -3.0, 1.0),
             ],
-            tiny(1e-6, 2.0),
+            tiny(1e-4, 2.0),
             tiny(1e-100, 1e-99),
             tiny(1e150, 1e151),
         ] {
@@ -557,6 +580,26 @@ mod tests {
         // as f64 can tell, left out and counted.
         let r = refine_triangle_equirect(&p, tiny(1e-300, 1e-299), rule).unwrap();
         assert!(r.mesh.triangles().is_empty() && r.stats.dropped_at_origin > 0);
+    }
+
+    #[test]
+    fn a_meridian_ending_next_to_the_zenith_stays_a_meridian() {
+        // The zenith as f32 trigonometry gives it: 4.4e-8 rad off the pole,
+        // at a longitude of rounding noise (here 2 rad away from the
+        // meridian's own). Its last piece must still be vertical, not a
+        // chord across the image to the noise's longitude.
+        let p = pano(0.0);
+        let lon: f64 = 0.3;
+        let a = DVec3::new(lon.sin(), 1.0, -lon.cos());
+        let zenith = DVec3::new(4.4e-8 * 2.3f64.sin(), 1.0, -4.4e-8 * 2.3f64.cos());
+        let s = refine_segment_equirect(&p, a, zenith, chord_gap(0.5)).unwrap();
+        let xs: Vec<f64> = s.strips.iter().flatten().map(|&v| px(&p, v).x).collect();
+        let spread = xs.iter().cloned().fold(f64::MIN, f64::max)
+            - xs.iter().cloned().fold(f64::MAX, f64::min);
+        assert!(
+            spread < 0.1,
+            "the meridian wanders over {spread} px: {xs:?}"
+        );
     }
 
     proptest! {

@@ -193,6 +193,7 @@ pub use equirect::equirect_chord_error_px;
 pub use equirect::{
     CURVATURE_SAMPLES, EquirectProjection, EquirectSettings, POLE_EPS_RAD, SEAM_NUDGE_RAD,
 };
+pub use equirect_refine::POLE_SNAP_RAD;
 pub use equirect_refine::{
     refine_mesh_equirect, refine_segment_equirect, refine_segments_equirect,
     refine_triangle_equirect,

@@ -29,7 +29,8 @@
 //!   orthographic at 180°; the polynomial at 220°), the chord-gap rule
 //!   measuring curvature in that lens's image (D10): `max_px`, `mean_px`,
 //!   `mesh_max_px` by D8 in that image; time_ms: clip + refine + project,
-//!   as above.
+//!   as above. `lens: equirectangular 360°`: the same through the
+//!   4096 × 2048 panorama, edges all around (see `dome_panorama.rs`).
 //! * Series `scene size, moving camera`: the plugin's per-frame
 //!   refinement over scenes of 1k–1M triangles (see `dome_scale.rs`).
 //! * Series `textured room, …` and `star field, …` (vertex mode, with and
@@ -52,7 +53,7 @@ use optica_optics::glam::DVec3;
 use crate::{Report, Row, SweepContext, time_ms};
 
 /// The inside-out room seen by a zenith camera 1.7 m above its floor.
-fn room() -> TriMesh {
+pub(super) fn room() -> TriMesh {
     TriMesh::cuboid(
         DVec3::new(-4.0, -6.0, -3.0),
         DVec3::new(4.0, 3.0, 1.7),
@@ -217,6 +218,7 @@ pub fn run(ctx: &SweepContext) -> Result<Report, super::SweepError> {
     }
 
     lenses(&mut report, ctx, &tolerances);
+    super::dome_panorama::panorama_rows(&mut report, ctx, &tolerances);
     super::dome_scale::scene_size(&mut report, ctx);
     super::dome_render::rendered_rows(ctx, &mut report)?;
     super::dome_textured::textured_rows(ctx, &mut report)?;
@@ -633,9 +635,13 @@ mod tests {
         let (rendered, cube): (Vec<&Row>, Vec<&Row>) = rendered
             .into_iter()
             .partition(|row| row.series.starts_with("vertex"));
-        // Every lens holds the tolerance on edges and on the room, in its
-        // own image, and refining is what does it.
-        assert_eq!(lenses.len(), 4 * 3);
+        // Every lens and the panorama holds the tolerance on edges and on
+        // the room, in its own image, and refining is what does it; the
+        // panorama's room tiles the image once.
+        assert_eq!(lenses.len(), 5 * 3);
+        for row in lenses.iter().filter(|r| r.series.contains("equirect")) {
+            assert!(row.error["room_area_err"] < 1e-3, "{row:?}");
+        }
         for row in &lenses {
             assert!(row.error["max_px"] <= row.knob, "{row:?}");
             assert!(row.error["mesh_max_px"] <= row.knob, "{row:?}");

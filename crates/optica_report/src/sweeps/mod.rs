@@ -7,6 +7,7 @@ use crate::{Report, SweepContext};
 
 pub mod compound_eye;
 pub mod dome;
+pub mod dome_panorama;
 pub mod dome_render;
 pub mod dome_scale;
 pub mod dome_textured;

@@ -34,7 +34,7 @@ use optica_optics::dome::{
 };
 
 use crate::DomeCamera;
-use crate::twin_mesh::{pre_subdivide_mesh_asset, primitive_kind, refine_mesh_asset};
+use crate::twin_mesh::{Twin, pre_subdivide_mesh_asset, primitive_kind, twin_of_mesh};
 
 /// The first render layer of the refined twins and of dome cameras: each
 /// vertex-mode dome camera gets its own ([`DomeLayer`]), from this one up,
@@ -110,10 +110,15 @@ pub struct DomeTwin {
     pub camera: Entity,
     /// The twin entity (a child of the original).
     pub twin: Entity,
-    /// The twin's mesh, rewritten in place when it is refined again: a new
-    /// handle every frame would make Bevy re-specialise the twin each frame
-    /// and never draw it while the camera moves.
-    twin_mesh: Handle<Mesh>,
+    /// The twin's own mesh, rewritten in place when it is refined again: a
+    /// new handle every frame would make Bevy re-specialise the twin each
+    /// frame and never draw it while the camera moves. `None` until a
+    /// refinement first changes the mesh.
+    twin_mesh: Option<Handle<Mesh>>,
+    /// Whether the twin draws its original's mesh itself (every triangle is
+    /// its own refinement: small and in front, [`Twin::Same`]) rather than
+    /// its own.
+    shows_original: bool,
     built_for: BuiltFor,
     /// The original mesh's size (largest distance of a vertex from its
     /// origin), for [`BuiltFor::serves`].
@@ -204,6 +209,9 @@ pub struct DomeRefineStats {
     pub rebuilt: usize,
     /// Twins still right for the camera, kept.
     pub kept: usize,
+    /// Of those, twins that draw their original's mesh as it is (every
+    /// triangle small and in front: nothing to split, nothing to build).
+    pub unsplit: usize,
     /// Vertices of the twins rebuilt in the last pass.
     pub vertices: usize,
     /// CPU time of the last pass, in milliseconds.
@@ -354,7 +362,8 @@ pub(crate) fn refine_twins(
             .unwrap_or(UVec2::splat(DEFAULT_SIZE_PX))
             .max(UVec2::ONE);
         let tolerance = f64::from(camera.tolerance_px);
-        let ready = camera.validate().ok().and_then(|_| {
+        // (Building the projection checks the lens.)
+        let ready = camera.validate_numbers().ok().and_then(|_| {
             let projection = camera.panorama(size_px.x, size_px.y).ok()?;
             let rule = SplitRule::chord_gap(tolerance).ok()?;
             let piece = match projection.fisheye() {
@@ -442,42 +451,28 @@ pub(crate) fn refine_twins(
                 pass.kept += 1;
                 continue;
             }
-            let refined = match treatment {
+            let twin = match treatment {
                 Treatment::Dynamic => {
-                    refine_mesh_asset(source, view_from_local, &view.projection, view.rule)
+                    twin_of_mesh(source, view_from_local, &view.projection, view.rule)
                 }
                 Treatment::PreSubdivided => view
                     .piece
-                    .and_then(|piece| pre_subdivide_mesh_asset(source, view_from_local, piece)),
+                    .and_then(|piece| pre_subdivide_mesh_asset(source, view_from_local, piece))
+                    .map(|mesh| Twin::Refined(Box::new(mesh))),
             };
             let extent = extent_of(source);
-            let Some(refined) = refined else {
+            let Some(twin) = twin else {
                 if let Some(i) = slot {
                     commands.entity(list.remove(i).twin).despawn();
                 }
                 continue;
             };
             pass.rebuilt += 1;
-            pass.vertices += refined.count_vertices();
-            match slot {
-                Some(i) => {
-                    let twin = &mut list[i];
-                    if let Some(mut mesh) = meshes.get_mut(&twin.twin_mesh) {
-                        *mesh = refined;
-                    } else {
-                        twin.twin_mesh = meshes.add(refined);
-                        commands
-                            .entity(twin.twin)
-                            .insert(Mesh3d(twin.twin_mesh.clone()));
-                    }
-                    twin.built_for = built_for;
-                    twin.extent = extent;
-                }
+            let entry = match slot {
+                Some(i) => &mut list[i],
                 None => {
-                    let handle = meshes.add(refined);
                     let twin = commands
                         .spawn((
-                            Mesh3d(handle.clone()),
                             Transform::IDENTITY,
                             // Right from the first frame (propagation has run).
                             *transform,
@@ -490,10 +485,44 @@ pub(crate) fn refine_twins(
                     list.push(DomeTwin {
                         camera: view.entity,
                         twin,
-                        twin_mesh: handle,
+                        twin_mesh: None,
+                        shows_original: false,
                         built_for,
                         extent,
                     });
+                    list.last_mut().expect("just pushed")
+                }
+            };
+            // (A new entry was pushed with `built_for` already.)
+            let same_original = slot.is_some() && entry.built_for.mesh == built_for.mesh;
+            entry.built_for = built_for;
+            entry.extent = extent;
+            match twin {
+                Twin::Same => {
+                    pass.unsplit += 1;
+                    if !(entry.shows_original && same_original) {
+                        commands.entity(entry.twin).insert(Mesh3d(mesh3d.0.clone()));
+                        entry.shows_original = true;
+                    }
+                }
+                Twin::Refined(refined) => {
+                    pass.vertices += refined.count_vertices();
+                    let unwritten = match entry.twin_mesh.as_ref().and_then(|h| meshes.get_mut(h)) {
+                        Some(mut mesh) => {
+                            *mesh = *refined;
+                            None
+                        }
+                        None => Some(refined),
+                    };
+                    let fresh_handle = unwritten.is_some();
+                    if let Some(refined) = unwritten {
+                        entry.twin_mesh = Some(meshes.add(*refined));
+                    }
+                    if fresh_handle || entry.shows_original || slot.is_none() {
+                        let handle = entry.twin_mesh.clone().expect("set above");
+                        commands.entity(entry.twin).insert(Mesh3d(handle));
+                        entry.shows_original = false;
+                    }
                 }
             }
         }

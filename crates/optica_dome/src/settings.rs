@@ -235,6 +235,18 @@ impl DomeCamera {
 
     /// Checks every number; the first one that is wrong, in words.
     pub fn validate(&self) -> Result<(), String> {
+        self.validate_numbers()?;
+        // The lens against the field of view (an orthographic lens beyond
+        // 180°, a polynomial that folds back): the CPU twin's own checks.
+        self.panorama(256, 256)
+            .map(|_| ())
+            .map_err(|why| format!("dome {} lens: {why}", self.lens.name()))
+    }
+
+    /// [`Self::validate`] but for the lens, which building the CPU twin
+    /// ([`Self::panorama`]) checks: for callers that build it anyway, so
+    /// that it is not built twice a frame.
+    pub(crate) fn validate_numbers(&self) -> Result<(), String> {
         let fisheye = self.lens != DomeLens::Equirectangular;
         if fisheye && !(self.fov_deg > 0.0 && self.fov_deg <= MAX_FOV_DEG) {
             return Err(format!(
@@ -269,10 +281,6 @@ impl DomeCamera {
                 FACE_PX_RANGE.end()
             ));
         }
-        // The lens against the field of view (an orthographic lens beyond
-        // 180°, a polynomial that folds back): the CPU twin's own checks.
-        self.panorama(256, 256)
-            .map(|_| ())
-            .map_err(|why| format!("dome {} lens: {why}", self.lens.name()))
+        Ok(())
     }
 }

@@ -44,16 +44,38 @@ pub fn refine_mesh_asset(
     projection: &Panorama,
     rule: SplitRule,
 ) -> Option<Mesh> {
+    Some(
+        match twin_of_mesh(source, view_from_local, projection, rule)? {
+            Twin::Same => source.clone(),
+            Twin::Refined(mesh) => *mesh,
+        },
+    )
+}
+
+/// [`refine_mesh_asset`] without the copy when nothing needs refining: a
+/// triangle list whose every triangle is its own refinement (small and in
+/// front: [`Panorama::leaves_whole`]) is [`Twin::Same`], and a renderer
+/// draws the source mesh itself. What the plugin runs every frame a mesh
+/// moves relative to a dome camera.
+pub fn twin_of_mesh(
+    source: &Mesh,
+    view_from_local: Affine3A,
+    projection: &Panorama,
+    rule: SplitRule,
+) -> Option<Twin> {
     let source = Source::of(source, view_from_local)?;
     match source.topology {
-        PrimitiveTopology::TriangleList => Some(source.triangles(|corners| {
-            projection
-                .refine_triangle(corners, rule)
-                .ok()
-                .map(|r| r.mesh.into_parts())
-        })),
+        PrimitiveTopology::TriangleList => Some(source.triangles(
+            |corners| projection.leaves_whole(corners, rule),
+            |corners| {
+                projection
+                    .refine_triangle(corners, rule)
+                    .ok()
+                    .map(|r| r.mesh.into_parts())
+            },
+        )),
         PrimitiveTopology::LineList | PrimitiveTopology::LineStrip => {
-            Some(source.lines(projection, rule))
+            Some(Twin::Refined(Box::new(source.lines(projection, rule))))
         }
         _ => None,
     }
@@ -68,23 +90,31 @@ pub fn refine_mesh_asset(
 /// viewer. Not clipped. `None` for other topologies, a mesh without
 /// positions or a piece angle that is not finite and positive.
 pub fn pre_subdivide_mesh_asset(
-    source: &Mesh,
+    source_mesh: &Mesh,
     view_from_local: Affine3A,
     max_piece_rad: f64,
 ) -> Option<Mesh> {
     if !(max_piece_rad.is_finite() && max_piece_rad > 0.0) {
         return None;
     }
-    let source = Source::of(source, view_from_local)?;
+    let source = Source::of(source_mesh, view_from_local)?;
     if source.topology != PrimitiveTopology::TriangleList {
         return None;
     }
-    Some(source.triangles(|corners| {
-        let one = TriMesh::new(corners.to_vec(), vec![[0, 1, 2]]).ok()?;
-        pre_subdivide(&one, max_piece_rad)
-            .ok()
-            .map(|r| r.mesh.into_parts())
-    }))
+    let twin = source.triangles(
+        |_| false,
+        |corners| {
+            let one = TriMesh::new(corners.to_vec(), vec![[0, 1, 2]]).ok()?;
+            pre_subdivide(&one, max_piece_rad)
+                .ok()
+                .map(|r| r.mesh.into_parts())
+        },
+    );
+    Some(match twin {
+        // (A mesh without triangles.)
+        Twin::Same => source_mesh.clone(),
+        Twin::Refined(mesh) => *mesh,
+    })
 }
 
 /// Triangles refined by one task of the compute pool: enough to outweigh
@@ -92,18 +122,29 @@ pub fn pre_subdivide_mesh_asset(
 /// over a few threads.
 const TRIANGLES_PER_TASK: usize = 128;
 
+/// Marks an output index that refers to a vertex made by refinement (the
+/// rest refer to the source's own vertices, which every twin starts with).
+const NEW_VERTEX: u32 = 1 << 31;
+
 /// A user's mesh read for refinement: positions in view space, indices,
-/// and the attributes to carry.
-struct Source {
+/// and the attributes to carry (borrowed: a twin rebuilt every frame must
+/// not copy them first).
+struct Source<'a> {
     topology: PrimitiveTopology,
     local_from_view: DAffine3,
+    /// The source's own positions.
+    local: &'a [[f32; 3]],
     view: Vec<DVec3>,
     indices: Vec<u32>,
-    carried: Vec<(MeshVertexAttribute, Interpolated)>,
+    carried: Vec<(MeshVertexAttribute, &'a VertexAttributeValues)>,
+    /// Whether the source has nothing a twin leaves out (attributes other
+    /// than float ones, morph targets): only then may a twin be the
+    /// source itself.
+    all_carried: bool,
 }
 
-impl Source {
-    fn of(source: &Mesh, view_from_local: Affine3A) -> Option<Self> {
+impl<'a> Source<'a> {
+    fn of(source: &'a Mesh, view_from_local: Affine3A) -> Option<Self> {
         let Some(VertexAttributeValues::Float32x3(positions)) =
             source.attribute(Mesh::ATTRIBUTE_POSITION)
         else {
@@ -121,60 +162,91 @@ impl Source {
             .collect();
         // (An attribute of another length than the positions is malformed;
         // it is left out rather than read out of bounds.)
-        let carried = source
+        let carried: Vec<_> = source
             .attributes()
             .filter(|(a, v)| a.id != Mesh::ATTRIBUTE_POSITION.id && v.len() == positions.len())
-            .filter_map(|(a, values)| Interpolated::of(values).map(|v| (*a, v)))
+            .filter(|(_, v)| mixable(v))
+            .map(|(a, v)| (*a, v))
             .collect();
+        let all_carried = source.attributes().count() == carried.len() + 1
+            && !source.has_morph_targets()
+            && positions.len() < NEW_VERTEX as usize;
         Some(Self {
             topology: source.primitive_topology(),
             local_from_view: view_from_local.inverse(),
+            local: positions,
             view,
             indices,
             carried,
+            all_carried,
         })
     }
 
     /// A triangle list: each triangle of the source replaced by what
     /// `refine` makes of its view-space corners (points and triangles;
-    /// `None` drops it), attributes mixed by barycentric weights.
+    /// `None` drops it), attributes mixed by barycentric weights. A
+    /// triangle `whole` says is its own refinement keeps the source's
+    /// vertices (no call to `refine`, no mixing), and so do refined points
+    /// that are a corner of their triangle, so neighbours share them bit
+    /// for bit. [`Twin::Same`] when every triangle stays whole: the source
+    /// mesh serves as it is.
     fn triangles(
         &self,
+        whole: impl Fn([DVec3; 3]) -> bool + Sync,
         refine: impl Fn([DVec3; 3]) -> Option<(Vec<DVec3>, Vec<[u32; 3]>)> + Sync,
-    ) -> Mesh {
+    ) -> Twin {
         // Triangles are refined independently (shared edges split alike
         // from both sides), so in parallel on Bevy's compute pool, in
         // chunks; then gathered in order, so the twin is the same
         // whatever the thread count.
-        let refined = |t: &[u32]| {
-            let ids = [t[0] as usize, t[1] as usize, t[2] as usize];
-            if ids.iter().any(|&i| i >= self.view.len()) {
-                return None;
-            }
-            let corners = ids.map(|i| self.view[i]);
-            refine(corners).map(|r| (ids, corners, r))
-        };
         let pool = ComputeTaskPool::get_or_init(TaskPool::default);
         let parts = self
             .indices
             .par_chunk_map(pool, 3 * TRIANGLES_PER_TASK, |_, chunk| {
                 let mut out = Output::new(self);
-                for (ids, corners, (points, triangles)) in chunk.chunks_exact(3).filter_map(refined)
-                {
-                    let base = out.positions.len() as u32;
-                    for p in &points {
-                        out.push(self, *p, ids, barycentric(corners, *p));
+                for t in chunk.chunks_exact(3) {
+                    let ids = [t[0] as usize, t[1] as usize, t[2] as usize];
+                    if ids.iter().any(|&i| i >= self.view.len()) {
+                        out.changed = true;
+                        continue;
                     }
+                    let corners = ids.map(|i| self.view[i]);
+                    if corners.iter().all(|c| c.is_finite()) && whole(corners) {
+                        out.indices.extend_from_slice(t);
+                        continue;
+                    }
+                    out.changed = true;
+                    let Some((points, triangles)) = refine(corners) else {
+                        continue;
+                    };
+                    let at: Vec<u32> = points
+                        .iter()
+                        .map(|p| match corners.iter().position(|c| c == p) {
+                            Some(k) => ids[k] as u32,
+                            None => {
+                                out.push(self, *p, ids, barycentric(corners, *p));
+                                NEW_VERTEX | (out.positions.len() as u32 - 1)
+                            }
+                        })
+                        .collect();
                     out.indices
-                        .extend(triangles.iter().flatten().map(|i| base + i));
+                        .extend(triangles.iter().flatten().map(|&i| at[i as usize]));
                 }
                 out
             });
+        if self.all_carried && parts.iter().all(|p| !p.changed) {
+            return Twin::Same;
+        }
+        // The source's vertices first, then each chunk's new ones.
         let mut out = Output::new(self);
+        out.positions.extend_from_slice(self.local);
+        for (mine, (_, values)) in out.carried.iter_mut().zip(&self.carried) {
+            mine.extend_from(values);
+        }
         for part in parts {
             out.append(part);
         }
-        out.finish(self, PrimitiveTopology::TriangleList)
+        Twin::Refined(Box::new(out.finish(self, PrimitiveTopology::TriangleList)))
     }
 
     /// A line list: each segment clipped and split by `rule`, attributes
@@ -215,31 +287,55 @@ impl Source {
     }
 }
 
+/// What a triangle list becomes for one dome camera.
+pub enum Twin {
+    /// Every triangle is its own refinement (small and in front, the common
+    /// case for distant meshes): draw the source mesh itself.
+    Same,
+    /// The refined mesh (boxed: the enum is passed around by value).
+    Refined(Box<Mesh>),
+}
+
 /// A twin mesh being written.
 struct Output {
     positions: Vec<[f32; 3]>,
     carried: Vec<Interpolated>,
     indices: Vec<u32>,
+    /// Whether a triangle was refined or dropped (the twin differs from
+    /// the source).
+    changed: bool,
 }
 
 impl Output {
     fn new(source: &Source) -> Self {
         Self {
             positions: Vec::new(),
-            carried: source.carried.iter().map(|(_, v)| v.empty()).collect(),
+            carried: source
+                .carried
+                .iter()
+                .map(|(_, v)| Interpolated::empty_like(v))
+                .collect(),
             indices: Vec::new(),
+            changed: false,
         }
     }
 
-    /// Appends `other`'s vertices and triangles after this one's.
+    /// Appends `other`'s new vertices after this one's, and its triangles
+    /// (indices of source vertices as they are, of new ones moved past
+    /// this one's vertices).
     fn append(&mut self, other: Output) {
         let base = self.positions.len() as u32;
         self.positions.extend(other.positions);
         for (mine, theirs) in self.carried.iter_mut().zip(other.carried) {
             mine.append(theirs);
         }
-        self.indices
-            .extend(other.indices.into_iter().map(|i| base + i));
+        self.indices.extend(other.indices.into_iter().map(|i| {
+            if i & NEW_VERTEX != 0 {
+                base + (i & !NEW_VERTEX)
+            } else {
+                i
+            }
+        }));
     }
 
     /// Appends the view-space point `p`, its attributes `Σ w_k · a[ids_k]`.
@@ -286,22 +382,34 @@ enum Interpolated {
     X4(Vec<[f32; 4]>),
 }
 
+/// Whether a twin carries an attribute of these values (the float ones
+/// [`Interpolated`] can mix).
+fn mixable(values: &VertexAttributeValues) -> bool {
+    matches!(
+        values,
+        VertexAttributeValues::Float32x2(_)
+            | VertexAttributeValues::Float32x3(_)
+            | VertexAttributeValues::Float32x4(_)
+    )
+}
+
 impl Interpolated {
-    /// A copy of `values` when it is a float attribute this can mix.
-    fn of(values: &VertexAttributeValues) -> Option<Self> {
+    /// No values yet, of the kind of `values` (a [`mixable`] attribute).
+    fn empty_like(values: &VertexAttributeValues) -> Self {
         match values {
-            VertexAttributeValues::Float32x2(v) => Some(Self::X2(v.clone())),
-            VertexAttributeValues::Float32x3(v) => Some(Self::X3(v.clone())),
-            VertexAttributeValues::Float32x4(v) => Some(Self::X4(v.clone())),
-            _ => None,
+            VertexAttributeValues::Float32x2(_) => Self::X2(Vec::new()),
+            VertexAttributeValues::Float32x4(_) => Self::X4(Vec::new()),
+            _ => Self::X3(Vec::new()),
         }
     }
 
-    fn empty(&self) -> Self {
-        match self {
-            Self::X2(_) => Self::X2(Vec::new()),
-            Self::X3(_) => Self::X3(Vec::new()),
-            Self::X4(_) => Self::X4(Vec::new()),
+    /// Appends every value of `values` (of the same kind) as it is.
+    fn extend_from(&mut self, values: &VertexAttributeValues) {
+        match (self, values) {
+            (Self::X2(out), VertexAttributeValues::Float32x2(v)) => out.extend_from_slice(v),
+            (Self::X3(out), VertexAttributeValues::Float32x3(v)) => out.extend_from_slice(v),
+            (Self::X4(out), VertexAttributeValues::Float32x4(v)) => out.extend_from_slice(v),
+            _ => {}
         }
     }
 
@@ -316,16 +424,16 @@ impl Interpolated {
     }
 
     /// Appends `Σ w_k · source[ids_k]`.
-    fn push_mix(&mut self, source: &Self, ids: [usize; 3], w: [f64; 3]) {
+    fn push_mix(&mut self, source: &VertexAttributeValues, ids: [usize; 3], w: [f64; 3]) {
         fn mix<const N: usize>(v: &[[f32; N]], ids: [usize; 3], w: [f64; 3]) -> [f32; N] {
             std::array::from_fn(|c| {
                 (0..3).map(|k| w[k] * f64::from(v[ids[k]][c])).sum::<f64>() as f32
             })
         }
         match (self, source) {
-            (Self::X2(out), Self::X2(v)) => out.push(mix(v, ids, w)),
-            (Self::X3(out), Self::X3(v)) => out.push(mix(v, ids, w)),
-            (Self::X4(out), Self::X4(v)) => out.push(mix(v, ids, w)),
+            (Self::X2(out), VertexAttributeValues::Float32x2(v)) => out.push(mix(v, ids, w)),
+            (Self::X3(out), VertexAttributeValues::Float32x3(v)) => out.push(mix(v, ids, w)),
+            (Self::X4(out), VertexAttributeValues::Float32x4(v)) => out.push(mix(v, ids, w)),
             _ => {}
         }
     }

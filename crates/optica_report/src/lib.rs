@@ -52,9 +52,14 @@ pub fn run(name: &str, options: &RunOptions) -> Result<Vec<Report>, String> {
     let chosen: Vec<_> = sweeps::SWEEPS
         .iter()
         .filter(|(n, _)| name == "all" || *n == name)
+        .chain(sweeps::PARTS.iter().filter(|(n, _)| *n == name))
         .collect();
     if chosen.is_empty() {
-        let known: Vec<_> = sweeps::SWEEPS.iter().map(|(n, _)| *n).collect();
+        let known: Vec<_> = sweeps::SWEEPS
+            .iter()
+            .chain(sweeps::PARTS)
+            .map(|(n, _)| *n)
+            .collect();
         return Err(format!(
             "unknown sweep `{name}`; known: all, {}",
             known.join(", ")

@@ -100,3 +100,63 @@ fn scenery_is_refined_again_every_frame_the_camera_turns() {
     );
     assert!(shown > 0.99, "{shown:.4} of the pixels show their face");
 }
+
+/// A moving camera in a scene of small, distant meshes: each mesh's
+/// triangles are all their own refinement, so its twin draws the mesh
+/// itself (the same asset: nothing built, nothing uploaded) and the stats
+/// count it as unsplit; the sphere still shows at the zenith.
+#[test]
+fn small_distant_meshes_are_drawn_as_they_are() {
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let log = seen.clone();
+    let frame = Headless::new(SIZE, SIZE)
+        .frames(4)
+        .render(move |app: &mut App| {
+            app.add_plugins(optica_dome::DomePlugin);
+            app.add_systems(
+                Startup,
+                |mut commands: Commands,
+                 mut meshes: ResMut<Assets<Mesh>>,
+                 mut materials: ResMut<Assets<StandardMaterial>>| {
+                    commands.spawn((
+                        Mesh3d(meshes.add(Sphere::new(0.5).mesh().uv(16, 8))),
+                        super::flat(&mut materials, Color::srgb(1.0, 0.0, 0.0)),
+                        Transform::from_xyz(0.0, 10.0, 0.0),
+                    ));
+                    commands.spawn(super::dome_camera(DomeCamera::default(), super::zenith()));
+                },
+            );
+            app.add_systems(
+                Update,
+                move |mut cameras: Query<&mut Transform, With<DomeCamera>>,
+                      stats: Res<DomeRefineStats>,
+                      originals: Query<(&Mesh3d, &DomeTwins)>,
+                      drawn: Query<&Mesh3d, Without<DomeTwins>>| {
+                    let same = originals.iter().all(|(mesh, twins)| {
+                        twins
+                            .0
+                            .iter()
+                            .all(|t| drawn.get(t.twin).is_ok_and(|d| d.0 == mesh.0))
+                    });
+                    log.lock()
+                        .expect("log")
+                        .push((*stats, same, originals.iter().count()));
+                    for mut t in &mut cameras {
+                        t.translation.x += 0.01;
+                    }
+                },
+            );
+        })
+        .expect("render");
+    let seen = seen.lock().expect("log").clone();
+    eprintln!("{seen:?}");
+    // From the second frame on the twin exists, is rebuilt every frame
+    // (the camera moves) and draws the sphere's own mesh.
+    for (stats, same, originals) in &seen[2..] {
+        assert_eq!(*originals, 1);
+        assert_eq!((stats.rebuilt, stats.unsplit, stats.vertices), (1, 1, 0));
+        assert!(same, "the twin draws a mesh of its own");
+    }
+    let centre = frame.to_rgba8().get_pixel(SIZE / 2, SIZE / 2).0;
+    assert!(centre[0] > 200 && centre[1] < 50, "zenith shows {centre:?}");
+}

@@ -144,3 +144,65 @@ fn unsupported_meshes_give_none() {
     assert!(pre_subdivide_mesh_asset(&tri, Affine3A::IDENTITY, f64::NAN).is_none());
     assert!(pre_subdivide_mesh_asset(&tri, Affine3A::IDENTITY, 0.1).is_some());
 }
+
+/// The per-frame path of a moving camera: a mesh whose every triangle is
+/// small and in front is its own twin ([`Twin::Same`]: nothing built); a
+/// mesh with a large triangle gets a twin that starts with the source's
+/// own vertices, unchanged, keeps its whole triangles on them, and adds
+/// only what refinement made; the same mesh partly behind the view plane
+/// is no longer the same.
+#[test]
+fn small_meshes_in_front_are_their_own_twin() {
+    use optica_dome::{Twin, twin_of_mesh};
+    let rule = SplitRule::chord_gap(0.5).unwrap();
+    let dome = dome().into();
+    // A UV sphere of radius 1, 30 above a zenith camera.
+    let sphere = Sphere::new(1.0).mesh().uv(16, 8);
+    let far = Affine3A::from_translation(Vec3::new(0.0, 0.0, -30.0));
+    assert!(matches!(
+        twin_of_mesh(&sphere, far, &dome, rule),
+        Some(Twin::Same)
+    ));
+    // Beside the viewer, half behind the view plane: clipped, refined.
+    let near = Affine3A::from_translation(Vec3::new(2.0, 0.0, 0.0));
+    assert!(matches!(
+        twin_of_mesh(&sphere, near, &dome, rule),
+        Some(Twin::Refined(_))
+    ));
+    // Two triangles: one small, one spanning 90° of the sky.
+    let mesh = Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::default(),
+    )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_POSITION,
+        vec![
+            [0.0, 0.0, -10.0],
+            [0.1, 0.0, -10.0],
+            [0.0, 0.1, -10.0],
+            [-10.0, 0.0, -1.0],
+            [10.0, 0.0, -1.0],
+            [0.0, 10.0, -1.0],
+        ],
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, vec![[0.0f32, 0.0]; 6])
+    .with_inserted_indices(Indices::U32(vec![0, 1, 2, 3, 4, 5]));
+    let Some(Twin::Refined(twin)) = twin_of_mesh(&mesh, Affine3A::IDENTITY, &dome, rule) else {
+        panic!("the large triangle is refined");
+    };
+    let (src, out) = (positions(&mesh), positions(&twin));
+    assert_eq!(
+        out[..6],
+        src[..],
+        "the source's vertices come first, unchanged"
+    );
+    assert!(out.len() > 6 + 10, "{} vertices", out.len());
+    let Some(Indices::U32(i)) = twin.indices() else {
+        panic!("u32 indices");
+    };
+    assert_eq!(i[..3], [0, 1, 2], "the small triangle keeps its vertices");
+    // The large one's corners are the source's, not copies.
+    for corner in [3, 4, 5] {
+        assert!(i[3..].contains(&corner), "corner {corner} is copied");
+    }
+}

@@ -210,7 +210,7 @@ pub use refine::{
 pub use rule::{MAX_PIECES, Pieces, SplitRule};
 #[cfg(feature = "reference")]
 pub use scenes::{RANDOM_EDGE_DISTANCE_M, cube_face_axis, random_edges};
-pub use triangle::{RefinedMesh, TriMesh, refine_mesh, refine_triangle};
+pub use triangle::{RefinedMesh, TriMesh, is_left_whole, refine_mesh, refine_triangle};
 
 /// The types in this module's signatures that come from the crate's core:
 /// [`InvalidInput`] (inside [`DomeError::Input`] and returned by the

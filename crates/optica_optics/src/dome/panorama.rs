@@ -14,7 +14,7 @@ use super::error::DomeError;
 use super::projection::Projected;
 use super::refine::{RefinedSegment, refine_segment};
 use super::rule::SplitRule;
-use super::triangle::{RefinedMesh, TriMesh, refine_mesh, refine_triangle};
+use super::triangle::{RefinedMesh, TriMesh, is_left_whole, refine_mesh, refine_triangle};
 
 /// A checked panoramic projection.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,6 +78,18 @@ impl Panorama {
         match self {
             Self::Fisheye(f) => refine_triangle(f, tri, rule),
             Self::Equirectangular(e) => refine_triangle_equirect(e, tri, rule),
+        }
+    }
+
+    /// Whether [`Self::refine_triangle`] gives `tri` (view space, finite)
+    /// back as it is, by a test much cheaper than refining
+    /// ([`is_left_whole`] for a fisheye). Always `false` for the panorama,
+    /// whose rule has no scene-wide bound on curvature (it grows without
+    /// limit at the poles).
+    pub fn leaves_whole(&self, tri: [DVec3; 3], rule: SplitRule) -> bool {
+        match self {
+            Self::Fisheye(f) => is_left_whole(f, tri, rule),
+            Self::Equirectangular(_) => false,
         }
     }
 

@@ -307,6 +307,22 @@ fn covers_direction(t: &[DVec3; 3], d: DVec3) -> bool {
     l0 >= 0.0 && l1 >= 0.0 && l2 >= 0.0
 }
 
+/// Whether [`refine_triangle`] gives `tri` (finite corners) back as it
+/// is: wholly in front of the view plane (FOV ≤ 180°), off the origin, and
+/// each edge whole under the rule's own short-arc test (the one the full
+/// path applies first, so a neighbour refined the long way splits the
+/// shared edge alike). Most triangles of a large scene are such; a
+/// renderer can keep them as they are without calling the refiner.
+pub fn is_left_whole(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) -> bool {
+    if !proj.clips_at_view_plane() || !tri.iter().all(|v| v.dot(proj.axis()) >= 0.0) {
+        return false;
+    }
+    let lengths = tri.map(|v| v.length());
+    let scale = lengths.iter().fold(0.0, |m: f64, &l| m.max(l));
+    lengths.iter().all(|&l| l > AT_ORIGIN_REL * scale)
+        && (0..3).all(|i| rule.is_short(proj, subtended_angle(tri[i], tri[(i + 1) % 3])))
+}
+
 /// Clips at the view plane (FOV ≤ 180°; next to 180° with a rim skirt, see
 /// [`DomeProjection::rim_skirt_rad`]), refines (paper §3.3) and, for wider
 /// FOVs, culls at the guard cone one triangle (see
@@ -329,14 +345,8 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
         input: 1,
         ..Default::default()
     };
-    // Most triangles of a large scene are small and wholly in front: each
-    // edge whole under the rule's own short-arc test (the one the full
-    // path applies first, so a neighbour refined the long way splits the
-    // shared edge alike). Such a triangle is its own refinement.
     let lengths = tri.map(|v| v.length());
     let scale = lengths.iter().fold(0.0, |m: f64, &l| m.max(l));
-    let in_front = tri.iter().all(|v| v.dot(proj.axis()) >= 0.0);
-    let off_origin = lengths.iter().all(|&l| l > AT_ORIGIN_REL * scale);
     if proj.clips_at_view_plane() && tri.iter().all(|v| v.dot(proj.axis()) < 0.0) {
         // Wholly behind the view plane (half of every scene around a
         // dome): nothing to clip or split.
@@ -346,21 +356,15 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
             stats,
         };
     }
-    if proj.clips_at_view_plane() && in_front && off_origin {
-        let whole = (0..3).all(|i| {
-            let (a, b) = (tri[i], tri[(i + 1) % 3]);
-            rule.is_short(proj, subtended_angle(a, b))
-        });
-        if whole {
-            stats.emitted = 1;
-            return RefinedMesh {
-                mesh: TriMesh {
-                    positions: tri.to_vec(),
-                    triangles: vec![[0, 1, 2]],
-                },
-                stats,
-            };
-        }
+    if is_left_whole(proj, tri, rule) {
+        stats.emitted = 1;
+        return RefinedMesh {
+            mesh: TriMesh {
+                positions: tri.to_vec(),
+                triangles: vec![[0, 1, 2]],
+            },
+            stats,
+        };
     }
     let parts = if proj.clips_at_view_plane() {
         clip_triangle_plane(proj.axis(), tri)

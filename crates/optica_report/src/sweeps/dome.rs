@@ -631,7 +631,8 @@ mod tests {
                 .iter()
                 .all(|r| r.time_ms.is_finite() && r.time_ms > 0.0)
         );
-        assert!(scale[1].work["twin_vertices"] > scale[0].work["twin_vertices"]);
+        let work = |r: &Row| r.work["twin_vertices"] + r.work["unsplit_meshes"];
+        assert!(work(scale[1]) > work(scale[0]));
         let (rendered, cube): (Vec<&Row>, Vec<&Row>) = rendered
             .into_iter()
             .partition(|row| row.series.starts_with("vertex"));

@@ -93,25 +93,32 @@ fn scene(dome: Option<DomeCamera>) -> impl FnOnce(&mut App) {
                         transform,
                     ));
                 }
-                let look = (
-                    Camera {
-                        clear_color: ClearColorConfig::Custom(Color::BLACK),
-                        ..default()
-                    },
-                    Tonemapping::None,
-                    Msaa::Off,
-                    camera(),
-                );
-                match dome {
-                    Some(dome) => {
-                        commands.spawn((dome, look));
-                    }
-                    None => {
-                        commands.spawn((Camera3d::default(), RenderLayers::layer(0), look));
-                    }
-                }
+                spawn_view(&mut commands, dome, Msaa::Off);
             },
         );
+    }
+}
+
+/// The view of the dome sweeps' scenes, from the room's centre at the
+/// zenith, drawing on black, untonemapped: `dome`, or (None) Bevy's
+/// default perspective camera, the baseline of their frame times.
+pub(super) fn spawn_view(commands: &mut Commands, dome: Option<DomeCamera>, msaa: Msaa) {
+    let look = (
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::BLACK),
+            ..default()
+        },
+        Tonemapping::None,
+        msaa,
+        camera(),
+    );
+    match dome {
+        Some(dome) => {
+            commands.spawn((dome, look));
+        }
+        None => {
+            commands.spawn((Camera3d::default(), RenderLayers::layer(0), look));
+        }
     }
 }
 

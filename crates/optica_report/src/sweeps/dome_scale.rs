@@ -7,15 +7,17 @@
 //! * Camera: 4096² domemaster, 180°, zenith, 0.5 px; each frame it steps
 //!   0.1 m, so every mesh's placement relative to it changes.
 //! * time_ms: the plugin's own per-mesh work for one frame
-//!   (`optica_dome::refine_mesh_asset` on every mesh, as `refine_twins`
-//!   runs it), on the machine's threads; baseline: reading every mesh's
+//!   (`optica_dome::twin_of_mesh` on every mesh, as `refine_twins` runs
+//!   it), on the machine's threads; baseline: reading every mesh's
 //!   positions into view space (what any per-frame CPU pass pays).
-//! * Work: input triangles, twin vertices emitted.
+//! * Work: input triangles, twin vertices built, meshes left unsplit
+//!   (every triangle its own refinement: the twin draws the mesh itself,
+//!   nothing is built or uploaded).
 
 use bevy::math::{Affine3A, Quat, Vec3};
 use bevy::mesh::{Mesh, VertexAttributeValues};
 use bevy::prelude::{Meshable, Sphere};
-use optica_dome::{DomeCamera, refine_mesh_asset};
+use optica_dome::{DomeCamera, Twin, twin_of_mesh};
 use optica_optics::dome::SplitRule;
 
 use crate::{Report, Row, SweepContext, time_ms};
@@ -91,23 +93,25 @@ pub fn scene_size(report: &mut Report, ctx: &SweepContext) {
                 })
                 .sum::<f32>()
         });
-        let (ms, vertices) = time_ms(runs, budget, || {
+        let projection = projection.into();
+        let (ms, (vertices, unsplit)) = time_ms(runs, budget, || {
             step += 1;
             let view = camera_at(step);
             places
                 .iter()
-                .filter_map(|place| {
-                    refine_mesh_asset(&mesh, view * *place, &projection.into(), rule)
+                .filter_map(|place| twin_of_mesh(&mesh, view * *place, &projection, rule))
+                .fold((0, 0), |(v, u), twin| match twin {
+                    Twin::Same => (v, u + 1),
+                    Twin::Refined(m) => (v + m.count_vertices(), u),
                 })
-                .map(|m| m.count_vertices())
-                .sum::<usize>()
         });
         report.rows.push(
             Row::new(size as f64, ms, base_ms)
                 .series("scene size, moving camera (knob: triangles)")
                 .work("input_triangles", (places.len() * SPHERE_TRIANGLES) as f64)
                 .work("meshes", places.len() as f64)
-                .work("twin_vertices", vertices as f64),
+                .work("twin_vertices", vertices as f64)
+                .work("unsplit_meshes", unsplit as f64),
         );
     }
 }

@@ -37,8 +37,6 @@
 use std::f64::consts::PI;
 
 use bevy::asset::RenderAssetUsages;
-use bevy::camera::visibility::RenderLayers;
-use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
@@ -97,13 +95,17 @@ fn room_mesh() -> Mesh {
         }
         indices.extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
     }
+    mesh_of(positions, normals, indices).with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
+}
+
+/// A triangle list of these vertices and indices.
+fn mesh_of(positions: Vec<[f32; 3]>, normals: Vec<[f32; 3]>, indices: Vec<u32>) -> Mesh {
     Mesh::new(
         PrimitiveTopology::TriangleList,
         RenderAssetUsages::default(),
     )
     .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
     .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
-    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
     .with_inserted_indices(Indices::U32(indices))
 }
 
@@ -202,13 +204,7 @@ fn star_mesh(size: u32) -> Mesh {
         }
         indices.extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
     }
-    Mesh::new(
-        PrimitiveTopology::TriangleList,
-        RenderAssetUsages::default(),
-    )
-    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
-    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
-    .with_inserted_indices(Indices::U32(indices))
+    mesh_of(positions, normals, indices)
 }
 
 /// Which textured scene.
@@ -268,23 +264,7 @@ fn scene(
                     MeshMaterial3d(material),
                     Transform::IDENTITY,
                 ));
-                let look = (
-                    Camera {
-                        clear_color: ClearColorConfig::Custom(Color::BLACK),
-                        ..default()
-                    },
-                    Tonemapping::None,
-                    msaa,
-                    camera(),
-                );
-                match dome {
-                    Some(dome) => {
-                        commands.spawn((dome, look));
-                    }
-                    None => {
-                        commands.spawn((Camera3d::default(), RenderLayers::layer(0), look));
-                    }
-                }
+                super::dome_render::spawn_view(&mut commands, dome, msaa);
             },
         );
     }
@@ -566,6 +546,9 @@ pub fn textured_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     for content in [Content::Room, Content::Stars] {
         let bench = Bench::new(ctx, content, size)?;
         for &tolerance in &tolerances {
+            // The twin's coverage does not depend on the sample count.
+            let (fragments, triangles) =
+                twin_coverage(content, size, &bench.dome, f64::from(tolerance));
             for (msaa, samples) in [(Msaa::Off, 1.0), (Msaa::Sample4, 4.0)] {
                 step += 1;
                 ctx.progress(
@@ -581,8 +564,6 @@ pub fn textured_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
                     ..default()
                 };
                 let row = bench.row(ctx, report, camera, msaa, f64::from(tolerance))?;
-                let (fragments, triangles) =
-                    twin_coverage(content, size, &bench.dome, f64::from(tolerance));
                 report.rows.push(
                     row.work("fragments", fragments)
                         .work("samples_per_pixel", samples)

@@ -62,3 +62,11 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
     }),
     ("dome", dome::run),
 ];
+
+/// Series of a sweep that can also be run alone, by name only (`all` runs
+/// them inside their sweep): for profiling one cost without the rest.
+pub const PARTS: &[(&str, SweepFn)] = &[("dome_scale", |ctx| {
+    let mut report = crate::Report::cpu("dome_scale", "triangles");
+    dome_scale::scene_size(&mut report, ctx);
+    Ok(report)
+})];

@@ -128,10 +128,12 @@ pub struct RefinedMesh {
     pub stats: RefineStats,
 }
 
-/// Welds vertices by exact bits (−0 and +0 are one vertex).
+/// Welds vertices by exact bits (−0 and +0 are one vertex). A fast fixed
+/// hasher: every refined triangle welds its pieces, and SipHash took more
+/// time than the geometry.
 #[derive(Default)]
 pub(crate) struct Welder {
-    map: HashMap<[u64; 3], u32>,
+    map: HashMap<[u64; 3], u32, foldhash::fast::FixedState>,
     mesh: TriMesh,
 }
 
@@ -320,7 +322,17 @@ pub fn is_left_whole(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) ->
     let lengths = tri.map(|v| v.length());
     let scale = lengths.iter().fold(0.0, |m: f64, &l| m.max(l));
     lengths.iter().all(|&l| l > AT_ORIGIN_REL * scale)
-        && (0..3).all(|i| rule.is_short(proj, subtended_angle(tri[i], tri[(i + 1) % 3])))
+        && (0..3).all(|i| {
+            // tan α = |a × b|/(a·b) ≥ α bounds the angle without atan2
+            // (a third of the cost of a whole triangle): short by the
+            // bound is short by the angle, so a neighbour refined the long
+            // way still leaves the shared edge whole. An edge the bound
+            // cannot clear gets the exact test.
+            let (a, b) = (tri[i], tri[(i + 1) % 3]);
+            let (sine, cosine) = (a.cross(b).length(), a.dot(b));
+            (cosine > 0.0 && rule.is_short(proj, sine / cosine * (1.0 + 1e-12)))
+                || rule.is_short(proj, subtended_angle(a, b))
+        })
 }
 
 /// Clips at the view plane (FOV ≤ 180°; next to 180° with a rim skirt, see

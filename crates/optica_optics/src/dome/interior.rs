@@ -17,12 +17,12 @@
 //! input edges that neighbours share — is never changed and the result stays
 //! crack-free. A budget on the triangle count bounds the work.
 
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::BinaryHeap;
 
 use glam::DVec3;
 
 use super::arc::{split_segment, subtended_angle};
-use super::triangle::TriMesh;
+use super::triangle::{FastMap, TriMesh};
 
 /// "No triangle" in an edge's pair of users (a boundary edge has one).
 const NONE: u32 = u32::MAX;
@@ -40,8 +40,8 @@ pub(crate) fn bisect_interior(
     max_triangles: usize,
 ) -> bool {
     // Edge → the (at most two) triangles using it.
-    let mut edges: HashMap<[u32; 2], [u32; 2]> = HashMap::new();
-    let add_edge = |edges: &mut HashMap<[u32; 2], [u32; 2]>, a: u32, b: u32, t: u32| {
+    let mut edges: FastMap<[u32; 2], [u32; 2]> = FastMap::default();
+    let add_edge = |edges: &mut FastMap<[u32; 2], [u32; 2]>, a: u32, b: u32, t: u32| {
         let e = edges.entry(key(a, b)).or_insert([NONE, NONE]);
         if e[0] == NONE { e[0] = t } else { e[1] = t }
     };

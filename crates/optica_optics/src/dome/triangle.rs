@@ -128,12 +128,15 @@ pub struct RefinedMesh {
     pub stats: RefineStats,
 }
 
-/// Welds vertices by exact bits (−0 and +0 are one vertex). A fast fixed
-/// hasher: every refined triangle welds its pieces, and SipHash took more
+/// The refiner's maps, with a fast fixed hasher: every refined triangle
+/// welds its pieces (and a few build edge tables), and SipHash took more
 /// time than the geometry.
+pub(crate) type FastMap<K, V> = HashMap<K, V, foldhash::fast::FixedState>;
+
+/// Welds vertices by exact bits (−0 and +0 are one vertex).
 #[derive(Default)]
 pub(crate) struct Welder {
-    map: HashMap<[u64; 3], u32, foldhash::fast::FixedState>,
+    map: FastMap<[u64; 3], u32>,
     mesh: TriMesh,
 }
 
@@ -474,7 +477,7 @@ fn skirt_direction(tri: [DVec3; 3], axis: DVec3) -> Option<DVec3> {
 /// rim. Returns the number of triangles added.
 fn add_rim_skirt(m: &mut TriMesh, axis: DVec3, direction: DVec3, angle: f64) -> usize {
     let on_plane = |p: DVec3| p.dot(axis).abs() <= 1e-9 * p.length();
-    let mut uses: HashMap<[u32; 2], usize> = HashMap::new();
+    let mut uses: FastMap<[u32; 2], usize> = FastMap::default();
     for t in &m.triangles {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
@@ -485,7 +488,7 @@ fn add_rim_skirt(m: &mut TriMesh, axis: DVec3, direction: DVec3, angle: f64) -> 
     // at most 4|p| (a triangle nearly parallel to the view plane would
     // otherwise run far out sideways).
     let (tan, behind) = (angle.tan(), -direction.dot(axis));
-    let mut beyond: HashMap<u32, u32> = HashMap::new();
+    let mut beyond: FastMap<u32, u32> = FastMap::default();
     let mut added = Vec::new();
     for t in m.triangles.clone() {
         for k in 0..3 {

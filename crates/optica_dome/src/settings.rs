@@ -108,16 +108,10 @@ impl DomeLens {
 
     /// Every projection, for menus: the fisheyes and the equirectangular
     /// panorama.
-    pub const ALL: [DomeLens; 6] = [
-        DomeLens::Equidistant,
-        DomeLens::Equisolid,
-        DomeLens::Stereographic,
-        DomeLens::Orthographic,
-        DomeLens::Polynomial {
-            k: [1.0, -0.04, 0.003, -0.0001],
-        },
-        DomeLens::Equirectangular,
-    ];
+    pub const ALL: [DomeLens; 6] = {
+        let f = Self::FISHEYES;
+        [f[0], f[1], f[2], f[3], f[4], DomeLens::Equirectangular]
+    };
 
     /// The lens's name.
     pub fn name(&self) -> &'static str {

@@ -48,26 +48,33 @@ fn points(dome: &optica_optics::dome::DomeProjection) -> Vec<DVec3> {
         .collect()
 }
 
-/// Projects `points` with the shader for `camera` on a `width` × `height`
-/// target and holds every result to the CPU twin; returns the worst NDC
-/// and relative depth errors and how many points lay past the draw limit.
-fn check_against_twin(camera: &DomeCamera, width: u32, height: u32) -> (f64, f64, usize) {
-    let (fov, tilt, lens) = (camera.fov_deg, camera.tilt_deg, camera.lens);
+/// The kernel's output for `points` under `camera`'s projection on a
+/// `width` × `height` target: per point NDC x, y, depth and whether the
+/// matrix was taken for a dome's.
+fn project_on_gpu(camera: &DomeCamera, width: u32, height: u32, points: &[DVec3]) -> Vec<f32> {
     let mut clip = DomeClip::of(camera);
     clip.update(width as f32, height as f32);
-    let cpu = camera
-        .projection_of_target(width, height)
-        .expect("a valid dome");
-    let points = points(&cpu);
     let mut input: Vec<f32> = clip.get_clip_from_view().to_cols_array().to_vec();
     input.extend(
         points
             .iter()
             .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32]),
     );
-    let out = Headless::new(1, 1)
+    Headless::new(1, 1)
         .run_kernel(&kernel(), "main", &input, 4 * points.len())
-        .expect("kernel");
+        .expect("kernel")
+}
+
+/// Projects `points` with the shader for `camera` on a `width` × `height`
+/// target and holds every result to the CPU twin; returns the worst NDC
+/// and relative depth errors and how many points lay past the draw limit.
+fn check_against_twin(camera: &DomeCamera, width: u32, height: u32) -> (f64, f64, usize) {
+    let (fov, tilt, lens) = (camera.fov_deg, camera.tilt_deg, camera.lens);
+    let cpu = camera
+        .projection_of_target(width, height)
+        .expect("a valid dome");
+    let points = points(&cpu);
+    let out = project_on_gpu(camera, width, height, &points);
     let half = DVec2::new(f64::from(width), f64::from(height)) / 2.0;
     let (mut worst, mut beyond) = ((0.0f64, 0.0f64), 0);
     for (i, p) in points.iter().enumerate() {
@@ -178,8 +185,6 @@ fn the_equirectangular_panorama_projects_like_its_cpu_twin() {
             ..Default::default()
         };
         for (w, h) in [(4096, 2048), (1000, 1000)] {
-            let mut clip = DomeClip::of(&camera);
-            clip.update(w as f32, h as f32);
             let Ok(optica_optics::dome::Panorama::Equirectangular(cpu)) = camera.panorama(w, h)
             else {
                 panic!("an equirectangular panorama");
@@ -188,15 +193,7 @@ fn the_equirectangular_panorama_projects_like_its_cpu_twin() {
                 .into_iter()
                 .map(|(q, distance)| cpu.from_frame(q) * distance)
                 .collect();
-            let mut input: Vec<f32> = clip.get_clip_from_view().to_cols_array().to_vec();
-            input.extend(
-                points
-                    .iter()
-                    .flat_map(|p| [p.x as f32, p.y as f32, p.z as f32]),
-            );
-            let out = Headless::new(1, 1)
-                .run_kernel(&kernel(), "main", &input, 4 * points.len())
-                .expect("kernel");
+            let out = project_on_gpu(&camera, w, h, &points);
             let half = DVec2::new(f64::from(w), f64::from(h)) / 2.0;
             let (mut worst, mut checked) = (0.0f64, 0);
             for (i, p) in points.iter().enumerate() {

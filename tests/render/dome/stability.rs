@@ -45,6 +45,31 @@ fn bad_lines() -> Mesh {
     ])
 }
 
+/// The hazards every stiff scene has: a ground plane 1e5 wide (green) of
+/// apparent size `ground`, the bad lines (red) round a viewer 1.6 above it
+/// and a NaN triangle beside a good one 5 up (red).
+fn spawn_hazards(
+    commands: &mut Commands,
+    meshes: &mut Assets<Mesh>,
+    materials: &mut Assets<StandardMaterial>,
+    ground: DomeApparentSize,
+) {
+    commands.spawn((
+        Mesh3d(meshes.add(Plane3d::default().mesh().size(1e5, 1e5))),
+        flat(materials, Color::srgb(0.0, 1.0, 0.0)),
+        ground,
+    ));
+    commands.spawn((
+        Mesh3d(meshes.add(bad_lines())),
+        flat(materials, Color::srgb(1.0, 0.0, 0.0)),
+        Transform::from_xyz(0.0, 1.6, 0.0),
+    ));
+    commands.spawn((
+        Mesh3d(meshes.add(nan_mesh())),
+        flat(materials, Color::srgb(1.0, 0.0, 0.0)),
+    ));
+}
+
 /// A zenith-looking dome camera 1.6 above a ground plane 1e5 wide (green)
 /// of apparent size `ground`, a NaN triangle beside a good one overhead
 /// (red), the bad lines (red) and 400 tiny triangles (0.5 mm) at the
@@ -63,20 +88,7 @@ fn render_with(dome: DomeCamera, ground: DomeApparentSize) -> RenderedFrame {
                 move |mut commands: Commands,
                       mut meshes: ResMut<Assets<Mesh>>,
                       mut materials: ResMut<Assets<StandardMaterial>>| {
-                    commands.spawn((
-                        Mesh3d(meshes.add(Plane3d::default().mesh().size(1e5, 1e5))),
-                        flat(&mut materials, Color::srgb(0.0, 1.0, 0.0)),
-                        ground,
-                    ));
-                    commands.spawn((
-                        Mesh3d(meshes.add(bad_lines())),
-                        flat(&mut materials, Color::srgb(1.0, 0.0, 0.0)),
-                        Transform::from_xyz(0.0, 1.6, 0.0),
-                    ));
-                    commands.spawn((
-                        Mesh3d(meshes.add(nan_mesh())),
-                        flat(&mut materials, Color::srgb(1.0, 0.0, 0.0)),
-                    ));
+                    spawn_hazards(&mut commands, &mut meshes, &mut materials, ground);
                     commands.spawn((
                         Mesh3d(
                             meshes.add(Plane3d::default().mesh().size(0.01, 0.01).subdivisions(19)),
@@ -339,19 +351,12 @@ fn the_panorama_on_the_stiff_scene() {
                 move |mut commands: Commands,
                       mut meshes: ResMut<Assets<Mesh>>,
                       mut materials: ResMut<Assets<StandardMaterial>>| {
-                    commands.spawn((
-                        Mesh3d(meshes.add(Plane3d::default().mesh().size(1e5, 1e5))),
-                        flat(&mut materials, Color::srgb(0.0, 1.0, 0.0)),
-                    ));
-                    commands.spawn((
-                        Mesh3d(meshes.add(bad_lines())),
-                        flat(&mut materials, Color::srgb(1.0, 0.0, 0.0)),
-                        Transform::from_xyz(0.0, 1.6, 0.0),
-                    ));
-                    commands.spawn((
-                        Mesh3d(meshes.add(nan_mesh())),
-                        flat(&mut materials, Color::srgb(1.0, 0.0, 0.0)),
-                    ));
+                    spawn_hazards(
+                        &mut commands,
+                        &mut meshes,
+                        &mut materials,
+                        DomeApparentSize::Changing,
+                    );
                     // 20 × 20 at 10 up: a vertex right above the camera.
                     commands.spawn((
                         Mesh3d(

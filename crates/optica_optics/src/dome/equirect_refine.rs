@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use super::arc::{Arc, ArcError, canonical_less, split_points};
 use super::equirect::{EquirectProjection, SEAM_NUDGE_RAD};
 use super::error::DomeError;
-use super::refine::{RefineStats, RefinedLines, RefinedSegment};
+use super::refine::{RefineStats, RefinedLines, RefinedSegment, refine_batch};
 use super::rule::SplitRule;
 use super::triangle::{RefinedMesh, TriMesh, Welder, subdivide_triangle};
 use crate::input;
@@ -203,38 +203,36 @@ pub fn refine_mesh_equirect(
     mesh: &TriMesh,
     rule: SplitRule,
 ) -> RefinedMesh {
-    let patches: Vec<(TriMesh, RefineStats)> = mesh
+    let patches: Vec<RefinedMesh> = mesh
         .triangles()
         .par_iter()
         .map(|&t| {
-            let mut stats = RefineStats {
-                input: 1,
-                ..Default::default()
-            };
             let tri = mesh.corners(t);
-            let mut welder = Welder::default();
             if tri.iter().all(|v| v.is_finite()) {
-                let q = tri.map(|v| proj.to_frame(v));
-                refine_in_frame(proj, q, rule, &mut welder, &mut stats);
+                refine_one_triangle(proj, tri, rule)
             } else {
-                stats.dropped_nonfinite = 1;
+                RefinedMesh {
+                    mesh: TriMesh::default(),
+                    stats: RefineStats {
+                        input: 1,
+                        dropped_nonfinite: 1,
+                        ..Default::default()
+                    },
+                }
             }
-            (welder.into_mesh(), stats)
         })
         .collect();
+    // Welded in view space: shared corners and cuts map from the frame
+    // alike from both sides, so they stay the same bits.
     let mut welder = Welder::default();
     let mut stats = RefineStats::default();
-    for (m, s) in &patches {
-        welder.add(m);
-        stats = stats.merge(*s);
+    for p in &patches {
+        welder.add(&p.mesh);
+        stats = stats.merge(p.stats);
     }
-    let (positions, triangles) = welder.into_mesh().into_parts();
-    stats.emitted = triangles.len();
-    let positions = positions.into_iter().map(|q| proj.from_frame(q)).collect();
-    RefinedMesh {
-        mesh: TriMesh::new(positions, triangles).expect("welded indices are in range"),
-        stats,
-    }
+    let mesh = welder.into_mesh();
+    stats.emitted = mesh.triangles().len();
+    RefinedMesh { mesh, stats }
 }
 
 /// The parts of segment a–b (frame coordinates) in each quarter, in order
@@ -318,33 +316,10 @@ pub fn refine_segments_equirect(
     segments: &[[DVec3; 2]],
     rule: SplitRule,
 ) -> RefinedLines {
-    let parts: Vec<(Vec<Vec<DVec3>>, RefineStats)> = segments
-        .par_iter()
-        .map(|&[a, b]| {
-            let mut st = RefineStats {
-                input: 1,
-                ..Default::default()
-            };
-            let (a, b) = (proj.to_frame(a), proj.to_frame(b));
-            match refine_segment_in_frame(proj, snap_to_pole(a), snap_to_pole(b), rule) {
-                Err(cause) => {
-                    st.drop_for(cause);
-                    (Vec::new(), st)
-                }
-                Ok(seg) => {
-                    st.capped_edges = usize::from(seg.capped);
-                    st.emitted = seg.segment_count();
-                    (seg.strips, st)
-                }
-            }
-        })
-        .collect();
-    let mut out = RefinedLines::default();
-    for (strips, st) in parts {
-        out.strips.extend(strips);
-        out.stats = out.stats.merge(st);
-    }
-    out
+    refine_batch(segments, |a, b| {
+        let (a, b) = (proj.to_frame(a), proj.to_frame(b));
+        refine_segment_in_frame(proj, snap_to_pole(a), snap_to_pole(b), rule)
+    })
 }
 
 #[cfg(test)]

@@ -171,6 +171,15 @@ pub fn refine_segments(
     segments: &[[DVec3; 2]],
     rule: SplitRule,
 ) -> RefinedLines {
+    refine_batch(segments, |a, b| refine_one(proj, a, b, rule))
+}
+
+/// Refines independent segments in parallel with `refine`; its strips in
+/// input order, bad segments left out and counted per cause.
+pub(crate) fn refine_batch(
+    segments: &[[DVec3; 2]],
+    refine: impl Fn(DVec3, DVec3) -> Result<RefinedSegment, ArcError> + Sync,
+) -> RefinedLines {
     let parts: Vec<(Vec<Vec<DVec3>>, RefineStats)> = segments
         .par_iter()
         .map(|&[a, b]| {
@@ -178,7 +187,7 @@ pub fn refine_segments(
                 input: 1,
                 ..Default::default()
             };
-            match refine_one(proj, a, b, rule) {
+            match refine(a, b) {
                 Err(cause) => {
                     st.drop_for(cause);
                     (Vec::new(), st)

@@ -227,6 +227,19 @@ pub(crate) fn split_points(a: DVec3, b: DVec3, n: u32) -> Result<Vec<DVec3>, Arc
     Ok(pts)
 }
 
+/// Segment p→q split into the pieces `pieces` gives its arc (asked of the
+/// canonically ordered arc, so both orders split alike): its points from p
+/// to q, and whether the count was capped.
+pub(crate) fn split_by(
+    p: DVec3,
+    q: DVec3,
+    pieces: impl Fn(&Arc) -> super::Pieces,
+) -> Result<(Vec<DVec3>, bool), ArcError> {
+    let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
+    let n = pieces(&Arc::new(c0, c1)?);
+    Ok((split_points(p, q, n.n)?, n.capped))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

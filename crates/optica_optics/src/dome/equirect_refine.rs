@@ -12,7 +12,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::arc::{Arc, ArcError, canonical_less, split_points};
+use super::arc::{Arc, ArcError, canonical_less, split_by};
 use super::equirect::{EquirectProjection, SEAM_NUDGE_RAD};
 use super::error::DomeError;
 use super::refine::{RefineStats, RefinedLines, RefinedSegment, refine_batch};
@@ -269,10 +269,8 @@ fn refine_segment_in_frame(
     let mut capped = false;
     let mut strips = Vec::new();
     for ([p, q], side) in segment_parts(a, b) {
-        let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
-        let pieces = proj.pieces_of_arc(rule, &Arc::new(c0, c1)?);
-        capped |= pieces.capped;
-        let mut strip = split_points(p, q, pieces.n)?;
+        let (mut strip, cap) = split_by(p, q, |arc| proj.pieces_of_arc(rule, arc))?;
+        capped |= cap;
         let last = strip.len() - 1;
         if on_pole(strip[0]) {
             strip[0] = towards(strip[0], strip[1]).unwrap_or(strip[0]);

@@ -12,7 +12,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::arc::{Arc, ArcError, canonical_less, split_points};
+use super::arc::{ArcError, split_by};
 use super::camera::DomeProjection;
 use super::clip::clip_parts;
 use super::error::DomeError;
@@ -116,10 +116,9 @@ fn refine_one(
     let mut capped = false;
     let mut strips = Vec::new();
     for [p, q] in clip_parts(proj, a, b)? {
-        let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
-        let pieces = rule.pieces_of_arc(proj, &Arc::new(c0, c1)?);
-        capped |= pieces.capped;
-        strips.push(split_points(p, q, pieces.n)?);
+        let (strip, cap) = split_by(p, q, |arc| rule.pieces_of_arc(proj, arc))?;
+        capped |= cap;
+        strips.push(strip);
     }
     Ok(RefinedSegment { strips, capped })
 }

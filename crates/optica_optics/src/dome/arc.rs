@@ -205,10 +205,16 @@ pub fn split_segment(a: DVec3, b: DVec3, n: u32) -> Result<Vec<DVec3>, DomeError
 
 /// [`split_segment`] with the failure's cause, for any `n ≥ 1`.
 pub(crate) fn split_points(a: DVec3, b: DVec3, n: u32) -> Result<Vec<DVec3>, ArcError> {
-    let n = n.max(1);
     let swap = canonical_less(b, a);
     let (p, q) = if swap { (b, a) } else { (a, b) };
-    let arc = Arc::new(p, q)?;
+    Ok(points_of_arc(&Arc::new(p, q)?, n, swap))
+}
+
+/// The `n + 1` points of [`split_points`] on `arc` (built in canonical
+/// order), from its start, or from its end when `reversed`.
+pub(crate) fn points_of_arc(arc: &Arc, n: u32, reversed: bool) -> Vec<DVec3> {
+    let n = n.max(1);
+    let (p, q) = (arc.a, arc.b);
     let mut pts = Vec::with_capacity(n as usize + 1);
     pts.push(p);
     for i in 1..n {
@@ -221,10 +227,10 @@ pub(crate) fn split_points(a: DVec3, b: DVec3, n: u32) -> Result<Vec<DVec3>, Arc
         pts.push(pt);
     }
     pts.push(q);
-    if swap {
+    if reversed {
         pts.reverse();
     }
-    Ok(pts)
+    pts
 }
 
 /// Segment p→q split into the pieces `pieces` gives its arc (asked of the
@@ -235,9 +241,14 @@ pub(crate) fn split_by(
     q: DVec3,
     pieces: impl Fn(&Arc) -> super::Pieces,
 ) -> Result<(Vec<DVec3>, bool), ArcError> {
-    let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
-    let n = pieces(&Arc::new(c0, c1)?);
-    Ok((split_points(p, q, n.n)?, n.capped))
+    let swap = canonical_less(q, p);
+    let arc = if swap {
+        Arc::new(q, p)?
+    } else {
+        Arc::new(p, q)?
+    };
+    let n = pieces(&arc);
+    Ok((points_of_arc(&arc, n.n, swap), n.capped))
 }
 
 #[cfg(test)]

@@ -151,27 +151,37 @@ fn clip_segment_cone(arc: &Arc, axis: DVec3, theta_clip: f64) -> Vec<[DVec3; 2]>
 /// (Sutherland–Hodgman) and fans the result: zero, one or two triangles with
 /// the input's winding. Used for FOV ≤ 180° only.
 pub(crate) fn clip_triangle_plane(axis: DVec3, tri: [DVec3; 3]) -> Vec<[DVec3; 3]> {
+    let (poly, n) = clip_polygon_plane(axis, tri);
+    (1..n.saturating_sub(1))
+        .map(|k| [poly[0], poly[k], poly[k + 1]])
+        .collect()
+}
+
+/// The polygon [`clip_triangle_plane`] fans: its first `n` corners (none,
+/// or three or four), in the input's winding.
+pub(crate) fn clip_polygon_plane(axis: DVec3, tri: [DVec3; 3]) -> ([DVec3; 4], usize) {
     let d = tri.map(|p| p.dot(axis));
     if d.iter().all(|&x| x >= 0.0) {
-        return vec![tri];
+        return ([tri[0], tri[1], tri[2], DVec3::ZERO], 3);
     }
+    // (A triangle cut by a plane is a polygon of at most four corners.)
+    let (mut poly, mut n) = ([DVec3::ZERO; 4], 0);
     if d.iter().all(|&x| x < 0.0) {
-        return vec![];
+        return (poly, 0);
     }
-    let mut poly = Vec::with_capacity(4);
     for i in 0..3 {
         let j = (i + 1) % 3;
         if d[i] >= 0.0 {
-            poly.push(tri[i]);
+            poly[n] = tri[i];
+            n += 1;
         }
         // Strict signs: a vertex on the plane is kept and never duplicated.
         if (d[i] > 0.0 && d[j] < 0.0) || (d[i] < 0.0 && d[j] > 0.0) {
-            poly.push(plane_cut(tri[i], tri[j], d[i], d[j]));
+            poly[n] = plane_cut(tri[i], tri[j], d[i], d[j]);
+            n += 1;
         }
     }
-    (1..poly.len().saturating_sub(1))
-        .map(|k| [poly[0], poly[k], poly[k + 1]])
-        .collect()
+    (poly, n)
 }
 
 #[cfg(test)]

@@ -39,6 +39,25 @@ pub(crate) fn bisect_interior(
     needs_split: &dyn Fn(DVec3, DVec3) -> bool,
     max_triangles: usize,
 ) -> bool {
+    // Most patches have no interior edge to split: find that out from a
+    // sorted edge list (an edge listed twice is interior) before building
+    // the edge map.
+    let mut listed: Vec<[u32; 2]> = mesh
+        .triangles
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| key(t[k], t[(k + 1) % 3])))
+        .collect();
+    listed.sort_unstable();
+    let any_to_split = listed.windows(2).any(|w| {
+        w[0] == w[1]
+            && needs_split(
+                mesh.positions[w[0][0] as usize],
+                mesh.positions[w[0][1] as usize],
+            )
+    });
+    if !any_to_split {
+        return false;
+    }
     // Edge → the (at most two) triangles using it.
     let mut edges: FastMap<[u32; 2], [u32; 2]> = FastMap::default();
     let add_edge = |edges: &mut FastMap<[u32; 2], [u32; 2]>, a: u32, b: u32, t: u32| {

@@ -35,9 +35,9 @@ use std::collections::HashMap;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::arc::{Arc, ArcError, canonical_less, split_points, subtended_angle};
+use super::arc::{Arc, ArcError, canonical_less, points_of_arc, subtended_angle};
 use super::camera::DomeProjection;
-use super::clip::clip_triangle_plane;
+use super::clip::{clip_polygon_plane, clip_triangle_plane};
 use super::error::DomeError;
 use super::interior::bisect_interior;
 use super::refine::RefineStats;
@@ -136,18 +136,44 @@ pub(crate) type FastMap<K, V> = HashMap<K, V, foldhash::fast::FixedState>;
 /// Welds vertices by exact bits (−0 and +0 are one vertex).
 #[derive(Default)]
 pub(crate) struct Welder {
+    /// Every vertex's key, by index; looked up by a scan while there are
+    /// few (one refined triangle welds a handful of points, and building a
+    /// hash map cost more than its geometry), through `map` past that.
+    keys: Vec<[u64; 3]>,
     map: FastMap<[u64; 3], u32>,
     mesh: TriMesh,
+    /// Where [`Self::add`] maps the added mesh's vertices (kept between
+    /// calls).
+    scratch: Vec<u32>,
 }
+
+/// Vertices a [`Welder`] finds by scanning before it builds its map.
+const WELD_SCAN: usize = 16;
 
 impl Welder {
     fn vertex(&mut self, p: DVec3) -> u32 {
         let key = [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
-        let mesh = &mut self.mesh;
-        *self.map.entry(key).or_insert_with(|| {
-            mesh.positions.push(p);
-            (mesh.positions.len() - 1) as u32
-        })
+        if self.keys.len() < WELD_SCAN {
+            if let Some(i) = self.keys.iter().position(|k| *k == key) {
+                return i as u32;
+            }
+        } else {
+            if self.map.is_empty() {
+                self.map = self
+                    .keys
+                    .iter()
+                    .enumerate()
+                    .map(|(i, k)| (*k, i as u32))
+                    .collect();
+            }
+            if let Some(&i) = self.map.get(&key) {
+                return i;
+            }
+            self.map.insert(key, self.keys.len() as u32);
+        }
+        self.keys.push(key);
+        self.mesh.positions.push(p);
+        (self.mesh.positions.len() - 1) as u32
     }
 
     pub(crate) fn into_mesh(self) -> TriMesh {
@@ -157,7 +183,13 @@ impl Welder {
     /// Adds the triangles of `m` and the vertices they use (unused vertices,
     /// e.g. of culled triangles, are left out).
     pub(crate) fn add(&mut self, m: &TriMesh) {
-        let mut idx = vec![u32::MAX; m.positions.len()];
+        // (Room for all of `m` at once: one allocation, not one per growth.)
+        self.keys.reserve(m.positions.len());
+        self.mesh.positions.reserve(m.positions.len());
+        self.mesh.triangles.reserve(m.triangles.len());
+        let mut idx = std::mem::take(&mut self.scratch);
+        idx.clear();
+        idx.resize(m.positions.len(), u32::MAX);
         for t in &m.triangles {
             let t = t.map(|i| {
                 if idx[i as usize] == u32::MAX {
@@ -169,6 +201,7 @@ impl Welder {
                 self.mesh.triangles.push(t);
             }
         }
+        self.scratch = idx;
     }
 }
 
@@ -180,7 +213,24 @@ pub(crate) fn subdivide_triangle(
     tri: [DVec3; 3],
     pieces: &(impl Fn(&Arc) -> Pieces + ?Sized),
 ) -> Result<(TriMesh, bool), ArcError> {
-    let alphas = [0, 1, 2].map(|i| subtended_angle(tri[i], tri[(i + 1) % 3]));
+    // Each edge's arc, in canonical order (both triangles sharing an edge
+    // build the same one).
+    let canonical = |p: DVec3, q: DVec3| {
+        if canonical_less(q, p) {
+            Arc::new(q, p)
+        } else {
+            Arc::new(p, q)
+        }
+    };
+    let arcs = [0, 1, 2].map(|i| canonical(tri[i], tri[(i + 1) % 3]));
+    // The longest edge by subtended angle: an arc's α is that angle bit
+    // for bit, except for arcs seen as a point (α = 0) or not built.
+    let alphas = match &arcs {
+        [Ok(x), Ok(y), Ok(z)] if ![x, y, z].iter().any(|a| a.is_point()) => {
+            [x.alpha, y.alpha, z.alpha]
+        }
+        _ => [0, 1, 2].map(|i| subtended_angle(tri[i], tri[(i + 1) % 3])),
+    };
     let mut e = 0;
     for i in 1..3 {
         if alphas[i] > alphas[e] {
@@ -189,18 +239,34 @@ pub(crate) fn subdivide_triangle(
     }
     // (A, B, C) is a rotation of the input, so it keeps the winding.
     let (a, b, c) = (tri[e], tri[(e + 1) % 3], tri[(e + 2) % 3]);
-    let mut verts = vec![a, b, c];
+    // The sides' piece counts first (errors in the order AB, AC, BC): a
+    // triangle whose sides all stay whole (most of those cut at the view
+    // plane) is its own subdivision, with no strip to build.
     let mut capped = false;
-    let mut split = |verts: &mut Vec<DVec3>, i0: u32, i1: u32| -> Result<Vec<u32>, ArcError> {
-        let (p, q) = (verts[i0 as usize], verts[i1 as usize]);
-        let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
-        let pc = pieces(&Arc::new(c0, c1)?);
+    let mut count = |arc: Result<Arc, ArcError>, p: DVec3, q: DVec3| {
+        let arc = arc?;
+        let pc = pieces(&arc);
         capped |= pc.capped;
-        if pc.n == 1 {
-            // Whole (the arc above has checked the endpoints).
-            return Ok(vec![i0, i1]);
+        Ok::<_, ArcError>((arc, pc.n, canonical_less(q, p)))
+    };
+    let sides = [
+        count(arcs[e], a, b)?,
+        count(arcs[(e + 2) % 3], a, c)?,
+        count(arcs[(e + 1) % 3], b, c)?,
+    ];
+    if sides.iter().all(|s| s.1 == 1) {
+        let mesh = TriMesh {
+            positions: vec![a, b, c],
+            triangles: vec![[0, 1, 2]],
+        };
+        return Ok((mesh, capped));
+    }
+    let mut verts = vec![a, b, c];
+    let on_side = |verts: &mut Vec<DVec3>, (arc, n, swap): (Arc, u32, bool), i0: u32, i1: u32| {
+        if n == 1 {
+            return vec![i0, i1];
         }
-        let pts = split_points(p, q, pc.n)?;
+        let pts = points_of_arc(&arc, n, swap);
         let mut idx = Vec::with_capacity(pts.len());
         idx.push(i0);
         for &x in &pts[1..pts.len() - 1] {
@@ -208,11 +274,16 @@ pub(crate) fn subdivide_triangle(
             verts.push(x);
         }
         idx.push(i1);
-        Ok(idx)
+        idx
     };
-    let ab = split(&mut verts, 0, 1)?;
-    let side_p = split(&mut verts, 0, 2)?; // A → C
-    let side_q = split(&mut verts, 1, 2)?; // B → C
+    let ab = on_side(&mut verts, sides[0], 0, 1);
+    let side_p = on_side(&mut verts, sides[1], 0, 2); // A → C
+    let side_q = on_side(&mut verts, sides[2], 1, 2); // B → C
+    let mut split = |verts: &mut Vec<DVec3>, i0: u32, i1: u32| -> Result<Vec<u32>, ArcError> {
+        let (p, q) = (verts[i0 as usize], verts[i1 as usize]);
+        let rung = count(canonical(p, q), p, q)?;
+        Ok(on_side(verts, rung, i0, i1))
+    };
     let (m, k) = (side_p.len() - 1, side_q.len() - 1);
     let rungs = m.max(k);
     let mut tris = Vec::new();
@@ -236,10 +307,7 @@ pub(crate) fn subdivide_triangle(
     };
     // Our addition: interior diagonals that still need pieces are bisected
     // (see interior.rs); the boundary is never touched.
-    let needs_split = |p: DVec3, q: DVec3| {
-        let (c0, c1) = if canonical_less(q, p) { (q, p) } else { (p, q) };
-        Arc::new(c0, c1).is_ok_and(|arc| pieces(&arc).n > 1)
-    };
+    let needs_split = |p: DVec3, q: DVec3| canonical(p, q).is_ok_and(|arc| pieces(&arc).n > 1);
     // A triangle left whole has no interior edge (the common case for
     // distant geometry): skip the bisection's bookkeeping.
     if mesh.triangles.len() > 1 {
@@ -325,17 +393,90 @@ pub fn is_left_whole(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) ->
     let lengths = tri.map(|v| v.length());
     let scale = lengths.iter().fold(0.0, |m: f64, &l| m.max(l));
     lengths.iter().all(|&l| l > AT_ORIGIN_REL * scale)
-        && (0..3).all(|i| {
-            // tan α = |a × b|/(a·b) ≥ α bounds the angle without atan2
-            // (a third of the cost of a whole triangle): short by the
-            // bound is short by the angle, so a neighbour refined the long
-            // way still leaves the shared edge whole. An edge the bound
-            // cannot clear gets the exact test.
-            let (a, b) = (tri[i], tri[(i + 1) % 3]);
-            let (sine, cosine) = (a.cross(b).length(), a.dot(b));
-            (cosine > 0.0 && rule.is_short(proj, sine / cosine * (1.0 + 1e-12)))
-                || rule.is_short(proj, subtended_angle(a, b))
-        })
+        && (0..3).all(|i| edge_is_short(proj, tri[i], tri[(i + 1) % 3], rule))
+}
+
+/// Whether the edge a–b (finite, off the origin) stays one piece wherever
+/// it lies: the rule's short-arc test, the one the full path applies
+/// first, so a neighbour refined the long way splits the shared edge alike.
+fn edge_is_short(proj: &DomeProjection, a: DVec3, b: DVec3, rule: SplitRule) -> bool {
+    // tan α = |a × b|/(a·b) ≥ α bounds the angle without atan2 (a third of
+    // the cost of a whole triangle): short by the bound is short by the
+    // angle. An edge the bound cannot clear gets the exact test.
+    let (sine, cosine) = (a.cross(b).length(), a.dot(b));
+    (cosine > 0.0 && rule.is_short(proj, sine / cosine * (1.0 + 1e-12)))
+        || rule.is_short(proj, subtended_angle(a, b))
+}
+
+/// [`refine_triangle`] for a triangle cut at the view plane whose clipped
+/// parts all stay whole (most of those at the horizon of a large scene),
+/// built directly: the clipped polygon fanned, and the rim skirt's quad
+/// along its cut. The same triangles, with the same winding and vertex
+/// bits, as the full path makes (which splits, skirts and welds each part
+/// on its own; the test `cut_triangles_left_whole_match_the_full_path`
+/// holds them together), at a fraction of its cost. `None` where the full
+/// path is needed: a part to split, a corner at the origin, repeated
+/// corners, or a cut that is not one edge of two points on the plane.
+fn cut_left_whole(
+    proj: &DomeProjection,
+    tri: [DVec3; 3],
+    rule: SplitRule,
+    scale: f64,
+    skirt: Option<(f64, DVec3)>,
+) -> Option<RefinedMesh> {
+    let axis = proj.axis();
+    let (poly, n) = clip_polygon_plane(axis, tri);
+    let poly = &poly[..n];
+    if n < 3 || poly.iter().any(|p| p.length() <= AT_ORIGIN_REL * scale) {
+        return None;
+    }
+    let bits = |p: DVec3| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
+    if (0..n).any(|i| (i + 1..n).any(|j| bits(poly[i]) == bits(poly[j]))) {
+        return None;
+    }
+    // Every edge of every fan triangle (the polygon's sides and diagonals).
+    let short = |i: usize, j: usize| edge_is_short(proj, poly[i], poly[j], rule);
+    if !(0..n).all(|i| short(i, (i + 1) % n)) || !(2..n - 1).all(|k| short(0, k)) {
+        return None;
+    }
+    let mut positions = poly.to_vec();
+    let mut triangles: Vec<[u32; 3]> = (1..n as u32 - 1).map(|k| [0, k, k + 1]).collect();
+    let mut skirt_triangles = 0;
+    if let Some((angle, direction)) = skirt {
+        // The skirt's edges: those with both ends on the plane; the fast
+        // path takes only the one the cut makes.
+        let on_plane = |p: DVec3| p.dot(axis).abs() <= 1e-9 * p.length();
+        let cut: Vec<usize> = (0..n)
+            .filter(|&i| on_plane(poly[i]) && on_plane(poly[(i + 1) % n]))
+            .collect();
+        if poly.iter().filter(|p| on_plane(**p)).count() != 2 || cut.len() != 1 {
+            return None;
+        }
+        let (a, b) = (cut[0], (cut[0] + 1) % n);
+        let (tan, behind) = (angle.tan(), -direction.dot(axis));
+        let past = |p: DVec3| p + (tan * p.length() / behind).min(4.0 * p.length()) * direction;
+        let (pa, pb) = (past(poly[a]), past(poly[b]));
+        if bits(pa) == bits(pb) {
+            return None;
+        }
+        positions.extend([pa, pb]);
+        let (a, b, a2, b2) = (a as u32, b as u32, n as u32, n as u32 + 1);
+        triangles.extend([[b, a, a2], [b, a2, b2]]);
+        skirt_triangles = 2;
+    }
+    let stats = RefineStats {
+        input: 1,
+        emitted: triangles.len(),
+        skirt: skirt_triangles,
+        ..Default::default()
+    };
+    Some(RefinedMesh {
+        mesh: TriMesh {
+            positions,
+            triangles,
+        },
+        stats,
+    })
 }
 
 /// Clips at the view plane (FOV ≤ 180°; next to 180° with a rim skirt, see
@@ -356,6 +497,28 @@ pub fn refine_triangle(
 
 /// [`refine_triangle`] for a triangle with finite vertices.
 fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) -> RefinedMesh {
+    refine_finite_triangle_by(proj, tri, rule, Path::Short)
+}
+
+/// Which way [`refine_finite_triangle_by`] refines a cut triangle that needs
+/// no split.
+#[derive(Clone, Copy, PartialEq)]
+enum Path {
+    /// Built directly (`cut_left_whole`).
+    Short,
+    /// Split, skirted and welded part by part like every other triangle
+    /// (for the test that holds the two ways together).
+    #[cfg_attr(not(test), allow(dead_code))]
+    Full,
+}
+
+/// [`refine_finite_triangle`], taking `path` for cut triangles.
+fn refine_finite_triangle_by(
+    proj: &DomeProjection,
+    tri: [DVec3; 3],
+    rule: SplitRule,
+    path: Path,
+) -> RefinedMesh {
     let mut stats = RefineStats {
         input: 1,
         ..Default::default()
@@ -381,11 +544,6 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
             stats,
         };
     }
-    let parts = if proj.clips_at_view_plane() {
-        clip_triangle_plane(proj.axis(), tri)
-    } else {
-        vec![tri]
-    };
     // A triangle cut at a view plane next to the rim gets a skirt along the
     // cut, in its own plane (see `add_rim_skirt`).
     let cut = tri.iter().any(|v| v.dot(proj.axis()) < 0.0);
@@ -393,6 +551,16 @@ fn refine_finite_triangle(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRul
         .rim_skirt_rad()
         .filter(|_| cut)
         .and_then(|angle| Some((angle, skirt_direction(tri, proj.axis())?)));
+    if path == Path::Short && cut && proj.clips_at_view_plane() {
+        if let Some(done) = cut_left_whole(proj, tri, rule, scale, skirt) {
+            return done;
+        }
+    }
+    let parts = if proj.clips_at_view_plane() {
+        clip_triangle_plane(proj.axis(), tri)
+    } else {
+        vec![tri]
+    };
     if parts.is_empty() {
         stats.clipped_away = 1;
     }
@@ -477,43 +645,57 @@ fn skirt_direction(tri: [DVec3; 3], axis: DVec3) -> Option<DVec3> {
 /// rim. Returns the number of triangles added.
 fn add_rim_skirt(m: &mut TriMesh, axis: DVec3, direction: DVec3, angle: f64) -> usize {
     let on_plane = |p: DVec3| p.dot(axis).abs() <= 1e-9 * p.length();
-    let mut uses: FastMap<[u32; 2], usize> = FastMap::default();
-    for t in &m.triangles {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            *uses.entry([a.min(b), a.max(b)]).or_default() += 1;
-        }
+    // Every edge as (low, high) index, sorted: an edge used once is a
+    // boundary edge. (A sort, not a hash map: most inputs are one or two
+    // triangles.)
+    let on_cut = |t: [u32; 3], k: usize| {
+        on_plane(m.positions[t[k] as usize]) && on_plane(m.positions[t[(k + 1) % 3] as usize])
+    };
+    if !m.triangles.iter().any(|&t| (0..3).any(|k| on_cut(t, k))) {
+        return 0;
     }
+    let key = |a: u32, b: u32| [a.min(b), a.max(b)];
+    let mut edges = Vec::with_capacity(3 * m.triangles.len());
+    for t in &m.triangles {
+        edges.extend((0..3).map(|k| key(t[k], t[(k + 1) % 3])));
+    }
+    edges.sort_unstable();
+    let used_once = |e: [u32; 2]| {
+        let at = edges.partition_point(|x| *x < e);
+        edges.get(at + 1) != Some(&e)
+    };
     // How far to go along `direction` from p for `angle` past the plane,
     // at most 4|p| (a triangle nearly parallel to the view plane would
     // otherwise run far out sideways).
     let (tan, behind) = (angle.tan(), -direction.dot(axis));
-    let mut beyond: FastMap<u32, u32> = FastMap::default();
-    let mut added = Vec::new();
-    for t in m.triangles.clone() {
+    let mut beyond = vec![u32::MAX; m.positions.len()];
+    // (Quads go straight onto the triangle list: only the triangles there
+    // before are looked at.)
+    let before = m.triangles.len();
+    for ti in 0..before {
+        let t = m.triangles[ti];
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
             let (pa, pb) = (m.positions[a as usize], m.positions[b as usize]);
-            if uses[&[a.min(b), a.max(b)]] != 1 || !on_plane(pa) || !on_plane(pb) {
+            if !on_plane(pa) || !on_plane(pb) || !used_once(key(a, b)) {
                 continue;
             }
             let mut past = |i: u32| {
-                *beyond.entry(i).or_insert_with(|| {
+                if beyond[i as usize] == u32::MAX {
                     let p = m.positions[i as usize];
                     let s = (tan * p.length() / behind).min(4.0 * p.length());
                     m.positions.push(p + s * direction);
-                    (m.positions.len() - 1) as u32
-                })
+                    beyond[i as usize] = (m.positions.len() - 1) as u32;
+                }
+                beyond[i as usize]
             };
             let (a2, b2) = (past(a), past(b));
             // The quad b → a → a' → b', wound like its neighbour (which
             // runs a → b).
-            added.extend([[b, a, a2], [b, a2, b2]]);
+            m.triangles.extend([[b, a, a2], [b, a2, b2]]);
         }
     }
-    let n = added.len();
-    m.triangles.extend(added);
-    n
+    m.triangles.len() - before
 }
 
 /// Refines every triangle of a mesh in parallel and welds the result by exact
@@ -750,6 +932,84 @@ mod tests {
         assert!(reach > 90.9 && reach < 91.01, "{reach}°");
         let p178 = dome(178.0);
         assert_eq!(refine_mesh(&p178, &m, chord_gap(0.5)).stats.skirt, 0);
+    }
+
+    /// The triangles of a refined mesh as sets of corner bits, each
+    /// rotated to start at its smallest corner (the full path rotates a
+    /// part to its longest edge first): equal sets are the same triangles
+    /// with the same winding, whatever the vertex order.
+    fn triangle_set(r: &RefinedMesh) -> Vec<[[u64; 3]; 3]> {
+        let bits = |p: DVec3| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
+        let mut set: Vec<[[u64; 3]; 3]> = r
+            .mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                let c = t.map(|i| bits(r.mesh.positions[i as usize]));
+                let k = (0..3).min_by_key(|&k| c[k]).expect("three corners");
+                [c[k], c[(k + 1) % 3], c[(k + 2) % 3]]
+            })
+            .collect();
+        set.sort_unstable();
+        set
+    }
+
+    #[test]
+    fn cut_triangles_left_whole_match_the_full_path() {
+        // Triangles of all sizes straddling the view plane of a 180° dome
+        // (skirted), a 170° one (no skirt) and a tilted one, with corners
+        // on the plane and corners at repeated points: the short path gives
+        // the full path's triangles bit for bit, or leaves them to it.
+        let mut state = 0x5EED_u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let (mut short, mut full) = (0, 0);
+        for (fov, tilt) in [(180.0, 0.0), (170.0, 0.0), (180.0, 20.0)] {
+            let p = crate::dome::test_dome(fov, tilt, 4096);
+            let axis = p.axis();
+            for i in 0..3000 {
+                let size = 10f64.powf(-2.0 + 3.0 * (next() + 0.5));
+                let centre = 20.0 * DVec3::new(next(), next(), next());
+                let centre = centre - centre.dot(axis) * axis;
+                let mut tri = [0; 3].map(|_| centre + size * DVec3::new(next(), next(), next()));
+                match i % 10 {
+                    // A corner exactly on the plane.
+                    7 => tri[0] -= tri[0].dot(axis) * axis,
+                    // Two corners at one point.
+                    8 => tri[2] = tri[1],
+                    _ => {}
+                }
+                let d = tri.map(|v| v.dot(axis));
+                if !(d.iter().any(|&x| x < 0.0) && d.iter().any(|&x| x > 0.0)) {
+                    continue;
+                }
+                for tol in [0.5, 4.0] {
+                    let rule = chord_gap(tol);
+                    let fast = refine_finite_triangle_by(&p, tri, rule, Path::Short);
+                    let slow = refine_finite_triangle_by(&p, tri, rule, Path::Full);
+                    assert_eq!(
+                        triangle_set(&fast),
+                        triangle_set(&slow),
+                        "{tri:?} at {fov}°"
+                    );
+                    assert_eq!(fast.stats, slow.stats, "{tri:?}");
+                    let scale = tri.iter().map(|v| v.length()).fold(0.0, f64::max);
+                    let skirt = p
+                        .rim_skirt_rad()
+                        .and_then(|a| Some((a, skirt_direction(tri, axis)?)));
+                    match cut_left_whole(&p, tri, rule, scale, skirt) {
+                        Some(_) => short += 1,
+                        None => full += 1,
+                    }
+                }
+            }
+        }
+        // Both ways were exercised.
+        assert!(short > 1000 && full > 1000, "{short} short, {full} full");
     }
 
     #[test]

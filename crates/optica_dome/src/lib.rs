@@ -172,7 +172,9 @@ pub use refine::{
     DomeTwin, DomeTwinOf, DomeTwins,
 };
 pub use settings::{DomeCamera, DomeLens, DomeMode, FACE_PX_RANGE, MAX_FOV_DEG};
-pub use twin_mesh::{Twin, pre_subdivide_mesh_asset, refine_mesh_asset, twin_of_mesh};
+pub use twin_mesh::{
+    Twin, TwinJob, pre_subdivide_mesh_asset, refine_mesh_asset, twin_of_mesh, twins_of_meshes,
+};
 
 /// Adds [`DomeCamera`]: keeps each dome camera's projection in step with
 /// its settings and, once a dome camera exists, puts the fisheye

@@ -12,6 +12,9 @@
 //! paper's classification (§3.1) saves more: a mesh marked
 //! [`DomeApparentSize::NearlyConstant`] (stars, sky art) is split once for
 //! every view direction and rebuilt only when the viewer moves in its space.
+//! The twins a frame needs are found first and then built all at once
+//! ([`crate::twins_of_meshes`]: the triangles of every mesh share Bevy's
+//! compute pool), so a scene of many small meshes keeps every thread busy.
 //!
 //! Each vertex-mode dome camera draws its own render layer ([`DomeLayer`],
 //! from [`DOME_LAYER`] up) where its twins live (and which the lights that
@@ -26,6 +29,7 @@
 use std::marker::PhantomData;
 
 use bevy::camera::visibility::RenderLayers;
+use bevy::ecs::entity::EntityHashMap;
 use bevy::light::NotShadowCaster;
 use bevy::math::{Affine3A, Vec3A};
 use bevy::prelude::*;
@@ -34,7 +38,7 @@ use optica_optics::dome::{
 };
 
 use crate::DomeCamera;
-use crate::twin_mesh::{Twin, pre_subdivide_mesh_asset, primitive_kind, twin_of_mesh};
+use crate::twin_mesh::{Twin, TwinJob, pre_subdivide_mesh_asset, primitive_kind, twins_of_meshes};
 
 /// The first render layer of the refined twins and of dome cameras: each
 /// vertex-mode dome camera gets its own ([`DomeLayer`]), from this one up,
@@ -388,18 +392,20 @@ pub(crate) fn refine_twins(
             piece,
         });
     }
+    let mut pending = Vec::new();
     for (entity, mesh3d, transform, size, layers, twins) in &mut originals {
         if twins.is_none() && views.is_empty() {
             continue;
         }
-        let mut created = Vec::new();
+        // (A mesh without twins yet gets its list when they are built.)
+        let mut none = Vec::new();
         let mut holder;
         let list: &mut Vec<DomeTwin> = match twins {
             Some(t) => {
                 holder = t;
                 &mut holder.0
             }
-            None => &mut created,
+            None => &mut none,
         };
         let layers = layers.cloned().unwrap_or_default();
         // Twins of cameras that are gone, not in the vertex mode or no
@@ -414,7 +420,10 @@ pub(crate) fn refine_twins(
             }
             keep
         });
-        for view in views.iter().filter(|v| v.sees.intersects(&layers)) {
+        for (v, view) in views.iter().enumerate() {
+            if !view.sees.intersects(&layers) {
+                continue;
+            }
             let slot = list.iter().position(|t| t.camera == view.entity);
             let view_from_local = view.view_from_world * transform.affine();
             let source = meshes.get(&mesh3d.0);
@@ -451,88 +460,147 @@ pub(crate) fn refine_twins(
                 pass.kept += 1;
                 continue;
             }
-            let twin = match treatment {
-                Treatment::Dynamic => {
-                    twin_of_mesh(source, view_from_local, &view.projection, view.rule)
+            pending.push(Pending {
+                original: entity,
+                mesh: mesh3d.0.clone(),
+                transform: *transform,
+                view: v,
+                treatment,
+                view_from_local,
+                built_for,
+                extent: extent_of(source),
+            });
+        }
+    }
+    // Every twin to build, built at once: the triangles of all the meshes
+    // share the compute pool (see `twins_of_meshes`).
+    let twins = build_twins(&pending, &views, &meshes);
+    let mut new_lists: EntityHashMap<Vec<DomeTwin>> = EntityHashMap::default();
+    for (job, twin) in pending.into_iter().zip(twins) {
+        let view = &views[job.view];
+        let list = match originals.get_mut(job.original) {
+            Ok((.., Some(twins))) => &mut twins.into_inner().0,
+            _ => new_lists.entry(job.original).or_default(),
+        };
+        let slot = list.iter().position(|t| t.camera == view.entity);
+        let Some(twin) = twin else {
+            if let Some(i) = slot {
+                commands.entity(list.remove(i).twin).despawn();
+            }
+            continue;
+        };
+        pass.rebuilt += 1;
+        let entry = match slot {
+            Some(i) => &mut list[i],
+            None => {
+                let twin = commands
+                    .spawn((
+                        Transform::IDENTITY,
+                        // Right from the first frame (propagation has run).
+                        job.transform,
+                        ChildOf(job.original),
+                        RenderLayers::layer(view.layer),
+                        NotShadowCaster,
+                        DomeTwinOf(job.original),
+                    ))
+                    .id();
+                list.push(DomeTwin {
+                    camera: view.entity,
+                    twin,
+                    twin_mesh: None,
+                    shows_original: false,
+                    built_for: job.built_for,
+                    extent: job.extent,
+                });
+                list.last_mut().expect("just pushed")
+            }
+        };
+        // (A new entry was pushed with `built_for` already.)
+        let same_original = slot.is_some() && entry.built_for.mesh == job.built_for.mesh;
+        entry.built_for = job.built_for;
+        entry.extent = job.extent;
+        match twin {
+            Twin::Same => {
+                pass.unsplit += 1;
+                if !(entry.shows_original && same_original) {
+                    commands.entity(entry.twin).insert(Mesh3d(job.mesh));
+                    entry.shows_original = true;
                 }
-                Treatment::PreSubdivided => view
-                    .piece
-                    .and_then(|piece| pre_subdivide_mesh_asset(source, view_from_local, piece))
-                    .map(|mesh| Twin::Refined(Box::new(mesh))),
-            };
-            let extent = extent_of(source);
-            let Some(twin) = twin else {
-                if let Some(i) = slot {
-                    commands.entity(list.remove(i).twin).despawn();
-                }
-                continue;
-            };
-            pass.rebuilt += 1;
-            let entry = match slot {
-                Some(i) => &mut list[i],
-                None => {
-                    let twin = commands
-                        .spawn((
-                            Transform::IDENTITY,
-                            // Right from the first frame (propagation has run).
-                            *transform,
-                            ChildOf(entity),
-                            RenderLayers::layer(view.layer),
-                            NotShadowCaster,
-                            DomeTwinOf(entity),
-                        ))
-                        .id();
-                    list.push(DomeTwin {
-                        camera: view.entity,
-                        twin,
-                        twin_mesh: None,
-                        shows_original: false,
-                        built_for,
-                        extent,
-                    });
-                    list.last_mut().expect("just pushed")
-                }
-            };
-            // (A new entry was pushed with `built_for` already.)
-            let same_original = slot.is_some() && entry.built_for.mesh == built_for.mesh;
-            entry.built_for = built_for;
-            entry.extent = extent;
-            match twin {
-                Twin::Same => {
-                    pass.unsplit += 1;
-                    if !(entry.shows_original && same_original) {
-                        commands.entity(entry.twin).insert(Mesh3d(mesh3d.0.clone()));
-                        entry.shows_original = true;
+            }
+            Twin::Refined(refined) => {
+                pass.vertices += refined.count_vertices();
+                let unwritten = match entry.twin_mesh.as_ref().and_then(|h| meshes.get_mut(h)) {
+                    Some(mut mesh) => {
+                        *mesh = *refined;
+                        None
                     }
+                    None => Some(refined),
+                };
+                let fresh_handle = unwritten.is_some();
+                if let Some(refined) = unwritten {
+                    entry.twin_mesh = Some(meshes.add(*refined));
                 }
-                Twin::Refined(refined) => {
-                    pass.vertices += refined.count_vertices();
-                    let unwritten = match entry.twin_mesh.as_ref().and_then(|h| meshes.get_mut(h)) {
-                        Some(mut mesh) => {
-                            *mesh = *refined;
-                            None
-                        }
-                        None => Some(refined),
-                    };
-                    let fresh_handle = unwritten.is_some();
-                    if let Some(refined) = unwritten {
-                        entry.twin_mesh = Some(meshes.add(*refined));
-                    }
-                    if fresh_handle || entry.shows_original || slot.is_none() {
-                        let handle = entry.twin_mesh.clone().expect("set above");
-                        commands.entity(entry.twin).insert(Mesh3d(handle));
-                        entry.shows_original = false;
-                    }
+                if fresh_handle || entry.shows_original || slot.is_none() {
+                    let handle = entry.twin_mesh.clone().expect("set above");
+                    commands.entity(entry.twin).insert(Mesh3d(handle));
+                    entry.shows_original = false;
                 }
             }
         }
-        if !created.is_empty() {
-            commands.entity(entity).insert(DomeTwins(created));
-        }
+    }
+    for (original, list) in new_lists {
+        commands.entity(original).insert(DomeTwins(list));
     }
     edited.clear();
     pass.cpu_ms = start.elapsed().as_secs_f32() * 1000.0;
     *stats = pass;
+}
+
+/// A twin to build, found by [`refine_twins`]: built for all such at once
+/// ([`build_twins`]), then written.
+struct Pending {
+    original: Entity,
+    mesh: Handle<Mesh>,
+    transform: GlobalTransform,
+    /// Index of its camera in the pass's views.
+    view: usize,
+    treatment: Treatment,
+    view_from_local: Affine3A,
+    built_for: BuiltFor,
+    extent: f32,
+}
+
+/// The twin of every pending mesh, in order (`None`: nothing to draw): the
+/// ones refined from the view all together on the compute pool, the
+/// pre-subdivided ones (rebuilt only when the viewer moves in their space)
+/// one by one.
+fn build_twins(
+    pending: &[Pending],
+    views: &[DomeView],
+    meshes: &Assets<Mesh>,
+) -> Vec<Option<Twin>> {
+    let source = |p: &Pending| meshes.get(&p.mesh).expect("checked when found");
+    let jobs: Vec<TwinJob> = pending
+        .iter()
+        .filter(|p| p.treatment == Treatment::Dynamic)
+        .map(|p| TwinJob {
+            source: source(p),
+            view_from_local: p.view_from_local,
+            projection: &views[p.view].projection,
+            rule: views[p.view].rule,
+        })
+        .collect();
+    let mut dynamic = twins_of_meshes(&jobs).into_iter();
+    pending
+        .iter()
+        .map(|p| match p.treatment {
+            Treatment::Dynamic => dynamic.next().flatten(),
+            Treatment::PreSubdivided => views[p.view]
+                .piece
+                .and_then(|piece| pre_subdivide_mesh_asset(source(p), p.view_from_local, piece))
+                .map(|mesh| Twin::Refined(Box::new(mesh))),
+        })
+        .collect()
 }
 
 /// The largest distance of a vertex of `mesh` from its origin (0 without

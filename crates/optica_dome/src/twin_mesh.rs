@@ -55,30 +55,110 @@ pub fn refine_mesh_asset(
 /// [`refine_mesh_asset`] without the copy when nothing needs refining: a
 /// triangle list whose every triangle is its own refinement (small and in
 /// front: [`Panorama::leaves_whole`]) is [`Twin::Same`], and a renderer
-/// draws the source mesh itself. What the plugin runs every frame a mesh
-/// moves relative to a dome camera.
+/// draws the source mesh itself. For many meshes at once use
+/// [`twins_of_meshes`], which spreads them over the threads together.
 pub fn twin_of_mesh(
     source: &Mesh,
     view_from_local: Affine3A,
     projection: &Panorama,
     rule: SplitRule,
 ) -> Option<Twin> {
-    let source = Source::of(source, view_from_local)?;
-    match source.topology {
-        PrimitiveTopology::TriangleList => Some(source.triangles(
-            |corners| projection.leaves_whole(corners, rule),
+    let job = TwinJob {
+        source,
+        view_from_local,
+        projection,
+        rule,
+    };
+    twins_of_meshes(&[job]).pop().flatten()
+}
+
+/// One mesh to refine for one dome camera, for [`twins_of_meshes`].
+#[derive(Clone, Copy)]
+pub struct TwinJob<'a> {
+    /// The user's mesh.
+    pub source: &'a Mesh,
+    /// Where the camera sees it from.
+    pub view_from_local: Affine3A,
+    /// The camera's projection.
+    pub projection: &'a Panorama,
+    /// The camera's split rule.
+    pub rule: SplitRule,
+}
+
+/// [`twin_of_mesh`] for every job, in order: what the plugin runs each
+/// frame for every mesh that moved relative to a dome camera. The
+/// triangles of all the meshes are refined in chunks on Bevy's compute
+/// pool together, so a scene of many small meshes keeps every thread busy
+/// without a wake-up per mesh, and one large mesh still spreads over all
+/// of them. The result does not depend on the thread count.
+pub fn twins_of_meshes(jobs: &[TwinJob]) -> Vec<Option<Twin>> {
+    let sources: Vec<Option<Source>> = jobs
+        .iter()
+        .map(|job| Source::of(job.source, job.view_from_local))
+        .collect();
+    // A task: a chunk of one job's triangle list, or one job's lines.
+    let mut tasks = Vec::new();
+    for (j, source) in sources.iter().enumerate() {
+        match source.as_ref().map(|s| (s.topology, s.indices.len())) {
+            Some((PrimitiveTopology::TriangleList, len)) => {
+                let chunk = 3 * TRIANGLES_PER_TASK;
+                tasks.extend(
+                    (0..len)
+                        .step_by(chunk)
+                        .map(|at| (j, at..len.min(at + chunk))),
+                );
+            }
+            Some((PrimitiveTopology::LineList | PrimitiveTopology::LineStrip, _)) => {
+                tasks.push((j, 0..0));
+            }
+            _ => {}
+        }
+    }
+    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    let done = tasks.par_chunk_map(pool, 1, |_, task| {
+        let (j, range) = task[0].clone();
+        let (job, source) = (&jobs[j], sources[j].as_ref().expect("a task has a source"));
+        if source.topology != PrimitiveTopology::TriangleList {
+            return Done::Lines(source.lines(job.projection, job.rule));
+        }
+        Done::Triangles(source.refine_chunk(
+            &source.indices[range],
+            |corners| job.projection.leaves_whole(corners, job.rule),
             |corners| {
-                projection
-                    .refine_triangle(corners, rule)
+                job.projection
+                    .refine_triangle(corners, job.rule)
                     .ok()
                     .map(|r| r.mesh.into_parts())
             },
-        )),
-        PrimitiveTopology::LineList | PrimitiveTopology::LineStrip => {
-            Some(Twin::Refined(Box::new(source.lines(projection, rule))))
+        ))
+    });
+    // Each job's parts, in order.
+    let mut parts: Vec<Vec<Output>> = jobs.iter().map(|_| Vec::new()).collect();
+    let mut lines: Vec<Option<Mesh>> = jobs.iter().map(|_| None).collect();
+    for ((j, _), done) in tasks.iter().zip(done) {
+        match done {
+            Done::Triangles(part) => parts[*j].push(part),
+            Done::Lines(mesh) => lines[*j] = Some(mesh),
         }
-        _ => None,
     }
+    sources
+        .iter()
+        .zip(parts)
+        .zip(lines)
+        .map(|((source, parts), lines)| {
+            let source = source.as_ref()?;
+            match source.topology {
+                PrimitiveTopology::TriangleList => Some(source.gather(parts)),
+                _ => lines.map(|mesh| Twin::Refined(Box::new(mesh))),
+            }
+        })
+        .collect()
+}
+
+/// What a task of [`twins_of_meshes`] made.
+enum Done {
+    Triangles(Output),
+    Lines(Mesh),
 }
 
 /// `source`, a triangle list of nearly constant apparent size, split once
@@ -120,7 +200,7 @@ pub fn pre_subdivide_mesh_asset(
 /// Triangles refined by one task of the compute pool: enough to outweigh
 /// a task's cost (~µs), few enough that a 1,000-triangle mesh still spreads
 /// over a few threads.
-const TRIANGLES_PER_TASK: usize = 128;
+const TRIANGLES_PER_TASK: usize = 256;
 
 /// Marks an output index that refers to a vertex made by refinement (the
 /// rest refer to the source's own vertices, which every twin starts with).
@@ -203,41 +283,59 @@ impl<'a> Source<'a> {
         let parts = self
             .indices
             .par_chunk_map(pool, 3 * TRIANGLES_PER_TASK, |_, chunk| {
-                let mut out = Output::new(self);
-                for t in chunk.chunks_exact(3) {
-                    let ids = [t[0] as usize, t[1] as usize, t[2] as usize];
-                    if ids.iter().any(|&i| i >= self.view.len()) {
-                        out.changed = true;
-                        continue;
-                    }
-                    let corners = ids.map(|i| self.view[i]);
-                    if corners.iter().all(|c| c.is_finite()) && whole(corners) {
-                        out.indices.extend_from_slice(t);
-                        continue;
-                    }
-                    out.changed = true;
-                    let Some((points, triangles)) = refine(corners) else {
-                        continue;
-                    };
-                    let at: Vec<u32> = points
-                        .iter()
-                        .map(|p| match corners.iter().position(|c| c == p) {
-                            Some(k) => ids[k] as u32,
-                            None => {
-                                out.push(self, *p, ids, barycentric(corners, *p));
-                                NEW_VERTEX | (out.positions.len() as u32 - 1)
-                            }
-                        })
-                        .collect();
-                    out.indices
-                        .extend(triangles.iter().flatten().map(|&i| at[i as usize]));
-                }
-                out
+                self.refine_chunk(chunk, &whole, &refine)
             });
+        self.gather(parts)
+    }
+
+    /// The triangles of `chunk` (whole ones: a remainder is left out), as
+    /// [`Self::triangles`] makes them: new vertices marked [`NEW_VERTEX`].
+    fn refine_chunk(
+        &self,
+        chunk: &[u32],
+        whole: impl Fn([DVec3; 3]) -> bool,
+        refine: impl Fn([DVec3; 3]) -> Option<(Vec<DVec3>, Vec<[u32; 3]>)>,
+    ) -> Output {
+        let mut out = Output::new(self);
+        out.indices.reserve(chunk.len());
+        for t in chunk.chunks_exact(3) {
+            let ids = [t[0] as usize, t[1] as usize, t[2] as usize];
+            if ids.iter().any(|&i| i >= self.view.len()) {
+                out.changed = true;
+                continue;
+            }
+            let corners = ids.map(|i| self.view[i]);
+            if corners.iter().all(|c| c.is_finite()) && whole(corners) {
+                out.indices.extend_from_slice(t);
+                continue;
+            }
+            out.changed = true;
+            let Some((points, triangles)) = refine(corners) else {
+                continue;
+            };
+            let at: Vec<u32> = points
+                .iter()
+                .map(|p| match corners.iter().position(|c| c == p) {
+                    Some(k) => ids[k] as u32,
+                    None => {
+                        out.push(self, *p, ids, barycentric(corners, *p));
+                        NEW_VERTEX | (out.positions.len() as u32 - 1)
+                    }
+                })
+                .collect();
+            out.indices
+                .extend(triangles.iter().flatten().map(|&i| at[i as usize]));
+        }
+        out
+    }
+
+    /// The twin from the refined chunks of every triangle, in order:
+    /// [`Twin::Same`] when none changed and the source has nothing a twin
+    /// leaves out, else the source's vertices, then each chunk's new ones.
+    fn gather(&self, parts: Vec<Output>) -> Twin {
         if self.all_carried && parts.iter().all(|p| !p.changed) {
             return Twin::Same;
         }
-        // The source's vertices first, then each chunk's new ones.
         let mut out = Output::new(self);
         out.positions.extend_from_slice(self.local);
         for (mine, (_, values)) in out.carried.iter_mut().zip(&self.carried) {

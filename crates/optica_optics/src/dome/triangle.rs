@@ -439,8 +439,11 @@ fn cut_left_whole(
     if !(0..n).all(|i| short(i, (i + 1) % n)) || !(2..n - 1).all(|k| short(0, k)) {
         return None;
     }
-    let mut positions = poly.to_vec();
-    let mut triangles: Vec<[u32; 3]> = (1..n as u32 - 1).map(|k| [0, k, k + 1]).collect();
+    // (Room for the skirt's two points and two triangles up front.)
+    let mut positions = Vec::with_capacity(n + 2);
+    positions.extend_from_slice(poly);
+    let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(n);
+    triangles.extend((1..n as u32 - 1).map(|k| [0, k, k + 1]));
     let mut skirt_triangles = 0;
     if let Some((angle, direction)) = skirt {
         // The skirt's edges: those with both ends on the plane; the fast
@@ -551,10 +554,12 @@ fn refine_finite_triangle_by(
         .rim_skirt_rad()
         .filter(|_| cut)
         .and_then(|angle| Some((angle, skirt_direction(tri, proj.axis())?)));
-    if path == Path::Short && cut && proj.clips_at_view_plane() {
-        if let Some(done) = cut_left_whole(proj, tri, rule, scale, skirt) {
-            return done;
-        }
+    if path == Path::Short
+        && cut
+        && proj.clips_at_view_plane()
+        && let Some(done) = cut_left_whole(proj, tri, rule, scale, skirt)
+    {
+        return done;
     }
     let parts = if proj.clips_at_view_plane() {
         clip_triangle_plane(proj.axis(), tri)

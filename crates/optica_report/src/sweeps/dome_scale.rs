@@ -6,10 +6,11 @@
 //!   seeded; 1k to 1M triangles (1 to 1,042 meshes).
 //! * Camera: 4096² domemaster, 180°, zenith, 0.5 px; each frame it steps
 //!   0.1 m, so every mesh's placement relative to it changes.
-//! * time_ms: the plugin's own per-mesh work for one frame
-//!   (`optica_dome::twin_of_mesh` on every mesh, as `refine_twins` runs
-//!   it), on the machine's threads; baseline: reading every mesh's
-//!   positions into view space (what any per-frame CPU pass pays).
+//! * time_ms: the plugin's own work for one frame
+//!   (`optica_dome::twins_of_meshes` over every mesh, as `refine_twins`
+//!   runs it: all the meshes' triangles share the compute pool), on the
+//!   machine's threads; baseline: reading every mesh's positions into view
+//!   space (what any per-frame CPU pass pays).
 //! * Work: input triangles, twin vertices built, meshes left unsplit
 //!   (every triangle its own refinement: the twin draws the mesh itself,
 //!   nothing is built or uploaded).
@@ -17,7 +18,7 @@
 use bevy::math::{Affine3A, Quat, Vec3};
 use bevy::mesh::{Mesh, VertexAttributeValues};
 use bevy::prelude::{Meshable, Sphere};
-use optica_dome::{DomeCamera, Twin, twin_of_mesh};
+use optica_dome::{DomeCamera, Twin, TwinJob, twins_of_meshes};
 use optica_optics::dome::SplitRule;
 
 use crate::{Report, Row, SweepContext, time_ms};
@@ -97,9 +98,18 @@ pub fn scene_size(report: &mut Report, ctx: &SweepContext) {
         let (ms, (vertices, unsplit)) = time_ms(runs, budget, || {
             step += 1;
             let view = camera_at(step);
-            places
+            let jobs: Vec<TwinJob> = places
                 .iter()
-                .filter_map(|place| twin_of_mesh(&mesh, view * *place, &projection, rule))
+                .map(|place| TwinJob {
+                    source: &mesh,
+                    view_from_local: view * *place,
+                    projection: &projection,
+                    rule,
+                })
+                .collect();
+            twins_of_meshes(&jobs)
+                .into_iter()
+                .flatten()
                 .fold((0, 0), |(v, u), twin| match twin {
                     Twin::Same => (v, u + 1),
                     Twin::Refined(m) => (v + m.count_vertices(), u),

@@ -296,7 +296,8 @@ impl<'a> Source<'a> {
         whole: impl Fn([DVec3; 3]) -> bool,
         refine: impl Fn([DVec3; 3]) -> Option<(Vec<DVec3>, Vec<[u32; 3]>)>,
     ) -> Output {
-        let mut out = Output::new(self);
+        // (About a new vertex per triangle where a scene is refined.)
+        let mut out = Output::with_capacity(self, chunk.len() / 3);
         out.indices.reserve(chunk.len());
         for t in chunk.chunks_exact(3) {
             let ids = [t[0] as usize, t[1] as usize, t[2] as usize];
@@ -336,7 +337,10 @@ impl<'a> Source<'a> {
         if self.all_carried && parts.iter().all(|p| !p.changed) {
             return Twin::Same;
         }
-        let mut out = Output::new(self);
+        let vertices = self.local.len() + parts.iter().map(|p| p.positions.len()).sum::<usize>();
+        let mut out = Output::with_capacity(self, vertices);
+        out.indices
+            .reserve(parts.iter().map(|p| p.indices.len()).sum::<usize>());
         out.positions.extend_from_slice(self.local);
         for (mine, (_, values)) in out.carried.iter_mut().zip(&self.carried) {
             mine.extend_from(values);
@@ -406,12 +410,18 @@ struct Output {
 
 impl Output {
     fn new(source: &Source) -> Self {
+        Self::with_capacity(source, 0)
+    }
+
+    /// An empty output with room for `vertices` vertices (growing a twin's
+    /// arrays vertex by vertex showed in the profile).
+    fn with_capacity(source: &Source, vertices: usize) -> Self {
         Self {
-            positions: Vec::new(),
+            positions: Vec::with_capacity(vertices),
             carried: source
                 .carried
                 .iter()
-                .map(|(_, v)| Interpolated::empty_like(v))
+                .map(|(_, v)| Interpolated::empty_like(v, vertices))
                 .collect(),
             indices: Vec::new(),
             changed: false,
@@ -493,11 +503,11 @@ fn mixable(values: &VertexAttributeValues) -> bool {
 
 impl Interpolated {
     /// No values yet, of the kind of `values` (a [`mixable`] attribute).
-    fn empty_like(values: &VertexAttributeValues) -> Self {
+    fn empty_like(values: &VertexAttributeValues, capacity: usize) -> Self {
         match values {
-            VertexAttributeValues::Float32x2(_) => Self::X2(Vec::new()),
-            VertexAttributeValues::Float32x4(_) => Self::X4(Vec::new()),
-            _ => Self::X3(Vec::new()),
+            VertexAttributeValues::Float32x2(_) => Self::X2(Vec::with_capacity(capacity)),
+            VertexAttributeValues::Float32x4(_) => Self::X4(Vec::with_capacity(capacity)),
+            _ => Self::X3(Vec::with_capacity(capacity)),
         }
     }
 

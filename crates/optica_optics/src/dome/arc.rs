@@ -7,7 +7,7 @@
 //! the refinement crack-free.
 
 use std::cmp::Ordering;
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::PI;
 
 use glam::DVec3;
 
@@ -169,24 +169,33 @@ impl Arc {
 
     /// Polar angle range over the arc from the unit `axis`. Along the great
     /// circle `cos θ(β) = A cos β + B sin β` (A = â·axis, B = ŵ·axis), so the
-    /// extremes are at the ends or at β = atan2(B, A) (+ π) when inside.
+    /// extremes are at the ends or where the circle comes nearest to the
+    /// axis (the direction (A, B) in its plane, at θ = atan2(|n̂·axis|,
+    /// √(A² + B²)), n̂ the circle's pole) or farthest from it (the opposite
+    /// direction, π minus that), when those lie on the arc.
     pub fn theta_range(&self, axis: DVec3) -> ThetaRange {
         let theta_of = |d: DVec3| d.cross(axis).length().atan2(d.dot(axis));
         let t0 = theta_of(self.a_hat);
         if self.is_point() {
             return ThetaRange { min: t0, max: t0 };
         }
-        let t1 = theta_of(self.dir(self.alpha));
+        let (sine, cosine) = self.alpha.sin_cos();
+        let t1 = theta_of(cosine * self.a_hat + sine * self.w_hat);
         let (mut min, mut max) = (t0.min(t1), t0.max(t1));
         let (ca, cb) = (self.a_hat.dot(axis), self.w_hat.dot(axis));
-        if ca != 0.0 || cb != 0.0 {
-            let closest = cb.atan2(ca).rem_euclid(TAU);
-            let farthest = (closest + PI).rem_euclid(TAU);
-            if closest <= self.alpha {
-                min = min.min(theta_of(self.dir(closest)));
+        // Whether the direction (x, y) in the arc's plane (x along â, y
+        // along ŵ) is on the arc: at an angle β ∈ [0, α] from â (α < π),
+        // that is sin β ≥ 0 and sin(β − α) ≤ 0.
+        let on_arc =
+            |x: f64, y: f64| (y > 0.0 || (y == 0.0 && x > 0.0)) && cosine * y - sine * x <= 0.0;
+        let (nearest, farthest) = (on_arc(ca, cb), on_arc(-ca, -cb));
+        if nearest || farthest {
+            let theta = self.pole().dot(axis).abs().atan2(ca.hypot(cb));
+            if nearest {
+                min = min.min(theta);
             }
-            if farthest <= self.alpha {
-                max = max.max(theta_of(self.dir(farthest)));
+            if farthest {
+                max = max.max(PI - theta);
             }
         }
         ThetaRange { min, max }
@@ -327,6 +336,43 @@ mod tests {
         let mid = DVec3::new(1.0, 0.0, 0.2);
         let want = mid.cross(axis).length().atan2(mid.dot(axis));
         assert!((r.max - want).abs() < 1e-12);
+    }
+
+    #[test]
+    fn theta_range_bounds_the_arc_sampled_densely() {
+        // Random arcs and axes: the range holds every sampled point's polar
+        // angle and its ends are reached (to the sampling's resolution).
+        let mut state = 0xA11CE_u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..500 {
+            let axis = DVec3::new(next(), next(), next()).normalize();
+            let a = 3.0 * DVec3::new(next(), next(), next());
+            let b = 3.0 * DVec3::new(next(), next(), next());
+            let Ok(arc) = Arc::new(a, b) else { continue };
+            let r = arc.theta_range(axis);
+            let theta = |d: DVec3| d.cross(axis).length().atan2(d.dot(axis));
+            let samples: Vec<f64> = (0..=4000)
+                .map(|k| theta(arc.dir(arc.alpha * f64::from(k) / 4000.0)))
+                .collect();
+            let lo = samples.iter().copied().fold(f64::MAX, f64::min);
+            let hi = samples.iter().copied().fold(0.0, f64::max);
+            assert!(
+                r.min <= lo + 1e-12 && r.max >= hi - 1e-12,
+                "{r:?} vs {lo}..{hi}"
+            );
+            // (θ moves at most as fast as β along the arc: the sampled
+            // extremes are within half a step of the true ones.)
+            let step = arc.alpha / 4000.0;
+            assert!(
+                lo - r.min <= step && r.max - hi <= step,
+                "{r:?} vs {lo}..{hi}"
+            );
+        }
     }
 
     proptest! {

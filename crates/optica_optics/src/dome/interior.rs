@@ -33,29 +33,22 @@ fn key(a: u32, b: u32) -> [u32; 2] {
 
 /// Bisects interior edges of `mesh` for which `needs_split` holds, until none
 /// does or the mesh has `max_triangles` triangles. Returns whether the budget
-/// stopped it.
+/// stopped it. Nothing is done unless one of `candidates` (edges that may
+/// be too long: the strip's diagonals; the rest of its interior edges are
+/// pieces of arcs the rule has split, whole by construction) needs a split.
 pub(crate) fn bisect_interior(
     mesh: &mut TriMesh,
+    candidates: &[[u32; 2]],
     needs_split: &dyn Fn(DVec3, DVec3) -> bool,
     max_triangles: usize,
 ) -> bool {
-    // Most patches have no interior edge to split: find that out from a
-    // sorted edge list (an edge listed twice is interior) before building
+    // Most patches have nothing to split: find that out before building
     // the edge map.
-    let mut listed: Vec<[u32; 2]> = mesh
-        .triangles
+    let position = |i: u32| mesh.positions[i as usize];
+    if !candidates
         .iter()
-        .flat_map(|t| (0..3).map(move |k| key(t[k], t[(k + 1) % 3])))
-        .collect();
-    listed.sort_unstable();
-    let any_to_split = listed.windows(2).any(|w| {
-        w[0] == w[1]
-            && needs_split(
-                mesh.positions[w[0][0] as usize],
-                mesh.positions[w[0][1] as usize],
-            )
-    });
-    if !any_to_split {
+        .any(|e| needs_split(position(e[0]), position(e[1])))
+    {
         return false;
     }
     // Edge → the (at most two) triangles using it.

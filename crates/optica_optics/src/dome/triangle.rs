@@ -287,6 +287,10 @@ pub(crate) fn subdivide_triangle(
     let (m, k) = (side_p.len() - 1, side_q.len() - 1);
     let rungs = m.max(k);
     let mut tris = Vec::new();
+    // The edges joining two rungs (and the apex): the only interior edges
+    // the rule may still find too long; each rung's pieces are whole, being
+    // pieces of an arc split by the rule.
+    let mut diagonals = Vec::new();
     let mut lower = ab;
     for j in 1..rungs {
         let (pi, qi) = if m >= k {
@@ -295,11 +299,12 @@ pub(crate) fn subdivide_triangle(
             (j * m / k, j)
         };
         let upper = split(&mut verts, side_p[pi], side_q[qi])?;
-        stitch(&verts, &lower, &upper, &mut tris);
+        stitch(&verts, &lower, &upper, &mut tris, &mut diagonals);
         lower = upper;
     }
     for w in lower.windows(2) {
         push_tri(&mut tris, [w[0], w[1], 2]);
+        diagonals.push([w[1], 2]);
     }
     let mut mesh = TriMesh {
         positions: verts,
@@ -312,7 +317,7 @@ pub(crate) fn subdivide_triangle(
     // distant geometry): skip the bisection's bookkeeping.
     if mesh.triangles.len() > 1 {
         let budget = INTERIOR_BUDGET_FACTOR * mesh.triangles.len() + INTERIOR_BUDGET_EXTRA;
-        capped |= bisect_interior(&mut mesh, &needs_split, budget);
+        capped |= bisect_interior(&mut mesh, &diagonals, &needs_split, budget);
     }
     Ok((mesh, capped))
 }
@@ -335,10 +340,17 @@ fn push_tri(tris: &mut Vec<[u32; 3]>, t: [u32; 3]) {
 /// that end on the same side vertex) that vertex gets exactly one triangle,
 /// else the walk could join three collinear points of one polyline.
 /// Winding follows (A, B, C).
-fn stitch(verts: &[DVec3], lower: &[u32], upper: &[u32], tris: &mut Vec<[u32; 3]>) {
+fn stitch(
+    verts: &[DVec3],
+    lower: &[u32],
+    upper: &[u32],
+    tris: &mut Vec<[u32; 3]>,
+    diagonals: &mut Vec<[u32; 2]>,
+) {
     let (mut l, mut u) = (lower, upper);
     if l[0] == u[0] {
         push_tri(tris, [l[0], l[1], u[1]]);
+        diagonals.push([l[1], u[1]]);
         (l, u) = (&l[1..], &u[1..]);
     }
     let shared_end = l.len() > 1 && u.len() > 1 && l.last() == u.last();
@@ -360,9 +372,11 @@ fn stitch(verts: &[DVec3], lower: &[u32], upper: &[u32], tris: &mut Vec<[u32; 3]
         };
         if advance_lower {
             push_tri(tris, [l[i], l[i + 1], u[j]]);
+            diagonals.push([l[i + 1], u[j]]);
             i += 1;
         } else {
             push_tri(tris, [l[i], u[j + 1], u[j]]);
+            diagonals.push([l[i], u[j + 1]]);
             j += 1;
         }
     }

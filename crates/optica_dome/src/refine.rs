@@ -478,17 +478,24 @@ pub(crate) fn refine_twins(
     let mut new_lists: EntityHashMap<Vec<DomeTwin>> = EntityHashMap::default();
     for (job, twin) in pending.into_iter().zip(twins) {
         let view = &views[job.view];
-        let list = match originals.get_mut(job.original) {
-            Ok((.., Some(twins))) => &mut twins.into_inner().0,
-            _ => new_lists.entry(job.original).or_default(),
+        let existing = match originals.get_mut(job.original) {
+            Ok((.., Some(twins))) => Some(twins.into_inner()),
+            _ => None,
         };
-        let slot = list.iter().position(|t| t.camera == view.entity);
         let Some(twin) = twin else {
-            if let Some(i) = slot {
-                commands.entity(list.remove(i).twin).despawn();
+            // Nothing to draw: no twin, and none left showing the mesh.
+            if let Some(list) = existing
+                && let Some(i) = list.0.iter().position(|t| t.camera == view.entity)
+            {
+                commands.entity(list.0.remove(i).twin).despawn();
             }
             continue;
         };
+        let list = match existing {
+            Some(twins) => &mut twins.0,
+            None => new_lists.entry(job.original).or_default(),
+        };
+        let slot = list.iter().position(|t| t.camera == view.entity);
         pass.rebuilt += 1;
         let entry = match slot {
             Some(i) => &mut list[i],

@@ -125,6 +125,10 @@ pub fn twins_of_meshes(jobs: &[TwinJob]) -> Vec<Option<Twin>> {
             &source.indices[range],
             |corners| job.projection.leaves_whole(corners, job.rule),
             |corners| {
+                if job.projection.leaves_out(corners) {
+                    // (Behind the viewer: nothing, without the refiner.)
+                    return Some((Vec::new(), Vec::new()));
+                }
                 job.projection
                     .refine_triangle(corners, job.rule)
                     .ok()
@@ -299,6 +303,7 @@ impl<'a> Source<'a> {
         // (About a new vertex per triangle where a scene is refined.)
         let mut out = Output::with_capacity(self, chunk.len() / 3);
         out.indices.reserve(chunk.len());
+        let mut at = Vec::new();
         for t in chunk.chunks_exact(3) {
             let ids = [t[0] as usize, t[1] as usize, t[2] as usize];
             if ids.iter().any(|&i| i >= self.view.len()) {
@@ -314,16 +319,17 @@ impl<'a> Source<'a> {
             let Some((points, triangles)) = refine(corners) else {
                 continue;
             };
-            let at: Vec<u32> = points
-                .iter()
-                .map(|p| match corners.iter().position(|c| c == p) {
+            // (One index map for the whole chunk, refilled per triangle.)
+            at.clear();
+            for p in &points {
+                at.push(match corners.iter().position(|c| c == p) {
                     Some(k) => ids[k] as u32,
                     None => {
                         out.push(self, *p, ids, barycentric(corners, *p));
                         NEW_VERTEX | (out.positions.len() as u32 - 1)
                     }
-                })
-                .collect();
+                });
+            }
             out.indices
                 .extend(triangles.iter().flatten().map(|&i| at[i as usize]));
         }

@@ -101,7 +101,7 @@ pub fn pre_subdivide(mesh: &TriMesh, max_piece_rad: f64) -> Result<RefinedMesh, 
                 input: 1,
                 ..Default::default()
             };
-            match subdivide_triangle(mesh.corners(t), &pieces) {
+            match subdivide_triangle(mesh.corners(t), &pieces, true) {
                 Ok((m, capped)) => {
                     st.capped_edges = usize::from(capped);
                     (m, st)

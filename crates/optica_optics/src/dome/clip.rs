@@ -157,8 +157,9 @@ pub(crate) fn clip_triangle_plane(axis: DVec3, tri: [DVec3; 3]) -> Vec<[DVec3; 3
         .collect()
 }
 
-/// The polygon [`clip_triangle_plane`] fans: its first `n` corners (none,
-/// or three or four), in the input's winding.
+/// The polygon [`clip_triangle_plane`] fans: its first `n` corners, in the
+/// input's winding (fewer than three when nothing with an area is left:
+/// none, or the one or two corners lying on the plane).
 pub(crate) fn clip_polygon_plane(axis: DVec3, tri: [DVec3; 3]) -> ([DVec3; 4], usize) {
     let d = tri.map(|p| p.dot(axis));
     if d.iter().all(|&x| x >= 0.0) {

@@ -143,7 +143,7 @@ fn refine_in_frame(
             continue;
         }
         for k in 1..poly.len() - 1 {
-            match subdivide_triangle([poly[0], poly[k], poly[k + 1]], &pieces) {
+            match subdivide_triangle([poly[0], poly[k], poly[k + 1]], &pieces, false) {
                 Ok((part, capped)) => {
                     stats.capped_edges += usize::from(capped);
                     mend_poles_and_seam(&part, sx, out);

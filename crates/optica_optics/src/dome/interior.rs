@@ -33,9 +33,9 @@ fn key(a: u32, b: u32) -> [u32; 2] {
 
 /// Bisects interior edges of `mesh` for which `needs_split` holds, until none
 /// does or the mesh has `max_triangles` triangles. Returns whether the budget
-/// stopped it. Nothing is done unless one of `candidates` (edges that may
-/// be too long: the strip's diagonals; the rest of its interior edges are
-/// pieces of arcs the rule has split, whole by construction) needs a split.
+/// stopped it. Nothing is done unless one of `candidates` (the patch's
+/// interior edges, as the strip triangulation made them; boundary edges
+/// among them are harmless) needs a split.
 pub(crate) fn bisect_interior(
     mesh: &mut TriMesh,
     candidates: &[[u32; 2]],

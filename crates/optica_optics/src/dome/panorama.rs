@@ -93,6 +93,20 @@ impl Panorama {
         }
     }
 
+    /// Whether [`Self::refine_triangle`] gives nothing for `tri` (view
+    /// space, finite) because it lies wholly behind the view plane of a
+    /// fisheye that clips there (half of every scene around a dome): a
+    /// renderer can skip it without calling the refiner. Always `false`
+    /// for the panorama, which sees every direction.
+    pub fn leaves_out(&self, tri: [DVec3; 3]) -> bool {
+        match self {
+            Self::Fisheye(f) => {
+                f.clips_at_view_plane() && tri.iter().all(|v| v.dot(f.axis()) < 0.0)
+            }
+            Self::Equirectangular(_) => false,
+        }
+    }
+
     /// Refines one segment (view space): [`refine_segment`] or
     /// [`refine_segment_equirect`](super::refine_segment_equirect).
     pub fn refine_segment(

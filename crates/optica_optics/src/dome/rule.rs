@@ -232,15 +232,36 @@ impl SplitRule {
         let short = match self.0 {
             Rule::VisualAngle { max_piece_rad } => alpha <= max_piece_rad,
             Rule::ChordGap { tolerance_px } => {
-                let margin = if proj.lens() == FisheyeLens::Equidistant {
-                    1.0
-                } else {
-                    2.0
-                };
-                alpha * alpha * proj.worst_curvature_px() * margin <= 8.0 * tolerance_px
+                alpha * alpha * proj.worst_curvature_px() * Self::margin(proj) <= 8.0 * tolerance_px
             }
         };
         short && proj.guard_piece_rad().is_none_or(|piece| alpha <= piece)
+    }
+
+    /// [`Self::is_short`] of an angle bound given squared (a bound on α²
+    /// needs no root): whether an arc with α² ≤ `alpha_sq` is surely short.
+    pub(crate) fn is_short_squared(&self, proj: &DomeProjection, alpha_sq: f64) -> bool {
+        let short = match self.0 {
+            Rule::VisualAngle { max_piece_rad } => alpha_sq <= max_piece_rad * max_piece_rad,
+            Rule::ChordGap { tolerance_px } => {
+                alpha_sq * proj.worst_curvature_px() * Self::margin(proj) <= 8.0 * tolerance_px
+            }
+        };
+        short
+            && proj
+                .guard_piece_rad()
+                .is_none_or(|piece| alpha_sq <= piece * piece)
+    }
+
+    /// The short-arc test's margin on the worst curvature: 1 for the
+    /// equidistant lens (its worst curvature is known), 2 for the others
+    /// (sampled).
+    fn margin(proj: &DomeProjection) -> f64 {
+        if proj.lens() == FisheyeLens::Equidistant {
+            1.0
+        } else {
+            2.0
+        }
     }
 
     /// Pieces of an arc built in canonical order.

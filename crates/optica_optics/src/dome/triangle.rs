@@ -40,6 +40,7 @@ use super::camera::DomeProjection;
 use super::clip::{clip_polygon_plane, clip_triangle_plane};
 use super::error::DomeError;
 use super::interior::bisect_interior;
+use super::lens::FisheyeLens;
 use super::refine::RefineStats;
 use super::rule::{Pieces, SplitRule};
 use crate::input;
@@ -209,9 +210,14 @@ impl Welder {
 /// count of an edge (it is called with canonically ordered endpoints, so it
 /// may be any deterministic function). Returns the local mesh and whether a
 /// piece count was capped. Errors from the arcs (origin, through the viewer).
+/// `rung_pieces_whole`: whether every piece of an arc `pieces` split is
+/// one piece itself (true when the count grows with the arc's angle and
+/// its largest polar angle only: the visual angle, the equidistant lens's
+/// chord gap), which spares checking them for the interior bisection.
 pub(crate) fn subdivide_triangle(
     tri: [DVec3; 3],
     pieces: &(impl Fn(&Arc) -> Pieces + ?Sized),
+    rung_pieces_whole: bool,
 ) -> Result<(TriMesh, bool), ArcError> {
     // Each edge's arc, in canonical order (both triangles sharing an edge
     // build the same one).
@@ -287,10 +293,10 @@ pub(crate) fn subdivide_triangle(
     let (m, k) = (side_p.len() - 1, side_q.len() - 1);
     let rungs = m.max(k);
     let mut tris = Vec::new();
-    // The edges joining two rungs (and the apex): the only interior edges
-    // the rule may still find too long; each rung's pieces are whole, being
-    // pieces of an arc split by the rule.
-    let mut diagonals = Vec::new();
+    // The interior edges that may be too long, for the bisection's first
+    // check: the edges joining two rungs (and the apex), and the rungs'
+    // pieces unless they are whole by the rule's form.
+    let mut interior = Vec::new();
     let mut lower = ab;
     for j in 1..rungs {
         let (pi, qi) = if m >= k {
@@ -299,25 +305,28 @@ pub(crate) fn subdivide_triangle(
             (j * m / k, j)
         };
         let upper = split(&mut verts, side_p[pi], side_q[qi])?;
-        stitch(&verts, &lower, &upper, &mut tris, &mut diagonals);
+        stitch(&verts, &lower, &upper, &mut tris, &mut interior);
+        if !rung_pieces_whole {
+            interior.extend(upper.windows(2).map(|w| [w[0], w[1]]));
+        }
         lower = upper;
     }
     for w in lower.windows(2) {
         push_tri(&mut tris, [w[0], w[1], 2]);
-        diagonals.push([w[1], 2]);
+        interior.push([w[1], 2]);
     }
     let mut mesh = TriMesh {
         positions: verts,
         triangles: tris,
     };
-    // Our addition: interior diagonals that still need pieces are bisected
+    // Our addition: interior edges that still need pieces are bisected
     // (see interior.rs); the boundary is never touched.
     let needs_split = |p: DVec3, q: DVec3| canonical(p, q).is_ok_and(|arc| pieces(&arc).n > 1);
     // A triangle left whole has no interior edge (the common case for
     // distant geometry): skip the bisection's bookkeeping.
     if mesh.triangles.len() > 1 {
         let budget = INTERIOR_BUDGET_FACTOR * mesh.triangles.len() + INTERIOR_BUDGET_EXTRA;
-        capped |= bisect_interior(&mut mesh, &diagonals, &needs_split, budget);
+        capped |= bisect_interior(&mut mesh, &interior, &needs_split, budget);
     }
     Ok((mesh, capped))
 }
@@ -368,7 +377,7 @@ fn stitch(
         } else if j == nu {
             true
         } else {
-            subtended_angle(v(l[i + 1]), v(u[j])) <= subtended_angle(v(l[i]), v(u[j + 1]))
+            shorter_or_equal((v(l[i + 1]), v(u[j])), (v(l[i]), v(u[j + 1])))
         };
         if advance_lower {
             push_tri(tris, [l[i], l[i + 1], u[j]]);
@@ -380,6 +389,16 @@ fn stitch(
             j += 1;
         }
     }
+}
+
+/// Whether segment p subtends at most the angle segment q does, without
+/// the angles: for α = atan2(s, c) with s = |a × b| ≥ 0 and c = a·b, the
+/// sign of sin(α_q − α_p) (both angles in [0, π]) is that of
+/// s_q·c_p − s_p·c_q, whatever the lengths of the points.
+fn shorter_or_equal(p: (DVec3, DVec3), q: (DVec3, DVec3)) -> bool {
+    let (sp, cp) = (p.0.cross(p.1).length(), p.0.dot(p.1));
+    let (sq, cq) = (q.0.cross(q.1).length(), q.0.dot(q.1));
+    sq * cp - sp * cq >= 0.0
 }
 
 /// Whether the ray from the origin along `d` passes through triangle `t`.
@@ -415,10 +434,11 @@ pub fn is_left_whole(proj: &DomeProjection, tri: [DVec3; 3], rule: SplitRule) ->
 /// first, so a neighbour refined the long way splits the shared edge alike.
 fn edge_is_short(proj: &DomeProjection, a: DVec3, b: DVec3, rule: SplitRule) -> bool {
     // tan α = |a × b|/(a·b) ≥ α bounds the angle without atan2 (a third of
-    // the cost of a whole triangle): short by the bound is short by the
-    // angle. An edge the bound cannot clear gets the exact test.
-    let (sine, cosine) = (a.cross(b).length(), a.dot(b));
-    (cosine > 0.0 && rule.is_short(proj, sine / cosine * (1.0 + 1e-12)))
+    // the cost of a whole triangle), squared without a root: short by the
+    // bound is short by the angle (the margin covers the rounding). An edge
+    // the bound cannot clear gets the exact test.
+    let (sine_sq, cosine) = (a.cross(b).length_squared(), a.dot(b));
+    (cosine > 0.0 && rule.is_short_squared(proj, sine_sq / (cosine * cosine) * (1.0 + 1e-11)))
         || rule.is_short(proj, subtended_angle(a, b))
 }
 
@@ -594,7 +614,7 @@ fn refine_finite_triangle_by(
         } else {
             // Errors: an edge through the viewer; or, for huge finite
             // coordinates, a product that overflows (counted as non-finite).
-            subdivide_triangle(part, &pieces)
+            subdivide_triangle(part, &pieces, proj.lens() == FisheyeLens::Equidistant)
         };
         let (mut local, capped) = match subdivided {
             Ok(r) => r,

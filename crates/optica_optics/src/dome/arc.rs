@@ -342,13 +342,8 @@ mod tests {
     fn theta_range_bounds_the_arc_sampled_densely() {
         // Random arcs and axes: the range holds every sampled point's polar
         // angle and its ends are reached (to the sampling's resolution).
-        let mut state = 0xA11CE_u64;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut uniform = crate::dome::test_uniform(0xA11CE);
+        let mut next = move || uniform() * 2.0 - 1.0;
         for _ in 0..500 {
             let axis = DVec3::new(next(), next(), next()).normalize();
             let a = 3.0 * DVec3::new(next(), next(), next());

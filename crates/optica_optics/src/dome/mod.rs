@@ -217,6 +217,19 @@ pub use triangle::{RefinedMesh, TriMesh, is_left_whole, refine_mesh, refine_tria
 /// [`SplitRule`] constructors) and what it expects.
 pub use crate::input::{Expected, InvalidInput};
 
+/// A seeded uniform generator on [0, 1) for tests (a 64-bit LCG): the same
+/// numbers every run.
+#[cfg(test)]
+pub(crate) fn test_uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// The projection of a test: `fov` degrees, `tilt` degrees, `size` px.
 #[cfg(test)]
 pub(crate) fn test_dome(fov: f64, tilt: f64, size: u32) -> DomeProjection {

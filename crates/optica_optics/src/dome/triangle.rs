@@ -151,9 +151,20 @@ pub(crate) struct Welder {
 /// Vertices a [`Welder`] finds by scanning before it builds its map.
 const WELD_SCAN: usize = 16;
 
+/// A point's identity for welding: its coordinates' bits, −0 as +0.
+fn weld_key(p: DVec3) -> [u64; 3] {
+    [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits())
+}
+
+/// Whether `p` lies on the view plane (normal `axis`) for the rim skirt:
+/// within a relative 1e-9, as cut points computed by interpolation do.
+fn on_view_plane(p: DVec3, axis: DVec3) -> bool {
+    p.dot(axis).abs() <= 1e-9 * p.length()
+}
+
 impl Welder {
     fn vertex(&mut self, p: DVec3) -> u32 {
-        let key = [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
+        let key = weld_key(p);
         if self.keys.len() < WELD_SCAN {
             if let Some(i) = self.keys.iter().position(|k| *k == key) {
                 return i as u32;
@@ -464,8 +475,7 @@ fn cut_left_whole(
     if n < 3 || poly.iter().any(|p| p.length() <= AT_ORIGIN_REL * scale) {
         return None;
     }
-    let bits = |p: DVec3| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
-    if (0..n).any(|i| (i + 1..n).any(|j| bits(poly[i]) == bits(poly[j]))) {
+    if (0..n).any(|i| (i + 1..n).any(|j| weld_key(poly[i]) == weld_key(poly[j]))) {
         return None;
     }
     // Every edge of every fan triangle (the polygon's sides and diagonals).
@@ -482,7 +492,7 @@ fn cut_left_whole(
     if let Some((angle, direction)) = skirt {
         // The skirt's edges: those with both ends on the plane; the fast
         // path takes only the one the cut makes.
-        let on_plane = |p: DVec3| p.dot(axis).abs() <= 1e-9 * p.length();
+        let on_plane = |p: DVec3| on_view_plane(p, axis);
         let cut: Vec<usize> = (0..n)
             .filter(|&i| on_plane(poly[i]) && on_plane(poly[(i + 1) % n]))
             .collect();
@@ -493,7 +503,7 @@ fn cut_left_whole(
         let (tan, behind) = (angle.tan(), -direction.dot(axis));
         let past = |p: DVec3| p + (tan * p.length() / behind).min(4.0 * p.length()) * direction;
         let (pa, pb) = (past(poly[a]), past(poly[b]));
-        if bits(pa) == bits(pb) {
+        if weld_key(pa) == weld_key(pb) {
             return None;
         }
         positions.extend([pa, pb]);
@@ -683,7 +693,7 @@ fn skirt_direction(tri: [DVec3; 3], axis: DVec3) -> Option<DVec3> {
 /// the input uses; neighbours' skirts meet at the shared cut point on the
 /// rim. Returns the number of triangles added.
 fn add_rim_skirt(m: &mut TriMesh, axis: DVec3, direction: DVec3, angle: f64) -> usize {
-    let on_plane = |p: DVec3| p.dot(axis).abs() <= 1e-9 * p.length();
+    let on_plane = |p: DVec3| on_view_plane(p, axis);
     // Every edge as (low, high) index, sorted: an edge used once is a
     // boundary edge. (A sort, not a hash map: most inputs are one or two
     // triangles.)
@@ -978,13 +988,12 @@ mod tests {
     /// part to its longest edge first): equal sets are the same triangles
     /// with the same winding, whatever the vertex order.
     fn triangle_set(r: &RefinedMesh) -> Vec<[[u64; 3]; 3]> {
-        let bits = |p: DVec3| [p.x, p.y, p.z].map(|c| (c + 0.0).to_bits());
         let mut set: Vec<[[u64; 3]; 3]> = r
             .mesh
             .triangles
             .iter()
             .map(|t| {
-                let c = t.map(|i| bits(r.mesh.positions[i as usize]));
+                let c = t.map(|i| weld_key(r.mesh.positions[i as usize]));
                 let k = (0..3).min_by_key(|&k| c[k]).expect("three corners");
                 [c[k], c[(k + 1) % 3], c[(k + 2) % 3]]
             })
@@ -999,13 +1008,8 @@ mod tests {
         // (skirted), a 170° one (no skirt) and a tilted one, with corners
         // on the plane and corners at repeated points: the short path gives
         // the full path's triangles bit for bit, or leaves them to it.
-        let mut state = 0x5EED_u64;
-        let mut next = move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut uniform = crate::dome::test_uniform(0x5EED);
+        let mut next = move || uniform() - 0.5;
         let (mut short, mut full) = (0, 0);
         for (fov, tilt) in [(180.0, 0.0), (170.0, 0.0), (180.0, 20.0)] {
             let p = crate::dome::test_dome(fov, tilt, 4096);

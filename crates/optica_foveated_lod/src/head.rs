@@ -145,8 +145,12 @@ impl TrackedHead {
     /// Bevy's, so the numbers carry over as they are; the gaze is the pose's
     /// −Z. A runtime without eye tracking (the extension not enabled, or
     /// `isActive` false) gives `gaze_tracked = false`: the head pose is kept
-    /// and the gaze is the head's forward, as for a head-only tracker. When
-    /// the head pose itself is lost, call [`TrackedHead::lost`] instead.
+    /// and the gaze is the head's forward, as for a head-only tracker. So
+    /// does a gaze orientation that is zero or not finite while
+    /// `gaze_tracked` is true (some runtimes report it so for a frame when
+    /// tracking starts). When the head pose itself is lost (a head
+    /// orientation that is not finite gives an invalid sample), call
+    /// [`TrackedHead::lost`] instead.
     ///
     /// ```
     /// use optica_foveated_lod::TrackedHead;
@@ -167,8 +171,14 @@ impl TrackedHead {
         gaze_tracked: bool,
     ) -> Self {
         let head_rotation = Quat::from_array(head_pose.1).normalize();
-        let gaze_rotation = Quat::from_array(gaze_pose.1).normalize();
-        let gaze = gaze_tracked.then(|| gaze_rotation * Vec3::NEG_Z);
+        // A runtime that says the gaze is tracked but hands over a zero or
+        // non-finite orientation gives no gaze: the head's forward stands in
+        // for it, as for a runtime without eye tracking (documented above).
+        let gaze_rotation = Quat::from_array(gaze_pose.1);
+        let gaze =
+            (gaze_tracked && gaze_rotation.is_finite() && gaze_rotation.length_squared() > 1e-12)
+                .then(|| gaze_rotation.normalize() * Vec3::NEG_Z)
+                .filter(|g| g.is_finite());
         let mut head = Self::looking(Vec3::from_array(head_pose.0), head_rotation, gaze, ipd);
         head.timestamp_s = time_ns as f64 * 1e-9;
         // A NaN quaternion normalises to NaN: the sample is then invalid and

@@ -130,7 +130,11 @@
 //!
 //! ## Levels and flicker
 //!
-//! Levels are quantised into [`Foveation::steps`] steps. A finer step is
+//! Levels are quantised into [`Foveation::steps`] steps S (8 by default):
+//! a level is rounded down to its step, ⌊S·level⌋/S, so an object or a ray
+//! never gets more detail than eq. 8 asks, and eq. 10's polygon budget (and
+//! eq. 9's bounces for the tracer) is taken at the rounded level: with S = 8
+//! a level of 0.6 draws the mesh of level 0.5. A finer step is
 //! taken as soon as the level passes its edge by [`Foveation::dead_band`]
 //! (a saccade makes the new fixation point detailed in the next frame); a
 //! coarser one only after the object has kept its step for
@@ -217,6 +221,7 @@
 #![warn(missing_docs)]
 
 use bevy::asset::uuid_handle;
+use bevy::camera::CameraUpdateSystems;
 use bevy::camera::visibility::VisibilitySystems;
 use bevy::prelude::*;
 use bevy::shader::Shader;
@@ -244,7 +249,7 @@ pub use raytrace::{
     reference_of,
 };
 pub use settings::{CheckedFoveation, FieldBoundary, FieldEyes, Foveation};
-pub use trace::{HeadTrace, TraceError};
+pub use trace::{HeadTrace, ON_TIME_S, TraceError};
 
 /// Adds [`TrackedHead`], [`Foveation`], [`HeadSource`] and the systems that
 /// turn them into levels for [`GazeLod`] meshes, projections for
@@ -259,10 +264,13 @@ pub(crate) const RAYTRACE_SHADER: Handle<Shader> =
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum FoveatedLodSystems {
     /// The head filtered into [`GazeState`], chains built, CAVE cameras aimed
-    /// (before transform propagation).
+    /// (before transform propagation and before Bevy's camera update, so a
+    /// wall's transform and its off-axis projection reach the renderer from
+    /// the same head sample, in the frame the head moved).
     Gaze,
-    /// Levels chosen and meshes swapped (after transform propagation, before
-    /// visibility).
+    /// Levels chosen, meshes swapped and tracer views prepared (after
+    /// transform propagation and Bevy's camera update, so they read this
+    /// frame's camera matrices; before visibility).
     Levels,
 }
 
@@ -304,9 +312,12 @@ impl Plugin for FoveatedLodPlugin {
             .configure_sets(
                 PostUpdate,
                 (
-                    FoveatedLodSystems::Gaze.before(TransformSystems::Propagate),
+                    FoveatedLodSystems::Gaze
+                        .before(TransformSystems::Propagate)
+                        .before(CameraUpdateSystems),
                     FoveatedLodSystems::Levels
                         .after(TransformSystems::Propagate)
+                        .after(CameraUpdateSystems)
                         .before(VisibilitySystems::CalculateBounds)
                         .before(VisibilitySystems::VisibilityPropagate),
                 ),

@@ -61,7 +61,9 @@ pub struct Foveation {
     pub eyes: FieldEyes,
     /// The boundary's shape.
     pub boundary: FieldBoundary,
-    /// Level steps S: levels are k/S, k = 0..=S.
+    /// Level steps S: levels are k/S, k = 0..=S. A level is rounded down to
+    /// its step, ⌊S·level⌋/S (never more detail than eq. 8 asks), and eq. 10's
+    /// polygon budget and eq. 9's bounces are taken at the rounded level.
     pub steps: u32,
     /// A level must pass a step edge by this much (level units, < 1/S)
     /// before an object switches.

@@ -99,6 +99,12 @@ struct Row {
 
 const DEFAULT_IPD: f32 = 0.063;
 
+/// How close (s) a sample's time may be to the replay time and still count
+/// as at it: far below any tracker's sample interval (1 ms at 1 kHz), far
+/// above the rounding of times in seconds (about 1e-16 s near 1 s, 2e-7 s
+/// near a Unix time of 1.7e9 s).
+pub const ON_TIME_S: f64 = 1e-6;
+
 fn vec3(x: Option<f32>, y: Option<f32>, z: Option<f32>) -> Option<Vec3> {
     Some(Vec3::new(x?, y?, z?))
 }
@@ -222,19 +228,45 @@ impl HeadTrace {
     }
 
     /// The sample playing `t` seconds after the first one: the last at or
-    /// before it (`None` before the first; with `looping`, `t` wraps over the
-    /// duration).
+    /// before it (`None` before the first).
+    ///
+    /// A sample within [`ON_TIME_S`] of `t` counts as at it, so a sample
+    /// whose time falls on a frame's time plays on that frame although the
+    /// two were rounded differently (a 100 Hz trace replayed in 10 ms steps
+    /// plays every sample once).
+    ///
+    /// With `looping`, the trace repeats with a period of its duration plus
+    /// its last sample interval, so the last sample plays for as long as the
+    /// others before the first comes again.
     pub fn at(&self, t: f64, looping: bool) -> Option<&TrackedHead> {
         let t0 = self.samples.first()?.timestamp_s;
         let mut t = t;
-        let d = self.duration_s();
-        if looping && d > 0.0 && t.is_finite() {
-            t = t.rem_euclid(d);
+        let period = self.period_s();
+        if looping && period > 0.0 && t.is_finite() {
+            t = t.rem_euclid(period);
+            // Rounding can put a time a hair under a whole period at the
+            // period itself: that is the first sample again.
+            if t + ON_TIME_S >= period {
+                t = 0.0;
+            }
         }
-        if t.is_nan() || t < 0.0 {
+        if t.is_nan() || t < -ON_TIME_S {
             return None;
         }
-        let i = self.samples.partition_point(|s| s.timestamp_s - t0 <= t);
+        let i = self
+            .samples
+            .partition_point(|s| s.timestamp_s - t0 <= t + ON_TIME_S);
         self.samples.get(i.checked_sub(1)?)
+    }
+
+    /// The period of a looping replay (s): the duration plus the last
+    /// sample interval; 0 for a single sample or samples all at one time.
+    pub fn period_s(&self) -> f64 {
+        let n = self.samples.len();
+        if n < 2 {
+            return 0.0;
+        }
+        let last = self.samples[n - 1].timestamp_s - self.samples[n - 2].timestamp_s;
+        self.duration_s() + last
     }
 }

@@ -41,7 +41,9 @@ fn traces_round_trip_and_bad_files_are_errors() {
     // Playback: the last sample at or before the time, looping.
     assert_eq!(back.at(0.1, false).unwrap().timestamp_s, 0.0);
     assert_eq!(back.at(9.0, false).unwrap().timestamp_s, 0.25);
-    assert_eq!(back.at(0.3, true).unwrap().timestamp_s, 0.0);
+    // Looping: the last sample plays for one interval, then the first.
+    assert_eq!(back.at(0.3, true).unwrap().timestamp_s, 0.25);
+    assert_eq!(back.at(0.55, true).unwrap().timestamp_s, 0.0);
     assert!(back.at(-1.0, false).is_none());
 
     // Malformed files are errors that say where, never panics.
@@ -233,4 +235,75 @@ fn a_replayed_trace_drives_the_levels() {
     }
     assert_eq!(steps[5], 8);
     assert!(*steps.last().unwrap() < 8, "{steps:?}");
+}
+
+/// A 100 Hz recording (times as a tracker writes them, starting at an
+/// arbitrary clock reading) replayed in 10 ms frames plays every sample on
+/// its own frame, once, in order, whatever the rounding of the times; looped,
+/// it plays the last sample too before the first comes again.
+#[test]
+fn a_trace_replays_each_sample_on_its_frame() {
+    use std::time::Duration;
+    let n = 50;
+    let mut csv = String::from(HEADER);
+    for i in 0..n {
+        // 1.27, 1.28, ...: differences of such decimals are not exact in
+        // binary (1.30 − 1.27 = 0.030000000000000027).
+        csv.push_str(&format!(
+            "{:.2},0,1.6,0,0,0,0,1,{},0,-1\n",
+            1.27 + 0.01 * i as f64,
+            i
+        ));
+    }
+    let trace = HeadTrace::from_csv(csv.as_bytes()).unwrap();
+    assert!(
+        (trace.period_s() - 0.5).abs() < 1e-9,
+        "{}",
+        trace.period_s()
+    );
+    for looping in [false, true] {
+        let mut app = cpu_app();
+        app.insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+            Duration::from_millis(10),
+        ))
+        .insert_resource(HeadSource::Replay(HeadReplay {
+            trace: trace.clone(),
+            start_s: 0.0,
+            looping,
+        }));
+        let mut played = Vec::new();
+        for _ in 0..(2 * n + 1) {
+            app.update();
+            let elapsed = app.world().resource::<Time>().elapsed_secs_f64();
+            let gaze_x = app.world().resource::<TrackedHead>().gaze.unwrap().x;
+            played.push((elapsed, gaze_x as usize));
+        }
+        for (elapsed, sample) in &played {
+            let frame = (elapsed * 100.0).round() as usize;
+            let expected = if looping { frame % n } else { frame.min(n - 1) };
+            assert_eq!(
+                *sample, expected,
+                "looping {looping}: at {elapsed} s sample {sample} played, not {expected}: {played:?}"
+            );
+        }
+        let last_played = played.iter().filter(|p| p.1 == n - 1).count();
+        assert_eq!(last_played, if looping { 2 } else { n + 2 }, "{played:?}");
+    }
+}
+
+/// A gaze pose that is zero or not finite while OpenXR says the gaze is
+/// tracked falls back to the head's forward, the sample staying valid.
+#[test]
+fn openxr_broken_gaze_falls_back_to_the_head() {
+    let head_pose = ([0.0, 1.7, 0.0], Quat::from_rotation_y(0.5).to_array());
+    for q in [[0.0; 4], [f32::NAN; 4], [0.0, f32::INFINITY, 0.0, 1.0]] {
+        let head = TrackedHead::from_openxr(([0.0, 1.7, 0.0], q), head_pose, 0, 0.064, true);
+        assert!(head.valid, "{q:?}");
+        assert_eq!(head.gaze, None, "{q:?}");
+        let g = head.gaze_of(Eye::Cyclopean);
+        assert!(
+            (g - Quat::from_rotation_y(0.5) * Vec3::NEG_Z).length() < 1e-6,
+            "{q:?}: {g:?}"
+        );
+    }
 }

@@ -1,6 +1,7 @@
 //! Spectacles: a room seen through an eye — a book at 30 cm on the table,
 //! an eye chart of tumbling Es on the wall 5 m away — for the paper's
-//! Fig. 8 cases and everyday eyes, with and without their glasses.
+//! Fig. 8 cases and everyday eyes, with and without their glasses. The
+//! scene is `scenes/spectacles.rs`, shared with the showcase.
 //!
 //! ```sh
 //! cargo run --example spectacles --features spectacles,egui,window -- [--preset myope] [--out DIR]
@@ -20,29 +21,16 @@
 //! at the book in arcminutes (a 20/20 letter is 5′ tall, its strokes 1′)
 //! and the glasses' magnification.
 
-use bevy::asset::RenderAssetUsages;
+#[path = "scenes/common.rs"]
+mod common;
+#[path = "scenes/spectacles.rs"]
+mod scene;
+
 use bevy::prelude::*;
-use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
+use optica::spectacles::MirrorMethod;
 use optica::spectacles::presets::{Preset, presets};
-use optica::spectacles::{CloneDefocus, CurvedMirror, MirrorMethod, MirrorViewer, SpectaclesPlugin};
-
-const WIDTH: u32 = 800;
-const HEIGHT: u32 = 600;
-/// Where the eye is: seated, 1.2 m above the floor.
-const EYE: Vec3 = Vec3::new(0.0, 1.2, 0.0);
-const CHART_M: f32 = 5.0;
-const BOOK_M: f32 = 0.3;
-/// Where the book lies from the eye: below, in front, where a reader holds
-/// it (looked at through a progressive lens's near zone).
-const BOOK: Vec3 = Vec3::new(0.0, -0.17, -0.24);
-/// Where the eye camera looks: the chart, a little down.
-const LOOK_AT: Vec3 = Vec3::new(0.0, EYE.y - 0.25, -CHART_M);
-
-/// Degrees from the camera's line of sight down to the book.
-fn book_down_deg() -> f64 {
-    let ahead = (LOOK_AT - EYE).normalize();
-    f64::from(ahead.angle_between(BOOK.normalize()).to_degrees())
-}
+use optica_harness::Headless;
+use scene::{BOOK, BOOK_M, CHART_M, SpectaclesScene, book_down_deg};
 
 /// The command line: presets, output folder, a mirror.
 struct Args {
@@ -98,13 +86,13 @@ fn main() {
     for p in &chosen {
         describe(p);
     }
-    let has_display = std::env::var_os("DISPLAY").is_some();
-    if cfg!(feature = "window") && has_display && out.is_none() {
+    let (width, height) = scene::SIZE;
+    if common::can_open_window() && out.is_none() {
         let mut app = App::new();
         app.add_plugins(DefaultPlugins.set(WindowPlugin {
             primary_window: Some(Window {
                 title: "optica spectacles".into(),
-                resolution: (WIDTH, HEIGHT).into(),
+                resolution: (width, height).into(),
                 ..default()
             }),
             ..default()
@@ -117,8 +105,7 @@ fn main() {
         ));
         app.run();
     } else {
-        let dir = out.unwrap_or_else(|| "target/optica".into());
-        let _ = std::fs::create_dir_all(&dir);
+        let dir = common::out_dir(out);
         for p in chosen {
             let name = match &mirror {
                 None => p.name.to_string(),
@@ -126,20 +113,13 @@ fn main() {
                 Some(_) => format!("{}_mirror_cube-map", p.name),
             };
             let m = mirror.clone();
-            let frame = optica_harness::Headless::new(WIDTH, HEIGHT)
-                .adapter(optica_harness::Adapter::Auto)
-                .frames(6)
-                .render(|app| setup_app(app, p, m))
-                .unwrap_or_else(|e| {
-                    eprintln!("spectacles: headless render failed: {e}");
-                    std::process::exit(1);
-                });
             let path = format!("{dir}/spectacles_{name}.png");
-            frame.to_rgba8().save(&path).unwrap_or_else(|e| {
-                eprintln!("spectacles: cannot write {path}: {e}");
-                std::process::exit(1);
-            });
-            println!("rendered on {} -> {path}", frame.adapter);
+            common::render_png(
+                "spectacles",
+                Headless::new(width, height).frames(6),
+                &path,
+                |app| setup_app(app, p, m),
+            );
         }
     }
 }
@@ -165,230 +145,7 @@ fn describe(p: &Preset) {
 }
 
 fn setup_app(app: &mut App, preset: Preset, mirror: Option<MirrorMethod>) {
-    app.add_plugins(SpectaclesPlugin)
-        .insert_resource(GlobalAmbientLight {
-            color: Color::srgb(0.95, 0.92, 0.85),
-            brightness: 600.0,
-            ..default()
-        })
-        .insert_resource(StartPreset(preset, mirror))
-        .add_systems(Startup, spawn_room);
-}
-
-#[derive(Resource)]
-struct StartPreset(Preset, Option<MirrorMethod>);
-
-/// A tumbling-E chart: rows of Es from 50′ down to 5′ tall at 5 m (a
-/// 20/20 row last), on a 1 m × 1 m board, 1,024² texels (~1 mm each).
-fn eye_chart() -> Image {
-    let n = 1024usize;
-    let mut px = vec![250u8; n * n];
-    // Letter heights (m) at 5 m: 5·tan(k′).
-    let rows = [50.0f32, 40.0, 30.0, 20.0, 15.0, 10.0, 7.5, 5.0];
-    let mut y = 40usize;
-    for (r, arcmin) in rows.iter().enumerate() {
-        let h = ((CHART_M * (arcmin / 60.0).to_radians().tan()) * n as f32).round().max(5.0) as usize;
-        let count = (n / (2 * h)).min(8);
-        let left = (n - count * 2 * h + h) / 2;
-        for c in 0..count {
-            let x0 = left + c * 2 * h;
-            let turn = (r * 3 + c * 5) % 4;
-            let stroke = (h / 5).max(1);
-            for dy in 0..h {
-                for dx in 0..h {
-                    // An E opening to the right, then turned.
-                    let (u, v) = match turn {
-                        0 => (dx, dy),
-                        1 => (dy, h - 1 - dx),
-                        2 => (h - 1 - dx, h - 1 - dy),
-                        _ => (h - 1 - dy, dx),
-                    };
-                    let band = v / stroke;
-                    let ink = u < stroke || band.is_multiple_of(2);
-                    if ink && y + dy < n && x0 + dx < n {
-                        px[(y + dy) * n + x0 + dx] = 15;
-                    }
-                }
-            }
-        }
-        y += h + h / 2 + 10;
-    }
-    grey_image(n, &px)
-}
-
-/// A book page: lines of word-like blocks, 8 pt type at 30 cm (~1.2 mm
-/// x-height, 14′).
-fn page() -> Image {
-    let n = 512usize;
-    let mut px = vec![238u8; n * n];
-    let mut seed = 7u32;
-    let mut rand = || {
-        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        seed >> 16
-    };
-    let (line, x_height) = (18usize, 7usize);
-    for l in 0..(n / line - 2) {
-        let y = line + l * line;
-        let mut x = 24usize;
-        while x < n - 40 {
-            let word = 10 + (rand() % 40) as usize;
-            for dy in 0..x_height {
-                for dx in 0..word.min(n - 24 - x) {
-                    if (dx % 5) != 4 {
-                        px[(y + dy) * n + x + dx] = 30;
-                    }
-                }
-            }
-            x += word + 8;
-        }
-    }
-    grey_image(n, &px)
-}
-
-fn grey_image(n: usize, px: &[u8]) -> Image {
-    let data: Vec<u8> = px.iter().flat_map(|&v| [v, v, v, 255]).collect();
-    Image::new(
-        Extent3d {
-            width: n as u32,
-            height: n as u32,
-            depth_or_array_layers: 1,
-        },
-        TextureDimension::D2,
-        data,
-        TextureFormat::Rgba8UnormSrgb,
-        RenderAssetUsages::RENDER_WORLD,
-    )
-}
-
-/// A flat quad of `size`, finely split (each vertex carries its own blur:
-/// the paper's §6.1), facing +Z.
-fn board(size: Vec2, split: u32) -> Mesh {
-    Plane3d::new(Vec3::Z, 0.5 * size)
-        .mesh()
-        .subdivisions(split)
-        .build()
-}
-
-fn spawn_room(
-    mut commands: Commands,
-    start: Res<StartPreset>,
-    mut meshes: ResMut<Assets<Mesh>>,
-    mut images: ResMut<Assets<Image>>,
-    mut materials: ResMut<Assets<StandardMaterial>>,
-) {
-    let wall = materials.add(StandardMaterial {
-        base_color: Color::srgb(0.82, 0.8, 0.74),
-        perceptual_roughness: 0.9,
-        ..default()
-    });
-    let back_wall = materials.add(StandardMaterial {
-        base_color: Color::srgb(0.35, 0.45, 0.6),
-        perceptual_roughness: 0.9,
-        ..default()
-    });
-    let wood = materials.add(StandardMaterial {
-        base_color: Color::srgb(0.45, 0.3, 0.18),
-        perceptual_roughness: 0.6,
-        ..default()
-    });
-    // Floor, ceiling, the back wall just behind the chart, side walls.
-    commands.spawn((
-        Mesh3d(meshes.add(Plane3d::new(Vec3::NEG_Y, Vec2::new(3.0, 3.2)).mesh().subdivisions(24))),
-        MeshMaterial3d(wall.clone()),
-        Transform::from_xyz(0.0, 2.6, -2.8),
-    ));
-    commands.spawn((
-        Mesh3d(meshes.add(Plane3d::new(Vec3::Y, Vec2::new(3.0, 3.2)).mesh().subdivisions(24))),
-        MeshMaterial3d(wood.clone()),
-        Transform::from_xyz(0.0, 0.0, -2.8),
-    ));
-    commands.spawn((
-        Mesh3d(meshes.add(board(Vec2::new(6.0, 3.0), 24))),
-        MeshMaterial3d(wall.clone()),
-        Transform::from_xyz(0.0, 1.5, -CHART_M - 0.02),
-    ));
-    for side in [-1.0f32, 1.0] {
-        commands.spawn((
-            Mesh3d(meshes.add(board(Vec2::new(6.0, 3.0), 32))),
-            MeshMaterial3d(wall.clone()),
-            Transform::from_xyz(1.8 * side, 1.5, -2.8)
-                .with_rotation(Quat::from_rotation_y(-side * std::f32::consts::FRAC_PI_2)),
-        ));
-    }
-    // The chart, centred at eye height.
-    commands.spawn((
-        Mesh3d(meshes.add(board(Vec2::splat(1.0), 16))),
-        MeshMaterial3d(materials.add(StandardMaterial {
-            base_color_texture: Some(images.add(eye_chart())),
-            perceptual_roughness: 0.8,
-            ..default()
-        })),
-        Transform::from_xyz(0.0, EYE.y + 0.1, -CHART_M),
-    ));
-    // A table and the open book on it, 30 cm from the eye, tilted up.
-    commands.spawn((
-        Mesh3d(meshes.add(Cuboid::new(0.9, 0.04, 0.6))),
-        MeshMaterial3d(wood),
-        Transform::from_xyz(0.0, 0.98, -0.4),
-    ));
-    commands.spawn((
-        Mesh3d(meshes.add(board(Vec2::new(0.2, 0.15), 16))),
-        MeshMaterial3d(materials.add(StandardMaterial {
-            base_color_texture: Some(images.add(page())),
-            perceptual_roughness: 0.7,
-            ..default()
-        })),
-        Transform::from_translation(EYE + BOOK)
-            .looking_at(EYE, Vec3::Y)
-            .mul_transform(Transform::from_rotation(Quat::from_rotation_y(std::f32::consts::PI))),
-    ));
-    commands.spawn((
-        DirectionalLight {
-            illuminance: 4_000.0,
-            shadow_maps_enabled: true,
-            ..default()
-        },
-        Transform::from_xyz(1.5, 3.0, 1.0).looking_at(Vec3::new(0.0, 1.0, -2.5), Vec3::Y),
-    ));
-    let preset = start.0.clone();
-    let mut camera = commands.spawn((
-        Camera3d::default(),
-        Projection::Perspective(PerspectiveProjection {
-            fov: 55f32.to_radians(),
-            near: 0.05,
-            ..default()
-        }),
-        Transform::from_translation(EYE).looking_at(LOOK_AT, Vec3::Y),
-        preset.eye,
-        CloneDefocus::default(),
-    ));
-    if let Some(s) = preset.spectacles {
-        camera.insert(s);
-    }
-    if let Some(method) = start.1.clone() {
-        // The clones do not carry the mirror: the view is drawn sharp.
-        camera.insert((
-            MirrorViewer,
-            CloneDefocus {
-                enabled: false,
-                ..default()
-            },
-        ));
-        // The wall behind the eye, for the mirror to show, and a convex
-        // safety mirror on the left wall, turned to the eye.
-        commands.spawn((
-            Mesh3d(meshes.add(board(Vec2::new(6.0, 3.0), 24))),
-            MeshMaterial3d(back_wall),
-            Transform::from_xyz(0.0, 1.5, 0.4).with_rotation(Quat::from_rotation_y(std::f32::consts::PI)),
-        ));
-        commands.spawn((
-            CurvedMirror {
-                radius_m: 1.5,
-                size_m: Vec2::new(0.6, 0.45),
-                method,
-                ..default()
-            },
-            Transform::from_xyz(-1.1, 1.45, -2.2).looking_at(EYE, Vec3::Y),
-        ));
-    }
+    scene::build(app);
+    app.insert_resource(SpectaclesScene { preset, mirror })
+        .add_systems(Startup, scene::spawn);
 }

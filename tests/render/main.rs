@@ -8,4 +8,9 @@ mod compound_eye;
 mod dome;
 mod foveated_lod;
 mod lens_flare;
+// The showcase's scenes are the examples' (they use the umbrella crate's
+// plugin features, all of which `showcase` turns on; CI builds with
+// --all-features).
+#[cfg(feature = "showcase")]
+mod showcase;
 mod spectacles;

@@ -20,18 +20,28 @@ use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 use optica_optics::foveated_lod::FieldAngles;
 
 use crate::{
-    Eye, FieldBoundary, FieldEyes, Foveation, FoveationGate, FoveationWork, GazeLodState,
-    GazeRayTracer, GazeRayTracerState, GazeState, HeadSource, MAX_REFLECT, RayTraced,
+    CaveView, Eye, FieldBoundary, FieldEyes, Foveation, FoveationGate, FoveationWork, GazeLod,
+    GazeLodState, GazeRayTracer, GazeRayTracerState, GazeState, HeadSource, MAX_REFLECT, RayTraced,
 };
 
 /// Shows a "Foveated LOD" window: [`foveation_ui`], the simulated gaze (when
 /// [`HeadSource::Simulated`]), the field diagram and the objects' levels.
+/// Shown while a [`GazeLod`], [`CaveView`] or [`GazeRayTracer`] exists.
 /// Needs `bevy_egui`'s `EguiPlugin`.
 pub struct FoveatedLodPanelPlugin;
 
 impl Plugin for FoveatedLodPanelPlugin {
     fn build(&self, app: &mut App) {
-        app.add_systems(EguiPrimaryContextPass, panel_window);
+        // Shown only while something uses the gaze, as the plugin's own
+        // systems run.
+        app.add_systems(
+            EguiPrimaryContextPass,
+            panel_window.run_if(
+                any_with_component::<GazeLod>
+                    .or_else(any_with_component::<CaveView>)
+                    .or_else(any_with_component::<GazeRayTracer>),
+            ),
+        );
     }
 }
 

@@ -321,7 +321,8 @@ impl Headless {
             image: handle.clone(),
             hdr: self.hdr,
         });
-        app.add_systems(PreUpdate, retarget_cameras);
+        app.add_systems(PreUpdate, retarget_cameras)
+            .add_observer(retarget_on_insert);
         setup(&mut app);
         finish(&mut app)?;
         check_adapter(&self.adapter, &adapter_info(&mut app)?)?;
@@ -409,6 +410,24 @@ pub struct HarnessTarget {
     pub image: Handle<Image>,
     /// Whether it holds linear HDR floats.
     pub hdr: bool,
+}
+
+/// Points a camera at the harness' image the moment its target is set, so
+/// a camera spawned at any point of a frame is drawn from its first frame:
+/// Bevy works out a camera's target size when the camera is added or its
+/// projection or target image changes, not when its `RenderTarget`
+/// component changes, so a camera redirected a frame after it was added
+/// would never be sized (and never drawn).
+fn retarget_on_insert(
+    insert: On<Insert, RenderTarget>,
+    target: Res<HarnessTarget>,
+    mut cameras: Query<&mut RenderTarget, With<Camera>>,
+) {
+    if let Ok(mut render_target) = cameras.get_mut(insert.entity)
+        && matches!(*render_target, RenderTarget::Window(_))
+    {
+        *render_target = RenderTarget::Image(target.image.clone().into());
+    }
 }
 
 fn retarget_cameras(

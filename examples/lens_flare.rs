@@ -62,18 +62,14 @@ fn main() {
     let (width, height) = scene::SIZE;
     if common::can_open_window() && args.out.is_none() {
         let mut app = App::new();
-        app.add_plugins(
-            DefaultPlugins
-                .set(WindowPlugin {
-                    primary_window: Some(Window {
-                        title: "optica lens flare".into(),
-                        resolution: (width, height).into(),
-                        ..default()
-                    }),
-                    ..default()
-                })
-                .set(common::assets()),
-        );
+        app.add_plugins(DefaultPlugins.set(WindowPlugin {
+            primary_window: Some(Window {
+                title: "optica lens flare".into(),
+                resolution: (width, height).into(),
+                ..default()
+            }),
+            ..default()
+        }));
         scene::build(&mut app);
         scene::run_clock(&mut app);
         app.insert_resource(FlareScene {
@@ -93,9 +89,7 @@ fn main() {
     } else {
         let dir = common::out_dir(args.out);
         for k in 0..4 {
-            let headless = Headless::new(width, height)
-                .default_plugins(|g| g.set(common::assets()))
-                .frames(12);
+            let headless = Headless::new(width, height).frames(12);
             common::render_png(
                 "lens_flare",
                 headless,

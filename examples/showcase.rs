@@ -95,9 +95,7 @@ fn main() {
         let mut total = 0.0;
         for scene in scenes {
             let (w, h) = scene.size(args.width);
-            let headless = Headless::new(w, h)
-                .frames(scene.frames())
-                .default_plugins(|g| g.set(common::assets()));
+            let headless = Headless::new(w, h).frames(scene.frames());
             let path = format!("{dir}/{}.png", scene.name());
             total += common::render_png("showcase", headless, &path, |app| {
                 scene.setup_alone(app, args.width)
@@ -109,18 +107,14 @@ fn main() {
 
 fn windowed(first: Scene) {
     let mut app = App::new();
-    app.add_plugins(
-        DefaultPlugins
-            .set(WindowPlugin {
-                primary_window: Some(Window {
-                    title: "optica showcase".into(),
-                    resolution: WINDOW.into(),
-                    ..default()
-                }),
-                ..default()
-            })
-            .set(common::assets()),
-    );
+    app.add_plugins(DefaultPlugins.set(WindowPlugin {
+        primary_window: Some(Window {
+            title: "optica showcase".into(),
+            resolution: WINDOW.into(),
+            ..default()
+        }),
+        ..default()
+    }));
     for scene in Scene::ALL {
         scene.build(&mut app, WINDOW.0);
     }

@@ -1,5 +1,5 @@
 //! What the example scenes share: the marker the showcase takes a scene
-//! away by, the repository's asset folder, and the headless output.
+//! away by, and the headless output.
 
 // Each example uses part of this file; the showcase uses all of it.
 #![allow(dead_code)]
@@ -12,14 +12,6 @@ use bevy::prelude::*;
 /// showcase can despawn one scene before it spawns the next.
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct SceneEntity;
-
-/// The repository's `assets/` folder, wherever the binary is run from.
-pub fn assets() -> AssetPlugin {
-    AssetPlugin {
-        file_path: concat!(env!("CARGO_MANIFEST_DIR"), "/assets").into(),
-        ..default()
-    }
-}
 
 /// True where a window can open: the `window` feature is on and a display
 /// is set.

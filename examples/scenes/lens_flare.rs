@@ -21,19 +21,8 @@ pub const SIZE: (u32, u32) = (960, 540);
 /// Pan rate of the camera, radians per second.
 const PAN: f32 = 0.08;
 
-/// The shipped lenses: (name, asset path).
-pub const LENSES: [(&str, &str); 4] = [
-    ("Brendel Tessar f/2.8", "lenses/tessar-us2854889.lens"),
-    (
-        "Angénieux double Gauss f/1.1",
-        "lenses/double-gauss-us2701982.lens",
-    ),
-    ("Heliar", "lenses/heliar-us2645156.lens"),
-    (
-        "Canon 70–200 zoom (33 interfaces)",
-        "lenses/zoom-canon-us5537259.lens",
-    ),
-];
+/// The shipped lenses, embedded in the plugin: (name, asset path).
+pub use optica::lens_flare::lenses::ALL as LENSES;
 
 /// What the scene starts with: the lens (an index into [`LENSES`]) and
 /// the pan's clock (s).

@@ -23,9 +23,7 @@ const WIDTH: u32 = 480;
 
 fn headless(scene: Scene) -> Headless {
     let (w, h) = scene.size(WIDTH);
-    Headless::new(w, h)
-        .frames(scene.frames())
-        .default_plugins(|g| g.set(common::assets()))
+    Headless::new(w, h).frames(scene.frames())
 }
 
 /// Every scene's plugin built, as in the showcase; `spawned` spawned.
@@ -66,7 +64,6 @@ fn a_scene_builds_only_its_plugins_pipelines() {
         let report = Headless::new(64, 64)
             .adapter(Adapter::Noop)
             .frames(scene.frames())
-            .default_plugins(|g| g.set(common::assets()))
             .check_pipelines(|app| showcase_app(app, scene))
             .expect("pipelines compile");
         let ours: BTreeSet<_> = report
@@ -235,4 +232,34 @@ fn switching_scenes_leaves_nothing_behind() {
     let psnr = optica_harness::metrics::psnr(&alone, &picture).expect("same size");
     eprintln!("dome after the others against the dome alone: PSNR {psnr:.1} dB");
     assert!(psnr >= 40.0, "PSNR {psnr} dB");
+}
+
+/// `OpticaPlugins` adds every plugin (their resources are there), and with
+/// none of their components in the scene no plugin builds a pipeline.
+#[test]
+fn optica_plugins_add_every_plugin_and_build_nothing_unused() {
+    use optica::prelude::*;
+    let report = Headless::new(64, 64)
+        .adapter(Adapter::Noop)
+        .check_pipelines(|app| {
+            app.add_plugins(OpticaPlugins).add_systems(
+                Startup,
+                |head: Option<Res<TrackedHead>>,
+                 clock: Option<Res<optica::dome::DomeShowClock>>,
+                 lenses: Option<Res<Assets<LensAsset>>>,
+                 eyes: Option<Res<Assets<CompoundEyeMaterial>>>,
+                 mut commands: Commands| {
+                    assert!(head.is_some() && clock.is_some());
+                    assert!(lenses.is_some() && eyes.is_some());
+                    commands.spawn(Camera3d::default());
+                },
+            );
+        })
+        .expect("pipelines compile");
+    let ours: Vec<_> = report
+        .labels
+        .iter()
+        .filter(|l| plugin_of(l).is_some())
+        .collect();
+    assert!(ours.is_empty(), "{ours:?}");
 }

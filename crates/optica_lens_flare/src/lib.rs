@@ -7,14 +7,14 @@
 //!
 //! ```no_run
 //! use bevy::prelude::*;
-//! use optica_lens_flare::{FlareSource, LensFlare, LensFlarePlugin};
+//! use optica_lens_flare::{FlareSource, LensFlare, LensFlarePlugin, lenses};
 //!
 //! App::new()
 //!     .add_plugins((DefaultPlugins, LensFlarePlugin))
 //!     .add_systems(Startup, |mut commands: Commands, assets: Res<AssetServer>| {
 //!         commands.spawn((
 //!             Camera3d::default(),
-//!             LensFlare::new(assets.load("lenses/tessar-us2854889.lens")),
+//!             LensFlare::new(assets.load(lenses::TESSAR)),
 //!         ));
 //!         commands.spawn((DirectionalLight::default(), FlareSource::default()));
 //!     })
@@ -25,10 +25,12 @@
 //!
 //! [`LensAsset`]s load from `.lens` files (the format of
 //! `optica_optics::lens`: a patent table, one surface per row); the
-//! project ships a Brendel Tessar, an Angénieux double Gauss and a Heliar
-//! in `assets/lenses/`, and a 33-interface zoom (US 5,537,259, 528
-//! ghosts) as the scale case. With Bevy's `file_watcher` feature an edited
-//! file is reloaded; a file that does not parse is refused with its line
+//! project ships a Brendel Tessar, an Angénieux double Gauss and a Heliar,
+//! and a 33-interface zoom (US 5,537,259, 528 ghosts) as the scale case,
+//! embedded in the crate: load them by the paths in [`lenses`]
+//! (`assets.load(lenses::TESSAR)`). Your own `.lens` files load from your
+//! assets folder; with Bevy's `file_watcher` feature an edited file is
+//! reloaded; a file that does not parse is refused with its line
 //! and field named, and the flare keeps the last good lens.
 //!
 //! ## Ghosts
@@ -149,6 +151,7 @@ mod draws;
 mod fit;
 mod frame;
 mod gpu_lens;
+pub mod lenses;
 mod precompute;
 mod render;
 mod settings;
@@ -190,6 +193,7 @@ impl Plugin for LensFlarePlugin {
         embedded_asset!(app, "shaders/ghost_draw.wgsl");
         embedded_asset!(app, "shaders/upsample.wgsl");
         embedded_asset!(app, "shaders/visibility.wgsl");
+        lenses::embed(app);
         app.init_asset::<LensAsset>()
             .init_asset_loader::<LensLoader>()
             .register_type::<LensFlare>()

@@ -28,7 +28,7 @@ pub const DEFAULT_COARSE_GHOST_PX: f32 = 64.0;
 /// fn setup(mut commands: Commands, assets: Res<AssetServer>) {
 ///     commands.spawn((
 ///         Camera3d::default(),
-///         LensFlare::new(assets.load("lenses/double-gauss-us2701982.lens")),
+///         LensFlare::new(assets.load(optica_lens_flare::lenses::DOUBLE_GAUSS)),
 ///     ));
 ///     commands.spawn((DirectionalLight::default(), FlareSource::default()));
 /// }

@@ -175,6 +175,19 @@ pub const LENS_FILES: &[(&str, &str)] = &[
     ),
 ];
 
+/// Every lens file the crate ships: the three 100 mm primes of
+/// [`LENS_FILES`] and the 33-interface zoom (Canon, US 5,537,259), which is
+/// no 100 mm prime and so not among [`builtin`]'s.
+pub const ALL_LENS_FILES: &[(&str, &str)] = &[
+    LENS_FILES[0],
+    LENS_FILES[1],
+    LENS_FILES[2],
+    (
+        "zoom-canon-us5537259.lens",
+        include_str!("../../lenses/zoom-canon-us5537259.lens"),
+    ),
+];
+
 /// The shipped prescriptions, parsed from [`LENS_FILES`].
 pub mod builtin {
     use super::{LENS_FILES, LensPrescription};

@@ -171,7 +171,6 @@ fn showcase_panel(
     egui::Window::new("optica")
         .anchor(egui::Align2::RIGHT_TOP, [-8.0, 8.0])
         .show(contexts.ctx_mut()?, |ui| {
-            ui.heading("optica");
             for (i, scene) in Scene::ALL.into_iter().enumerate() {
                 let label = format!("{}  {}", i + 1, scene.title());
                 if ui

@@ -4,8 +4,10 @@
 //! cargo run --release -p optica_report -- <sweep>|all [--out DIR] [--quick] [--adapter software|auto|<name>]
 //! ```
 //!
-//! writes `DIR/<sweep>.json`, `DIR/<sweep>.md` and `DIR/<sweep>.png` (default
-//! `DIR` = `report/`). Each sweep turns one quality knob of a plugin over its
+//! writes `DIR/<sweep>.json`, `DIR/<sweep>.md` and `DIR/<sweep>.png` (and
+//! `.svg`; default `DIR` = `report/`), and with `all` also `DIR/REPORT.md`,
+//! a one-page summary: per plugin a sentence on what to read, the first
+//! rows of its table, its plot and a link to the rest. Each sweep turns one quality knob of a plugin over its
 //! range, measures the error against the plugin's reference and the run time
 //! against a baseline timed in the same run, and runs the plugin's stiff and
 //! extreme cases. The JSON shape is the same for every sweep ([`Report`]),
@@ -31,7 +33,7 @@ mod write;
 
 pub use context::{SweepContext, cpu_description, time_ms};
 pub use report::{Report, Row, StabilityCase};
-pub use write::{WriteError, markdown, write_all};
+pub use write::{WriteError, commit, markdown, summary, write_all, write_summary};
 
 /// How a run of the report runner is set up.
 #[derive(Clone, Debug)]
@@ -72,6 +74,9 @@ pub fn run(name: &str, options: &RunOptions) -> Result<Vec<Report>, String> {
         let report = f(&ctx).map_err(|e| format!("sweep `{n}`: {e}"))?;
         write_all(&report, &options.out).map_err(|e| e.to_string())?;
         reports.push(report);
+    }
+    if name == "all" {
+        write_summary(&reports, &options.out, options.quick).map_err(|e| e.to_string())?;
     }
     Ok(reports)
 }

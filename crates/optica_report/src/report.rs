@@ -38,6 +38,11 @@ pub struct Report {
     /// What the reference is, in words (shown in the Markdown).
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub reference: String,
+    /// The errors the main table and the summary lead with (at most
+    /// three); empty: the first three by name. The rest go to the detail
+    /// tables.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub main_errors: Vec<String>,
     /// One row per knob value, in the order swept.
     pub rows: Vec<Row>,
     /// Stiff and extreme cases.
@@ -90,6 +95,7 @@ impl Report {
             knob: knob.into(),
             baseline: String::new(),
             reference: String::new(),
+            main_errors: Vec::new(),
             rows: Vec::new(),
             stability: Vec::new(),
         }
@@ -108,6 +114,33 @@ impl Report {
         match &self.adapter {
             Some(a) => a.summary(),
             None => "none (CPU-only sweep)".into(),
+        }
+    }
+
+    /// The errors the main table shows: [`Report::main_errors`] that some
+    /// row has, else the first three error names.
+    pub fn headline_errors(&self) -> Vec<String> {
+        let all: Vec<String> = {
+            let mut v: Vec<String> = self
+                .rows
+                .iter()
+                .flat_map(|r| r.error.keys().cloned())
+                .collect();
+            v.sort();
+            v.dedup();
+            v
+        };
+        let chosen: Vec<String> = self
+            .main_errors
+            .iter()
+            .filter(|e| all.contains(e))
+            .take(3)
+            .cloned()
+            .collect();
+        if chosen.is_empty() {
+            all.into_iter().take(3).collect()
+        } else {
+            chosen
         }
     }
 
@@ -179,6 +212,15 @@ impl Row {
     pub fn timing(mut self, name: &str, ms: f64) -> Self {
         self.timings.insert(name.into(), ms);
         self
+    }
+
+    /// Time over the baseline's (NaN without a baseline).
+    pub fn ratio(&self) -> f64 {
+        if self.baseline_time_ms > 0.0 {
+            self.time_ms / self.baseline_time_ms
+        } else {
+            f64::NAN
+        }
     }
 
     /// Adds a named cost counter.

@@ -46,9 +46,9 @@
 
 use optica_optics::glam::{DVec3, Vec3};
 use optica_optics::spectacles::{
-    DEFAULT_DENSE_SAMPLES, DisplacementField, Eye, EyePlacement, FieldGrid, FieldSettings,
-    LensDesignParams, LensMesh, Prescription, SpectacleLens, SpectaclesError, design_lens,
-    precompute_field, reference_at, refract_vertices,
+    DEFAULT_DENSE_SAMPLES, DisplacementField, Eye, EyePlacement, FieldGrid, FieldSettings, LensDesignParams,
+    LensMesh, Prescription, SpectacleLens, SpectaclesError, design_lens, precompute_field,
+    reference_at, refract_vertices,
 };
 
 use crate::{Report, Row, SweepContext, time_ms};
@@ -252,11 +252,7 @@ pub fn run(ctx: &SweepContext) -> Report {
         for &k in ks {
             step += 1;
             ctx.progress(step, total, &format!("S = {clones}, scale {k}"));
-            let grid = if *case == EyeGrid {
-                FieldGrid::Eye
-            } else {
-                FieldGrid::Box
-            };
+            let grid = if *case == EyeGrid { FieldGrid::Eye } else { FieldGrid::Box };
             let st = match FieldSettings::paper()
                 .scaled(k)
                 .and_then(|st| st.with_clones(*clones))
@@ -272,7 +268,9 @@ pub fn run(ctx: &SweepContext) -> Report {
                     continue;
                 }
             };
-            let (t, field) = time_ms(runs, budget, || precompute_field(eye, &pl, Some(lens), &st));
+            let (t, field) = time_ms(runs, budget, || {
+                precompute_field(eye, &pl, Some(lens), &st)
+            });
             let field = match field {
                 Ok(f) => f,
                 Err(e) => {
@@ -503,18 +501,12 @@ mod tests {
         for key in ["mean_mrad", "near_mean_mrad"] {
             let (boxed, eyed) = (at_scale_1(key), at_scale_1(&format!("{key}_eyegrid")));
             eprintln!("{key}: box {boxed:.4}, eye coordinates {eyed:.4}");
-            assert!(
-                eyed < boxed,
-                "{key}: eye coordinates {eyed} against the box's {boxed}"
-            );
+            assert!(eyed < boxed, "{key}: eye coordinates {eyed} against the box's {boxed}");
         }
         let plain = at_scale_1("mean_mm");
         for key in ["mean_mm_astig", "mean_mm_pal"] {
             let e = at_scale_1(key);
-            assert!(
-                e.is_finite() && e < 2.0 * plain,
-                "{key}: {e} against {plain}"
-            );
+            assert!(e.is_finite() && e < 2.0 * plain, "{key}: {e} against {plain}");
         }
     }
 }

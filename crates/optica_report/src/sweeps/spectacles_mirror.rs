@@ -95,11 +95,7 @@ fn surfaces(turn_deg: f32) -> [(Vec3, Quat, f32, f32); 3] {
 
 /// The scene: the mirror (or none), and with `lit` a floor, boxes and a
 /// shadowed sun for timing.
-pub fn mirror_scene(
-    mirror: Option<CurvedMirror>,
-    lit: bool,
-    turn_deg: f32,
-) -> impl FnOnce(&mut App) {
+pub fn mirror_scene(mirror: Option<CurvedMirror>, lit: bool, turn_deg: f32) -> impl FnOnce(&mut App) {
     move |app: &mut App| {
         app.add_plugins(SpectaclesPlugin);
         // Bevy's ambient light adds to a metallic surface's reflection.
@@ -478,11 +474,7 @@ mod tests {
         // error than a fraction of a pixel.
         let turned = row("turned 25°", 32.0);
         assert!(turned.error["mirror_mean_px"] < 0.5, "{:?}", turned.error);
-        assert!(
-            turned.error["mirror_wrong_surface"] < 0.01,
-            "{:?}",
-            turned.error
-        );
+        assert!(turned.error["mirror_wrong_surface"] < 0.01, "{:?}", turned.error);
         let cube = row("Bevy cube map", 128.0);
         assert!(
             cube.error["mirror_card_mean_px"] > 5.0 * fine.error["mirror_card_mean_px"].max(0.5),

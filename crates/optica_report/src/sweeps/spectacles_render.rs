@@ -129,16 +129,9 @@ fn room(viewer: Viewer, lit: bool) -> impl FnOnce(&mut App) {
                 if lit {
                     commands.spawn((
                         Mesh3d(
-                            meshes.add(
-                                Plane3d::new(Vec3::Y, Vec2::splat(6.0))
-                                    .mesh()
-                                    .subdivisions(31),
-                            ),
+                            meshes.add(Plane3d::new(Vec3::Y, Vec2::splat(6.0)).mesh().subdivisions(31)),
                         ),
-                        MeshMaterial3d(
-                            materials
-                                .add(StandardMaterial::from_color(Color::srgb(0.5, 0.45, 0.4))),
-                        ),
+                        MeshMaterial3d(materials.add(StandardMaterial::from_color(Color::srgb(0.5, 0.45, 0.4)))),
                         Transform::from_xyz(0.0, -0.6, -3.0),
                     ));
                     commands.spawn((
@@ -147,8 +140,7 @@ fn room(viewer: Viewer, lit: bool) -> impl FnOnce(&mut App) {
                             shadow_maps_enabled: true,
                             ..default()
                         },
-                        Transform::from_xyz(1.0, 2.0, 1.0)
-                            .looking_at(Vec3::new(0.0, 0.0, -2.0), Vec3::Y),
+                        Transform::from_xyz(1.0, 2.0, 1.0).looking_at(Vec3::new(0.0, 0.0, -2.0), Vec3::Y),
                     ));
                 }
                 let camera = (
@@ -256,10 +248,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     };
 
     let render = |viewer: Viewer| -> Result<RenderedFrame, SweepError> {
-        Ok(ctx
-            .headless(size, size)
-            .frames(FRAMES)
-            .render(room(viewer, false))?)
+        Ok(ctx.headless(size, size).frames(FRAMES).render(room(viewer, false))?)
     };
     let time = |viewer: Viewer, px: u32| -> Result<f64, SweepError> {
         Ok(ctx
@@ -360,9 +349,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         let ms = time(viewer, size)?;
         report.rows.push(
             Row::new(0.0, ms, sharp_ms)
-                .series(&format!(
-                    "rendered: Bevy DepthOfField {name}, focus 1 m, against the naked reference"
-                ))
+                .series(&format!("rendered: Bevy DepthOfField {name}, focus 1 m, against the naked reference"))
                 .err("psnr_db", psnr)
                 .err("flip_mean", flip)
                 .work("frame_ratio", ms / sharp_ms)
@@ -390,9 +377,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     )?;
     report.rows.push(
         Row::new(10.0, big_ms, big_sharp)
-            .series(&format!(
-                "rendered at {big}²: −0.78 D glasses, reprojected (knob S)"
-            ))
+            .series(&format!("rendered at {big}²: −0.78 D glasses, reprojected (knob S)"))
             .work("frame_ratio", big_ms / big_sharp)
             .work("size_px", f64::from(big)),
     );
@@ -410,10 +395,7 @@ mod tests {
         rendered_rows(&ctx, &mut report).expect("the rendered rows run on lavapipe");
         let rows = &report.rows;
         for r in rows {
-            eprintln!(
-                "{} {}: {:?}, {:.1} ms vs {:.1} ms",
-                r.series, r.knob, r.error, r.time_ms, r.baseline_time_ms
-            );
+            eprintln!("{} {}: {:?}, {:.1} ms vs {:.1} ms", r.series, r.knob, r.error, r.time_ms, r.baseline_time_ms);
         }
         assert!(report.problems().is_empty(), "{:?}", report.problems());
         let flip = |series: &str, knob: f64| {
@@ -425,11 +407,7 @@ mod tests {
         let sharp = flip("no eye", 0.0);
         // Every rendering of the eye is nearer the reference than the
         // sharp view, and nearer with more clones.
-        for series in [
-            "naked, reprojected",
-            "naked, full shading",
-            "glasses, reprojected",
-        ] {
+        for series in ["naked, reprojected", "naked, full shading", "glasses, reprojected"] {
             assert!(flip(series, 10.0) < sharp, "{series}");
             assert!(flip(series, 10.0) < flip(series, 4.0), "{series}");
         }

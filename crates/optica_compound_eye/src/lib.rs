@@ -79,14 +79,18 @@
 //!   mesh's interpolated normal (`TextureAxes::on_normal` in
 //!   `optica_optics`), which is continuous across edges: on a
 //!   196-triangle sphere the output steps 1.28× as much across an edge as
-//!   within a triangle, against 1.66× in the triangle's plane. What is
-//!   left comes from the mesh's piecewise-linear UVs, whose stretch changes
-//!   at each edge; a finer mesh removes it (1.07× at 48 × 24 segments). A
-//!   normal more than 60° off the triangle's is ignored.
+//!   within a triangle, against 1.66× in the triangle's plane (the render
+//!   test `a_coarse_sphere_shows_no_seams_at_its_triangle_edges`, at
+//!   a9864ed, 2026-12-03). What is left comes from the mesh's
+//!   piecewise-linear UVs, whose stretch changes at each edge; a finer mesh
+//!   removes it (1.07× at 48 × 24 segments, the same test). A normal more
+//!   than 60° off the triangle's is ignored.
 //!   With [`CompoundEye::tangent_axes`] the axes follow the mesh's
 //!   interpolated tangents instead (`TextureAxes::on_tangent`): square
 //!   facets of the UVs' cell area, continuous across edges, 1.04× on the
-//!   same sphere, i.e. no seam. It gives up the UVs' stretch and shear, so
+//!   same sphere (the render test
+//!   `along_its_tangents_a_coarse_sphere_shows_no_seams`, at e60af8c,
+//!   2026-12-03), i.e. no seam. It gives up the UVs' stretch and shear, so
 //!   it suits (nearly) conformal UVs; [`EyeCap`] has them, and tangents.
 //! - **Degenerate UVs** (a triangle whose UVs collapse onto a line or a
 //!   point: the facet coordinate's screen-space gradients parallel to within
@@ -126,18 +130,20 @@
 //! the lens cap) and for the thesis's slice search (its knob
 //! [`CompoundEye::slices`]). On a CPU Vulkan device (lavapipe, 256², a flat
 //! eye seen at 0–66°, 5.5 px facets at the pseudopupil) the slice search
-//! reaches its error floor at `K = 2`–`8` (PSNR 32.5 dB one lens, 30.7 dB
-//! with neighbours; the pseudopupil within 0.01–0.02 facet of the exact
-//! tracer's) for 1.25–1.49× the plain material's frame; `K = 0` leaves the
-//! pseudopupil 0.2 facet off. The exact path reaches 42.0 dB through one
-//! lens for 1.26–1.27× the plain frame, and 31.8 dB through up to 16
-//! lenses for 1.41–1.46× (rays through many lenses part f32 from f64 ways;
-//! 99.6 % of pixels stay within 0.02 of the reference in every incidence
-//! band). Its walk across the lattice tests only the four lenses at the
-//! corners of each cell it crosses, the only ones that can reach it. In the render test it agrees
-//! with the exact tracer on the outcome of at least 99.95 % of pixels at
-//! every incidence from 0° to 80° (square and hexagonal lattices, index
-//! 1.33–1.7).
+//! reaches its error floor at `K = 2`–`8` (series `one lens` and
+//! `neighbours`: PSNR 32.5 dB one lens, 30.7 dB with neighbours; the
+//! pseudopupil within 0.01–0.02 facet of the exact tracer's) for
+//! 1.25–1.49× the plain material's frame; `K = 0` leaves the pseudopupil
+//! 0.2 facet off. The exact path (series `exact path`) reaches 42.0 dB
+//! through one lens for 1.26–1.27× the plain frame, and 31.8 dB through
+//! up to 16 lenses for 1.41–1.46× (rays through many lenses part f32 from
+//! f64 ways; 99.6 % of pixels stay within 0.02 of the reference in every
+//! incidence band). Its walk across the lattice tests only the four
+//! lenses at the corners of each cell it crosses, the only ones that can
+//! reach it. In the render test (and the `exact path` series'
+//! `outcome_agrees_<band>`) it agrees with the exact tracer on the outcome
+//! of at least 99.95 % of pixels at every incidence from 0° to 80° (square
+//! and hexagonal lattices, index 1.33–1.7).
 //!
 //! **Facets smaller than a pixel.** What a pixel covering a facet or more
 //! shows is the facet's average response, which depends only on the
@@ -149,17 +155,22 @@
 //! into the table's entry as facets shrink from 4 px to 1 px, where it no
 //! longer traces at all. With a pigment texture (whose average is not
 //! periodic) it averages nine traced rays of the fragment's facet instead.
-//! Measured (lavapipe, 256²): at the defaults the eye costs 1.37×, 1.42×,
-//! 1.41× and 1.49× the plain frame in four runs; at 0.52 px per facet its
+//! Measured (lavapipe, 256²; the stability cases of
+//! `optica_report compound_eye`): at the defaults ("cost at the material's
+//! defaults") the eye costs 1.37×, 1.42×, 1.41× and 1.49× the plain frame
+//! in four runs; at 0.52 px per facet ("facets below a pixel (moiré)") its
 //! ꟻLIP against an 8× supersampled render is 0.052 (nine traced rays:
-//! 0.143; no prefilter: 0.171, moiré), and lit, with 3.2 % of the rays
-//! escaping, 0.054 (no prefilter: 0.110; mixing the two lit colours
-//! instead of the dither: 0.053, for a second lighting call that costs
-//! 0.4× the plain frame on lavapipe).
-//! Over a zoom-out from 4 px to 0.25 px per facet the ꟻLIP stays at
-//! 0.047–0.052 from 1 px down and below the unfiltered render's
-//! everywhere; at 2–4 px per facet (0.11–0.12) it is the facets' own
-//! sharp edges aliasing, as any detail does without anti-aliasing.
+//! 0.143, measured at 544c903, 2026-12-03; no prefilter: 0.171, moiré),
+//! and lit ("facets below a pixel, lit (a partial escape share
+//! dithered)"), with 3.2 % of the rays escaping, 0.054 (no prefilter:
+//! 0.110; mixing the two lit colours instead of the dither: 0.053, for a
+//! second lighting call that costs 0.4× the plain frame on lavapipe,
+//! measured at 7dca20b, 2026-12-03).
+//! Over a zoom-out from 4 px to 0.25 px per facet (series
+//! `zoom-out (prefilter)`) the ꟻLIP stays at 0.047–0.052 from 1 px down
+//! and below the unfiltered render's everywhere; at 2–4 px per facet
+//! (0.11–0.12) it is the facets' own sharp edges aliasing, as any detail
+//! does without anti-aliasing.
 
 #![warn(missing_docs)]
 

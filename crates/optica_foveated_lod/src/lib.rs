@@ -95,8 +95,9 @@
 //! did not change, except while a held gaze ages towards its timeout or an
 //! object waits out its dwell before being made coarser. LOD chains are
 //! built once per mesh and setting (meshoptimizer's simplification; a
-//! 5,800-triangle mesh takes a few milliseconds on the main thread, once)
-//! and shared by every entity drawing that mesh.
+//! 5,800-triangle mesh takes a few milliseconds on the main thread, once,
+//! measured at 73752d6, 2026-12-02) and shared by every entity drawing
+//! that mesh.
 //!
 //! ## Only where it pays
 //!
@@ -105,15 +106,17 @@
 //! objects together ([`FoveationGate`]); else every object draws its full
 //! mesh, as without foveation.
 //!
-//! Measured (`optica_report foveated_lod`, lavapipe, release; the paper's
-//! CAVE of three 256² walls, eight 5,780-triangle models, its four scenes
-//! and two gazes, frame time against full quality in the same run): where
-//! the levels take away 47–66 % of the triangles the frame takes 0.63–0.81
-//! of full quality's; where they would take away 9 % (every model in front
-//! of a gaze at the front wall) the frames were 0.99–1.27 of full
-//! quality's in two runs before this rule, nothing saved and the distinct
-//! meshes in the way of Bevy's batching, and with it the same meshes as
-//! full quality are drawn (0.87 and 1.00 of it: lavapipe's noise). The
+//! Measured (`optica_report foveated_lod`, series `mesh: <scene>, <gaze>`,
+//! lavapipe, release; the paper's CAVE of three 256² walls, eight
+//! 5,780-triangle models, its four scenes and two gazes, frame time
+//! against full quality in the same run): where the levels take away
+//! 47–66 % of the triangles the frame takes 0.63–0.81 of full quality's;
+//! where they would take away 9 % (every model in front of a gaze at the
+//! front wall) the frames were 0.99–1.27 of full quality's in two runs
+//! before this rule (at 509dd07, 2026-12-02; no current series measures
+//! it), nothing saved and the distinct meshes in the way of Bevy's
+//! batching, and with it the same meshes as full quality are drawn (0.87
+//! and 1.00 of it: lavapipe's noise). The
 //! central field (≤ 30°) matches full quality to the bit in every case;
 //! beyond it the image differs by an RMSE of 0.001–0.08 (8-bit sRGB).
 //!
@@ -200,16 +203,18 @@
 //! primary rays ([`GazeRayTracerState`]): a gaze that holds the whole view
 //! in its central field is traced as full quality, at full quality's cost.
 //!
-//! Measured (`optica_report foveated_lod`, lavapipe, release; the paper's
-//! CAVE of three 256² walls, eight 5,780-triangle models and a floor, its
-//! four scenes and two gazes, frame time against `foveate: false` in the
-//! same run): 0.38–0.59 of full quality's frame with the defaults, the
+//! Measured (`optica_report foveated_lod`, series
+//! `ray tracer: <scene>, <gaze>`, lavapipe, release; the paper's CAVE of
+//! three 256² walls, eight 5,780-triangle models and a floor, its four
+//! scenes and two gazes, frame time against `foveate: false` in the same
+//! run): 0.38–0.59 of full quality's frame with the defaults, the
 //! central field equal to full quality's and the image beyond 30° within an
 //! RMSE of 0.01–0.15 (8-bit sRGB, largest where the field's edge cuts
 //! models off). The CPU twin of the same schedule traces 16–27 % of full
 //! quality's rays; the rest of the frame (some 55 ms of 280–450 on
 //! lavapipe) is Bevy's own three-camera frame, which foveation cannot
-//! shorten. Coarser layers (`periphery_scale` 4, 8) bring it to 0.29–0.30
+//! shorten. Coarser layers (`periphery_scale` 4, 8; series
+//! `ray tracer: periphery scale (B, front gaze)`) bring it to 0.29–0.30
 //! at an RMSE beyond 30° of 0.017–0.028.
 //!
 //! Limits: the objects are tested one after another (no BVH over them;

@@ -118,8 +118,8 @@ pub struct Tolerance {
 impl Default for Tolerance {
     /// Tight enough that a moved object, a changed colour or a black frame
     /// fails (a cube turned by 0.15 rad gives PSNR 22.6 dB, ꟻLIP 0.063 and
-    /// 3.4 % differing pixels at 128²); loose enough for rasteriser noise
-    /// between Mesa versions.
+    /// 3.4 % differing pixels at 128², measured at 18544de, 2026-11-30);
+    /// loose enough for rasteriser noise between Mesa versions.
     fn default() -> Self {
         Self {
             min_psnr_db: 38.0,

@@ -4,10 +4,13 @@
 //! ghost covers.
 //!
 //! Wide open, only about 15 % of the square the pupil bounds give a double
-//! Gauss ghost passes the lens: 85 % of its rays were traced and its cells
-//! drawn for nothing, and the cells that drew it were few. With the grid
-//! fitted to the passing light, the same 32² grid follows the reference
-//! more closely (relative L1 0.148 → 0.117 on the double Gauss at 512²).
+//! Gauss ghost passes the lens (measured at dae9e45, 2026-12-02): 85 % of
+//! its rays were traced and its cells drawn for nothing, and the cells
+//! that drew it were few. With the grid fitted to the passing light, the
+//! same 32² grid follows the reference more closely (relative L1 0.148 →
+//! 0.117 on the double Gauss at 512², measured at dae9e45, 2026-12-02; the
+//! `lens_flare` report's `fixed grid` series measures the current
+//! settings).
 //!
 //! The same fits measure each ghost's throughput over the band
 //! ([`GhostSpectrum`]), from which its spectral gains follow.
@@ -91,9 +94,10 @@ pub fn screen_grid(n: u32, passing: &Passing, px_per_mm: f64) -> u32 {
 /// Main-thread time a frame may spend measuring ghost spectra at new fit
 /// steps. A spectrum costs far more than the passing light (17 traces of
 /// 5² rays: 880 ms for the zoom's 311 ghosts per degree, against 142 ms
-/// for where they pass), and changes little over a degree, so a turning
-/// camera measures the new steps a few ghosts a frame and meanwhile draws
-/// each ghost with its last measured spectrum. A ghost with none yet is
+/// for where they pass; the `lens_flare` report's `zoom 1280x720` series,
+/// full run), and changes little over a degree, so a turning camera
+/// measures the new steps a few ghosts a frame and meanwhile draws each
+/// ghost with its last measured spectrum. A ghost with none yet is
 /// measured at once, whatever the budget, so a still view's first frame
 /// is complete and the same on every run.
 pub const SPECTRUM_BUDGET_MS: f64 = 2.0;

@@ -52,10 +52,12 @@ pub struct LensFlare {
     /// traces every ghost at `grid²`. On by default: on the double Gauss
     /// (83 ghosts at 512², one of which carries half the light) a mean of
     /// 16² follows the reference more closely than a fixed 32² (relative
-    /// L1 0.08 against 0.12, both at half resolution) with a quarter of
-    /// the triangles. (Sizing by how much a ghost deforms, the blog's
-    /// measure, gave its smooth bright ghosts too few rays: 0.29 against
-    /// 0.15.)
+    /// L1 0.08 against 0.12, both at half resolution; the `lens_flare`
+    /// report's `rendered` and `fixed grid` series, at 1e45d9f,
+    /// 2026-12-03) with a quarter of the triangles. (Sizing by how much a
+    /// ghost deforms, the blog's measure, gave its smooth bright ghosts too
+    /// few rays: 0.29 against 0.15, at aa5f021, 2026-12-01; no current
+    /// series measures it.)
     pub adaptive_grid: bool,
     /// Uses the lens's axial symmetry (the blog's *Symmetry*): each grid is
     /// traced for the light turned into one meridional plane, where the
@@ -108,10 +110,13 @@ pub struct LensFlare {
     /// their light; they are also most of the flare's pixels: on the zoom
     /// (311 ghosts, 1280×720) the default cuts the fragments shaded from
     /// 23.9 M to 9.0 M and the flare pass from about 400 ms to 230 ms on
-    /// lavapipe. The price is softer edges on the bright large ghosts: on
-    /// the double Gauss at 512² the relative L1 against the reference
-    /// goes from 0.10 to 0.14 (128 px: 0.13). `None` adds every ghost up
-    /// at `ghost_resolution`; `Some(0.0)` every ghost at half of it.
+    /// lavapipe (series `zoom 1280x720, no coarse ghosts` against
+    /// `zoom 1280x720`). The price is softer edges on the bright large
+    /// ghosts: on the double Gauss at 512² the relative L1 against the
+    /// reference goes from 0.10 to 0.14 (128 px: 0.13; series
+    /// `no coarse ghosts (defaults)` against `coarse ghosts (defaults)`).
+    /// `None` adds every ghost up at `ghost_resolution`; `Some(0.0)` every
+    /// ghost at half of it.
     pub coarse_ghost_px: Option<f32>,
 }
 
@@ -128,13 +133,16 @@ pub enum GhostResolution {
     /// Gauss at 512² (83 ghosts, 3 wavelengths, fixed 32²) it follows the
     /// reference as closely as `Full` (relative L1 0.116 against 0.117:
     /// the bilinear filter smooths the cells' steps as much as it blurs
-    /// the iris's edges) at about a third of the draw's cost.
+    /// the iris's edges) at about a third of the draw's cost (series
+    /// `ghost resolution (defaults)`, at 1e45d9f, 2026-12-03).
     Half,
     /// A quarter of the view's width and height (a sixteenth of the
     /// pixels), scaled up bilinearly. The default: with the default grids
     /// on the double Gauss at 512², relative L1 0.098 (0.080 at half
-    /// resolution) at under half the cost of `Half`; the ghosts are smooth
-    /// and overlap a hundred deep, so their pixels are the flare's cost.
+    /// resolution) at under half the cost of `Half` (series
+    /// `ghost resolution (defaults)`, at 1e45d9f, 2026-12-03); the ghosts
+    /// are smooth and overlap a hundred deep, so their pixels are the
+    /// flare's cost.
     #[default]
     Quarter,
 }
@@ -303,7 +311,8 @@ impl ApertureSettings {
 /// visibility every frame (tested on lavapipe, a sun half behind a wall:
 /// from one frame to the next its flare changed by 2.8 % with the default
 /// blend and by 21 % without one before; now by under 10⁻⁴, and not at
-/// all without the blend).
+/// all without the blend; the render test
+/// `a_static_flare_does_not_flicker_under_taa`, at c96fb24, 2026-12-02).
 ///
 /// Lights whose image is off the screen have no depth to read: the part
 /// of the disk outside the view counts as visible, so a light outside the

@@ -60,11 +60,11 @@
 //!   `S`: exact for the naked eye, first order through a lens, elliptical
 //!   for an astigmatic bundle), so the field is 8.5 MB at the paper's
 //!   110×77×42 voxels, is precomputed in about 20 ms on two cores (the
-//!   paper: ~3 s) whenever the eye, the lens or the field's settings
-//!   change, and `S` can change without a new precompute. Each vertex
-//!   looks up its voxel; a vertex beyond the field's box takes the set
-//!   where its line of sight leaves the box, scaled by distance
-//!   ([`FieldBox`]).
+//!   `spectacles` report's main series, S = 10; the paper: ~3 s) whenever
+//!   the eye, the lens or the field's settings change, and `S` can change
+//!   without a new precompute. Each vertex looks up its voxel; a vertex
+//!   beyond the field's box takes the set where its line of sight leaves
+//!   the box, scaled by distance ([`FieldBox`]).
 //!
 //! ## A voxel grid in eye coordinates (the journal version's future work)
 //!
@@ -81,16 +81,19 @@
 //! set is an angle times a distance, and linear in dioptres between the
 //! corrected near and far points). At the paper's voxel count (110×77×42,
 //! the Fig. 8 eye in +1.5 D reading glasses, against the direct reference
-//! at 300 points 0.1–2 m away; the `spectacles` report, release) the set's
-//! error falls from 0.44 to 0.081 mrad on average and from 1.04 to
-//! 0.10 mrad nearer than 0.3 m, where the box's 5 cm voxels span several
-//! dioptres; the precompute takes 25 ms against the box's 20 ms on two
-//! cores, and at three quarters of the voxels (12 ms) eye coordinates are
-//! still closer than the box at one and a half times them (0.11 against
-//! 0.29 mrad, 70 ms). Where the corrected near or far
-//! point falls between two layers the blend across that kink leaves about
-//! the box's error. It is off by default (the paper's layout); the GPU
-//! lookup is held to its CPU twin within 3.3e-6 of the set's size.
+//! at 300 points 0.1–2 m away; the `spectacles` report's `_eyegrid`
+//! series against its main one, release) the set's error falls from 0.44
+//! to 0.081 mrad on average and from 1.04 to 0.10 mrad nearer than 0.3 m,
+//! where the box's 5 cm voxels span several dioptres; the precompute takes
+//! 25 ms against the box's 20 ms on two cores, and at three quarters of the
+//! voxels (12 ms) eye coordinates are still closer than the box at one and
+//! a half times them (0.11 against 0.29 mrad, 70 ms). Where the corrected
+//! near or far point falls between two layers the blend across that kink
+//! leaves about the box's error. It is off by default (the paper's
+//! layout); the GPU lookup is held to its CPU twin within 3.3e-6 of the
+//! set's size (the render test
+//! `naked_eye_and_field_lookup_match_the_cpu_twin`, at 5e8c293,
+//! 2026-12-02).
 //!
 //! ## Astigmatism (the journal version's extension)
 //!
@@ -109,7 +112,9 @@
 //! turned 90° doubles it. Tested from pixels: the blur's second-moment
 //! tensor lies across the axis at the screen angle the convention gives
 //! and matches the CPU twin's set within 1 % (shaded in full) and 3 %
-//! (reprojected).
+//! (reprojected; the render test
+//! `astigmatic_blur_from_pixels_lies_across_the_cylinder_axis`, at
+//! 5470e03, 2026-12-01).
 //!
 //! ## Progressive lenses
 //!
@@ -121,10 +126,12 @@
 //! as Minkwitz's theorem says every such surface must, astigmatic beside
 //! it (`optica_optics::spectacles::ProgressiveAddition`; a lensmeter
 //! trace reads +2.00 in both meridians in the near zone of a +2.00 add,
-//! and 2.1 D of cylinder 8 mm beside the corridor half-way down). The
-//! voxel field is traced through it like any lens: the eye turned down to
-//! a book 30 cm away sees it sharp through the near zone, straight ahead
-//! it sees the far wall sharp, and beside the corridor both blur. Left
+//! and 2.1 D of cylinder 8 mm beside the corridor half-way down: the
+//! optics test `lens_design_progressive_addition_by_lensmeter`, at
+//! 4922485, 2026-12-01). The voxel field is traced through it like any
+//! lens: the eye turned down to a book 30 cm away sees it sharp through
+//! the near zone, straight ahead it sees the far wall sharp, and beside
+//! the corridor both blur. Left
 //! out: the near zone's inset towards the nose, and the lateral blending
 //! commercial designs tune (ours fades the lateral terms over 8 mm).
 //!
@@ -135,10 +142,11 @@
 //! vertex of the lens's back surface (the paper's ~1,500, 24 rings × 64
 //! segments, [`Spectacles::tessellation`]) is traced through both
 //! surfaces, only when the lens or its place before the eye changes
-//! ([`Spectacles::decentration_mm`] slides it; ~0.2 ms a trace); on the
-//! GPU each vertex's exit ray finds the scene in the eye camera's depth
-//! (a march of 64 geometric steps and 16 bisections), and that point's
-//! place in the view is the vertex's texture coordinate; the lens's back
+//! ([`Spectacles::decentration_mm`] slides it; ~0.2 ms a trace, series
+//! `refraction, −4 D (knob rings)`); on the GPU each vertex's exit ray
+//! finds the scene in the eye camera's depth (a march of 64 geometric
+//! steps and 16 bisections), and that point's place in the view is the
+//! vertex's texture coordinate; the lens's back
 //! surface, drawn over the view, shows the view there, interpolated between
 //! vertices (the paper's steps 3(a)–(d)). Vertices whose ray is totally
 //! reflected or leaves through the rim mask their triangles as the lens's
@@ -150,10 +158,13 @@
 //! shows past the view's edge (its rays there take the edge pixel).
 //! Against an exact per-pixel trace through the same lens the scene seen
 //! through it lies within 0.1 px (mean 0.02–0.03 px at 128², −4 and
-//! +4 D), magnified or minified as the lens does. The `spectacles` report
-//! sweeps the tessellation (release, lavapipe, 256², −4 D): 0.74 px mean at
-//! 6 rings, 0.13 px at 12, 0.04 px at the default 24; there a −4 D lens
-//! in a 46° view shows 13 % of its pixels from past the view's edge.
+//! +4 D; the render test `refraction_matches_an_exact_trace_per_pixel`,
+//! at 3fa4df9, 2026-12-01), magnified or minified as the lens does. The
+//! `spectacles` report sweeps the tessellation (series
+//! `refraction, −4 D (knob rings)`: release, lavapipe, 256², −4 D):
+//! 0.74 px mean at 6 rings, 0.13 px at 12, 0.04 px at the default 24;
+//! there a −4 D lens in a 46° view shows 13 % of its pixels from past the
+//! view's edge.
 //!
 //! The lens's chromatic aberration ([`Spectacles::chromatic_aberration`],
 //! on by default, from the material's Abbe number): the CPU traces every
@@ -163,10 +174,13 @@
 //! the fringes of strong polycarbonate lenses. Against the exact trace at
 //! each wavelength: −8 D polycarbonate at 128², each colour within
 //! 0.03 px on average, their parting 0.18 px against the exact 0.19 px
-//! (5 %). What is left out: the lens's longitudinal chromatic aberration
-//! in the defocus (its power differs by `F/V` between red and blue, 0.27 D
-//! for that lens; the clones share one field) and the eye's own (about
-//! 2 D across the visible, which every eye has and the brain discounts).
+//! (5 %; the render test
+//! `chromatic_aberration_parts_the_colours_by_the_abbe_number`, at
+//! d5a7f6e, 2026-12-01). What is left out: the lens's longitudinal
+//! chromatic aberration in the defocus (its power differs by `F/V` between
+//! red and blue, 0.27 D for that lens; the clones share one field) and the
+//! eye's own (about 2 D across the visible, which every eye has and the
+//! brain discounts).
 //!
 //! ## A curved mirror (the paper's §3.2)
 //!
@@ -174,7 +188,8 @@
 //! 24 × 16 cm by default) seen by the camera marked [`MirrorViewer`] is
 //! drawn by the same per-vertex ray tracing: whenever the mirror or the
 //! viewer moves, the CPU reflects the ray from the viewer at each of the
-//! mirror's vertices (33 × 25 by default, ~0.07 ms), fits the virtual
+//! mirror's vertices (33 × 25 by default, ~0.07 ms: series
+//! `mirror, per vertex (knob columns)`), fits the virtual
 //! viewpoint those rays come from (behind a convex mirror) and points an
 //! environment camera from there along them, its field of view holding
 //! every reflected ray; on the GPU each vertex's reflected ray finds the
@@ -199,7 +214,9 @@
 //! ([`MirrorState::parallax_corrected`] says which was drawn).
 //!
 //! Against an exact per-pixel reflection (`optica_optics::spectacles::
-//! seen_with_mirror`; the `spectacles` report's "mirror" rows: a convex
+//! seen_with_mirror`; the `spectacles` report's series
+//! `mirror, per vertex (knob columns)` and
+//! `mirror, Bevy cube map (knob face px)`: a convex
 //! mirror of `R` = 1.2 m, 60 × 45 cm, 1 m before the camera, a wall 2.5 m
 //! from it and a card 0.5 m before it; 256², lavapipe, release; the march
 //! takes no scene nearer than a ray's start, so a wall the mirror hangs on
@@ -226,7 +243,10 @@
 //! obliquely; one-sided surfaces seen from behind are culled and do no
 //! harm, and the march ignores any scene nearer than a ray's start. Turned
 //! 25° on a one-sided wall the mirror stays within 0.3 px (128², quick
-//! report); with the wall two-sided 97 % of its pixels show the wall. An
+//! report, series
+//! `mirror, per vertex, turned 25° on its wall (knob columns)`); with the
+//! wall two-sided 97 % of its pixels show the wall (at ee358f5,
+//! 2026-12-02; no current series measures it). An
 //! oblique near plane along the mirror's rim would lift this; it is not
 //! done.
 //!
@@ -250,13 +270,18 @@
 //! How each clone is shaded decides the cost ([`CloneShading`]). Measured
 //! by the `spectacles` report on lavapipe (release, 256², a lit room with
 //! shadows, `S = 10`; the range of two runs): shading every clone in full,
-//! the paper's way, costs 5.8–7.4× the sharp frame, and `S` cameras each
-//! drawing the scene 8.4–10.5× (they also draw the shadow maps `S` times)
-//! — every clone pays a shaded drawing of the scene. The default instead
-//! lets the eye camera draw the scene once, sharp, with all its shading,
-//! and each clone only records where its undisplaced surface point lies in
-//! that view; the resolve takes the sharp view's colour there when the
-//! point is visible in it: 1.7–2.1× the sharp frame (2.0× at 512², 2.6–3.4×
+//! the paper's way, costs 5.8–7.4× the sharp frame (series
+//! `rendered: naked, full shading (knob S)`), and `S` cameras each
+//! drawing the scene 8.4–10.5× (series
+//! `mechanism: S cameras, each drawing the scene shaded (knob S)`; they
+//! also draw the shadow maps `S` times) — every clone pays a shaded
+//! drawing of the scene. The default instead lets the eye camera draw the
+//! scene once, sharp, with all its shading, and each clone only records
+//! where its undisplaced surface point lies in that view; the resolve
+//! takes the sharp view's colour there when the point is visible in it:
+//! 1.7–2.1× the sharp frame (series
+//! `rendered: naked, reprojected (knob S)`; 2.0× at 512², series
+//! `rendered at 512²: −0.78 D glasses, reprojected (knob S)`; 2.6–3.4×
 //! at `S = 40`), and its clone camera needs no shadow maps at all. What reprojection gives up (points the sharp view hides,
 //! and a slight extra blur from resampling the view) is measured in the
 //! same report against `S = 128` clones shaded in full, and documented on

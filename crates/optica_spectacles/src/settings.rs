@@ -446,7 +446,8 @@ pub struct Spectacles {
     /// The lens's optical centre off the line of sight (mm, to the
     /// wearer's left and up): glasses that sit off centre, or slide. The
     /// lens is retraced whenever it changes (~0.2 ms at the default
-    /// tessellation).
+    /// tessellation; the `spectacles` report's series
+    /// `refraction, −4 D (knob rings)`).
     pub decentration_mm: Vec2,
     /// Draws the lens's chromatic aberration from the material's Abbe
     /// number: the view's red, green and blue are refracted as the C, d and

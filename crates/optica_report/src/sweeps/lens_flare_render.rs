@@ -116,13 +116,14 @@ impl Setup {
     }
 }
 
-/// The 33-interface zoom (assets/lenses/zoom-canon-us5537259.lens),
-/// compiled in.
+/// The 33-interface zoom (assets/lenses/zoom-canon-us5537259.lens), as
+/// `optica_optics` compiles it in.
 fn zoom() -> Result<LensPrescription, SweepError> {
-    LensPrescription::parse_bytes(include_bytes!(
-        "../../../optica_optics/lenses/zoom-canon-us5537259.lens"
-    ))
-    .map_err(|e| SweepError::Setup(e.to_string()))
+    let (_, text) = optica_optics::lens::ALL_LENS_FILES
+        .iter()
+        .find(|(name, _)| name.starts_with("zoom-canon"))
+        .ok_or_else(|| SweepError::Setup("no zoom among the shipped lenses".into()))?;
+    LensPrescription::parse(text).map_err(|e| SweepError::Setup(e.to_string()))
 }
 
 /// A camera at the origin looking along −Z, the sun and, with `lit`, a

@@ -12,6 +12,9 @@ pub struct SweepContext {
     pub quick: bool,
     /// The adapter that rendering sweeps draw on (`--adapter`).
     pub adapter: Adapter,
+    /// A sweep of absolute GPU figures may run on a CPU device
+    /// (`--allow-cpu`).
+    pub allow_cpu: bool,
     label: String,
     started: Instant,
     quiet: bool,
@@ -23,6 +26,7 @@ impl SweepContext {
         Self {
             quick,
             adapter: Adapter::Software,
+            allow_cpu: false,
             label: label.into(),
             started: Instant::now(),
             quiet,
@@ -32,6 +36,12 @@ impl SweepContext {
     /// Renders on `adapter` instead.
     pub fn with_adapter(mut self, adapter: Adapter) -> Self {
         self.adapter = adapter;
+        self
+    }
+
+    /// Lets a sweep of absolute GPU figures run on a CPU device.
+    pub fn allowing_cpu(mut self) -> Self {
+        self.allow_cpu = true;
         self
     }
 

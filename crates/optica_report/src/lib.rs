@@ -46,6 +46,8 @@ pub struct RunOptions {
     pub quiet: bool,
     /// The adapter rendering sweeps draw on.
     pub adapter: optica_harness::Adapter,
+    /// `gpu` may run on a CPU device (`--allow-cpu`).
+    pub allow_cpu: bool,
 }
 
 /// Runs the sweep called `name` (or every sweep for `all`) and writes its
@@ -69,8 +71,9 @@ pub fn run(name: &str, options: &RunOptions) -> Result<Vec<Report>, String> {
     }
     let mut reports = Vec::new();
     for (n, f) in chosen {
-        let ctx = SweepContext::new(n, options.quick, options.quiet)
+        let mut ctx = SweepContext::new(n, options.quick, options.quiet)
             .with_adapter(options.adapter.clone());
+        ctx.allow_cpu = options.allow_cpu;
         let report = f(&ctx).map_err(|e| format!("sweep `{n}`: {e}"))?;
         write_all(&report, &options.out).map_err(|e| e.to_string())?;
         reports.push(report);

@@ -1,4 +1,4 @@
-//! `cargo run --release -p optica_report -- <sweep>|all [--out DIR] [--quick] [--adapter software|auto|<name>]`
+//! `cargo run --release -p optica_report -- <sweep>|all|gpu [--out DIR] [--quick] [--adapter software|auto|<name>] [--allow-cpu]`
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -14,6 +14,7 @@ fn main() -> ExitCode {
         quick: false,
         quiet: false,
         adapter: Adapter::Software,
+        allow_cpu: false,
     };
     while let Some(a) = args.next() {
         match a.as_str() {
@@ -31,6 +32,7 @@ fn main() -> ExitCode {
                 None => return usage("--adapter needs software, auto or part of an adapter name"),
             },
             "--quick" => options.quick = true,
+            "--allow-cpu" => options.allow_cpu = true,
             "-h" | "--help" => return usage(""),
             _ if name.is_none() && !a.starts_with('-') => name = Some(a),
             _ => return usage(&format!("unexpected argument `{a}`")),
@@ -72,7 +74,7 @@ fn usage(problem: &str) -> ExitCode {
         .map(|(n, _)| *n)
         .collect();
     eprintln!(
-        "usage: optica_report <{}|all> [--out DIR] [--quick] [--adapter software|auto|<name>]",
+        "usage: optica_report <{}|all|gpu|dome_scale> [--out DIR] [--quick] [--adapter software|auto|<name>] [--allow-cpu]",
         names.join("|")
     );
     if problem.is_empty() {

@@ -78,7 +78,7 @@ fn eye_settings(
 
 /// The scene: the flat eye with `eye` (or a plain `StandardMaterial`), lit,
 /// no shadows, MSAA off (one fragment per pixel, at its centre).
-fn scene(eye: Option<CompoundEye>) -> impl FnOnce(&mut App) {
+pub(super) fn scene(eye: Option<CompoundEye>) -> impl FnOnce(&mut App) {
     move |app: &mut App| {
         app.add_plugins(CompoundEyePlugin);
         app.add_systems(

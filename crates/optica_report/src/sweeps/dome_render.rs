@@ -72,7 +72,7 @@ fn face_meshes() -> Vec<(Mesh, Transform, [u8; 3])> {
 
 /// The room and a camera: `dome`, or (None) Bevy's default perspective
 /// camera looking at the ceiling.
-fn scene(dome: Option<DomeCamera>) -> impl FnOnce(&mut App) {
+pub(super) fn scene(dome: Option<DomeCamera>) -> impl FnOnce(&mut App) {
     move |app: &mut App| {
         app.add_plugins(DomePlugin);
         app.add_systems(

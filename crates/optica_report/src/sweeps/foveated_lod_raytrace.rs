@@ -57,7 +57,7 @@ use crate::{Report, Row, SweepContext};
 /// What the app saw after its frames: the traced scene, the gaze, and the
 /// front wall's tracer state.
 #[derive(Default, Clone)]
-struct Seen {
+pub(super) struct Seen {
     traced: Option<TracedScene>,
     gaze: Option<GazeState>,
     front: Option<GazeRayTracerState>,
@@ -65,7 +65,7 @@ struct Seen {
 
 /// The scene's app: a tracer camera per wall (the front one draws into the
 /// harness's image), the models, the floor, a light.
-fn setup(
+pub(super) fn setup(
     app: &mut App,
     scene: Scene,
     floor_gaze: bool,
@@ -164,7 +164,7 @@ struct Case {
     triangles: usize,
 }
 
-fn tracer(foveate: bool, scale: u32) -> GazeRayTracer {
+pub(super) fn tracer(foveate: bool, scale: u32) -> GazeRayTracer {
     GazeRayTracer {
         foveate,
         periphery_scale: scale,

@@ -63,7 +63,7 @@ const LUX: f32 = 100_000.0;
 
 /// `LensFlare::grid`'s default: the mean rays per side of the default
 /// grids, shared among the ghosts by power.
-const DEFAULT_GRID: u32 = 16;
+pub(super) const DEFAULT_GRID: u32 = 16;
 
 /// The sun's direction of travel in view space: 10° off axis, up and right.
 fn travel() -> Vec3 {
@@ -73,31 +73,31 @@ fn travel() -> Vec3 {
 
 /// How the flare is set up in one render.
 #[derive(Clone)]
-struct Setup {
-    lens: LensPrescription,
-    grid: u32,
-    budget: u32,
-    adaptive: bool,
-    symmetry: bool,
+pub(super) struct Setup {
+    pub(super) lens: LensPrescription,
+    pub(super) grid: u32,
+    pub(super) budget: u32,
+    pub(super) adaptive: bool,
+    pub(super) symmetry: bool,
     /// Starburst and ringing on (their defaults); off for the rows held to
     /// the CPU reference, which has neither.
-    diffraction: bool,
-    wavelengths: u32,
+    pub(super) diffraction: bool,
+    pub(super) wavelengths: u32,
     /// `LensFlare::merge_wavelengths_px`.
-    merge_px: f32,
+    pub(super) merge_px: f32,
     /// `LensFlare::coarse_ghost_px`.
-    coarse_px: Option<f32>,
+    pub(super) coarse_px: Option<f32>,
     /// The resolution the ghosts are added up at.
-    resolution: GhostResolution,
+    pub(super) resolution: GhostResolution,
     /// The timed camera turns a little every frame (its rays are traced
     /// again each frame; a still camera's are traced once).
-    turning: bool,
+    pub(super) turning: bool,
 }
 
 impl Setup {
     /// The coated double Gauss, `grid`, the plugin's speed-ups on, no
     /// diffraction textures.
-    fn double_gauss(grid: u32, budget: u32) -> Self {
+    pub(super) fn double_gauss(grid: u32, budget: u32) -> Self {
         Self {
             // The compiled-in copy of assets/lenses/double-gauss-us2701982.lens:
             // the runner needs no asset folder wherever it runs.
@@ -118,7 +118,7 @@ impl Setup {
 
 /// The 33-interface zoom (assets/lenses/zoom-canon-us5537259.lens), as
 /// `optica_optics` compiles it in.
-fn zoom() -> Result<LensPrescription, SweepError> {
+pub(super) fn zoom() -> Result<LensPrescription, SweepError> {
     let (_, text) = optica_optics::lens::ALL_LENS_FILES
         .iter()
         .find(|(name, _)| name.starts_with("zoom-canon"))
@@ -128,7 +128,7 @@ fn zoom() -> Result<LensPrescription, SweepError> {
 
 /// A camera at the origin looking along −Z, the sun and, with `lit`, a
 /// ground and pillars; the flare on the camera when `setup` is given.
-fn scene(
+pub(super) fn scene(
     setup: Option<Setup>,
     lit: bool,
     log: Option<Arc<Mutex<Option<FlareGhosts>>>>,

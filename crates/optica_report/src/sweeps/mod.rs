@@ -14,6 +14,7 @@ pub mod dome_textured;
 pub mod foveated_lod;
 pub mod foveated_lod_mesh;
 pub mod foveated_lod_raytrace;
+pub mod gpu;
 pub mod lens_flare;
 pub mod lens_flare_render;
 pub mod optics;
@@ -65,8 +66,13 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
 
 /// Series of a sweep that can also be run alone, by name only (`all` runs
 /// them inside their sweep): for profiling one cost without the rest.
-pub const PARTS: &[(&str, SweepFn)] = &[("dome_scale", |ctx| {
-    let mut report = crate::Report::cpu("dome_scale", "triangles");
-    dome_scale::scene_size(&mut report, ctx);
-    Ok(report)
-})];
+pub const PARTS: &[(&str, SweepFn)] = &[
+    ("dome_scale", |ctx| {
+        let mut report = crate::Report::cpu("dome_scale", "triangles");
+        dome_scale::scene_size(&mut report, ctx);
+        Ok(report)
+    }),
+    // The absolute GPU figures and their goals (not in `all`: it refuses a
+    // CPU adapter unless --allow-cpu).
+    ("gpu", gpu::run),
+];

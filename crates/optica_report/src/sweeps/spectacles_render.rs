@@ -50,11 +50,11 @@ const FAR_M: f32 = 1.3;
 const PUPIL_MM: f32 = 12.0;
 /// Fig. 8(c)'s concave lens: the far point (1.3 m from the pupil, 1.285 m
 /// from a lens 15 mm in front of it) to infinity.
-const CONCAVE_D: f32 = -0.778;
+pub(super) const CONCAVE_D: f32 = -0.778;
 
 /// What looks at the room.
 #[derive(Clone)]
-enum Viewer {
+pub(super) enum Viewer {
     Sharp,
     Eye {
         defocus: CloneDefocus,
@@ -72,11 +72,11 @@ pub(crate) fn room_with(spectacles: Spectacles) -> impl FnOnce(&mut App) {
     room(Viewer::Lens(spectacles), true)
 }
 
-fn eye() -> Eye {
+pub(super) fn eye() -> Eye {
     Eye::from_near_far(NEAR_M, FAR_M, PUPIL_MM)
 }
 
-fn defocus(clones: u32, shading: CloneShading, field_scale: f32) -> CloneDefocus {
+pub(super) fn defocus(clones: u32, shading: CloneShading, field_scale: f32) -> CloneDefocus {
     let paper = FieldBox::default();
     let sc = |n: u32| ((n as f32 * field_scale).round() as u32).max(1);
     CloneDefocus {
@@ -92,7 +92,7 @@ fn defocus(clones: u32, shading: CloneShading, field_scale: f32) -> CloneDefocus
 }
 
 /// The room seen by `viewer`, lit or not.
-fn room(viewer: Viewer, lit: bool) -> impl FnOnce(&mut App) {
+pub(super) fn room(viewer: Viewer, lit: bool) -> impl FnOnce(&mut App) {
     move |app: &mut App| {
         app.add_plugins(SpectaclesPlugin);
         app.add_systems(

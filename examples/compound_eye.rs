@@ -65,15 +65,10 @@ fn main() {
     );
     let (width, height) = scene::SIZE;
     if common::can_open_window() && args.out.is_none() {
-        let mut app = App::new();
-        app.add_plugins(DefaultPlugins.set(WindowPlugin {
-            primary_window: Some(Window {
-                title: format!("optica compound eye — {}", args.preset.name),
-                resolution: (width, height).into(),
-                ..default()
-            }),
-            ..default()
-        }));
+        let mut app = common::window_app(
+            format!("optica compound eye — {}", args.preset.name),
+            (width, height),
+        );
         scene::build(&mut app);
         scene::run_clock(&mut app);
         app.insert_resource(CompoundScene { eye, clock: 0.0 })

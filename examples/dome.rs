@@ -142,15 +142,7 @@ fn main() {
         return;
     }
     if common::can_open_window() && out.is_none() {
-        let mut app = App::new();
-        app.add_plugins(DefaultPlugins.set(WindowPlugin {
-            primary_window: Some(Window {
-                title: "optica dome".into(),
-                resolution: target_size(&dome, SIZE).into(),
-                ..default()
-            }),
-            ..default()
-        }));
+        let mut app = common::window_app("optica dome", target_size(&dome, SIZE));
         setup_app(&mut app, dome);
         app.add_systems(First, scene::run_show_clock)
             .add_systems(Update, fit_window);

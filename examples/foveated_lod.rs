@@ -65,15 +65,7 @@ fn main() {
     });
     if common::can_open_window() && args.out.is_none() {
         let px = scene::WALL_PX;
-        let mut app = App::new();
-        app.add_plugins(DefaultPlugins.set(WindowPlugin {
-            primary_window: Some(Window {
-                title: "optica foveated LOD — front, right, floor".into(),
-                resolution: (3 * px, px).into(),
-                ..default()
-            }),
-            ..default()
-        }));
+        let mut app = common::window_app("optica foveated LOD — front, right, floor", (3 * px, px));
         scene::build(&mut app);
         app.insert_resource(Layout {
             px,

@@ -61,15 +61,7 @@ fn main() {
     });
     let (width, height) = scene::SIZE;
     if common::can_open_window() && args.out.is_none() {
-        let mut app = App::new();
-        app.add_plugins(DefaultPlugins.set(WindowPlugin {
-            primary_window: Some(Window {
-                title: "optica lens flare".into(),
-                resolution: (width, height).into(),
-                ..default()
-            }),
-            ..default()
-        }));
+        let mut app = common::window_app("optica lens flare", (width, height));
         scene::build(&mut app);
         scene::run_clock(&mut app);
         app.insert_resource(FlareScene {

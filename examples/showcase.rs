@@ -106,15 +106,7 @@ fn main() {
 }
 
 fn windowed(first: Scene) {
-    let mut app = App::new();
-    app.add_plugins(DefaultPlugins.set(WindowPlugin {
-        primary_window: Some(Window {
-            title: "optica showcase".into(),
-            resolution: WINDOW.into(),
-            ..default()
-        }),
-        ..default()
-    }));
+    let mut app = common::window_app("optica showcase", WINDOW);
     for scene in Scene::ALL {
         scene.build(&mut app, WINDOW.0);
     }

@@ -88,15 +88,7 @@ fn main() {
     }
     let (width, height) = scene::SIZE;
     if common::can_open_window() && out.is_none() {
-        let mut app = App::new();
-        app.add_plugins(DefaultPlugins.set(WindowPlugin {
-            primary_window: Some(Window {
-                title: "optica spectacles".into(),
-                resolution: (width, height).into(),
-                ..default()
-            }),
-            ..default()
-        }));
+        let mut app = common::window_app("optica spectacles", (width, height));
         setup_app(&mut app, chosen[0].clone(), mirror.clone());
         #[cfg(feature = "egui")]
         app.add_plugins((

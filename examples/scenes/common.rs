@@ -13,6 +13,21 @@ use bevy::prelude::*;
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct SceneEntity;
 
+/// An app with Bevy's default plugins and one window of `size` px titled
+/// `title`.
+pub fn window_app(title: impl Into<String>, size: (u32, u32)) -> App {
+    let mut app = App::new();
+    app.add_plugins(DefaultPlugins.set(WindowPlugin {
+        primary_window: Some(Window {
+            title: title.into(),
+            resolution: size.into(),
+            ..default()
+        }),
+        ..default()
+    }));
+    app
+}
+
 /// True where a window can open: the `window` feature is on and a display
 /// is set.
 pub fn can_open_window() -> bool {

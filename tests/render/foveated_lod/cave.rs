@@ -12,6 +12,18 @@ use optica_optics::foveated_lod::DepthConvention;
 
 const SIZE: u32 = 64;
 
+/// The cyclopean eye's camera of `wall`, drawing on black.
+fn wall_camera(wall: WallRect) -> impl Bundle {
+    (
+        CaveView::new(wall, Eye::Cyclopean),
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::BLACK),
+            ..default()
+        },
+        Msaa::Off,
+    )
+}
+
 /// Renders `wall` from `eye` with a 6 cm white square on the wall at (s, t)
 /// and returns the centroid of the bright pixels.
 fn marker_centroid(wall: WallRect, eye: Vec3, s: f32, t: f32) -> Vec2 {
@@ -39,14 +51,7 @@ fn marker_centroid(wall: WallRect, eye: Vec3, s: f32, t: f32) -> Vec2 {
                             })),
                             Transform::from_translation(at).looking_to(-n, v.normalize()),
                         ));
-                        commands.spawn((
-                            CaveView::new(wall, Eye::Cyclopean),
-                            Camera {
-                                clear_color: ClearColorConfig::Custom(Color::BLACK),
-                                ..default()
-                            },
-                            Msaa::Off,
-                        ));
+                        commands.spawn(wall_camera(wall));
                     },
                 );
         })
@@ -300,14 +305,7 @@ fn render_moving(
                             at,
                         ));
                     }
-                    commands.spawn((
-                        CaveView::new(wall, Eye::Cyclopean),
-                        Camera {
-                            clear_color: ClearColorConfig::Custom(Color::BLACK),
-                            ..default()
-                        },
-                        Msaa::Off,
-                    ));
+                    commands.spawn(wall_camera(wall));
                 },
             );
             let render = app.sub_app_mut(RenderApp);

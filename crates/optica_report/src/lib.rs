@@ -7,7 +7,10 @@
 //! writes `DIR/<sweep>.json`, `DIR/<sweep>.md` and `DIR/<sweep>.png` (and
 //! `.svg`; default `DIR` = `report/`), and with `all` also `DIR/REPORT.md`,
 //! a one-page summary: per plugin a sentence on what to read, the first
-//! rows of its table, its plot and a link to the rest. Each sweep turns one quality knob of a plugin over its
+//! rows of its table, its plot and a link to the rest. `replot --out DIR`
+//! writes the Markdown, the plots and `REPORT.md` again from `DIR`'s JSON.
+//! `gpu` (not part of `all`) measures the absolute GPU figures beside
+//! their goals ([`sweeps::gpu`]). Each sweep turns one quality knob of a plugin over its
 //! range, measures the error against the plugin's reference and the run time
 //! against a baseline timed in the same run, and runs the plugin's stiff and
 //! extreme cases. The JSON shape is the same for every sweep ([`Report`]),
@@ -48,6 +51,40 @@ pub struct RunOptions {
     pub adapter: optica_harness::Adapter,
     /// `gpu` may run on a CPU device (`--allow-cpu`).
     pub allow_cpu: bool,
+}
+
+/// Writes the Markdown, plots and `REPORT.md` again from the `*.json`
+/// reports in `dir` (after a change to how reports are written, without
+/// running the sweeps again). Returns the reports, in `all`'s order.
+pub fn replot(dir: &std::path::Path, quick: bool) -> Result<Vec<Report>, String> {
+    let order: Vec<&str> = sweeps::SWEEPS.iter().map(|(n, _)| *n).collect();
+    let mut reports = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))? {
+        let path = entry.map_err(|e| e.to_string())?.path();
+        if path.extension().is_some_and(|e| e == "json") {
+            let text =
+                std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+            let report: Report =
+                serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+            reports.push(report);
+        }
+    }
+    reports.sort_by_key(|r| {
+        order
+            .iter()
+            .position(|n| *n == r.plugin)
+            .unwrap_or(usize::MAX)
+    });
+    for r in &reports {
+        write_all(r, dir).map_err(|e| e.to_string())?;
+    }
+    let in_all: Vec<Report> = reports
+        .iter()
+        .filter(|r| order.contains(&r.plugin.as_str()))
+        .cloned()
+        .collect();
+    write_summary(&in_all, dir, quick).map_err(|e| e.to_string())?;
+    Ok(reports)
 }
 
 /// Runs the sweep called `name` (or every sweep for `all`) and writes its

@@ -41,6 +41,22 @@ fn main() -> ExitCode {
     let Some(name) = name else {
         return usage("name a sweep or `all`");
     };
+    if name == "replot" {
+        return match optica_report::replot(&options.out, options.quick) {
+            Ok(reports) => {
+                println!(
+                    "{} reports written again in {}",
+                    reports.len(),
+                    options.out.display()
+                );
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
     match optica_report::run(&name, &options) {
         Ok(reports) => {
             for r in reports {
@@ -74,7 +90,7 @@ fn usage(problem: &str) -> ExitCode {
         .map(|(n, _)| *n)
         .collect();
     eprintln!(
-        "usage: optica_report <{}|all|gpu|dome_scale> [--out DIR] [--quick] [--adapter software|auto|<name>] [--allow-cpu]",
+        "usage: optica_report <{}|all|gpu|dome_scale|replot> [--out DIR] [--quick] [--adapter software|auto|<name>] [--allow-cpu]",
         names.join("|")
     );
     if problem.is_empty() {

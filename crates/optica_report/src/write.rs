@@ -239,17 +239,26 @@ fn reading(plugin: &str) -> &'static str {
     }
 }
 
-/// The commit the report was made from (`git rev-parse --short HEAD`), if
-/// there is a repository to ask.
-pub fn commit() -> Option<String> {
-    let out = std::process::Command::new("git")
-        .args(["rev-parse", "--short", "HEAD"])
-        .output()
-        .ok()?;
-    out.status
-        .success()
-        .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
-        .filter(|c| !c.is_empty())
+/// The commit the report was made from (`git rev-parse --short HEAD`),
+/// with "+ uncommitted changes" when a tracked file other than those in
+/// `out` (the report being written) differs from it, if there is a
+/// repository to ask.
+pub fn commit(out: &Path) -> Option<String> {
+    let git = |args: &[&str]| {
+        let out = std::process::Command::new("git").args(args).output().ok()?;
+        out.status
+            .success()
+            .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+    };
+    let head = git(&["rev-parse", "--short", "HEAD"]).filter(|c| !c.is_empty())?;
+    // Changes to tracked files only: the report being written is untracked.
+    let dirty =
+        git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+    Some(if dirty {
+        format!("{head} + uncommitted changes")
+    } else {
+        head
+    })
 }
 
 /// Rows of a plugin's main table the summary shows.
@@ -319,7 +328,7 @@ pub fn summary(reports: &[Report], commit: Option<&str>, quick: bool) -> String 
 /// Writes `DIR/REPORT.md` for `reports`.
 pub fn write_summary(reports: &[Report], dir: &Path, quick: bool) -> Result<PathBuf, WriteError> {
     let path = dir.join("REPORT.md");
-    write_file(&path, summary(reports, commit().as_deref(), quick))?;
+    write_file(&path, summary(reports, commit(dir).as_deref(), quick))?;
     Ok(path)
 }
 
@@ -412,12 +421,17 @@ fn draw<DB: DrawingBackend>(
         Some(a) => a.name.clone(),
         None => "CPU".into(),
     };
-    let headline = report.headline_errors();
-    let errors: Vec<String> = headline
+    let by_ratio = report
+        .rows
         .iter()
-        .cloned()
+        .any(|r| r.ratio().is_finite() && r.ratio() > 0.0);
+    // Errors with something to draw on a log axis (one that is 0 in every
+    // row, e.g. the foveated central field's, gets no panel).
+    let errors: Vec<String> = report
+        .headline_errors()
+        .into_iter()
         .chain(names(report.rows.iter().flat_map(|r| r.error.keys())))
-        .filter(|n| plotted(n))
+        .filter(|n| plotted(n) && !panel_points(report, n, by_ratio).is_empty())
         .fold(Vec::new(), |mut v, n| {
             if !v.contains(&n) {
                 v.push(n);
@@ -427,10 +441,6 @@ fn draw<DB: DrawingBackend>(
         .into_iter()
         .take(MAX_PANELS)
         .collect();
-    let by_ratio = report
-        .rows
-        .iter()
-        .any(|r| r.ratio().is_finite() && r.ratio() > 0.0);
     let title = format!(
         "{}: error against {} ({device})",
         report.plugin,
@@ -440,9 +450,34 @@ fn draw<DB: DrawingBackend>(
     if errors.is_empty() {
         return root.present().map_err(err);
     }
+    // One colour per series across every panel, named once in a legend
+    // column at the right (legends inside the panels hid the points).
+    let all_series = names(report.rows.iter().map(|r| &r.series));
+    let colour = |name: &str| {
+        let i = all_series.iter().position(|s| s == name).unwrap_or(0);
+        Palette99::pick(i).to_rgba()
+    };
+    let (plots, legend) = root.split_horizontally((78).percent_width());
+    let mut entries: Vec<(String, RGBAColor)> = Vec::new();
+    if by_ratio {
+        entries.push(("baseline (ratio 1)".into(), BLACK.mix(0.6)));
+    }
+    for name in &all_series {
+        let label = if name.is_empty() { "all rows" } else { name };
+        entries.push((label.to_string(), colour(name)));
+    }
+    for (i, (label, c)) in entries.iter().enumerate() {
+        let y = 40 + 22 * i as i32;
+        legend
+            .draw(&PathElement::new(vec![(6, y), (30, y)], c.stroke_width(3)))
+            .map_err(err)?;
+        legend
+            .draw(&Text::new(label.clone(), (36, y - 7), ("sans-serif", 13)))
+            .map_err(err)?;
+    }
     let cols = errors.len().min(3);
     let rows = errors.len().div_ceil(cols);
-    let panels = root.split_evenly((rows, cols));
+    let panels = plots.split_evenly((rows, cols));
     for (error, area) in errors.iter().zip(panels.iter()) {
         let series = panel_points(report, error, by_ratio);
         let all: Vec<&(f64, f64, f64)> = series.iter().flat_map(|(_, p)| p).collect();
@@ -469,7 +504,7 @@ fn draw<DB: DrawingBackend>(
             .caption(error, ("sans-serif", 18))
             .margin(10)
             .x_label_area_size(40)
-            .y_label_area_size(64)
+            .y_label_area_size(72)
             .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
             .map_err(err)?;
         chart
@@ -479,7 +514,6 @@ fn draw<DB: DrawingBackend>(
             } else {
                 "time (ms)"
             })
-            .y_desc(error.as_str())
             .label_style(("sans-serif", 14))
             .axis_desc_style(("sans-serif", 15))
             .x_labels(6)
@@ -494,41 +528,22 @@ fn draw<DB: DrawingBackend>(
                     [(1.0, y0), (1.0, y1)],
                     BLACK.mix(0.6).stroke_width(2),
                 ))
-                .map_err(err)?
-                .label("baseline (ratio 1)")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.mix(0.6)));
+                .map_err(err)?;
         }
-        for (i, (name, pts)) in series.iter().enumerate() {
-            let color = Palette99::pick(i).to_rgba();
+        for (name, pts) in &series {
+            let color = colour(name);
             chart
                 .draw_series(LineSeries::new(
                     pts.iter().map(|(x, e, _)| (*x, *e)),
                     color.stroke_width(2),
                 ))
-                .map_err(err)?
-                .label(if name.is_empty() {
-                    "all"
-                } else {
-                    name.as_str()
-                })
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                });
+                .map_err(err)?;
             chart
                 .draw_series(pts.iter().map(|(x, e, k)| {
                     EmptyElement::at((*x, *e))
                         + Circle::new((0, 0), 3, color.filled())
                         + Text::new(num(*k), (5, -13), ("sans-serif", 11))
                 }))
-                .map_err(err)?;
-        }
-        if series.len() > 1 || by_ratio {
-            chart
-                .configure_series_labels()
-                .label_font(("sans-serif", 12))
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .draw()
                 .map_err(err)?;
         }
     }

@@ -46,12 +46,18 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
         let mut report = foveated_lod::run(ctx);
         foveated_lod_mesh::mesh_rows(ctx, &mut report)?;
         foveated_lod_raytrace::raytrace_rows(ctx, &mut report)?;
+        report.main_errors = errors(&["rmse_beyond_30deg", "rmse_5_30deg", "gaze_weighted_rmse"]);
         Ok(report)
     }),
-    ("compound_eye", compound_eye::run),
+    ("compound_eye", |ctx| {
+        let mut report = compound_eye::run(ctx)?;
+        report.main_errors = errors(&["flip_mean", "psnr_db", "centroid_facets"]);
+        Ok(report)
+    }),
     ("lens_flare", |ctx| {
         let mut report = lens_flare::run(ctx);
         lens_flare_render::rendered_rows(ctx, &mut report)?;
+        report.main_errors = errors(&["rel_l1", "flip_mean", "rel_energy"]);
         Ok(report)
     }),
     ("spectacles", |ctx| {
@@ -59,10 +65,20 @@ pub const SWEEPS: &[(&str, SweepFn)] = &[
         spectacles_render::rendered_rows(ctx, &mut report)?;
         spectacles_refraction::refraction_rows(ctx, &mut report)?;
         spectacles_mirror::mirror_rows(ctx, &mut report)?;
+        report.main_errors = errors(&["mean_mrad", "flip_mean", "mirror_mean_px"]);
         Ok(report)
     }),
-    ("dome", dome::run),
+    ("dome", |ctx| {
+        let mut report = dome::run(ctx)?;
+        report.main_errors = errors(&["max_px", "mean_px", "flip_mean"]);
+        Ok(report)
+    }),
 ];
+
+/// The errors a report's tables and summary lead with.
+fn errors(names: &[&str]) -> Vec<String> {
+    names.iter().map(|n| n.to_string()).collect()
+}
 
 /// Series of a sweep that can also be run alone, by name only (`all` runs
 /// them inside their sweep): for profiling one cost without the rest.

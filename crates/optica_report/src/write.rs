@@ -251,9 +251,17 @@ pub fn commit(out: &Path) -> Option<String> {
             .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
     };
     let head = git(&["rev-parse", "--short", "HEAD"]).filter(|c| !c.is_empty())?;
-    // Changes to tracked files only: the report being written is untracked.
-    let dirty =
-        git(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+    // Tracked files only, and not the report being written.
+    let exclude = format!(":(exclude){}", out.display());
+    let dirty = git(&[
+        "status",
+        "--porcelain",
+        "--untracked-files=no",
+        "--",
+        ".",
+        &exclude,
+    ])
+    .is_some_and(|s| !s.is_empty());
     Some(if dirty {
         format!("{head} + uncommitted changes")
     } else {

@@ -15,7 +15,7 @@ use bevy::prelude::*;
 use bevy::render::RenderApp;
 use bevy::render::render_resource::PipelineCache;
 use optica_harness::{Adapter, Golden, Headless, Tolerance};
-use scenes::common::{self, SceneEntity};
+use scenes::common::SceneEntity;
 use scenes::{Scene, Showcase, switch_scene};
 
 /// The README pictures' width.
@@ -111,7 +111,7 @@ fn switch_through(
             let mut update = 0u32;
             app.add_systems(Last, move |world: &mut World| {
                 update += 1;
-                if update % frames != 0 {
+                if !update.is_multiple_of(frames) {
                     return;
                 }
                 let scene_entities = world

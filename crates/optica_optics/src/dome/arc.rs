@@ -136,7 +136,9 @@ impl Arc {
         self.alpha == 0.0
     }
 
-    /// Unit direction at angle β along the arc from â.
+    /// Unit direction at angle β along the arc from â (the reference
+    /// measures and the tests sample arcs with it; the refiner does not).
+    #[cfg(any(test, feature = "reference"))]
     pub fn dir(&self, beta: f64) -> DVec3 {
         let (s, c) = beta.sin_cos();
         c * self.a_hat + s * self.w_hat

@@ -411,7 +411,7 @@ pub(crate) fn region(s: f64, w_near: f64, w_far: f64) -> Region {
 }
 
 /// The linear map (signed) of the set at distance `s` along an aim's chief
-/// in `region` (of [`region`] for the pair's fitted vergences), as the
+/// in `region` (of `region` for the pair's fitted vergences), as the
 /// voxel field records it: the near bundle's map nearer than the corrected
 /// near point, the far bundle's mirrored beyond the corrected far point;
 /// in between `None` (in focus) for a stigmatic eye, and for an

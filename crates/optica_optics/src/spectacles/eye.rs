@@ -142,7 +142,7 @@ pub const MAX_PUPIL_DIAMETER_M: f64 = 0.05;
 /// towards +y, the optometric convention of the `spectacles` module docs):
 /// the eye's error is the power of the spectacle lens that corrects it at
 /// the cornea. Across a line of sight with frame `(e₁, e₂)` the error is the
-/// symmetric matrix `R·I + C·(I − c cᵀ)` ([`Eye::error_matrix`]), `c` the
+/// symmetric matrix `R·I + C·(I − c cᵀ)` (its traceless part is [`Eye::astigmatic_matrix`]), `c` the
 /// axis projected into the frame, and the eye accommodates to the circle of
 /// least confusion: the scalar vergences above are the spherical
 /// equivalent's (`R + C/2`), and what is left in focus is the astigmatic

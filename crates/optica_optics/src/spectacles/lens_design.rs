@@ -74,7 +74,7 @@ impl Prescription {
     }
 
     /// The same prescription with a near addition `add_d` (D, `0..=`
-    /// [`MAX_ADDITION_D`]; 0 for a single-vision lens): the lens becomes a
+    /// `MAX_ADDITION_D` = 4 D; 0 for a single-vision lens): the lens becomes a
     /// progressive-addition lens, its power growing by `add_d` down a
     /// corridor ([`LensDesignParams::with_corridor_m`]) into a near zone.
     /// Errors: an addition outside that range, or one that takes a

@@ -62,20 +62,3 @@ pub(crate) fn embed(app: &mut App) {
         );
     }
 }
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_shipped_file_has_a_path_and_every_path_a_file() {
-        assert_eq!(ALL.len(), ALL_LENS_FILES.len());
-        for (name, _) in ALL_LENS_FILES {
-            assert!(
-                ALL.iter()
-                    .any(|(_, path)| path.ends_with(&format!("/lenses/{name}"))),
-                "{name} has no constant"
-            );
-        }
-    }
-}

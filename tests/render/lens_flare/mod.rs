@@ -5,6 +5,7 @@ mod aperture;
 mod frame;
 mod ghosts;
 mod goldens;
+mod lenses;
 mod occlusion;
 mod parity;
 mod passes;

@@ -293,7 +293,7 @@ pub fn panel(
                 .and_then(|d| d.smoothed())
         };
         let frame = smoothed("fps").map(|fps| 1000.0 / fps.max(1e-3));
-        match (smoothed("render/optica/flare/elapsed_gpu"), frame) {
+        match (smoothed("render/optica/lens_flare/elapsed_gpu"), frame) {
             (Some(flare), Some(frame)) => ui.label(format!(
                 "flare {flare:.2} ms of a {frame:.1} ms frame ({:.0} %)",
                 100.0 * flare / frame

@@ -36,6 +36,7 @@ use bevy::render::render_resource::{
     Sampler, SamplerBindingType, SamplerDescriptor, ShaderStages, ShaderType, TextureFormat,
     TextureSampleType, TextureUsages, TextureViewId, UniformBuffer,
 };
+use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
 use bevy::render::texture::GpuImage;
 use bevy::render::view::{ExtractedView, Msaa, ViewTarget};
@@ -516,8 +517,12 @@ fn resample(
         occlusion_query_set: None,
         multiview_mask: None,
     };
+    let diagnostics = ctx.diagnostic_recorder();
+    let diagnostics = diagnostics.as_deref();
     let mut render_pass = ctx.command_encoder().begin_render_pass(&pass);
+    let span = diagnostics.pass_span(&mut render_pass, "optica/dome/cube_resample");
     render_pass.set_pipeline(pipeline);
     render_pass.set_bind_group(0, &binding.bind_group, &[]);
     render_pass.draw(0..3, 0..1);
+    span.end(&mut render_pass);
 }

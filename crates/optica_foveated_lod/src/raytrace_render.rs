@@ -543,7 +543,9 @@ fn trace_pass(
     let post = target.post_process_write();
     let diagnostics = ctx.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
-    let span = diagnostics.time_span(ctx.command_encoder(), "optica/foveated_lod/trace");
+    // The whole tracer, and within it the trace (compute) and the blit
+    // (render): `optica/foveated_lod`, `.../trace`, `.../blit`.
+    let span = diagnostics.time_span(ctx.command_encoder(), "optica/foveated_lod");
     {
         let mut pass = ctx
             .command_encoder()
@@ -551,6 +553,7 @@ fn trace_pass(
                 label: Some("optica_foveated_lod_trace"),
                 timestamp_writes: None,
             });
+        let pass_span = diagnostics.pass_span(&mut pass, "trace");
         pass.set_bind_group(0, &trace_group, &[]);
         if !tv.full_quality && tv.scale > 1 {
             pass.set_pipeline(mid);
@@ -574,6 +577,7 @@ fn trace_pass(
             buffers.size.y.div_ceil(GROUP.y),
             1,
         );
+        pass_span.end(&mut pass);
     }
     {
         let mut pass = ctx
@@ -592,11 +596,13 @@ fn trace_pass(
                 multiview_mask: None,
             });
         // Cameras that share a target draw into their own viewport.
+        let pass_span = diagnostics.pass_span(&mut pass, "blit");
         let (origin, size) = (buffers.origin.as_vec2(), buffers.size.as_vec2());
         pass.set_viewport(origin.x, origin.y, size.x, size.y, 0.0, 1.0);
         pass.set_bind_group(0, &blit_group, &[]);
         pass.set_pipeline(blit);
         pass.draw(0..3, 0..1);
+        pass_span.end(&mut pass);
     }
     span.end(ctx.command_encoder());
 }

@@ -77,7 +77,7 @@ impl Stats {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SpanTiming {
     /// The span's path as the pass named it, e.g. `main_opaque_pass_3d` or
-    /// `optica/flare` (Bevy prefixes `render/` in its diagnostics; not here).
+    /// `optica/lens_flare` (Bevy prefixes `render/` in its diagnostics; not here).
     pub name: String,
     /// GPU time from timestamp queries; `None` where the adapter has none.
     pub gpu_ms: Option<Stats>,

@@ -67,8 +67,8 @@
 //! so that the lens sees the camera's field of view ([`SensorMapping`](twins::SensorMapping)); a
 //! light's irradiance at the camera (illuminance, or a point light's lumens
 //! over 4πd²) times the camera's exposure scales its ghosts, so they sit in
-//! the scene's light levels. Pass time shows as the `optica/flare`
-//! diagnostic span, and each pass in it as `optica/flare/occlusion`,
+//! the scene's light levels. Pass time shows as the `optica/lens_flare`
+//! diagnostic span, and each pass in it as `optica/lens_flare/occlusion`,
 //! `/trace`, `/fill`, `/cells`, `/coarse` (the large ghosts), `/draw`
 //! and `/composite` (the scaling up), with the shader invocations it ran
 //! where the adapter has pipeline-statistics queries.
@@ -112,7 +112,7 @@
 //! ([`LensFlare::merge_wavelengths_px`]); and a ghost wider than
 //! [`LensFlare::coarse_ghost_px`] (a defocused one, smooth inside) is
 //! added up at half the ghosts' resolution in a pass of its own
-//! (`optica/flare/coarse`) and scaled up into theirs.
+//! (`optica/lens_flare/coarse`) and scaled up into theirs.
 //!
 //! ## Diffraction
 //!

@@ -148,3 +148,15 @@ fn switching_modes_swaps_twins_for_faces() {
         "{shown:.4} of the pixels match after switching"
     );
 }
+
+/// The resample pass records its time span, `optica/dome/cube_resample`
+/// (GPU time where the adapter has timestamp queries).
+#[test]
+fn the_cube_resample_records_its_span() {
+    let timed = Headless::new(64, 64)
+        .time_frames(1, 2, room_seen_by(4, cube(180.0, 0.0)))
+        .expect("render");
+    let span = timed.span("optica/dome/cube_resample");
+    eprintln!("{span:?}");
+    assert!(span.is_some());
+}

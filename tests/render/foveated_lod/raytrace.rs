@@ -325,6 +325,36 @@ fn tracer_pipelines_only_for_tracer_cameras() {
     }
 }
 
+/// The tracer records its time span and, within it, the trace (compute)
+/// and the blit (render) separately.
+#[test]
+fn the_tracer_records_its_trace_and_blit_spans() {
+    let timed = Headless::new(32, 32)
+        .time_frames(1, 2, |app: &mut App| {
+            app.add_plugins(FoveatedLodPlugin).add_systems(
+                Startup,
+                |mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>| {
+                    commands.spawn((
+                        Mesh3d(meshes.add(Sphere::new(0.5).mesh().ico(2).unwrap())),
+                        RayTraced::diffuse(LinearRgba::WHITE),
+                    ));
+                    commands.spawn((
+                        GazeRayTracer::default(),
+                        Transform::from_xyz(0.0, 0.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
+                    ));
+                },
+            );
+        })
+        .expect("render");
+    for name in [
+        "optica/foveated_lod",
+        "optica/foveated_lod/trace",
+        "optica/foveated_lod/blit",
+    ] {
+        assert!(timed.span(name).is_some(), "no span {name}");
+    }
+}
+
 /// Hostile heads on the tracer: a NaN gaze and a zero gaze (full quality,
 /// as no valid gaze was ever seen), a head far outside the CAVE gazing
 /// along the seam of two walls, and a model with a NaN vertex (left out of

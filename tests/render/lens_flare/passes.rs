@@ -366,7 +366,7 @@ fn large_ghosts_added_up_at_half_resolution_keep_their_light() {
             .expect("timed");
         let fragments = |pass: &str| {
             timed
-                .span(&format!("optica/flare/{pass}"))
+                .span(&format!("optica/lens_flare/{pass}"))
                 .and_then(|s| s.counts.get("fragment_shader_invocations"))
                 .map(|c| c.median)
         };
@@ -396,7 +396,7 @@ fn a_still_view_traces_once_and_a_turning_one_every_frame() {
     let travel = Vec3::new(-0.15, -0.15, 1.0).normalize();
     let ran = |timed: &optica_harness::FrameTimings, pass: &str| {
         timed
-            .span(&format!("optica/flare/{pass}"))
+            .span(&format!("optica/lens_flare/{pass}"))
             .and_then(|s| s.counts.get("compute_shader_invocations"))
             .filter(|c| c.median > 0.0)
             .map_or(0, |c| c.n)
@@ -409,11 +409,11 @@ fn a_still_view_traces_once_and_a_turning_one_every_frame() {
     assert!(
         ran(&still, "trace") <= 1,
         "{:?}",
-        still.span("optica/flare/trace")
+        still.span("optica/lens_flare/trace")
     );
     assert_eq!(ran(&still, "cells"), FRAMES as usize);
     // The default: ghosts at half resolution, scaled up in a pass of its own.
-    assert!(still.span("optica/flare/composite").is_some());
+    assert!(still.span("optica/lens_flare/composite").is_some());
     let turning = Headless::new(SIZE, SIZE)
         .hdr(true)
         .time_frames(3, FRAMES, |app: &mut App| {
@@ -439,7 +439,7 @@ fn a_still_view_traces_once_and_a_turning_one_every_frame() {
             }),
         )
         .expect("full");
-    assert!(full.span("optica/flare/composite").is_none());
+    assert!(full.span("optica/lens_flare/composite").is_none());
 }
 
 /// The flare is drawn before bloom, so bloom spreads its ghosts: light

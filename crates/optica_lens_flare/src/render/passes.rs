@@ -1,5 +1,5 @@
 //! The flare's passes in the view's `Core3d` schedule, each timed as a
-//! span of its own (`optica/flare/{occlusion, trace, fill, cells, coarse,
+//! span of its own (`optica/lens_flare/{occlusion, trace, fill, cells, coarse,
 //! draw, composite}`).
 
 use bevy::prelude::*;
@@ -56,7 +56,7 @@ pub(super) fn flare_passes(
             .get_compute_pipeline(*id)
             .map(|pipeline| (group, pipeline))
     });
-    let span = diagnostics.time_span(ctx.command_encoder(), "optica/flare");
+    let span = diagnostics.time_span(ctx.command_encoder(), "optica/lens_flare");
     let encoder = ctx.command_encoder();
     if let Some((group, pipeline)) = occlusion {
         let groups = (binding.lights, 1);
@@ -183,7 +183,7 @@ fn cleared(view: &TextureView) -> RenderPassColorAttachment<'_> {
 }
 
 /// Dispatches `groups` (x, y) workgroups of `pipeline` with `group` in a
-/// compute pass of its own, timed as `optica/flare/{span}`.
+/// compute pass of its own, timed as `optica/lens_flare/{span}`.
 fn compute_pass(
     encoder: &mut CommandEncoder,
     diagnostics: &impl RecordDiagnostics,

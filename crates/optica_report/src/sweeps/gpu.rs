@@ -108,7 +108,7 @@ fn flare(ctx: &SweepContext) -> Result<Row, SweepError> {
         ctx.headless(w, h)
             .hdr(true)
             .time_frames(warm, timed, scene(Some(setup), true, None))?;
-    let pass = with.pass("optica/flare").map_or(f64::NAN, |p| p.ms.median);
+    let pass = with.pass("optica/lens_flare").map_or(f64::NAN, |p| p.ms.median);
     let goal = 0.25;
     Ok(
         Row::new(w as f64, with.frame_ms.median, plain.frame_ms.median)

@@ -369,7 +369,7 @@ fn displayed(rgb: &[[f64; 3]], size: u32, white: f64) -> image::RgbaImage {
 /// the trace ran in (a still camera's rays are traced once).
 fn counted(mut row: Row, timed: &FrameTimings) -> Row {
     let traced = timed
-        .span("optica/flare/trace")
+        .span("optica/lens_flare/trace")
         .and_then(|s| s.counts.get("compute_shader_invocations"))
         .filter(|c| c.median > 0.0)
         .map_or(0, |c| c.n);
@@ -377,42 +377,42 @@ fn counted(mut row: Row, timed: &FrameTimings) -> Row {
     for (key, span, count) in [
         (
             "trace_invocations",
-            "optica/flare/trace",
+            "optica/lens_flare/trace",
             "compute_shader_invocations",
         ),
         (
             "cells_invocations",
-            "optica/flare/cells",
+            "optica/lens_flare/cells",
             "compute_shader_invocations",
         ),
         (
             "composite_fragments",
-            "optica/flare/composite",
+            "optica/lens_flare/composite",
             "fragment_shader_invocations",
         ),
         (
             "occlusion_invocations",
-            "optica/flare/occlusion",
+            "optica/lens_flare/occlusion",
             "compute_shader_invocations",
         ),
         (
             "draw_vertices",
-            "optica/flare/draw",
+            "optica/lens_flare/draw",
             "vertex_shader_invocations",
         ),
         (
             "draw_fragments",
-            "optica/flare/draw",
+            "optica/lens_flare/draw",
             "fragment_shader_invocations",
         ),
         (
             "coarse_vertices",
-            "optica/flare/coarse",
+            "optica/lens_flare/coarse",
             "vertex_shader_invocations",
         ),
         (
             "coarse_fragments",
-            "optica/flare/coarse",
+            "optica/lens_flare/coarse",
             "fragment_shader_invocations",
         ),
         (
@@ -461,7 +461,7 @@ fn row(
         timing.1,
         scene(Some(setup.clone()), true, None),
     )?;
-    let flare = timed.pass("optica/flare");
+    let flare = timed.pass("optica/lens_flare");
     let mut row = Row::new(knob, timed.frame_ms.median, plain_ms)
         .series(series)
         .work("ghosts", ghosts.drawn().count() as f64)
@@ -786,7 +786,7 @@ fn zoom_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> 
             ctx.headless(w, h)
                 .hdr(true)
                 .time_frames(3, 4, scene(Some(setup), true, None))?;
-        let flare = timed.pass("optica/flare");
+        let flare = timed.pass("optica/lens_flare");
         let mut row = Row::new(16.0, timed.frame_ms.median, plain_wide);
         if let Some(px) = coarse_px {
             row = row.work("coarse_ghost_px", f64::from(px));

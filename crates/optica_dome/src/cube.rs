@@ -26,6 +26,7 @@ use bevy::core_pipeline::{Core3d, Core3dSystems, FullscreenShader};
 use bevy::math::Mat3;
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
+use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
 use bevy::render::render_asset::RenderAssets;
 use bevy::render::render_resource::binding_types::{sampler, texture_2d, uniform_buffer};
@@ -36,7 +37,6 @@ use bevy::render::render_resource::{
     Sampler, SamplerBindingType, SamplerDescriptor, ShaderStages, ShaderType, TextureFormat,
     TextureSampleType, TextureUsages, TextureViewId, UniformBuffer,
 };
-use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
 use bevy::render::texture::GpuImage;
 use bevy::render::view::{ExtractedView, Msaa, ViewTarget};

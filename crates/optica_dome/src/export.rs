@@ -142,7 +142,7 @@ pub struct DomeExportPlugin(pub DomeExport);
 /// or waiting for a shader), as its last frame counted them; shared
 /// between the main and the render world.
 #[derive(Resource, Clone, Default, Debug)]
-struct PendingPipelines(Arc<AtomicUsize>);
+pub struct PendingPipelines(pub Arc<AtomicUsize>);
 
 /// Counts the pipelines not yet made, at the end of each render.
 fn count_pending_pipelines(cache: Res<PipelineCache>, pending: Res<PendingPipelines>) {
@@ -199,16 +199,17 @@ impl Plugin for DomeExportPlugin {
     }
 }
 
+/// Where an export stands.
 #[derive(Resource, Debug)]
-struct ExportState {
+pub struct ExportState {
     /// The frame being (or next to be) captured.
-    next: u32,
+    pub next: u32,
     /// A capture of `next` is on its way.
-    capturing: bool,
+    pub capturing: bool,
     /// Updates with every pipeline ready still to render before the capture.
-    warmup: u32,
+    pub warmup: u32,
     /// Updates spent waiting for pipelines so far.
-    waited: u32,
+    pub waited: u32,
 }
 
 fn set_show_clock(state: Res<ExportState>, mut clock: ResMut<DomeShowClock>) {
@@ -290,44 +291,4 @@ fn capture_frame(
                 }
             },
         );
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn app(dir: &str) -> App {
-        let mut app = App::new();
-        let dir = std::env::temp_dir().join(format!("optica_dome_{dir}_{}", std::process::id()));
-        app.add_plugins(DomeExportPlugin(DomeExport::new(dir, 5..7, 24.0)));
-        app
-    }
-
-    #[test]
-    fn the_first_capture_waits_until_every_pipeline_is_made() {
-        let mut app = app("wait");
-        let pending = app.world().resource::<PendingPipelines>().clone();
-        pending.0.store(3, Ordering::Relaxed);
-        for _ in 0..10 {
-            app.update();
-        }
-        let state = app.world().resource::<ExportState>();
-        assert_eq!((state.warmup, state.waited, state.next), (2, 10, 5));
-        assert_eq!(app.world().resource::<DomeShowClock>().frame, 5);
-        // Ready: the warm-up on the first frame runs, then the capture.
-        pending.0.store(0, Ordering::Relaxed);
-        app.update();
-        assert_eq!(app.world().resource::<ExportState>().warmup, 1);
-    }
-
-    #[test]
-    fn a_pipeline_that_never_comes_ends_the_job_with_an_error() {
-        let mut app = app("never");
-        let pending = app.world().resource::<PendingPipelines>().clone();
-        pending.0.store(1, Ordering::Relaxed);
-        for _ in 0..MAX_PIPELINE_WAIT_UPDATES {
-            app.update();
-        }
-        assert!(matches!(app.should_exit(), Some(AppExit::Error(_))));
-    }
 }

@@ -166,6 +166,14 @@ mod twin_mesh;
 
 pub use cube::{CubeLayout, DomeCubeFace, DomeCubeFaces, FIVE_FACE_MAX_FOV_DEG, guarded_tan_half};
 pub use export::{DomeExport, DomeExportPlugin, DomeShowClock, parse_frame_range};
+
+/// The export's inner state, for the render tests that drive its wait for
+/// pipelines (the plugin crates' own unit tests do not run: Bevy links once,
+/// in the umbrella's test binary). Not for users.
+#[doc(hidden)]
+pub mod export_hooks {
+    pub use crate::export::{ExportState, MAX_PIPELINE_WAIT_UPDATES, PendingPipelines};
+}
 pub use mask::DomeRimMask;
 pub use projection::DomeClip;
 pub use refine::{

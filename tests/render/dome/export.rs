@@ -123,3 +123,45 @@ fn frame_ranges_parse_as_farm_managers_write_them() {
             .is_err()
     );
 }
+
+/// An export app without rendering, writing into a scratch folder.
+fn export_app(dir: &str) -> App {
+    let mut app = App::new();
+    app.add_plugins(DomeExportPlugin(DomeExport::new(scratch(dir), 5..7, 24.0)));
+    app
+}
+
+/// The first capture waits until the render world has made every
+/// pipeline, then warms up, then captures.
+#[test]
+fn the_first_capture_waits_until_every_pipeline_is_made() {
+    use optica_dome::export_hooks::{ExportState, PendingPipelines};
+    use std::sync::atomic::Ordering;
+    let mut app = export_app("wait");
+    let pending = app.world().resource::<PendingPipelines>().clone();
+    pending.0.store(3, Ordering::Relaxed);
+    for _ in 0..10 {
+        app.update();
+    }
+    let state = app.world().resource::<ExportState>();
+    assert_eq!((state.warmup, state.waited, state.next), (2, 10, 5));
+    assert_eq!(app.world().resource::<DomeShowClock>().frame, 5);
+    // Ready: the warm-up on the first frame runs, then the capture.
+    pending.0.store(0, Ordering::Relaxed);
+    app.update();
+    assert_eq!(app.world().resource::<ExportState>().warmup, 1);
+}
+
+/// A pipeline that never comes ends the job with an error exit.
+#[test]
+fn a_pipeline_that_never_comes_ends_the_job_with_an_error() {
+    use optica_dome::export_hooks::{MAX_PIPELINE_WAIT_UPDATES, PendingPipelines};
+    use std::sync::atomic::Ordering;
+    let mut app = export_app("never");
+    let pending = app.world().resource::<PendingPipelines>().clone();
+    pending.0.store(1, Ordering::Relaxed);
+    for _ in 0..MAX_PIPELINE_WAIT_UPDATES {
+        app.update();
+    }
+    assert!(matches!(app.should_exit(), Some(AppExit::Error(_))));
+}

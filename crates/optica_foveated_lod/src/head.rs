@@ -351,6 +351,9 @@ pub enum HeadSource {
     Simulated(SimulatedGaze),
     /// A recorded trace replayed on the app's clock.
     Replay(HeadReplay),
+    /// An ART DTrack tracker's ASCII stream over UDP (see
+    /// [`crate::dtrack`]): the head from one body, mapped into the scene.
+    DTrack(crate::dtrack::DTrackSettings),
 }
 
 /// A simulated head and gaze: the head at [`position`](Self::position) turned
@@ -438,9 +441,27 @@ pub(crate) fn drive_head_source(
     mut head: ResMut<TrackedHead>,
     time: Res<Time>,
     keys: Option<Res<ButtonInput<KeyCode>>>,
+    mut dtrack: (
+        Commands,
+        Option<ResMut<crate::dtrack::DTrackSocket>>,
+        ResMut<crate::dtrack::DTrackStats>,
+    ),
 ) {
     match source.bypass_change_detection() {
         HeadSource::External => {}
+        HeadSource::DTrack(settings) => {
+            let (commands, socket, stats) = &mut dtrack;
+            let changed = crate::dtrack::read_dtrack(
+                settings,
+                socket,
+                commands,
+                stats.bypass_change_detection(),
+                head.bypass_change_detection(),
+            );
+            if changed {
+                head.set_changed();
+            }
+        }
         HeadSource::Simulated(sim) => {
             if let Some(keys) = keys {
                 steer(sim, &keys, time.delta_secs());

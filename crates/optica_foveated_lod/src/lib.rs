@@ -77,6 +77,10 @@
 //! network; each wall's process writes it into its own [`TrackedHead`].
 //! [`HeadTrace`] reads and writes recordings as CSV (columns documented
 //! there), and [`HeadSource::Replay`] plays them back.
+//! [`HeadSource::DTrack`] reads an ART DTrack tracker's ASCII stream over
+//! UDP, the optical tracking most CAVEs use ([`dtrack`]: one body as the
+//! head, a calibration into the scene, malformed datagrams counted and
+//! dropped; tested on the loopback).
 //!
 //! ## Dropouts and bad numbers
 //!
@@ -238,6 +242,7 @@ use bevy::shader::Shader;
 use bevy::transform::TransformSystems;
 
 mod cave;
+pub mod dtrack;
 mod head;
 mod lod;
 #[cfg(feature = "egui")]
@@ -310,6 +315,7 @@ impl Plugin for FoveatedLodPlugin {
             .init_resource::<FoveationWork>()
             .init_resource::<FoveationGate>()
             .init_resource::<TracedScene>()
+            .init_resource::<dtrack::DTrackStats>()
             .register_type::<GazeRayTracer>()
             .register_type::<GazeRayTracerState>()
             .register_type::<RayTraced>()

@@ -307,3 +307,134 @@ fn openxr_broken_gaze_falls_back_to_the_head() {
         );
     }
 }
+
+/// A datagram in DTrack's documented shape parses to its frame, time and body (mm,
+/// the rotation column by column); malformed datagrams are refused with
+/// the line named, never a panic, and a count of 10⁹ bodies is refused
+/// before anything is allocated for it.
+#[test]
+fn dtrack_datagrams_parse_and_bad_ones_are_refused() {
+    use optica_foveated_lod::dtrack::{DTrackError, DTrackFrame};
+    let good = b"fr 21753\nts 39596.024\n6dcal 1\n6d 1 [0 1.000][326.848 -187.216 -7.977 0.0000 0.0000 30.0000][0.866025 0.500000 0.000000 -0.500000 0.866025 0.000000 0.000000 0.000000 1.000000]\n";
+    let f = DTrackFrame::parse(good).unwrap();
+    assert_eq!(f.frame, Some(21753));
+    assert_eq!(f.timestamp_s, Some(39596.024));
+    assert_eq!(f.bodies.len(), 1);
+    let b = &f.bodies[0];
+    assert_eq!((b.id, b.quality), (0, 1.0));
+    assert!(b.position_mm.distance(Vec3::new(326.848, -187.216, -7.977)) < 1e-3);
+    // Column by column: the body's X axis turned 30° about the room's Z.
+    assert!(b.rotation.x_axis.distance(Vec3::new(0.866025, 0.5, 0.0)) < 1e-6);
+    assert!((b.rotation.determinant() - 1.0).abs() < 1e-4);
+    // No body tracked: an empty list.
+    assert!(
+        DTrackFrame::parse(b"fr 1\n6d 0\n")
+            .unwrap()
+            .bodies
+            .is_empty()
+    );
+    let bad: [(&[u8], usize); 9] = [
+        (b"fr x\n", 1),
+        (b"fr 1\nts inf\n", 2),
+        (b"6d 1000000000 [0 1][0 0 0 0 0 0][1 0 0 0 1 0 0 0 1]\n", 1),
+        (b"6d 2 [0 1][0 0 0 0 0 0][1 0 0 0 1 0 0 0 1]\n", 1),
+        (b"6d 1 [0 1][0 0 0 0 0][1 0 0 0 1 0 0 0 1]\n", 1),
+        (b"6d 1 [0 1][0 0 NaN 0 0 0][1 0 0 0 1 0 0 0 1]\n", 1),
+        (b"6d 1 [0 1][0 0 0 0 0 0][1 0 0 0 1 0 0 0 1\n", 1),
+        (b"6d 1 [0 1][0 0 0 0 0 0][1 0 0 0 1 0 0 0 1][9 9]\n", 1),
+        (b"fr 2\n6d 1 [-1 1][0 0 0 0 0 0][1 0 0 0 1 0 0 0 1]\n", 2),
+    ];
+    for (datagram, line) in bad {
+        let e = DTrackFrame::parse(datagram).unwrap_err();
+        eprintln!("{e}");
+        assert!(
+            matches!(e, DTrackError::Line { line: l, .. } if l == line),
+            "{e}"
+        );
+    }
+    assert_eq!(
+        DTrackFrame::parse(&[0xff, 0xfe]).unwrap_err(),
+        DTrackError::NotText
+    );
+    // Every prefix of the good datagram, and bytes at random: no panic.
+    for n in 0..good.len() {
+        let _ = DTrackFrame::parse(&good[..n]);
+    }
+    let mut x = 0x2545F4914F6CDD1Du64;
+    for _ in 0..2000 {
+        let mut bytes = good.to_vec();
+        for _ in 0..4 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let i = (x % bytes.len() as u64) as usize;
+            bytes[i] = b"[] 0123456789.-e\n6dfrNaN"[(x >> 32) as usize % 24];
+        }
+        let _ = DTrackFrame::parse(&bytes);
+    }
+}
+
+/// A DTrack stream on the loopback drives the head: the body's position
+/// (mm) and rotation through the calibration (the default turns DTrack's
+/// Z-up room Y-up); a malformed datagram is counted and changes nothing; a
+/// frame without the body reports the head lost.
+#[test]
+fn a_dtrack_stream_on_the_loopback_drives_the_head() {
+    use optica_foveated_lod::dtrack::{DTrackSettings, DTrackStats};
+    use std::net::UdpSocket;
+    let mut app = cpu_app();
+    app.insert_resource(HeadSource::DTrack(DTrackSettings {
+        bind: "127.0.0.1:0".parse().unwrap(),
+        body: 2,
+        ..default()
+    }));
+    app.update();
+    let addr = app
+        .world()
+        .resource::<DTrackStats>()
+        .local_addr
+        .expect("bound");
+    let sender = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let send_until = |app: &mut App, datagram: &str, done: &dyn Fn(&App) -> bool| {
+        sender.send_to(datagram.as_bytes(), addr).unwrap();
+        for _ in 0..200 {
+            app.update();
+            if done(app) {
+                return;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+        panic!("the datagram never arrived: {datagram}");
+    };
+    // Body 2 at (1, 2, 1.5) m in the room, turned 90° about the room's Z
+    // (up): in the scene, at (1, 1.5, −2), turned 90° about +Y.
+    let frame = "fr 7\nts 12.5\n6d 2 [0 1.000][0 0 0 0 0 0][1 0 0 0 1 0 0 0 1] \
+                 [2 0.900][1000 2000 1500 0 0 90][0 1 0 -1 0 0 0 0 1]\n";
+    send_until(&mut app, frame, &|app| {
+        app.world().resource::<DTrackStats>().frames >= 1
+    });
+    let head = app.world().resource::<TrackedHead>().clone();
+    eprintln!("{head:?}");
+    assert!(head.valid);
+    assert!(
+        head.centre().distance(Vec3::new(1.0, 1.5, -2.0)) < 1e-5,
+        "{head:?}"
+    );
+    assert_eq!(head.timestamp_s, 12.5);
+    let expected = Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2)
+        * Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+    assert!(
+        head.orientation.dot(expected).abs() > 1.0 - 1e-6,
+        "{expected:?}"
+    );
+    send_until(&mut app, "6d 1 [2 1][1 2 3][oops]\n", &|app| {
+        app.world().resource::<DTrackStats>().malformed >= 1
+    });
+    assert_eq!(*app.world().resource::<TrackedHead>(), head);
+    send_until(
+        &mut app,
+        "fr 8\n6d 1 [0 1.000][0 0 0 0 0 0][1 0 0 0 1 0 0 0 1]\n",
+        &|app| app.world().resource::<DTrackStats>().missing_body >= 1,
+    );
+    assert!(!app.world().resource::<TrackedHead>().valid);
+}

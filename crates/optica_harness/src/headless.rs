@@ -321,7 +321,7 @@ impl Headless {
             image: handle.clone(),
             hdr: self.hdr,
         });
-        app.add_systems(PreUpdate, retarget_cameras)
+        app.add_systems(PreUpdate, hdr_cameras)
             .add_observer(retarget_on_insert);
         setup(&mut app);
         finish(&mut app)?;
@@ -430,17 +430,13 @@ fn retarget_on_insert(
     }
 }
 
-fn retarget_cameras(
+/// In an HDR run, gives every camera an HDR target and no tonemapping
+/// (their image target is set by [`retarget_on_insert`]).
+fn hdr_cameras(
     target: Res<HarnessTarget>,
-    mut cameras: Query<&mut RenderTarget, With<Camera>>,
     ldr_cameras: Query<Entity, (With<Camera>, Without<bevy::camera::Hdr>)>,
     mut commands: Commands,
 ) {
-    for mut render_target in &mut cameras {
-        if matches!(*render_target, RenderTarget::Window(_)) {
-            *render_target = RenderTarget::Image(target.image.clone().into());
-        }
-    }
     if target.hdr {
         for entity in &ldr_cameras {
             // Linear output: HDR intermediate and no tonemapping curve.

@@ -93,13 +93,10 @@ fn fps_row(series: &str, width: u32, timed: &FrameTimings, baseline_ms: f64, goa
 }
 
 fn flare(ctx: &SweepContext) -> Result<Row, SweepError> {
-    use lens_flare_render::{DEFAULT_GRID, Setup, scene, zoom};
+    use lens_flare_render::{scene, zoom_setup};
     let (w, h) = (size(ctx, 1280), size(ctx, 720));
     let (warm, timed) = frames(ctx);
-    let setup = Setup {
-        lens: zoom()?,
-        ..Setup::double_gauss(DEFAULT_GRID, 528)
-    };
+    let setup = zoom_setup()?;
     let plain = ctx
         .headless(w, h)
         .hdr(true)
@@ -108,7 +105,9 @@ fn flare(ctx: &SweepContext) -> Result<Row, SweepError> {
         ctx.headless(w, h)
             .hdr(true)
             .time_frames(warm, timed, scene(Some(setup), true, None))?;
-    let pass = with.pass("optica/lens_flare").map_or(f64::NAN, |p| p.ms.median);
+    let pass = with
+        .pass("optica/lens_flare")
+        .map_or(f64::NAN, |p| p.ms.median);
     let goal = 0.25;
     Ok(
         Row::new(w as f64, with.frame_ms.median, plain.frame_ms.median)

@@ -63,7 +63,7 @@ const LUX: f32 = 100_000.0;
 
 /// `LensFlare::grid`'s default: the mean rays per side of the default
 /// grids, shared among the ghosts by power.
-pub(super) const DEFAULT_GRID: u32 = 16;
+const DEFAULT_GRID: u32 = 16;
 
 /// The sun's direction of travel in view space: 10° off axis, up and right.
 fn travel() -> Vec3 {
@@ -74,30 +74,30 @@ fn travel() -> Vec3 {
 /// How the flare is set up in one render.
 #[derive(Clone)]
 pub(super) struct Setup {
-    pub(super) lens: LensPrescription,
-    pub(super) grid: u32,
-    pub(super) budget: u32,
-    pub(super) adaptive: bool,
-    pub(super) symmetry: bool,
+    lens: LensPrescription,
+    grid: u32,
+    budget: u32,
+    adaptive: bool,
+    symmetry: bool,
     /// Starburst and ringing on (their defaults); off for the rows held to
     /// the CPU reference, which has neither.
-    pub(super) diffraction: bool,
-    pub(super) wavelengths: u32,
+    diffraction: bool,
+    wavelengths: u32,
     /// `LensFlare::merge_wavelengths_px`.
-    pub(super) merge_px: f32,
+    merge_px: f32,
     /// `LensFlare::coarse_ghost_px`.
-    pub(super) coarse_px: Option<f32>,
+    coarse_px: Option<f32>,
     /// The resolution the ghosts are added up at.
-    pub(super) resolution: GhostResolution,
+    resolution: GhostResolution,
     /// The timed camera turns a little every frame (its rays are traced
     /// again each frame; a still camera's are traced once).
-    pub(super) turning: bool,
+    turning: bool,
 }
 
 impl Setup {
     /// The coated double Gauss, `grid`, the plugin's speed-ups on, no
     /// diffraction textures.
-    pub(super) fn double_gauss(grid: u32, budget: u32) -> Self {
+    fn double_gauss(grid: u32, budget: u32) -> Self {
         Self {
             // The compiled-in copy of assets/lenses/double-gauss-us2701982.lens:
             // the runner needs no asset folder wherever it runs.
@@ -118,12 +118,21 @@ impl Setup {
 
 /// The 33-interface zoom (assets/lenses/zoom-canon-us5537259.lens), as
 /// `optica_optics` compiles it in.
-pub(super) fn zoom() -> Result<LensPrescription, SweepError> {
+fn zoom() -> Result<LensPrescription, SweepError> {
     let (_, text) = optica_optics::lens::ALL_LENS_FILES
         .iter()
         .find(|(name, _)| name.starts_with("zoom-canon"))
         .ok_or_else(|| SweepError::Setup("no zoom among the shipped lenses".into()))?;
     LensPrescription::parse(text).map_err(|e| SweepError::Setup(e.to_string()))
+}
+
+/// The zoom with every one of its 528 ghosts allowed, the default grid
+/// (16² on average) and the double Gauss rows' other settings.
+pub(super) fn zoom_setup() -> Result<Setup, SweepError> {
+    Ok(Setup {
+        lens: zoom()?,
+        ..Setup::double_gauss(DEFAULT_GRID, 528)
+    })
 }
 
 /// A camera at the origin looking along −Z, the sun and, with `lit`, a
@@ -743,10 +752,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
 fn zoom_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
     ctx.progress(1, 1, "zoom, every unblocked ghost, 16² on average");
     let (w, h) = (1280, 720);
-    let zoom_setup = Setup {
-        lens: zoom()?,
-        ..Setup::double_gauss(DEFAULT_GRID, 528)
-    };
+    let zoom_setup = zoom_setup()?;
     let plain_wide = ctx
         .headless(w, h)
         .hdr(true)

@@ -105,7 +105,7 @@ fn parse_args() -> Result<Args, String> {
             }
             "--out" => out = Some(value()?),
             "--export" => export_dir = Some(value()?),
-            "--frames" => frames = Some(parse_frame_range(&value()?)?),
+            "--frames" => frames = Some(parse_frame_range(&value()?).map_err(|e| e.to_string())?),
             "--size" => {
                 let v = value()?;
                 size = v
@@ -116,14 +116,14 @@ fn parse_args() -> Result<Args, String> {
             _ => return Err(format!("unknown argument {a}")),
         }
     }
-    dome.validate()?;
+    dome.validate().map_err(|e| e.to_string())?;
     let export = match export_dir {
         Some(dir) => {
             if !(16..=MAX_EXPORT_PX).contains(&size) {
                 return Err(format!("--size {size} is outside 16..={MAX_EXPORT_PX}"));
             }
             let export = DomeExport::new(dir, frames.unwrap_or(0..1), fps);
-            export.validate()?;
+            export.validate().map_err(|e| e.to_string())?;
             Some((export, size))
         }
         None if frames.is_some() => return Err("--frames needs --export DIR".into()),

@@ -319,7 +319,7 @@ pub fn panel(
                 .text("tolerance (px)"),
         );
         if let Err(e) = edit.validate() {
-            ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e);
+            ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
         }
         if edit.mode == DomeMode::Vertex {
             ui.label(format!(

@@ -272,7 +272,7 @@ pub fn panel(
             );
         }
         if let Err(e) = edit.validate() {
-            ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e);
+            ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
         }
         if let Some(g) = ghosts {
             ui.label(format!(
@@ -282,7 +282,7 @@ pub fn panel(
                 g.rays_per_light()
             ));
             if let Some(p) = &g.problem {
-                ui.colored_label(egui::Color32::from_rgb(230, 120, 60), p);
+                ui.colored_label(egui::Color32::from_rgb(230, 120, 60), p.to_string());
             }
         }
         // The flare's passes on the GPU (where the adapter has timestamp

@@ -17,7 +17,9 @@ use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured, save_to_dis
 use bevy::render::{Render, RenderApp, RenderSystems};
 use bevy::shader::ShaderCacheError;
 
-use crate::DomeCamera;
+use optica_optics::input;
+
+use crate::{DomeCamera, Error};
 
 /// The show's clock: the frame being rendered and the frame rate. Animate
 /// from [`DomeShowClock::seconds`] (not from `Time`) and every frame of an
@@ -93,25 +95,26 @@ impl DomeExport {
     }
 
     /// Checks the range, the rate and the folder (creating it).
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), Error> {
         if self.frames.is_empty() {
-            return Err(format!("empty frame range {:?}", self.frames));
+            return Err(Error::EmptyFrames(self.frames.clone()));
         }
-        if !(self.fps > 0.0 && self.fps.is_finite()) {
-            return Err(format!("frame rate {} is not positive", self.fps));
-        }
-        std::fs::create_dir_all(&self.dir)
-            .map_err(|e| format!("cannot create {}: {e}", self.dir.display()))
+        input::positive("frame rate (1/s)", f64::from(self.fps))?;
+        std::fs::create_dir_all(&self.dir).map_err(|e| Error::CreateDir {
+            dir: self.dir.clone(),
+            message: e.to_string(),
+        })
     }
 }
 
 /// Parses a frame range as a farm manager writes it: `A..B` (B excluded),
 /// `A..=B` or a single frame `A`.
-pub fn parse_frame_range(text: &str) -> Result<Range<u32>, String> {
+pub fn parse_frame_range(text: &str) -> Result<Range<u32>, Error> {
     let number = |s: &str| {
-        s.trim()
-            .parse::<u32>()
-            .map_err(|_| format!("`{s}` in frame range `{text}` is not a frame number"))
+        s.trim().parse::<u32>().map_err(|_| Error::FrameNumber {
+            part: s.to_string(),
+            text: text.to_string(),
+        })
     };
     let range = if let Some((a, b)) = text.split_once("..=") {
         number(a)?..number(b)?.saturating_add(1)
@@ -122,7 +125,7 @@ pub fn parse_frame_range(text: &str) -> Result<Range<u32>, String> {
         a..a.saturating_add(1)
     };
     if range.is_empty() {
-        return Err(format!("frame range `{text}` is empty"));
+        return Err(Error::EmptyFrames(range));
     }
     Ok(range)
 }

@@ -155,6 +155,7 @@ use bevy::prelude::*;
 use bevy::shader::load_shader_library;
 
 mod cube;
+mod error;
 mod export;
 pub mod lines;
 mod mask;
@@ -167,20 +168,22 @@ mod twin_mesh;
 pub use cube::{CubeLayout, DomeCubeFace, DomeCubeFaces, FIVE_FACE_MAX_FOV_DEG, guarded_tan_half};
 pub use export::{DomeExport, DomeExportPlugin, DomeShowClock, parse_frame_range};
 
-/// The export's inner state, for the render tests that drive its wait for
-/// pipelines (the plugin crates' own unit tests do not run: Bevy links once,
-/// in the umbrella's test binary). Not for users.
+/// Inner parts for the render tests (the plugin crates' own unit tests do
+/// not run: Bevy links once, in the umbrella's test binary): the export's
+/// wait for pipelines and the vertex shader patch. Not for users.
 #[doc(hidden)]
-pub mod export_hooks {
+pub mod hooks {
     pub use crate::export::{ExportState, MAX_PIPELINE_WAIT_UPDATES, PendingPipelines};
+    pub use crate::shader_hook::patched;
 }
+pub use error::Error;
 pub use mask::DomeRimMask;
 pub use projection::DomeClip;
 pub use refine::{
     DOME_LAYER, DomeApparentSize, DomeLayer, DomeMaterialPlugin, DomeRefineStats, DomeSees,
     DomeTwin, DomeTwinOf, DomeTwins,
 };
-pub use settings::{DomeCamera, DomeLens, DomeMode, FACE_PX_RANGE, MAX_FOV_DEG};
+pub use settings::{DomeCamera, DomeLens, DomeMode, DomeStatus, FACE_PX_RANGE, MAX_FOV_DEG};
 pub use twin_mesh::{
     Twin, TwinJob, pre_subdivide_mesh_asset, refine_mesh_asset, twin_of_mesh, twins_of_meshes,
 };
@@ -198,6 +201,7 @@ impl Plugin for DomePlugin {
         app.add_plugins(FullscreenMaterialPlugin::<DomeRimMask>::default())
             .add_plugins(cube::CubeResamplePlugin)
             .register_type::<DomeCamera>()
+            .register_type::<DomeStatus>()
             .register_type::<DomeMode>()
             .register_type::<DomeLens>()
             .register_type::<DomeApparentSize>()
@@ -230,8 +234,11 @@ impl Plugin for DomePlugin {
             )
             .add_systems(
                 Update,
-                shader_hook::patch_view_transformations
-                    .run_if(shader_hook::patch_pending)
+                (
+                    shader_hook::patch_view_transformations.run_if(shader_hook::patch_pending),
+                    shader_hook::report_patch,
+                )
+                    .chain()
                     .run_if(any_with_component::<DomeCamera>),
             );
     }
@@ -247,7 +254,7 @@ impl Plugin for DomePlugin {
 #[allow(clippy::type_complexity)]
 fn sync_projection(
     mut commands: Commands,
-    cameras: Query<
+    mut cameras: Query<
         (
             Entity,
             &DomeCamera,
@@ -255,13 +262,14 @@ fn sync_projection(
             Option<&DomeSees>,
             Option<&DomeLayer>,
             Option<&RenderLayers>,
+            &mut DomeStatus,
         ),
         Changed<DomeCamera>,
     >,
     taken: Query<(Entity, &DomeLayer)>,
 ) {
     let mut used: Vec<usize> = taken.iter().map(|(_, l)| l.0).collect();
-    for (entity, dome, has_mask, sees, layer, layers) in &cameras {
+    for (entity, dome, has_mask, sees, layer, layers, mut status) in &mut cameras {
         // The panorama fills its target: nothing to mask.
         if dome.lens == DomeLens::Equirectangular {
             commands.entity(entity).remove::<DomeRimMask>();
@@ -273,7 +281,9 @@ fn sync_projection(
                 .entity(entity)
                 .insert(DomeSees(layers.cloned().unwrap_or_default()));
         }
-        if let Err(why) = dome.validate() {
+        // (A patch failure is put back by `shader_hook::report_patch`.)
+        status.error = dome.validate().err();
+        if let Some(why) = &status.error {
             warn!("optica_dome: {why}; the camera keeps its last projection");
             continue;
         }

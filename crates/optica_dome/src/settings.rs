@@ -1,6 +1,9 @@
 //! The user-facing dome camera component.
 
 use bevy::prelude::*;
+use optica_optics::input;
+
+use crate::Error;
 use optica_optics::dome::{
     DomeError, DomeProjection, DomeSettings, EquirectProjection, EquirectSettings, FisheyeLens,
     Panorama,
@@ -33,7 +36,7 @@ use optica_optics::dome::{
 /// ```
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Component, Default)]
-#[require(Camera3d)]
+#[require(Camera3d, DomeStatus)]
 pub struct DomeCamera {
     /// Full field of view in degrees: 180 is the standard dome, 210–250 are
     /// wide fisheyes. Valid: `(0, 350]`. Not used by
@@ -227,54 +230,72 @@ impl DomeCamera {
         Ok(Panorama::Fisheye(self.projection_of_target(width, height)?))
     }
 
-    /// Checks every number; the first one that is wrong, in words.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Checks every number and the lens against the field of view; the
+    /// first refusal, naming what was wrong.
+    pub fn validate(&self) -> Result<(), Error> {
         self.validate_numbers()?;
         // The lens against the field of view (an orthographic lens beyond
         // 180°, a polynomial that folds back): the CPU twin's own checks.
         self.panorama(256, 256)
             .map(|_| ())
-            .map_err(|why| format!("dome {} lens: {why}", self.lens.name()))
+            .map_err(|source| Error::Lens {
+                lens: self.lens.name(),
+                source,
+            })
     }
 
     /// [`Self::validate`] but for the lens, which building the CPU twin
     /// ([`Self::panorama`]) checks: for callers that build it anyway, so
     /// that it is not built twice a frame.
-    pub(crate) fn validate_numbers(&self) -> Result<(), String> {
+    pub(crate) fn validate_numbers(&self) -> Result<(), Error> {
         let fisheye = self.lens != DomeLens::Equirectangular;
-        if fisheye && !(self.fov_deg > 0.0 && self.fov_deg <= MAX_FOV_DEG) {
-            return Err(format!(
-                "dome field of view {} deg is outside (0, {MAX_FOV_DEG}]",
-                self.fov_deg
-            ));
+        if fisheye {
+            // (0, MAX]: zero is no view at all.
+            input::positive("field of view (deg)", f64::from(self.fov_deg))?;
+            input::in_range(
+                "field of view (deg)",
+                f64::from(self.fov_deg),
+                0.0,
+                f64::from(MAX_FOV_DEG),
+            )?;
         }
-        if !self.tilt_deg.is_finite() {
-            return Err(format!("dome tilt {} deg is not finite", self.tilt_deg));
+        input::finite("tilt (deg)", f64::from(self.tilt_deg))?;
+        input::positive("tolerance (px)", f64::from(self.tolerance_px))?;
+        input::positive("near distance", f64::from(self.near))?;
+        input::finite("far distance", f64::from(self.far))?;
+        if self.far <= self.near {
+            return Err(Error::FarNotBeyondNear {
+                far: self.far,
+                near: self.near,
+            });
         }
-        if !(self.tolerance_px > 0.0 && self.tolerance_px.is_finite()) {
-            return Err(format!(
-                "dome tolerance {} px is not positive",
-                self.tolerance_px
-            ));
-        }
-        if !(self.near > 0.0 && self.near.is_finite()) {
-            return Err(format!("dome near distance {} is not positive", self.near));
-        }
-        if !(self.far > self.near && self.far.is_finite()) {
-            return Err(format!(
-                "dome far distance {} is not beyond near ({})",
-                self.far, self.near
-            ));
-        }
-        if let DomeMode::CubeMap { face_px } = self.mode
-            && !FACE_PX_RANGE.contains(&face_px)
-        {
-            return Err(format!(
-                "dome cube face size {face_px} px is outside {}..={}",
-                FACE_PX_RANGE.start(),
-                FACE_PX_RANGE.end()
-            ));
+        if let DomeMode::CubeMap { face_px } = self.mode {
+            input::in_range(
+                "cube face size (px)",
+                f64::from(face_px),
+                f64::from(*FACE_PX_RANGE.start()),
+                f64::from(*FACE_PX_RANGE.end()),
+            )?;
         }
         Ok(())
     }
+}
+
+/// What the plugin made of a [`DomeCamera`]: whether the vertex mode's
+/// projection is in Bevy's view shader, and the last refusal. Added with
+/// every dome camera and kept up to date by the plugin.
+#[derive(Component, Reflect, Clone, Debug, Default, PartialEq)]
+#[reflect(Component, Default)]
+pub struct DomeStatus {
+    /// Whether the dome's branch is in Bevy's `view_transformations`
+    /// shader, which every mesh's vertex shader goes through in the vertex
+    /// mode: `None` until Bevy's shader has loaded, then `Some(true)`, or
+    /// `Some(false)` when its text was not what this version patches (the
+    /// vertex mode then draws a plain perspective; [`Self::error`] says
+    /// so). The cube mode does not need it.
+    pub vertex_projection: Option<bool>,
+    /// Why the camera is not drawn as set: refused settings (it keeps its
+    /// last good projection) or, in the vertex mode, the failed patch.
+    #[reflect(ignore)]
+    pub error: Option<Error>,
 }

@@ -11,7 +11,7 @@ use optica_optics::lens_flare::{
     Aperture, LensDirt, pupil_image, ringing, spectral_weight, starburst,
 };
 
-use crate::LensFlare;
+use crate::{Error, LensFlare};
 
 /// The wavelengths of the ringing texture's R, G and B, nm.
 pub const RINGING_NM: [f64; 3] = [650.0, 550.0, 450.0];
@@ -40,7 +40,7 @@ fn float_image(side: usize, rgb: impl Iterator<Item = [f32; 3]>) -> Image {
 pub(crate) fn starburst_image(
     flare: &LensFlare,
     aperture: &Aperture,
-) -> Result<Option<Image>, String> {
+) -> Result<Option<Image>, Error> {
     let Some(settings) = flare.starburst else {
         return Ok(None);
     };
@@ -50,14 +50,14 @@ pub(crate) fn starburst_image(
         scratches: settings.scratches,
         seed: settings.seed,
     };
-    let pupil = pupil_image(aperture, side, &dirt).map_err(|e| e.to_string())?;
+    let pupil = pupil_image(aperture, side, &dirt)?;
     let wavelengths = flare.wavelengths_nm();
     let samples: Vec<(f64, [f64; 3])> = wavelengths
         .iter()
         .map(|&wl| (wl, spectral_weight(wl, &wavelengths).to_array()))
         .collect();
     let shortest = wavelengths.iter().copied().fold(f64::INFINITY, f64::min);
-    let burst = starburst(&pupil, &samples, shortest).map_err(|e| e.to_string())?;
+    let burst = starburst(&pupil, &samples, shortest)?;
     Ok(Some(float_image(side, burst.rgb.into_iter())))
 }
 
@@ -66,17 +66,16 @@ pub(crate) fn starburst_image(
 pub(crate) fn ringing_image(
     flare: &LensFlare,
     aperture: &Aperture,
-) -> Result<Option<Image>, String> {
+) -> Result<Option<Image>, Error> {
     let Some(settings) = flare.ringing else {
         return Ok(None);
     };
     let side = settings.resolution as usize;
-    let pupil = pupil_image(aperture, side, &LensDirt::default()).map_err(|e| e.to_string())?;
+    let pupil = pupil_image(aperture, side, &LensDirt::default())?;
     let channels: Vec<Vec<f64>> = RINGING_NM
         .iter()
         .map(|&wl| ringing(&pupil, wl, f64::from(settings.fresnel_number) * 550.0 / wl))
-        .collect::<Result<_, _>>()
-        .map_err(|e| e.to_string())?;
+        .collect::<Result<_, _>>()?;
     let texels = (0..side * side).map(|k| {
         [
             channels[0][k] as f32,

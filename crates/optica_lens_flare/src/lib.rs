@@ -150,6 +150,7 @@ use bevy::shader::load_shader_library;
 mod asset;
 mod diffraction;
 mod draws;
+mod error;
 mod fit;
 mod frame;
 mod gpu_lens;
@@ -159,6 +160,7 @@ mod render;
 mod settings;
 
 pub use asset::{LensAsset, LensLoadError, LensLoader};
+pub use error::Error;
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate};
 pub use settings::{
     ApertureSettings, CoatingSettings, DEFAULT_COARSE_GHOST_PX, FlareOcclusion, FlareSource,

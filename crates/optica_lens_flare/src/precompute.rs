@@ -7,13 +7,13 @@
 use bevy::prelude::*;
 use optica_optics::lens::{Coating, LensPrescription};
 use optica_optics::lens_flare::{
-    Aperture, EstimateOptions, coat_air_interfaces, estimate_ghosts, grid_sizes_by_power,
-    light_from_field, stopped_to_f_number,
+    Aperture, EstimateOptions, FlareError, coat_air_interfaces, estimate_ghosts,
+    grid_sizes_by_power, light_from_field, stopped_to_f_number,
 };
 
 use crate::diffraction::{ringing_image, starburst_image};
 use crate::fit::MIN_SCREEN_GRID;
-use crate::{LensAsset, LensFlare, MAX_GRID};
+use crate::{Error, LensAsset, LensFlare, MAX_GRID};
 
 /// Field angle of the light the ghosts are ranked for, degrees. The ranking
 /// is done once per lens and aperture, not per light; the order of the
@@ -71,7 +71,7 @@ pub struct FlareGhosts {
     pub ringing: Option<Handle<Image>>,
     /// Why no ghost could be chosen (the lens is not loaded, a setting is
     /// invalid, the estimate failed); the last good choice is kept.
-    pub problem: Option<String>,
+    pub problem: Option<Error>,
     built_for: Option<Key>,
 }
 
@@ -154,7 +154,7 @@ pub(crate) fn choose_ghosts(
             continue;
         }
         let result = match lenses.get(&flare.lens) {
-            None => Err("the lens is not loaded (yet)".to_string()),
+            None => Err(Error::LensNotLoaded),
             Some(asset) => flare.validate().and_then(|()| {
                 let (lens, aperture, choices) = choose(flare, &asset.0)?;
                 let burst = starburst_image(flare, &aperture)?;
@@ -223,15 +223,14 @@ fn size_grids(flare: &LensFlare, mut choices: Vec<GhostChoice>) -> Vec<GhostChoi
 pub fn choose(
     flare: &LensFlare,
     prescription: &LensPrescription,
-) -> Result<(LensPrescription, Aperture, Vec<GhostChoice>), String> {
+) -> Result<(LensPrescription, Aperture, Vec<GhostChoice>), Error> {
     let mut lens = prescription.clone();
     if let Some(c) = flare.coating {
-        let coating = Coating::quarter_wave(f64::from(c.index), f64::from(c.design_wavelength_nm))
-            .map_err(|e| e.to_string())?;
-        lens = coat_air_interfaces(&lens, coating).map_err(|e| e.to_string())?;
+        let coating = Coating::quarter_wave(f64::from(c.index), f64::from(c.design_wavelength_nm))?;
+        lens = coat_air_interfaces(&lens, coating).map_err(FlareError::from)?;
     }
     if let Some(f) = flare.aperture.f_number {
-        lens = stopped_to_f_number(&lens, f64::from(f)).map_err(|e| e.to_string())?;
+        lens = stopped_to_f_number(&lens, f64::from(f))?;
     }
     let radius = lens.stop_semi_aperture_mm();
     let a = &flare.aperture;
@@ -244,16 +243,14 @@ pub fn choose(
             f64::from(a.roundness),
             radius,
         )
-    }
-    .map_err(|e| e.to_string())?;
+    }?;
     let ranked = estimate_ghosts(
         &lens,
         light_from_field(RANKING_FIELD_DEG, 0.0),
         550.0,
         &aperture,
         &EstimateOptions::default(),
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
     let brightest = ranked.iter().map(|g| g.intensity).fold(0.0, f64::max);
     let most_power = ranked.iter().map(|g| g.power).fold(0.0, f64::max);
     let mut drawn = 0u32;

@@ -3,9 +3,10 @@
 
 use bevy::prelude::*;
 
+use optica_optics::input::{self, Expected, InvalidInput};
 use optica_optics::lens_flare::band_wavelengths;
 
-use crate::LensAsset;
+use crate::{Error, LensAsset};
 
 /// Most rays per side of a ghost's grid.
 pub const MAX_GRID: u32 = 512;
@@ -181,40 +182,20 @@ impl LensFlare {
         }
     }
 
-    /// Checks every number; the first one that is wrong, in words.
-    pub fn validate(&self) -> Result<(), String> {
-        if !(2..=MAX_GRID).contains(&self.grid) {
-            return Err(format!(
-                "flare grid {} is outside 2..={MAX_GRID}",
-                self.grid
-            ));
+    /// Checks every number; the first one that is wrong, as an
+    /// [`Error`] naming it.
+    pub fn validate(&self) -> Result<(), Error> {
+        count("flare grid", self.grid, 2, MAX_GRID)?;
+        count("flare wavelengths", self.wavelengths, 1, MAX_WAVELENGTHS)?;
+        input::non_negative("flare intensity", f64::from(self.intensity))?;
+        input::non_negative(
+            "flare merge_wavelengths_px",
+            f64::from(self.merge_wavelengths_px),
+        )?;
+        if let Some(px) = self.coarse_ghost_px {
+            input::non_negative("flare coarse_ghost_px", f64::from(px))?;
         }
-        if !(1..=MAX_WAVELENGTHS).contains(&self.wavelengths) {
-            return Err(format!(
-                "flare wavelengths {} is outside 1..={MAX_WAVELENGTHS}",
-                self.wavelengths
-            ));
-        }
-        if !(self.intensity >= 0.0 && self.intensity.is_finite()) {
-            return Err(format!("flare intensity {} is not >= 0", self.intensity));
-        }
-        if !(self.merge_wavelengths_px >= 0.0 && self.merge_wavelengths_px.is_finite()) {
-            return Err(format!(
-                "flare merge_wavelengths_px {} is not >= 0",
-                self.merge_wavelengths_px
-            ));
-        }
-        if let Some(px) = self.coarse_ghost_px
-            && !(px >= 0.0 && px.is_finite())
-        {
-            return Err(format!("flare coarse_ghost_px {px} is not >= 0"));
-        }
-        if !(0.0..=1.0).contains(&self.min_relative) {
-            return Err(format!(
-                "flare min_relative {} is outside [0, 1]",
-                self.min_relative
-            ));
-        }
+        input::in_range("flare min_relative", f64::from(self.min_relative), 0.0, 1.0)?;
         self.aperture.validate()?;
         if let Some(c) = &self.coating {
             c.validate()?;
@@ -265,29 +246,14 @@ impl Default for ApertureSettings {
 }
 
 impl ApertureSettings {
-    fn validate(&self) -> Result<(), String> {
+    fn validate(&self) -> Result<(), Error> {
         if self.blades != 0 && !(3..=32).contains(&self.blades) {
-            return Err(format!(
-                "aperture blades {} is neither 0 nor in 3..=32",
-                self.blades
-            ));
+            return Err(Error::Blades(self.blades));
         }
-        if !self.rotation_deg.is_finite() {
-            return Err(format!(
-                "aperture rotation {} is not finite",
-                self.rotation_deg
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.roundness) {
-            return Err(format!(
-                "aperture roundness {} is outside [0, 1]",
-                self.roundness
-            ));
-        }
-        if let Some(f) = self.f_number
-            && !(f > 0.0 && f.is_finite())
-        {
-            return Err(format!("f-number {f} is not positive"));
+        input::finite("aperture rotation (deg)", f64::from(self.rotation_deg))?;
+        input::in_range("aperture roundness", f64::from(self.roundness), 0.0, 1.0)?;
+        if let Some(f) = self.f_number {
+            input::positive("f-number", f64::from(f))?;
         }
         Ok(())
     }
@@ -346,25 +312,17 @@ impl Default for FlareOcclusion {
 }
 
 impl FlareOcclusion {
-    fn validate(&self) -> Result<(), String> {
-        if !(0.0..=0.25).contains(&self.radius) {
-            return Err(format!(
-                "occlusion radius {} is outside [0, 0.25]",
-                self.radius
-            ));
-        }
+    fn validate(&self) -> Result<(), Error> {
+        input::in_range("occlusion radius", f64::from(self.radius), 0.0, 0.25)?;
+        // History 1 would never let the visibility change.
         if !(0.0..1.0).contains(&self.history) {
-            return Err(format!(
-                "occlusion history {} is outside [0, 1)",
-                self.history
-            ));
+            return Err(Error::Setting(InvalidInput::new(
+                "occlusion history (below 1)",
+                f64::from(self.history),
+                Expected::Range { min: 0.0, max: 1.0 },
+            )));
         }
-        if !(self.light_radius >= 0.0 && self.light_radius.is_finite()) {
-            return Err(format!(
-                "occlusion light radius {} is not >= 0",
-                self.light_radius
-            ));
-        }
+        input::non_negative("occlusion light radius", f64::from(self.light_radius))?;
         Ok(())
     }
 }
@@ -372,13 +330,16 @@ impl FlareOcclusion {
 /// Texture sides of the diffraction textures.
 const DIFFRACTION_SIDES: std::ops::RangeInclusive<u32> = 32..=1024;
 
-fn check_side(what: &str, side: u32) -> Result<(), String> {
+fn check_side(what: &'static str, side: u32) -> Result<(), Error> {
     if !DIFFRACTION_SIDES.contains(&side) || !side.is_multiple_of(2) {
-        return Err(format!(
-            "{what} resolution {side} is not an even number in 32..=1024"
-        ));
+        return Err(Error::Resolution { what, side });
     }
     Ok(())
+}
+
+/// `n` if it is in `min..=max`.
+fn count(what: &'static str, n: u32, min: u32, max: u32) -> Result<(), InvalidInput> {
+    input::in_range(what, f64::from(n), f64::from(min), f64::from(max)).map(|_| ())
 }
 
 /// The starburst: the Fraunhofer diffraction pattern of the iris (with the
@@ -430,21 +391,15 @@ impl Default for StarburstSettings {
 }
 
 impl StarburstSettings {
-    fn validate(&self) -> Result<(), String> {
-        if !(self.size > 0.0 && self.size <= 2.0) {
-            return Err(format!("starburst size {} is outside (0, 2]", self.size));
-        }
-        if !(self.intensity >= 0.0 && self.intensity.is_finite()) {
-            return Err(format!(
-                "starburst intensity {} is not >= 0",
-                self.intensity
-            ));
-        }
+    fn validate(&self) -> Result<(), Error> {
+        input::positive("starburst size", f64::from(self.size))?;
+        input::in_range("starburst size", f64::from(self.size), 0.0, 2.0)?;
+        input::non_negative("starburst intensity", f64::from(self.intensity))?;
         if self.specks > 10_000 || self.scratches > 1_000 {
-            return Err(format!(
-                "starburst dirt of {} specks and {} scratches is more than 10000 and 1000",
-                self.specks, self.scratches
-            ));
+            return Err(Error::Dirt {
+                specks: self.specks,
+                scratches: self.scratches,
+            });
         }
         check_side("starburst", self.resolution)
     }
@@ -479,13 +434,13 @@ impl Default for RingingSettings {
 }
 
 impl RingingSettings {
-    fn validate(&self) -> Result<(), String> {
-        if !(0.5..=10_000.0).contains(&self.fresnel_number) {
-            return Err(format!(
-                "ringing Fresnel number {} is outside 0.5..=10000",
-                self.fresnel_number
-            ));
-        }
+    fn validate(&self) -> Result<(), Error> {
+        input::in_range(
+            "ringing Fresnel number",
+            f64::from(self.fresnel_number),
+            0.5,
+            10_000.0,
+        )?;
         check_side("ringing", self.resolution)
     }
 }
@@ -511,16 +466,12 @@ impl Default for CoatingSettings {
 }
 
 impl CoatingSettings {
-    fn validate(&self) -> Result<(), String> {
-        if !(self.index >= 1.0 && self.index <= 3.0) {
-            return Err(format!("coating index {} is outside [1, 3]", self.index));
-        }
-        if !(self.design_wavelength_nm > 0.0 && self.design_wavelength_nm.is_finite()) {
-            return Err(format!(
-                "coating design wavelength {} nm is not positive",
-                self.design_wavelength_nm
-            ));
-        }
+    fn validate(&self) -> Result<(), Error> {
+        input::in_range("coating index", f64::from(self.index), 1.0, 3.0)?;
+        input::positive(
+            "coating design wavelength (nm)",
+            f64::from(self.design_wavelength_nm),
+        )?;
         Ok(())
     }
 }

@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 
 use bevy::prelude::*;
 use optica_dome::lines::Graticule;
-use optica_dome::{DomeCamera, DomeExport, DomeExportPlugin, DomeShowClock, parse_frame_range};
+use optica_dome::{
+    DomeCamera, DomeExport, DomeExportPlugin, DomeShowClock, Error, parse_frame_range,
+};
 use optica_harness::Headless;
 
 use super::scene::room_seen_by;
@@ -114,13 +116,25 @@ fn frame_ranges_parse_as_farm_managers_write_them() {
     assert_eq!(parse_frame_range("0..240"), Ok(0..240));
     assert_eq!(parse_frame_range("10..=19"), Ok(10..20));
     assert_eq!(parse_frame_range("7"), Ok(7..8));
-    assert!(parse_frame_range("5..5").is_err());
-    assert!(parse_frame_range("a..3").is_err());
-    assert!(parse_frame_range("-1..3").is_err());
+    assert_eq!(parse_frame_range("5..5"), Err(Error::EmptyFrames(5..5)));
+    assert_eq!(
+        parse_frame_range("a..3"),
+        Err(Error::FrameNumber {
+            part: "a".into(),
+            text: "a..3".into()
+        })
+    );
     assert!(
-        DomeExport::new(std::env::temp_dir(), 0..1, 0.0)
-            .validate()
-            .is_err()
+        matches!(parse_frame_range("-1..3"), Err(Error::FrameNumber { part, .. }) if part == "-1")
+    );
+    let refused = DomeExport::new(std::env::temp_dir(), 0..1, 0.0).validate();
+    assert!(
+        matches!(&refused, Err(Error::Setting(e)) if e.what == "frame rate (1/s)" && e.value == 0.0),
+        "{refused:?}"
+    );
+    assert_eq!(
+        DomeExport::new(std::env::temp_dir(), 3..3, 24.0).validate(),
+        Err(Error::EmptyFrames(3..3))
     );
 }
 
@@ -135,7 +149,7 @@ fn export_app(dir: &str) -> App {
 /// pipeline, then warms up, then captures.
 #[test]
 fn the_first_capture_waits_until_every_pipeline_is_made() {
-    use optica_dome::export_hooks::{ExportState, PendingPipelines};
+    use optica_dome::hooks::{ExportState, PendingPipelines};
     use std::sync::atomic::Ordering;
     let mut app = export_app("wait");
     let pending = app.world().resource::<PendingPipelines>().clone();
@@ -155,7 +169,7 @@ fn the_first_capture_waits_until_every_pipeline_is_made() {
 /// A pipeline that never comes ends the job with an error exit.
 #[test]
 fn a_pipeline_that_never_comes_ends_the_job_with_an_error() {
-    use optica_dome::export_hooks::{MAX_PIPELINE_WAIT_UPDATES, PendingPipelines};
+    use optica_dome::hooks::{MAX_PIPELINE_WAIT_UPDATES, PendingPipelines};
     use std::sync::atomic::Ordering;
     let mut app = export_app("never");
     let pending = app.world().resource::<PendingPipelines>().clone();

@@ -8,7 +8,7 @@
 use bevy::asset::RenderAssetUsages;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
-use optica_dome::{DomeApparentSize, DomeCamera, DomePlugin};
+use optica_dome::{DomeApparentSize, DomeCamera, DomePlugin, DomeStatus, Error};
 use optica_harness::{Headless, RenderedFrame};
 
 use super::{dome_camera, flat};
@@ -257,7 +257,11 @@ fn the_cube_mode_on_the_stiff_scene() {
     let (below, n) = green_share(&tilted, 0.0..0.95, |_, y| y > half + 2);
     assert_eq!(above, 0.0, "ground above the horizon: {above}");
     assert!(n > 1000 && below > 0.98, "ground below: {below} of {n} px");
-    assert!(cube(180.0, 0.0, 4).validate().is_err());
+    let refused = cube(180.0, 0.0, 4).validate();
+    assert!(
+        matches!(&refused, Err(Error::Setting(e)) if e.what == "cube face size (px)" && e.value == 4.0),
+        "{refused:?}"
+    );
     // Refused: the camera keeps Bevy's projection, and nothing breaks.
     let refused = render(cube(180.0, 0.0, 4));
     green_share(&refused, 0.0..1.0, |_, _| true);
@@ -325,7 +329,10 @@ fn every_lens_on_the_stiff_scene() {
         },
     ] {
         let why = refused.validate().expect_err("refused");
-        assert!(why.contains("lens"), "{why}");
+        assert!(
+            matches!(&why, Error::Lens { lens, .. } if *lens == refused.lens.name()),
+            "{why:?}"
+        );
         green_share(&render(refused), 0.0..1.0, |_, _| true);
     }
 }
@@ -419,5 +426,79 @@ fn the_panorama_on_the_stiff_scene() {
     assert!(
         line_red > 20,
         "the line under the viewer is missing ({line_red} px)"
+    );
+}
+
+/// Each dome camera's [`DomeStatus`] says what became of it: a valid
+/// vertex-mode camera has Bevy's view shader patched and no error; a
+/// refused one names the refusal (and keeps drawing its last projection,
+/// here Bevy's own); a cube-mode camera needs no patch but is told it.
+#[test]
+fn the_status_says_whether_the_projection_took() {
+    use std::sync::{Arc, Mutex};
+    let seen = Arc::new(Mutex::new(Vec::<(String, DomeStatus)>::new()));
+    let log = seen.clone();
+    Headless::new(32, 32)
+        .render(move |app: &mut App| {
+            app.add_plugins(DomePlugin);
+            app.add_systems(Startup, |mut commands: Commands| {
+                let up = Transform::from_xyz(0.0, 1.6, 0.0).looking_to(Vec3::Y, Vec3::Z);
+                for (name, dome, order) in [
+                    ("valid", DomeCamera::default(), 0),
+                    (
+                        "refused",
+                        DomeCamera {
+                            near: -1.0,
+                            ..default()
+                        },
+                        1,
+                    ),
+                    (
+                        "cube",
+                        DomeCamera {
+                            mode: optica_dome::DomeMode::CubeMap { face_px: 32 },
+                            ..default()
+                        },
+                        2,
+                    ),
+                ] {
+                    commands
+                        .spawn((Name::new(name), dome_camera(dome, up)))
+                        .insert(Camera { order, ..default() });
+                }
+            });
+            app.add_systems(Last, move |cameras: Query<(&Name, &DomeStatus)>| {
+                *log.lock().expect("log") = cameras
+                    .iter()
+                    .map(|(n, s)| (n.to_string(), s.clone()))
+                    .collect();
+            });
+        })
+        .expect("render");
+    let seen = seen.lock().expect("log").clone();
+    let status = |name: &str| {
+        seen.iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, s)| s.clone())
+            .expect(name)
+    };
+    assert_eq!(
+        status("valid"),
+        DomeStatus {
+            vertex_projection: Some(true),
+            error: None
+        }
+    );
+    let refused = status("refused");
+    assert!(
+        matches!(&refused.error, Some(Error::Setting(e)) if e.what == "near distance" && e.value == -1.0),
+        "{refused:?}"
+    );
+    assert_eq!(status("cube").error, None);
+    // Bevy's shader text without the lines the patch goes into: refused by
+    // name, which the status would carry for every vertex-mode camera.
+    assert_eq!(
+        optica_dome::hooks::patched("fn main() {}"),
+        Err(Error::ShaderPatch("#import bevy_pbr::prepass_bindings"))
     );
 }

@@ -9,7 +9,9 @@
 use bevy::asset::AssetPlugin;
 use bevy::prelude::*;
 use optica_harness::Headless;
-use optica_lens_flare::{FlareGhosts, LensFlare, LensFlarePlugin};
+use optica_lens_flare::{Error, FlareGhosts, LensFlare, LensFlarePlugin};
+use optica_optics::input::Expected;
+use optica_optics::lens_flare::FlareError;
 use std::sync::{Arc, Mutex};
 
 const SIZE: u32 = 96;
@@ -22,7 +24,7 @@ fn case(
     lens: &'static str,
     travel: Vec3,
     edit: impl Fn(&mut LensFlare) + Send + Sync + 'static,
-) -> (f32, bool, Option<String>, usize) {
+) -> (f32, bool, Option<Error>, usize) {
     let seen = Arc::new(Mutex::new((None, 0)));
     let log = seen.clone();
     let frame = headless_at(root, SIZE, 12)
@@ -128,10 +130,18 @@ fn impossible_settings_and_malformed_files_are_refused() {
             f.aperture.f_number = Some(1.0)
         });
     assert!(finite && max == 0.0, "{max}");
-    assert!(
-        problem.as_deref().is_some_and(|p| p.contains("f-number")),
-        "{problem:?}"
-    );
+    // Refused by the optics: the f-number below the lens's own (f/2.8).
+    match &problem {
+        Some(Error::Optics(FlareError::Input(e))) => {
+            assert_eq!(e.what, "f-number");
+            assert_eq!(e.value, 1.0);
+            assert!(
+                matches!(e.expected, Expected::Range { min, .. } if (2.0..3.5).contains(&min)),
+                "{e}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
     // A malformed file: the loader refuses it (Bevy logs the line and
     // field), the flare says the lens is not loaded and draws nothing.
     let (max, finite, problem, _) = case(
@@ -141,10 +151,7 @@ fn impossible_settings_and_malformed_files_are_refused() {
         |_| {},
     );
     assert!(finite && max == 0.0, "{max}");
-    assert!(
-        problem.as_deref().is_some_and(|p| p.contains("not loaded")),
-        "{problem:?}"
-    );
+    assert_eq!(problem, Some(Error::LensNotLoaded));
 }
 
 /// Settings with no meaning are refused by name (the flare then draws
@@ -160,22 +167,52 @@ fn bad_numbers_in_the_settings_are_named() {
         }
         .validate()
         .expect_err("refused");
-        assert!(err.contains("merge_wavelengths_px"), "{err}");
+        assert!(
+            matches!(&err, Error::Setting(e) if e.what == "flare merge_wavelengths_px"
+                && e.expected == Expected::NonNegative && (e.value.is_nan() || e.value == f64::from(bad))),
+            "{err:?}"
+        );
         let err = LensFlare {
             coarse_ghost_px: Some(bad),
             ..flare.clone()
         }
         .validate()
         .expect_err("refused");
-        assert!(err.contains("coarse_ghost_px"), "{err}");
+        assert!(
+            matches!(&err, Error::Setting(e) if e.what == "flare coarse_ghost_px"),
+            "{err:?}"
+        );
     }
     let err = LensFlare {
         wavelengths: 0,
-        ..flare
+        ..flare.clone()
     }
     .validate()
     .expect_err("refused");
-    assert!(err.contains("wavelengths"), "{err}");
+    assert!(
+        matches!(&err, Error::Setting(e) if e.what == "flare wavelengths" && e.value == 0.0),
+        "{err:?}"
+    );
+    assert_eq!(
+        err.to_string(),
+        "flare wavelengths = 0: expected a finite number in 1 ..= 16"
+    );
+    // The iris and the diffraction textures' integer settings have their own variants.
+    let mut bad = flare.clone();
+    bad.aperture.blades = 2;
+    assert_eq!(bad.validate(), Err(Error::Blades(2)));
+    let mut bad = flare.clone();
+    bad.ringing
+        .as_mut()
+        .expect("ringing on by default")
+        .resolution = 33;
+    assert_eq!(
+        bad.validate(),
+        Err(Error::Resolution {
+            what: "ringing",
+            side: 33
+        })
+    );
 }
 
 /// Hot reload keeps the last good lens: a `.lens` file overwritten with
@@ -197,7 +234,7 @@ fn a_broken_reload_keeps_the_last_good_lens() {
     };
     std::fs::write(&hot, source("tessar-us2854889.lens")).expect("write");
     // Ghost counts seen after each step: (tessar, after garbage, after double Gauss).
-    let seen = Arc::new(Mutex::new(Vec::<(u32, usize, Option<String>)>::new()));
+    let seen = Arc::new(Mutex::new(Vec::<(u32, usize, Option<Error>)>::new()));
     let log = seen.clone();
     let root: &'static str = Box::leak(dir.to_string_lossy().into_owned().into_boxed_str());
     let hot_path = hot.clone();

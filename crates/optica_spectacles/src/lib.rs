@@ -313,6 +313,7 @@ use bevy::prelude::*;
 use bevy::shader::{Shader, load_shader_library};
 
 mod clones;
+mod error;
 mod mirror;
 #[cfg(feature = "egui")]
 mod panel;
@@ -324,6 +325,7 @@ mod settings;
 
 #[cfg(feature = "egui")]
 pub use panel::{SpectaclesPanelPlugin, mirror_ui, spectacles_ui};
+pub use error::Error;
 pub use clones::{
     CLONE_LAYER, CloneCameraOf, CloneExtension, CloneMaterial, CloneOf, CloneResolve, CloneRig,
     CloneTwins, MAX_ATLAS_SIDE, max_tiles, tile_layout,

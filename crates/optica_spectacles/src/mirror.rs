@@ -37,6 +37,7 @@ use bevy::shader::ShaderRef;
 use optica_optics::glam::{DAffine3, DVec3};
 use optica_optics::spectacles::{CurvedMirror as MirrorOptics, DEFAULT_VIEWPOINT_REGULARISATION};
 
+use crate::Error;
 use crate::refraction::LensVertex;
 
 /// The render layer the plugin puts mirrors on: the viewer sees it, the
@@ -123,13 +124,13 @@ impl Default for CurvedMirror {
 
 impl CurvedMirror {
     /// The mirror's optics (its CPU twin), or why it is refused.
-    pub fn optics(&self) -> Result<MirrorOptics, String> {
+    pub fn optics(&self) -> Result<MirrorOptics, Error> {
         MirrorOptics::new(
             f64::from(self.radius_m),
             f64::from(self.size_m.x),
             f64::from(self.size_m.y),
         )
-        .map_err(|e| e.to_string())
+        .map_err(|e| Error::Mirror(e.into()))
     }
 }
 
@@ -364,7 +365,13 @@ pub(crate) fn build_mirrors(
     mut commands: Commands,
     mirrors: Query<(Entity, &CurvedMirror, Option<&MirrorState>), Changed<CurvedMirror>>,
     viewers: Query<
-        (Entity, &Camera, Option<&RenderLayers>, Option<&Exposure>, Option<&EnvironmentMapLight>),
+        (
+            Entity,
+            &Camera,
+            Option<&RenderLayers>,
+            Option<&Exposure>,
+            Option<&EnvironmentMapLight>,
+        ),
         With<MirrorViewer>,
     >,
     mut meshes: ResMut<Assets<Mesh>>,
@@ -399,7 +406,7 @@ pub(crate) fn build_mirrors(
                 mirror.tessellation.x as usize,
                 mirror.tessellation.y as usize,
             );
-            let (vertices, triangles) = optics.mesh(cols, rows).map_err(|e| e.to_string())?;
+            let (vertices, triangles) = optics.mesh(cols, rows).map_err(Error::Mirror)?;
             Ok((optics, vertices, triangles))
         });
         let (optics, vertices, triangles) = match built {
@@ -544,7 +551,9 @@ pub(crate) fn build_mirrors(
                             Some((_, by)) => by.1.clone(),
                             None => viewers.get(viewer).ok().and_then(|(.., m)| m.cloned()),
                         };
-                        commands.entity(viewer).insert((light, LitByMirrorCube(entity, own)));
+                        commands
+                            .entity(viewer)
+                            .insert((light, LitByMirrorCube(entity, own)));
                     }
                 }
                 (cube, helpers)
@@ -673,7 +682,8 @@ pub(crate) fn trace_mirrors(
                     place(&mut helpers, state.helpers[k], t);
                 }
                 // An uncorrected probe holds only the mirror.
-                if matches!(state.settings.method, MirrorMethod::CubeMap) && state.helpers.len() > 6 {
+                if matches!(state.settings.method, MirrorMethod::CubeMap) && state.helpers.len() > 6
+                {
                     let reach = state.settings.size_m.length() * 2.0;
                     place(
                         &mut helpers,

@@ -22,10 +22,12 @@
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 
-use crate::presets::presets;
-use crate::settings::{Accommodation, CloneDefocus, CloneShading, Eye, LensMaterial, Pupil, Spectacles};
 use crate::SpectaclesStatus;
 use crate::mirror::{CurvedMirror, MirrorMethod, MirrorState};
+use crate::presets::presets;
+use crate::settings::{
+    Accommodation, CloneDefocus, CloneShading, Eye, LensMaterial, Pupil, Spectacles,
+};
 
 /// Shows a "Spectacles" window editing the first camera with an [`Eye`].
 /// Needs `bevy_egui`'s `EguiPlugin`.
@@ -45,7 +47,11 @@ type EyeCamera<'a> = (
     Option<&'a SpectaclesStatus>,
 );
 
-fn panel_window(mut commands: Commands, mut contexts: EguiContexts, mut eyes: Query<EyeCamera>) -> Result {
+fn panel_window(
+    mut commands: Commands,
+    mut contexts: EguiContexts,
+    mut eyes: Query<EyeCamera>,
+) -> Result {
     let Some((entity, mut eye, mut defocus, spectacles, status)) = eyes.iter_mut().next() else {
         return Ok(());
     };
@@ -75,7 +81,10 @@ fn panel_window(mut commands: Commands, mut contexts: EguiContexts, mut eyes: Qu
     Ok(())
 }
 
-fn mirror_window(mut contexts: EguiContexts, mut mirrors: Query<(&mut CurvedMirror, Option<&MirrorState>)>) -> Result {
+fn mirror_window(
+    mut contexts: EguiContexts,
+    mut mirrors: Query<(&mut CurvedMirror, Option<&MirrorState>)>,
+) -> Result {
     let Some((mut mirror, state)) = mirrors.iter_mut().next() else {
         return Ok(());
     };
@@ -90,30 +99,36 @@ fn mirror_window(mut contexts: EguiContexts, mut mirrors: Query<(&mut CurvedMirr
 /// Draws a mirror's settings (how it reflects, its shape and grid) and
 /// what the last trace gave.
 pub fn mirror_ui(ui: &mut egui::Ui, mirror: &mut CurvedMirror, state: Option<&MirrorState>) {
-    egui::Grid::new("optica_mirror").num_columns(2).show(ui, |ui| {
-        ui.label("reflection");
-        ui.horizontal(|ui| {
-            ui.selectable_value(&mut mirror.method, MirrorMethod::PerVertex, "per vertex (the paper's)");
-            ui.selectable_value(&mut mirror.method, MirrorMethod::CubeMap, "Bevy cube map");
+    egui::Grid::new("optica_mirror")
+        .num_columns(2)
+        .show(ui, |ui| {
+            ui.label("reflection");
+            ui.horizontal(|ui| {
+                ui.selectable_value(
+                    &mut mirror.method,
+                    MirrorMethod::PerVertex,
+                    "per vertex (the paper's)",
+                );
+                ui.selectable_value(&mut mirror.method, MirrorMethod::CubeMap, "Bevy cube map");
+            });
+            ui.end_row();
+            ui.label("radius (m, + convex)");
+            ui.add(egui::Slider::new(&mut mirror.radius_m, -5.0..=5.0));
+            ui.end_row();
+            ui.label("grid cells across");
+            let mut across = mirror.tessellation.x;
+            ui.add(egui::Slider::new(&mut across, 2..=128));
+            if across != mirror.tessellation.x {
+                mirror.tessellation = UVec2::new(across, (across * 2).div_ceil(3).max(2));
+            }
+            ui.end_row();
+            ui.label("image / face (px)");
+            ui.add(egui::Slider::new(&mut mirror.resolution, 64..=2048));
+            ui.end_row();
+            ui.label("reflectance");
+            ui.add(egui::Slider::new(&mut mirror.reflectance, 0.0..=1.0));
+            ui.end_row();
         });
-        ui.end_row();
-        ui.label("radius (m, + convex)");
-        ui.add(egui::Slider::new(&mut mirror.radius_m, -5.0..=5.0));
-        ui.end_row();
-        ui.label("grid cells across");
-        let mut across = mirror.tessellation.x;
-        ui.add(egui::Slider::new(&mut across, 2..=128));
-        if across != mirror.tessellation.x {
-            mirror.tessellation = UVec2::new(across, (across * 2).div_ceil(3).max(2));
-        }
-        ui.end_row();
-        ui.label("image / face (px)");
-        ui.add(egui::Slider::new(&mut mirror.resolution, 64..=2048));
-        ui.end_row();
-        ui.label("reflectance");
-        ui.add(egui::Slider::new(&mut mirror.reflectance, 0.0..=1.0));
-        ui.end_row();
-    });
     if let Some(st) = state
         && matches!(mirror.method, MirrorMethod::PerVertex)
     {
@@ -151,51 +166,66 @@ pub fn spectacles_ui(
     });
     ui.separator();
     ui.heading("Eye");
-    egui::Grid::new("spectacles_eye").num_columns(2).show(ui, |ui| {
-        ui.label("refractive error (D)");
-        ui.add(egui::Slider::new(&mut eye.refractive_error_d, -20.0..=20.0).step_by(0.25));
-        ui.end_row();
-        ui.label("astigmatism (D) / axis (°)");
-        ui.horizontal(|ui| {
-            let a = &mut eye.astigmatism;
-            ui.add(egui::Slider::new(&mut a.cylinder_d, -6.0..=6.0).step_by(0.25));
-            ui.add(egui::Slider::new(&mut a.axis_deg, 0.0..=180.0).step_by(5.0));
+    egui::Grid::new("spectacles_eye")
+        .num_columns(2)
+        .show(ui, |ui| {
+            ui.label("refractive error (D)");
+            ui.add(egui::Slider::new(&mut eye.refractive_error_d, -20.0..=20.0).step_by(0.25));
+            ui.end_row();
+            ui.label("astigmatism (D) / axis (°)");
+            ui.horizontal(|ui| {
+                let a = &mut eye.astigmatism;
+                ui.add(egui::Slider::new(&mut a.cylinder_d, -6.0..=6.0).step_by(0.25));
+                ui.add(egui::Slider::new(&mut a.axis_deg, 0.0..=180.0).step_by(5.0));
+            });
+            ui.end_row();
+            ui.label("accommodation");
+            ui.horizontal(|ui| match &mut eye.accommodation {
+                Accommodation::Dioptres(d) => {
+                    ui.add(egui::Slider::new(d, 0.0..=15.0).suffix(" D"));
+                    if ui.button("by age").clicked() {
+                        eye.accommodation = Accommodation::Age { years: 40.0 };
+                    }
+                }
+                Accommodation::Age { years } => {
+                    ui.add(egui::Slider::new(years, 5.0..=80.0).suffix(" years"));
+                    if ui.button("in D").clicked() {
+                        eye.accommodation =
+                            Accommodation::Dioptres(eye.amplitude_d().unwrap_or(0.0) as f32);
+                    }
+                }
+            });
+            ui.end_row();
+            ui.label("pupil");
+            ui.horizontal(|ui| match &mut eye.pupil {
+                Pupil::Diameter { mm } => {
+                    ui.add(egui::Slider::new(mm, 0.0..=12.0).suffix(" mm"));
+                    if ui.button("by light").clicked() {
+                        eye.pupil = Pupil::Light {
+                            luminance_cd_m2: 100.0,
+                            age_years: 30.0,
+                        };
+                    }
+                }
+                Pupil::Light {
+                    luminance_cd_m2,
+                    age_years,
+                } => {
+                    ui.add(
+                        egui::Slider::new(luminance_cd_m2, 0.01..=10_000.0)
+                            .logarithmic(true)
+                            .suffix(" cd/m²"),
+                    );
+                    ui.add(egui::Slider::new(age_years, 20.0..=83.0).suffix(" years"));
+                    if ui.button("in mm").clicked() {
+                        eye.pupil = Pupil::Diameter {
+                            mm: eye.pupil_mm().unwrap_or(4.0) as f32,
+                        };
+                    }
+                }
+            });
+            ui.end_row();
         });
-        ui.end_row();
-        ui.label("accommodation");
-        ui.horizontal(|ui| match &mut eye.accommodation {
-            Accommodation::Dioptres(d) => {
-                ui.add(egui::Slider::new(d, 0.0..=15.0).suffix(" D"));
-                if ui.button("by age").clicked() {
-                    eye.accommodation = Accommodation::Age { years: 40.0 };
-                }
-            }
-            Accommodation::Age { years } => {
-                ui.add(egui::Slider::new(years, 5.0..=80.0).suffix(" years"));
-                if ui.button("in D").clicked() {
-                    eye.accommodation = Accommodation::Dioptres(eye.amplitude_d().unwrap_or(0.0) as f32);
-                }
-            }
-        });
-        ui.end_row();
-        ui.label("pupil");
-        ui.horizontal(|ui| match &mut eye.pupil {
-            Pupil::Diameter { mm } => {
-                ui.add(egui::Slider::new(mm, 0.0..=12.0).suffix(" mm"));
-                if ui.button("by light").clicked() {
-                    eye.pupil = Pupil::Light { luminance_cd_m2: 100.0, age_years: 30.0 };
-                }
-            }
-            Pupil::Light { luminance_cd_m2, age_years } => {
-                ui.add(egui::Slider::new(luminance_cd_m2, 0.01..=10_000.0).logarithmic(true).suffix(" cd/m²"));
-                ui.add(egui::Slider::new(age_years, 20.0..=83.0).suffix(" years"));
-                if ui.button("in mm").clicked() {
-                    eye.pupil = Pupil::Diameter { mm: eye.pupil_mm().unwrap_or(4.0) as f32 };
-                }
-            }
-        });
-        ui.end_row();
-    });
     ui.separator();
     let mut wears = spectacles.is_some();
     ui.checkbox(&mut wears, "glasses");
@@ -208,76 +238,92 @@ pub fn spectacles_ui(
         });
     }
     if let Some(s) = spectacles {
-        egui::Grid::new("spectacles_lens").num_columns(2).show(ui, |ui| {
-            ui.label("sphere (D)");
-            ui.add(egui::Slider::new(&mut s.sphere_d, -20.0..=20.0).step_by(0.25));
-            ui.end_row();
-            ui.label("cylinder (D) / axis (°)");
-            ui.horizontal(|ui| {
-                ui.add(egui::Slider::new(&mut s.cylinder_d, -6.0..=6.0).step_by(0.25));
-                ui.add(egui::Slider::new(&mut s.axis_deg, 0.0..=180.0).step_by(5.0));
-            });
-            ui.end_row();
-            ui.label("addition (D) / corridor (mm)");
-            ui.horizontal(|ui| {
-                ui.add(egui::Slider::new(&mut s.addition_d, 0.0..=3.5).step_by(0.25));
-                ui.add(egui::Slider::new(&mut s.corridor_mm, 9.0..=20.0));
-            });
-            ui.end_row();
-            ui.label("material");
-            egui::ComboBox::from_id_salt("spectacles_material")
-                .selected_text(s.material.name())
-                .show_ui(ui, |ui| {
-                    for m in LensMaterial::PRESETS {
-                        ui.selectable_value(&mut s.material, m, m.name());
-                    }
+        egui::Grid::new("spectacles_lens")
+            .num_columns(2)
+            .show(ui, |ui| {
+                ui.label("sphere (D)");
+                ui.add(egui::Slider::new(&mut s.sphere_d, -20.0..=20.0).step_by(0.25));
+                ui.end_row();
+                ui.label("cylinder (D) / axis (°)");
+                ui.horizontal(|ui| {
+                    ui.add(egui::Slider::new(&mut s.cylinder_d, -6.0..=6.0).step_by(0.25));
+                    ui.add(egui::Slider::new(&mut s.axis_deg, 0.0..=180.0).step_by(5.0));
                 });
-            ui.end_row();
-            ui.label("vertex distance (mm)");
-            ui.add(egui::Slider::new(&mut s.vertex_distance_mm, 0.0..=25.0));
-            ui.end_row();
-            ui.label("blank diameter (mm)");
-            ui.add(egui::Slider::new(&mut s.blank_diameter_mm, 20.0..=80.0));
-            ui.end_row();
-            ui.label("centre thickness (mm)");
-            ui.add(egui::Slider::new(&mut s.min_centre_thickness_mm, 0.5..=6.0));
-            ui.end_row();
-            ui.label("decentration (mm)");
-            ui.horizontal(|ui| {
-                ui.add(egui::Slider::new(&mut s.decentration_mm.x, -10.0..=10.0));
-                ui.add(egui::Slider::new(&mut s.decentration_mm.y, -10.0..=10.0));
+                ui.end_row();
+                ui.label("addition (D) / corridor (mm)");
+                ui.horizontal(|ui| {
+                    ui.add(egui::Slider::new(&mut s.addition_d, 0.0..=3.5).step_by(0.25));
+                    ui.add(egui::Slider::new(&mut s.corridor_mm, 9.0..=20.0));
+                });
+                ui.end_row();
+                ui.label("material");
+                egui::ComboBox::from_id_salt("spectacles_material")
+                    .selected_text(s.material.name())
+                    .show_ui(ui, |ui| {
+                        for m in LensMaterial::PRESETS {
+                            ui.selectable_value(&mut s.material, m, m.name());
+                        }
+                    });
+                ui.end_row();
+                ui.label("vertex distance (mm)");
+                ui.add(egui::Slider::new(&mut s.vertex_distance_mm, 0.0..=25.0));
+                ui.end_row();
+                ui.label("blank diameter (mm)");
+                ui.add(egui::Slider::new(&mut s.blank_diameter_mm, 20.0..=80.0));
+                ui.end_row();
+                ui.label("centre thickness (mm)");
+                ui.add(egui::Slider::new(&mut s.min_centre_thickness_mm, 0.5..=6.0));
+                ui.end_row();
+                ui.label("decentration (mm)");
+                ui.horizontal(|ui| {
+                    ui.add(egui::Slider::new(&mut s.decentration_mm.x, -10.0..=10.0));
+                    ui.add(egui::Slider::new(&mut s.decentration_mm.y, -10.0..=10.0));
+                });
+                ui.end_row();
+                ui.label("refraction");
+                ui.horizontal(|ui| {
+                    ui.checkbox(&mut s.refraction, "drawn");
+                    ui.checkbox(&mut s.chromatic_aberration, "chromatic aberration");
+                });
+                ui.end_row();
             });
-            ui.end_row();
-            ui.label("refraction");
-            ui.horizontal(|ui| {
-                ui.checkbox(&mut s.refraction, "drawn");
-                ui.checkbox(&mut s.chromatic_aberration, "chromatic aberration");
-            });
-            ui.end_row();
-        });
     }
     ui.separator();
     ui.heading("Clones");
-    egui::Grid::new("spectacles_clones").num_columns(2).show(ui, |ui| {
-        ui.label("clones S");
-        ui.add(egui::Slider::new(&mut defocus.clones, 1..=64));
-        ui.end_row();
-        ui.label("shading");
-        ui.horizontal(|ui| {
-            ui.selectable_value(&mut defocus.shading, CloneShading::Reprojected, "reprojected");
-            ui.selectable_value(&mut defocus.shading, CloneShading::Full, "full (the paper's)");
+    egui::Grid::new("spectacles_clones")
+        .num_columns(2)
+        .show(ui, |ui| {
+            ui.label("clones S");
+            ui.add(egui::Slider::new(&mut defocus.clones, 1..=64));
+            ui.end_row();
+            ui.label("shading");
+            ui.horizontal(|ui| {
+                ui.selectable_value(
+                    &mut defocus.shading,
+                    CloneShading::Reprojected,
+                    "reprojected",
+                );
+                ui.selectable_value(
+                    &mut defocus.shading,
+                    CloneShading::Full,
+                    "full (the paper's)",
+                );
+            });
+            ui.end_row();
+            ui.label("blur");
+            ui.checkbox(&mut defocus.enabled, "on");
+            ui.end_row();
+            ui.label("voxels");
+            ui.horizontal(|ui| {
+                ui.selectable_value(
+                    &mut defocus.field.eye_coordinates,
+                    false,
+                    "box (the paper's)",
+                );
+                ui.selectable_value(&mut defocus.field.eye_coordinates, true, "eye coordinates");
+            });
+            ui.end_row();
         });
-        ui.end_row();
-        ui.label("blur");
-        ui.checkbox(&mut defocus.enabled, "on");
-        ui.end_row();
-        ui.label("voxels");
-        ui.horizontal(|ui| {
-            ui.selectable_value(&mut defocus.field.eye_coordinates, false, "box (the paper's)");
-            ui.selectable_value(&mut defocus.field.eye_coordinates, true, "eye coordinates");
-        });
-        ui.end_row();
-    });
     if let Some(st) = status {
         ui.separator();
         let dist = |m: f32| {
@@ -299,7 +345,10 @@ pub fn spectacles_ui(
             ui.label(format!("through the lens: {} to {}", dist(c.x), dist(c.y)));
         }
         if let Some(l) = st.lens_centre_edge_mm_front_d {
-            ui.label(format!("lens: centre {:.1} mm, edge {:.1} mm, base curve {:.2} D", l.x, l.y, l.z));
+            ui.label(format!(
+                "lens: centre {:.1} mm, edge {:.1} mm, base curve {:.2} D",
+                l.x, l.y, l.z
+            ));
         }
         if let Some(f) = st.field_aims_failed_crossed_filled {
             ui.label(format!(
@@ -308,7 +357,7 @@ pub fn spectacles_ui(
             ));
         }
         if let Some(e) = &st.error {
-            ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e);
+            ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
         }
     }
 }

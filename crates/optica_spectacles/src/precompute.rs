@@ -14,6 +14,7 @@ use optica_optics::spectacles::{
     self as optics, DisplacementField, EyePlacement, FieldSettings, FieldStats, SpectacleLens,
 };
 
+use crate::Error;
 use crate::settings::{CloneDefocus, Eye, Spectacles};
 
 /// Where the eye sits relative to its camera: the camera is the entrance
@@ -54,10 +55,10 @@ pub struct SpectaclesStatus {
     pub field_aims_failed_crossed_filled: Option<UVec4>,
     /// Time of the last lens design and field precompute (ms).
     pub precompute_ms: f32,
-    /// The last setting that was refused, in words; the plugin then keeps
-    /// the last good eye and lens (or draws the view sharp when it has
-    /// none).
-    pub error: Option<String>,
+    /// The last setting that was refused; the plugin then keeps the last
+    /// good eye and lens (or draws the view sharp when it has none).
+    #[reflect(ignore)]
+    pub error: Option<Error>,
 }
 
 /// What the clone shader knows of the eye, the lens and the field
@@ -202,16 +203,15 @@ pub(crate) fn update_optics(
         let started = Instant::now();
         let mut status = status.cloned().unwrap_or_default();
         status.error = None;
-        let mut refuse = |what: &str, e: &dyn std::fmt::Display| {
-            let text = format!("{what}: {e}");
-            warn!("optica_spectacles: camera {entity}: {text}");
-            status.error = Some(text);
+        let mut refuse = |why: Error| {
+            warn!("optica_spectacles: camera {entity}: {why}");
+            status.error = Some(why);
         };
         // The eye: refused numbers keep the last good eye.
         let eye_model = match eye.optics() {
             Ok(e) => Some(e),
             Err(e) => {
-                refuse("eye", &e);
+                refuse(Error::Eye(e.into()));
                 old.map(|o| o.eye)
             }
         };
@@ -224,7 +224,7 @@ pub(crate) fn update_optics(
             None => None,
             Some(Ok(l)) => Some(l),
             Some(Err(e)) => {
-                refuse("spectacles", &e);
+                refuse(Error::Spectacles(e));
                 old.and_then(|o| o.lens)
             }
         };
@@ -233,7 +233,7 @@ pub(crate) fn update_optics(
             Some(_) => match defocus.field.settings() {
                 Ok(s) => Some(s),
                 Err(e) => {
-                    refuse("defocus field", &e);
+                    refuse(Error::Field(e.into()));
                     built.and_then(|b| b.settings)
                 }
             },
@@ -263,7 +263,7 @@ pub(crate) fn update_optics(
                         });
                         field = Some((buffer, geometry));
                     }
-                    Err(e) => refuse("defocus field", &e),
+                    Err(e) => refuse(Error::Field(e)),
                 }
             }
             status.precompute_ms = started.elapsed().as_secs_f32() * 1e3;
@@ -314,7 +314,11 @@ fn clone_uniform(
     };
     match field {
         Some((_, g)) => {
-            u.mode = if g.eye_coordinates { mode::FIELD_EYE } else { mode::FIELD };
+            u.mode = if g.eye_coordinates {
+                mode::FIELD_EYE
+            } else {
+                mode::FIELD
+            };
             u.grid_origin = g.origin.as_vec3();
             u.grid_cell = g.cell.as_vec3();
             u.grid_dims = UVec3::new(g.dims[0] as u32, g.dims[1] as u32, g.dims[2] as u32);
@@ -340,7 +344,10 @@ fn fill_status(
     status.corrected_near_far_m = lens.and_then(|l| corrected_points(eye, l));
     status.lens_centre_edge_mm_front_d = lens.map(|l| {
         let edge = (0..72)
-            .filter_map(|k| l.edge_thickness_m(f64::from(k) * std::f64::consts::TAU / 72.0).ok())
+            .filter_map(|k| {
+                l.edge_thickness_m(f64::from(k) * std::f64::consts::TAU / 72.0)
+                    .ok()
+            })
             .fold(f64::INFINITY, f64::min);
         Vec3::new(
             (l.centre_thickness_m() * 1e3) as f32,
@@ -369,7 +376,11 @@ pub fn corrected_points(eye: &optics::Eye, lens: &SpectacleLens) -> Option<Vec2>
             .ok()
             .map(|b| {
                 let w = b.vergence_d();
-                if w > 0.0 { (1.0 / w) as f32 } else { f32::INFINITY }
+                if w > 0.0 {
+                    (1.0 / w) as f32
+                } else {
+                    f32::INFINITY
+                }
             })
     };
     Some(Vec2::new(

@@ -7,6 +7,7 @@ use optica_optics::spectacles::{
     region_of, set_map, trace_astigmatic_bundle,
 };
 
+use crate::Error;
 use crate::precompute::{camera_z, eye_placement};
 use crate::settings::{Accommodation, Astigmatism, Eye, LensMaterial, Pupil, Spectacles};
 
@@ -167,21 +168,26 @@ impl Preset {
     /// What the wearer sees of a point `distance_m` metres ahead, and the
     /// glasses' magnification (%; negative: things look smaller), or why
     /// the settings were refused.
-    pub fn sight(&self, distance_m: f64) -> Result<(Sight, f64), String> {
+    pub fn sight(&self, distance_m: f64) -> Result<(Sight, f64), Error> {
         self.sight_looking_down(distance_m, 0.0)
     }
 
     /// [`Preset::sight`] of a point `down_deg` degrees below straight
     /// ahead: a book in the lap, seen through a progressive lens's near
     /// zone.
-    pub fn sight_looking_down(&self, distance_m: f64, down_deg: f64) -> Result<(Sight, f64), String> {
-        let eye = self.eye.optics().map_err(|e| e.to_string())?;
+    pub fn sight_looking_down(
+        &self,
+        distance_m: f64,
+        down_deg: f64,
+    ) -> Result<(Sight, f64), Error> {
+        let eye = self.eye.optics().map_err(|e| Error::Eye(e.into()))?;
         let lens = match &self.spectacles {
-            Some(s) => Some(s.design().map_err(|e| e.to_string())?),
+            Some(s) => Some(s.design().map_err(Error::Spectacles)?),
             None => None,
         };
-        let blur = blur_angle_looking_down_rad(&eye, lens.as_ref(), distance_m, down_deg.to_radians())
-            .ok_or_else(|| "the point is not seen through the lens".to_string())?;
+        let blur =
+            blur_angle_looking_down_rad(&eye, lens.as_ref(), distance_m, down_deg.to_radians())
+                .ok_or(Error::NotSeenThroughLens)?;
         let magnification = lens.as_ref().map_or(0.0, spectacle_magnification_percent);
         Ok((
             Sight {
@@ -199,7 +205,11 @@ impl Preset {
 /// closed form, or the near and far bundles traced through the lens and
 /// the field's rule at the point — as the largest radius of its ellipse,
 /// doubled, over the point's distance.
-pub fn blur_angle_rad(eye: &optics::Eye, lens: Option<&SpectacleLens>, distance_m: f64) -> Option<f64> {
+pub fn blur_angle_rad(
+    eye: &optics::Eye,
+    lens: Option<&SpectacleLens>,
+    distance_m: f64,
+) -> Option<f64> {
     blur_angle_looking_down_rad(eye, lens, distance_m, 0.0)
 }
 
@@ -236,7 +246,15 @@ pub fn blur_angle_looking_down_rad(
     let aim = (point - pl.centre_of_rotation()).try_normalize()?;
     let (e1, e2) = perpendicular_frame(aim);
     let bundle = |a: f64| {
-        trace_astigmatic_bundle(Some(lens), &pl, aim, rho, eye.vergence_matrix(e1, e2, a), &samples).ok()
+        trace_astigmatic_bundle(
+            Some(lens),
+            &pl,
+            aim,
+            rho,
+            eye.vergence_matrix(e1, e2, a),
+            &samples,
+        )
+        .ok()
     };
     let near = bundle(eye.accommodation_d())?;
     let far = bundle(0.0)?;

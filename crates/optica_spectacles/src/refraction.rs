@@ -15,6 +15,7 @@ use optica_optics::spectacles::{
     virtual_viewpoint_of_traces,
 };
 
+use crate::Error;
 use crate::precompute::camera_z;
 use crate::settings::Spectacles;
 
@@ -94,22 +95,23 @@ pub fn trace_lens(
     rings: usize,
     segments: usize,
     chromatic: bool,
-) -> Result<LensRefraction, String> {
+) -> Result<LensRefraction, Error> {
     let started = std::time::Instant::now();
-    let mesh = lens.mesh(rings, segments).map_err(|e| e.to_string())?;
+    let mesh = lens.mesh(rings, segments).map_err(Error::Refraction)?;
     // In the lens's frame the eye sits off its axis by −decentration.
     let eye = DVec3::new(0.0, 0.0, f64::from(camera_z())) - decentration;
     let back = mesh.back_positions();
-    let traces = refract_vertices(lens, eye, back).map_err(|e| e.to_string())?;
+    let traces = refract_vertices(lens, eye, back).map_err(|e| Error::Refraction(e.into()))?;
     // The directions at the C and F lines; a ray that gets through at the
     // d line but not at another (total reflection within a hair of the
     // rim) keeps the d line's.
     let chromatic = chromatic && lens.params().material().is_dispersive();
-    let exit_dirs = |nm: f64| -> Result<Vec<Option<DVec3>>, String> {
+    let exit_dirs = |nm: f64| -> Result<Vec<Option<DVec3>>, Error> {
         if !chromatic {
             return Ok(vec![None; back.len()]);
         }
-        let t = refract_vertices(&lens.at_wavelength(nm), eye, back).map_err(|e| e.to_string())?;
+        let t = refract_vertices(&lens.at_wavelength(nm), eye, back)
+            .map_err(|e| Error::Refraction(e.into()))?;
         Ok(t.iter()
             .map(|t| match *t {
                 LensTrace::Exit { dir, .. } => Some(dir),
@@ -119,7 +121,7 @@ pub fn trace_lens(
     };
     let (red, blue) = (exit_dirs(LAMBDA_C_NM)?, exit_dirs(LAMBDA_F_NM)?);
     let fit = virtual_viewpoint_of_traces(&traces, eye, DEFAULT_VIEWPOINT_REGULARISATION)
-        .map_err(|e| e.to_string())?;
+        .map_err(Error::Refraction)?;
     let mut masked = 0;
     let vertices = back
         .iter()

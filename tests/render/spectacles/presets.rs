@@ -8,20 +8,34 @@ use optica_spectacles::presets::presets;
 #[test]
 fn presets_describe_what_their_wearers_see() {
     let all = presets();
-    let get = |name: &str| all.iter().find(|p| p.name == name).unwrap_or_else(|| panic!("{name}"));
+    let get = |name: &str| {
+        all.iter()
+            .find(|p| p.name == name)
+            .unwrap_or_else(|| panic!("{name}"))
+    };
     let sight = |name: &str, z: f64| get(name).sight(z).unwrap_or_else(|e| panic!("{name}: {e}"));
     for p in &all {
         for z in [0.3, 1.0, 5.0] {
             let (s, m) = p.sight(z).unwrap_or_else(|e| panic!("{}: {e}", p.name));
-            assert!(s.blur_arcmin.is_finite() && s.blur_arcmin >= 0.0 && m.is_finite(), "{}", p.name);
+            assert!(
+                s.blur_arcmin.is_finite() && s.blur_arcmin >= 0.0 && m.is_finite(),
+                "{}",
+                p.name
+            );
         }
     }
     // Fig. 8(b) naked, at the chart: A·ΔD = 12 mm × (1/1.3 − 1/5) D = 6.83 mrad = 23.5′.
     let (b, _) = sight("fig8b-myopic-presbyope", 5.0);
-    assert!((b.blur_arcmin - 0.012 * (1.0 / 1.3 - 0.2) * (180.0 / std::f64::consts::PI) * 60.0).abs() < 1e-6);
+    assert!(
+        (b.blur_arcmin - 0.012 * (1.0 / 1.3 - 0.2) * (180.0 / std::f64::consts::PI) * 60.0).abs()
+            < 1e-6
+    );
     // The concave lens sharpens the chart and blurs the book more.
     assert!(sight("fig8c-concave", 5.0).0.blur_arcmin < 2.0);
-    assert!(sight("fig8c-concave", 0.3).0.blur_arcmin > sight("fig8b-myopic-presbyope", 0.3).0.blur_arcmin);
+    assert!(
+        sight("fig8c-concave", 0.3).0.blur_arcmin
+            > sight("fig8b-myopic-presbyope", 0.3).0.blur_arcmin
+    );
     // The convex reading lens: the book sharp, the chart worse.
     assert!(sight("fig8d-convex", 0.3).0.blur_arcmin < 2.0);
     assert!(sight("fig8d-convex", 5.0).0.blur_arcmin > b.blur_arcmin);
@@ -29,9 +43,14 @@ fn presets_describe_what_their_wearers_see() {
     // chart is sharp (under 2′) and things look 3–5 % smaller.
     assert!(sight("myope", 5.0).0.blur_arcmin > 20.0 && sight("myope", 0.3).0.blur_arcmin == 0.0);
     let (g, m) = sight("myope-glasses", 5.0);
-    assert!(g.blur_arcmin < 2.0 && (-5.0..-3.0).contains(&m), "{g:?} {m}");
+    assert!(
+        g.blur_arcmin < 2.0 && (-5.0..-3.0).contains(&m),
+        "{g:?} {m}"
+    );
     // The presbyope: the book blurred, the chart sharp; reading glasses the other way round, larger.
-    assert!(sight("presbyope", 0.3).0.blur_arcmin > 5.0 && sight("presbyope", 5.0).0.blur_arcmin == 0.0);
+    assert!(
+        sight("presbyope", 0.3).0.blur_arcmin > 5.0 && sight("presbyope", 5.0).0.blur_arcmin == 0.0
+    );
     let (r, m) = sight("presbyope-readers", 0.3);
     assert!(r.blur_arcmin < 2.0 && m > 2.0 && sight("presbyope-readers", 5.0).0.blur_arcmin > 5.0);
     // The astigmat (−0.50 / −2.00 × 180): at the chart the worse, vertical
@@ -43,8 +62,14 @@ fn presets_describe_what_their_wearers_see() {
     let arcmin = |rad: f64| rad.to_degrees() * 60.0;
     let (far, _) = sight("astigmat", 5.0);
     let (near, _) = sight("astigmat", 0.3);
-    assert!((far.blur_arcmin / arcmin(a * (2.5 - 0.2)) - 1.0).abs() < 0.01, "{far:?}");
-    assert!((near.blur_arcmin / arcmin(a * 1.0) - 1.0).abs() < 0.01, "{near:?}");
+    assert!(
+        (far.blur_arcmin / arcmin(a * (2.5 - 0.2)) - 1.0).abs() < 0.01,
+        "{far:?}"
+    );
+    assert!(
+        (near.blur_arcmin / arcmin(a * 1.0) - 1.0).abs() < 0.01,
+        "{near:?}"
+    );
     let (g, m) = sight("astigmat-glasses", 5.0);
     assert!(g.blur_arcmin < 2.0 && m < 0.0, "{g:?} {m}");
     // The presbyope in +2.00 progressives: the chart straight ahead is
@@ -55,6 +80,36 @@ fn presets_describe_what_their_wearers_see() {
     let (far, m) = pal.sight(5.0).unwrap();
     let (book, _) = pal.sight_looking_down(0.3, 33.0).unwrap();
     let (naked, _) = get("presbyope").sight_looking_down(0.3, 33.0).unwrap();
-    eprintln!("progressives: chart {far:?}, book {book:?} (naked {naked:?}), magnification {m:.2} %");
+    eprintln!(
+        "progressives: chart {far:?}, book {book:?} (naked {naked:?}), magnification {m:.2} %"
+    );
     assert!(far.blur_arcmin < 2.0 && book.blur_arcmin < 2.0 && naked.blur_arcmin > 5.0);
+}
+
+/// Refusals name the component and the quantity: a mirror narrower than
+/// nothing, a mirror curved tighter than its own half-diagonal.
+#[test]
+fn refused_mirrors_say_which_number() {
+    use optica_optics::spectacles::SpectaclesError;
+    use optica_spectacles::{CurvedMirror, Error};
+    let flat_width = CurvedMirror {
+        size_m: bevy::math::Vec2::new(0.0, 0.16),
+        ..Default::default()
+    };
+    assert!(
+        matches!(flat_width.optics(), Err(Error::Mirror(SpectaclesError::Input(e))) if e.what == "mirror width (m)"),
+        "{:?}",
+        flat_width.optics().err()
+    );
+    let tight = CurvedMirror {
+        radius_m: 0.05,
+        ..Default::default()
+    };
+    assert!(
+        matches!(tight.optics(), Err(Error::Mirror(SpectaclesError::Input(e)))
+            if e.what.starts_with("mirror radius of curvature") && e.value == f64::from(0.05f32)),
+        "{:?}",
+        tight.optics().err()
+    );
+    assert!(CurvedMirror::default().optics().is_ok());
 }

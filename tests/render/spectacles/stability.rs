@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex};
 use bevy::prelude::*;
 use optica_harness::Headless;
 use optica_spectacles::{
-    Accommodation, CloneDefocus, Eye, LensMaterial, Pupil, Spectacles, SpectaclesStatus,
+    Accommodation, CloneDefocus, Error, Eye, LensMaterial, Pupil, Spectacles, SpectaclesStatus,
 };
 
 use super::{Target, scene};
@@ -17,8 +17,16 @@ struct Case {
     name: &'static str,
     eye: Eye,
     spectacles: Option<Spectacles>,
-    /// Part of the refusal expected in `SpectaclesStatus::error`, if any.
-    refused: Option<&'static str>,
+    /// The refusal expected in `SpectaclesStatus::error`, if any: which
+    /// component's, and part of its words.
+    refused: Option<(Refused, &'static str)>,
+}
+
+/// Which [`Error`] variant a case expects.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Refused {
+    Eye,
+    Spectacles,
 }
 
 fn eye(r: f32, amp: f32, mm: f32) -> Eye {
@@ -33,17 +41,25 @@ fn eye(r: f32, amp: f32, mm: f32) -> Eye {
 fn cases() -> Vec<Case> {
     let lens = |s: f32| Some(Spectacles::sphere(s));
     vec![
-        Case { name: "−20 D myope in −20 D glasses", eye: eye(-20.0, 1.0, 8.0), spectacles: lens(-20.0), refused: None },
+        Case {
+            name: "−20 D myope in −20 D glasses",
+            eye: eye(-20.0, 1.0, 8.0),
+            spectacles: lens(-20.0),
+            refused: None,
+        },
         Case {
             name: "+20 D in CR-39 on a 50 mm blank (front surface closes before the rim)",
             eye: eye(20.0, 1.0, 4.0),
             spectacles: lens(20.0),
-            refused: Some("smaller than the blank radius"),
+            refused: Some((Refused::Spectacles, "smaller than the blank radius")),
         },
         Case {
             name: "+20 D on a 36 mm blank",
             eye: eye(20.0, 1.0, 4.0),
-            spectacles: Some(Spectacles { blank_diameter_mm: 36.0, ..Spectacles::sphere(20.0) }),
+            spectacles: Some(Spectacles {
+                blank_diameter_mm: 36.0,
+                ..Spectacles::sphere(20.0)
+            }),
             refused: None,
         },
         Case {
@@ -56,30 +72,75 @@ fn cases() -> Vec<Case> {
             }),
             refused: None,
         },
-        Case { name: "zero pupil", eye: eye(-3.0, 1.0, 0.0), spectacles: None, refused: None },
-        Case { name: "zero pupil through a lens", eye: eye(-3.0, 1.0, 0.0), spectacles: lens(-3.0), refused: None },
-        Case { name: "near point = far point", eye: eye(-2.0, 0.0, 6.0), spectacles: None, refused: None },
-        Case { name: "hyperope, far point behind the eye", eye: eye(4.0, 0.0, 6.0), spectacles: None, refused: None },
-        Case { name: "hyperope in +4 D glasses", eye: eye(4.0, 0.0, 6.0), spectacles: lens(4.0), refused: None },
+        Case {
+            name: "zero pupil",
+            eye: eye(-3.0, 1.0, 0.0),
+            spectacles: None,
+            refused: None,
+        },
+        Case {
+            name: "zero pupil through a lens",
+            eye: eye(-3.0, 1.0, 0.0),
+            spectacles: lens(-3.0),
+            refused: None,
+        },
+        Case {
+            name: "near point = far point",
+            eye: eye(-2.0, 0.0, 6.0),
+            spectacles: None,
+            refused: None,
+        },
+        Case {
+            name: "hyperope, far point behind the eye",
+            eye: eye(4.0, 0.0, 6.0),
+            spectacles: None,
+            refused: None,
+        },
+        Case {
+            name: "hyperope in +4 D glasses",
+            eye: eye(4.0, 0.0, 6.0),
+            spectacles: lens(4.0),
+            refused: None,
+        },
         Case {
             name: "lens on the cornea (vertex distance 0)",
             eye: eye(-3.0, 1.0, 6.0),
-            spectacles: Some(Spectacles { vertex_distance_mm: 0.0, ..Spectacles::sphere(-3.0) }),
+            spectacles: Some(Spectacles {
+                vertex_distance_mm: 0.0,
+                ..Spectacles::sphere(-3.0)
+            }),
             refused: None,
         },
         Case {
             name: "lens behind the cornea",
             eye: eye(-3.0, 1.0, 6.0),
-            spectacles: Some(Spectacles { vertex_distance_mm: -5.0, ..Spectacles::sphere(-3.0) }),
-            refused: Some("vertex distance"),
+            spectacles: Some(Spectacles {
+                vertex_distance_mm: -5.0,
+                ..Spectacles::sphere(-3.0)
+            }),
+            refused: Some((Refused::Spectacles, "vertex distance")),
         },
-        Case { name: "NaN refractive error", eye: eye(f32::NAN, 1.0, 6.0), spectacles: None, refused: Some("refractive error") },
-        Case { name: "infinite pupil", eye: eye(-1.0, 1.0, f32::INFINITY), spectacles: None, refused: Some("pupil") },
+        Case {
+            name: "NaN refractive error",
+            eye: eye(f32::NAN, 1.0, 6.0),
+            spectacles: None,
+            refused: Some((Refused::Eye, "refractive error")),
+        },
+        Case {
+            name: "infinite pupil",
+            eye: eye(-1.0, 1.0, f32::INFINITY),
+            spectacles: None,
+            refused: Some((Refused::Eye, "pupil")),
+        },
         Case {
             name: "NaN cylinder axis",
             eye: eye(-3.0, 1.0, 6.0),
-            spectacles: Some(Spectacles { cylinder_d: -1.0, axis_deg: f32::NAN, ..Spectacles::sphere(-3.0) }),
-            refused: Some("axis"),
+            spectacles: Some(Spectacles {
+                cylinder_d: -1.0,
+                axis_deg: f32::NAN,
+                ..Spectacles::sphere(-3.0)
+            }),
+            refused: Some((Refused::Spectacles, "axis")),
         },
     ]
 }
@@ -102,7 +163,13 @@ fn extreme_eyes_and_lenses_render_finite() {
             .render(|app: &mut App| {
                 scene(
                     targets.clone(),
-                    Some((case.eye.clone(), CloneDefocus { clones: 6, ..default() })),
+                    Some((
+                        case.eye.clone(),
+                        CloneDefocus {
+                            clones: 6,
+                            ..default()
+                        },
+                    )),
                     case.spectacles.clone(),
                     1.0,
                 )(app);
@@ -121,11 +188,21 @@ fn extreme_eyes_and_lenses_render_finite() {
         );
         let status = status.lock().unwrap().clone();
         let error = status.as_ref().and_then(|s| s.error.clone());
-        eprintln!("{}: {}", case.name, error.as_deref().unwrap_or("ok"));
+        eprintln!(
+            "{}: {}",
+            case.name,
+            error.as_ref().map_or("ok".into(), |e| e.to_string())
+        );
         match case.refused {
-            Some(why) => assert!(
-                error.as_deref().is_some_and(|e| e.contains(why)),
-                "{}: expected a refusal naming `{why}`, got {error:?}",
+            Some((part, why)) => assert!(
+                match &error {
+                    Some(Error::Eye(e)) => part == Refused::Eye && e.to_string().contains(why),
+                    Some(Error::Spectacles(e)) => {
+                        part == Refused::Spectacles && e.to_string().contains(why)
+                    }
+                    _ => false,
+                },
+                "{}: expected a {part:?} refusal naming `{why}`, got {error:?}",
                 case.name
             ),
             None => assert!(error.is_none(), "{}: refused: {error:?}", case.name),

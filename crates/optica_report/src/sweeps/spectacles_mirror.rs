@@ -95,7 +95,11 @@ fn surfaces(turn_deg: f32) -> [(Vec3, Quat, f32, f32); 3] {
 
 /// The scene: the mirror (or none), and with `lit` a floor, boxes and a
 /// shadowed sun for timing.
-pub fn mirror_scene(mirror: Option<CurvedMirror>, lit: bool, turn_deg: f32) -> impl FnOnce(&mut App) {
+pub fn mirror_scene(
+    mirror: Option<CurvedMirror>,
+    lit: bool,
+    turn_deg: f32,
+) -> impl FnOnce(&mut App) {
     move |app: &mut App| {
         app.add_plugins(SpectaclesPlugin);
         // Bevy's ambient light adds to a metallic surface's reflection.
@@ -188,7 +192,9 @@ pub fn exact_view(
     size: u32,
     turn_deg: f32,
 ) -> Result<Vec<Option<SeenPoint>>, SweepError> {
-    let optics = mirror.optics().map_err(SweepError::Setup)?;
+    let optics = mirror
+        .optics()
+        .map_err(|e| SweepError::Setup(e.to_string()))?;
     let t = mirror_transform(turn_deg);
     let world_from_mirror = DAffine3::from_rotation_translation(
         DQuat::from_array(t.rotation.to_array().map(f64::from)),
@@ -414,7 +420,9 @@ pub fn mirror_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepE
 /// The CPU per-vertex trace of the scene's mirror from the camera (ms, the
 /// best of 20).
 fn trace_time_ms(mirror: &CurvedMirror) -> Result<f64, SweepError> {
-    let optics = mirror.optics().map_err(SweepError::Setup)?;
+    let optics = mirror
+        .optics()
+        .map_err(|e| SweepError::Setup(e.to_string()))?;
     let (vertices, _) = optics
         .mesh(
             mirror.tessellation.x as usize,
@@ -474,7 +482,11 @@ mod tests {
         // error than a fraction of a pixel.
         let turned = row("turned 25°", 32.0);
         assert!(turned.error["mirror_mean_px"] < 0.5, "{:?}", turned.error);
-        assert!(turned.error["mirror_wrong_surface"] < 0.01, "{:?}", turned.error);
+        assert!(
+            turned.error["mirror_wrong_surface"] < 0.01,
+            "{:?}",
+            turned.error
+        );
         let cube = row("Bevy cube map", 128.0);
         assert!(
             cube.error["mirror_card_mean_px"] > 5.0 * fine.error["mirror_card_mean_px"].max(0.5),

@@ -56,7 +56,13 @@ fn plane(spectacles: Spectacles) -> impl FnOnce(&mut App) {
                   mut images: ResMut<Assets<Image>>,
                   mut materials: ResMut<Assets<StandardMaterial>>| {
                 commands.spawn((
-                    Mesh3d(meshes.add(Plane3d::new(Vec3::Z, Vec2::splat(PLANE_HALF)).mesh().subdivisions(7))),
+                    Mesh3d(
+                        meshes.add(
+                            Plane3d::new(Vec3::Z, Vec2::splat(PLANE_HALF))
+                                .mesh()
+                                .subdivisions(7),
+                        ),
+                    ),
                     MeshMaterial3d(materials.add(StandardMaterial {
                         base_color_texture: Some(images.add(coordinates(256, PLANE_HALF))),
                         unlit: true,
@@ -107,22 +113,41 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
         ctx.progress(step + 1, total, &format!("refraction, {r} rings"));
         let s = lens(r);
         let designed = s.design().map_err(|e| SweepError::Setup(e.to_string()))?;
-        let frame = ctx.headless(size, size).hdr(true).frames(4).render(plane(s.clone()))?;
+        let frame = ctx
+            .headless(size, size)
+            .hdr(true)
+            .frames(4)
+            .render(plane(s.clone()))?;
         report.adapter.get_or_insert(frame.adapter.clone());
-        let img = frame.hdr().ok_or_else(|| SweepError::Setup("no HDR frame".into()))?;
+        let img = frame
+            .hdr()
+            .ok_or_else(|| SweepError::Setup("no HDR frame".into()))?;
         let plane_z = f64::from(PLANE_Z) + f64::from(camera_z());
-        let exact = plane_seen_through_lens(Some(&designed), f64::from(camera_z()), f64::from(FOV), size, plane_z);
+        let exact = plane_seen_through_lens(
+            Some(&designed),
+            f64::from(camera_z()),
+            f64::from(FOV),
+            size,
+            plane_z,
+        );
         // Red (x) is refracted as the C line (the lens's chromatic
         // aberration), green (y) as the d line.
         let red = designed.at_wavelength(LAMBDA_C_NM);
-        let exact_red = plane_seen_through_lens(Some(&red), f64::from(camera_z()), f64::from(FOV), size, plane_z);
+        let exact_red = plane_seen_through_lens(
+            Some(&red),
+            f64::from(camera_z()),
+            f64::from(FOV),
+            size,
+            plane_z,
+        );
         // What the eye's own view shows of the plane (±half its extent there).
         let shown = tan * plane_z;
         let (mut sum, mut max, mut n, mut outside) = (0.0, 0.0f64, 0usize, 0usize);
         for y in 0..size {
             for x in 0..size {
                 let i = (y * size + x) as usize;
-                let (Some(hit), Some(hit_red), p) = (exact[i], exact_red[i], img.get_pixel(x, y).0) else {
+                let (Some(hit), Some(hit_red), p) = (exact[i], exact_red[i], img.get_pixel(x, y).0)
+                else {
                     continue;
                 };
                 if hit.x.abs() > shown || hit.y.abs() > shown {
@@ -132,7 +157,9 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
                 if p[2] < 0.5 {
                     continue;
                 }
-                let e = ((f64::from(p[0]) + hit_red.x).powi(2) + (f64::from(p[1]) - hit.y).powi(2)).sqrt() * px_per_m;
+                let e = ((f64::from(p[0]) + hit_red.x).powi(2) + (f64::from(p[1]) - hit.y).powi(2))
+                    .sqrt()
+                    * px_per_m;
                 sum += e;
                 max = max.max(e);
                 n += 1;
@@ -145,8 +172,10 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
             s.tessellation.y as usize,
             s.chromatic_aberration,
         )
-        .map_err(SweepError::Setup)?;
-        let timed = ctx.headless(size, size).time_frames(timing.0, timing.1, lit_room(s.clone()))?;
+        .map_err(|e| SweepError::Setup(e.to_string()))?;
+        let timed =
+            ctx.headless(size, size)
+                .time_frames(timing.0, timing.1, lit_room(s.clone()))?;
         let plain = ctx.headless(size, size).time_frames(
             timing.0,
             timing.1,
@@ -174,7 +203,9 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
     }
 
     ctx.progress(total, total, "moving lens");
-    let still = ctx.headless(size, size).time_frames(timing.0, timing.1, lit_room(lens(24)))?;
+    let still = ctx
+        .headless(size, size)
+        .time_frames(timing.0, timing.1, lit_room(lens(24)))?;
     let achromatic = ctx.headless(size, size).time_frames(
         timing.0,
         timing.1,
@@ -186,17 +217,25 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
     report.rows.push(
         Row::new(24.0, still.frame_ms.median, achromatic.frame_ms.median)
             .series("chromatic aberration: on against off (knob rings)")
-            .work("frame_ratio", still.frame_ms.median / achromatic.frame_ms.median)
+            .work(
+                "frame_ratio",
+                still.frame_ms.median / achromatic.frame_ms.median,
+            )
             .work("size_px", f64::from(size)),
     );
-    let moving = ctx.headless(size, size).time_frames(timing.0, timing.1, |app: &mut App| {
-        lit_room(lens(24))(app);
-        app.insert_resource(Slide(1.0)).add_systems(Update, slide);
-    })?;
+    let moving = ctx
+        .headless(size, size)
+        .time_frames(timing.0, timing.1, |app: &mut App| {
+            lit_room(lens(24))(app);
+            app.insert_resource(Slide(1.0)).add_systems(Update, slide);
+        })?;
     report.rows.push(
         Row::new(24.0, moving.frame_ms.median, still.frame_ms.median)
             .series("moving lens: retraced every frame against still (knob rings)")
-            .work("frame_ratio", moving.frame_ms.median / still.frame_ms.median)
+            .work(
+                "frame_ratio",
+                moving.frame_ms.median / still.frame_ms.median,
+            )
             .work("size_px", f64::from(size)),
     );
     Ok(())
@@ -212,7 +251,10 @@ mod tests {
         let mut report = Report::cpu("spectacles", "resolution_scale");
         refraction_rows(&ctx, &mut report).expect("the refraction rows run on lavapipe");
         for r in &report.rows {
-            eprintln!("{} {}: {:?} {:?} {:?}", r.series, r.knob, r.error, r.timings, r.work);
+            eprintln!(
+                "{} {}: {:?} {:?} {:?}",
+                r.series, r.knob, r.error, r.timings, r.work
+            );
         }
         assert!(report.problems().is_empty(), "{:?}", report.problems());
         let err = |rings: f64| {
@@ -225,6 +267,11 @@ mod tests {
         };
         // Finer tessellation follows the exact trace more closely; the
         // paper's is within the half pixel.
-        assert!(err(24.0) < err(6.0) && err(24.0) < 0.5, "{} {}", err(6.0), err(24.0));
+        assert!(
+            err(24.0) < err(6.0) && err(24.0) < 0.5,
+            "{} {}",
+            err(6.0),
+            err(24.0)
+        );
     }
 }

@@ -69,9 +69,18 @@ pub struct DTrackFrame {
     pub bodies: Vec<DTrackBody>,
 }
 
-/// Why a DTrack datagram was refused: the line (from 1) and what is wrong.
-#[derive(Debug, Error, PartialEq)]
+/// Why a DTrack datagram was refused (the line, from 1, and what is
+/// wrong), or why the stream could not be opened.
+#[derive(Clone, Debug, Error, PartialEq)]
 pub enum DTrackError {
+    /// The UDP socket could not be bound.
+    #[error("cannot bind {addr}: {message}")]
+    Bind {
+        /// The address asked for.
+        addr: SocketAddr,
+        /// The system's words.
+        message: String,
+    },
     /// The datagram is not UTF-8 text.
     #[error("DTrack datagram is not text")]
     NotText,
@@ -250,7 +259,7 @@ pub struct DTrackStats {
     pub missing_body: u64,
     /// Why the last refused datagram was refused, or the socket could not
     /// be bound.
-    pub last_error: Option<String>,
+    pub last_error: Option<DTrackError>,
 }
 
 /// The bound socket (and what it was bound for).
@@ -279,8 +288,11 @@ pub(crate) fn read_dtrack(
                 });
             }
             Err(e) => {
-                let why = format!("cannot bind {}: {e}", settings.bind);
-                if stats.last_error.as_deref() != Some(why.as_str()) {
+                let why = DTrackError::Bind {
+                    addr: settings.bind,
+                    message: e.to_string(),
+                };
+                if stats.last_error.as_ref() != Some(&why) {
                     warn!("foveated LOD: DTrack {why}");
                     stats.last_error = Some(why);
                 }
@@ -301,7 +313,7 @@ pub(crate) fn read_dtrack(
             }
             Err(e) => {
                 stats.malformed += 1;
-                stats.last_error = Some(e.to_string());
+                stats.last_error = Some(e);
             }
         }
     }

@@ -380,7 +380,7 @@ fn dtrack_datagrams_parse_and_bad_ones_are_refused() {
 /// frame without the body reports the head lost.
 #[test]
 fn a_dtrack_stream_on_the_loopback_drives_the_head() {
-    use optica_foveated_lod::dtrack::{DTrackSettings, DTrackStats};
+    use optica_foveated_lod::dtrack::{DTrackError, DTrackSettings, DTrackStats};
     use std::net::UdpSocket;
     let mut app = cpu_app();
     app.insert_resource(HeadSource::DTrack(DTrackSettings {
@@ -431,6 +431,14 @@ fn a_dtrack_stream_on_the_loopback_drives_the_head() {
         app.world().resource::<DTrackStats>().malformed >= 1
     });
     assert_eq!(*app.world().resource::<TrackedHead>(), head);
+    assert!(
+        matches!(
+            &app.world().resource::<DTrackStats>().last_error,
+            Some(DTrackError::Line { line: 1, kind, .. }) if kind == "6d"
+        ),
+        "{:?}",
+        app.world().resource::<DTrackStats>().last_error
+    );
     send_until(
         &mut app,
         "fr 8\n6d 1 [0 1.000][0 0 0 0 0 0][1 0 0 0 1 0 0 0 1]\n",

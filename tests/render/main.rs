@@ -8,6 +8,7 @@ mod compound_eye;
 mod dome;
 mod foveated_lod;
 mod lens_flare;
+mod plugin_shape;
 // The showcase's scenes are the examples' (they use the umbrella crate's
 // plugin features, all of which `showcase` turns on; CI builds with
 // --all-features).

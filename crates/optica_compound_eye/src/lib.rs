@@ -207,6 +207,10 @@ pub struct CompoundEyePlugin;
 
 impl Plugin for CompoundEyePlugin {
     fn build(&self, app: &mut App) {
+        assert!(
+            app.world().contains_resource::<AssetServer>(),
+            "optica_compound_eye: add CompoundEyePlugin after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
+        );
         load_shader_library!(app, "shaders/compound_eye_optics.wgsl");
         embedded_asset!(app, "shaders/compound_eye.wgsl");
         app.add_plugins(MaterialPlugin::<CompoundEyeMaterial>::default())

@@ -234,11 +234,10 @@
 //!
 #![warn(missing_docs)]
 
-use bevy::asset::uuid_handle;
+use bevy::asset::embedded_asset;
 use bevy::camera::CameraUpdateSystems;
 use bevy::camera::visibility::VisibilitySystems;
 use bevy::prelude::*;
-use bevy::shader::Shader;
 use bevy::transform::TransformSystems;
 
 mod cave;
@@ -248,7 +247,7 @@ mod lod;
 #[cfg(feature = "egui")]
 mod panel;
 mod raytrace;
-mod raytrace_render;
+mod render;
 mod settings;
 mod trace;
 
@@ -271,10 +270,6 @@ pub use trace::{HeadTrace, ON_TIME_S, TraceError};
 /// [`CaveView`] cameras and traced images for [`GazeRayTracer`] cameras.
 pub struct FoveatedLodPlugin;
 
-/// The ray tracer's shader (`raytrace.wgsl`).
-pub(crate) const RAYTRACE_SHADER: Handle<Shader> =
-    uuid_handle!("7b1e4d92-3c58-4a0f-9e26-d5a8c1f04b73");
-
 /// The system sets of the plugin, in `PostUpdate`.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum FoveatedLodSystems {
@@ -291,16 +286,12 @@ pub enum FoveatedLodSystems {
 
 impl Plugin for FoveatedLodPlugin {
     fn build(&self, app: &mut App) {
-        if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
-            let _ = shaders.insert(
-                RAYTRACE_SHADER.id(),
-                Shader::from_wgsl(
-                    include_str!("shaders/raytrace.wgsl"),
-                    "optica_foveated_lod/shaders/raytrace.wgsl",
-                ),
-            );
-        }
-        raytrace_render::build(app);
+        assert!(
+            app.world().contains_resource::<AssetServer>(),
+            "optica_foveated_lod: add FoveatedLodPlugin after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
+        );
+        embedded_asset!(app, "shaders/raytrace.wgsl");
+        app.add_plugins(render::TracerRenderPlugin);
         let consumers = any_with_component::<GazeLod>
             .or_else(any_with_component::<CaveView>)
             .or_else(any_with_component::<GazeRayTracer>);

@@ -2,7 +2,7 @@
 //! What users put on entities ([`GazeRayTracer`] on a camera, [`RayTraced`]
 //! on meshes), the scene the tracer sees ([`TracedScene`], rebuilt only when
 //! something in it changed) and each view's foveation decision
-//! ([`GazeRayTracerState`]). The GPU side is `raytrace_render.rs`.
+//! ([`GazeRayTracerState`]). The GPU side is the `render` module.
 
 use std::sync::Arc;
 

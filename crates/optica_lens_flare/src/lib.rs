@@ -189,6 +189,10 @@ pub struct LensFlarePlugin;
 
 impl Plugin for LensFlarePlugin {
     fn build(&self, app: &mut App) {
+        assert!(
+            app.world().contains_resource::<AssetServer>(),
+            "optica_lens_flare: add LensFlarePlugin after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
+        );
         load_shader_library!(app, "shaders/flare_types.wgsl");
         load_shader_library!(app, "shaders/lens_trace.wgsl");
         load_shader_library!(app, "shaders/aperture.wgsl");

@@ -394,6 +394,10 @@ pub struct SpectaclesPlugin;
 
 impl Plugin for SpectaclesPlugin {
     fn build(&self, app: &mut App) {
+        assert!(
+            app.world().contains_resource::<AssetServer>(),
+            "optica_spectacles: add SpectaclesPlugin after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
+        );
         load_shader_library!(app, "shaders/displacement.wgsl");
         insert_clone_shader(app, false);
         if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {

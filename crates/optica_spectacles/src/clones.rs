@@ -55,14 +55,12 @@ pub struct CloneExtension {
     /// the eye is naked.
     #[storage(101, read_only)]
     pub field: Handle<ShaderBuffer>,
+    /// Whether the device clips by distances the vertex shader writes
+    /// ([`SpectaclesDevice::clip_distances`](crate::SpectaclesDevice)):
+    /// clones are then cut at their tiles by the rasteriser; without it,
+    /// by a discard in the fragment shader.
+    pub clip_distances: bool,
 }
-
-/// Whether the render device clips primitives by distances the vertex
-/// shader writes (`wgpu::Features::CLIP_DISTANCES`), set when the render
-/// app starts: clones are then cut at their tiles by the rasteriser;
-/// without it, by a discard in the fragment shader.
-pub(crate) static CLIP_DISTANCES: std::sync::atomic::AtomicBool =
-    std::sync::atomic::AtomicBool::new(false);
 
 /// What the clone pipelines are specialised on: a reprojected clone's
 /// fragment shader only records where its surface lies (no shading at
@@ -71,12 +69,14 @@ pub(crate) static CLIP_DISTANCES: std::sync::atomic::AtomicBool =
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CloneKey {
     reprojected: bool,
+    clip_distances: bool,
 }
 
 impl From<&CloneExtension> for CloneKey {
     fn from(e: &CloneExtension) -> Self {
         Self {
             reprojected: e.params.shading == 1,
+            clip_distances: e.clip_distances,
         }
     }
 }
@@ -110,7 +110,7 @@ impl MaterialExtension for CloneExtension {
         // each clone at its tile.
         let def = "VERTEX_OUTPUT_INSTANCE_INDEX";
         descriptor.vertex.shader_defs.push(def.into());
-        let clip = CLIP_DISTANCES.load(std::sync::atomic::Ordering::Relaxed);
+        let clip = key.bind_group_data.clip_distances;
         if clip {
             descriptor.vertex.shader_defs.push("CLIP_DISTANCES".into());
         }
@@ -316,6 +316,7 @@ pub(crate) fn sync_rig(
     mut buffers: ResMut<Assets<ShaderBuffer>>,
     mut materials: ResMut<CloneMaterials>,
     mut clone_assets: ResMut<Assets<CloneMaterial>>,
+    device: Option<Res<crate::SpectaclesDevice>>,
 ) {
     let active = eyes
         .iter()
@@ -366,11 +367,15 @@ pub(crate) fn sync_rig(
     let mut extension = CloneExtension {
         params: optics.uniform,
         field: optics.field.as_ref().map_or(empty, |(h, _)| h.clone()),
+        clip_distances: device.is_some_and(|d| d.clip_distances),
     };
     extension.params.clones = clones;
     extension.params.tile_cols = tiles.x;
     extension.params.tile_rows = tiles.y;
-    if extension.params != materials.extension.params || extension.field != materials.extension.field {
+    if extension.params != materials.extension.params
+        || extension.field != materials.extension.field
+        || extension.clip_distances != materials.extension.clip_distances
+    {
         materials.extension = extension.clone();
         for handle in materials.by_base.values() {
             if let Some(mut m) = clone_assets.get_mut(handle) {

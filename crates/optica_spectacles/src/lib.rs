@@ -307,7 +307,7 @@
 
 #![warn(missing_docs)]
 
-use bevy::asset::uuid_handle;
+use bevy::asset::{embedded_asset, uuid_handle};
 use bevy::pbr::MaterialPlugin;
 use bevy::prelude::*;
 use bevy::shader::{Shader, load_shader_library};
@@ -336,27 +336,22 @@ pub use precompute::{
 };
 pub use mirror::{
     CubeFace, CurvedMirror, MAX_ENVIRONMENT_FOV_DEG, MIRROR_LAYER, MirrorEnvironment, MirrorMaterial,
-    MirrorMethod, MirrorState, MirrorViewer, reflection_probes_supported,
+    MirrorMethod, MirrorState, MirrorViewer,
 };
 pub use refraction::{LensRefraction, LensVertex, trace_lens};
-pub use render::refraction::MARCH_STEPS;
+pub use render::MARCH_STEPS;
 pub use settings::{
     Accommodation, Astigmatism, CloneDefocus, CloneShading, Eye, FieldBox, LensMaterial, MAX_CLONES, Pupil,
     Spectacles,
 };
 
-/// The clone material's shader: `clone.wgsl` with the field lookup pasted in.
+/// The clone material's shader: `clone.wgsl` with the field lookup pasted
+/// in (it reads the material's `field` binding, which an imported module
+/// cannot see) and, where the device has them, clip distances enabled (an
+/// `enable` directive must open the file, before any shader def can act).
+/// The other shaders are embedded assets.
 pub(crate) const CLONE_SHADER: Handle<Shader> =
     uuid_handle!("0d6f1c2a-94b7-4f3e-8a51-6c2e9b7d3f10");
-/// The resolve pass's shader.
-pub(crate) const RESOLVE_SHADER: Handle<Shader> =
-    uuid_handle!("5a3e8c71-2b94-4d6f-b0a2-e91c47f6d385");
-/// The per-vertex mirror's material shader.
-pub(crate) const MIRROR_SHADER: Handle<Shader> =
-    uuid_handle!("3e71b9d0-58c2-4a6f-9d14-b7a0c2e5f893");
-/// The lens refraction's shader.
-pub(crate) const LENS_SHADER: Handle<Shader> =
-    uuid_handle!("9c2b7e14-6a3f-4d85-b1e0-3f7a5c9d2e46");
 
 /// `displacement.wgsl`: the clones' displacement sets (pupil samples, the
 /// frame across a sight line, the naked eye, the box exit), the WGSL twin of
@@ -388,6 +383,24 @@ fn insert_clone_shader(app: &mut App, clip_distances: bool) {
     }
 }
 
+/// What the render device offers the plugin, known once the app's plugins
+/// have finished (before the first update; absent, all `false`, without a
+/// renderer). Read it to know which path a scene takes on this machine.
+#[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Resource, Default)]
+pub struct SpectaclesDevice {
+    /// The device clips by distances the vertex shader writes
+    /// (`wgpu::Features::CLIP_DISTANCES`): clones are cut at their tiles
+    /// by the rasteriser, with early depth testing; without it, by a
+    /// discard in the fragment shader.
+    pub clip_distances: bool,
+    /// Bevy's reflection probes work here (they need binding arrays of
+    /// textures: most desktop GPUs, not lavapipe or WebGL2). Without them
+    /// a [`MirrorMethod::ParallaxCorrectedCubeMap`] draws the plain cube
+    /// map (the view's environment map), and [`MirrorState`] says so.
+    pub reflection_probes: bool,
+}
+
 /// Adds [`Eye`], [`Spectacles`] and [`CloneDefocus`]. Without an `Eye`
 /// camera it adds no pass, builds no pipeline and does no per-frame work.
 pub struct SpectaclesPlugin;
@@ -400,29 +413,9 @@ impl Plugin for SpectaclesPlugin {
         );
         load_shader_library!(app, "shaders/displacement.wgsl");
         insert_clone_shader(app, false);
-        if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
-            let _ = shaders.insert(
-                LENS_SHADER.id(),
-                Shader::from_wgsl(
-                    include_str!("shaders/lens_refraction.wgsl"),
-                    "optica_spectacles/shaders/lens_refraction.wgsl",
-                ),
-            );
-            let _ = shaders.insert(
-                MIRROR_SHADER.id(),
-                Shader::from_wgsl(
-                    include_str!("shaders/mirror.wgsl"),
-                    "optica_spectacles/shaders/mirror.wgsl",
-                ),
-            );
-            let _ = shaders.insert(
-                RESOLVE_SHADER.id(),
-                Shader::from_wgsl(
-                    include_str!("shaders/resolve.wgsl"),
-                    "optica_spectacles/shaders/resolve.wgsl",
-                ),
-            );
-        }
+        embedded_asset!(app, "shaders/lens_refraction.wgsl");
+        embedded_asset!(app, "shaders/mirror.wgsl");
+        embedded_asset!(app, "shaders/resolve.wgsl");
         app.add_plugins(MaterialPlugin::<CloneMaterial>::default())
             .add_plugins(MaterialPlugin::<MirrorMaterial>::default())
             .register_type::<CurvedMirror>()
@@ -432,6 +425,7 @@ impl Plugin for SpectaclesPlugin {
             .register_type::<Spectacles>()
             .register_type::<CloneDefocus>()
             .register_type::<SpectaclesStatus>()
+            .register_type::<SpectaclesDevice>()
             .init_resource::<clones::CloneMaterials>()
             .add_systems(
                 PostUpdate,
@@ -488,7 +482,7 @@ impl Plugin for SpectaclesPlugin {
                 d.features()
                     .contains(bevy::render::render_resource::WgpuFeatures::CLIP_DISTANCES)
             });
-        clones::CLIP_DISTANCES.store(clip, std::sync::atomic::Ordering::Relaxed);
+
         // Bevy's condition for reflection probes: binding arrays of at
         // least its material's 16 textures and 8 probes.
         let probes = app
@@ -501,7 +495,10 @@ impl Plugin for SpectaclesPlugin {
                 ) && d.limits().max_binding_array_elements_per_shader_stage >= 24
                     && d.limits().max_binding_array_sampler_elements_per_shader_stage >= 24
             });
-        mirror::REFLECTION_PROBES.store(probes, std::sync::atomic::Ordering::Relaxed);
+        app.insert_resource(SpectaclesDevice {
+            clip_distances: clip,
+            reflection_probes: probes,
+        });
         insert_clone_shader(app, clip);
     }
 }

@@ -37,7 +37,7 @@ use bevy::shader::ShaderRef;
 use optica_optics::glam::{DAffine3, DVec3};
 use optica_optics::spectacles::{CurvedMirror as MirrorOptics, DEFAULT_VIEWPOINT_REGULARISATION};
 
-use crate::Error;
+use crate::{Error, SpectaclesDevice};
 use crate::refraction::LensVertex;
 
 /// The render layer the plugin puts mirrors on: the viewer sees it, the
@@ -45,19 +45,8 @@ use crate::refraction::LensVertex;
 /// render itself).
 pub const MIRROR_LAYER: usize = 27;
 
-/// Whether Bevy's reflection probes work on this device (they need
-/// binding arrays of textures: most desktop GPUs, not lavapipe or WebGL2),
-/// set when the render device is made. Where they do not, a
-/// [`MirrorMethod::ParallaxCorrectedCubeMap`] falls back to the plain cube
-/// map (the view's environment map) and says so in [`MirrorState`].
-pub(crate) static REFLECTION_PROBES: std::sync::atomic::AtomicBool =
-    std::sync::atomic::AtomicBool::new(false);
-
-/// Whether this device draws parallax-corrected cube maps (Bevy's
-/// reflection probes); known once the plugin's `finish` has run.
-pub fn reflection_probes_supported() -> bool {
-    REFLECTION_PROBES.load(std::sync::atomic::Ordering::Relaxed)
-}
+/// The per-vertex mirror's material shader (embedded by the plugin).
+const MIRROR_SHADER: &str = "embedded://optica_spectacles/shaders/mirror.wgsl";
 
 /// The widest field of view of a mirror's environment camera (the
 /// per-vertex method): what a mirror reflects beyond it takes the image's
@@ -206,11 +195,11 @@ pub struct MirrorMaterial {
 
 impl Material for MirrorMaterial {
     fn vertex_shader() -> ShaderRef {
-        crate::MIRROR_SHADER.into()
+        MIRROR_SHADER.into()
     }
 
     fn fragment_shader() -> ShaderRef {
-        crate::MIRROR_SHADER.into()
+        MIRROR_SHADER.into()
     }
 }
 
@@ -381,7 +370,9 @@ pub(crate) fn build_mirrors(
     mut standard_materials: ResMut<Assets<StandardMaterial>>,
     owned: Query<(Entity, &MirrorHelperOf)>,
     lit: Query<(Entity, &LitByMirrorCube)>,
+    device: Option<Res<SpectaclesDevice>>,
 ) {
+    let device = device.map_or_else(SpectaclesDevice::default, |d| *d);
     let (viewer, order, layers, exposure) = viewers
         .iter()
         .next()
@@ -503,7 +494,7 @@ pub(crate) fn build_mirrors(
                     intensity: 1.0 / exposure.exposure(),
                     ..default()
                 };
-                let probes = reflection_probes_supported();
+                let probes = device.reflection_probes;
                 let parallax = match mirror.method {
                     MirrorMethod::ParallaxCorrectedCubeMap {
                         room_centre,
@@ -569,7 +560,7 @@ pub(crate) fn build_mirrors(
             parallax_corrected: matches!(
                 mirror.method,
                 MirrorMethod::ParallaxCorrectedCubeMap { .. }
-            ) && reflection_probes_supported(),
+            ) && device.reflection_probes,
             settings: mirror.clone(),
             warned_scale: false,
             optics,

@@ -33,7 +33,9 @@ use bevy::render::view::Msaa;
 use optica_harness::textures::coordinates_tagged;
 use optica_optics::glam::{DAffine3, DQuat, DVec3};
 use optica_optics::spectacles::{CoordinatePlane, Pinhole, SeenPoint, seen_with_mirror};
-use optica_spectacles::{CurvedMirror, MirrorMethod, MirrorViewer, SpectaclesPlugin};
+use optica_spectacles::{
+    CurvedMirror, MirrorMethod, MirrorViewer, SpectaclesDevice, SpectaclesPlugin,
+};
 
 use super::SweepError;
 use crate::{Report, Row, SweepContext};
@@ -314,17 +316,28 @@ pub fn render_mirror(
     mirror: &CurvedMirror,
     size: u32,
     turn_deg: f32,
-) -> Result<(MirrorError, optica_harness::RenderedFrame), SweepError> {
+) -> Result<(MirrorError, optica_harness::RenderedFrame, SpectaclesDevice), SweepError> {
+    let device = std::sync::Arc::new(std::sync::Mutex::new(SpectaclesDevice::default()));
+    let seen = device.clone();
+    let scene = mirror_scene(Some(mirror.clone()), false, turn_deg);
     let frame = ctx
         .headless(size, size)
         .hdr(true)
         .frames(6)
-        .render(mirror_scene(Some(mirror.clone()), false, turn_deg))?;
+        .render(move |app: &mut App| {
+            scene(app);
+            app.add_systems(Last, move |d: Option<Res<SpectaclesDevice>>| {
+                if let Some(d) = d {
+                    *seen.lock().expect("device") = *d;
+                }
+            });
+        })?;
+    let device = *device.lock().expect("device");
     let img = frame
         .hdr()
         .ok_or_else(|| SweepError::Setup("no HDR frame".into()))?;
     let error = mirror_error(img, &exact_view(mirror, size, turn_deg)?, size);
-    Ok((error, frame))
+    Ok((error, frame, device))
 }
 
 /// The mirror's rows.
@@ -377,7 +390,7 @@ pub fn mirror_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepE
     let total = cases.len();
     for (step, (series, knob, mirror, turn)) in cases.into_iter().enumerate() {
         ctx.progress(step + 1, total, &series);
-        let (error, frame) = render_mirror(ctx, &mirror, size, turn)?;
+        let (error, frame, device) = render_mirror(ctx, &mirror, size, turn)?;
         report.adapter.get_or_insert(frame.adapter.clone());
         let timed = ctx.headless(size, size).time_frames(
             timing.0,
@@ -386,7 +399,7 @@ pub fn mirror_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepE
         )?;
         // Known once a device exists.
         let series = if matches!(mirror.method, MirrorMethod::ParallaxCorrectedCubeMap { .. })
-            && !optica_spectacles::reflection_probes_supported()
+            && !device.reflection_probes
         {
             series.replace(
                 "cube map (",
@@ -499,7 +512,7 @@ mod tests {
             "{:?}",
             pccm.error
         );
-        if optica_spectacles::reflection_probes_supported() {
+        if !pccm.series.contains("not supported here") {
             assert!(pccm.error["mirror_wall_mean_px"] < 1.0, "{:?}", pccm.error);
         } else {
             // The plain cube map stands in, and says so.

@@ -20,33 +20,14 @@ use bevy::asset::RenderAssetUsages;
 use bevy::camera::Hdr;
 use bevy::camera::RenderTarget;
 use bevy::camera::visibility::RenderLayers;
-use bevy::core_pipeline::fullscreen_material::fullscreen_material_system;
-use bevy::core_pipeline::tonemapping::{Tonemapping, tonemapping};
-use bevy::core_pipeline::{Core3d, Core3dSystems, FullscreenShader};
+use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::math::Mat3;
-use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
-use bevy::render::diagnostic::RecordDiagnostics;
-use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
-use bevy::render::render_asset::RenderAssets;
-use bevy::render::render_resource::binding_types::{sampler, texture_2d, uniform_buffer};
-use bevy::render::render_resource::{
-    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries,
-    CachedRenderPipelineId, ColorTargetState, ColorWrites, FilterMode, FragmentState, Operations,
-    PipelineCache, RenderPassColorAttachment, RenderPassDescriptor, RenderPipelineDescriptor,
-    Sampler, SamplerBindingType, SamplerDescriptor, ShaderStages, ShaderType, TextureFormat,
-    TextureSampleType, TextureUsages, TextureViewId, UniformBuffer,
-};
-use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue, ViewQuery};
-use bevy::render::texture::GpuImage;
-use bevy::render::view::{ExtractedView, Msaa, ViewTarget};
-use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
-use bevy::shader::Shader;
+use bevy::render::extract_component::ExtractComponent;
+use bevy::render::render_resource::{ShaderType, TextureFormat, TextureUsages};
+use bevy::render::view::Msaa;
 
-use crate::{DomeCamera, DomeClip, DomeMode, DomeRimMask, DomeSees};
-
-/// Where `embedded_asset!` puts the resampling shader.
-const SHADER_PATH: &str = "embedded://optica_dome/shaders/cube_resample.wgsl";
+use crate::{DomeCamera, DomeClip, DomeMode, DomeSees};
 
 /// The six faces in the cube's frame: (looking along, image up). The
 /// shader receives this table, so it is written once.
@@ -148,13 +129,13 @@ pub struct DomeCubeFace {
 pub(crate) struct DomeCubeSampling {
     /// One image per face-table entry; faces not drawn repeat a drawn one
     /// (never selected).
-    images: [Handle<Image>; 6],
-    params: CubeParams,
+    pub(crate) images: [Handle<Image>; 6],
+    pub(crate) params: CubeParams,
 }
 
 /// The resampling pass's uniform (`shaders/cube_resample.wgsl`).
 #[derive(ShaderType, Clone, Copy, Debug, PartialEq)]
-struct CubeParams {
+pub(crate) struct CubeParams {
     /// Dome coordinates (image right, image up, along the axis) to the
     /// cube's frame.
     cube_from_dome: Mat3,
@@ -171,6 +152,18 @@ struct CubeParams {
     shape: Vec3,
     /// The lens's number (`DomeClip::lens_code`).
     lens: u32,
+}
+
+impl CubeParams {
+    /// The parameters for a view of `size` pixels: the image circle fits
+    /// its shorter side.
+    pub(crate) fn for_view(self, size: UVec2) -> Self {
+        let size = size.max(UVec2::ONE).as_vec2();
+        Self {
+            scale: Vec2::splat(size.min_element()) / size,
+            ..self
+        }
+    }
 }
 
 /// Spawns, rebuilds or removes the face cameras of every dome camera whose
@@ -323,206 +316,4 @@ pub(crate) fn follow_dome_camera(
             }
         }
     }
-}
-
-/// The render-world half: the resampling pipeline and pass.
-pub(crate) struct CubeResamplePlugin;
-
-impl Plugin for CubeResamplePlugin {
-    fn build(&self, app: &mut App) {
-        app.add_plugins(ExtractComponentPlugin::<DomeCubeSampling>::default());
-        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
-            return;
-        };
-        render_app
-            .add_systems(RenderStartup, init_resample)
-            .add_systems(
-                Render,
-                prepare_resample.in_set(RenderSystems::PrepareBindGroups),
-            )
-            .add_systems(
-                Core3d,
-                resample
-                    .in_set(Core3dSystems::PostProcess)
-                    .before(fullscreen_material_system::<DomeRimMask>)
-                    .before(tonemapping),
-            );
-    }
-}
-
-/// The pipeline's pieces; pipelines are queued per target format the first
-/// time a cube-mode view needs one, so a scene without one has none.
-#[derive(Resource)]
-struct ResampleShared {
-    layout: BindGroupLayoutDescriptor,
-    sampler: Sampler,
-    shader: Handle<Shader>,
-    pipelines: HashMap<TextureFormat, CachedRenderPipelineId>,
-}
-
-fn init_resample(
-    mut commands: Commands,
-    render_device: Res<RenderDevice>,
-    asset_server: Res<AssetServer>,
-) {
-    let layout = BindGroupLayoutDescriptor::new(
-        "optica_dome_cube_resample_layout",
-        &BindGroupLayoutEntries::sequential(
-            ShaderStages::FRAGMENT,
-            (
-                texture_2d(TextureSampleType::Float { filterable: true }),
-                texture_2d(TextureSampleType::Float { filterable: true }),
-                texture_2d(TextureSampleType::Float { filterable: true }),
-                texture_2d(TextureSampleType::Float { filterable: true }),
-                texture_2d(TextureSampleType::Float { filterable: true }),
-                texture_2d(TextureSampleType::Float { filterable: true }),
-                sampler(SamplerBindingType::Filtering),
-                uniform_buffer::<CubeParams>(false),
-            ),
-        ),
-    );
-    let sampler = render_device.create_sampler(&SamplerDescriptor {
-        label: Some("optica_dome_cube_sampler"),
-        mag_filter: FilterMode::Linear,
-        min_filter: FilterMode::Linear,
-        ..default()
-    });
-    commands.insert_resource(ResampleShared {
-        layout,
-        sampler,
-        shader: asset_server.load(SHADER_PATH),
-        pipelines: HashMap::default(),
-    });
-}
-
-/// The resampling pass's bind group and pipeline for one view, and what
-/// they were made from (rebuilt only when that changes).
-#[derive(Component)]
-struct ResampleBinding {
-    bind_group: BindGroup,
-    pipeline: CachedRenderPipelineId,
-    made_from: ([TextureViewId; 6], CubeParams),
-}
-
-#[allow(clippy::too_many_arguments)]
-fn prepare_resample(
-    mut commands: Commands,
-    views: Query<(
-        Entity,
-        &ExtractedView,
-        Option<&DomeCubeSampling>,
-        Option<&ResampleBinding>,
-    )>,
-    mut shared: ResMut<ResampleShared>,
-    pipeline_cache: Res<PipelineCache>,
-    fullscreen: Res<FullscreenShader>,
-    gpu_images: Res<RenderAssets<GpuImage>>,
-    render_device: Res<RenderDevice>,
-    render_queue: Res<RenderQueue>,
-) {
-    for (entity, view, sampling, binding) in &views {
-        let Some(sampling) = sampling else {
-            commands.entity(entity).remove::<ResampleBinding>();
-            continue;
-        };
-        let textures: Option<Vec<_>> = sampling
-            .images
-            .iter()
-            .map(|h| gpu_images.get(h).map(|g| &g.texture_view))
-            .collect();
-        let Some(textures) = textures else {
-            // The faces are not on the GPU yet.
-            commands.entity(entity).remove::<ResampleBinding>();
-            continue;
-        };
-        let format = view.target_format;
-        let shader = shared.shader.clone();
-        let layout = shared.layout.clone();
-        let pipeline = *shared.pipelines.entry(format).or_insert_with(|| {
-            pipeline_cache.queue_render_pipeline(RenderPipelineDescriptor {
-                label: Some("optica_dome_cube_resample".into()),
-                layout: vec![layout],
-                vertex: fullscreen.to_vertex_state(),
-                fragment: Some(FragmentState {
-                    shader,
-                    targets: vec![Some(ColorTargetState {
-                        format,
-                        blend: None,
-                        write_mask: ColorWrites::ALL,
-                    })],
-                    ..default()
-                }),
-                ..default()
-            })
-        });
-        // The image circle fits the view's shorter side.
-        let size = view.viewport.zw().max(UVec2::ONE).as_vec2();
-        let params = CubeParams {
-            scale: Vec2::splat(size.min_element()) / size,
-            ..sampling.params
-        };
-        let made_from = (std::array::from_fn(|k| textures[k].id()), params);
-        if binding.is_some_and(|b| b.pipeline == pipeline && b.made_from == made_from) {
-            continue;
-        }
-        let mut uniform = UniformBuffer::from(params);
-        uniform.write_buffer(&render_device, &render_queue);
-        let Some(params) = uniform.binding() else {
-            continue;
-        };
-        let bind_group = render_device.create_bind_group(
-            "optica_dome_cube_resample",
-            &pipeline_cache.get_bind_group_layout(&shared.layout),
-            &BindGroupEntries::sequential((
-                textures[0],
-                textures[1],
-                textures[2],
-                textures[3],
-                textures[4],
-                textures[5],
-                &shared.sampler,
-                params,
-            )),
-        );
-        commands.entity(entity).insert(ResampleBinding {
-            bind_group,
-            pipeline,
-            made_from,
-        });
-    }
-}
-
-/// Writes the domemaster from the faces (before tonemapping and the rim
-/// mask).
-fn resample(
-    view: ViewQuery<(&ViewTarget, &ResampleBinding)>,
-    pipeline_cache: Res<PipelineCache>,
-    mut ctx: RenderContext,
-) {
-    let (view_target, binding) = view.into_inner();
-    let Some(pipeline) = pipeline_cache.get_render_pipeline(binding.pipeline) else {
-        return;
-    };
-    let post_process = view_target.post_process_write();
-    let pass = RenderPassDescriptor {
-        label: Some("optica_dome_cube_resample"),
-        color_attachments: &[Some(RenderPassColorAttachment {
-            view: post_process.destination,
-            depth_slice: None,
-            resolve_target: None,
-            ops: Operations::default(),
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    };
-    let diagnostics = ctx.diagnostic_recorder();
-    let diagnostics = diagnostics.as_deref();
-    let mut render_pass = ctx.command_encoder().begin_render_pass(&pass);
-    let span = diagnostics.pass_span(&mut render_pass, "optica/dome/cube_resample");
-    render_pass.set_pipeline(pipeline);
-    render_pass.set_bind_group(0, &binding.bind_group, &[]);
-    render_pass.draw(0..3, 0..1);
-    span.end(&mut render_pass);
 }

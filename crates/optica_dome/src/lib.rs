@@ -161,6 +161,7 @@ pub mod lines;
 mod mask;
 mod projection;
 mod refine;
+mod render;
 mod settings;
 mod shader_hook;
 mod twin_mesh;
@@ -203,7 +204,7 @@ impl Plugin for DomePlugin {
         embedded_asset!(app, "shaders/rim_mask.wgsl");
         embedded_asset!(app, "shaders/cube_resample.wgsl");
         app.add_plugins(FullscreenMaterialPlugin::<DomeRimMask>::default())
-            .add_plugins(cube::CubeResamplePlugin)
+            .add_plugins(render::CubeResamplePlugin)
             .register_type::<DomeCamera>()
             .register_type::<DomeStatus>()
             .register_type::<DomeMode>()

@@ -180,6 +180,7 @@ use bevy::pbr::MaterialExtension;
 use bevy::prelude::*;
 use bevy::shader::{ShaderRef, load_shader_library};
 
+mod error;
 mod eye_cap;
 #[cfg(feature = "egui")]
 mod panel;
@@ -189,10 +190,11 @@ mod settings;
 
 #[cfg(feature = "egui")]
 pub use panel::{CompoundEyePanel, CompoundEyePanelPlugin, compound_eye_ui};
+pub use error::Error;
 pub use eye_cap::EyeCap;
 pub use presets::EyePreset;
 pub use settings::{
-    CompoundEye, CompoundEyeMaterial, CompoundEyeUniform, EyeLattice, EyeOutput, MAX_DEPTH,
+    CompoundEye, CompoundEyeMaterial, CompoundEyeStatus, CompoundEyeUniform, EyeLattice, EyeOutput, MAX_DEPTH,
     MAX_INDEX, PigmentDisc,
 };
 
@@ -216,10 +218,15 @@ impl Plugin for CompoundEyePlugin {
         app.add_plugins(MaterialPlugin::<CompoundEyeMaterial>::default())
             .register_type::<CompoundEye>()
             .register_type::<EyeCap>()
+            .register_type::<CompoundEyeStatus>()
             .init_resource::<prefilter::PrefilterTables>()
+            .add_observer(add_status)
             .add_systems(
                 PostUpdate,
-                (warn_about_invalid_settings, prefilter::build_prefilter_tables),
+                (
+                    warn_about_invalid_settings,
+                    (prefilter::build_prefilter_tables, update_status).chain(),
+                ),
             );
     }
 }
@@ -232,6 +239,58 @@ impl MaterialExtension for CompoundEye {
     /// The same shader writes the G-buffer for the deferred renderer.
     fn deferred_fragment_shader() -> ShaderRef {
         SHADER_PATH.into()
+    }
+}
+
+/// Gives every compound-eye mesh its [`CompoundEyeStatus`].
+fn add_status(add: On<Add, MeshMaterial3d<CompoundEyeMaterial>>, mut commands: Commands) {
+    commands
+        .entity(add.entity)
+        .insert_if_new(CompoundEyeStatus::default());
+}
+
+/// Brings each mesh's [`CompoundEyeStatus`] up to date when its material
+/// changed, was swapped for another or has just arrived.
+fn update_status(
+    mut events: MessageReader<AssetEvent<CompoundEyeMaterial>>,
+    materials: Res<Assets<CompoundEyeMaterial>>,
+    tables: Res<prefilter::PrefilterTables>,
+    mut meshes: Query<(
+        Ref<MeshMaterial3d<CompoundEyeMaterial>>,
+        &mut CompoundEyeStatus,
+    )>,
+) {
+    let changed: Vec<AssetId<CompoundEyeMaterial>> = events
+        .read()
+        .filter_map(|e| match e {
+            AssetEvent::Added { id } | AssetEvent::Modified { id } => Some(*id),
+            _ => None,
+        })
+        .collect();
+    for (handle, mut status) in &mut meshes {
+        let id = handle.id();
+        if !(changed.contains(&id) || handle.is_changed() || status.is_added()) {
+            continue;
+        }
+        let next = match materials.get(id) {
+            None => CompoundEyeStatus::default(),
+            Some(material) => {
+                let eye = &material.extension;
+                let valid = eye.validate();
+                CompoundEyeStatus {
+                    lattice: valid.is_ok(),
+                    prefiltered: valid.is_ok()
+                        && eye.prefilter
+                        && eye.prefilter_table.is_some()
+                        && eye.pigment_texture.is_none(),
+                    error: valid
+                        .err()
+                        .map(Error::from)
+                        .or_else(|| tables.failed.get(&id).copied()),
+                }
+            }
+        };
+        status.set_if_neq(next);
     }
 }
 

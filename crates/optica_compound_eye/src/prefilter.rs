@@ -11,7 +11,7 @@ use optica_optics::compound_eye::{
     DarkCentre, MAX_EXACT_LENSES, PrefilterTable, ShadeOptions, TABLE_AZIMUTHS, TABLE_POLARS,
 };
 
-use crate::{CompoundEye, CompoundEyeMaterial};
+use crate::{CompoundEye, CompoundEyeMaterial, Error};
 
 /// The tables made so far, by the settings they were made from: materials
 /// with the same optics share one. Only the materials hold them, so a table
@@ -19,6 +19,8 @@ use crate::{CompoundEye, CompoundEyeMaterial};
 #[derive(Resource, Default)]
 pub(crate) struct PrefilterTables {
     by_key: HashMap<TableKey, AssetId<Image>>,
+    /// The materials whose table could not be built, and why.
+    pub(crate) failed: HashMap<AssetId<CompoundEyeMaterial>, Error>,
 }
 
 /// Every setting a table depends on, bit for bit.
@@ -51,13 +53,12 @@ fn options(e: &CompoundEye) -> ShadeOptions {
 
 /// The table for `e` as a `TABLE_AZIMUTHS` × `TABLE_POLARS` `Rgba32Float`
 /// image, or `None` for settings the shader cannot use.
-fn table_image(e: &CompoundEye) -> Option<Image> {
+fn table_image(e: &CompoundEye) -> Result<Image, Error> {
     let pigment = DarkCentre::new(
         e.pigment.radius as f64,
         e.pigment.softness as f64,
         e.pigment.darkness as f64,
-    )
-    .ok()?;
+    )?;
     let table = PrefilterTable::build(
         e.lattice_kind(),
         e.lens_radius as f64,
@@ -66,15 +67,14 @@ fn table_image(e: &CompoundEye) -> Option<Image> {
         &pigment,
         e.fresnel,
         &options(e),
-    )
-    .ok()?;
+    )?;
     let bytes = table
         .texels()
         .iter()
         .flatten()
         .flat_map(|v| v.to_le_bytes())
         .collect();
-    Some(Image::new(
+    Ok(Image::new(
         Extent3d {
             width: TABLE_AZIMUTHS as u32,
             height: TABLE_POLARS as u32,
@@ -108,6 +108,7 @@ pub(crate) fn build_prefilter_tables(
             continue;
         };
         let eye = &material.extension;
+        tables.failed.remove(&id);
         if !eye.prefilter || eye.validate().is_err() {
             continue;
         }
@@ -119,8 +120,13 @@ pub(crate) fn build_prefilter_tables(
         let handle = match kept {
             Some(handle) => handle,
             None => {
-                let Some(image) = table_image(eye) else {
-                    continue;
+                let image = match table_image(eye) {
+                    Ok(image) => image,
+                    Err(why) => {
+                        warn!("compound eye material {id}: {why}");
+                        tables.failed.insert(id, why);
+                        continue;
+                    }
                 };
                 let handle = images.add(image);
                 tables.by_key.insert(k, handle.id());

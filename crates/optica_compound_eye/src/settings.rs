@@ -7,6 +7,8 @@ use optica_optics::compound_eye::{
 };
 use optica_optics::input::{self, InvalidInput};
 
+use crate::Error;
+
 /// A compound eye on any UV-mapped mesh: a `StandardMaterial` (colour,
 /// roughness, textures, lights, shadows) with Sagawa's lens lattice between
 /// the surface and its colour.
@@ -346,4 +348,24 @@ impl From<&CompoundEye> for CompoundEyeUniform {
             flags,
         }
     }
+}
+
+/// What the plugin made of the [`CompoundEyeMaterial`] of a mesh: whether
+/// the lattice is drawn, whether the prefilter's table is in use, and why
+/// not. Added to every entity with a `MeshMaterial3d<CompoundEyeMaterial>`
+/// and kept up to date when its material changes.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Component, Default)]
+pub struct CompoundEyeStatus {
+    /// The settings are valid: the shader draws the lattice (otherwise the
+    /// mesh renders as its base material).
+    pub lattice: bool,
+    /// The prefilter's table is bound: facets below a pixel show their
+    /// average response instead of moiré ([`CompoundEye::prefilter`] on,
+    /// no pigment texture).
+    pub prefiltered: bool,
+    /// Why the eye is not drawn as set; `None` while the material is still
+    /// loading.
+    #[reflect(ignore)]
+    pub error: Option<Error>,
 }

@@ -286,3 +286,90 @@ fn tiny_and_huge_meshes_give_the_same_optics() {
         );
     }
 }
+
+/// Each compound-eye mesh's `CompoundEyeStatus` says what became of its
+/// material: the defaults draw the lattice with the prefilter's table; a
+/// refused setting names the quantity (and the mesh shows its base
+/// material, as above); the prefilter switched off is said so.
+#[test]
+fn the_status_says_whether_the_lattice_and_prefilter_are_drawn() {
+    use optica_compound_eye::{CompoundEyeMaterial, CompoundEyeStatus, Error};
+    use std::sync::{Arc, Mutex};
+    let seen = Arc::new(Mutex::new(Vec::<(String, CompoundEyeStatus)>::new()));
+    let log = seen.clone();
+    Headless::new(32, 32)
+        .frames(4)
+        .render(move |app: &mut App| {
+            scene(quad_with_uvs(|t| t), Transform::IDENTITY, None, front(), ortho(1.2))(app);
+            app.add_systems(
+                Startup,
+                |mut commands: Commands,
+                 mut meshes: ResMut<Assets<Mesh>>,
+                 mut eyes: ResMut<Assets<CompoundEyeMaterial>>| {
+                    let mesh = meshes.add(quad_with_uvs(|t| t));
+                    for (name, extension) in [
+                        ("defaults", CompoundEye::default()),
+                        (
+                            "NaN index",
+                            CompoundEye {
+                                lens_index: f32::NAN,
+                                ..default()
+                            },
+                        ),
+                        (
+                            "no prefilter",
+                            CompoundEye {
+                                prefilter: false,
+                                ..default()
+                            },
+                        ),
+                    ] {
+                        let material = eyes.add(CompoundEyeMaterial {
+                            base: super::base(),
+                            extension,
+                        });
+                        commands.spawn((
+                            Name::new(name),
+                            Mesh3d(mesh.clone()),
+                            MeshMaterial3d(material),
+                            Transform::from_xyz(0.0, 0.0, -5.0),
+                        ));
+                    }
+                },
+            );
+            app.add_systems(Last, move |eyes: Query<(&Name, &CompoundEyeStatus)>| {
+                *log.lock().expect("log") =
+                    eyes.iter().map(|(n, s)| (n.to_string(), *s)).collect();
+            });
+        })
+        .expect("render");
+    let seen = seen.lock().expect("log").clone();
+    let status = |name: &str| {
+        seen.iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, s)| *s)
+            .expect(name)
+    };
+    assert_eq!(
+        status("defaults"),
+        CompoundEyeStatus {
+            lattice: true,
+            prefiltered: true,
+            error: None
+        }
+    );
+    let refused = status("NaN index");
+    assert!(!refused.lattice && !refused.prefiltered, "{refused:?}");
+    assert!(
+        matches!(refused.error, Some(Error::Setting(e)) if e.what == "lens refractive index" && e.value.is_nan()),
+        "{refused:?}"
+    );
+    assert_eq!(
+        status("no prefilter"),
+        CompoundEyeStatus {
+            lattice: true,
+            prefiltered: false,
+            error: None
+        }
+    );
+}

@@ -66,7 +66,7 @@ impl WallRect {
 /// `min_eye_distance` in front of that wall for its camera only.
 #[derive(Component, Clone, Debug, PartialEq, Reflect)]
 #[reflect(Component)]
-#[require(Camera3d)]
+#[require(Camera3d, CaveViewStatus)]
 pub struct CaveView {
     /// The screen.
     pub wall: WallRect,
@@ -92,6 +92,18 @@ impl CaveView {
             min_eye_distance: 0.01,
         }
     }
+}
+
+/// What the plugin made of a [`CaveView`]: why its wall's projection was
+/// not updated, if it was not (the camera then keeps its last one). Added
+/// with every `CaveView` and kept up to date by the plugin.
+#[derive(Component, Clone, Debug, Default, PartialEq, Reflect)]
+#[reflect(Component, Default)]
+pub struct CaveViewStatus {
+    /// The last refusal (a wall that is not a rectangle, a non-finite
+    /// setting), cleared when the view is aimed again.
+    #[reflect(ignore)]
+    pub error: Option<FoveatedError>,
 }
 
 /// The off-axis projection the plugin gives a [`CaveView`] camera
@@ -181,11 +193,17 @@ pub fn aim(view: &CaveView, eye: Vec3) -> Result<(Transform, OffAxisClip), Fovea
 pub(crate) fn aim_cave_views(
     head: Res<TrackedHead>,
     gaze: Res<GazeState>,
-    mut views: Query<(Entity, Ref<CaveView>, &mut Transform, &mut Projection)>,
+    mut views: Query<(
+        Entity,
+        Ref<CaveView>,
+        &mut Transform,
+        &mut Projection,
+        &mut CaveViewStatus,
+    )>,
     mut work: ResMut<crate::lod::FoveationWork>,
 ) {
     let head_moved = head.is_changed() || gaze.is_changed();
-    for (entity, view, mut transform, mut projection) in &mut views {
+    for (entity, view, mut transform, mut projection, mut status) in &mut views {
         if !(head_moved || view.is_changed()) {
             continue;
         }
@@ -203,10 +221,16 @@ pub(crate) fn aim_cave_views(
                 work.views_aimed += 1;
                 transform.set_if_neq(t);
                 *projection = Projection::custom(clip);
+                if status.error.is_some() {
+                    status.error = None;
+                }
             }
             Err(e) => {
                 if view.is_changed() {
                     warn!("foveated LOD: CAVE view {entity} is not updated: {e}");
+                }
+                if status.error.as_ref() != Some(&e) {
+                    status.error = Some(e);
                 }
             }
         }

@@ -251,7 +251,7 @@ mod render;
 mod settings;
 mod trace;
 
-pub use cave::{CaveView, OffAxisClip, WallRect, aim};
+pub use cave::{CaveView, CaveViewStatus, OffAxisClip, WallRect, aim};
 pub use head::{Eye, GazeState, HeadReplay, HeadSource, SimulatedGaze, TrackedHead};
 pub use lod::{
     FoveationGate, FoveationWork, GazeLod, GazeLodState, LodChain, LodError, level_of_sphere,
@@ -316,6 +316,7 @@ impl Plugin for FoveatedLodPlugin {
             .register_type::<GazeLod>()
             .register_type::<GazeLodState>()
             .register_type::<CaveView>()
+            .register_type::<CaveViewStatus>()
             .configure_sets(
                 PostUpdate,
                 (

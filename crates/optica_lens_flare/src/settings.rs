@@ -6,7 +6,7 @@ use bevy::prelude::*;
 use optica_optics::input::{self, Expected, InvalidInput};
 use optica_optics::lens_flare::band_wavelengths;
 
-use crate::{Error, LensAsset};
+use crate::{Error, FlareGhosts, LensAsset};
 
 /// Most rays per side of a ghost's grid.
 pub const MAX_GRID: u32 = 512;
@@ -36,7 +36,7 @@ pub const DEFAULT_COARSE_GHOST_PX: f32 = 64.0;
 /// ```
 #[derive(Component, Reflect, Clone, Debug, PartialEq)]
 #[reflect(Component)]
-#[require(bevy::camera::Hdr)]
+#[require(bevy::camera::Hdr, FlareGhosts)]
 pub struct LensFlare {
     /// The lens the light passes through.
     pub lens: Handle<LensAsset>,

@@ -36,7 +36,7 @@ use optica_optics::spectacles::{
 /// ```
 #[derive(Component, Reflect, Clone, Debug, PartialEq)]
 #[reflect(Component, Default, Clone)]
-#[require(CloneDefocus)]
+#[require(CloneDefocus, crate::SpectaclesStatus)]
 pub struct Eye {
     /// Refractive error `R` (D): negative for myopia, positive for
     /// hyperopia, 0 for an emmetrope; the sphere of an astigmatic eye.

@@ -424,3 +424,35 @@ fn walls_agree_in_the_frame_the_head_moves() {
         assert!((row - expected).abs() <= 0.5, "{seam_rows:?} vs {expected}");
     }
 }
+
+/// A wall that is not a rectangle is refused by name in its view's
+/// `CaveViewStatus` (the camera keeps its last projection); a good wall's
+/// status is clear, and mending the wall clears the refusal.
+#[test]
+fn a_refused_wall_says_why_in_its_status() {
+    use optica_foveated_lod::CaveViewStatus;
+    let mut app = super::cpu_app();
+    let good = WallRect::front_right_floor(3.0).unwrap()[0];
+    let bad = WallRect {
+        upper_left: good.lower_right,
+        ..good
+    };
+    let good_view = app
+        .world_mut()
+        .spawn(CaveView::new(good, Eye::Cyclopean))
+        .id();
+    let bad_view = app.world_mut().spawn(CaveView::new(bad, Eye::Cyclopean)).id();
+    for _ in 0..3 {
+        app.update();
+    }
+    let status = |app: &App, e| app.world().get::<CaveViewStatus>(e).cloned().expect("status");
+    assert_eq!(status(&app, good_view).error, None);
+    let refused = status(&app, bad_view).error;
+    assert!(refused.is_some(), "{refused:?}");
+    app.world_mut()
+        .get_mut::<CaveView>(bad_view)
+        .expect("view")
+        .wall = good;
+    app.update();
+    assert_eq!(status(&app, bad_view).error, None);
+}

@@ -318,28 +318,10 @@ struct DomeView<'a> {
 /// [`BuiltFor`]); removes the twins of cameras that are gone, left the
 /// vertex mode or no longer see the mesh. A camera whose settings are
 /// invalid keeps its twins as they were.
-#[allow(clippy::type_complexity)]
 pub(crate) fn refine_twins(
     mut commands: Commands,
-    cameras: Query<(
-        Entity,
-        &DomeCamera,
-        &Camera,
-        &GlobalTransform,
-        Option<&DomeLayer>,
-        Option<&DomeSees>,
-    )>,
-    mut originals: Query<
-        (
-            Entity,
-            &Mesh3d,
-            &GlobalTransform,
-            Option<&DomeApparentSize>,
-            Option<&RenderLayers>,
-            Option<&mut DomeTwins>,
-        ),
-        Without<DomeTwinOf>,
-    >,
+    cameras: Query<DomeCameraParts>,
+    mut originals: Query<OriginalParts, Without<DomeTwinOf>>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut mesh_events: MessageReader<AssetEvent<Mesh>>,
     mut edited: Local<Vec<AssetId<Mesh>>>,
@@ -354,10 +336,58 @@ pub(crate) fn refine_twins(
         AssetEvent::Modified { id } => Some(*id),
         _ => None,
     }));
-    // Cameras whose twins stay as they are (invalid settings for now).
+    let (views, frozen) = dome_views(&cameras);
+    let pending = stale_twins(
+        &mut commands,
+        &mut originals,
+        &views,
+        &frozen,
+        &meshes,
+        &edited,
+        &mut pass,
+    );
+    // Every twin to build, built at once: the triangles of all the meshes
+    // share the compute pool (see `twins_of_meshes`).
+    let twins = build_twins(&pending, &views, &meshes);
+    write_twins(
+        &mut commands,
+        &mut originals,
+        &views,
+        pending.into_iter().zip(twins),
+        &mut meshes,
+        &mut pass,
+    );
+    edited.clear();
+    pass.cpu_ms = start.elapsed().as_secs_f32() * 1000.0;
+    *stats = pass;
+}
+
+/// What [`refine_twins`] reads of a dome camera.
+type DomeCameraParts = (
+    Entity,
+    &'static DomeCamera,
+    &'static Camera,
+    &'static GlobalTransform,
+    Option<&'static DomeLayer>,
+    Option<&'static DomeSees>,
+);
+
+/// What [`refine_twins`] reads of a mesh that may have twins.
+type OriginalParts = (
+    Entity,
+    &'static Mesh3d,
+    &'static GlobalTransform,
+    Option<&'static DomeApparentSize>,
+    Option<&'static RenderLayers>,
+    Option<&'static mut DomeTwins>,
+);
+
+/// The vertex-mode dome cameras with valid settings, and the cameras whose
+/// twins stay as they are (invalid settings for now).
+fn dome_views<'a>(cameras: &'a Query<DomeCameraParts>) -> (Vec<DomeView<'a>>, Vec<Entity>) {
     let mut frozen = Vec::new();
     let mut views = Vec::new();
-    for (entity, camera, render, transform, layer, sees) in &cameras {
+    for (entity, camera, render, transform, layer, sees) in cameras.iter() {
         let Some(layer) = layer.filter(|_| camera.mode == crate::DomeMode::Vertex) else {
             continue;
         };
@@ -392,8 +422,22 @@ pub(crate) fn refine_twins(
             piece,
         });
     }
+    (views, frozen)
+}
+
+/// Drops the twins no camera needs any more and lists the twins to build
+/// (missing, or built for another mesh, camera, size or placement).
+fn stale_twins(
+    commands: &mut Commands,
+    originals: &mut Query<OriginalParts, Without<DomeTwinOf>>,
+    views: &[DomeView],
+    frozen: &[Entity],
+    meshes: &Assets<Mesh>,
+    edited: &[AssetId<Mesh>],
+    pass: &mut DomeRefineStats,
+) -> Vec<Pending> {
     let mut pending = Vec::new();
-    for (entity, mesh3d, transform, size, layers, twins) in &mut originals {
+    for (entity, mesh3d, transform, size, layers, twins) in originals.iter_mut() {
         if twins.is_none() && views.is_empty() {
             continue;
         }
@@ -472,11 +516,22 @@ pub(crate) fn refine_twins(
             });
         }
     }
-    // Every twin to build, built at once: the triangles of all the meshes
-    // share the compute pool (see `twins_of_meshes`).
-    let twins = build_twins(&pending, &views, &meshes);
+    pending
+}
+
+/// Writes each built twin into its original's [`DomeTwins`]: a new twin
+/// entity, the original's mesh again, or the refined mesh (in place when
+/// the twin already has one).
+fn write_twins(
+    commands: &mut Commands,
+    originals: &mut Query<OriginalParts, Without<DomeTwinOf>>,
+    views: &[DomeView],
+    built: impl Iterator<Item = (Pending, Option<Twin>)>,
+    meshes: &mut Assets<Mesh>,
+    pass: &mut DomeRefineStats,
+) {
     let mut new_lists: EntityHashMap<Vec<DomeTwin>> = EntityHashMap::default();
-    for (job, twin) in pending.into_iter().zip(twins) {
+    for (job, twin) in built {
         let view = &views[job.view];
         let existing = match originals.get_mut(job.original) {
             Ok((.., Some(twins))) => Some(twins.into_inner()),
@@ -558,9 +613,6 @@ pub(crate) fn refine_twins(
     for (original, list) in new_lists {
         commands.entity(original).insert(DomeTwins(list));
     }
-    edited.clear();
-    pass.cpu_ms = start.elapsed().as_secs_f32() * 1000.0;
-    *stats = pass;
 }
 
 /// A twin to build, found by [`refine_twins`]: built for all such at once

@@ -10,8 +10,8 @@ use bevy::prelude::*;
 use bevy::render::extract_component::ExtractComponent;
 use bevy::render::render_resource::ShaderType;
 use optica_optics::glass::LAMBDA_D_NM;
-use optica_optics::lens::{PreparedLens, TracePath};
-use optica_optics::lens_flare::{Beam, DEFAULT_MAX_GAIN, spectral_weight};
+use optica_optics::lens::{LensPrescription, PreparedLens, TracePath};
+use optica_optics::lens_flare::{Aperture, Beam, DEFAULT_MAX_GAIN, spectral_weight};
 
 use crate::fit::{Fits, PassingFits, fit_for, screen_grid};
 use crate::frame::{SensorMapping, light_in_lens};
@@ -292,6 +292,188 @@ pub(crate) fn prepare_draws(
         commands.entity(entity).insert(draws);
     }
 }
+/// What every ghost of a flare shares while its grids are laid out.
+struct GhostSetup<'a> {
+    flare: &'a LensFlare,
+    ghosts: &'a FlareGhosts,
+    lens: &'a LensPrescription,
+    aperture: &'a Aperture,
+    /// The lens prepared at each traced wavelength.
+    prepared: &'a [PreparedLens],
+    wavelengths: &'a [f64],
+    /// Surfaces per wavelength in the lens table.
+    count: u32,
+    /// Pixels per sensor mm where the ghosts are added up.
+    ghost_px_per_mm: f64,
+}
+
+/// One light as its ghosts see it.
+struct GhostLight {
+    /// Its slot among the flare's lights.
+    index: u32,
+    /// Its colour at the camera (exposed, linear).
+    rgb: Vec3,
+    /// Its direction of travel in the lens's frame.
+    d: DVec3,
+}
+
+/// A light's direction of travel (world), irradiance at the camera (lux)
+/// and colour; `None` for a light that is neither directional, point nor
+/// spot.
+fn irradiance(
+    camera_position: Vec3,
+    light_transform: &GlobalTransform,
+    directional: Option<&DirectionalLight>,
+    point: Option<&PointLight>,
+    spot: Option<&SpotLight>,
+) -> Option<(Vec3, f32, Color)> {
+    if let Some(d) = directional {
+        return Some((light_transform.forward().as_vec3(), d.illuminance, d.color));
+    }
+    let to_camera = camera_position - light_transform.translation();
+    let d2 = to_camera.length_squared().max(1e-6);
+    let (lumens, colour) = match (point, spot) {
+        (Some(p), _) => (p.intensity, p.color),
+        (_, Some(s)) => (s.intensity, s.color),
+        _ => return None,
+    };
+    Some((
+        to_camera,
+        lumens / (4.0 * std::f32::consts::PI * d2),
+        colour,
+    ))
+}
+
+/// The grid jobs of every drawn ghost of one light: one per drawn
+/// wavelength, into `coarse_jobs` when the ghost is large enough to be
+/// added up at half the resolution.
+fn push_ghost_jobs(
+    setup: &GhostSetup,
+    light: &GhostLight,
+    fits: &mut Fits,
+    jobs: &mut Vec<GridJob>,
+    coarse_jobs: &mut Vec<GridJob>,
+) {
+    let GhostSetup {
+        flare,
+        ghosts,
+        lens,
+        aperture,
+        prepared,
+        wavelengths,
+        count,
+        ghost_px_per_mm,
+    } = *setup;
+    let (d, rgb, light) = (light.d, light.rgb, light.index);
+    for ((first, second), mut n) in ghosts.drawn_grids() {
+        let path = TracePath::ghost(first, second);
+        // With symmetry, where the ghost's light gets through (none:
+        // the ghost is not drawn at this angle), and no more cells
+        // than pixels it covers where the ghosts are added up.
+        let middle = &prepared[prepared.len() / 2];
+        let (passing, spectrum) = fit_for(fits, lens, middle, (first, second), aperture, d);
+        // A large ghost is added up at half the resolution: its pixels
+        // are twice as wide (its grid is not cut to them: cells that
+        // coarse made the double Gauss's bright large ghosts 10 %
+        // worse against the reference for little time).
+        let coarse = passing.is_some_and(|p| {
+            let image_px = (p.sensor.max - p.sensor.min).max_element() * ghost_px_per_mm;
+            flare
+                .coarse_ghost_px
+                .is_some_and(|limit| image_px > f64::from(limit))
+        });
+        let px_per_mm = if coarse {
+            ghost_px_per_mm / 2.0
+        } else {
+            ghost_px_per_mm
+        };
+        // A ghost whose wavelengths draw one image (it moves by less
+        // than `merge_wavelengths_px` across the band) is drawn once,
+        // at the middle wavelength: a third of the cells at three.
+        let merged = spectrum.is_some_and(|s| {
+            wavelengths.len() > 1
+                && s.spread_mm() * px_per_mm < f64::from(flare.merge_wavelengths_px)
+        });
+        let drawn: &[f64] = if merged {
+            std::slice::from_ref(&wavelengths[wavelengths.len() / 2])
+        } else {
+            wavelengths
+        };
+        // The ghost's colour over the whole band, carried by the
+        // drawn wavelengths.
+        let gains = spectrum.map_or(Vec3::ONE, |s| s.gains(drawn).as_vec3());
+        let passing = if flare.symmetry {
+            let Some(passing) = passing else {
+                continue;
+            };
+            n = screen_grid(n, &passing, ghost_px_per_mm);
+            Some(passing.pupil)
+        } else {
+            None
+        };
+        let cells = f64::from((n - 1) * (n - 1));
+        for (w, &wl) in wavelengths.iter().enumerate() {
+            if merged && w != wavelengths.len() / 2 {
+                continue;
+            }
+            // With symmetry: the light turned into the x–z plane, half
+            // the rows traced and mirrored, the result turned back.
+            let beam = if flare.symmetry {
+                Beam::meridional(lens, path, d, wl)
+            } else {
+                Beam::for_path(lens, path, d, wl).map(|b| (b, 0.0))
+            };
+            let Ok((mut beam, azimuth)) = beam else {
+                continue;
+            };
+            if let Some(rect) = passing {
+                beam = beam.within(rect, true);
+            }
+            let at = |u: f64, v: f64| beam.ray_at(u, v).map(|r| r.origin());
+            let (Ok(o), Ok(ou), Ok(ov)) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0)) else {
+                continue;
+            };
+            let weight = spectral_weight(wl, drawn).as_vec3() * gains;
+            let jobs = if coarse { &mut *coarse_jobs } else { &mut *jobs };
+            jobs.push(GridJob {
+                origin: o.as_vec3(),
+                first: first as u32,
+                du: (ou - o).as_vec3(),
+                second: second as u32,
+                dv: (ov - o).as_vec3(),
+                lens_base: w as u32 * count,
+                dir: DVec3::as_vec3(beam.direction()),
+                cell_pupil_area: (beam.cross_section_mm2() / cells) as f32,
+                color: (rgb * weight).extend(wl as f32),
+                light,
+                n,
+                ray_base: 0,
+                thread_base: 0,
+                rotation: Vec2::from_angle(azimuth as f32),
+                rows: if flare.symmetry { n.div_ceil(2) } else { n },
+                cell_base: 0,
+                span_base: 0,
+            });
+        }
+    }
+}
+
+/// Gives each job its first ray, thread, cell and span; the totals.
+fn lay_out(jobs: &mut [GridJob]) -> (u32, u32, u32, u32) {
+    let (mut rays, mut threads, mut cells, mut spans) = (0u32, 0u32, 0u32, 0u32);
+    for job in jobs {
+        job.ray_base = rays;
+        job.thread_base = threads;
+        job.cell_base = cells;
+        job.span_base = spans;
+        cells = cells.saturating_add((job.n - 1) * (job.n - 1));
+        spans = spans.saturating_add(job.spans());
+        rays = rays.saturating_add(job.n * job.n);
+        threads = threads.saturating_add(job.n * job.rows);
+    }
+    (rays, threads, cells, spans)
+}
+
 
 #[allow(clippy::too_many_arguments)]
 fn build(
@@ -336,26 +518,24 @@ fn build(
         / f64::from(flare.ghost_resolution.divisor())
         / (2.0 * mapping.half_height_mm);
     let light_radius = flare.occlusion.map_or(0.0, |o| o.light_radius);
+    let ghost_setup = GhostSetup {
+        flare,
+        ghosts,
+        lens,
+        aperture,
+        prepared: &prepared,
+        wavelengths: &wavelengths,
+        count,
+        ghost_px_per_mm,
+    };
     // In entity order, so that a light keeps its visibility's slot.
     let mut lights: Vec<_> = lights.iter().collect();
     lights.sort_by_key(|l| l.0);
     for (light_entity, light_transform, source, directional, point, spot) in lights {
-        // Direction of travel (world) and irradiance at the camera, lux.
-        let (travel, lux, colour) = if let Some(d) = directional {
-            (light_transform.forward().as_vec3(), d.illuminance, d.color)
-        } else {
-            let to_camera = camera_position - light_transform.translation();
-            let d2 = to_camera.length_squared().max(1e-6);
-            let (lumens, colour) = match (point, spot) {
-                (Some(p), _) => (p.intensity, p.color),
-                (_, Some(s)) => (s.intensity, s.color),
-                _ => continue,
-            };
-            (
-                to_camera,
-                lumens / (4.0 * std::f32::consts::PI * d2),
-                colour,
-            )
+        let Some((travel, lux, colour)) =
+            irradiance(camera_position, light_transform, directional, point, spot)
+        else {
+            continue;
         };
         let travel_view = view_from_world.transform_vector3(travel);
         let Some(d) = light_in_lens(travel_view) else {
@@ -378,97 +558,12 @@ fn build(
             ..LightProbe::new(clip_from_view, towards, light_radius)
         });
         light_entities.push(light_entity);
-        for ((first, second), mut n) in ghosts.drawn_grids() {
-            let path = TracePath::ghost(first, second);
-            // With symmetry, where the ghost's light gets through (none:
-            // the ghost is not drawn at this angle), and no more cells
-            // than pixels it covers where the ghosts are added up.
-            let middle = &prepared[prepared.len() / 2];
-            let (passing, spectrum) = fit_for(fits, lens, middle, (first, second), aperture, d);
-            // A large ghost is added up at half the resolution: its pixels
-            // are twice as wide (its grid is not cut to them: cells that
-            // coarse made the double Gauss's bright large ghosts 10 %
-            // worse against the reference for little time).
-            let coarse = passing.is_some_and(|p| {
-                let image_px = (p.sensor.max - p.sensor.min).max_element() * ghost_px_per_mm;
-                flare
-                    .coarse_ghost_px
-                    .is_some_and(|limit| image_px > f64::from(limit))
-            });
-            let px_per_mm = if coarse {
-                ghost_px_per_mm / 2.0
-            } else {
-                ghost_px_per_mm
-            };
-            // A ghost whose wavelengths draw one image (it moves by less
-            // than `merge_wavelengths_px` across the band) is drawn once,
-            // at the middle wavelength: a third of the cells at three.
-            let merged = spectrum.is_some_and(|s| {
-                wavelengths.len() > 1
-                    && s.spread_mm() * px_per_mm < f64::from(flare.merge_wavelengths_px)
-            });
-            let drawn: &[f64] = if merged {
-                std::slice::from_ref(&wavelengths[wavelengths.len() / 2])
-            } else {
-                &wavelengths
-            };
-            // The ghost's colour over the whole band, carried by the
-            // drawn wavelengths.
-            let gains = spectrum.map_or(Vec3::ONE, |s| s.gains(drawn).as_vec3());
-            let passing = if flare.symmetry {
-                let Some(passing) = passing else {
-                    continue;
-                };
-                n = screen_grid(n, &passing, ghost_px_per_mm);
-                Some(passing.pupil)
-            } else {
-                None
-            };
-            let cells = f64::from((n - 1) * (n - 1));
-            for (w, &wl) in wavelengths.iter().enumerate() {
-                if merged && w != wavelengths.len() / 2 {
-                    continue;
-                }
-                // With symmetry: the light turned into the x–z plane, half
-                // the rows traced and mirrored, the result turned back.
-                let beam = if flare.symmetry {
-                    Beam::meridional(lens, path, d, wl)
-                } else {
-                    Beam::for_path(lens, path, d, wl).map(|b| (b, 0.0))
-                };
-                let Ok((mut beam, azimuth)) = beam else {
-                    continue;
-                };
-                if let Some(rect) = passing {
-                    beam = beam.within(rect, true);
-                }
-                let at = |u: f64, v: f64| beam.ray_at(u, v).map(|r| r.origin());
-                let (Ok(o), Ok(ou), Ok(ov)) = (at(0.0, 0.0), at(1.0, 0.0), at(0.0, 1.0)) else {
-                    continue;
-                };
-                let weight = spectral_weight(wl, drawn).as_vec3() * gains;
-                let jobs = if coarse { &mut coarse_jobs } else { &mut jobs };
-                jobs.push(GridJob {
-                    origin: o.as_vec3(),
-                    first: first as u32,
-                    du: (ou - o).as_vec3(),
-                    second: second as u32,
-                    dv: (ov - o).as_vec3(),
-                    lens_base: w as u32 * count,
-                    dir: DVec3::as_vec3(beam.direction()),
-                    cell_pupil_area: (beam.cross_section_mm2() / cells) as f32,
-                    color: (rgb * weight).extend(wl as f32),
-                    light,
-                    n,
-                    ray_base: 0,
-                    thread_base: 0,
-                    rotation: Vec2::from_angle(azimuth as f32),
-                    rows: if flare.symmetry { n.div_ceil(2) } else { n },
-                    cell_base: 0,
-                    span_base: 0,
-                });
-            }
-        }
+        let light = GhostLight {
+            index: light,
+            rgb,
+            d,
+        };
+        push_ghost_jobs(&ghost_setup, &light, fits, &mut jobs, &mut coarse_jobs);
     }
     // The grids added up at the ghosts' resolution, then the coarse ones,
     // so that each set's cells are one range of the index buffer; each in
@@ -476,17 +571,7 @@ fn build(
     // limit are the dimmest coarse ones of the last light.
     let coarse_from = jobs.len();
     jobs.append(&mut coarse_jobs);
-    let (mut rays, mut threads, mut cells, mut spans) = (0u32, 0u32, 0u32, 0u32);
-    for job in &mut jobs {
-        job.ray_base = rays;
-        job.thread_base = threads;
-        job.cell_base = cells;
-        job.span_base = spans;
-        cells = cells.saturating_add((job.n - 1) * (job.n - 1));
-        spans = spans.saturating_add(job.spans());
-        rays = rays.saturating_add(job.n * job.n);
-        threads = threads.saturating_add(job.n * job.rows);
-    }
+    let (rays, threads, cells, spans) = lay_out(&mut jobs);
     Some(FlareDraws {
         params: FlareParams {
             rays,

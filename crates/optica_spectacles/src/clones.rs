@@ -340,20 +340,7 @@ pub(crate) fn sync_rig(
         bevy::log::warn_once!("optica_spectacles: an eye camera needs a perspective projection; its view stays sharp");
         return;
     };
-    let mut clones = defocus.clones.clamp(1, crate::settings::MAX_CLONES);
-    let tiles = match tile_layout(clones, tile) {
-        Some(t) => t,
-        None => {
-            let fit = max_tiles(tile).max(1);
-            bevy::log::warn_once!(
-                "optica_spectacles: {clones} clones of {}×{} px do not fit one {MAX_ATLAS_SIDE}² atlas; drawing {fit}",
-                tile.x,
-                tile.y
-            );
-            clones = fit;
-            tile_layout(clones, tile).unwrap_or(UVec2::ONE)
-        }
-    };
+    let (clones, tiles) = clones_and_tiles(defocus.clones, tile);
     let mut tile_projection = perspective.clone();
     tile_projection.aspect_ratio = tile.x as f32 / tile.y as f32;
 
@@ -435,34 +422,9 @@ pub(crate) fn sync_rig(
             if let Some(old) = rig {
                 commands.entity(old.camera).despawn();
             }
-            let size = tile * tiles;
-            let mut atlas = Image::new_target_texture(size.x, size.y, TextureFormat::Rgba16Float, None);
-            atlas.asset_usage = RenderAssetUsages::RENDER_WORLD;
-            atlas.texture_descriptor.usage |= TextureUsages::TEXTURE_BINDING;
-            let atlas = images.add(atlas);
+            let atlas = images.add(atlas_image(tile * tiles));
             let clone_camera = commands
-                .spawn((
-                    Camera3d::default(),
-                    Camera {
-                        order: camera.order - 1,
-                        clear_color: clone_clear(shading, &camera.clear_color),
-                        ..default()
-                    },
-                    RenderTarget::Image(atlas.clone().into()),
-                    Hdr,
-                    Tonemapping::None,
-                    Msaa::Off,
-                    // Clusters assume one view per target: one cluster serves every tile.
-                    ClusterConfig::Single,
-                    Projection::custom(TileProjection {
-                        perspective: tile_projection.clone(),
-                        shaded: shading == CloneShading::Full,
-                    }),
-                    RenderLayers::layer(CLONE_LAYER),
-                    CloneCameraOf(entity),
-                    Transform::IDENTITY,
-                    ChildOf(entity),
-                ))
+                .spawn(clone_camera(entity, camera, shading, &atlas, &tile_projection))
                 .id();
             commands.entity(entity).insert((
                 CloneRig {
@@ -489,6 +451,63 @@ pub(crate) fn sync_rig(
             }
         }
     }
+}
+
+/// How many clones are drawn (at most what one atlas of `tile`-sized
+/// tiles holds) and the atlas's tiles across and down.
+fn clones_and_tiles(asked: u32, tile: UVec2) -> (u32, UVec2) {
+    let clones = asked.clamp(1, crate::settings::MAX_CLONES);
+    if let Some(tiles) = tile_layout(clones, tile) {
+        return (clones, tiles);
+    }
+    let fit = max_tiles(tile).max(1);
+    bevy::log::warn_once!(
+        "optica_spectacles: {clones} clones of {}×{} px do not fit one {MAX_ATLAS_SIDE}² atlas; drawing {fit}",
+        tile.x,
+        tile.y
+    );
+    (fit, tile_layout(fit, tile).unwrap_or(UVec2::ONE))
+}
+
+/// The clone atlas: `size` texels of HDR colour the resolve samples.
+fn atlas_image(size: UVec2) -> Image {
+    let mut atlas = Image::new_target_texture(size.x, size.y, TextureFormat::Rgba16Float, None);
+    atlas.asset_usage = RenderAssetUsages::RENDER_WORLD;
+    atlas.texture_descriptor.usage |= TextureUsages::TEXTURE_BINDING;
+    atlas
+}
+
+/// The camera that draws the clones of `eye` into `atlas`, just before
+/// the eye camera, one tile per clone.
+fn clone_camera(
+    eye: Entity,
+    camera: &Camera,
+    shading: CloneShading,
+    atlas: &Handle<Image>,
+    tile_projection: &PerspectiveProjection,
+) -> impl Bundle {
+    (
+        Camera3d::default(),
+        Camera {
+            order: camera.order - 1,
+            clear_color: clone_clear(shading, &camera.clear_color),
+            ..default()
+        },
+        RenderTarget::Image(atlas.clone().into()),
+        Hdr,
+        Tonemapping::None,
+        Msaa::Off,
+        // Clusters assume one view per target: one cluster serves every tile.
+        ClusterConfig::Single,
+        Projection::custom(TileProjection {
+            perspective: tile_projection.clone(),
+            shaded: shading == CloneShading::Full,
+        }),
+        RenderLayers::layer(CLONE_LAYER),
+        CloneCameraOf(eye),
+        Transform::IDENTITY,
+        ChildOf(eye),
+    )
 }
 
 /// Removes a rig: its camera and the resolve.

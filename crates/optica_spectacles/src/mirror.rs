@@ -392,24 +392,11 @@ pub(crate) fn build_mirrors(
             }
             release(&mut commands, entity, &owned, &lit);
         }
-        let built = mirror.optics().and_then(|optics| {
-            let (cols, rows) = (
-                mirror.tessellation.x as usize,
-                mirror.tessellation.y as usize,
-            );
-            let (vertices, triangles) = optics.mesh(cols, rows).map_err(Error::Mirror)?;
-            Ok((optics, vertices, triangles))
-        });
-        let (optics, vertices, triangles) = match built {
+        let (optics, vertices, triangles) = match mirror_geometry(mirror) {
             Ok(b) => b,
             Err(e) => {
                 warn!("optica_spectacles: mirror {entity}: {e}");
-                commands.entity(entity).remove::<(
-                    MirrorState,
-                    Mesh3d,
-                    MeshMaterial3d<MirrorMaterial>,
-                    MeshMaterial3d<StandardMaterial>,
-                )>();
+                commands.entity(entity).remove::<MirrorDrawn>();
                 continue;
             }
         };
@@ -425,7 +412,12 @@ pub(crate) fn build_mirrors(
             MeshMaterial3d<MirrorMaterial>,
             MeshMaterial3d<StandardMaterial>,
         )>();
-        let clear = ClearColorConfig::Default;
+        let helper = Helper {
+            mirror: entity,
+            order,
+            exposure,
+            layers: layers.clone(),
+        };
         let (environment, helpers) = match &mirror.method {
             MirrorMethod::PerVertex => {
                 let image = images.add(hdr_target(side));
@@ -436,7 +428,7 @@ pub(crate) fn build_mirrors(
                 })));
                 let camera = commands
                     .spawn((
-                        helper_camera(image.clone(), order, exposure, layers.clone(), clear),
+                        helper.camera(image.clone()),
                         MirrorEnvironment {
                             vertices: Vec::new(),
                             coords: coords.clone(),
@@ -459,33 +451,7 @@ pub(crate) fn build_mirrors(
                     perceptual_roughness: 0.0,
                     ..default()
                 })));
-                let mut helpers: Vec<Entity> = (0..6u32)
-                    .map(|layer| {
-                        commands
-                            .spawn((
-                                helper_camera(
-                                    images.add(hdr_target(side)),
-                                    order,
-                                    exposure,
-                                    layers.clone(),
-                                    clear,
-                                ),
-                                Projection::Perspective(PerspectiveProjection {
-                                    fov: std::f32::consts::FRAC_PI_2,
-                                    aspect_ratio: 1.0,
-                                    near: 0.01,
-                                    ..default()
-                                }),
-                                CubeFace {
-                                    cube: cube.clone(),
-                                    layer,
-                                },
-                                MirrorHelperOf(entity),
-                                Name::new("optica mirror cube face"),
-                            ))
-                            .id()
-                    })
-                    .collect();
+                let mut helpers = spawn_cube_faces(&mut commands, &mut images, &helper, &cube, side);
                 let light = EnvironmentMapLight {
                     diffuse_map: cube.clone(),
                     specular_map: cube.clone(),
@@ -494,59 +460,23 @@ pub(crate) fn build_mirrors(
                     intensity: 1.0 / exposure.exposure(),
                     ..default()
                 };
-                let probes = device.reflection_probes;
-                let parallax = match mirror.method {
-                    MirrorMethod::ParallaxCorrectedCubeMap {
-                        room_centre,
-                        room_half_size,
-                    } => Some((room_centre, room_half_size)),
-                    _ => None,
-                };
-                if probes {
-                    // A reflection probe: the room's box, corrected for
-                    // parallax; or (placed on the mirror each frame) a box
-                    // holding only the mirror, uncorrected.
-                    let (correction, place) = match parallax {
-                        Some((centre, half)) => (
-                            ParallaxCorrection::Auto,
-                            Transform::from_translation(centre).with_scale(2.0 * half),
-                        ),
-                        None => (ParallaxCorrection::None, Transform::default()),
+                let viewer = viewer.map(|v| {
+                    // The viewer's own map, to give back (or the one a
+                    // mirror before this one kept).
+                    let own = match lit.iter().find(|(v2, _)| *v2 == v) {
+                        Some((_, by)) => by.1.clone(),
+                        None => viewers.get(v).ok().and_then(|(.., m)| m.cloned()),
                     };
-                    helpers.push(
-                        commands
-                            .spawn((
-                                LightProbe::default(),
-                                light,
-                                correction,
-                                place,
-                                MirrorHelperOf(entity),
-                                Name::new("optica mirror reflection probe"),
-                            ))
-                            .id(),
-                    );
-                } else {
-                    // No reflection probes: the cube becomes the viewer's
-                    // environment map, which Bevy treats as infinitely far
-                    // (and which lights every mesh the viewer sees).
-                    if parallax.is_some() {
-                        warn!(
-                            "optica_spectacles: mirror {entity}: this device has no reflection probes \
-                             (binding arrays); the plain cube map stands in for the parallax-corrected one"
-                        );
-                    }
-                    if let Some(viewer) = viewer {
-                        // The viewer's own map, to give back (or the one a
-                        // mirror before this one kept).
-                        let own = match lit.iter().find(|(v, _)| *v == viewer) {
-                            Some((_, by)) => by.1.clone(),
-                            None => viewers.get(viewer).ok().and_then(|(.., m)| m.cloned()),
-                        };
-                        commands
-                            .entity(viewer)
-                            .insert((light, LitByMirrorCube(entity, own)));
-                    }
-                }
+                    (v, own)
+                });
+                helpers.extend(light_with_cube(
+                    &mut commands,
+                    entity,
+                    &mirror.method,
+                    device.reflection_probes,
+                    light,
+                    viewer,
+                ));
                 (cube, helpers)
             }
         };
@@ -568,6 +498,140 @@ pub(crate) fn build_mirrors(
             traced_from: None,
         });
     }
+}
+
+/// What a mirror's helper cameras share: the mirror they serve, drawn
+/// just before its viewer, with its exposure and layers.
+struct Helper {
+    mirror: Entity,
+    order: isize,
+    exposure: Exposure,
+    layers: RenderLayers,
+}
+
+/// The mirror's optics and its tessellated surface, or why it is refused.
+#[allow(clippy::type_complexity)]
+fn mirror_geometry(
+    mirror: &CurvedMirror,
+) -> Result<(MirrorOptics, Vec<DVec3>, Vec<[u32; 3]>), Error> {
+    let optics = mirror.optics()?;
+    let (cols, rows) = (
+        mirror.tessellation.x as usize,
+        mirror.tessellation.y as usize,
+    );
+    let (vertices, triangles) = optics.mesh(cols, rows).map_err(Error::Mirror)?;
+    Ok((optics, vertices, triangles))
+}
+
+/// What a mirror's drawing adds to it (removed when it is refused).
+type MirrorDrawn = (
+    MirrorState,
+    Mesh3d,
+    MeshMaterial3d<MirrorMaterial>,
+    MeshMaterial3d<StandardMaterial>,
+);
+
+impl Helper {
+    /// A helper camera drawing into `image`.
+    fn camera(&self, image: Handle<Image>) -> impl Bundle {
+        helper_camera(
+            image,
+            self.order,
+            self.exposure,
+            self.layers.clone(),
+            ClearColorConfig::Default,
+        )
+    }
+}
+
+/// The six cameras that draw a cube-map mirror's cube, one per face.
+fn spawn_cube_faces(
+    commands: &mut Commands,
+    images: &mut Assets<Image>,
+    helper: &Helper,
+    cube: &Handle<Image>,
+    side: u32,
+) -> Vec<Entity> {
+    (0..6u32)
+        .map(|layer| {
+            commands
+                .spawn((
+                    helper.camera(images.add(hdr_target(side))),
+                    Projection::Perspective(PerspectiveProjection {
+                        fov: std::f32::consts::FRAC_PI_2,
+                        aspect_ratio: 1.0,
+                        near: 0.01,
+                        ..default()
+                    }),
+                    CubeFace {
+                        cube: cube.clone(),
+                        layer,
+                    },
+                    MirrorHelperOf(helper.mirror),
+                    Name::new("optica mirror cube face"),
+                ))
+                .id()
+        })
+        .collect()
+}
+
+/// Lights the mirror with its cube: a reflection probe where the device
+/// has them (returned, a helper of the mirror), else the viewer's
+/// environment map (the viewer given with the map it had, to give back).
+fn light_with_cube(
+    commands: &mut Commands,
+    entity: Entity,
+    method: &MirrorMethod,
+    probes: bool,
+    light: EnvironmentMapLight,
+    viewer: Option<(Entity, Option<EnvironmentMapLight>)>,
+) -> Option<Entity> {
+    let parallax = match *method {
+        MirrorMethod::ParallaxCorrectedCubeMap {
+            room_centre,
+            room_half_size,
+        } => Some((room_centre, room_half_size)),
+        _ => None,
+    };
+    if probes {
+        // A reflection probe: the room's box, corrected for parallax; or
+        // (placed on the mirror each frame) a box holding only the
+        // mirror, uncorrected.
+        let (correction, place) = match parallax {
+            Some((centre, half)) => (
+                ParallaxCorrection::Auto,
+                Transform::from_translation(centre).with_scale(2.0 * half),
+            ),
+            None => (ParallaxCorrection::None, Transform::default()),
+        };
+        return Some(
+            commands
+                .spawn((
+                    LightProbe::default(),
+                    light,
+                    correction,
+                    place,
+                    MirrorHelperOf(entity),
+                    Name::new("optica mirror reflection probe"),
+                ))
+                .id(),
+        );
+    }
+    // No reflection probes: the cube becomes the viewer's environment map,
+    // which Bevy treats as infinitely far (and which lights every mesh the
+    // viewer sees).
+    if parallax.is_some() {
+        warn!(
+            "optica_spectacles: mirror {entity}: this device has no reflection probes \
+             (binding arrays); the plain cube map stands in for the parallax-corrected one"
+        );
+    }
+    if let Some((viewer, own)) = viewer {
+        commands
+            .entity(viewer)
+            .insert((light, LitByMirrorCube(entity, own)));
+    }
+    None
 }
 
 /// Gives the viewer the mirrors' layer.
@@ -632,6 +696,54 @@ fn place(helpers: &mut Helpers, entity: Entity, t: Transform) {
     }
 }
 
+/// Places a cube-map mirror's face cameras at the room's centre (parallax
+/// corrected) or the mirror's, and an uncorrected probe round the mirror.
+fn place_cube(helpers: &mut Helpers, state: &MirrorState, translation: Vec3) {
+    let centre = match state.settings.method {
+        MirrorMethod::ParallaxCorrectedCubeMap { room_centre, .. } if state.parallax_corrected => {
+            room_centre
+        }
+        _ => translation,
+    };
+    for (k, &(forward, up)) in FACES.iter().enumerate() {
+        let t = Transform::from_translation(centre).looking_to(forward, up);
+        place(helpers, state.helpers[k], t);
+    }
+    // An uncorrected probe holds only the mirror.
+    if matches!(state.settings.method, MirrorMethod::CubeMap) && state.helpers.len() > 6 {
+        let reach = state.settings.size_m.length() * 2.0;
+        place(
+            helpers,
+            state.helpers[6],
+            Transform::from_translation(translation).with_scale(Vec3::splat(reach)),
+        );
+    }
+}
+
+/// A mirror vertex for the march, in the environment camera's view space:
+/// its reflected ray, or (`None`: the ray is blocked) a dead one.
+fn march_vertex(origin: Vec3, dir: Option<Vec3>) -> LensVertex {
+    match dir {
+        Some(dir) => LensVertex {
+            back: origin,
+            exits: 1,
+            origin,
+            dir,
+            dir_red: dir,
+            dir_blue: dir,
+            ..default()
+        },
+        None => LensVertex {
+            back: origin,
+            origin,
+            dir: Vec3::NEG_Z,
+            dir_red: Vec3::NEG_Z,
+            dir_blue: Vec3::NEG_Z,
+            ..default()
+        },
+    }
+}
+
 pub(crate) fn trace_mirrors(
     mut mirrors: Query<(&GlobalTransform, &mut MirrorState)>,
     viewer: Query<&GlobalTransform, (With<MirrorViewer>, Without<MirrorState>)>,
@@ -660,28 +772,7 @@ pub(crate) fn trace_mirrors(
         state.traced_from = Some(key);
         match &state.settings.method {
             MirrorMethod::CubeMap | MirrorMethod::ParallaxCorrectedCubeMap { .. } => {
-                let centre = match state.settings.method {
-                    MirrorMethod::ParallaxCorrectedCubeMap { room_centre, .. }
-                        if state.parallax_corrected =>
-                    {
-                        room_centre
-                    }
-                    _ => translation,
-                };
-                for (k, &(forward, up)) in FACES.iter().enumerate() {
-                    let t = Transform::from_translation(centre).looking_to(forward, up);
-                    place(&mut helpers, state.helpers[k], t);
-                }
-                // An uncorrected probe holds only the mirror.
-                if matches!(state.settings.method, MirrorMethod::CubeMap) && state.helpers.len() > 6
-                {
-                    let reach = state.settings.size_m.length() * 2.0;
-                    place(
-                        &mut helpers,
-                        state.helpers[6],
-                        Transform::from_translation(translation).with_scale(Vec3::splat(reach)),
-                    );
-                }
+                place_cube(&mut helpers, &state, translation);
             }
             MirrorMethod::PerVertex => {
                 let started = std::time::Instant::now();
@@ -754,26 +845,8 @@ pub(crate) fn trace_mirrors(
                     .iter()
                     .zip(&rays)
                     .map(|(p, r)| {
-                        let origin = camera_from_mirror(*p - viewpoint).as_vec3();
-                        match r {
-                            Some(r) => LensVertex {
-                                back: origin,
-                                exits: 1,
-                                origin,
-                                dir: camera_from_mirror(r.dir()).as_vec3(),
-                                dir_red: camera_from_mirror(r.dir()).as_vec3(),
-                                dir_blue: camera_from_mirror(r.dir()).as_vec3(),
-                                ..default()
-                            },
-                            None => LensVertex {
-                                back: origin,
-                                origin,
-                                dir: Vec3::NEG_Z,
-                                dir_red: Vec3::NEG_Z,
-                                dir_blue: Vec3::NEG_Z,
-                                ..default()
-                            },
-                        }
+                        let dir = r.as_ref().map(|r| camera_from_mirror(r.dir()).as_vec3());
+                        march_vertex(camera_from_mirror(*p - viewpoint).as_vec3(), dir)
                     })
                     .collect();
                 let camera = state.helpers[0];

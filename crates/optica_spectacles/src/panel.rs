@@ -165,6 +165,30 @@ pub fn spectacles_ui(
         }
     });
     ui.separator();
+    eye_grid(ui, eye);
+    ui.separator();
+    let mut wears = spectacles.is_some();
+    ui.checkbox(&mut wears, "glasses");
+    if wears != spectacles.is_some() {
+        // New glasses match the eye's prescription.
+        *spectacles = wears.then(|| Spectacles {
+            cylinder_d: eye.astigmatism.cylinder_d,
+            axis_deg: eye.astigmatism.axis_deg,
+            ..Spectacles::sphere(eye.refractive_error_d)
+        });
+    }
+    if let Some(s) = spectacles {
+        lens_grid(ui, s);
+    }
+    ui.separator();
+    clones_grid(ui, defocus);
+    if let Some(st) = status {
+        status_lines(ui, st);
+    }
+}
+
+/// The eye's sliders.
+fn eye_grid(ui: &mut egui::Ui, eye: &mut Eye) {
     ui.heading("Eye");
     egui::Grid::new("spectacles_eye")
         .num_columns(2)
@@ -226,69 +250,63 @@ pub fn spectacles_ui(
             });
             ui.end_row();
         });
-    ui.separator();
-    let mut wears = spectacles.is_some();
-    ui.checkbox(&mut wears, "glasses");
-    if wears != spectacles.is_some() {
-        // New glasses match the eye's prescription.
-        *spectacles = wears.then(|| Spectacles {
-            cylinder_d: eye.astigmatism.cylinder_d,
-            axis_deg: eye.astigmatism.axis_deg,
-            ..Spectacles::sphere(eye.refractive_error_d)
-        });
-    }
-    if let Some(s) = spectacles {
-        egui::Grid::new("spectacles_lens")
-            .num_columns(2)
-            .show(ui, |ui| {
-                ui.label("sphere (D)");
-                ui.add(egui::Slider::new(&mut s.sphere_d, -20.0..=20.0).step_by(0.25));
-                ui.end_row();
-                ui.label("cylinder (D) / axis (°)");
-                ui.horizontal(|ui| {
-                    ui.add(egui::Slider::new(&mut s.cylinder_d, -6.0..=6.0).step_by(0.25));
-                    ui.add(egui::Slider::new(&mut s.axis_deg, 0.0..=180.0).step_by(5.0));
-                });
-                ui.end_row();
-                ui.label("addition (D) / corridor (mm)");
-                ui.horizontal(|ui| {
-                    ui.add(egui::Slider::new(&mut s.addition_d, 0.0..=3.5).step_by(0.25));
-                    ui.add(egui::Slider::new(&mut s.corridor_mm, 9.0..=20.0));
-                });
-                ui.end_row();
-                ui.label("material");
-                egui::ComboBox::from_id_salt("spectacles_material")
-                    .selected_text(s.material.name())
-                    .show_ui(ui, |ui| {
-                        for m in LensMaterial::PRESETS {
-                            ui.selectable_value(&mut s.material, m, m.name());
-                        }
-                    });
-                ui.end_row();
-                ui.label("vertex distance (mm)");
-                ui.add(egui::Slider::new(&mut s.vertex_distance_mm, 0.0..=25.0));
-                ui.end_row();
-                ui.label("blank diameter (mm)");
-                ui.add(egui::Slider::new(&mut s.blank_diameter_mm, 20.0..=80.0));
-                ui.end_row();
-                ui.label("centre thickness (mm)");
-                ui.add(egui::Slider::new(&mut s.min_centre_thickness_mm, 0.5..=6.0));
-                ui.end_row();
-                ui.label("decentration (mm)");
-                ui.horizontal(|ui| {
-                    ui.add(egui::Slider::new(&mut s.decentration_mm.x, -10.0..=10.0));
-                    ui.add(egui::Slider::new(&mut s.decentration_mm.y, -10.0..=10.0));
-                });
-                ui.end_row();
-                ui.label("refraction");
-                ui.horizontal(|ui| {
-                    ui.checkbox(&mut s.refraction, "drawn");
-                    ui.checkbox(&mut s.chromatic_aberration, "chromatic aberration");
-                });
-                ui.end_row();
+}
+
+/// The glasses' sliders.
+fn lens_grid(ui: &mut egui::Ui, s: &mut Spectacles) {
+    egui::Grid::new("spectacles_lens")
+        .num_columns(2)
+        .show(ui, |ui| {
+            ui.label("sphere (D)");
+            ui.add(egui::Slider::new(&mut s.sphere_d, -20.0..=20.0).step_by(0.25));
+            ui.end_row();
+            ui.label("cylinder (D) / axis (°)");
+            ui.horizontal(|ui| {
+                ui.add(egui::Slider::new(&mut s.cylinder_d, -6.0..=6.0).step_by(0.25));
+                ui.add(egui::Slider::new(&mut s.axis_deg, 0.0..=180.0).step_by(5.0));
             });
-    }
-    ui.separator();
+            ui.end_row();
+            ui.label("addition (D) / corridor (mm)");
+            ui.horizontal(|ui| {
+                ui.add(egui::Slider::new(&mut s.addition_d, 0.0..=3.5).step_by(0.25));
+                ui.add(egui::Slider::new(&mut s.corridor_mm, 9.0..=20.0));
+            });
+            ui.end_row();
+            ui.label("material");
+            egui::ComboBox::from_id_salt("spectacles_material")
+                .selected_text(s.material.name())
+                .show_ui(ui, |ui| {
+                    for m in LensMaterial::PRESETS {
+                        ui.selectable_value(&mut s.material, m, m.name());
+                    }
+                });
+            ui.end_row();
+            ui.label("vertex distance (mm)");
+            ui.add(egui::Slider::new(&mut s.vertex_distance_mm, 0.0..=25.0));
+            ui.end_row();
+            ui.label("blank diameter (mm)");
+            ui.add(egui::Slider::new(&mut s.blank_diameter_mm, 20.0..=80.0));
+            ui.end_row();
+            ui.label("centre thickness (mm)");
+            ui.add(egui::Slider::new(&mut s.min_centre_thickness_mm, 0.5..=6.0));
+            ui.end_row();
+            ui.label("decentration (mm)");
+            ui.horizontal(|ui| {
+                ui.add(egui::Slider::new(&mut s.decentration_mm.x, -10.0..=10.0));
+                ui.add(egui::Slider::new(&mut s.decentration_mm.y, -10.0..=10.0));
+            });
+            ui.end_row();
+            ui.label("refraction");
+            ui.horizontal(|ui| {
+                ui.checkbox(&mut s.refraction, "drawn");
+                ui.checkbox(&mut s.chromatic_aberration, "chromatic aberration");
+            });
+            ui.end_row();
+        });
+}
+
+/// The clones' settings.
+fn clones_grid(ui: &mut egui::Ui, defocus: &mut CloneDefocus) {
     ui.heading("Clones");
     egui::Grid::new("spectacles_clones")
         .num_columns(2)
@@ -324,40 +342,42 @@ pub fn spectacles_ui(
             });
             ui.end_row();
         });
-    if let Some(st) = status {
-        ui.separator();
-        let dist = |m: f32| {
-            if m.is_infinite() {
-                "∞".to_string()
-            } else if m < 0.0 {
-                format!("{:.2} m behind the eye", -m)
-            } else {
-                format!("{m:.2} m")
-            }
-        };
+}
+
+/// What the plugin made of the settings.
+fn status_lines(ui: &mut egui::Ui, st: &SpectaclesStatus) {
+    ui.separator();
+    let dist = |m: f32| {
+        if m.is_infinite() {
+            "∞".to_string()
+        } else if m < 0.0 {
+            format!("{:.2} m behind the eye", -m)
+        } else {
+            format!("{m:.2} m")
+        }
+    };
+    ui.label(format!(
+        "naked eye: sharp from {} to {}, pupil {:.1} mm",
+        dist(st.near_point_m),
+        dist(st.far_point_m),
+        st.pupil_mm
+    ));
+    if let Some(c) = st.corrected_near_far_m {
+        ui.label(format!("through the lens: {} to {}", dist(c.x), dist(c.y)));
+    }
+    if let Some(l) = st.lens_centre_edge_mm_front_d {
         ui.label(format!(
-            "naked eye: sharp from {} to {}, pupil {:.1} mm",
-            dist(st.near_point_m),
-            dist(st.far_point_m),
-            st.pupil_mm
+            "lens: centre {:.1} mm, edge {:.1} mm, base curve {:.2} D",
+            l.x, l.y, l.z
         ));
-        if let Some(c) = st.corrected_near_far_m {
-            ui.label(format!("through the lens: {} to {}", dist(c.x), dist(c.y)));
-        }
-        if let Some(l) = st.lens_centre_edge_mm_front_d {
-            ui.label(format!(
-                "lens: centre {:.1} mm, edge {:.1} mm, base curve {:.2} D",
-                l.x, l.y, l.z
-            ));
-        }
-        if let Some(f) = st.field_aims_failed_crossed_filled {
-            ui.label(format!(
-                "field: {} bundles ({} blocked at the rim), {} voxels crossed, {} filled, {:.1} ms",
-                f.x, f.y, f.z, f.w, st.precompute_ms
-            ));
-        }
-        if let Some(e) = &st.error {
-            ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
-        }
+    }
+    if let Some(f) = st.field_aims_failed_crossed_filled {
+        ui.label(format!(
+            "field: {} bundles ({} blocked at the rim), {} voxels crossed, {} filled, {:.1} ms",
+            f.x, f.y, f.z, f.w, st.precompute_ms
+        ));
+    }
+    if let Some(e) = &st.error {
+        ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
     }
 }

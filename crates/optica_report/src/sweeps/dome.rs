@@ -352,16 +352,29 @@ fn classification(report: &mut Report, ctx: &SweepContext) {
     );
 }
 
+/// The refinement's stiff cases: segments and meshes behind, around and
+/// through the viewer, at fields of view up to 359.9°, and NaN vertices.
 fn stability(report: &mut Report, ctx: &SweepContext) {
     let tol = 0.5;
     let rule = chord_gap(tol);
+    segments_behind_the_viewer(report, tol, rule);
+    floors_under_a_zenith_camera(report, tol, rule);
+    beyond_180_degrees(report, ctx, tol, rule);
+    degenerate_edges(report, tol, rule);
+}
+
+/// A point at polar angle `theta_deg` from the dome's axis, azimuth
+/// `phi_deg`, `r` from the viewer.
+fn polar(theta_deg: f64, phi_deg: f64, r: f64) -> DVec3 {
+    let (t, f) = (theta_deg.to_radians(), phi_deg.to_radians());
+    DVec3::new(t.sin() * f.cos(), t.sin() * f.sin(), -t.cos()) * r
+}
+
+/// A segment past the antipode, one behind the viewer, one crossing the
+/// view plane.
+fn segments_behind_the_viewer(report: &mut Report, tol: f64, rule: SplitRule) {
     let p180 = dome(180.0);
     let p250 = dome(250.0);
-    let polar = |theta_deg: f64, phi_deg: f64, r: f64| {
-        let (t, f) = (theta_deg.to_radians(), phi_deg.to_radians());
-        DVec3::new(t.sin() * f.cos(), t.sin() * f.sin(), -t.cos()) * r
-    };
-
     // A segment passing behind the viewer 5° from the antipode, FOV 250°:
     // clipped at the guard cone into two strips, each within tolerance.
     let (a, b) = (polar(130.0, 0.0, 3.0), polar(130.0, 170.0, 4.0));
@@ -408,7 +421,11 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
         (b, c) => (false, format!("{b:?} {c:?}")),
     };
     report.case("points behind the viewer (FOV 180°)", case.0, case.1);
+}
 
+/// The room's floor under a zenith camera at 170° and 180°.
+fn floors_under_a_zenith_camera(report: &mut Report, tol: f64, rule: SplitRule) {
+    let p180 = dome(180.0);
     // The floor under a zenith camera: unclipped, its vertices lie near the
     // antipode and its triangles cover the whole disk. Clipped at the view
     // plane; at 180° the walls' cuts get rim skirts (so that the rim is
@@ -446,7 +463,11 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
             e.max_px
         ),
     );
+}
 
+/// Random edges all around the viewer, and the room, beyond 180°.
+fn beyond_180_degrees(report: &mut Report, ctx: &SweepContext, tol: f64, rule: SplitRule) {
+    let p250 = dome(250.0);
     // FOV > 180°: random edges all around the viewer, and the room.
     for fov in [220.0, 250.0] {
         let p = dome(fov);
@@ -487,7 +508,12 @@ fn stability(report: &mut Report, ctx: &SweepContext) {
             r.stats.capped_edges
         ),
     );
+}
 
+/// Edges through the viewer, NaN vertices, a 359.9° field.
+fn degenerate_edges(report: &mut Report, tol: f64, rule: SplitRule) {
+    let p180 = dome(180.0);
+    let p250 = dome(250.0);
     // Edges spanning ≥ 180° (through the viewer) and nearly 180°.
     let through = refine_segment(&p180, polar(40.0, 0.0, 2.0), polar(140.0, 180.0, 3.0), rule);
     let nearly = refine_segment(

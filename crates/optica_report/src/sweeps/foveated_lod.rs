@@ -116,175 +116,205 @@ fn stability(
     field: &VisualField,
     full: &[DVec3],
 ) {
+    gaze_behind_the_head(report, scene, cam, settings, field);
+    nan_tracker(report, scene, cam, settings, field, full);
+    gaze_on_the_boundary(report, scene, cam, settings, field);
+    gaze_jitter(report, cam, settings, field);
+}
+
+/// Gaze behind the head: the wall is entirely behind the gaze.
+fn gaze_behind_the_head(
+    report: &mut Report,
+    scene: &TracerScene,
+    cam: &TracerCamera,
+    settings: &TraceSettings,
+    field: &VisualField,
+) {
     let eye = cam.eye();
-
-    // 1. Gaze behind the head: the wall is entirely behind the gaze.
-    {
-        let behind = GazeEstimate::Tracked(GazeFrame::new(eye, DVec3::Z, DVec3::Y).expect("gaze"));
-        let lv = pixel_levels(cam, settings, field, &behind, LevelQuantization::Continuous);
-        match render(scene, cam, settings, &lv) {
-            Ok(img) => {
-                let bg = img.pixels.iter().all(|&p| p == scene.background());
-                report.case(
-                    "gaze behind the head",
-                    all_finite(&img.pixels) && bg && img.stats.rays() == 0,
-                    format!(
-                        "all {} pixels level 0 → background without a ray (rays traced: {}); max level {}",
-                        lv.len(),
-                        img.stats.rays(),
-                        lv.iter().cloned().fold(0.0, f64::max)
-                    ),
-                );
-            }
-            Err(e) => report.case("gaze behind the head", false, format!("render failed: {e}")),
+    let behind = GazeEstimate::Tracked(GazeFrame::new(eye, DVec3::Z, DVec3::Y).expect("gaze"));
+    let lv = pixel_levels(cam, settings, field, &behind, LevelQuantization::Continuous);
+    match render(scene, cam, settings, &lv) {
+        Ok(img) => {
+            let bg = img.pixels.iter().all(|&p| p == scene.background());
+            report.case(
+                "gaze behind the head",
+                all_finite(&img.pixels) && bg && img.stats.rays() == 0,
+                format!(
+                    "all {} pixels level 0 → background without a ray (rays traced: {}); max level {}",
+                    lv.len(),
+                    img.stats.rays(),
+                    lv.iter().cloned().fold(0.0, f64::max)
+                ),
+            );
         }
+        Err(e) => report.case("gaze behind the head", false, format!("render failed: {e}")),
     }
+}
 
-    // 2. NaN tracker: hold the last pose within the timeout, then full quality.
-    {
-        let mut tr = GazeTracker::new(0.1).expect("timeout");
-        let g = sweep_gaze(eye);
-        let good = TrackerSample::Gaze {
-            eye,
-            gaze: g.forward(),
-            up: DVec3::Y,
-        };
-        let nan = TrackerSample::Gaze {
-            eye,
-            gaze: DVec3::new(f64::NAN, 0.0, -1.0),
-            up: DVec3::Y,
-        };
-        tr.update(good, 0.0);
-        let held = tr.update(nan, 0.05);
-        let lost = tr.update(nan, 0.2);
-        let tracked_lv = pixel_levels(
-            cam,
-            settings,
-            field,
-            &GazeEstimate::Tracked(g),
-            LevelQuantization::Continuous,
-        );
-        let held_lv = pixel_levels(cam, settings, field, &held, LevelQuantization::Continuous);
-        let lost_lv = pixel_levels(cam, settings, field, &lost, LevelQuantization::Continuous);
-        let lost_img = render(scene, cam, settings, &lost_lv);
-        let held_ok = matches!(held, GazeEstimate::Held { .. }) && held_lv == tracked_lv;
-        let lost_ok = matches!(lost, GazeEstimate::FullQuality { .. })
-            && lost_img
-                .as_ref()
-                .is_ok_and(|im| im.pixels == full && all_finite(&im.pixels));
-        report.case(
-            "NaN tracker",
-            held_ok && lost_ok,
-            format!(
-                "NaN at 50 ms: held the last pose (levels identical: {held_ok}); NaN at 200 ms (> 100 ms timeout): \
-                 full quality, image identical to the full-quality trace: {lost_ok}"
-            ),
-        );
-    }
+/// NaN tracker: hold the last pose within the timeout, then full quality.
+fn nan_tracker(
+    report: &mut Report,
+    scene: &TracerScene,
+    cam: &TracerCamera,
+    settings: &TraceSettings,
+    field: &VisualField,
+    full: &[DVec3],
+) {
+    let eye = cam.eye();
+    let mut tr = GazeTracker::new(0.1).expect("timeout");
+    let g = sweep_gaze(eye);
+    let good = TrackerSample::Gaze {
+        eye,
+        gaze: g.forward(),
+        up: DVec3::Y,
+    };
+    let nan = TrackerSample::Gaze {
+        eye,
+        gaze: DVec3::new(f64::NAN, 0.0, -1.0),
+        up: DVec3::Y,
+    };
+    tr.update(good, 0.0);
+    let held = tr.update(nan, 0.05);
+    let lost = tr.update(nan, 0.2);
+    let tracked_lv = pixel_levels(
+        cam,
+        settings,
+        field,
+        &GazeEstimate::Tracked(g),
+        LevelQuantization::Continuous,
+    );
+    let held_lv = pixel_levels(cam, settings, field, &held, LevelQuantization::Continuous);
+    let lost_lv = pixel_levels(cam, settings, field, &lost, LevelQuantization::Continuous);
+    let lost_img = render(scene, cam, settings, &lost_lv);
+    let held_ok = matches!(held, GazeEstimate::Held { .. }) && held_lv == tracked_lv;
+    let lost_ok = matches!(lost, GazeEstimate::FullQuality { .. })
+        && lost_img
+            .as_ref()
+            .is_ok_and(|im| im.pixels == full && all_finite(&im.pixels));
+    report.case(
+        "NaN tracker",
+        held_ok && lost_ok,
+        format!(
+            "NaN at 50 ms: held the last pose (levels identical: {held_ok}); NaN at 200 ms (> 100 ms timeout): \
+             full quality, image identical to the full-quality trace: {lost_ok}"
+        ),
+    );
+}
 
-    // 3. Gaze on the eq. 7 boundary: pixels beyond it are background.
-    {
-        // A gaze 70° to the right puts the boundary across the wall's left half.
-        let yaw = 70f64.to_radians();
-        let g = GazeEstimate::Tracked(
-            GazeFrame::new(eye, DVec3::new(yaw.sin(), 0.0, -yaw.cos()), DVec3::Y).expect("gaze"),
-        );
-        let lv = pixel_levels(cam, settings, field, &g, LevelQuantization::Continuous);
-        let img = render(scene, cam, settings, &lv);
-        let outside = lv.iter().filter(|&&l| l == 0.0).count();
-        let bg_ok = img.as_ref().is_ok_and(|im| {
-            all_finite(&im.pixels)
-                && lv
-                    .iter()
-                    .zip(&im.pixels)
-                    .all(|(&l, &p)| l > 0.0 || p == scene.background())
-        });
-        report.case(
-            "gaze on the eq. 7 boundary",
-            bg_ok && outside > 0 && outside < lv.len(),
-            format!(
-                "gaze 70° right: {outside} of {} pixels beyond the boundary, all background, image finite: {bg_ok}",
-                lv.len()
-            ),
-        );
-    }
-
-    // 4. Gaze jitter: ±0.5° tracker noise at 90 Hz for 2 s.
-    {
-        // The defaults: S = 8, dead band 0.05, dwell 0.25 s.
-        let params = HysteresisParams::default();
-        let mut grid = PixelLodGrid::new(settings.pixel_count(), params);
-        let mut naive_prev: Option<Vec<f64>> = None;
-        let mut naive = 0u64;
-        // Marsaglia's xorshift64 (J. Stat. Softw. 8(14), 2003), fixed seed:
-        // the same jitter in every run. (This crate has no `rand`; the
-        // reference generators live behind optica_optics' `reference` feature.)
-        let mut seed = 0x2545F4914F6CDD1Du64;
-        let mut rnd = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
-        let base = sweep_gaze(eye).forward();
-        let frames = 180;
-        let npx = settings.pixel_count();
-        let (mut lo, mut hi) = (vec![f64::INFINITY; npx], vec![f64::NEG_INFINITY; npx]);
-        for i in 0..frames {
-            let jitter = DVec3::new(rnd(), rnd(), rnd()) * (1f64.to_radians());
-            let g =
-                GazeEstimate::Tracked(GazeFrame::new(eye, base + jitter, DVec3::Y).expect("gaze"));
-            let lv = pixel_levels(cam, settings, field, &g, LevelQuantization::Continuous);
-            for (k, &l) in lv.iter().enumerate() {
-                lo[k] = lo[k].min(l);
-                hi[k] = hi[k].max(l);
-            }
-            let q: Vec<f64> = lv
+/// Gaze on the eq. 7 boundary: pixels beyond it are background.
+fn gaze_on_the_boundary(
+    report: &mut Report,
+    scene: &TracerScene,
+    cam: &TracerCamera,
+    settings: &TraceSettings,
+    field: &VisualField,
+) {
+    let eye = cam.eye();
+    // A gaze 70° to the right puts the boundary across the wall's left half.
+    let yaw = 70f64.to_radians();
+    let g = GazeEstimate::Tracked(
+        GazeFrame::new(eye, DVec3::new(yaw.sin(), 0.0, -yaw.cos()), DVec3::Y).expect("gaze"),
+    );
+    let lv = pixel_levels(cam, settings, field, &g, LevelQuantization::Continuous);
+    let img = render(scene, cam, settings, &lv);
+    let outside = lv.iter().filter(|&&l| l == 0.0).count();
+    let bg_ok = img.as_ref().is_ok_and(|im| {
+        all_finite(&im.pixels)
+            && lv
                 .iter()
-                .map(|&l| LevelQuantization::Steps(params.steps()).apply(l))
-                .collect();
-            if let Some(p) = &naive_prev {
-                naive += p.iter().zip(&q).filter(|(a, b)| a != b).count() as u64;
-            }
-            naive_prev = Some(q);
-            grid.update(&lv, i as f64 / 90.0)
-                .expect("one level per pixel");
+                .zip(&im.pixels)
+                .all(|(&l, &p)| l > 0.0 || p == scene.background())
+    });
+    report.case(
+        "gaze on the eq. 7 boundary",
+        bg_ok && outside > 0 && outside < lv.len(),
+        format!(
+            "gaze 70° right: {outside} of {} pixels beyond the boundary, all background, image finite: {bg_ok}",
+            lv.len()
+        ),
+    );
+}
+
+/// Gaze jitter: ±0.5° tracker noise at 90 Hz for 2 s.
+fn gaze_jitter(
+    report: &mut Report,
+    cam: &TracerCamera,
+    settings: &TraceSettings,
+    field: &VisualField,
+) {
+    let eye = cam.eye();
+    // The defaults: S = 8, dead band 0.05, dwell 0.25 s.
+    let params = HysteresisParams::default();
+    let mut grid = PixelLodGrid::new(settings.pixel_count(), params);
+    let mut naive_prev: Option<Vec<f64>> = None;
+    let mut naive = 0u64;
+    // Marsaglia's xorshift64 (J. Stat. Softw. 8(14), 2003), fixed seed:
+    // the same jitter in every run. (This crate has no `rand`; the
+    // reference generators live behind optica_optics' `reference` feature.)
+    let mut seed = 0x2545F4914F6CDD1Du64;
+    let mut rnd = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let base = sweep_gaze(eye).forward();
+    let frames = 180;
+    let npx = settings.pixel_count();
+    let (mut lo, mut hi) = (vec![f64::INFINITY; npx], vec![f64::NEG_INFINITY; npx]);
+    for i in 0..frames {
+        let jitter = DVec3::new(rnd(), rnd(), rnd()) * (1f64.to_radians());
+        let g = GazeEstimate::Tracked(GazeFrame::new(eye, base + jitter, DVec3::Y).expect("gaze"));
+        let lv = pixel_levels(cam, settings, field, &g, LevelQuantization::Continuous);
+        for (k, &l) in lv.iter().enumerate() {
+            lo[k] = lo[k].min(l);
+            hi[k] = hi[k].max(l);
         }
-        let held = grid.switches();
-        let swing: Vec<f64> = hi.iter().zip(&lo).map(|(h, l)| h - l).collect();
-        let max_swing = swing.iter().cloned().fold(0.0, f64::max);
-        let wide = swing.iter().filter(|&&s| s > params.dead_band()).count();
-        // Gain of eq. 5's m_β on gaze motion, 1/√(d_f² + d_u²), at those pixels.
-        let g0 = sweep_gaze(eye);
-        let max_gain = swing
+        let q: Vec<f64> = lv
             .iter()
-            .enumerate()
-            .filter(|&(_, &s)| s > params.dead_band())
-            .map(|(k, _)| {
-                let r = cam.primary_ray(k % settings.width(), k / settings.width(), settings);
-                let d = g0.to_local(r.dir());
-                1.0 / d.x.hypot(d.z)
-            })
-            .fold(0.0, f64::max);
-        // Bound of `LodHysteresis`: D + (D + 1)·S switches per slot, D = ⌈T/dwell⌉,
-        // and only slots whose level swings by more than the dead band can switch at all.
-        let t = frames as f64 / 90.0;
-        let d = (t / params.min_dwell_s()).ceil() as u64;
-        let bound = wide as u64 * (d + (d + 1) * params.steps() as u64);
-        report.case(
-            "gaze jitter (hysteresis)",
-            held <= bound && held * 100 <= naive && naive > 0,
-            format!(
-                "±0.5° jitter, {frames} frames at 90 Hz, S = {}, dead band {}, dwell {} s: {held} pixel LOD \
-                 switches with hysteresis, {naive} without; {wide} of {npx} pixels swing by more than the dead band \
-                 (max swing {max_swing:.3}; they lie towards the ear side, where eq. 5 amplifies gaze motion by \
-                 1/√(d_f² + d_u²), up to {max_gain:.1} here)",
-                params.steps(),
-                params.dead_band(),
-                params.min_dwell_s()
-            ),
-        );
+            .map(|&l| LevelQuantization::Steps(params.steps()).apply(l))
+            .collect();
+        if let Some(p) = &naive_prev {
+            naive += p.iter().zip(&q).filter(|(a, b)| a != b).count() as u64;
+        }
+        naive_prev = Some(q);
+        grid.update(&lv, i as f64 / 90.0)
+            .expect("one level per pixel");
     }
+    let held = grid.switches();
+    let swing: Vec<f64> = hi.iter().zip(&lo).map(|(h, l)| h - l).collect();
+    let max_swing = swing.iter().cloned().fold(0.0, f64::max);
+    let wide = swing.iter().filter(|&&s| s > params.dead_band()).count();
+    // Gain of eq. 5's m_β on gaze motion, 1/√(d_f² + d_u²), at those pixels.
+    let g0 = sweep_gaze(eye);
+    let max_gain = swing
+        .iter()
+        .enumerate()
+        .filter(|&(_, &s)| s > params.dead_band())
+        .map(|(k, _)| {
+            let r = cam.primary_ray(k % settings.width(), k / settings.width(), settings);
+            let d = g0.to_local(r.dir());
+            1.0 / d.x.hypot(d.z)
+        })
+        .fold(0.0, f64::max);
+    // Bound of `LodHysteresis`: D + (D + 1)·S switches per slot, D = ⌈T/dwell⌉,
+    // and only slots whose level swings by more than the dead band can switch at all.
+    let t = frames as f64 / 90.0;
+    let d = (t / params.min_dwell_s()).ceil() as u64;
+    let bound = wide as u64 * (d + (d + 1) * params.steps() as u64);
+    report.case(
+        "gaze jitter (hysteresis)",
+        held <= bound && held * 100 <= naive && naive > 0,
+        format!(
+            "±0.5° jitter, {frames} frames at 90 Hz, S = {}, dead band {}, dwell {} s: {held} pixel LOD \
+             switches with hysteresis, {naive} without; {wide} of {npx} pixels swing by more than the dead band \
+             (max swing {max_swing:.3}; they lie towards the ear side, where eq. 5 amplifies gaze motion by \
+             1/√(d_f² + d_u²), up to {max_gain:.1} here)",
+            params.steps(),
+            params.dead_band(),
+            params.min_dwell_s()
+        ),
+    );
 }
 
 #[cfg(test)]

@@ -575,6 +575,16 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         .time_frames(timing.0, timing.1, scene(None, true, None))?
         .frame_ms
         .median;
+    // A row of `series` at `knob`, against `reference` when given.
+    let add = |report: &mut Report,
+               series: &str,
+               setup: Setup,
+               reference: Option<&[[f64; 3]]>,
+               knob: f64| {
+        row(
+            ctx, report, series, setup, size, reference, plain, timing, knob,
+        )
+    };
     let r = Some(reference_3.as_slice());
     for (i, &grid) in grids.iter().enumerate() {
         ctx.progress(i + 1, grids.len(), &format!("rendered, grid {grid}²"));
@@ -586,40 +596,20 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         };
         let ours = [("rendered", adaptive.clone()), ("fixed grid", fixed)];
         for (series, setup) in ours {
-            row(ctx, report, series, setup, size, r, plain, timing, knob)?;
+            add(report, series, setup, r, knob)?;
         }
         if grid == 32 {
             let whole = Setup {
                 symmetry: false,
                 ..adaptive.clone()
             };
-            row(
-                ctx,
-                report,
-                "no symmetry",
-                whole,
-                size,
-                r,
-                plain,
-                timing,
-                knob,
-            )?;
+            add(report, "no symmetry", whole, r, knob)?;
             if !ctx.quick {
                 let full = Setup {
                     diffraction: true,
                     ..adaptive
                 };
-                row(
-                    ctx,
-                    report,
-                    "diffraction",
-                    full,
-                    size,
-                    None,
-                    plain,
-                    timing,
-                    knob,
-                )?;
+                add(report, "diffraction", full, None, knob)?;
             }
         }
     }
@@ -647,23 +637,35 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             ..Setup::double_gauss(32, budget)
         };
         let knob = f64::from(wavelengths);
-        row(
-            ctx,
-            report,
-            "wavelengths (32² fixed)",
-            setup,
-            size,
-            r,
-            plain,
-            timing,
-            knob,
-        )?;
+        add(report, "wavelengths (32² fixed)", setup, r, knob)?;
     }
+    let r = Some(reference_3.as_slice());
+    default_rows(ctx, report, budget, &add, r)?;
+    if !ctx.quick {
+        zoom_rows(ctx, report)?;
+    }
+    Ok(())
+}
+
+/// A row-adding closure: a series, its setup, the reference (if any) and
+/// the knob.
+type AddRow<'a> =
+    dyn Fn(&mut Report, &str, Setup, Option<&[[f64; 3]]>, f64) -> Result<(), SweepError> + 'a;
+
+/// The knobs round the defaults: the resolution the ghosts are added up
+/// at, the spread below which wavelengths merge, the size above which a
+/// ghost is added up coarsely; and the defaults with the camera turning.
+fn default_rows(
+    ctx: &SweepContext,
+    report: &mut Report,
+    budget: u32,
+    add: &AddRow,
+    r: Option<&[[f64; 3]]>,
+) -> Result<(), SweepError> {
     // The third knob, the resolution the ghosts are added up at (the
     // divisor of the view's side), with the default grids (16² on average,
     // shared by power), and the defaults' cost when the camera turns,
     // against the 3-wavelength reference.
-    let r = Some(reference_3.as_slice());
     for resolution in ctx.pick(
         vec![GhostResolution::Full, GhostResolution::Quarter],
         vec![
@@ -677,17 +679,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             ..Setup::double_gauss(DEFAULT_GRID, budget)
         };
         let knob = f64::from(resolution.divisor());
-        row(
-            ctx,
-            report,
-            "ghost resolution (defaults)",
-            setup,
-            size,
-            r,
-            plain,
-            timing,
-            knob,
-        )?;
+        add(report, "ghost resolution (defaults)", setup, r, knob)?;
     }
     // The fourth knob, the image spread below which a ghost's wavelengths
     // are drawn as one (0: never), with the defaults.
@@ -696,15 +688,11 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             merge_px,
             ..Setup::double_gauss(DEFAULT_GRID, budget)
         };
-        row(
-            ctx,
+        add(
             report,
             "merged wavelengths (defaults)",
             setup,
-            size,
             r,
-            plain,
-            timing,
             f64::from(merge_px),
         )?;
     }
@@ -723,26 +711,19 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             Some(px) => ("coarse ghosts (defaults)", f64::from(px)),
             None => ("no coarse ghosts (defaults)", f64::from(DEFAULT_GRID)),
         };
-        row(ctx, report, series, setup, size, r, plain, timing, knob)?;
+        add(report, series, setup, r, knob)?;
     }
     let turning = Setup {
         turning: true,
         ..Setup::double_gauss(DEFAULT_GRID, budget)
     };
-    row(
-        ctx,
+    add(
         report,
         "turning camera (defaults)",
         turning,
-        size,
         None,
-        plain,
-        timing,
         f64::from(DEFAULT_GRID),
     )?;
-    if !ctx.quick {
-        zoom_rows(ctx, report)?;
-    }
     Ok(())
 }
 

@@ -12,9 +12,9 @@ use bevy::render::camera::TemporalJitter;
 use bevy::render::render_asset::RenderAssets;
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, Buffer, BufferDescriptor, BufferId, BufferUsages,
-    CachedComputePipelineId, Extent3d, PipelineCache, StorageBuffer, Texture, TextureDescriptor,
-    TextureDimension, TextureUsages, TextureView, TextureViewDescriptor, TextureViewId,
-    UniformBuffer,
+    CachedComputePipelineId, CachedRenderPipelineId, Extent3d, PipelineCache, StorageBuffer,
+    Texture, TextureDescriptor, TextureDimension, TextureUsages, TextureView,
+    TextureViewDescriptor, TextureViewId, UniformBuffer,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::texture::{FallbackImage, GpuImage};
@@ -212,53 +212,34 @@ struct ViewInputs<'a> {
     jitter: Option<&'a TemporalJitter>,
 }
 
-/// One view's resources; `None` when it has nothing to draw.
-fn prepare_view(
+/// The jitter's move of a point's image this frame (with a perspective
+/// projection, the same for every point), for the ghosts to follow it.
+fn jitter_params(
+    params: &mut FlareParams,
+    jitter: &TemporalJitter,
+    view: &ExtractedView,
+    frame: u32,
+) {
+    let clip_from_view = view.clip_from_view;
+    let mut jittered = clip_from_view;
+    jitter.jitter_projection(&mut jittered, view.viewport.zw().as_vec2());
+    let ndc = |m: Mat4| {
+        let c = m * Vec4::new(0.0, 0.0, -1.0, 1.0);
+        c.xy() / c.w
+    };
+    params.jitter_ndc = ndc(jittered) - ndc(clip_from_view);
+    params.jitter_cycle = JITTER_CYCLE;
+    params.jitter_slot = frame % JITTER_CYCLE;
+}
+
+/// Leaves out the grids past what one storage binding holds; `None` when
+/// not even the first fits.
+fn fit_to_device(
+    params: &mut FlareParams,
+    draws: &FlareDraws,
     buffers: &mut FlareBuffers,
-    view: &ViewInputs,
-    inputs: &ResourceInputs,
-) -> Option<FrameInputs> {
-    let ResourceInputs {
-        pipeline_cache,
-        render_device,
-        render_queue,
-        images,
-        fallback,
-        frame,
-    } = inputs;
-    let draws = view.draws;
-    let mut params = draws.params;
-    if let Some(jitter) = view.jitter {
-        // Where the jitter moves the image of a point this frame (with a
-        // perspective projection, the same for every point).
-        let clip_from_view = view.view.clip_from_view;
-        let mut jittered = clip_from_view;
-        jitter.jitter_projection(&mut jittered, view.view.viewport.zw().as_vec2());
-        let ndc = |m: Mat4| {
-            let c = m * Vec4::new(0.0, 0.0, -1.0, 1.0);
-            c.xy() / c.w
-        };
-        params.jitter_ndc = ndc(jittered) - ndc(clip_from_view);
-        params.jitter_cycle = JITTER_CYCLE;
-        params.jitter_slot = frame.0 % JITTER_CYCLE;
-    }
-    if params.jobs == 0 || params.rays == 0 {
-        return None;
-    }
-    // The diffraction textures, once uploaded; until then (and when off)
-    // the fallback, and the pass leaves them out.
-    let texture = |id: Option<AssetId<Image>>| id.and_then(|id| images.get(id));
-    let ringing = texture(draws.ringing);
-    let burst = texture(draws.starburst);
-    if ringing.is_none() {
-        params.ringing = 0;
-    }
-    if burst.is_none() {
-        params.starburst_scale = 0.0;
-    }
-    let fallback_view = &fallback.d2.texture_view;
-    let ringing_view = ringing.map_or(fallback_view, |i| &i.texture_view).clone();
-    let burst_view = burst.map_or(fallback_view, |i| &i.texture_view).clone();
+    render_device: &RenderDevice,
+) -> Option<()> {
     // More rays than one storage binding holds (128 MiB on many devices:
     // 2.8 M rays, e.g. 83 ghosts × 3 wavelengths at 128²): the grids past
     // it (the dimmest of the last light) are left out, with one warning,
@@ -291,6 +272,16 @@ fn prepare_view(
         params.cells = last.cell_end();
         params.spans = last.span_end();
     }
+    Some(())
+}
+
+/// The rays', cell colours' and indices' buffers, made again (and the
+/// rays marked for retracing) when they are too small.
+fn grow_ray_buffers(
+    buffers: &mut FlareBuffers,
+    params: &FlareParams,
+    render_device: &RenderDevice,
+) {
     let rays = u64::from(params.rays);
     let cells = u64::from(params.cells).max(1);
     for (buffer, label, size, usage) in [
@@ -323,6 +314,46 @@ fn prepare_view(
             }));
         }
     }
+}
+
+/// One view's resources; `None` when it has nothing to draw.
+fn prepare_view(
+    buffers: &mut FlareBuffers,
+    view: &ViewInputs,
+    inputs: &ResourceInputs,
+) -> Option<FrameInputs> {
+    let ResourceInputs {
+        pipeline_cache,
+        render_device,
+        render_queue,
+        images,
+        fallback,
+        frame,
+    } = inputs;
+    let draws = view.draws;
+    let mut params = draws.params;
+    if let Some(jitter) = view.jitter {
+        jitter_params(&mut params, jitter, view.view, frame.0);
+    }
+    if params.jobs == 0 || params.rays == 0 {
+        return None;
+    }
+    // The diffraction textures, once uploaded; until then (and when off)
+    // the fallback, and the pass leaves them out.
+    let texture = |id: Option<AssetId<Image>>| id.and_then(|id| images.get(id));
+    let ringing = texture(draws.ringing);
+    let burst = texture(draws.starburst);
+    if ringing.is_none() {
+        params.ringing = 0;
+    }
+    if burst.is_none() {
+        params.starburst_scale = 0.0;
+    }
+    let fallback_view = &fallback.d2.texture_view;
+    let ringing_view = ringing.map_or(fallback_view, |i| &i.texture_view).clone();
+    let burst_view = burst.map_or(fallback_view, |i| &i.texture_view).clone();
+    fit_to_device(&mut params, draws, buffers, render_device)?;
+    grow_ray_buffers(buffers, &params, render_device);
     // The depth is read when occlusion is on and the view's depth can be
     // bound (`make_depth_readable` asks for it); otherwise, and until the
     // occlusion pipeline is compiled, every light is fully visible.
@@ -457,10 +488,6 @@ fn bind_view(
 ) -> Option<FlareBinding> {
     let frame = buffers.frame.take()?;
     let params = frame.params;
-    let u = buffers.uniform.binding()?;
-    let s = buffers.surfaces.binding()?;
-    let j = buffers.jobs.binding()?;
-    let probes = buffers.probes.binding()?;
     let ray_buffer = buffers.rays.as_ref()?;
     let cell_colors = buffers.cell_colors.as_ref()?;
     let indices = buffers.indices.as_ref()?;
@@ -482,58 +509,9 @@ fn bind_view(
         views: [frame.ringing_view.id(), frame.burst_view.id()],
         depth: frame.occlusion.as_ref().map(|(depth, ..)| depth.id()),
     };
-    let layout = |descriptor| pipeline_cache.get_bind_group_layout(descriptor);
     let groups = match buffers.groups.take() {
         Some((kept_from, groups)) if kept_from == made_from => groups,
-        _ => BindGroups {
-            trace: render_device.create_bind_group(
-                "optica_lens_flare_trace",
-                &layout(&pipelines.trace_layout),
-                &BindGroupEntries::sequential((
-                    u.clone(),
-                    s,
-                    j.clone(),
-                    ray_buffer.as_entire_binding(),
-                )),
-            ),
-            cells: render_device.create_bind_group(
-                "optica_lens_flare_cells",
-                &layout(&pipelines.cells_layout),
-                &BindGroupEntries::sequential((
-                    u.clone(),
-                    j,
-                    ray_buffer.as_entire_binding(),
-                    visibility.as_entire_binding(),
-                    cell_colors.as_entire_binding(),
-                    indices.as_entire_binding(),
-                )),
-            ),
-            draw: render_device.create_bind_group(
-                "optica_lens_flare_draw",
-                &layout(&pipelines.draw_layout),
-                &BindGroupEntries::sequential((
-                    u.clone(),
-                    cell_colors.as_entire_binding(),
-                    ray_buffer.as_entire_binding(),
-                    visibility.as_entire_binding(),
-                    probes.clone(),
-                    &frame.ringing_view,
-                    &frame.burst_view,
-                )),
-            ),
-            occlusion: frame.occlusion.as_ref().map(|(depth, _, multisampled)| {
-                render_device.create_bind_group(
-                    "optica_lens_flare_occlusion",
-                    &layout(&pipelines.occlusion_layouts[usize::from(*multisampled)]),
-                    &BindGroupEntries::sequential((
-                        u,
-                        probes,
-                        depth,
-                        visibility.as_entire_binding(),
-                    )),
-                )
-            }),
-        },
+        _ => make_groups(buffers, &frame, pipelines, pipeline_cache, render_device)?,
     };
     buffers.groups = Some((made_from, groups.clone()));
     let occlusion = groups
@@ -546,7 +524,7 @@ fn bind_view(
         let group = target.upsample_group.get_or_insert_with(|| {
             render_device.create_bind_group(
                 "optica_lens_flare_upsample",
-                &layout(&pipelines.upsample_layout),
+                &pipeline_cache.get_bind_group_layout(&pipelines.upsample_layout),
                 &BindGroupEntries::sequential((&target.view, &pipelines.upsample_sampler)),
             )
         });
@@ -568,19 +546,13 @@ fn bind_view(
     // The passes wait for every pipeline as this system saw them (the
     // cache may finish one before the passes run), so that the rays traced
     // are the ones `traced` records.
-    let ready = [ids.trace, ids.fill, ids.cells]
-        .into_iter()
-        .all(|id| pipeline_cache.get_compute_pipeline(id).is_some())
-        && [
-            Some(ids.ghosts),
-            reduced.as_ref().map(|r| r.2),
-            coarse.as_ref().map(|c| c.2),
-            coarse.as_ref().map(|c| c.3),
-        ]
-        .into_iter()
-        .flatten()
-        .all(|id| pipeline_cache.get_render_pipeline(id).is_some());
-    if !ready {
+    let render_ids = [
+        Some(ids.ghosts),
+        reduced.as_ref().map(|r| r.2),
+        coarse.as_ref().map(|c| c.2),
+        coarse.as_ref().map(|c| c.3),
+    ];
+    if !pipelines_ready(pipeline_cache, ids, render_ids.into_iter().flatten()) {
         return None;
     }
     buffers.traced = Some(key);
@@ -607,6 +579,84 @@ fn bind_view(
         indices: indices.clone(),
         lights: params.lights,
     })
+}
+
+/// A view's bind groups over its buffers and this frame's textures.
+fn make_groups(
+    buffers: &FlareBuffers,
+    frame: &FrameInputs,
+    pipelines: &FlarePipelines,
+    pipeline_cache: &PipelineCache,
+    render_device: &RenderDevice,
+) -> Option<BindGroups> {
+    let u = buffers.uniform.binding()?;
+    let s = buffers.surfaces.binding()?;
+    let j = buffers.jobs.binding()?;
+    let probes = buffers.probes.binding()?;
+    let ray_buffer = buffers.rays.as_ref()?;
+    let cell_colors = buffers.cell_colors.as_ref()?;
+    let indices = buffers.indices.as_ref()?;
+    let visibility = buffers.visibility.as_ref()?;
+    let layout = |descriptor| pipeline_cache.get_bind_group_layout(descriptor);
+    Some(BindGroups {
+        trace: render_device.create_bind_group(
+            "optica_lens_flare_trace",
+            &layout(&pipelines.trace_layout),
+            &BindGroupEntries::sequential((
+                u.clone(),
+                s,
+                j.clone(),
+                ray_buffer.as_entire_binding(),
+            )),
+        ),
+        cells: render_device.create_bind_group(
+            "optica_lens_flare_cells",
+            &layout(&pipelines.cells_layout),
+            &BindGroupEntries::sequential((
+                u.clone(),
+                j,
+                ray_buffer.as_entire_binding(),
+                visibility.as_entire_binding(),
+                cell_colors.as_entire_binding(),
+                indices.as_entire_binding(),
+            )),
+        ),
+        draw: render_device.create_bind_group(
+            "optica_lens_flare_draw",
+            &layout(&pipelines.draw_layout),
+            &BindGroupEntries::sequential((
+                u.clone(),
+                cell_colors.as_entire_binding(),
+                ray_buffer.as_entire_binding(),
+                visibility.as_entire_binding(),
+                probes.clone(),
+                &frame.ringing_view,
+                &frame.burst_view,
+            )),
+        ),
+        occlusion: frame.occlusion.as_ref().map(|(depth, _, multisampled)| {
+            render_device.create_bind_group(
+                "optica_lens_flare_occlusion",
+                &layout(&pipelines.occlusion_layouts[usize::from(*multisampled)]),
+                &BindGroupEntries::sequential((u, probes, depth, visibility.as_entire_binding())),
+            )
+        }),
+    })
+}
+
+/// Whether the compute pipelines and `render` pipelines of a view are
+/// compiled.
+fn pipelines_ready(
+    cache: &PipelineCache,
+    ids: &FlarePipelineIds,
+    render: impl Iterator<Item = CachedRenderPipelineId>,
+) -> bool {
+    [ids.trace, ids.fill, ids.cells]
+        .into_iter()
+        .all(|id| cache.get_compute_pipeline(id).is_some())
+        && render
+            .into_iter()
+            .all(|id| cache.get_render_pipeline(id).is_some())
 }
 
 /// The bytes of `values` as the GPU reads them (little-endian `f32`s).

@@ -239,17 +239,28 @@ pub struct CloneResolve {
     pub background: Vec4,
 }
 
-/// On a clone camera: the eye camera it draws for.
+/// On a clone camera: the eye camera it draws for (a relationship: the
+/// eye's [`CloneCamera`] lists it, and despawning the eye despawns it).
 #[derive(Component, Clone, Copy, Debug)]
+#[relationship(relationship_target = CloneCamera)]
 pub struct CloneCameraOf(pub Entity);
 
-/// On a twin: the mesh entity it clones.
+/// On an eye camera that draws clones: its clone camera.
+#[derive(Component, Debug)]
+#[relationship_target(relationship = CloneCameraOf, linked_spawn)]
+pub struct CloneCamera(Entity);
+
+/// On a twin: the mesh entity it clones (a relationship: the mesh's
+/// [`CloneTwins`] lists it, and despawning the mesh despawns it).
 #[derive(Component, Clone, Copy, Debug)]
+#[relationship(relationship_target = CloneTwins)]
 pub struct CloneOf(pub Entity);
 
-/// On a mesh entity that has twins: them, in clone order.
-#[derive(Component, Clone, Debug, Default)]
-pub struct CloneTwins(pub Vec<Entity>);
+/// On a mesh entity that has twins: them, in clone order (kept by Bevy
+/// from their [`CloneOf`]).
+#[derive(Component, Debug, Default)]
+#[relationship_target(relationship = CloneOf, linked_spawn)]
+pub struct CloneTwins(Vec<Entity>);
 
 /// The largest side of the clone atlas: wgpu's default
 /// `max_texture_dimension_2d` (the limit Bevy asks devices for).
@@ -584,12 +595,10 @@ pub(crate) fn sync_twins(
 ) {
     let Some((rig, eye_layers)) = rigs.iter().next() else {
         // No clones drawn: no twins.
-        for (entity, .., twins_of) in &meshes {
-            if let Some(t) = twins_of {
-                for &twin in &t.0 {
-                    commands.entity(twin).despawn();
-                }
-                commands.entity(entity).remove::<CloneTwins>();
+        for (.., twins_of) in &meshes {
+            // (Bevy drops the emptied `CloneTwins`.)
+            for twin in twins_of.into_iter().flat_map(|t| t.iter()) {
+                commands.entity(twin).despawn();
             }
         }
         return;
@@ -614,7 +623,7 @@ pub(crate) fn sync_twins(
         } else {
             None
         };
-        let have = twins_of.map_or(&[][..], |t| &t.0[..]);
+        let have: &[Entity] = twins_of.map_or(&[], |t| t.collection());
         if have.len() == wanted {
             // Follow the original's mesh and material.
             for &twin in have {
@@ -633,26 +642,21 @@ pub(crate) fn sync_twins(
             commands.entity(twin).despawn();
         }
         let Some(material) = material else {
-            commands.entity(entity).remove::<CloneTwins>();
             continue;
         };
-        let new: Vec<Entity> = (0..wanted as u32)
-            .map(|k| {
-                commands
-                    .spawn((
-                        Mesh3d(mesh.0.clone()),
-                        MeshMaterial3d(material.clone()),
-                        MeshTag(k),
-                        RenderLayers::layer(CLONE_LAYER),
-                        NotShadowCaster,
-                        CloneOf(entity),
-                        Transform::IDENTITY,
-                        ChildOf(entity),
-                    ))
-                    .id()
-            })
-            .collect();
-        commands.entity(entity).insert(CloneTwins(new));
+        // Spawned in clone order, which `CloneTwins` keeps.
+        for k in 0..wanted as u32 {
+            commands.spawn((
+                Mesh3d(mesh.0.clone()),
+                MeshMaterial3d(material.clone()),
+                MeshTag(k),
+                RenderLayers::layer(CLONE_LAYER),
+                NotShadowCaster,
+                CloneOf(entity),
+                Transform::IDENTITY,
+                ChildOf(entity),
+            ));
+        }
     }
 }
 

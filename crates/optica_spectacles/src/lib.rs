@@ -326,20 +326,45 @@ mod settings;
 #[cfg(feature = "egui")]
 pub use panel::{SpectaclesPanelPlugin, mirror_ui, spectacles_ui};
 pub use error::Error;
-pub use clones::{
-    CLONE_LAYER, CloneCameraOf, CloneExtension, CloneMaterial, CloneOf, CloneResolve, CloneRig,
-    CloneTwins, MAX_ATLAS_SIDE, max_tiles, tile_layout,
-};
-pub use precompute::{
-    CloneUniform, EyeOptics, FieldGeometry, SpectaclesStatus, camera_z, corrected_points,
-    eye_placement, field_bytes,
-};
+pub use clones::{CLONE_LAYER, CloneCamera, CloneCameraOf, CloneOf, CloneTwins};
+pub use precompute::{SpectaclesStatus, corrected_points};
 pub use mirror::{
-    CubeFace, CurvedMirror, MAX_ENVIRONMENT_FOV_DEG, MIRROR_LAYER, MirrorEnvironment, MirrorMaterial,
+    CurvedMirror, MAX_ENVIRONMENT_FOV_DEG, MIRROR_LAYER, MirrorHelperOf, MirrorHelpers,
     MirrorMethod, MirrorState, MirrorViewer,
 };
-pub use refraction::{LensRefraction, LensVertex, trace_lens};
-pub use render::MARCH_STEPS;
+
+/// A query filter that leaves out the entities the plugin makes for itself
+/// (clone twins, clone cameras, a mirror's cameras and probe):
+/// `Query<&Mesh3d, NotSpectaclesHelper>` sees the scene's own meshes only.
+pub type NotSpectaclesHelper = (Without<CloneOf>, Without<CloneCameraOf>, Without<MirrorHelperOf>);
+
+/// The CPU and WGSL twins of what the plugin's shaders compute, the GPU
+/// layouts, and the components the plugin puts on its own cameras and
+/// materials: what the readback tests and the report hold the shaders to.
+/// An app using the plugin needs none of it.
+pub mod twins {
+    pub use crate::clones::{
+        CloneExtension, CloneMaterial, CloneResolve, CloneRig, MAX_ATLAS_SIDE, max_tiles,
+        tile_layout,
+    };
+    pub use crate::mirror::{CubeFace, MirrorEnvironment, MirrorMaterial};
+    pub use crate::precompute::{
+        CloneUniform, EyeOptics, FieldGeometry, camera_z, eye_placement, field_bytes,
+    };
+    pub use crate::refraction::{LensRefraction, LensVertex, trace_lens};
+    pub use crate::render::MARCH_STEPS;
+
+    /// `displacement.wgsl`: the clones' displacement sets (pupil samples,
+    /// the frame across a sight line, the naked eye, the box exit), the
+    /// WGSL twin of `optica_optics::spectacles`, as a
+    /// `#define_import_path optica::spectacles` library.
+    pub const DISPLACEMENT_WGSL: &str = include_str!("shaders/displacement.wgsl");
+
+    /// `field_lookup.wgsl`: the voxel field's lookup, the twin of
+    /// `DisplacementField::displacement_along_sight`; it reads a storage
+    /// array `field` of `f32` that the including shader declares.
+    pub const FIELD_LOOKUP_WGSL: &str = include_str!("shaders/field_lookup.wgsl");
+}
 pub use settings::{
     Accommodation, Astigmatism, CloneDefocus, CloneShading, Eye, FieldBox, LensMaterial, MAX_CLONES, Pupil,
     Spectacles,
@@ -353,16 +378,6 @@ pub use settings::{
 pub(crate) const CLONE_SHADER: Handle<Shader> =
     uuid_handle!("0d6f1c2a-94b7-4f3e-8a51-6c2e9b7d3f10");
 
-/// `displacement.wgsl`: the clones' displacement sets (pupil samples, the
-/// frame across a sight line, the naked eye, the box exit), the WGSL twin of
-/// `optica_optics::spectacles`, as a `#define_import_path optica::spectacles`
-/// library.
-pub const DISPLACEMENT_WGSL: &str = include_str!("shaders/displacement.wgsl");
-
-/// `field_lookup.wgsl`: the voxel field's lookup, the twin of
-/// `DisplacementField::displacement_along_sight`; it reads a storage array
-/// `field` of `f32` that the including shader declares.
-pub const FIELD_LOOKUP_WGSL: &str = include_str!("shaders/field_lookup.wgsl");
 
 /// Puts the clone material's shader in the assets: `clone.wgsl` with the
 /// field lookup pasted in and, where the device clips by distances the
@@ -371,7 +386,7 @@ pub const FIELD_LOOKUP_WGSL: &str = include_str!("shaders/field_lookup.wgsl");
 fn insert_clone_shader(app: &mut App, clip_distances: bool) {
     if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
         let clone = include_str!("shaders/clone.wgsl")
-            .replace("//FIELD_LOOKUP", FIELD_LOOKUP_WGSL)
+            .replace("//FIELD_LOOKUP", twins::FIELD_LOOKUP_WGSL)
             .replace(
                 "//ENABLE_CLIP_DISTANCES",
                 if clip_distances { "enable clip_distances;" } else { "" },
@@ -416,8 +431,8 @@ impl Plugin for SpectaclesPlugin {
         embedded_asset!(app, "shaders/lens_refraction.wgsl");
         embedded_asset!(app, "shaders/mirror.wgsl");
         embedded_asset!(app, "shaders/resolve.wgsl");
-        app.add_plugins(MaterialPlugin::<CloneMaterial>::default())
-            .add_plugins(MaterialPlugin::<MirrorMaterial>::default())
+        app.add_plugins(MaterialPlugin::<clones::CloneMaterial>::default())
+            .add_plugins(MaterialPlugin::<mirror::MirrorMaterial>::default())
             .register_type::<CurvedMirror>()
             .register_type::<MirrorViewer>()
             .add_plugins(render::SpectaclesRenderPlugin)
@@ -444,7 +459,7 @@ impl Plugin for SpectaclesPlugin {
                     .before(bevy::camera::CameraUpdateSystems)
                     .run_if(
                         any_with_component::<Eye>
-                            .or_else(any_with_component::<CloneRig>)
+                            .or_else(any_with_component::<clones::CloneRig>)
                             .or_else(any_with_component::<Spectacles>)
                             .or_else(any_with_component::<refraction::LensRefraction>),
                     ),

@@ -224,9 +224,16 @@ pub struct CubeFace {
 }
 
 /// On what the plugin made for a mirror (its cameras, its probe): the
-/// mirror's entity, so that they go with it.
+/// mirror's entity (a relationship: the mirror's [`MirrorHelpers`] lists
+/// them, and despawning the mirror despawns them).
 #[derive(Component, Clone, Copy, Debug)]
-pub(crate) struct MirrorHelperOf(Entity);
+#[relationship(relationship_target = MirrorHelpers)]
+pub struct MirrorHelperOf(pub Entity);
+
+/// On a mirror: the cameras and probe the plugin made for it.
+#[derive(Component, Debug)]
+#[relationship_target(relationship = MirrorHelperOf, linked_spawn)]
+pub struct MirrorHelpers(Vec<Entity>);
 
 /// On a viewer lit by a mirror's cube map (where the device has no
 /// reflection probes): the mirror, and the viewer's own environment map

@@ -15,9 +15,7 @@ use bevy::prelude::*;
 use optica_harness::Headless;
 use optica_optics::glam::DVec3;
 use optica_optics::spectacles::pupil_samples;
-use optica_spectacles::{
-    Accommodation, Astigmatism, CloneDefocus, CloneShading, Eye, LensMaterial, Pupil, Spectacles,
-};
+use optica_spectacles::{Accommodation, Astigmatism, CloneDefocus, CloneShading, Eye, LensMaterial, Pupil, Spectacles};
 
 use super::{Target, scene_with_background};
 
@@ -187,8 +185,8 @@ fn astigmatic_blur_from_pixels_lies_across_the_cylinder_axis() {
         },
     };
     let optics = astigmat.optics().unwrap();
-    let placement = optica_spectacles::eye_placement();
-    let point = DVec3::new(0.0, 0.0, 1.0 + f64::from(optica_spectacles::camera_z()));
+    let placement = optica_spectacles::twins::eye_placement();
+    let point = DVec3::new(0.0, 0.0, 1.0 + f64::from(optica_spectacles::twins::camera_z()));
     let set = optica_optics::spectacles::naked_eye_displacements(&optics, &placement, point, &samples);
     // Pixels per metre at the point, 1 m from the camera.
     let want = set_tensor(&set, f_px / 1.0);
@@ -236,7 +234,7 @@ fn astigmatic_blur_from_pixels_lies_across_the_cylinder_axis() {
         &samples,
     )
     .unwrap();
-    let spot = DVec3::new(0.0, 0.0, z + f64::from(optica_spectacles::camera_z()));
+    let spot = DVec3::new(0.0, 0.0, z + f64::from(optica_spectacles::twins::camera_z()));
     let along = (spot - bundle.chief().origin()).dot(bundle.chief().dir());
     let want = set_tensor(&bundle.displacements(along).collect::<Vec<_>>(), f_px / z);
     // The lens also minifies the view across its axis (about 4 % for

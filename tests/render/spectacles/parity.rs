@@ -16,7 +16,7 @@ use optica_optics::spectacles::{
     self as optics, DisplacementField, EyePlacement, FieldGrid, FieldSettings, LensDesignParams,
     Prescription, design_lens, naked_eye_displacements, pupil_samples,
 };
-use optica_spectacles::{DISPLACEMENT_WGSL, FIELD_LOOKUP_WGSL, camera_z, eye_placement};
+use optica_spectacles::twins::{DISPLACEMENT_WGSL, FIELD_LOOKUP_WGSL, camera_z, eye_placement};
 
 const CLONES: u32 = 10;
 

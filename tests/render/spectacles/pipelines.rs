@@ -9,10 +9,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::{Adapter, Headless, PipelineReport};
-use optica_spectacles::{
-    CloneCameraOf, CloneDefocus, CloneOf, CloneShading, CubeFace, Eye, EyeOptics, MirrorEnvironment, MirrorState,
-    Spectacles,
-};
+use optica_spectacles::{CloneCameraOf, CloneDefocus, CloneOf, CloneShading, Eye, MirrorState, Spectacles};
+use optica_spectacles::twins::{CubeFace, EyeOptics, MirrorEnvironment};
 
 use super::{Target, scene};
 
@@ -223,4 +221,48 @@ fn mirror_cameras_come_and_go_with_the_mirror() {
         assert_eq!(after.load(Ordering::Relaxed), 0, "{method:?}: left behind");
         assert_eq!(lit_after.load(Ordering::Relaxed), 0, "{method:?}: the viewer keeps the cube");
     }
+}
+
+/// The plugin's own entities are Bevy relationships that users can filter
+/// out: with four clones, each scene mesh lists its four twins in
+/// `CloneTwins` (clone order), the eye its `CloneCamera`, and
+/// `Query<&Mesh3d, NotSpectaclesHelper>` sees the scene's meshes alone.
+#[test]
+fn helpers_are_relationships_that_users_can_filter_out() {
+    use optica_spectacles::{CloneCamera, CloneTwins, NotSpectaclesHelper};
+    let counts = Arc::new(std::sync::Mutex::new((0, 0, 0, false)));
+    let log = counts.clone();
+    Headless::new(64, 64)
+        .frames(3)
+        .render(move |app: &mut App| {
+            let defocus = CloneDefocus {
+                clones: 4,
+                ..default()
+            };
+            scene(targets(), Some((Eye::default(), defocus)), None, 0.8)(app);
+            app.add_systems(
+                Last,
+                move |all: Query<&Mesh3d>,
+                      ours: Query<&Mesh3d, NotSpectaclesHelper>,
+                      twins: Query<&CloneTwins>,
+                      tags: Query<&bevy::mesh::MeshTag>,
+                      eyes: Query<&CloneCamera>| {
+                    let ordered = twins.iter().all(|t| {
+                        t.iter()
+                            .enumerate()
+                            .all(|(k, e)| tags.get(e).is_ok_and(|tag| tag.0 == k as u32))
+                    });
+                    *log.lock().expect("log") = (
+                        all.iter().count(),
+                        ours.iter().count(),
+                        twins.iter().map(|t| t.len()).sum::<usize>(),
+                        ordered && eyes.iter().count() == 1,
+                    );
+                },
+            );
+        })
+        .expect("render");
+    let (all, ours, twins, ordered) = *counts.lock().expect("log");
+    assert!(ours > 0 && twins == 4 * ours && all == ours + twins, "{all} {ours} {twins}");
+    assert!(ordered, "twins out of clone order, or no clone camera");
 }

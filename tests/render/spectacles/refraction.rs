@@ -20,7 +20,8 @@ use optica_harness::textures::coordinates_in;
 use optica_optics::glass::{LAMBDA_C_NM, LAMBDA_F_NM};
 use optica_optics::glam::DVec3;
 use optica_optics::spectacles::plane_seen_through_lens;
-use optica_spectacles::{Spectacles, SpectaclesPlugin, camera_z};
+use optica_spectacles::{Spectacles, SpectaclesPlugin};
+use optica_spectacles::twins::camera_z;
 
 const SIZE: u32 = 128;
 const FOV: f32 = 0.8;
@@ -191,7 +192,7 @@ fn total_internal_reflection_at_the_rim_is_drawn_dark() {
         ..Spectacles::sphere(power)
     };
     let trace = |power: f32| {
-        optica_spectacles::trace_lens(&lens(power).design().unwrap(), DVec3::ZERO, 24, 64, true).unwrap()
+        optica_spectacles::twins::trace_lens(&lens(power).design().unwrap(), DVec3::ZERO, 24, 64, true).unwrap()
     };
     let (minus_trace, plus_trace) = (trace(-10.0), trace(2.0));
     assert!(minus_trace.masked > 2 * plus_trace.masked, "{} {}", minus_trace.masked, plus_trace.masked);

@@ -28,7 +28,8 @@ use bevy::render::view::Msaa;
 use optica_harness::textures::coordinates;
 use optica_optics::glass::LAMBDA_C_NM;
 use optica_optics::spectacles::plane_seen_through_lens;
-use optica_spectacles::{Spectacles, SpectaclesPlugin, camera_z, trace_lens};
+use optica_spectacles::twins::{camera_z, trace_lens};
+use optica_spectacles::{Spectacles, SpectaclesPlugin};
 
 use super::SweepError;
 use crate::{Report, Row, SweepContext};

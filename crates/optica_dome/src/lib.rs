@@ -166,7 +166,7 @@ mod settings;
 mod shader_hook;
 mod twin_mesh;
 
-pub use cube::{CubeLayout, DomeCubeFace, DomeCubeFaces, FIVE_FACE_MAX_FOV_DEG, guarded_tan_half};
+pub use cube::{DomeCubeFace, DomeCubeFaces, FIVE_FACE_MAX_FOV_DEG};
 pub use export::{DomeExport, DomeExportPlugin, DomeShowClock, parse_frame_range};
 
 /// Inner parts for the render tests (the plugin crates' own unit tests do
@@ -178,16 +178,31 @@ pub mod hooks {
     pub use crate::shader_hook::patched;
 }
 pub use error::Error;
-pub use mask::DomeRimMask;
-pub use projection::DomeClip;
 pub use refine::{
     DOME_LAYER, DomeApparentSize, DomeLayer, DomeMaterialPlugin, DomeRefineStats, DomeSees,
-    DomeTwin, DomeTwinOf, DomeTwins,
+    DomeTwin, DomeTwinEntities, DomeTwinOf, DomeTwins,
 };
 pub use settings::{DomeCamera, DomeLens, DomeMode, DomeStatus, FACE_PX_RANGE, MAX_FOV_DEG};
-pub use twin_mesh::{
-    Twin, TwinJob, pre_subdivide_mesh_asset, refine_mesh_asset, twin_of_mesh, twins_of_meshes,
-};
+pub use twin_mesh::{pre_subdivide_mesh_asset, refine_mesh_asset};
+
+use mask::DomeRimMask;
+use projection::DomeClip;
+
+/// A query filter that leaves out the entities the plugin makes for itself
+/// (the vertex mode's twins, the cube mode's face cameras):
+/// `Query<&Mesh3d, NotDomeHelper>` sees the scene's own meshes only.
+pub type NotDomeHelper = (Without<DomeTwinOf>, Without<DomeCubeFace>);
+
+/// What the plugin's passes and refinement compute, for the render tests
+/// and the report to hold them to: the projection's GPU parameters, the
+/// rim mask, the cube layout, and the twin meshes as the refinement builds
+/// them. An app using the plugin needs none of it.
+pub mod twins {
+    pub use crate::cube::{CubeLayout, guarded_tan_half};
+    pub use crate::mask::DomeRimMask;
+    pub use crate::projection::DomeClip;
+    pub use crate::twin_mesh::{Twin, TwinJob, twin_of_mesh, twins_of_meshes};
+}
 
 /// Adds [`DomeCamera`]: keeps each dome camera's projection in step with
 /// its settings and, once a dome camera exists, puts the fisheye

@@ -222,9 +222,18 @@ pub struct DomeRefineStats {
     pub cpu_ms: f32,
 }
 
-/// On a twin: the original it refines.
+/// On a twin: the original it refines (a relationship: the original's
+/// [`DomeTwinEntities`] lists it, and despawning the original despawns
+/// it).
 #[derive(Component, Debug, Clone, Copy)]
+#[relationship(relationship_target = DomeTwinEntities)]
 pub struct DomeTwinOf(pub Entity);
+
+/// On an original mesh entity: its twin entities, kept by Bevy from their
+/// [`DomeTwinOf`] (what each was built for is in [`DomeTwins`]).
+#[derive(Component, Debug)]
+#[relationship_target(relationship = DomeTwinOf, linked_spawn)]
+pub struct DomeTwinEntities(Vec<Entity>);
 
 /// Copies the material of type `M` from originals to their twins, so meshes
 /// with that material appear on dome cameras. `DomePlugin` adds it for

@@ -153,7 +153,7 @@ fn unsupported_meshes_give_none() {
 /// is no longer the same.
 #[test]
 fn small_meshes_in_front_are_their_own_twin() {
-    use optica_dome::{Twin, twin_of_mesh};
+    use optica_dome::twins::{Twin, twin_of_mesh};
     let rule = SplitRule::chord_gap(0.5).unwrap();
     let dome = dome().into();
     // A UV sphere of radius 1, 30 above a zenith camera.

@@ -5,7 +5,8 @@
 //! depth (near/|p|) to 1e-5 relative.
 
 use bevy::camera::CameraProjection;
-use optica_dome::{DomeCamera, DomeClip, DomeLens};
+use optica_dome::{DomeCamera, DomeLens};
+use optica_dome::twins::DomeClip;
 use optica_harness::Headless;
 use optica_optics::glam::{DVec2, DVec3};
 

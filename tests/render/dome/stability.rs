@@ -502,3 +502,55 @@ fn the_status_says_whether_the_projection_took() {
         Err(Error::ShaderPatch("#import bevy_pbr::prepass_bindings"))
     );
 }
+
+/// The vertex mode's twins are a Bevy relationship users can filter out:
+/// with one dome camera each scene mesh has one twin in its
+/// `DomeTwinEntities`, and `Query<&Mesh3d, NotDomeHelper>` sees the scene's
+/// meshes alone.
+#[test]
+fn twins_are_a_relationship_that_users_can_filter_out() {
+    use optica_dome::{DomeTwinEntities, NotDomeHelper};
+    use std::sync::{Arc, Mutex};
+    let counts = Arc::new(Mutex::new((0, 0, Vec::new())));
+    let log = counts.clone();
+    Headless::new(32, 32)
+        .frames(3)
+        .render(move |app: &mut App| {
+            app.add_plugins(DomePlugin);
+            app.add_systems(
+                Startup,
+                |mut commands: Commands,
+                 mut meshes: ResMut<Assets<Mesh>>,
+                 mut materials: ResMut<Assets<StandardMaterial>>| {
+                    for x in [-1.0, 1.0] {
+                        commands.spawn((
+                            Mesh3d(meshes.add(Plane3d::default().mesh().size(1.0, 1.0))),
+                            flat(&mut materials, Color::srgb(0.0, 1.0, 0.0)),
+                            Transform::from_xyz(x, 3.0, 0.0),
+                        ));
+                    }
+                    commands.spawn(dome_camera(
+                        DomeCamera::default(),
+                        Transform::from_xyz(0.0, 1.6, 0.0).looking_to(Vec3::Y, Vec3::Z),
+                    ));
+                },
+            );
+            app.add_systems(
+                Last,
+                move |all: Query<&Mesh3d>,
+                      ours: Query<&Mesh3d, NotDomeHelper>,
+                      twins: Query<&DomeTwinEntities>| {
+                    *log.lock().expect("log") = (
+                        all.iter().count(),
+                        ours.iter().count(),
+                        twins.iter().map(|t| t.len()).collect::<Vec<_>>(),
+                    );
+                },
+            );
+        })
+        .expect("render");
+    let (all, ours, twins) = counts.lock().expect("log").clone();
+    assert_eq!(ours, 2, "the scene's meshes");
+    assert_eq!(twins, vec![1, 1], "one twin per mesh and camera");
+    assert_eq!(all, 4, "meshes and their twins");
+}

@@ -7,7 +7,7 @@
 //! * Camera: 4096² domemaster, 180°, zenith, 0.5 px; each frame it steps
 //!   0.1 m, so every mesh's placement relative to it changes.
 //! * time_ms: the plugin's own work for one frame
-//!   (`optica_dome::twins_of_meshes` over every mesh, as `refine_twins`
+//!   (`optica_dome::twins::twins_of_meshes` over every mesh, as `refine_twins`
 //!   runs it: all the meshes' triangles share the compute pool), on the
 //!   machine's threads; baseline: reading every mesh's positions into view
 //!   space (what any per-frame CPU pass pays).
@@ -18,7 +18,8 @@
 use bevy::math::{Affine3A, Quat, Vec3};
 use bevy::mesh::{Mesh, VertexAttributeValues};
 use bevy::prelude::{Meshable, Sphere};
-use optica_dome::{DomeCamera, Twin, TwinJob, twins_of_meshes};
+use optica_dome::DomeCamera;
+use optica_dome::twins::{Twin, TwinJob, twins_of_meshes};
 use optica_optics::dome::SplitRule;
 
 use crate::{Report, Row, SweepContext, time_ms};

@@ -45,7 +45,7 @@
 //!
 //! - **The displacement is done in the vertex shader** (the paper's stated
 //!   future work): every `StandardMaterial` mesh the eye camera sees gets
-//!   `S` twin entities carrying a [`CloneMaterial`] — the same material,
+//!   `S` twin entities carrying a [`CloneMaterial`](twins::CloneMaterial) — the same material,
 //!   with a vertex shader that moves the vertex — tagged with their clone
 //!   number. A clone is shaded where its original is, under Bevy's lights
 //!   and shadows, so what is in focus looks exactly as without the eye.
@@ -151,7 +151,7 @@
 //! vertices (the paper's steps 3(a)–(d)). Vertices whose ray is totally
 //! reflected or leaves through the rim mask their triangles as the lens's
 //! dark edge. The environment map is the eye camera's own view, not a view
-//! rendered from the paper's virtual viewpoint (which [`LensRefraction`]
+//! rendered from the paper's virtual viewpoint (which [`LensRefraction`](twins::LensRefraction)
 //! still gives): for spectacles that point lies within millimetres of the
 //! eye, the hits are found exactly in the depth, and the scene is not drawn
 //! once more; what this gives up is the part of the scene a minus lens
@@ -194,7 +194,7 @@
 //! environment camera from there along them, its field of view holding
 //! every reflected ray; on the GPU each vertex's reflected ray finds the
 //! scene in that camera's depth (the lens's march), and the mirror, an
-//! ordinary mesh in the scene with [`MirrorMaterial`], shows the
+//! ordinary mesh in the scene with [`MirrorMaterial`](twins::MirrorMaterial), shows the
 //! environment image there, interpolated between vertices. Mirrors live
 //! on [`MIRROR_LAYER`], which the viewer is given and the environment
 //! camera lacks, so a mirror never renders itself.

@@ -678,3 +678,31 @@ pub(crate) fn follow_base_materials(
         }
     }
 }
+
+/// The defocus by clones: the clone material and its shader, the eye's
+/// optics and field, the clone camera and the twins.
+pub(crate) struct DefocusPlugin;
+
+impl Plugin for DefocusPlugin {
+    fn build(&self, app: &mut App) {
+        crate::insert_clone_shader(app, false);
+        // The resolve pass's shader (the pass is in `render`).
+        bevy::asset::embedded_asset!(app, "shaders/resolve.wgsl");
+        app.add_plugins(MaterialPlugin::<CloneMaterial>::default())
+            .init_resource::<CloneMaterials>()
+            .add_systems(
+                PostUpdate,
+                (
+                    crate::precompute::update_optics,
+                    stop_removed,
+                    sync_rig,
+                    follow_exposure,
+                    sync_twins,
+                    follow_base_materials,
+                    light_the_clones,
+                )
+                    .chain()
+                    .in_set(crate::SpectaclesSystems::Defocus),
+            );
+    }
+}

@@ -307,8 +307,7 @@
 
 #![warn(missing_docs)]
 
-use bevy::asset::{embedded_asset, uuid_handle};
-use bevy::pbr::MaterialPlugin;
+use bevy::asset::uuid_handle;
 use bevy::prelude::*;
 use bevy::shader::{Shader, load_shader_library};
 
@@ -416,6 +415,19 @@ pub struct SpectaclesDevice {
     pub reflection_probes: bool,
 }
 
+/// The plugin's systems in `PostUpdate`, one set per feature (each added
+/// by its own sub-plugin): the eye's optics and the clones, the lens's
+/// refraction (after them), and the curved mirrors.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SpectaclesSystems {
+    /// The eye's optics, the lens design and field, and the clones.
+    Defocus,
+    /// The lens's refraction, traced when the lens changes.
+    Refraction,
+    /// The curved mirrors' cameras, traced after transforms propagate.
+    Mirrors,
+}
+
 /// Adds [`Eye`], [`Spectacles`] and [`CloneDefocus`]. Without an `Eye`
 /// camera it adds no pass, builds no pipeline and does no per-frame work.
 pub struct SpectaclesPlugin;
@@ -427,64 +439,47 @@ impl Plugin for SpectaclesPlugin {
             "optica_spectacles: add SpectaclesPlugin after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
         );
         load_shader_library!(app, "shaders/displacement.wgsl");
-        insert_clone_shader(app, false);
-        embedded_asset!(app, "shaders/lens_refraction.wgsl");
-        embedded_asset!(app, "shaders/mirror.wgsl");
-        embedded_asset!(app, "shaders/resolve.wgsl");
-        app.add_plugins(MaterialPlugin::<clones::CloneMaterial>::default())
-            .add_plugins(MaterialPlugin::<mirror::MirrorMaterial>::default())
-            .register_type::<CurvedMirror>()
-            .register_type::<MirrorViewer>()
-            .add_plugins(render::SpectaclesRenderPlugin)
+        app.add_plugins(render::SpectaclesRenderPlugin)
             .register_type::<Eye>()
             .register_type::<Spectacles>()
             .register_type::<CloneDefocus>()
             .register_type::<SpectaclesStatus>()
             .register_type::<SpectaclesDevice>()
-            .init_resource::<clones::CloneMaterials>()
-            .add_systems(
+            // The eye's optics first (the clones and the lens read them).
+            .configure_sets(
                 PostUpdate,
-                (
-                    precompute::update_optics,
-                    clones::stop_removed,
-                    clones::sync_rig,
-                    clones::follow_exposure,
-                    clones::sync_twins,
-                    clones::follow_base_materials,
-                    clones::light_the_clones,
-                    refraction::update_refraction,
-                    refraction::make_depth_readable,
-                )
+                (SpectaclesSystems::Defocus, SpectaclesSystems::Refraction)
                     .chain()
+                    .before(bevy::camera::CameraUpdateSystems),
+            )
+            .configure_sets(
+                PostUpdate,
+                (SpectaclesSystems::Defocus, SpectaclesSystems::Refraction).distributive_run_if(
+                    any_with_component::<Eye>
+                        .or_else(any_with_component::<clones::CloneRig>)
+                        .or_else(any_with_component::<Spectacles>)
+                        .or_else(any_with_component::<refraction::LensRefraction>),
+                ),
+            )
+            // Mirrors: placed after transforms propagate (they follow the
+            // mirror and the viewer this frame), before cameras update.
+            .configure_sets(
+                PostUpdate,
+                SpectaclesSystems::Mirrors
+                    .after(bevy::transform::TransformSystems::Propagate)
                     .before(bevy::camera::CameraUpdateSystems)
                     .run_if(
-                        any_with_component::<Eye>
-                            .or_else(any_with_component::<clones::CloneRig>)
-                            .or_else(any_with_component::<Spectacles>)
-                            .or_else(any_with_component::<refraction::LensRefraction>),
+                        any_with_component::<CurvedMirror>
+                            .or_else(any_with_component::<mirror::MirrorState>)
+                            .or_else(any_with_component::<mirror::MirrorHelperOf>)
+                            .or_else(any_with_component::<mirror::LitByMirrorCube>),
                     ),
-            );
-        // Mirrors: placed after transforms propagate (they follow the
-        // mirror and the viewer this frame), before cameras update.
-        app.add_systems(
-            PostUpdate,
-            (
-                mirror::remove_mirrors,
-                mirror::show_mirrors_to_the_viewer,
-                mirror::build_mirrors,
-                bevy::ecs::schedule::ApplyDeferred,
-                mirror::trace_mirrors,
             )
-                .chain()
-                .after(bevy::transform::TransformSystems::Propagate)
-                .before(bevy::camera::CameraUpdateSystems)
-                .run_if(
-                    any_with_component::<CurvedMirror>
-                        .or_else(any_with_component::<mirror::MirrorState>)
-                        .or_else(any_with_component::<mirror::MirrorHelperOf>)
-                        .or_else(any_with_component::<mirror::LitByMirrorCube>),
-                ),
-        );
+            .add_plugins((
+                clones::DefocusPlugin,
+                refraction::LensRefractionPlugin,
+                mirror::MirrorPlugin,
+            ));
     }
 
     fn finish(&self, app: &mut App) {

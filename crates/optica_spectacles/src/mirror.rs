@@ -890,3 +890,28 @@ impl AsMat4 for DAffine3 {
         optica_optics::glam::DMat4::from(*self).as_mat4()
     }
 }
+
+/// Curved mirrors: their material and shader, their helper cameras and the
+/// per-vertex trace.
+pub(crate) struct MirrorPlugin;
+
+impl Plugin for MirrorPlugin {
+    fn build(&self, app: &mut App) {
+        bevy::asset::embedded_asset!(app, "shaders/mirror.wgsl");
+        app.add_plugins(MaterialPlugin::<MirrorMaterial>::default())
+            .register_type::<CurvedMirror>()
+            .register_type::<MirrorViewer>()
+            .add_systems(
+                PostUpdate,
+                (
+                    remove_mirrors,
+                    show_mirrors_to_the_viewer,
+                    build_mirrors,
+                    bevy::ecs::schedule::ApplyDeferred,
+                    trace_mirrors,
+                )
+                    .chain()
+                    .in_set(crate::SpectaclesSystems::Mirrors),
+            );
+    }
+}

@@ -225,3 +225,18 @@ pub(crate) fn make_depth_readable(
         }
     }
 }
+
+/// The lens's refraction: its shader, and the trace when the lens changes.
+pub(crate) struct LensRefractionPlugin;
+
+impl Plugin for LensRefractionPlugin {
+    fn build(&self, app: &mut App) {
+        bevy::asset::embedded_asset!(app, "shaders/lens_refraction.wgsl");
+        app.add_systems(
+            PostUpdate,
+            (update_refraction, make_depth_readable)
+                .chain()
+                .in_set(crate::SpectaclesSystems::Refraction),
+        );
+    }
+}

@@ -266,3 +266,4 @@ fn helpers_are_relationships_that_users_can_filter_out() {
     assert!(ours > 0 && twins == 4 * ours && all == ours + twins, "{all} {ours} {twins}");
     assert!(ordered, "twins out of clone order, or no clone camera");
 }
+

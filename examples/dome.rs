@@ -147,8 +147,10 @@ fn main() {
         app.add_systems(First, scene::run_show_clock)
             .add_systems(Update, fit_window);
         #[cfg(feature = "egui")]
-        app.add_plugins(bevy_egui::EguiPlugin::default())
-            .add_systems(bevy_egui::EguiPrimaryContextPass, scene::panel);
+        app.add_plugins((
+            bevy_egui::EguiPlugin::default(),
+            optica::dome::DomePanelPlugin,
+        ));
         app.run();
     } else {
         let dir = common::out_dir(out);

@@ -75,8 +75,8 @@ fn main() {
             // The flare's share of the frame, shown in the panel.
             bevy::diagnostic::FrameTimeDiagnosticsPlugin::default(),
             bevy::render::diagnostic::RenderDiagnosticsPlugin,
-        ))
-        .add_systems(bevy_egui::EguiPrimaryContextPass, scene::panel);
+            optica::lens_flare::LensFlarePanelPlugin,
+        ));
         app.run();
     } else {
         let dir = common::out_dir(args.out);

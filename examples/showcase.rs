@@ -126,11 +126,10 @@ fn windowed(first: Scene) {
         optica::compound_eye::CompoundEyePanelPlugin,
         optica::foveated_lod::FoveatedLodPanelPlugin,
         optica::spectacles::SpectaclesPanelPlugin,
+        optica::lens_flare::LensFlarePanelPlugin,
+        optica::dome::DomePanelPlugin,
     ))
-    .add_systems(
-        bevy_egui::EguiPrimaryContextPass,
-        (showcase_panel, lens_flare::panel, dome::panel),
-    );
+    .add_systems(bevy_egui::EguiPrimaryContextPass, showcase_panel);
     app.run();
 }
 

@@ -9,8 +9,6 @@
 use bevy::prelude::*;
 use optica::dome::lines::{self, Graticule};
 use optica::dome::{DomeApparentSize, DomeCamera, DomeLens, DomePlugin, DomeShowClock};
-#[cfg(feature = "egui")]
-use optica::dome::{DomeMode, DomeRefineStats};
 
 use super::common::SceneEntity;
 
@@ -258,78 +256,3 @@ fn turn_sky(clock: Res<DomeShowClock>, mut skies: Query<&mut Transform, With<Sky
     }
 }
 
-/// The dome camera's mode, field of view, tilt and tolerance.
-#[cfg(feature = "egui")]
-pub fn panel(
-    mut contexts: bevy_egui::EguiContexts,
-    mut cameras: Query<&mut DomeCamera>,
-    stats: Res<DomeRefineStats>,
-) -> Result {
-    use bevy_egui::egui;
-    let Ok(mut dome) = cameras.single_mut() else {
-        return Ok(());
-    };
-    let mut edit = *dome;
-    egui::Window::new("Dome").show(contexts.ctx_mut()?, |ui| {
-        let mut cube = matches!(edit.mode, DomeMode::CubeMap { .. });
-        ui.horizontal(|ui| {
-            ui.radio_value(&mut cube, false, "vertex projection");
-            ui.radio_value(&mut cube, true, "cube map");
-        });
-        edit.mode = match (cube, edit.mode) {
-            (false, _) => DomeMode::Vertex,
-            (true, DomeMode::CubeMap { face_px }) => {
-                let mut face_px = face_px;
-                ui.add(
-                    egui::Slider::new(&mut face_px, 64..=4096)
-                        .logarithmic(true)
-                        .text("face size (px)"),
-                );
-                DomeMode::CubeMap { face_px }
-            }
-            (true, DomeMode::Vertex) => DomeMode::CubeMap { face_px: 768 },
-        };
-        egui::ComboBox::from_label("projection")
-            .selected_text(edit.lens.name())
-            .show_ui(ui, |ui| {
-                for lens in DomeLens::ALL {
-                    let chosen =
-                        std::mem::discriminant(&edit.lens) == std::mem::discriminant(&lens);
-                    if ui.selectable_label(chosen, lens.name()).clicked() && !chosen {
-                        edit.lens = lens;
-                    }
-                }
-            });
-        if let DomeLens::Polynomial { k } = &mut edit.lens {
-            ui.horizontal(|ui| {
-                for (i, c) in k.iter_mut().enumerate() {
-                    ui.label(format!("k{}", i + 1));
-                    ui.add(egui::DragValue::new(c).speed(0.001).max_decimals(5));
-                }
-            });
-        }
-        // The panorama sees the whole sphere: no field of view to set.
-        if edit.lens != DomeLens::Equirectangular {
-            ui.add(egui::Slider::new(&mut edit.fov_deg, 60.0..=350.0).text("field of view (°)"));
-        }
-        ui.add(egui::Slider::new(&mut edit.tilt_deg, -30.0..=90.0).text("tilt (°)"));
-        ui.add(
-            egui::Slider::new(&mut edit.tolerance_px, 0.1..=40.0)
-                .logarithmic(true)
-                .text("tolerance (px)"),
-        );
-        if let Err(e) = edit.validate() {
-            ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
-        }
-        if edit.mode == DomeMode::Vertex {
-            ui.label(format!(
-                "refinement: {} meshes split again ({} vertices), {} kept, {:.1} ms",
-                stats.rebuilt, stats.vertices, stats.kept, stats.cpu_ms
-            ));
-        }
-    });
-    if edit != *dome {
-        *dome = edit;
-    }
-    Ok(())
-}

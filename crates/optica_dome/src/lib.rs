@@ -159,6 +159,8 @@ mod error;
 mod export;
 pub mod lines;
 mod mask;
+#[cfg(feature = "egui")]
+mod panel;
 mod projection;
 mod refine;
 mod render;
@@ -178,6 +180,8 @@ pub mod hooks {
     pub use crate::shader_hook::patched;
 }
 pub use error::Error;
+#[cfg(feature = "egui")]
+pub use panel::{DomePanelPlugin, dome_ui};
 pub use refine::{
     DOME_LAYER, DomeApparentSize, DomeLayer, DomeMaterialPlugin, DomeRefineStats, DomeSees,
     DomeTwin, DomeTwinEntities, DomeTwinOf, DomeTwins,

@@ -155,12 +155,16 @@ mod fit;
 mod frame;
 mod gpu_lens;
 pub mod lenses;
+#[cfg(feature = "egui")]
+mod panel;
 mod precompute;
 mod render;
 mod settings;
 
 pub use asset::{LensAsset, LensLoadError, LensLoader};
 pub use error::Error;
+#[cfg(feature = "egui")]
+pub use panel::{LensFlarePanelPlugin, lens_flare_ui};
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate};
 pub use settings::{
     ApertureSettings, CoatingSettings, DEFAULT_COARSE_GHOST_PX, FlareOcclusion, FlareSource,

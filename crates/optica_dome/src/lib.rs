@@ -183,10 +183,13 @@ pub use error::Error;
 #[cfg(feature = "egui")]
 pub use panel::{DomePanelPlugin, dome_ui};
 pub use refine::{
-    DOME_LAYER, DomeApparentSize, DomeLayer, DomeMaterialPlugin, DomeRefineStats, DomeSees,
-    DomeTwin, DomeTwinEntities, DomeTwinOf, DomeTwins,
+    DOME_LAYER, DomeLayer, DomeMaterialPlugin, DomeRefineStats, DomeTwin, DomeTwinEntities,
+    DomeTwinOf, DomeTwins,
 };
-pub use settings::{DomeCamera, DomeLens, DomeMode, DomeStatus, FACE_PX_RANGE, MAX_FOV_DEG};
+pub use settings::{
+    DomeApparentSize, DomeCamera, DomeLens, DomeMode, DomeSees, DomeStatus, FACE_PX_RANGE,
+    MAX_FOV_DEG,
+};
 pub use twin_mesh::{pre_subdivide_mesh_asset, refine_mesh_asset};
 
 use mask::DomeRimMask;

@@ -1,13 +1,16 @@
-//! The user-facing dome camera component.
+//! The user-facing dome camera components: the [`DomeCamera`], the
+//! layers it sees ([`DomeSees`]), how a mesh's apparent size is treated
+//! ([`DomeApparentSize`]), and what became of it ([`DomeStatus`]).
 
+use bevy::camera::visibility::RenderLayers;
 use bevy::prelude::*;
-use optica_optics::input;
-
-use crate::Error;
 use optica_optics::dome::{
     DomeError, DomeProjection, DomeSettings, EquirectProjection, EquirectSettings, FisheyeLens,
     Panorama,
 };
+use optica_optics::input;
+
+use crate::Error;
 
 /// A fisheye dome camera: add it to a `Camera3d` and the camera renders a
 /// domemaster — the image circle inscribed in the target (fitted to its
@@ -298,4 +301,47 @@ pub struct DomeStatus {
     /// last good projection) or, in the vertex mode, the failed patch.
     #[reflect(ignore)]
     pub error: Option<Error>,
+}
+
+/// On a dome camera: the render layers of the scene it sees. Taken from
+/// the camera's own `RenderLayers` when its [`DomeCamera`] is added (layer
+/// 0 without one), since the plugin then gives the camera its dome layer
+/// instead; change this component, not the camera's `RenderLayers`,
+/// afterwards. A mesh gets a twin for the camera only when its own layers
+/// meet these, a light lights the camera only when its layers do, and
+/// the cube mode's faces see these layers.
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct DomeSees(pub RenderLayers);
+
+/// How a mesh's apparent size changes while the app runs: the paper's
+/// classification (§3.1), which decides how its dome twin is refined. Put
+/// it on a mesh entity; without it a mesh is [`Self::Changing`].
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use optica_dome::DomeApparentSize;
+///
+/// fn spawn_sky_art(mut commands: Commands, art: Handle<Mesh>) {
+///     // A constellation figure on the sky sphere around the viewer:
+///     // split once, not each time the camera or the sky turns.
+///     commands.spawn((Mesh3d(art), DomeApparentSize::NearlyConstant));
+/// }
+/// ```
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Component, Default)]
+pub enum DomeApparentSize {
+    /// It moves relative to the viewer (buildings, vehicles, scenery, large
+    /// stars passing by): refined from the current view whenever it moves
+    /// relative to the camera or the camera turns.
+    #[default]
+    Changing,
+    /// It keeps its distance to the viewer and only turns about it (stars,
+    /// constellation art, a sky sphere centred on the camera, diurnal
+    /// motion): its triangles are split once with the paper's
+    /// rotation-invariant step for the camera's tolerance, and split again
+    /// only when its mesh, the camera's settings or the viewer's position
+    /// in the mesh's own space change — not when it or the camera turns.
+    /// Not clipped: the vertex shader drops what lies near the antipode.
+    /// Lines are always refined from the view (the paper's classification).
+    NearlyConstant,
 }

@@ -8,18 +8,7 @@ use optica_optics::foveated_lod::{CaveWall, DepthConvention, FoveatedError, fron
 use optica_optics::glam::DVec3;
 
 use crate::head::{Eye, GazeState, TrackedHead};
-
-/// A rectangular screen in world coordinates (m), seen from the side its
-/// normal `(lower_right − lower_left) × (upper_left − lower_left)` points to.
-#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
-pub struct WallRect {
-    /// The lower-left corner as the viewer sees it.
-    pub lower_left: Vec3,
-    /// The lower-right corner.
-    pub lower_right: Vec3,
-    /// The upper-left corner.
-    pub upper_left: Vec3,
-}
+use crate::settings::{CaveView, WallRect};
 
 impl WallRect {
     /// The paper's CAVE (front, right and floor screens) for a cube of side
@@ -47,37 +36,6 @@ impl WallRect {
     pub fn aspect(&self) -> f32 {
         (self.lower_right - self.lower_left).length() / (self.upper_left - self.lower_left).length()
     }
-}
-
-/// A camera that draws one CAVE wall as `eye` sees it through that wall:
-/// the plugin places the camera at the tracked eye, turns it to face the
-/// wall and gives it the off-axis projection whose frustum passes through
-/// the wall's four corners (Kooima's generalised perspective projection;
-/// `optica_optics::foveated_lod::CaveWall::off_axis` is its CPU twin), so
-/// a point on the wall lands on the pixel of the wall's own image there.
-///
-/// For stereo, as the paper ran its CAVE, give each wall two cameras, one
-/// per eye ([`Eye::Left`], [`Eye::Right`]), each rendering to its own
-/// target. The target should have the wall's [`aspect`](WallRect::aspect).
-/// The camera is placed in world space: do not parent it.
-///
-/// When the head is lost the last valid eye position is kept. An eye on or
-/// behind a wall's plane (the frustum does not exist there) is moved to
-/// `min_eye_distance` in front of that wall for its camera only.
-#[derive(Component, Clone, Debug, PartialEq, Reflect)]
-#[reflect(Component)]
-#[require(Camera3d, CaveViewStatus)]
-pub struct CaveView {
-    /// The screen.
-    pub wall: WallRect,
-    /// The eye looking through it.
-    pub eye: Eye,
-    /// Near clip distance (m).
-    pub near: f32,
-    /// Far distance for culling (m).
-    pub far: f32,
-    /// The closest the projection eye may be to the wall's plane (m).
-    pub min_eye_distance: f32,
 }
 
 impl CaveView {

@@ -251,18 +251,21 @@ mod render;
 mod settings;
 mod trace;
 
-pub use cave::{CaveView, CaveViewStatus, OffAxisClip, WallRect, aim};
+pub use cave::{CaveViewStatus, OffAxisClip, aim};
 pub use head::{Eye, GazeState, HeadReplay, HeadSource, SimulatedGaze, TrackedHead};
 pub use lod::{
-    FoveationGate, FoveationWork, GazeLod, GazeLodState, LodChain, LodError, level_of_sphere,
+    FoveationGate, FoveationWork, GazeLodState, LodChain, LodError, level_of_sphere,
 };
 #[cfg(feature = "egui")]
 pub use panel::{FoveatedLodPanelPlugin, foveation_ui};
 pub use raytrace::{
-    GazeRayTracer, GazeRayTracerState, MAX_PERIPHERY_SCALE, MAX_REFLECT, RayTraced, TracedScene, light_scale,
+    GazeRayTracerState, MAX_PERIPHERY_SCALE, MAX_REFLECT, TracedScene, light_scale,
     reference_of,
 };
-pub use settings::{CheckedFoveation, FieldBoundary, FieldEyes, Foveation};
+pub use settings::{
+    CaveView, CheckedFoveation, FieldBoundary, FieldEyes, Foveation, GazeLod, GazeRayTracer,
+    RayTraced, WallRect,
+};
 pub use trace::{HeadTrace, ON_TIME_S, TraceError};
 
 /// Adds [`TrackedHead`], [`Foveation`], [`HeadSource`] and the systems that

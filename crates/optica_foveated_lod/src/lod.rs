@@ -12,58 +12,7 @@ use thiserror::Error;
 
 use crate::head::GazeState;
 use crate::settings::{CheckedFoveation, FieldEyes};
-
-/// Gaze-driven level of detail for this entity's mesh.
-///
-/// When the entity has a `Mesh3d`, the plugin builds, once per mesh and
-/// setting, a chain of simplified copies (meshoptimizer's edge collapse)
-/// with triangle counts N from `min_triangles` to `max_triangles` by eq. 10
-/// of Mochizuki and Makino, N = level (N_max − N_min) + N_min, one per level
-/// step of [`Foveation::steps`](crate::Foveation::steps). Every frame the
-/// gaze or the object moved, it takes the level of the point of the
-/// object's bounding sphere nearest the gaze (so an object is as detailed as
-/// its most central part needs), quantises and holds it
-/// ([`Foveation::dead_band`](crate::Foveation::dead_band),
-/// [`Foveation::min_dwell_s`](crate::Foveation::min_dwell_s)), and swaps the
-/// entity's `Mesh3d` to that level's mesh. Meshes are never rebuilt per
-/// frame. [`GazeLodState`] says what was chosen.
-///
-/// The mesh must be an indexed triangle list with positions; others are
-/// drawn as they are (logged once). Entities sharing a mesh share its chain.
-/// Assign a new mesh by writing `Mesh3d` as usual: the chain follows.
-///
-/// ```no_run
-/// use bevy::prelude::*;
-/// use optica_foveated_lod::{FoveatedLodPlugin, GazeLod, HeadSource, SimulatedGaze};
-///
-/// fn setup(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>) {
-///     commands.spawn((
-///         Mesh3d(meshes.add(Sphere::new(0.5).mesh().ico(5).unwrap())),
-///         MeshMaterial3d(materials.add(StandardMaterial::default())),
-///         Transform::from_xyz(1.0, 1.6, -3.0),
-///         GazeLod { min_triangles: 200, ..default() },
-///     ));
-///     commands.spawn((Camera3d::default(), Transform::from_xyz(0.0, 1.6, 0.0)));
-/// }
-///
-/// App::new()
-///     .add_plugins((DefaultPlugins, FoveatedLodPlugin))
-///     .insert_resource(HeadSource::Simulated(SimulatedGaze::default()))
-///     .add_systems(Startup, setup)
-///     .run();
-/// ```
-#[derive(Component, Clone, Debug, PartialEq, Reflect)]
-#[reflect(Component)]
-#[require(GazeLodState)]
-pub struct GazeLod {
-    /// N_min: the triangles of the coarsest level (the paper: 500).
-    pub min_triangles: u32,
-    /// N_max: the triangles of the finest level; `None`: the mesh's own.
-    pub max_triangles: Option<u32>,
-    /// Hide the object while its level is 0 (outside the visual field: the
-    /// paper draws background there).
-    pub hide_outside_field: bool,
-}
+use crate::settings::GazeLod;
 
 impl Default for GazeLod {
     fn default() -> Self {

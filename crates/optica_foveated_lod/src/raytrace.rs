@@ -6,7 +6,6 @@
 
 use std::sync::Arc;
 
-use bevy::light::cluster::ClusterConfig;
 use bevy::mesh::VertexAttributeValues;
 use bevy::prelude::*;
 use bevy::render::extract_component::ExtractComponent;
@@ -17,10 +16,11 @@ use optica_optics::foveated_lod::{
 };
 use optica_optics::glam::{DAffine3, DVec3};
 
-use crate::cave::CaveView;
+use crate::settings::CaveView;
 use crate::head::{Eye, GazeState};
 use crate::lod::GazeLodState;
 use crate::settings::{CheckedFoveation, FieldEyes};
+use crate::settings::{GazeRayTracer, RayTraced};
 
 /// The most bounces eq. 9 may allow on the GPU (its tree of pending rays
 /// has eight slots).
@@ -36,54 +36,6 @@ pub const MAX_PERIPHERY_SCALE: u32 = 64;
 /// so a [`PointLight`] lights a traced object about as it lights a
 /// rasterised one.
 const DEFAULT_EXPOSURE: f64 = 1.0 / (1.2 * 831.746_6);
-
-/// Draws the camera's view by ray tracing the [`RayTraced`] objects on the
-/// GPU, each ray at the level of its direction in the viewer's visual field
-/// (the paper's §3.3.3): eq. 9 sets how many reflections and refractions it
-/// may make, eq. 10 which mesh of each object's LOD chain it is tested
-/// against, and a ray outside the field returns [`background`] untraced.
-///
-/// Rays in the periphery (level below 1) are traced on a grid
-/// [`periphery_scale`] times coarser than the image, those below
-/// [`outer_level`] on one twice coarser again, and blended up (Guenter et
-/// al.'s nested foveated layers, 2012); the central field is traced at
-/// every pixel. The tracer foveates only where
-/// that saves at least [`Foveation::min_saving`] of the primary rays
-/// (estimated each frame from the level map, see [`GazeRayTracerState`]);
-/// else it traces every pixel at full quality.
-///
-/// The traced image replaces whatever the camera rasterised: give traced
-/// meshes no material, so Bevy does not draw them too. For the same reason
-/// the camera requires [`ClusterConfig::Single`]: lights are clustered for
-/// a rasterised image nobody sees, so one cluster is enough (Bevy's GPU
-/// clustering cannot do without any: `ClusterConfig::None` fails there).
-///
-/// [`background`]: GazeRayTracer::background
-/// [`periphery_scale`]: GazeRayTracer::periphery_scale
-/// [`outer_level`]: GazeRayTracer::outer_level
-/// [`Foveation::min_saving`]: crate::Foveation::min_saving
-#[derive(Component, Clone, Debug, PartialEq, Reflect)]
-#[reflect(Component)]
-#[require(Camera3d, GazeRayTracerState, ClusterConfig = ClusterConfig::Single)]
-pub struct GazeRayTracer {
-    /// Reflect_max of eq. 9: the bounces of a level-1 ray (the paper: 3;
-    /// at most [`MAX_REFLECT`]).
-    pub reflect_max: u32,
-    /// Off: every ray at level 1, every pixel traced (the reference).
-    pub foveate: bool,
-    /// Peripheral rays are traced on a grid this many times coarser per
-    /// axis (1: every pixel; 2, the default, a quarter of the rays; at most
-    /// [`MAX_PERIPHERY_SCALE`]).
-    pub periphery_scale: u32,
-    /// Rays of a level below this are traced on a grid twice coarser again
-    /// (the outer layer; 0.5 by default, 0 for none).
-    pub outer_level: f32,
-    /// The colour of rays that hit nothing and of pixels outside the
-    /// visual field (linear).
-    pub background: LinearRgba,
-    /// Ambient light, added as ambient × albedo (linear).
-    pub ambient: LinearRgba,
-}
 
 impl Default for GazeRayTracer {
     fn default() -> Self {
@@ -127,30 +79,6 @@ pub struct GazeRayTracerState {
     pub peripheral: f32,
     /// See [`GazeRayTracerState::central`].
     pub outside: f32,
-}
-
-/// A mesh the [`GazeRayTracer`] draws, and how it looks: the reference
-/// tracer's Whitted material. Needs a `Mesh3d` (indexed triangles); its
-/// LOD chain is built as for [`GazeLod`](crate::GazeLod), whose settings it
-/// takes, and is traced, never rasterised by the mesh path.
-#[derive(Component, Clone, Copy, Debug, PartialEq, Reflect)]
-#[reflect(Component)]
-#[require(crate::GazeLod)]
-pub struct RayTraced {
-    /// Albedo (linear).
-    pub color: LinearRgba,
-    /// Lambert weight.
-    pub diffuse: f32,
-    /// Phong weight.
-    pub specular: f32,
-    /// Phong exponent.
-    pub shininess: f32,
-    /// Mirrored fraction.
-    pub reflectance: f32,
-    /// Refracted fraction (reflectance + transmittance ≤ 1).
-    pub transmittance: f32,
-    /// Refractive index of the inside (≥ 1; the outside is air).
-    pub ior: f32,
 }
 
 impl RayTraced {

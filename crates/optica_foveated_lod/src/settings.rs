@@ -1,12 +1,16 @@
 //! What users edit: the visual field and the switching policy
-//! ([`Foveation`]), and the checked form the systems use.
+//! ([`Foveation`]) and its checked form, and the components they put on
+//! meshes and cameras ([`GazeLod`], [`CaveView`] and its [`WallRect`],
+//! [`GazeRayTracer`] and [`RayTraced`]).
 
+use bevy::light::cluster::ClusterConfig;
 use bevy::prelude::*;
 use optica_optics::foveated_lod::{
     BoundaryShape, FieldExtents, FoveatedError, HysteresisParams, VisualField,
 };
 
 use crate::head::{Eye, eye_model};
+use crate::{CaveViewStatus, GazeLodState, GazeRayTracerState};
 
 /// Whose visual field decides the level.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
@@ -188,4 +192,171 @@ pub(crate) fn check_foveation(foveation: Res<Foveation>, mut checked: ResMut<Che
         CheckedFoveation::default()
     });
     checked.set_if_neq(next);
+}
+
+/// Gaze-driven level of detail for this entity's mesh.
+///
+/// When the entity has a `Mesh3d`, the plugin builds, once per mesh and
+/// setting, a chain of simplified copies (meshoptimizer's edge collapse)
+/// with triangle counts N from `min_triangles` to `max_triangles` by eq. 10
+/// of Mochizuki and Makino, N = level (N_max − N_min) + N_min, one per level
+/// step of [`Foveation::steps`](crate::Foveation::steps). Every frame the
+/// gaze or the object moved, it takes the level of the point of the
+/// object's bounding sphere nearest the gaze (so an object is as detailed as
+/// its most central part needs), quantises and holds it
+/// ([`Foveation::dead_band`](crate::Foveation::dead_band),
+/// [`Foveation::min_dwell_s`](crate::Foveation::min_dwell_s)), and swaps the
+/// entity's `Mesh3d` to that level's mesh. Meshes are never rebuilt per
+/// frame. [`GazeLodState`] says what was chosen.
+///
+/// The mesh must be an indexed triangle list with positions; others are
+/// drawn as they are (logged once). Entities sharing a mesh share its chain.
+/// Assign a new mesh by writing `Mesh3d` as usual: the chain follows.
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use optica_foveated_lod::{FoveatedLodPlugin, GazeLod, HeadSource, SimulatedGaze};
+///
+/// fn setup(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut materials: ResMut<Assets<StandardMaterial>>) {
+///     commands.spawn((
+///         Mesh3d(meshes.add(Sphere::new(0.5).mesh().ico(5).unwrap())),
+///         MeshMaterial3d(materials.add(StandardMaterial::default())),
+///         Transform::from_xyz(1.0, 1.6, -3.0),
+///         GazeLod { min_triangles: 200, ..default() },
+///     ));
+///     commands.spawn((Camera3d::default(), Transform::from_xyz(0.0, 1.6, 0.0)));
+/// }
+///
+/// App::new()
+///     .add_plugins((DefaultPlugins, FoveatedLodPlugin))
+///     .insert_resource(HeadSource::Simulated(SimulatedGaze::default()))
+///     .add_systems(Startup, setup)
+///     .run();
+/// ```
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component)]
+#[require(GazeLodState)]
+pub struct GazeLod {
+    /// N_min: the triangles of the coarsest level (the paper: 500).
+    pub min_triangles: u32,
+    /// N_max: the triangles of the finest level; `None`: the mesh's own.
+    pub max_triangles: Option<u32>,
+    /// Hide the object while its level is 0 (outside the visual field: the
+    /// paper draws background there).
+    pub hide_outside_field: bool,
+}
+
+/// A rectangular screen in world coordinates (m), seen from the side its
+/// normal `(lower_right − lower_left) × (upper_left − lower_left)` points to.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct WallRect {
+    /// The lower-left corner as the viewer sees it.
+    pub lower_left: Vec3,
+    /// The lower-right corner.
+    pub lower_right: Vec3,
+    /// The upper-left corner.
+    pub upper_left: Vec3,
+}
+
+/// A camera that draws one CAVE wall as `eye` sees it through that wall:
+/// the plugin places the camera at the tracked eye, turns it to face the
+/// wall and gives it the off-axis projection whose frustum passes through
+/// the wall's four corners (Kooima's generalised perspective projection;
+/// `optica_optics::foveated_lod::CaveWall::off_axis` is its CPU twin), so
+/// a point on the wall lands on the pixel of the wall's own image there.
+///
+/// For stereo, as the paper ran its CAVE, give each wall two cameras, one
+/// per eye ([`Eye::Left`], [`Eye::Right`]), each rendering to its own
+/// target. The target should have the wall's [`aspect`](WallRect::aspect).
+/// The camera is placed in world space: do not parent it.
+///
+/// When the head is lost the last valid eye position is kept. An eye on or
+/// behind a wall's plane (the frustum does not exist there) is moved to
+/// `min_eye_distance` in front of that wall for its camera only.
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component)]
+#[require(Camera3d, CaveViewStatus)]
+pub struct CaveView {
+    /// The screen.
+    pub wall: WallRect,
+    /// The eye looking through it.
+    pub eye: Eye,
+    /// Near clip distance (m).
+    pub near: f32,
+    /// Far distance for culling (m).
+    pub far: f32,
+    /// The closest the projection eye may be to the wall's plane (m).
+    pub min_eye_distance: f32,
+}
+
+/// Draws the camera's view by ray tracing the [`RayTraced`] objects on the
+/// GPU, each ray at the level of its direction in the viewer's visual field
+/// (the paper's §3.3.3): eq. 9 sets how many reflections and refractions it
+/// may make, eq. 10 which mesh of each object's LOD chain it is tested
+/// against, and a ray outside the field returns [`background`] untraced.
+///
+/// Rays in the periphery (level below 1) are traced on a grid
+/// [`periphery_scale`] times coarser than the image, those below
+/// [`outer_level`] on one twice coarser again, and blended up (Guenter et
+/// al.'s nested foveated layers, 2012); the central field is traced at
+/// every pixel. The tracer foveates only where
+/// that saves at least [`Foveation::min_saving`] of the primary rays
+/// (estimated each frame from the level map, see [`GazeRayTracerState`]);
+/// else it traces every pixel at full quality.
+///
+/// The traced image replaces whatever the camera rasterised: give traced
+/// meshes no material, so Bevy does not draw them too. For the same reason
+/// the camera requires [`ClusterConfig::Single`]: lights are clustered for
+/// a rasterised image nobody sees, so one cluster is enough (Bevy's GPU
+/// clustering cannot do without any: `ClusterConfig::None` fails there).
+///
+/// [`background`]: GazeRayTracer::background
+/// [`periphery_scale`]: GazeRayTracer::periphery_scale
+/// [`outer_level`]: GazeRayTracer::outer_level
+/// [`Foveation::min_saving`]: crate::Foveation::min_saving
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component)]
+#[require(Camera3d, GazeRayTracerState, ClusterConfig = ClusterConfig::Single)]
+pub struct GazeRayTracer {
+    /// Reflect_max of eq. 9: the bounces of a level-1 ray (the paper: 3;
+    /// at most [`MAX_REFLECT`](crate::MAX_REFLECT)).
+    pub reflect_max: u32,
+    /// Off: every ray at level 1, every pixel traced (the reference).
+    pub foveate: bool,
+    /// Peripheral rays are traced on a grid this many times coarser per
+    /// axis (1: every pixel; 2, the default, a quarter of the rays; at most
+    /// [`MAX_PERIPHERY_SCALE`](crate::MAX_PERIPHERY_SCALE)).
+    pub periphery_scale: u32,
+    /// Rays of a level below this are traced on a grid twice coarser again
+    /// (the outer layer; 0.5 by default, 0 for none).
+    pub outer_level: f32,
+    /// The colour of rays that hit nothing and of pixels outside the
+    /// visual field (linear).
+    pub background: LinearRgba,
+    /// Ambient light, added as ambient × albedo (linear).
+    pub ambient: LinearRgba,
+}
+
+/// A mesh the [`GazeRayTracer`] draws, and how it looks: the reference
+/// tracer's Whitted material. Needs a `Mesh3d` (indexed triangles); its
+/// LOD chain is built as for [`GazeLod`](crate::GazeLod), whose settings it
+/// takes, and is traced, never rasterised by the mesh path.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Reflect)]
+#[reflect(Component)]
+#[require(crate::GazeLod)]
+pub struct RayTraced {
+    /// Albedo (linear).
+    pub color: LinearRgba,
+    /// Lambert weight.
+    pub diffuse: f32,
+    /// Phong weight.
+    pub specular: f32,
+    /// Phong exponent.
+    pub shininess: f32,
+    /// Mirrored fraction.
+    pub reflectance: f32,
+    /// Refracted fraction (reflectance + transmittance ≤ 1).
+    pub transmittance: f32,
+    /// Refractive index of the inside (≥ 1; the outside is air).
+    pub ior: f32,
 }

@@ -327,10 +327,7 @@ pub use panel::{SpectaclesPanelPlugin, mirror_ui, spectacles_ui};
 pub use error::Error;
 pub use clones::{CLONE_LAYER, CloneCamera, CloneCameraOf, CloneOf, CloneTwins};
 pub use precompute::{SpectaclesStatus, corrected_points};
-pub use mirror::{
-    CurvedMirror, MAX_ENVIRONMENT_FOV_DEG, MIRROR_LAYER, MirrorHelperOf, MirrorHelpers,
-    MirrorMethod, MirrorState, MirrorViewer,
-};
+pub use mirror::{MAX_ENVIRONMENT_FOV_DEG, MIRROR_LAYER, MirrorHelperOf, MirrorHelpers, MirrorState};
 
 /// A query filter that leaves out the entities the plugin makes for itself
 /// (clone twins, clone cameras, a mirror's cameras and probe):
@@ -365,6 +362,7 @@ pub mod twins {
     pub const FIELD_LOOKUP_WGSL: &str = include_str!("shaders/field_lookup.wgsl");
 }
 pub use settings::{
+    CurvedMirror, MirrorMethod, MirrorViewer,
     Accommodation, Astigmatism, CloneDefocus, CloneShading, Eye, FieldBox, LensMaterial, MAX_CLONES, Pupil,
     Spectacles,
 };

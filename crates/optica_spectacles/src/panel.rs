@@ -23,7 +23,8 @@ use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
 
 use crate::SpectaclesStatus;
-use crate::mirror::{CurvedMirror, MirrorMethod, MirrorState};
+use crate::mirror::MirrorState;
+use crate::settings::{CurvedMirror, MirrorMethod};
 use crate::presets::presets;
 use crate::settings::{
     Accommodation, CloneDefocus, CloneShading, Eye, LensMaterial, Pupil, Spectacles,

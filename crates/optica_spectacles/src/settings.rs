@@ -1,13 +1,17 @@
 //! The components users put on the camera: the [`Eye`], the [`Spectacles`]
-//! it wears and how its defocus is drawn ([`CloneDefocus`]).
+//! it wears and how its defocus is drawn ([`CloneDefocus`]); and on the
+//! scene: a [`CurvedMirror`] and its [`MirrorViewer`].
 
 use bevy::prelude::*;
 use optica_optics::glass::Glass;
 use optica_optics::input::InvalidInput;
+use optica_optics::spectacles::CurvedMirror as MirrorOptics;
 use optica_optics::spectacles::{
     self as optics, AdaptedEyes, HofstetterBound, LensDesignParams, Prescription,
     SpectaclesError,
 };
+
+use crate::Error;
 
 /// The viewer's eye, on the camera that looks through it: its refractive
 /// error, how far it can accommodate and its pupil. With it the camera's
@@ -528,3 +532,101 @@ impl Spectacles {
         optics::design_lens(&self.prescription()?, &self.design_params()?)
     }
 }
+
+/// A curved mirror in the scene, seen by the camera with [`MirrorViewer`].
+///
+/// Its reflecting face looks along the entity's forward (−Z), so
+/// `Transform::looking_at(viewer, Vec3::Y)` turns it to a viewer; the
+/// rectangle spans `size_m` across X and Y. Keep its scale 1 (a scaled
+/// mirror is named in the log: its reflection is traced unscaled). The
+/// plugin gives it its mesh and material.
+///
+/// ```no_run
+/// use bevy::prelude::*;
+/// use optica_spectacles::{CurvedMirror, MirrorViewer};
+///
+/// fn setup(mut commands: Commands) {
+///     commands.spawn((Camera3d::default(), MirrorViewer));
+///     // A door mirror 1 m ahead, turned to the camera.
+///     commands.spawn((
+///         CurvedMirror::default(),
+///         Transform::from_xyz(0.3, 0.0, -1.0).looking_at(Vec3::ZERO, Vec3::Y),
+///     ));
+/// }
+/// ```
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component, Default, Clone)]
+#[require(Transform, Visibility)]
+pub struct CurvedMirror {
+    /// Radius of curvature (m): positive convex (a passenger-side door
+    /// mirror: 1.2–1.5 m; European rules ask at least 1.2 m), negative
+    /// concave, `f32::INFINITY` flat. A zero or NaN radius, or one smaller
+    /// than the half-diagonal, is refused (named in the log; nothing drawn).
+    pub radius_m: f32,
+    /// Width and height (m).
+    pub size_m: Vec2,
+    /// Cells of the mirror's grid across and down (the per-vertex method's
+    /// knob: its error against an exact trace falls with it).
+    pub tessellation: UVec2,
+    /// Reflectance (0–1): about 0.9 for a silvered glass mirror, 0.5–0.6
+    /// for a car's chromed or blue-tinted one.
+    pub reflectance: f32,
+    /// Side (px) of the environment image (per vertex) or of each cube
+    /// face (cube maps).
+    pub resolution: u32,
+    /// How the reflection is drawn.
+    pub method: MirrorMethod,
+}
+
+impl Default for CurvedMirror {
+    fn default() -> Self {
+        Self {
+            radius_m: 1.4,
+            size_m: Vec2::new(0.24, 0.16),
+            tessellation: UVec2::new(32, 24),
+            reflectance: 0.9,
+            resolution: 512,
+            method: MirrorMethod::PerVertex,
+        }
+    }
+}
+
+impl CurvedMirror {
+    /// The mirror's optics (its CPU twin), or why it is refused.
+    pub fn optics(&self) -> Result<MirrorOptics, Error> {
+        MirrorOptics::new(
+            f64::from(self.radius_m),
+            f64::from(self.size_m.x),
+            f64::from(self.size_m.y),
+        )
+        .map_err(|e| Error::Mirror(e.into()))
+    }
+}
+
+/// How a [`CurvedMirror`] reflects.
+#[derive(Clone, Debug, Default, PartialEq, Reflect)]
+pub enum MirrorMethod {
+    /// The paper's per-vertex ray tracing: each vertex shows where its
+    /// reflected ray meets the scene.
+    #[default]
+    PerVertex,
+    /// Bevy's reflection probe with a cube map captured at the mirror every
+    /// frame, treated as infinitely far (no parallax correction).
+    CubeMap,
+    /// Bevy's parallax-corrected reflection probe: the cube map captured at
+    /// the centre of the room's box every frame, the reflection corrected
+    /// against the box's walls.
+    ParallaxCorrectedCubeMap {
+        /// The room box's centre (world, m).
+        room_centre: Vec3,
+        /// Half its size along the world axes (m).
+        room_half_size: Vec3,
+    },
+}
+
+/// Marks the camera mirrors are traced for (one per app: the per-vertex
+/// method reflects one viewpoint). It is given [`MIRROR_LAYER`](crate::MIRROR_LAYER) so it sees
+/// the mirrors.
+#[derive(Component, Clone, Copy, Debug, Default, Reflect)]
+#[reflect(Component, Default)]
+pub struct MirrorViewer;

@@ -30,6 +30,7 @@
 #![warn(missing_docs)]
 
 mod context;
+pub mod fixtures;
 mod report;
 pub mod sweeps;
 mod write;

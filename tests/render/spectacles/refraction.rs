@@ -14,13 +14,11 @@
 //! minus lens are drawn dark, not as a wrong view.
 
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use optica_harness::Headless;
-use optica_harness::textures::coordinates_in;
 use optica_optics::glass::{LAMBDA_C_NM, LAMBDA_F_NM};
 use optica_optics::glam::DVec3;
 use optica_optics::spectacles::plane_seen_through_lens;
-use optica_spectacles::{Spectacles, SpectaclesPlugin};
+use optica_spectacles::Spectacles;
 use optica_spectacles::twins::camera_z;
 
 const SIZE: u32 = 128;
@@ -41,45 +39,15 @@ fn render_at(spectacles: Option<Spectacles>, fov: f32, channels: [usize; 3]) -> 
     Headless::new(SIZE, SIZE)
         .hdr(true)
         .frames(4)
-        .render(move |app: &mut App| {
-            app.add_plugins(SpectaclesPlugin);
-            app.add_systems(
-                Startup,
-                move |mut commands: Commands,
-                      mut meshes: ResMut<Assets<Mesh>>,
-                      mut images: ResMut<Assets<Image>>,
-                      mut materials: ResMut<Assets<StandardMaterial>>| {
-                    commands.spawn((
-                        Mesh3d(meshes.add(
-                            Plane3d::new(Vec3::Z, Vec2::splat(PLANE_HALF)).mesh().subdivisions(7),
-                        )),
-                        MeshMaterial3d(materials.add(StandardMaterial {
-                            base_color_texture: Some(images.add(coordinates_in(256, PLANE_HALF, channels))),
-                            unlit: true,
-                            ..default()
-                        })),
-                        Transform::from_xyz(0.0, 0.0, -PLANE_Z),
-                    ));
-                    let mut camera = commands.spawn((
-                        Camera3d::default(),
-                        Camera {
-                            // Not the lens's dark edge (0.02 grey).
-                            clear_color: ClearColorConfig::Custom(Color::linear_rgb(0.3, 0.0, 0.0)),
-                            ..default()
-                        },
-                        Msaa::Off,
-                        Projection::Perspective(PerspectiveProjection {
-                            fov,
-                            near: 0.05,
-                            ..default()
-                        }),
-                    ));
-                    if let Some(s) = spectacles.clone() {
-                        camera.insert(s);
-                    }
-                },
-            );
-        })
+        // Not the lens's dark edge (0.02 grey) in the background.
+        .render(optica_report::fixtures::coordinate_plane(
+            spectacles,
+            fov,
+            PLANE_Z,
+            PLANE_HALF,
+            channels,
+            Color::linear_rgb(0.3, 0.0, 0.0),
+        ))
         .expect("render")
 }
 

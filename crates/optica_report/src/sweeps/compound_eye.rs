@@ -21,10 +21,9 @@
 //!   in the same run.
 
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use image::RgbaImage;
 use optica_compound_eye::{
-    CompoundEye, CompoundEyeMaterial, CompoundEyePlugin, EyeLattice, EyeOutput,
+    CompoundEye, EyeLattice, EyeOutput,
 };
 use optica_harness::{FrameTimings, TimeSource};
 use optica_optics::compound_eye::{
@@ -79,47 +78,17 @@ fn eye_settings(
 /// The scene: the flat eye with `eye` (or a plain `StandardMaterial`), lit,
 /// no shadows, MSAA off (one fragment per pixel, at its centre).
 pub(super) fn scene(eye: Option<CompoundEye>) -> impl FnOnce(&mut App) {
-    move |app: &mut App| {
-        app.add_plugins(CompoundEyePlugin);
-        app.add_systems(
-            Startup,
-            move |mut commands: Commands,
-                  mut meshes: ResMut<Assets<Mesh>>,
-                  mut eyes: ResMut<Assets<CompoundEyeMaterial>>,
-                  mut plain: ResMut<Assets<StandardMaterial>>| {
-                let mesh = Mesh3d(meshes.add(Rectangle::new(EYE_SIDE, EYE_SIDE)));
-                let base = StandardMaterial {
-                    base_color: Color::srgb(0.55, 0.16, 0.1),
-                    perceptual_roughness: 0.45,
-                    ..default()
-                };
-                match eye.clone() {
-                    Some(extension) => commands.spawn((
-                        mesh,
-                        MeshMaterial3d(eyes.add(CompoundEyeMaterial { base, extension })),
-                    )),
-                    None => commands.spawn((mesh, MeshMaterial3d(plain.add(base)))),
-                };
-                commands.spawn((
-                    DirectionalLight {
-                        illuminance: 6_000.0,
-                        shadow_maps_enabled: false,
-                        ..default()
-                    },
-                    Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
-                ));
-                commands.spawn((
-                    Camera3d::default(),
-                    Msaa::Off,
-                    Projection::Perspective(PerspectiveProjection {
-                        fov: FOV,
-                        ..default()
-                    }),
-                    camera(),
-                ));
-            },
-        );
-    }
+    crate::fixtures::compound_eye_scene(
+        Mesh::from(Rectangle::new(EYE_SIDE, EYE_SIDE)),
+        Transform::IDENTITY,
+        eye,
+        camera(),
+        Projection::Perspective(PerspectiveProjection {
+            fov: FOV,
+            ..default()
+        }),
+        None,
+    )
 }
 
 /// The CPU side of the flat eye: its lattice and pigment for `eye`.

@@ -24,12 +24,10 @@
 //!   against the same lens without.
 
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
-use optica_harness::textures::coordinates;
 use optica_optics::glass::LAMBDA_C_NM;
 use optica_optics::spectacles::plane_seen_through_lens;
 use optica_spectacles::twins::{camera_z, trace_lens};
-use optica_spectacles::{Spectacles, SpectaclesPlugin};
+use optica_spectacles::Spectacles;
 
 use super::SweepError;
 use crate::{Report, Row, SweepContext};
@@ -48,46 +46,14 @@ fn lens(rings: u32) -> Spectacles {
 
 /// The coordinate plane seen through `spectacles`.
 fn plane(spectacles: Spectacles) -> impl FnOnce(&mut App) {
-    move |app: &mut App| {
-        app.add_plugins(SpectaclesPlugin);
-        app.add_systems(
-            Startup,
-            move |mut commands: Commands,
-                  mut meshes: ResMut<Assets<Mesh>>,
-                  mut images: ResMut<Assets<Image>>,
-                  mut materials: ResMut<Assets<StandardMaterial>>| {
-                commands.spawn((
-                    Mesh3d(
-                        meshes.add(
-                            Plane3d::new(Vec3::Z, Vec2::splat(PLANE_HALF))
-                                .mesh()
-                                .subdivisions(7),
-                        ),
-                    ),
-                    MeshMaterial3d(materials.add(StandardMaterial {
-                        base_color_texture: Some(images.add(coordinates(256, PLANE_HALF))),
-                        unlit: true,
-                        ..default()
-                    })),
-                    Transform::from_xyz(0.0, 0.0, -PLANE_Z),
-                ));
-                commands.spawn((
-                    Camera3d::default(),
-                    Camera {
-                        clear_color: ClearColorConfig::Custom(Color::BLACK),
-                        ..default()
-                    },
-                    Msaa::Off,
-                    Projection::Perspective(PerspectiveProjection {
-                        fov: FOV,
-                        near: 0.05,
-                        ..default()
-                    }),
-                    spectacles.clone(),
-                ));
-            },
-        );
-    }
+    crate::fixtures::coordinate_plane(
+        Some(spectacles),
+        FOV,
+        PLANE_Z,
+        PLANE_HALF,
+        [0, 1, 2],
+        Color::BLACK,
+    )
 }
 
 /// Slides the lens of every camera by `step_mm` each frame, back and forth.

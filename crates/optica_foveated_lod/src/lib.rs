@@ -172,7 +172,7 @@
 //! bounces it and its secondary rays may make, eq. 10 which mesh of each
 //! object's LOD chain they are tested against; rays outside the field are
 //! the background, untraced. The chains are the mesh path's, each LOD with
-//! its BVH built once on the CPU and uploaded once ([`TracedScene`]; built
+//! its BVH built once on the CPU and uploaded once ([`TracedScene`](twins::TracedScene); built
 //! again only when an object, its transform or material, or a light
 //! changes). The CPU twin is `optica_optics::foveated_lod::render_layered`;
 //! the GPU image matches it on all but a few silhouette pixels (tested on
@@ -229,7 +229,7 @@
 //! Limits: the objects are tested one after another (no BVH over them;
 //! fine for tens of objects); shadow rays treat transparent objects as
 //! opaque (Whitted's tracer did); a [`PointLight`] lights traced objects
-//! at Bevy's default exposure ([`light_scale`]), other light types are
+//! at Bevy's default exposure ([`light_scale`](twins::light_scale)), other light types are
 //! ignored; at most [`MAX_REFLECT`] bounces.
 //!
 #![warn(missing_docs)]
@@ -251,22 +251,29 @@ mod render;
 mod settings;
 mod trace;
 
-pub use cave::{CaveViewStatus, OffAxisClip, aim};
+pub use cave::CaveViewStatus;
 pub use head::{Eye, GazeState, HeadReplay, HeadSource, SimulatedGaze, TrackedHead};
-pub use lod::{
-    FoveationGate, FoveationWork, GazeLodState, LodChain, LodError, level_of_sphere,
-};
+pub use lod::{FoveationGate, FoveationWork, GazeLodState, LodChain, LodError};
 #[cfg(feature = "egui")]
 pub use panel::{FoveatedLodPanelPlugin, foveation_ui};
-pub use raytrace::{
-    GazeRayTracerState, MAX_PERIPHERY_SCALE, MAX_REFLECT, TracedScene, light_scale,
-    reference_of,
-};
+pub use raytrace::{GazeRayTracerState, MAX_PERIPHERY_SCALE, MAX_REFLECT};
 pub use settings::{
-    CaveView, CheckedFoveation, FieldBoundary, FieldEyes, Foveation, GazeLod, GazeRayTracer,
-    RayTraced, WallRect,
+    CaveView, FieldBoundary, FieldEyes, Foveation, GazeLod, GazeRayTracer, RayTraced, WallRect,
 };
-pub use trace::{HeadTrace, ON_TIME_S, TraceError};
+pub use trace::{HeadTrace, TraceError};
+
+/// What the plugin's systems and tracer compute, for the render tests and
+/// the report to hold them to: the CAVE walls' off-axis projection, the
+/// level of a bounding sphere, the scene as the tracer's shader reads it
+/// and its CPU reference, the checked settings. An app using the plugin
+/// needs none of it.
+pub mod twins {
+    pub use crate::cave::{OffAxisClip, aim};
+    pub use crate::lod::level_of_sphere;
+    pub use crate::raytrace::{TracedScene, light_scale, reference_of};
+    pub use crate::settings::CheckedFoveation;
+    pub use crate::trace::ON_TIME_S;
+}
 
 /// Adds [`TrackedHead`], [`Foveation`], [`HeadSource`] and the systems that
 /// turn them into levels for [`GazeLod`] meshes, projections for
@@ -308,7 +315,7 @@ impl Plugin for FoveatedLodPlugin {
             .init_resource::<lod::DwellPending>()
             .init_resource::<FoveationWork>()
             .init_resource::<FoveationGate>()
-            .init_resource::<TracedScene>()
+            .init_resource::<raytrace::TracedScene>()
             .init_resource::<dtrack::DTrackStats>()
             .register_type::<GazeRayTracer>()
             .register_type::<GazeRayTracerState>()

@@ -76,7 +76,7 @@ pub fn compound_eye_scene(
 
 /// A plane `plane_z` m ahead, `2·half` m wide, whose unlit texture holds
 /// its own coordinates in `channels` (see
-/// [`coordinates_in`](optica_harness::textures::coordinates_in)), seen by a
+/// [`coordinates_in`]), seen by a
 /// camera of vertical field `fov` (rad) through `spectacles` when given,
 /// the background `clear`.
 pub fn coordinate_plane(

@@ -5,8 +5,9 @@
 use bevy::camera::ClearColorConfig;
 use bevy::prelude::*;
 use optica_foveated_lod::{
-    CaveView, Eye, FoveatedLodPlugin, HeadSource, OffAxisClip, TrackedHead, WallRect, aim,
+    CaveView, Eye, FoveatedLodPlugin, HeadSource, TrackedHead, WallRect,
 };
+use optica_foveated_lod::twins::{OffAxisClip, aim};
 use optica_harness::Headless;
 use optica_optics::foveated_lod::DepthConvention;
 

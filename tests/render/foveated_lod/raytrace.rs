@@ -7,9 +7,10 @@
 use std::sync::{Arc, Mutex};
 
 use bevy::prelude::*;
+use optica_foveated_lod::twins::{TracedScene, reference_of};
 use optica_foveated_lod::{
     Eye, FoveatedLodPlugin, Foveation, FoveationWork, GazeRayTracer, GazeRayTracerState, GazeState,
-    HeadSource, RayTraced, TracedScene, TrackedHead, reference_of,
+    HeadSource, RayTraced, TrackedHead,
 };
 use optica_harness::{Adapter, Headless};
 use optica_optics::foveated_lod::{

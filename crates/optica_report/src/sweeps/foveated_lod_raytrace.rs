@@ -39,9 +39,10 @@ use bevy::camera::{ClearColorConfig, RenderTarget};
 use bevy::prelude::*;
 use bevy::render::render_resource::TextureFormat;
 use bevy::render::view::Msaa;
+use optica_foveated_lod::twins::{TracedScene, reference_of};
 use optica_foveated_lod::{
     CaveView, Eye, FoveatedLodPlugin, Foveation, GazeRayTracer, GazeRayTracerState, GazeState,
-    HeadSource, RayTraced, TracedScene, TrackedHead, WallRect, reference_of,
+    HeadSource, RayTraced, TrackedHead, WallRect,
 };
 use optica_optics::foveated_lod::{
     GazeEstimate, Layers, LevelQuantization, TraceSettings, TraceStats, TracerCamera,

@@ -113,3 +113,49 @@ fn refused_mirrors_say_which_number() {
     );
     assert!(CurvedMirror::default().optics().is_ok());
 }
+
+/// Every naked, stigmatic preset's blur is the closed form of its eye: the
+/// pupil diameter times the dioptric distance of the point from the eye's
+/// range of clear sight, `A·max(0, P_far − 1/z, 1/z − P_near)` (rad), at
+/// the book, a metre and the chart; with glasses, the blur lies below the
+/// naked eye's wherever the glasses correct (the chart for a myope, the
+/// book for a presbyope), as the twin's bundles through the lens say.
+#[test]
+fn naked_presets_blur_as_their_closed_form() {
+    let arcmin = |rad: f64| rad.to_degrees() * 60.0;
+    let mut checked = 0;
+    for p in presets() {
+        let eye = p.eye.optics().expect("a preset's eye is valid");
+        if p.spectacles.is_some() || eye.cylinder_d() != 0.0 {
+            continue;
+        }
+        for z in [0.3, 1.0, 5.0] {
+            let (s, _) = p.sight(z).unwrap_or_else(|e| panic!("{}: {e}", p.name));
+            let v = 1.0 / z;
+            let off = (eye.far_point_vergence_d() - v)
+                .max(v - eye.near_point_vergence_d())
+                .max(0.0);
+            let expected = arcmin(eye.pupil_diameter_m() * off);
+            assert!(
+                (s.blur_arcmin - expected).abs() < 1e-6 * expected.max(1.0),
+                "{} at {z} m: {} against A·ΔD = {expected}",
+                p.name,
+                s.blur_arcmin
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 12, "only {checked} naked stigmatic cases");
+    let naked = |name: &str, z: f64| {
+        let p = presets().into_iter().find(|p| p.name == name).expect(name);
+        let bare = optica_spectacles::presets::Preset {
+            spectacles: None,
+            ..p.clone()
+        };
+        (p.sight(z).expect(name).0.blur_arcmin, bare.sight(z).expect(name).0.blur_arcmin)
+    };
+    for (name, z) in [("myope-glasses", 5.0), ("presbyope-readers", 0.3), ("fig8c-concave", 5.0)] {
+        let (with, without) = naked(name, z);
+        assert!(with < 0.25 * without, "{name} at {z} m: {with}′ with glasses, {without}′ without");
+    }
+}

@@ -37,7 +37,7 @@ fn float_image(side: usize, rgb: impl Iterator<Item = [f32; 3]>) -> Image {
 
 /// The starburst image of `flare` through `aperture`, or `None` when it is
 /// off.
-pub(crate) fn starburst_image(
+pub fn starburst_image(
     flare: &LensFlare,
     aperture: &Aperture,
 ) -> Result<Option<Image>, Error> {

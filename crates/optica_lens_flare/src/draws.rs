@@ -227,7 +227,7 @@ pub(crate) struct FlareDraws {
 /// spanning `2 · size` of the view's height and a sensor `2 · hh` mm high,
 /// a pixel holds `(side / (2 size H))²` texels and has `(2 hh / H)²` mm²,
 /// so the view's height `H` cancels: `side² · A_pupil / (16 size² hh²)`.
-fn starburst_scale(
+pub fn starburst_scale(
     flare: &LensFlare,
     ghosts: &FlareGhosts,
     paraxial: &optica_optics::lens::ParaxialProperties,

@@ -7,6 +7,7 @@ use bevy::post_process::bloom::Bloom;
 use bevy::prelude::*;
 use optica_harness::{Adapter, Headless, PipelineReport, RenderedFrame};
 use optica_lens_flare::{
+    FlareGhosts,
     GhostResolution, LensFlare, LensFlarePlugin, RingingSettings, StarburstSettings,
 };
 
@@ -132,24 +133,38 @@ fn a_sun_off_axis_flares_and_a_sun_behind_does_not() {
 
 /// The starburst: centred on the sun's image (its brightest pixel there),
 /// with six spikes for six straight blades (brighter along the edges'
-/// normals than between them), finite and bounded; none when it is off.
+/// normals than between them), its peak the CPU twin's texture where the
+/// peak pixel samples it (within 1 %); none when it is off.
 #[test]
 fn the_starburst_sits_on_the_light_with_a_spike_per_blade_edge() {
     let travel = Vec3::new(-0.15, -0.15, 1.0).normalize();
+    // The flare as built (its lens and iris), to derive the peak from the
+    // CPU twin's starburst texture.
+    let built = std::sync::Arc::new(std::sync::Mutex::new(None));
     let render = |on: bool| {
+        let log = built.clone();
         Headless::new(SIZE, SIZE)
             .hdr(true)
             .frames(12)
-            .render(scene_with(travel, true, move |f| {
-                f.aperture.blades = 6;
-                f.aperture.roundness = 0.0;
-                f.aperture.rotation_deg = 0.0;
-                f.starburst = on.then(|| StarburstSettings {
-                    specks: 0,
-                    scratches: 0,
-                    ..default()
+            .render(move |app: &mut App| {
+                scene_with(travel, true, move |f| {
+                    f.aperture.blades = 6;
+                    f.aperture.roundness = 0.0;
+                    f.aperture.rotation_deg = 0.0;
+                    f.starburst = on.then(|| StarburstSettings {
+                        specks: 0,
+                        scratches: 0,
+                        ..default()
+                    });
+                })(app);
+                app.add_systems(Last, move |flares: Query<(&LensFlare, &FlareGhosts, &Projection)>| {
+                    if let Ok((flare, ghosts, projection)) = flares.single()
+                        && on
+                    {
+                        *log.lock().expect("log") = Some((flare.clone(), ghosts.clone(), projection.clone()));
+                    }
                 });
-            }))
+            })
             .expect("render")
     };
     let with = render(true);
@@ -171,7 +186,52 @@ fn the_starburst_sits_on_the_light_with_a_spike_per_blade_edge() {
         .map(|k| (k % SIZE, k / SIZE, burst(k % SIZE, k / SIZE)))
         .fold((0, 0, 0f32), |m, p| if p.2 > m.2 { p } else { m });
     eprintln!("starburst peak {peak} at ({bx}, {by}), sun drawn at ({sx:.1}, {sy:.1})");
-    assert!(peak > 1.0 && peak < 3.0 * 4096.0, "{peak}");
+    // The peak the CPU twin predicts: the sun's exposed irradiance times
+    // the texel-to-pixel scale times the starburst texture (summed over R,
+    // G, B as `burst` is) where the brightest pixel samples it.
+    let (flare, ghosts, projection) = built.lock().expect("log").clone().expect("the flare was built");
+    let (Some(lens), Some(aperture), Projection::Perspective(perspective)) =
+        (ghosts.lens.as_ref(), ghosts.aperture.as_ref(), &projection)
+    else {
+        panic!("no lens, iris or perspective");
+    };
+    let paraxial = lens.paraxial(optica_optics::glass::LAMBDA_D_NM).expect("paraxial");
+    let mapping = optica_lens_flare::twins::SensorMapping::new(paraxial.efl_mm, f64::from(perspective.fov), 1.0)
+        .expect("mapping");
+    let scale = optica_lens_flare::twins::starburst_scale(&flare, &ghosts, &paraxial, &mapping);
+    let texture = optica_lens_flare::twins::starburst_image(&flare, aperture)
+        .expect("the twin's starburst")
+        .expect("starburst on");
+    let side = texture.width() as usize;
+    let texels: Vec<f32> = texture
+        .data
+        .as_ref()
+        .expect("texels")
+        .chunks(16)
+        .map(|t| (0..3).map(|c| f32::from_le_bytes(t[4 * c..4 * c + 4].try_into().unwrap())).sum::<f32>())
+        .collect();
+    // The texture's point under the brightest pixel's centre, as the
+    // shader finds it: the pattern's quad (2·size NDC high) centred on the
+    // sun's image, its texel centres at half-integers, read bilinearly.
+    let half_ndc = 2.0 * flare.starburst.expect("on").size;
+    let pixel_ndc = Vec2::new(
+        (bx as f32 + 0.5) / SIZE as f32 * 2.0 - 1.0,
+        1.0 - (by as f32 + 0.5) / SIZE as f32 * 2.0,
+    );
+    let quad = (pixel_ndc - ndc) / half_ndc;
+    let at = (quad * Vec2::new(1.0, -1.0) * 0.5 + 0.5) * side as f32 - 0.5;
+    let (i, f) = (at.floor(), at - at.floor());
+    let texel = |x: f32, y: f32| texels[y as usize * side + x as usize];
+    let sampled = texel(i.x, i.y) * (1.0 - f.x) * (1.0 - f.y)
+        + texel(i.x + 1.0, i.y) * f.x * (1.0 - f.y)
+        + texel(i.x, i.y + 1.0) * (1.0 - f.x) * f.y
+        + texel(i.x + 1.0, i.y + 1.0) * f.x * f.y;
+    let expected = 100_000.0 * bevy::camera::Exposure::default().exposure() * scale * sampled;
+    eprintln!("starburst peak {peak}; the twin's texture there gives {expected}");
+    assert!(
+        (peak - expected).abs() <= 0.01 * expected,
+        "{peak} against the twin's {expected}"
+    );
     assert!(
         (bx as f32 - sx).abs() < 2.0 && (by as f32 - sy).abs() < 2.0,
         "peak at ({bx}, {by})"

@@ -105,7 +105,7 @@ pub fn compound_eye_ui(ui: &mut egui::Ui, eye: &mut CompoundEye) -> bool {
         .num_columns(2)
         .show(ui, |ui| {
             ui.label("facets per UV unit (R_t)");
-            ui.add(egui::Slider::new(&mut eye.facets_per_uv, 1.0..=400.0).logarithmic(true));
+            ui.add(slider(&mut eye.facets_per_uv, 1.0..=400.0).logarithmic(true));
             ui.end_row();
             ui.label("lattice");
             ui.horizontal(|ui| {
@@ -114,13 +114,13 @@ pub fn compound_eye_ui(ui: &mut egui::Ui, eye: &mut CompoundEye) -> bool {
             });
             ui.end_row();
             ui.label("lens radius (of the cell)");
-            ui.add(egui::Slider::new(&mut eye.lens_radius, 0.05..=1.0));
+            ui.add(slider(&mut eye.lens_radius, 0.05..=1.0));
             ui.end_row();
             ui.label("lens index");
-            ui.add(egui::Slider::new(&mut eye.lens_index, 0.5..=2.5));
+            ui.add(slider(&mut eye.lens_index, 0.5..=2.5));
             ui.end_row();
             ui.label("pigment depth (lens radii)");
-            ui.add(egui::Slider::new(&mut eye.pigment_depth, 2.0..=6.0));
+            ui.add(slider(&mut eye.pigment_depth, 2.0..=6.0));
             ui.end_row();
             ui.label("lattice axes");
             ui.checkbox(&mut eye.tangent_axes, "along the mesh's tangents");
@@ -129,7 +129,7 @@ pub fn compound_eye_ui(ui: &mut egui::Ui, eye: &mut CompoundEye) -> bool {
             ui.checkbox(&mut eye.exact, "exact (walk the lattice)");
             ui.end_row();
             ui.label("slice planes K");
-            ui.add_enabled(!eye.exact, egui::Slider::new(&mut eye.slices, 0..=64));
+            ui.add_enabled(!eye.exact, slider(&mut eye.slices, 0..=64));
             ui.end_row();
             ui.label("neighbouring lenses");
             ui.checkbox(&mut eye.follow_neighbours, "follow the ray on");
@@ -141,13 +141,13 @@ pub fn compound_eye_ui(ui: &mut egui::Ui, eye: &mut CompoundEye) -> bool {
             ui.checkbox(&mut eye.prefilter, "average sub-pixel facets");
             ui.end_row();
             ui.label("pigment radius (facets)");
-            ui.add(egui::Slider::new(&mut eye.pigment.radius, 0.0..=0.6));
+            ui.add(slider(&mut eye.pigment.radius, 0.0..=0.6));
             ui.end_row();
             ui.label("pigment edge (facets)");
-            ui.add(egui::Slider::new(&mut eye.pigment.softness, 0.0..=0.3));
+            ui.add(slider(&mut eye.pigment.softness, 0.0..=0.3));
             ui.end_row();
             ui.label("pigment darkness");
-            ui.add(egui::Slider::new(&mut eye.pigment.darkness, 0.0..=1.0));
+            ui.add(slider(&mut eye.pigment.darkness, 0.0..=1.0));
             ui.end_row();
             ui.label("pigment texture scale");
             ui.horizontal(|ui| {
@@ -175,4 +175,14 @@ pub fn compound_eye_ui(ui: &mut egui::Ui, eye: &mut CompoundEye) -> bool {
         );
     }
     *eye != before
+}
+
+/// An egui slider that clamps what the user enters to its range but shows
+/// a value outside it as it is (egui's default clamps it on sight, which
+/// would rewrite a setting just by opening the panel).
+fn slider<'a, N: egui::emath::Numeric>(
+    value: &'a mut N,
+    range: std::ops::RangeInclusive<N>,
+) -> egui::Slider<'a> {
+    egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
 }

@@ -67,7 +67,7 @@ pub fn dome_ui(
         (true, DomeMode::CubeMap { face_px }) => {
             let mut face_px = face_px;
             ui.add(
-                egui::Slider::new(&mut face_px, 64..=4096)
+                slider(&mut face_px, 64..=4096)
                     .logarithmic(true)
                     .text("face size (px)"),
             );
@@ -96,11 +96,11 @@ pub fn dome_ui(
     }
     // The panorama sees the whole sphere: no field of view to set.
     if edit.lens != DomeLens::Equirectangular {
-        ui.add(egui::Slider::new(&mut edit.fov_deg, 60.0..=350.0).text("field of view (°)"));
+        ui.add(slider(&mut edit.fov_deg, 60.0..=350.0).text("field of view (°)"));
     }
-    ui.add(egui::Slider::new(&mut edit.tilt_deg, -30.0..=90.0).text("tilt (°)"));
+    ui.add(slider(&mut edit.tilt_deg, -30.0..=90.0).text("tilt (°)"));
     ui.add(
-        egui::Slider::new(&mut edit.tolerance_px, 0.1..=40.0)
+        slider(&mut edit.tolerance_px, 0.1..=40.0)
             .logarithmic(true)
             .text("tolerance (px)"),
     );
@@ -116,4 +116,14 @@ pub fn dome_ui(
     if let Some(e) = status.and_then(|s| s.error.as_ref()).filter(|e| matches!(e, crate::Error::ShaderPatch(_))) {
         ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
     }
+}
+
+/// An egui slider that clamps what the user enters to its range but shows
+/// a value outside it as it is (egui's default clamps it on sight, which
+/// would rewrite a setting just by opening the panel).
+fn slider<'a, N: egui::emath::Numeric>(
+    value: &'a mut N,
+    range: std::ops::RangeInclusive<N>,
+) -> egui::Slider<'a> {
+    egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
 }

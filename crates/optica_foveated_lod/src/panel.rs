@@ -50,7 +50,7 @@ pub fn foveation_ui(ui: &mut egui::Ui, f: &mut Foveation) -> bool {
     let mut changed = ui.checkbox(&mut f.enabled, "foveation on").changed();
     let deg =
         |ui: &mut egui::Ui, v: &mut f32, range: std::ops::RangeInclusive<f32>, label: &str| {
-            ui.add(egui::Slider::new(v, range).suffix("°").text(label))
+            ui.add(slider(v, range).suffix("°").text(label))
                 .changed()
         };
     changed |= deg(ui, &mut f.central_deg, 1.0..=90.0, "central field");
@@ -76,26 +76,26 @@ pub fn foveation_ui(ui: &mut egui::Ui, f: &mut Foveation) -> bool {
             .changed();
     });
     changed |= ui
-        .add(egui::Slider::new(&mut f.steps, 1..=32).text("level steps"))
+        .add(slider(&mut f.steps, 1..=32).text("level steps"))
         .changed();
     let max_band = (1.0 / f.steps as f32) * 0.99;
     f.dead_band = f.dead_band.min(max_band);
     changed |= ui
-        .add(egui::Slider::new(&mut f.dead_band, 0.0..=max_band).text("dead band"))
+        .add(slider(&mut f.dead_band, 0.0..=max_band).text("dead band"))
         .changed();
     changed |= ui
         .add(
-            egui::Slider::new(&mut f.min_dwell_s, 0.0..=2.0)
+            slider(&mut f.min_dwell_s, 0.0..=2.0)
                 .suffix(" s")
                 .text("dwell"),
         )
         .changed();
     changed |= ui
-        .add(egui::Slider::new(&mut f.min_saving, 0.0..=1.0).text("foveate when saving ≥"))
+        .add(slider(&mut f.min_saving, 0.0..=1.0).text("foveate when saving ≥"))
         .changed();
     changed |= ui
         .add(
-            egui::Slider::new(&mut f.hold_timeout_s, 0.0..=2.0)
+            slider(&mut f.hold_timeout_s, 0.0..=2.0)
                 .suffix(" s")
                 .text("dropout hold"),
         )
@@ -129,12 +129,12 @@ fn panel_window(
             ui.separator();
             ui.label("simulated gaze (arrow keys)");
             ui.add(
-                egui::Slider::new(&mut sim.gaze_yaw_deg, -90.0..=90.0)
+                slider(&mut sim.gaze_yaw_deg, -90.0..=90.0)
                     .suffix("°")
                     .text("yaw"),
             );
             ui.add(
-                egui::Slider::new(&mut sim.gaze_pitch_deg, -80.0..=80.0)
+                slider(&mut sim.gaze_pitch_deg, -80.0..=80.0)
                     .suffix("°")
                     .text("pitch"),
             );
@@ -168,8 +168,8 @@ fn panel_window(
             ));
             ui.horizontal(|ui| {
                 ui.checkbox(&mut tracer.foveate, "foveate");
-                ui.add(egui::Slider::new(&mut tracer.periphery_scale, 1..=8).text("periphery scale"));
-                ui.add(egui::Slider::new(&mut tracer.reflect_max, 0..=MAX_REFLECT).text("Reflect_max"));
+                ui.add(slider(&mut tracer.periphery_scale, 1..=8).text("periphery scale"));
+                ui.add(slider(&mut tracer.reflect_max, 0..=MAX_REFLECT).text("Reflect_max"));
             });
         }
         field_diagram(ui, &foveation, &gaze, &objects);
@@ -274,4 +274,14 @@ fn field_diagram(
             colour,
         );
     }
+}
+
+/// An egui slider that clamps what the user enters to its range but shows
+/// a value outside it as it is (egui's default clamps it on sight, which
+/// would rewrite a setting just by opening the panel).
+fn slider<'a, N: egui::emath::Numeric>(
+    value: &'a mut N,
+    range: std::ops::RangeInclusive<N>,
+) -> egui::Slider<'a> {
+    egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
 }

@@ -83,7 +83,7 @@ pub fn lens_flare_ui(
             }
         });
     ui.add(
-        egui::Slider::new(&mut edit.grid, 4..=128)
+        slider(&mut edit.grid, 4..=128)
             .logarithmic(true)
             .text("rays per side"),
     );
@@ -103,9 +103,9 @@ pub fn lens_flare_ui(
         }
         ui.label("resolution");
     });
-    ui.add(egui::Slider::new(&mut edit.wavelengths, 1..=8).text("wavelengths"));
+    ui.add(slider(&mut edit.wavelengths, 1..=8).text("wavelengths"));
     ui.add(
-        egui::Slider::new(&mut edit.merge_wavelengths_px, 0.0..=4.0)
+        slider(&mut edit.merge_wavelengths_px, 0.0..=4.0)
             .text("merge wavelengths below (px)"),
     );
     let mut coarse = edit.coarse_ghost_px.is_some();
@@ -113,21 +113,21 @@ pub fn lens_flare_ui(
     if coarse {
         let mut px = edit.coarse_ghost_px.unwrap_or(DEFAULT_COARSE_GHOST_PX);
         ui.add(
-            egui::Slider::new(&mut px, 0.0..=256.0)
+            slider(&mut px, 0.0..=256.0)
                 .text("when wider than (px of the ghosts' target)"),
         );
         edit.coarse_ghost_px = Some(px);
     } else {
         edit.coarse_ghost_px = None;
     }
-    ui.add(egui::Slider::new(&mut edit.aperture.blades, 0..=12).text("blades (0: round)"));
-    ui.add(egui::Slider::new(&mut edit.aperture.roundness, 0.0..=1.0).text("blade roundness"));
+    ui.add(slider(&mut edit.aperture.blades, 0..=12).text("blades (0: round)"));
+    ui.add(slider(&mut edit.aperture.roundness, 0.0..=1.0).text("blade roundness"));
     let mut stopped = edit.aperture.f_number.is_some();
     ui.checkbox(&mut stopped, "stopped down");
     if stopped {
         let mut f = edit.aperture.f_number.unwrap_or(8.0);
         ui.add(
-            egui::Slider::new(&mut f, 1.0..=32.0)
+            slider(&mut f, 1.0..=32.0)
                 .logarithmic(true)
                 .text("f-number"),
         );
@@ -139,12 +139,12 @@ pub fn lens_flare_ui(
     ui.checkbox(&mut coated, "MgF₂ coating on every air surface");
     edit.coating = coated.then(|| edit.coating.unwrap_or_default());
     ui.add(
-        egui::Slider::new(&mut edit.ghost_budget, 1..=528)
+        slider(&mut edit.ghost_budget, 1..=528)
             .logarithmic(true)
             .text("ghost budget"),
     );
     ui.add(
-        egui::Slider::new(&mut edit.intensity, 0.1..=1000.0)
+        slider(&mut edit.intensity, 0.1..=1000.0)
             .logarithmic(true)
             .text("intensity"),
     );
@@ -155,21 +155,21 @@ pub fn lens_flare_ui(
     ui.checkbox(&mut burst, "starburst");
     edit.starburst = burst.then(|| edit.starburst.unwrap_or_default());
     if let Some(b) = edit.starburst.as_mut() {
-        ui.add(egui::Slider::new(&mut b.size, 0.02..=1.0).text("starburst size"));
+        ui.add(slider(&mut b.size, 0.02..=1.0).text("starburst size"));
         ui.add(
-            egui::Slider::new(&mut b.intensity, 1e-5..=0.1)
+            slider(&mut b.intensity, 1e-5..=0.1)
                 .logarithmic(true)
                 .text("starburst share"),
         );
-        ui.add(egui::Slider::new(&mut b.specks, 0..=400).text("dust specks"));
-        ui.add(egui::Slider::new(&mut b.scratches, 0..=40).text("scratches"));
+        ui.add(slider(&mut b.specks, 0..=400).text("dust specks"));
+        ui.add(slider(&mut b.scratches, 0..=40).text("scratches"));
     }
     let mut ringing = edit.ringing.is_some();
     ui.checkbox(&mut ringing, "ringing");
     edit.ringing = ringing.then(|| edit.ringing.unwrap_or_default());
     if let Some(r) = edit.ringing.as_mut() {
         ui.add(
-            egui::Slider::new(&mut r.fresnel_number, 1.0..=1000.0)
+            slider(&mut r.fresnel_number, 1.0..=1000.0)
                 .logarithmic(true)
                 .text("Fresnel number"),
         );
@@ -206,4 +206,14 @@ fn gpu_share(ui: &mut egui::Ui, diagnostics: &DiagnosticsStore) {
         )),
         _ => ui.label("flare time: no GPU timestamps on this adapter"),
     };
+}
+
+/// An egui slider that clamps what the user enters to its range but shows
+/// a value outside it as it is (egui's default clamps it on sight, which
+/// would rewrite a setting just by opening the panel).
+fn slider<'a, N: egui::emath::Numeric>(
+    value: &'a mut N,
+    range: std::ops::RangeInclusive<N>,
+) -> egui::Slider<'a> {
+    egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
 }

@@ -114,20 +114,20 @@ pub fn mirror_ui(ui: &mut egui::Ui, mirror: &mut CurvedMirror, state: Option<&Mi
             });
             ui.end_row();
             ui.label("radius (m, + convex)");
-            ui.add(egui::Slider::new(&mut mirror.radius_m, -5.0..=5.0));
+            ui.add(slider(&mut mirror.radius_m, -5.0..=5.0));
             ui.end_row();
             ui.label("grid cells across");
             let mut across = mirror.tessellation.x;
-            ui.add(egui::Slider::new(&mut across, 2..=128));
+            ui.add(slider(&mut across, 2..=128));
             if across != mirror.tessellation.x {
                 mirror.tessellation = UVec2::new(across, (across * 2).div_ceil(3).max(2));
             }
             ui.end_row();
             ui.label("image / face (px)");
-            ui.add(egui::Slider::new(&mut mirror.resolution, 64..=2048));
+            ui.add(slider(&mut mirror.resolution, 64..=2048));
             ui.end_row();
             ui.label("reflectance");
-            ui.add(egui::Slider::new(&mut mirror.reflectance, 0.0..=1.0));
+            ui.add(slider(&mut mirror.reflectance, 0.0..=1.0));
             ui.end_row();
         });
     if let Some(st) = state
@@ -195,25 +195,25 @@ fn eye_grid(ui: &mut egui::Ui, eye: &mut Eye) {
         .num_columns(2)
         .show(ui, |ui| {
             ui.label("refractive error (D)");
-            ui.add(egui::Slider::new(&mut eye.refractive_error_d, -20.0..=20.0).step_by(0.25));
+            ui.add(slider(&mut eye.refractive_error_d, -20.0..=20.0).step_by(0.25));
             ui.end_row();
             ui.label("astigmatism (D) / axis (°)");
             ui.horizontal(|ui| {
                 let a = &mut eye.astigmatism;
-                ui.add(egui::Slider::new(&mut a.cylinder_d, -6.0..=6.0).step_by(0.25));
-                ui.add(egui::Slider::new(&mut a.axis_deg, 0.0..=180.0).step_by(5.0));
+                ui.add(slider(&mut a.cylinder_d, -6.0..=6.0).step_by(0.25));
+                ui.add(slider(&mut a.axis_deg, 0.0..=180.0).step_by(5.0));
             });
             ui.end_row();
             ui.label("accommodation");
             ui.horizontal(|ui| match &mut eye.accommodation {
                 Accommodation::Dioptres(d) => {
-                    ui.add(egui::Slider::new(d, 0.0..=15.0).suffix(" D"));
+                    ui.add(slider(d, 0.0..=15.0).suffix(" D"));
                     if ui.button("by age").clicked() {
                         eye.accommodation = Accommodation::Age { years: 40.0 };
                     }
                 }
                 Accommodation::Age { years } => {
-                    ui.add(egui::Slider::new(years, 5.0..=80.0).suffix(" years"));
+                    ui.add(slider(years, 5.0..=80.0).suffix(" years"));
                     if ui.button("in D").clicked() {
                         eye.accommodation =
                             Accommodation::Dioptres(eye.amplitude_d().unwrap_or(0.0) as f32);
@@ -224,7 +224,7 @@ fn eye_grid(ui: &mut egui::Ui, eye: &mut Eye) {
             ui.label("pupil");
             ui.horizontal(|ui| match &mut eye.pupil {
                 Pupil::Diameter { mm } => {
-                    ui.add(egui::Slider::new(mm, 0.0..=12.0).suffix(" mm"));
+                    ui.add(slider(mm, 0.0..=12.0).suffix(" mm"));
                     if ui.button("by light").clicked() {
                         eye.pupil = Pupil::Light {
                             luminance_cd_m2: 100.0,
@@ -237,11 +237,11 @@ fn eye_grid(ui: &mut egui::Ui, eye: &mut Eye) {
                     age_years,
                 } => {
                     ui.add(
-                        egui::Slider::new(luminance_cd_m2, 0.01..=10_000.0)
+                        slider(luminance_cd_m2, 0.01..=10_000.0)
                             .logarithmic(true)
                             .suffix(" cd/m²"),
                     );
-                    ui.add(egui::Slider::new(age_years, 20.0..=83.0).suffix(" years"));
+                    ui.add(slider(age_years, 20.0..=83.0).suffix(" years"));
                     if ui.button("in mm").clicked() {
                         eye.pupil = Pupil::Diameter {
                             mm: eye.pupil_mm().unwrap_or(4.0) as f32,
@@ -259,18 +259,18 @@ fn lens_grid(ui: &mut egui::Ui, s: &mut Spectacles) {
         .num_columns(2)
         .show(ui, |ui| {
             ui.label("sphere (D)");
-            ui.add(egui::Slider::new(&mut s.sphere_d, -20.0..=20.0).step_by(0.25));
+            ui.add(slider(&mut s.sphere_d, -20.0..=20.0).step_by(0.25));
             ui.end_row();
             ui.label("cylinder (D) / axis (°)");
             ui.horizontal(|ui| {
-                ui.add(egui::Slider::new(&mut s.cylinder_d, -6.0..=6.0).step_by(0.25));
-                ui.add(egui::Slider::new(&mut s.axis_deg, 0.0..=180.0).step_by(5.0));
+                ui.add(slider(&mut s.cylinder_d, -6.0..=6.0).step_by(0.25));
+                ui.add(slider(&mut s.axis_deg, 0.0..=180.0).step_by(5.0));
             });
             ui.end_row();
             ui.label("addition (D) / corridor (mm)");
             ui.horizontal(|ui| {
-                ui.add(egui::Slider::new(&mut s.addition_d, 0.0..=3.5).step_by(0.25));
-                ui.add(egui::Slider::new(&mut s.corridor_mm, 9.0..=20.0));
+                ui.add(slider(&mut s.addition_d, 0.0..=3.5).step_by(0.25));
+                ui.add(slider(&mut s.corridor_mm, 9.0..=20.0));
             });
             ui.end_row();
             ui.label("material");
@@ -283,18 +283,18 @@ fn lens_grid(ui: &mut egui::Ui, s: &mut Spectacles) {
                 });
             ui.end_row();
             ui.label("vertex distance (mm)");
-            ui.add(egui::Slider::new(&mut s.vertex_distance_mm, 0.0..=25.0));
+            ui.add(slider(&mut s.vertex_distance_mm, 0.0..=25.0));
             ui.end_row();
             ui.label("blank diameter (mm)");
-            ui.add(egui::Slider::new(&mut s.blank_diameter_mm, 20.0..=80.0));
+            ui.add(slider(&mut s.blank_diameter_mm, 20.0..=80.0));
             ui.end_row();
             ui.label("centre thickness (mm)");
-            ui.add(egui::Slider::new(&mut s.min_centre_thickness_mm, 0.5..=6.0));
+            ui.add(slider(&mut s.min_centre_thickness_mm, 0.5..=6.0));
             ui.end_row();
             ui.label("decentration (mm)");
             ui.horizontal(|ui| {
-                ui.add(egui::Slider::new(&mut s.decentration_mm.x, -10.0..=10.0));
-                ui.add(egui::Slider::new(&mut s.decentration_mm.y, -10.0..=10.0));
+                ui.add(slider(&mut s.decentration_mm.x, -10.0..=10.0));
+                ui.add(slider(&mut s.decentration_mm.y, -10.0..=10.0));
             });
             ui.end_row();
             ui.label("refraction");
@@ -313,7 +313,7 @@ fn clones_grid(ui: &mut egui::Ui, defocus: &mut CloneDefocus) {
         .num_columns(2)
         .show(ui, |ui| {
             ui.label("clones S");
-            ui.add(egui::Slider::new(&mut defocus.clones, 1..=64));
+            ui.add(slider(&mut defocus.clones, 1..=64));
             ui.end_row();
             ui.label("shading");
             ui.horizontal(|ui| {
@@ -381,4 +381,14 @@ fn status_lines(ui: &mut egui::Ui, st: &SpectaclesStatus) {
     if let Some(e) = &st.error {
         ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
     }
+}
+
+/// An egui slider that clamps what the user enters to its range but shows
+/// a value outside it as it is (egui's default clamps it on sight, which
+/// would rewrite a setting just by opening the panel).
+fn slider<'a, N: egui::emath::Numeric>(
+    value: &'a mut N,
+    range: std::ops::RangeInclusive<N>,
+) -> egui::Slider<'a> {
+    egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
 }

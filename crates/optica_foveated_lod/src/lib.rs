@@ -241,6 +241,7 @@ use bevy::prelude::*;
 use bevy::transform::TransformSystems;
 
 mod cave;
+mod error;
 pub mod dtrack;
 mod head;
 mod lod;
@@ -252,6 +253,7 @@ mod settings;
 mod trace;
 
 pub use cave::CaveViewStatus;
+pub use error::Error;
 pub use head::{Eye, GazeState, HeadReplay, HeadSource, SimulatedGaze, TrackedHead};
 pub use lod::{FoveationGate, FoveationWork, GazeLodState, LodChain, LodError};
 #[cfg(feature = "egui")]

@@ -16,6 +16,8 @@
 //!     .run();
 //! ```
 
+use std::ops::RangeInclusive;
+
 use bevy::diagnostic::{DiagnosticPath, DiagnosticsStore};
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
@@ -208,12 +210,9 @@ fn gpu_share(ui: &mut egui::Ui, diagnostics: &DiagnosticsStore) {
     };
 }
 
-/// An egui slider that clamps what the user enters to its range but shows
-/// a value outside it as it is (egui's default clamps it on sight, which
-/// would rewrite a setting just by opening the panel).
-fn slider<'a, N: egui::emath::Numeric>(
-    value: &'a mut N,
-    range: std::ops::RangeInclusive<N>,
-) -> egui::Slider<'a> {
-    egui::Slider::new(value, range).clamping(egui::SliderClamping::Edits)
+/// A slider that clamps what the user enters, not what it shows: egui's
+/// default clamps on sight, rewriting a setting by opening the panel. (Each
+/// panel has its own copy: the plugin crates share no Bevy-side crate.)
+fn slider<'a, N: egui::emath::Numeric>(v: &'a mut N, r: RangeInclusive<N>) -> egui::Slider<'a> {
+    egui::Slider::new(v, r).clamping(egui::SliderClamping::Edits)
 }

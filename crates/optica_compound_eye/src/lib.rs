@@ -225,7 +225,11 @@ impl Plugin for CompoundEyePlugin {
                 PostUpdate,
                 (
                     warn_about_invalid_settings,
-                    (prefilter::build_prefilter_tables, update_status).chain(),
+                    (
+                        prefilter::build_prefilter_tables,
+                        update_status.run_if(any_with_component::<CompoundEyeStatus>),
+                    )
+                        .chain(),
                 ),
             );
     }

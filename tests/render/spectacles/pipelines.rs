@@ -267,3 +267,41 @@ fn helpers_are_relationships_that_users_can_filter_out() {
     assert!(ordered, "twins out of clone order, or no clone camera");
 }
 
+
+/// Turning the blur off takes the resolve off the view: after a few
+/// frames with clones, a view whose `CloneDefocus` is switched off draws
+/// the same image as one that never had it on.
+#[test]
+fn switching_the_blur_off_leaves_the_sharp_view() {
+    let render = |switch_off: bool| {
+        Headless::new(64, 64)
+            .hdr(true)
+            .frames(8)
+            .render(move |app: &mut App| {
+                let defocus = CloneDefocus {
+                    clones: 4,
+                    enabled: switch_off,
+                    ..default()
+                };
+                scene(targets(), Some((Eye { refractive_error_d: -3.0, ..default() }, defocus)), None, 0.8)(app);
+                app.add_systems(Update, move |mut frame: Local<u32>, mut eyes: Query<&mut CloneDefocus>| {
+                    *frame += 1;
+                    if *frame == 4 {
+                        for mut d in &mut eyes {
+                            d.enabled = false;
+                        }
+                    }
+                });
+            })
+            .expect("render")
+    };
+    let (switched, sharp) = (render(true), render(false));
+    let (a, b) = (switched.hdr().expect("HDR"), sharp.hdr().expect("HDR"));
+    let worst = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(x, y)| (x - y).abs())
+        .fold(0f32, f32::max);
+    assert!(worst < 1e-3, "the switched-off view differs from the sharp one by {worst}");
+}

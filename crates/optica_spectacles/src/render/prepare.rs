@@ -118,7 +118,7 @@ pub(super) struct MirrorMarch {
 /// Every view's buffers.
 pub(super) fn prepare_spectacles_resources(
     mut commands: Commands,
-    resolves: Query<(Entity, &CloneResolve)>,
+    mut resolves: Query<(Entity, &CloneResolve, Option<&mut ResolveBuffers>)>,
     mut lenses: Query<(
         Entity,
         &ExtractedView,
@@ -134,19 +134,31 @@ pub(super) fn prepare_spectacles_resources(
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
 ) {
-    for (entity, resolve) in &resolves {
-        let mut params = UniformBuffer::from(ResolveParams {
+    for (entity, resolve, buffers) in &mut resolves {
+        let params = ResolveParams {
             clones: resolve.clones,
             tile_cols: resolve.tiles.x,
             tile_rows: resolve.tiles.y,
             depth_tolerance: REPROJECTION_DEPTH_TOLERANCE,
             background: resolve.background,
-        });
-        params.write_buffer(&device, &queue);
-        commands.entity(entity).insert(ResolveBuffers {
-            atlas: resolve.atlas,
-            params,
-        });
+        };
+        // The view's uniform is kept: rewritten in place each frame, not
+        // made anew.
+        match buffers {
+            Some(mut b) => {
+                b.atlas = resolve.atlas;
+                b.params.set(params);
+                b.params.write_buffer(&device, &queue);
+            }
+            None => {
+                let mut uniform = UniformBuffer::from(params);
+                uniform.write_buffer(&device, &queue);
+                commands.entity(entity).insert(ResolveBuffers {
+                    atlas: resolve.atlas,
+                    params: uniform,
+                });
+            }
+        }
     }
     for (entity, view, lens, buffers) in &mut lenses {
         if lens.vertices.is_empty() || lens.indices.is_empty() {

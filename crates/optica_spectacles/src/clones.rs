@@ -29,7 +29,10 @@ use bevy::render::storage::ShaderBuffer;
 use bevy::render::view::Msaa;
 use bevy::mesh::MeshVertexBufferLayoutRef;
 use bevy::pbr::{MaterialExtensionKey, MaterialExtensionPipeline};
-use bevy::shader::ShaderRef;
+use bevy::shader::{ShaderRef, load_shader_library};
+
+/// Where `embedded_asset!` puts the clone material's shader.
+const CLONE_SHADER: &str = "embedded://optica_spectacles/shaders/clone.wgsl";
 use bevy::camera::primitives::Frustum;
 use bevy::render::extract_component::ExtractComponent;
 
@@ -83,11 +86,11 @@ impl From<&CloneExtension> for CloneKey {
 
 impl MaterialExtension for CloneExtension {
     fn vertex_shader() -> ShaderRef {
-        crate::CLONE_SHADER.into()
+        CLONE_SHADER.into()
     }
 
     fn fragment_shader() -> ShaderRef {
-        crate::CLONE_SHADER.into()
+        CLONE_SHADER.into()
     }
 
     // Clones are drawn by the clone camera alone, which has no prepass;
@@ -112,7 +115,7 @@ impl MaterialExtension for CloneExtension {
         descriptor.vertex.shader_defs.push(def.into());
         let clip = key.bind_group_data.clip_distances;
         if clip {
-            descriptor.vertex.shader_defs.push("CLIP_DISTANCES".into());
+            descriptor.vertex.shader = crate::CLONE_CLIP_SHADER;
         }
         if let Some(fragment) = descriptor.fragment.as_mut() {
             fragment.shader_defs.push(def.into());
@@ -685,8 +688,12 @@ pub(crate) struct DefocusPlugin;
 
 impl Plugin for DefocusPlugin {
     fn build(&self, app: &mut App) {
-        crate::insert_clone_shader(app, false);
-        // The resolve pass's shader (the pass is in `render`).
+        // The clone material's libraries and shader (the clip-distance
+        // vertex stage is added once the device is known), and the resolve
+        // pass's shader (the pass is in `render`).
+        load_shader_library!(app, "shaders/field_lookup.wgsl");
+        load_shader_library!(app, "shaders/clone_vertex.wgsl");
+        bevy::asset::embedded_asset!(app, "shaders/clone.wgsl");
         bevy::asset::embedded_asset!(app, "shaders/resolve.wgsl");
         app.add_plugins(MaterialPlugin::<CloneMaterial>::default())
             .init_resource::<CloneMaterials>()

@@ -357,8 +357,9 @@ pub mod twins {
     pub const DISPLACEMENT_WGSL: &str = include_str!("shaders/displacement.wgsl");
 
     /// `field_lookup.wgsl`: the voxel field's lookup, the twin of
-    /// `DisplacementField::displacement_along_sight`; it reads a storage
-    /// array `field` of `f32` that the including shader declares.
+    /// `DisplacementField::displacement_along_sight`, as a
+    /// `#define_import_path optica::spectacles::field` library that reads
+    /// the clone material's storage array `field` of `f32`.
     pub const FIELD_LOOKUP_WGSL: &str = include_str!("shaders/field_lookup.wgsl");
 }
 pub use settings::{
@@ -367,33 +368,13 @@ pub use settings::{
     Spectacles,
 };
 
-/// The clone material's shader: `clone.wgsl` with the field lookup pasted
-/// in (it reads the material's `field` binding, which an imported module
-/// cannot see) and, where the device has them, clip distances enabled (an
-/// `enable` directive must open the file, before any shader def can act).
-/// The other shaders are embedded assets.
-pub(crate) const CLONE_SHADER: Handle<Shader> =
+/// The clone material's vertex stage where the device has clip distances
+/// (`clone_clip.wgsl`, whose `enable` directive must open the file). A
+/// handle rather than an embedded path because the material's `specialize`,
+/// which picks it, has no asset server to load a path with; the other
+/// shaders are embedded assets.
+pub(crate) const CLONE_CLIP_SHADER: Handle<Shader> =
     uuid_handle!("0d6f1c2a-94b7-4f3e-8a51-6c2e9b7d3f10");
-
-
-/// Puts the clone material's shader in the assets: `clone.wgsl` with the
-/// field lookup pasted in and, where the device clips by distances the
-/// vertex shader writes, the `enable` directive that allows them (it must
-/// open the file, so it cannot sit under a shader def).
-fn insert_clone_shader(app: &mut App, clip_distances: bool) {
-    if let Some(mut shaders) = app.world_mut().get_resource_mut::<Assets<Shader>>() {
-        let clone = include_str!("shaders/clone.wgsl")
-            .replace("//FIELD_LOOKUP", twins::FIELD_LOOKUP_WGSL)
-            .replace(
-                "//ENABLE_CLIP_DISTANCES",
-                if clip_distances { "enable clip_distances;" } else { "" },
-            );
-        let _ = shaders.insert(
-            CLONE_SHADER.id(),
-            Shader::from_wgsl(clone, "optica_spectacles/shaders/clone.wgsl"),
-        );
-    }
-}
 
 /// What the render device offers the plugin, known once the app's plugins
 /// have finished (before the first update; absent, all `false`, without a
@@ -507,6 +488,13 @@ impl Plugin for SpectaclesPlugin {
             clip_distances: clip,
             reflection_probes: probes,
         });
-        insert_clone_shader(app, clip);
+        if clip && app.world().contains_resource::<Assets<Shader>>() {
+            bevy::asset::load_internal_asset!(
+                app,
+                CLONE_CLIP_SHADER,
+                "shaders/clone_clip.wgsl",
+                Shader::from_wgsl
+            );
+        }
     }
 }

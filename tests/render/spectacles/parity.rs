@@ -30,7 +30,14 @@ fn kernel() -> String {
         .filter(|l| !l.starts_with("#define_import_path"))
         .collect::<Vec<_>>()
         .join("\n");
-    let lookup = FIELD_LOOKUP_WGSL.replace("field[", "input[field_at + ");
+    // The lookup reads the material's `field` binding; here the same
+    // numbers sit in `input` after the points.
+    let lookup: String = FIELD_LOOKUP_WGSL
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("@group"))
+        .collect::<Vec<_>>()
+        .join("\n")
+        .replace("field[", "input[field_at + ");
     format!(
         "{library}
 @group(0) @binding(0) var<storage, read> input: array<f32>;

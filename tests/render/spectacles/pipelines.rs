@@ -305,3 +305,47 @@ fn switching_the_blur_off_leaves_the_sharp_view() {
         .fold(0f32, f32::max);
     assert!(worst < 1e-3, "the switched-off view differs from the sharp one by {worst}");
 }
+
+/// The clones are cut at their tiles two ways: by clip distances
+/// (`clone_clip.wgsl`, where the device has them) or by a discard in the
+/// fragment shader. Lavapipe has clip distances; the same blurred view
+/// drawn both ways agrees to rounding, and differs from the sharp view.
+#[test]
+fn clip_distances_and_the_discard_cut_clones_alike() {
+    use optica_spectacles::SpectaclesDevice;
+    use std::sync::Mutex;
+    let render = |eye: bool, force_discard: bool| {
+        let device = Arc::new(Mutex::new(None));
+        let seen = device.clone();
+        let image = Headless::new(64, 64)
+            .hdr(true)
+            .frames(6)
+            .render(move |app: &mut App| {
+                let defocus = CloneDefocus {
+                    clones: 4,
+                    ..default()
+                };
+                let eye = eye.then(|| (Eye { refractive_error_d: -3.0, ..default() }, defocus));
+                scene(targets(), eye, None, 0.8)(app);
+                app.add_systems(Startup, move |mut device: ResMut<SpectaclesDevice>| {
+                    *seen.lock().unwrap() = Some(*device);
+                    if force_discard {
+                        device.clip_distances = false;
+                    }
+                });
+            })
+            .expect("render");
+        let device = device.lock().unwrap().expect("SpectaclesDevice after the plugins finish");
+        (image.hdr().expect("HDR").clone(), device)
+    };
+    let (clipped, device) = render(true, false);
+    assert!(device.clip_distances, "lavapipe should offer clip distances: {device:?}");
+    let (discarded, _) = render(true, true);
+    let (sharp, _) = render(false, false);
+    let diff = |a: &[f32], b: &[f32]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0f32, f32::max);
+    let both = diff(clipped.as_raw(), discarded.as_raw());
+    let blur = diff(clipped.as_raw(), sharp.as_raw());
+    eprintln!("clip vs discard {both}, blurred vs sharp {blur}");
+    assert!(both < 1e-3, "clip distances and the discard differ by {both}");
+    assert!(blur > 0.05, "the blurred view is the sharp one (differs by {blur})");
+}

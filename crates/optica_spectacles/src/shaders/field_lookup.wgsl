@@ -3,9 +3,15 @@
 // the voxel that holds `p` (the paper's lookup, one transform), or, for a
 // point beyond the box, the set where its sight line from `start` leaves
 // the box, scaled by distance; clone k of S moves by x·m_x + y·m_y for
-// pupil sample (x, y). Needs `field: array<f32>` (the voxel's map m_x,
-// m_y: 6 floats per voxel, x-fastest voxels) and `displacement.wgsl`
-// beside it.
+// pupil sample (x, y). Reads the clone material's `field`
+// binding (the voxel's map m_x, m_y: 6 floats per voxel, x-fastest
+// voxels).
+
+#define_import_path optica::spectacles::field
+
+#import optica::spectacles::{CloneParams, box_exit, pupil_sample}
+
+@group(#{MATERIAL_BIND_GROUP}) @binding(101) var<storage, read> field: array<f32>;
 
 // Clone k's vector of voxel `cell` (x, y, layer indices).
 fn field_vector(cell: vec3<f32>, k: u32, c: CloneParams) -> vec3<f32> {

@@ -63,7 +63,7 @@ pub fn starburst_image(
 
 /// The ringing image of `flare` through `aperture`, or `None` when it is
 /// off.
-pub(crate) fn ringing_image(
+pub fn ringing_image(
     flare: &LensFlare,
     aperture: &Aperture,
 ) -> Result<Option<Image>, Error> {

@@ -175,7 +175,7 @@ pub use settings::{
 /// constants they share: what the readback tests and the report hold the
 /// shaders to. An app using the plugin needs none of it.
 pub mod twins {
-    pub use crate::diffraction::{RINGING_NM, starburst_image};
+    pub use crate::diffraction::{RINGING_NM, ringing_image, starburst_image};
     pub use crate::draws::starburst_scale;
     pub use crate::fit::{
         CELL_PX, FIT_RAYS, FIT_STEP_DEG, MIN_SCREEN_GRID, SPECTRUM_BUDGET_MS, fit_steps,

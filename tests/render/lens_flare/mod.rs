@@ -2,6 +2,7 @@
 //! twin, lens assets and the choice of ghosts.
 
 mod aperture;
+mod bound;
 mod frame;
 mod ghosts;
 mod goldens;

@@ -3,8 +3,8 @@
 //! the Tessar stopped to f/32 and the 33-interface zoom with every
 //! unblocked ghost; an f-number faster than the lens and a malformed lens
 //! file are refused with a reason, and a lens file broken on reload leaves
-//! the last good lens in place. Each: no NaN or infinite pixel, bounded
-//! values, no panic.
+//! the last good lens in place. Each: no NaN or infinite pixel, no pixel
+//! brighter than the CPU twins' bound (`bound.rs`), no panic.
 
 use bevy::asset::AssetPlugin;
 use bevy::prelude::*;
@@ -16,16 +16,26 @@ use std::sync::{Arc, Mutex};
 
 const SIZE: u32 = 96;
 
+/// What a stiff case drew: its largest channel value, whether every
+/// pixel is finite, the flare's problem, the ghosts drawn, and the bound
+/// on any pixel the CPU twins give (`super::bound`; 0 without a lens).
+struct Case {
+    max: f32,
+    finite: bool,
+    problem: Option<Error>,
+    drawn: usize,
+    bound: f32,
+}
+
 /// Renders a sun travelling along `travel` through `lens` (a path under
-/// `root`) with `edit` applied; (largest channel value, all finite, the
-/// flare's problem, drawn ghosts).
+/// `root`) with `edit` applied.
 fn case(
     root: &'static str,
     lens: &'static str,
     travel: Vec3,
     edit: impl Fn(&mut LensFlare) + Send + Sync + 'static,
-) -> (f32, bool, Option<Error>, usize) {
-    let seen = Arc::new(Mutex::new((None, 0)));
+) -> Case {
+    let seen = Arc::new(Mutex::new(None));
     let log = seen.clone();
     let frame = headless_at(root, SIZE, 12)
         .render(move |app: &mut App| {
@@ -33,7 +43,7 @@ fn case(
             app.add_systems(
                 Startup,
                 move |mut commands: Commands, assets: Res<AssetServer>| {
-                    commands.spawn(super::sun(travel, 100_000.0));
+                    commands.spawn(super::sun(travel, LUX));
                     let mut flare = LensFlare {
                         grid: 16,
                         ..LensFlare::new(assets.load(lens))
@@ -42,9 +52,9 @@ fn case(
                     commands.spawn((super::black_hdr_camera(), flare));
                 },
             );
-            app.add_systems(Last, move |ghosts: Query<&FlareGhosts>| {
-                if let Ok(g) = ghosts.single() {
-                    *log.lock().expect("log") = (g.problem.clone(), g.drawn().count());
+            app.add_systems(Last, move |flares: Query<(&LensFlare, &FlareGhosts)>| {
+                if let Ok((f, g)) = flares.single() {
+                    *log.lock().expect("log") = Some((f.clone(), g.clone()));
                 }
             });
         })
@@ -57,9 +67,22 @@ fn case(
         .chunks(4)
         .flat_map(|p| p[..3].to_vec())
         .fold(0f32, f32::max);
-    let (problem, drawn) = seen.lock().expect("log").clone();
-    (max, finite, problem, drawn)
+    let (flare, ghosts) = seen.lock().expect("log").clone().expect("the flare ran");
+    let bound = if ghosts.lens.is_some() && ghosts.problem.is_none() {
+        super::bound::brightest_pixel(&flare, &ghosts, travel, LUX, std::f32::consts::FRAC_PI_4, SIZE)
+    } else {
+        0.0
+    };
+    Case {
+        max,
+        finite,
+        problem: ghosts.problem.clone(),
+        drawn: ghosts.drawn().count(),
+        bound,
+    }
 }
+
+const LUX: f32 = 100_000.0;
 
 const ASSETS: &str = "assets";
 
@@ -82,8 +105,8 @@ fn stiff_cases_stay_finite_and_bounded() {
     let axis = Vec3::Z;
     let sixty = Vec3::new(-60f32.to_radians().sin(), 0.0, 60f32.to_radians().cos());
     /// (name, lens, travel, settings).
-    type Case = (&'static str, &'static str, Vec3, fn(&mut LensFlare));
-    let cases: [Case; 6] = [
+    type Stiff = (&'static str, &'static str, Vec3, fn(&mut LensFlare));
+    let cases: [Stiff; 6] = [
         ("on axis", TESSAR, axis, |_| {}),
         ("60° off axis, outside the view", TESSAR, sixty, |_| {}),
         (
@@ -113,10 +136,10 @@ fn stiff_cases_stay_finite_and_bounded() {
         ),
     ];
     for (name, lens, travel, edit) in cases {
-        let (max, finite, problem, drawn) = case(ASSETS, lens, travel.normalize(), edit);
-        eprintln!("{name}: brightest {max}, {drawn} ghosts drawn, problem {problem:?}");
+        let Case { max, finite, problem, drawn, bound } = case(ASSETS, lens, travel.normalize(), edit);
+        eprintln!("{name}: brightest {max} (the twins' bound {bound}), {drawn} ghosts drawn, problem {problem:?}");
         assert!(finite, "{name}: a non-finite pixel");
-        assert!(max > 0.0 && max < 1e4, "{name}: {max}");
+        assert!(max > 0.0 && max <= bound, "{name}: brightest {max}, bound {bound}");
         assert_eq!(problem, None, "{name}");
         assert!(drawn > 0, "{name}: no ghost drawn");
     }
@@ -125,7 +148,7 @@ fn stiff_cases_stay_finite_and_bounded() {
 #[test]
 fn impossible_settings_and_malformed_files_are_refused() {
     // f/1 on an f/2.8 lens: refused, no flare, no panic.
-    let (max, finite, problem, _) =
+    let Case { max, finite, problem, .. } =
         case(ASSETS, TESSAR, Vec3::new(0.1, 0.1, 1.0).normalize(), |f| {
             f.aperture.f_number = Some(1.0)
         });
@@ -144,7 +167,7 @@ fn impossible_settings_and_malformed_files_are_refused() {
     }
     // A malformed file: the loader refuses it (Bevy logs the line and
     // field), the flare says the lens is not loaded and draws nothing.
-    let (max, finite, problem, _) = case(
+    let Case { max, finite, problem, .. } = case(
         "tests/assets",
         "lenses/broken.lens",
         Vec3::new(0.1, 0.1, 1.0).normalize(),

@@ -56,14 +56,7 @@ fn eye_beside_plain_sphere(app: &mut App) {
 fn without_plugin(app: &mut App) {
     with_plain_sphere(app);
     app.add_systems(Startup, |mut commands: Commands| {
-        commands.spawn((
-            DirectionalLight {
-                illuminance: 6_000.0,
-                shadow_maps_enabled: false,
-                ..default()
-            },
-            Transform::from_xyz(1.0, 2.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
-        ));
+        commands.spawn(optica_report::fixtures::eye_light());
         commands.spawn((Camera3d::default(), Msaa::Off, ortho(2.0), camera()));
     });
 }

@@ -13,30 +13,19 @@ mod projection;
 mod scene;
 mod stability;
 
-use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_dome::DomeCamera;
+use optica_report::fixtures::{black_untonemapped, unlit};
 
 /// A dome camera's mount looking at the zenith (+Y), the back of the
 /// theatre towards +Z: the audience front (bottom of the domemaster) is −Z.
-pub fn zenith() -> Transform {
-    Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z)
-}
+pub use optica_report::fixtures::zenith;
 
 /// `dome` at `transform`, drawing on black, untonemapped (colours come out
 /// as given), one sample per pixel.
 pub fn dome_camera(dome: DomeCamera, transform: Transform) -> impl Bundle {
-    (
-        dome,
-        Camera {
-            clear_color: ClearColorConfig::Custom(Color::BLACK),
-            ..default()
-        },
-        Tonemapping::None,
-        Msaa::Off,
-        transform,
-    )
+    (dome, black_untonemapped(Msaa::Off), transform)
 }
 
 /// An unlit material of `colour`, both sides drawn.
@@ -44,10 +33,5 @@ pub fn flat(
     materials: &mut Assets<StandardMaterial>,
     colour: Color,
 ) -> MeshMaterial3d<StandardMaterial> {
-    MeshMaterial3d(materials.add(StandardMaterial {
-        base_color: colour,
-        unlit: true,
-        cull_mode: None,
-        ..default()
-    }))
+    MeshMaterial3d(materials.add(unlit(colour)))
 }

@@ -6,6 +6,7 @@
 use bevy::prelude::*;
 use optica_dome::{DomeCamera, DomePlugin};
 use optica_harness::{Headless, RenderedFrame};
+use optica_report::fixtures::{ROOM_AXES, dome_room};
 
 use super::{dome_camera, flat, zenith};
 use optica_optics::dome::cube_face_axis;
@@ -13,15 +14,15 @@ use optica_optics::glam::{DVec2, DVec3};
 
 pub(super) const SIZE: u32 = 128;
 
-/// The faces of the box [−1, 1]³: outward axis and colour. The floor lies
-/// behind a 180° dome: dropped, it must not show.
-const FACES: [(Vec3, [f32; 3]); 6] = [
-    (Vec3::Y, [1.0, 0.0, 0.0]),
-    (Vec3::NEG_Z, [0.0, 1.0, 0.0]),
-    (Vec3::Z, [0.0, 0.0, 1.0]),
-    (Vec3::X, [1.0, 1.0, 0.0]),
-    (Vec3::NEG_X, [1.0, 0.0, 1.0]),
-    (Vec3::NEG_Y, [0.0, 1.0, 1.0]),
+/// The colour of each face of the room (`fixtures::ROOM_AXES`). The floor
+/// lies behind a 180° dome: dropped, it must not show.
+const FACES: [[f32; 3]; 6] = [
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [1.0, 1.0, 0.0],
+    [1.0, 0.0, 1.0],
+    [0.0, 1.0, 1.0],
 ];
 
 /// The room, each face `quads`×`quads` quads, seen by a dome camera with
@@ -38,41 +39,16 @@ fn room(quads: u32, tolerance_px: f32) -> impl FnOnce(&mut App) {
 
 /// The room, each face `quads`×`quads` quads, seen by `dome`.
 pub(super) fn room_seen_by(quads: u32, dome: DomeCamera) -> impl FnOnce(&mut App) {
-    move |app: &mut App| {
-        app.add_plugins(DomePlugin);
-        app.add_systems(
-            Startup,
-            move |mut commands: Commands,
-                  mut meshes: ResMut<Assets<Mesh>>,
-                  mut materials: ResMut<Assets<StandardMaterial>>| {
-                let plane = meshes.add(
-                    Plane3d::default()
-                        .mesh()
-                        .size(2.0, 2.0)
-                        .subdivisions(quads - 1),
-                );
-                for (axis, [r, g, b]) in FACES {
-                    // The plane's normal (+Y) turned to point into the room.
-                    let rotation = Quat::from_rotation_arc(Vec3::Y, -axis);
-                    commands.spawn((
-                        Mesh3d(plane.clone()),
-                        flat(&mut materials, Color::srgb(r, g, b)),
-                        Transform::from_translation(axis).with_rotation(rotation),
-                    ));
-                }
-                commands.spawn(dome_camera(dome, zenith()));
-            },
-        );
-    }
+    let colours = FACES.map(|[r, g, b]| Color::srgb(r, g, b));
+    dome_room(colours, quads, move |commands| {
+        commands.spawn(dome_camera(dome, zenith()));
+    })
 }
 
 /// The face the ray from the room's centre along `dir` meets.
 fn face_of(dir: DVec3) -> usize {
     let axis = cube_face_axis(dir).as_vec3();
-    FACES
-        .iter()
-        .position(|(f, _)| *f == axis)
-        .unwrap_or(usize::MAX)
+    ROOM_AXES.iter().position(|f| *f == axis).unwrap_or(usize::MAX)
 }
 
 /// The fraction of pixels inside the image circle that show the face the
@@ -97,7 +73,7 @@ fn faces_right(quads: u32, tolerance_px: f32) -> f64 {
 pub(super) fn nearest_face(p: [u8; 4]) -> usize {
     let colours = FACES
         .iter()
-        .map(|(_, c)| c.map(|v| v * 255.0))
+        .map(|c| c.map(|v| v * 255.0))
         .chain([[0.0; 3]]);
     let distance = |c: [f32; 3]| {
         (0..3)
@@ -269,7 +245,7 @@ fn a_turning_dome_camera_keeps_drawing_the_room() {
             coloured += usize::from(
                 FACES
                     .iter()
-                    .any(|(_, f)| f.map(|v| (v * 255.0) as u8) == [p.0[0], p.0[1], p.0[2]]),
+                    .any(|f| f.map(|v| (v * 255.0) as u8) == [p.0[0], p.0[1], p.0[2]]),
             );
         }
     }

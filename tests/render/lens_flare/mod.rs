@@ -14,10 +14,7 @@ mod stability;
 mod taa;
 mod trace;
 
-use bevy::camera::Hdr;
-use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use optica_lens_flare::FlareSource;
 
 /// A flaring sun of `lux` whose light travels along `travel` (the view
@@ -35,18 +32,7 @@ pub fn sun(travel: Vec3, lux: f32) -> impl Bundle {
 
 /// A camera at the origin looking along −Z, clearing to black, HDR,
 /// untonemapped, one sample per pixel: its image is the flare's light.
-pub fn black_hdr_camera() -> impl Bundle {
-    (
-        Camera3d::default(),
-        Camera {
-            clear_color: ClearColorConfig::Custom(Color::BLACK),
-            ..default()
-        },
-        Hdr,
-        Tonemapping::None,
-        Msaa::Off,
-    )
-}
+pub use optica_report::fixtures::black_hdr_camera;
 
 /// A shader library as plain WGSL, for a readback kernel to paste in: its
 /// `#define_import_path` line and its `virtual fn` defaults (each up to the

@@ -16,6 +16,7 @@ use optica_optics::spectacles::{
     self as optics, DisplacementField, EyePlacement, FieldGrid, FieldSettings, LensDesignParams,
     Prescription, design_lens, naked_eye_displacements, pupil_samples,
 };
+use optica_report::fixtures::halton;
 use optica_spectacles::twins::{DISPLACEMENT_WGSL, FIELD_LOOKUP_WGSL, camera_z, eye_placement};
 
 const CLONES: u32 = 10;
@@ -89,16 +90,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
     )
 }
 
-/// Radical inverse in `base` (Halton).
-fn halton(i: usize, base: usize) -> f64 {
-    let (mut f, mut r, mut i) = (1.0, 0.0, i);
-    while i > 0 {
-        f /= base as f64;
-        r += f * (i % base) as f64;
-        i /= base;
-    }
-    r
-}
 
 /// Whether `p` lies within `eps` of a face between the field's voxels.
 /// In eye coordinates, within `eps` of a face across the sight lines (the

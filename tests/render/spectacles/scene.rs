@@ -2,8 +2,8 @@
 //! whatever the lights) at known distances straight ahead of an eye camera.
 
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use optica_harness::textures::{checker, gaussian_spot};
+use optica_report::fixtures::clearing_camera;
 use optica_spectacles::{CloneDefocus, Eye, Spectacles, SpectaclesPlugin};
 
 /// A target: a square of `size` metres, `distance` metres straight ahead
@@ -97,19 +97,7 @@ pub fn scene_with_background(
                         Transform::from_xyz(t.offset.x, t.offset.y, -t.distance),
                     ));
                 }
-                let mut camera = commands.spawn((
-                    Camera3d::default(),
-                    Camera {
-                        clear_color: ClearColorConfig::Custom(background),
-                        ..default()
-                    },
-                    Msaa::Off,
-                    Projection::Perspective(PerspectiveProjection {
-                        fov,
-                        near: 0.01,
-                        ..default()
-                    }),
-                ));
+                let mut camera = commands.spawn(clearing_camera(background, fov, 0.01));
                 if let Some((eye, defocus)) = eye.clone() {
                     camera.insert((eye, defocus));
                 }

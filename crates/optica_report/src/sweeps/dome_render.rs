@@ -26,92 +26,52 @@
 //!   (done once for a static camera, each frame for a moving one).
 
 use bevy::camera::visibility::RenderLayers;
-use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
-use optica_dome::{DomeCamera, DomeMode, DomePlugin, refine_mesh_asset};
+use optica_dome::{DomeCamera, DomeMode, refine_mesh_asset};
 use optica_optics::dome::{DomeProjection, SplitRule, cube_face_axis};
 use optica_optics::glam::{DVec2, DVec3};
 
 use super::SweepError;
+use crate::fixtures::{
+    ROOM_AXES, black_untonemapped, dome_room, room_face, room_face_mesh, zenith,
+};
 use crate::{Report, Row, SweepContext, time_ms};
 
-/// Outward axis and colour of each face of the box [−1, 1]³. The colours
+/// The colour of each face of the room (`fixtures::ROOM_AXES`). The colours
 /// are chosen so that no blend of two of them (in linear light) comes
 /// within 0.11 of a blend of two others: a resampled edge pixel names its
 /// two faces unambiguously (pure primaries and secondaries would not: the
 /// blends of red and cyan and of blue and yellow are the same grey).
-const FACES: [(Vec3, [u8; 3]); 6] = [
-    (Vec3::Y, [4, 23, 218]),
-    (Vec3::NEG_Z, [93, 141, 96]),
-    (Vec3::Z, [195, 143, 144]),
-    (Vec3::X, [12, 248, 172]),
-    (Vec3::NEG_X, [145, 254, 255]),
-    (Vec3::NEG_Y, [90, 128, 183]),
+const COLOURS: [[u8; 3]; 6] = [
+    [4, 23, 218],
+    [93, 141, 96],
+    [195, 143, 144],
+    [12, 248, 172],
+    [145, 254, 255],
+    [90, 128, 183],
 ];
 
-/// Zenith-looking, the back of the theatre towards +Z.
-fn camera() -> Transform {
-    Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z)
-}
-
-fn face_meshes() -> Vec<(Mesh, Transform, [u8; 3])> {
-    FACES
+/// The room's faces, one quad each, where they lie.
+fn face_meshes() -> Vec<(Mesh, Transform)> {
+    ROOM_AXES
         .iter()
-        .map(|&(axis, colour)| {
-            let mesh = Plane3d::default().mesh().size(2.0, 2.0).build();
-            let rotation = Quat::from_rotation_arc(Vec3::Y, -axis);
-            (
-                mesh,
-                Transform::from_translation(axis).with_rotation(rotation),
-                colour,
-            )
-        })
+        .map(|&axis| (room_face_mesh(1), room_face(axis)))
         .collect()
 }
 
 /// The room and a camera: `dome`, or (None) Bevy's default perspective
 /// camera looking at the ceiling.
 pub(super) fn scene(dome: Option<DomeCamera>) -> impl FnOnce(&mut App) {
-    move |app: &mut App| {
-        app.add_plugins(DomePlugin);
-        app.add_systems(
-            Startup,
-            move |mut commands: Commands,
-                  mut meshes: ResMut<Assets<Mesh>>,
-                  mut materials: ResMut<Assets<StandardMaterial>>| {
-                for (mesh, transform, [r, g, b]) in face_meshes() {
-                    let material = materials.add(StandardMaterial {
-                        base_color: Color::srgb_u8(r, g, b),
-                        unlit: true,
-                        cull_mode: None,
-                        ..default()
-                    });
-                    commands.spawn((
-                        Mesh3d(meshes.add(mesh)),
-                        MeshMaterial3d(material),
-                        transform,
-                    ));
-                }
-                spawn_view(&mut commands, dome, Msaa::Off);
-            },
-        );
-    }
+    let colours = COLOURS.map(|[r, g, b]| Color::srgb_u8(r, g, b));
+    dome_room(colours, 1, move |commands| spawn_view(commands, dome, Msaa::Off))
 }
 
 /// The view of the dome sweeps' scenes, from the room's centre at the
 /// zenith, drawing on black, untonemapped: `dome`, or (None) Bevy's
 /// default perspective camera, the baseline of their frame times.
 pub(super) fn spawn_view(commands: &mut Commands, dome: Option<DomeCamera>, msaa: Msaa) {
-    let look = (
-        Camera {
-            clear_color: ClearColorConfig::Custom(Color::BLACK),
-            ..default()
-        },
-        Tonemapping::None,
-        msaa,
-        camera(),
-    );
+    let look = (black_untonemapped(msaa), zenith());
     match dome {
         Some(dome) => {
             commands.spawn((dome, look));
@@ -125,15 +85,12 @@ pub(super) fn spawn_view(commands: &mut Commands, dome: Option<DomeCamera>, msaa
 /// The face the ray from the room's centre along `dir` meets.
 fn face_of(dir: DVec3) -> usize {
     let axis = cube_face_axis(dir).as_vec3();
-    FACES
-        .iter()
-        .position(|(f, _)| *f == axis)
-        .unwrap_or(usize::MAX)
+    ROOM_AXES.iter().position(|f| *f == axis).unwrap_or(usize::MAX)
 }
 
 /// The face a pixel position truly shows (None outside the image circle).
 fn true_face(dome: &DomeProjection, pixel: DVec2) -> Option<usize> {
-    let rotation = camera().rotation.as_dquat();
+    let rotation = zenith().rotation.as_dquat();
     dome.unproject(pixel).map(|view| face_of(rotation * view))
 }
 
@@ -203,9 +160,9 @@ fn edge_errors(img: &image::RgbaImage, dome: &DomeProjection, tolerance: f64) ->
             ((c + 0.055) / 1.055).powf(2.4)
         }
     };
-    let colours: Vec<DVec3> = FACES
+    let colours: Vec<DVec3> = COLOURS
         .iter()
-        .map(|(_, c)| DVec3::new(linear(c[0]), linear(c[1]), linear(c[2])))
+        .map(|c| DVec3::new(linear(c[0]), linear(c[1]), linear(c[2])))
         .collect();
     let fit = |p: DVec3, candidates: &[usize]| {
         let mut best = (f64::INFINITY, usize::MAX);
@@ -225,15 +182,15 @@ fn edge_errors(img: &image::RgbaImage, dome: &DomeProjection, tolerance: f64) ->
         }
         best
     };
-    let all: Vec<usize> = (0..FACES.len()).collect();
+    let all: Vec<usize> = (0..COLOURS.len()).collect();
     let drawn = |x: i64, y: i64| {
         let raw = img.get_pixel(x as u32, y as u32).0;
         if raw[..3].iter().all(|&v| v < 8) {
             return None;
         }
-        if let Some(k) = FACES
+        if let Some(k) = COLOURS
             .iter()
-            .position(|(_, c)| *c == [raw[0], raw[1], raw[2]])
+            .position(|c| *c == [raw[0], raw[1], raw[2]])
         {
             return Some(k);
         }
@@ -354,7 +311,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     let dome = DomeCamera::default()
         .projection(size)
         .map_err(|e| SweepError::Setup(e.to_string()))?;
-    let view_from_world = camera().compute_affine().inverse();
+    let view_from_world = zenith().compute_affine().inverse();
     let steps = tolerances.len() + faces.len();
     for (i, &tolerance) in tolerances.iter().enumerate() {
         ctx.progress(
@@ -373,7 +330,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         let (refine_ms, triangles) = time_ms(3, 50.0, || {
             meshes
                 .iter()
-                .filter_map(|(mesh, transform, _)| {
+                .filter_map(|(mesh, transform)| {
                     refine_mesh_asset(
                         mesh,
                         view_from_world * transform.compute_affine(),

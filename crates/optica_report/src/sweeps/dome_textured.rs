@@ -48,6 +48,7 @@ use optica_optics::glam::{DQuat, DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::SweepError;
+use crate::fixtures::{unlit, zenith};
 use crate::{Report, Row, SweepContext};
 
 /// Checker cells along a face's side, and the texture's texels.
@@ -61,10 +62,6 @@ const STARS: usize = 2000;
 const STAR_DISTANCE: f64 = 10.0;
 const STAR_MAX_POLAR_DEG: f64 = 88.0;
 
-/// Zenith-looking, the back of the theatre towards +Z (as `dome_render.rs`).
-fn camera() -> Transform {
-    Transform::IDENTITY.looking_to(Vec3::Y, Vec3::Z)
-}
 
 /// The room's faces: outward axis and the two axes its texture runs along.
 fn room_faces() -> [(DVec3, DVec3, DVec3); 6] {
@@ -254,11 +251,8 @@ fn scene(
                     Content::Stars => None,
                 };
                 let material = materials.add(StandardMaterial {
-                    base_color: Color::WHITE,
                     base_color_texture: texture,
-                    unlit: true,
-                    cull_mode: None,
-                    ..default()
+                    ..unlit(Color::WHITE)
                 });
                 commands.spawn((
                     Mesh3d(meshes.add(content.mesh(size))),
@@ -288,7 +282,7 @@ impl Reference {
 
 /// The camera's rotation, world from view.
 fn camera_rotation() -> DQuat {
-    camera().rotation.as_dquat()
+    zenith().rotation.as_dquat()
 }
 
 /// World direction seen at `pixel` (None beyond the image circle).
@@ -411,7 +405,7 @@ fn twin_coverage(
     tolerance: f64,
 ) -> (f64, usize) {
     let rule = SplitRule::chord_gap(tolerance).expect("positive tolerance");
-    let view_from_world = camera().compute_affine().inverse();
+    let view_from_world = zenith().compute_affine().inverse();
     let Some(twin) = refine_mesh_asset(&content.mesh(size), view_from_world, &(*dome).into(), rule)
     else {
         return (0.0, 0);

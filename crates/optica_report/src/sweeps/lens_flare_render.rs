@@ -36,10 +36,8 @@
 
 use std::sync::{Arc, Mutex};
 
-use bevy::camera::{Exposure, Hdr};
-use bevy::core_pipeline::tonemapping::Tonemapping;
+use bevy::camera::Exposure;
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use optica_harness::{FrameTimings, TimeSource};
 use optica_lens_flare::twins::{
     SPECTRUM_BUDGET_MS, SensorMapping, passing_at_step, spectral_gains, spectrum_at_step,
@@ -57,6 +55,7 @@ use optica_optics::lens_flare::{
 };
 
 use super::SweepError;
+use crate::fixtures::black_hdr_camera;
 use crate::{Report, Row, SweepContext};
 
 const LUX: f32 = 100_000.0;
@@ -176,16 +175,7 @@ pub(super) fn scene(
                         ));
                     }
                 }
-                let mut camera = commands.spawn((
-                    Camera3d::default(),
-                    Camera {
-                        clear_color: ClearColorConfig::Custom(Color::BLACK),
-                        ..default()
-                    },
-                    Hdr,
-                    Tonemapping::None,
-                    Msaa::Off,
-                ));
+                let mut camera = commands.spawn(black_hdr_camera());
                 if let Some(setup) = &setup {
                     let defaults = LensFlare::new(lenses.add(LensAsset(setup.lens.clone())));
                     let mut flare = LensFlare {

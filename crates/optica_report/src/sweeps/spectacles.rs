@@ -51,18 +51,8 @@ use optica_optics::spectacles::{
     reference_at, refract_vertices,
 };
 
+use crate::fixtures::halton;
 use crate::{Report, Row, SweepContext, time_ms};
-
-/// Radical inverse in `base` (Halton).
-fn halton(i: usize, base: usize) -> f64 {
-    let (mut f, mut r, mut i) = (1.0, 0.0, i);
-    while i > 0 {
-        f /= base as f64;
-        r += f * (i % base) as f64;
-        i /= base;
-    }
-    r
-}
 
 /// A test point and its reference RMS and edge radii.
 #[derive(Clone)]

@@ -29,7 +29,6 @@
 
 use bevy::light::GlobalAmbientLight;
 use bevy::prelude::*;
-use bevy::render::view::Msaa;
 use optica_harness::textures::coordinates_tagged;
 use optica_optics::glam::{DAffine3, DQuat, DVec3};
 use optica_optics::spectacles::{CoordinatePlane, Pinhole, SeenPoint, seen_with_mirror};
@@ -38,6 +37,7 @@ use optica_spectacles::{
 };
 
 use super::SweepError;
+use crate::fixtures::clearing_camera;
 use crate::{Report, Row, SweepContext};
 
 /// Tangent of half the camera's field of view.
@@ -167,17 +167,7 @@ pub fn mirror_scene(
                     ));
                 }
                 commands.spawn((
-                    Camera3d::default(),
-                    Camera {
-                        clear_color: ClearColorConfig::Custom(Color::linear_rgb(0.0, 0.0, 0.0)),
-                        ..default()
-                    },
-                    Msaa::Off,
-                    Projection::Perspective(PerspectiveProjection {
-                        fov: 2.0 * TAN_HALF_FOV.atan(),
-                        near: 0.05,
-                        ..default()
-                    }),
+                    clearing_camera(Color::BLACK, 2.0 * TAN_HALF_FOV.atan(), 0.05),
                     MirrorViewer,
                 ));
                 if let Some(m) = mirror.clone() {

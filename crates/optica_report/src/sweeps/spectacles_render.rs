@@ -42,6 +42,7 @@ use optica_spectacles::{
 };
 
 use super::SweepError;
+use crate::fixtures::clearing_camera;
 use crate::{Report, Row, SweepContext};
 
 const FOV: f32 = 0.8;
@@ -143,19 +144,7 @@ pub(super) fn room(viewer: Viewer, lit: bool) -> impl FnOnce(&mut App) {
                         Transform::from_xyz(1.0, 2.0, 1.0).looking_at(Vec3::new(0.0, 0.0, -2.0), Vec3::Y),
                     ));
                 }
-                let camera = (
-                    Camera3d::default(),
-                    Camera {
-                        clear_color: ClearColorConfig::Custom(Color::srgb(0.35, 0.4, 0.5)),
-                        ..default()
-                    },
-                    Msaa::Off,
-                    Projection::Perspective(PerspectiveProjection {
-                        fov: FOV,
-                        near: 0.05,
-                        ..default()
-                    }),
-                );
+                let camera = clearing_camera(Color::srgb(0.35, 0.4, 0.5), FOV, 0.05);
                 match &viewer {
                     Viewer::Sharp => {
                         commands.spawn(camera);

@@ -209,10 +209,7 @@ pub struct CompoundEyePlugin;
 
 impl Plugin for CompoundEyePlugin {
     fn build(&self, app: &mut App) {
-        assert!(
-            app.world().contains_resource::<AssetServer>(),
-            "optica_compound_eye: add CompoundEyePlugin after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
-        );
+        optica_plugin_kit::require_asset_server(app, "optica_compound_eye", "CompoundEyePlugin");
         load_shader_library!(app, "shaders/compound_eye_optics.wgsl");
         embedded_asset!(app, "shaders/compound_eye.wgsl");
         app.add_plugins(MaterialPlugin::<CompoundEyeMaterial>::default())

@@ -218,10 +218,7 @@ pub struct DomePlugin;
 
 impl Plugin for DomePlugin {
     fn build(&self, app: &mut App) {
-        assert!(
-            app.world().contains_resource::<AssetServer>(),
-            "optica_dome: add DomePlugin after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
-        );
+        optica_plugin_kit::require_asset_server(app, "optica_dome", "DomePlugin");
         load_shader_library!(app, "shaders/projection.wgsl");
         embedded_asset!(app, "shaders/rim_mask.wgsl");
         embedded_asset!(app, "shaders/cube_resample.wgsl");

@@ -15,7 +15,7 @@
 //!     .run();
 //! ```
 
-use std::ops::RangeInclusive;
+use optica_plugin_kit::slider;
 
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
@@ -120,9 +120,3 @@ pub fn dome_ui(
     }
 }
 
-/// A slider that clamps what the user enters, not what it shows: egui's
-/// default clamps on sight, rewriting a setting by opening the panel. (Each
-/// panel has its own copy: the plugin crates share no Bevy-side crate.)
-fn slider<'a, N: egui::emath::Numeric>(v: &'a mut N, r: RangeInclusive<N>) -> egui::Slider<'a> {
-    egui::Slider::new(v, r).clamping(egui::SliderClamping::Edits)
-}

@@ -298,10 +298,7 @@ pub enum FoveatedLodSystems {
 
 impl Plugin for FoveatedLodPlugin {
     fn build(&self, app: &mut App) {
-        assert!(
-            app.world().contains_resource::<AssetServer>(),
-            "optica_foveated_lod: add FoveatedLodPlugin after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
-        );
+        optica_plugin_kit::require_asset_server(app, "optica_foveated_lod", "FoveatedLodPlugin");
         embedded_asset!(app, "shaders/raytrace.wgsl");
         app.add_plugins(render::TracerRenderPlugin);
         let consumers = any_with_component::<GazeLod>

@@ -194,10 +194,7 @@ pub struct LensFlarePlugin;
 
 impl Plugin for LensFlarePlugin {
     fn build(&self, app: &mut App) {
-        assert!(
-            app.world().contains_resource::<AssetServer>(),
-            "optica_lens_flare: add LensFlarePlugin after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
-        );
+        optica_plugin_kit::require_asset_server(app, "optica_lens_flare", "LensFlarePlugin");
         load_shader_library!(app, "shaders/flare_types.wgsl");
         load_shader_library!(app, "shaders/lens_trace.wgsl");
         load_shader_library!(app, "shaders/aperture.wgsl");

@@ -16,7 +16,7 @@
 //!     .run();
 //! ```
 
-use std::ops::RangeInclusive;
+use optica_plugin_kit::slider;
 
 use bevy::diagnostic::{DiagnosticPath, DiagnosticsStore};
 use bevy::prelude::*;
@@ -210,9 +210,3 @@ fn gpu_share(ui: &mut egui::Ui, diagnostics: &DiagnosticsStore) {
     };
 }
 
-/// A slider that clamps what the user enters, not what it shows: egui's
-/// default clamps on sight, rewriting a setting by opening the panel. (Each
-/// panel has its own copy: the plugin crates share no Bevy-side crate.)
-fn slider<'a, N: egui::emath::Numeric>(v: &'a mut N, r: RangeInclusive<N>) -> egui::Slider<'a> {
-    egui::Slider::new(v, r).clamping(egui::SliderClamping::Edits)
-}

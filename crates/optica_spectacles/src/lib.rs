@@ -413,10 +413,7 @@ pub struct SpectaclesPlugin;
 
 impl Plugin for SpectaclesPlugin {
     fn build(&self, app: &mut App) {
-        assert!(
-            app.world().contains_resource::<AssetServer>(),
-            "optica_spectacles: add SpectaclesPlugin after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
-        );
+        optica_plugin_kit::require_asset_server(app, "optica_spectacles", "SpectaclesPlugin");
         load_shader_library!(app, "shaders/displacement.wgsl");
         app.add_plugins(render::SpectaclesRenderPlugin)
             .register_type::<Eye>()

@@ -19,7 +19,7 @@
 //!     .run();
 //! ```
 
-use std::ops::RangeInclusive;
+use optica_plugin_kit::slider;
 
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPrimaryContextPass, egui};
@@ -385,9 +385,3 @@ fn status_lines(ui: &mut egui::Ui, st: &SpectaclesStatus) {
     }
 }
 
-/// A slider that clamps what the user enters, not what it shows: egui's
-/// default clamps on sight, rewriting a setting by opening the panel. (Each
-/// panel has its own copy: the plugin crates share no Bevy-side crate.)
-fn slider<'a, N: egui::emath::Numeric>(v: &'a mut N, r: RangeInclusive<N>) -> egui::Slider<'a> {
-    egui::Slider::new(v, r).clamping(egui::SliderClamping::Edits)
-}

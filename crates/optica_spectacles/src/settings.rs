@@ -599,7 +599,7 @@ impl CurvedMirror {
             f64::from(self.size_m.x),
             f64::from(self.size_m.y),
         )
-        .map_err(|e| Error::Mirror(e.into()))
+        .map_err(Error::Mirror)
     }
 }
 

@@ -2,11 +2,12 @@
 //! through Bevy's `SpecializedRenderPipelines` cache.
 
 use bevy::core_pipeline::FullscreenShader;
+use optica_plugin_kit::fullscreen_pipeline;
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{sampler, texture_2d, uniform_buffer};
 use bevy::render::render_resource::{
-    BindGroupLayoutDescriptor, BindGroupLayoutEntries, ColorTargetState, ColorWrites, FilterMode,
-    FragmentState, PipelineCache, RenderPipelineDescriptor, Sampler, SamplerBindingType,
+    BindGroupLayoutDescriptor, BindGroupLayoutEntries, FilterMode,
+    PipelineCache, RenderPipelineDescriptor, Sampler, SamplerBindingType,
     SamplerDescriptor, ShaderStages, SpecializedRenderPipeline, SpecializedRenderPipelines,
     TextureFormat, TextureSampleType,
 };
@@ -71,21 +72,15 @@ impl SpecializedRenderPipeline for ResamplePipeline {
     type Key = TextureFormat;
 
     fn specialize(&self, format: TextureFormat) -> RenderPipelineDescriptor {
-        RenderPipelineDescriptor {
-            label: Some("optica_dome_cube_resample".into()),
-            layout: vec![self.layout.clone()],
-            vertex: self.fullscreen.to_vertex_state(),
-            fragment: Some(FragmentState {
-                shader: self.shader.clone(),
-                targets: vec![Some(ColorTargetState {
-                    format,
-                    blend: None,
-                    write_mask: ColorWrites::ALL,
-                })],
-                ..default()
-            }),
-            ..default()
-        }
+        fullscreen_pipeline(
+            "optica_dome_cube_resample",
+            &self.layout,
+            &self.fullscreen,
+            &self.shader,
+            "fragment",
+            vec![],
+            format,
+        )
     }
 }
 

@@ -3,13 +3,13 @@
 //! none): the three tracing entry points, and the blit per target format.
 
 use bevy::core_pipeline::FullscreenShader;
+use optica_plugin_kit::fullscreen_pipeline;
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
     storage_buffer, storage_buffer_read_only, uniform_buffer,
 };
 use bevy::render::render_resource::{
-    BindGroupLayoutDescriptor, BindGroupLayoutEntries, ColorTargetState, ColorWrites,
-    ComputePipelineDescriptor, FragmentState, PipelineCache, RenderPipelineDescriptor,
+    BindGroupLayoutDescriptor, BindGroupLayoutEntries, ComputePipelineDescriptor, PipelineCache, RenderPipelineDescriptor,
     ShaderStages, SpecializedComputePipeline, SpecializedComputePipelines,
     SpecializedRenderPipeline, SpecializedRenderPipelines, TextureFormat,
 };
@@ -114,22 +114,15 @@ impl SpecializedRenderPipeline for TracerPipelines {
     type Key = TextureFormat;
 
     fn specialize(&self, format: TextureFormat) -> RenderPipelineDescriptor {
-        RenderPipelineDescriptor {
-            label: Some("optica_foveated_lod_blit".into()),
-            layout: vec![self.blit_layout.clone()],
-            vertex: self.fullscreen.to_vertex_state(),
-            fragment: Some(FragmentState {
-                shader: self.shader.clone(),
-                entry_point: Some("blit_fragment".into()),
-                targets: vec![Some(ColorTargetState {
-                    format,
-                    blend: None,
-                    write_mask: ColorWrites::ALL,
-                })],
-                ..default()
-            }),
-            ..default()
-        }
+        fullscreen_pipeline(
+            "optica_foveated_lod_blit",
+            &self.blit_layout,
+            &self.fullscreen,
+            &self.shader,
+            "blit_fragment",
+            vec![],
+            format,
+        )
     }
 }
 

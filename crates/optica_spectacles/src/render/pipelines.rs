@@ -5,6 +5,7 @@
 //! per depth kind (the lens's and a per-vertex mirror's).
 
 use bevy::core_pipeline::FullscreenShader;
+use optica_plugin_kit::fullscreen_pipeline;
 use bevy::prelude::*;
 use bevy::render::render_resource::binding_types::{
     sampler, storage_buffer, storage_buffer_read_only, texture_2d, texture_depth_2d,
@@ -215,36 +216,28 @@ impl SpecializedRenderPipeline for SpectaclesPipelines {
             })]
         };
         match key {
-            DrawKey::Resolve { variant, format } => RenderPipelineDescriptor {
-                label: Some("optica_spectacles_resolve".into()),
-                layout: vec![self.resolve_layout(variant).clone()],
-                vertex: self.fullscreen.to_vertex_state(),
-                fragment: Some(FragmentState {
-                    shader: self.resolve_shader.clone(),
-                    shader_defs: match variant {
-                        Variant::Full => vec!["FULL".into()],
-                        Variant::Reprojected { multisampled: true } => {
-                            vec!["MULTISAMPLED".into()]
-                        }
-                        Variant::Reprojected { .. } => vec![],
-                    },
-                    entry_point: Some("fragment".into()),
-                    targets: target(format),
-                }),
-                ..default()
-            },
-            DrawKey::LensCopy { format } => RenderPipelineDescriptor {
-                label: Some("optica_spectacles_lens_copy".into()),
-                layout: vec![self.draw_layout.clone()],
-                vertex: self.fullscreen.to_vertex_state(),
-                fragment: Some(FragmentState {
-                    shader: self.lens_shader.clone(),
-                    entry_point: Some("copy_fragment".into()),
-                    targets: target(format),
-                    ..default()
-                }),
-                ..default()
-            },
+            DrawKey::Resolve { variant, format } => fullscreen_pipeline(
+                "optica_spectacles_resolve",
+                self.resolve_layout(variant),
+                &self.fullscreen,
+                &self.resolve_shader,
+                "fragment",
+                match variant {
+                    Variant::Full => vec!["FULL".into()],
+                    Variant::Reprojected { multisampled: true } => vec!["MULTISAMPLED".into()],
+                    Variant::Reprojected { .. } => vec![],
+                },
+                format,
+            ),
+            DrawKey::LensCopy { format } => fullscreen_pipeline(
+                "optica_spectacles_lens_copy",
+                &self.draw_layout,
+                &self.fullscreen,
+                &self.lens_shader,
+                "copy_fragment",
+                vec![],
+                format,
+            ),
             DrawKey::Lens { format } => RenderPipelineDescriptor {
                 label: Some("optica_spectacles_lens_draw".into()),
                 layout: vec![self.draw_layout.clone()],

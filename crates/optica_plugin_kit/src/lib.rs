@@ -1,0 +1,78 @@
+//! # optica_plugin_kit — what the optica plugins share on the Bevy side
+//!
+//! The five plugin crates (`optica_spectacles`, `optica_compound_eye`,
+//! `optica_foveated_lod`, `optica_lens_flare`, `optica_dome`) are built in
+//! one shape; the few pieces that shape repeats word for word live here
+//! once:
+//!
+//! - [`fullscreen_pipeline`]: a full-screen pass's render pipeline (Bevy's
+//!   full-screen triangle, one fragment entry, one colour target);
+//! - [`require_asset_server`]: the check that a plugin is added after
+//!   Bevy's `AssetPlugin`, whose absence would otherwise leave the plugin
+//!   without its embedded shaders and nothing said;
+//! - [`slider`] (feature `egui`): the panels' slider, which clamps what
+//!   the user enters and never rewrites a setting just by showing it.
+//!
+//! An app using the plugins needs none of it directly.
+
+#![warn(missing_docs)]
+
+use bevy::core_pipeline::FullscreenShader;
+use bevy::prelude::*;
+use bevy::render::render_resource::{
+    BindGroupLayoutDescriptor, ColorTargetState, ColorWrites, FragmentState,
+    RenderPipelineDescriptor, TextureFormat,
+};
+use bevy::shader::ShaderDefVal;
+
+/// A full-screen pass: Bevy's full-screen triangle as the vertex stage,
+/// `entry` of `shader` (with `shader_defs`) as the fragment stage, one bind
+/// group of `layout`, writing `format` unblended.
+pub fn fullscreen_pipeline(
+    label: &'static str,
+    layout: &BindGroupLayoutDescriptor,
+    fullscreen: &FullscreenShader,
+    shader: &Handle<Shader>,
+    entry: &'static str,
+    shader_defs: Vec<ShaderDefVal>,
+    format: TextureFormat,
+) -> RenderPipelineDescriptor {
+    RenderPipelineDescriptor {
+        label: Some(label.into()),
+        layout: vec![layout.clone()],
+        vertex: fullscreen.to_vertex_state(),
+        fragment: Some(FragmentState {
+            shader: shader.clone(),
+            shader_defs,
+            entry_point: Some(entry.into()),
+            targets: vec![Some(ColorTargetState {
+                format,
+                blend: None,
+                write_mask: ColorWrites::ALL,
+            })],
+        }),
+        ..default()
+    }
+}
+
+/// Panics, naming `krate` and `plugin`, when `app` has no `AssetServer`
+/// yet: the plugin embeds its shaders, which needs Bevy's `AssetPlugin`
+/// (part of `DefaultPlugins`) added first.
+#[track_caller]
+pub fn require_asset_server(app: &App, krate: &str, plugin: &str) {
+    assert!(
+        app.world().contains_resource::<AssetServer>(),
+        "{krate}: add {plugin} after Bevy's AssetPlugin (DefaultPlugins): it embeds its shaders"
+    );
+}
+
+/// A slider over `range` that clamps what the user enters, not what it
+/// shows: egui's default clamps on sight, which would rewrite a setting
+/// outside the range just by opening the panel.
+#[cfg(feature = "egui")]
+pub fn slider<'a, N: bevy_egui::egui::emath::Numeric>(
+    value: &'a mut N,
+    range: std::ops::RangeInclusive<N>,
+) -> bevy_egui::egui::Slider<'a> {
+    bevy_egui::egui::Slider::new(value, range).clamping(bevy_egui::egui::SliderClamping::Edits)
+}

@@ -5,6 +5,8 @@
 //! one shape; the few pieces that shape repeats word for word live here
 //! once:
 //!
+//! - [`prepare_systems`]: a render world's three prepare stages in their
+//!   order (pipelines specialised, then buffers, then bind groups);
 //! - [`fullscreen_pipeline`]: a full-screen pass's render pipeline (Bevy's
 //!   full-screen triangle, one fragment entry, one colour target);
 //! - [`require_asset_server`]: the check that a plugin is added after
@@ -23,7 +25,31 @@ use bevy::render::render_resource::{
     BindGroupLayoutDescriptor, ColorTargetState, ColorWrites, FragmentState,
     RenderPipelineDescriptor, TextureFormat,
 };
+use bevy::ecs::schedule::ScheduleConfigs;
+use bevy::ecs::system::ScheduleSystem;
+use bevy::render::RenderSystems;
 use bevy::shader::ShaderDefVal;
+
+/// A plugin's prepare systems in the `Render` schedule, in the shape of
+/// Bevy's bloom: `pipelines` specialise each view's pipelines in
+/// `RenderSystems::Prepare`, before the resources (so that a view's first
+/// frame with pipelines queued also gets its buffers); `resources` make
+/// buffers and textures in `PrepareResources`; `bind_groups` make the bind
+/// groups in `PrepareBindGroups`.
+pub fn prepare_systems<M1, M2, M3>(
+    pipelines: impl IntoScheduleConfigs<ScheduleSystem, M1>,
+    resources: impl IntoScheduleConfigs<ScheduleSystem, M2>,
+    bind_groups: impl IntoScheduleConfigs<ScheduleSystem, M3>,
+) -> ScheduleConfigs<ScheduleSystem> {
+    (
+        pipelines
+            .in_set(RenderSystems::Prepare)
+            .before(RenderSystems::PrepareResources),
+        resources.in_set(RenderSystems::PrepareResources),
+        bind_groups.in_set(RenderSystems::PrepareBindGroups),
+    )
+        .into_configs()
+}
 
 /// A full-screen pass: Bevy's full-screen triangle as the vertex stage,
 /// `entry` of `shader` (with `shader_defs`) as the fragment stage, one bind

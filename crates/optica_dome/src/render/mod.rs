@@ -14,9 +14,10 @@ use bevy::core_pipeline::fullscreen_material::fullscreen_material_system;
 use bevy::core_pipeline::tonemapping::tonemapping;
 use bevy::core_pipeline::{Core3d, Core3dSystems};
 use bevy::prelude::*;
+use optica_plugin_kit::prepare_systems;
 use bevy::render::extract_component::ExtractComponentPlugin;
 use bevy::render::render_resource::{CachedRenderPipelineId, SpecializedRenderPipelines};
-use bevy::render::{GpuResourceAppExt, Render, RenderApp, RenderStartup, RenderSystems};
+use bevy::render::{GpuResourceAppExt, Render, RenderApp, RenderStartup};
 
 use crate::DomeRimMask;
 use crate::cube::DomeCubeSampling;
@@ -43,12 +44,10 @@ impl Plugin for CubeResamplePlugin {
             .add_systems(RenderStartup, init_resample_pipeline)
             .add_systems(
                 Render,
-                (
-                    prepare_resample_pipelines
-                        .in_set(RenderSystems::Prepare)
-                        .before(RenderSystems::PrepareResources),
-                    prepare_resample_resources.in_set(RenderSystems::PrepareResources),
-                    prepare_resample_bind_groups.in_set(RenderSystems::PrepareBindGroups),
+                prepare_systems(
+                    prepare_resample_pipelines,
+                    prepare_resample_resources,
+                    prepare_resample_bind_groups,
                 ),
             )
             .add_systems(

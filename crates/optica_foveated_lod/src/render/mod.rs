@@ -15,13 +15,14 @@
 
 use bevy::core_pipeline::{Core3d, Core3dSystems};
 use bevy::prelude::*;
+use optica_plugin_kit::prepare_systems;
 use bevy::render::extract_component::ExtractComponentPlugin;
 use bevy::render::extract_resource::ExtractResourcePlugin;
 use bevy::render::render_resource::{
     BindGroup, CachedComputePipelineId, CachedRenderPipelineId, SpecializedComputePipelines,
     SpecializedRenderPipelines,
 };
-use bevy::render::{GpuResourceAppExt, Render, RenderApp, RenderStartup, RenderSystems};
+use bevy::render::{GpuResourceAppExt, Render, RenderApp, RenderStartup};
 
 use crate::raytrace::{TracedScene, TracerView};
 
@@ -51,16 +52,10 @@ impl Plugin for TracerRenderPlugin {
             .add_systems(RenderStartup, init_tracer_pipelines)
             .add_systems(
                 Render,
-                (
-                    // Before the resources, so that a view's first frame
-                    // with pipelines queued also gets its buffers.
-                    prepare_tracer_pipelines
-                        .in_set(RenderSystems::Prepare)
-                        .before(RenderSystems::PrepareResources),
-                    (prepare_scene, prepare_views)
-                        .chain()
-                        .in_set(RenderSystems::PrepareResources),
-                    prepare_tracer_bind_groups.in_set(RenderSystems::PrepareBindGroups),
+                prepare_systems(
+                    prepare_tracer_pipelines,
+                    (prepare_scene, prepare_views).chain(),
+                    prepare_tracer_bind_groups,
                 ),
             )
             .add_systems(Core3d, trace_pass.in_set(Core3dSystems::EarlyPostProcess));

@@ -19,12 +19,13 @@ use bevy::core_pipeline::tonemapping::tonemapping;
 use bevy::core_pipeline::{Core3d, Core3dSystems};
 use bevy::post_process::bloom::bloom;
 use bevy::prelude::*;
+use optica_plugin_kit::prepare_systems;
 use bevy::render::extract_component::ExtractComponentPlugin;
 use bevy::render::render_resource::{
     BindGroup, Buffer, CachedComputePipelineId, CachedRenderPipelineId,
     SpecializedComputePipelines, SpecializedRenderPipelines, TextureFormat, TextureView,
 };
-use bevy::render::{GpuResourceAppExt, Render, RenderApp, RenderStartup, RenderSystems};
+use bevy::render::{GpuResourceAppExt, Render, RenderApp, RenderStartup};
 
 use crate::draws::FlareDraws;
 
@@ -61,14 +62,10 @@ impl Plugin for FlareRenderPlugin {
             .add_systems(RenderStartup, init_flare_pipelines)
             .add_systems(
                 Render,
-                (
-                    // Before the resources, so that a view's first frame
-                    // with pipelines queued also gets its buffers.
-                    prepare_flare_pipelines
-                        .in_set(RenderSystems::Prepare)
-                        .before(RenderSystems::PrepareResources),
-                    prepare_flare_resources.in_set(RenderSystems::PrepareResources),
-                    prepare_flare_bind_groups.in_set(RenderSystems::PrepareBindGroups),
+                prepare_systems(
+                    prepare_flare_pipelines,
+                    prepare_flare_resources,
+                    prepare_flare_bind_groups,
                 ),
             )
             .add_systems(

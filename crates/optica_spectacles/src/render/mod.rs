@@ -14,12 +14,13 @@
 
 use bevy::core_pipeline::{Core3d, Core3dSystems};
 use bevy::prelude::*;
+use optica_plugin_kit::prepare_systems;
 use bevy::render::extract_component::ExtractComponentPlugin;
 use bevy::render::render_resource::{
     BindGroup, CachedComputePipelineId, CachedRenderPipelineId, SpecializedComputePipelines,
     SpecializedRenderPipelines,
 };
-use bevy::render::{GpuResourceAppExt, Render, RenderApp, RenderStartup, RenderSystems};
+use bevy::render::{GpuResourceAppExt, Render, RenderApp, RenderStartup};
 
 use crate::clones::CloneResolve;
 use crate::mirror::{CubeFace, MirrorEnvironment};
@@ -55,14 +56,10 @@ impl Plugin for SpectaclesRenderPlugin {
             .add_systems(RenderStartup, init_spectacles_pipelines)
             .add_systems(
                 Render,
-                (
-                    // Before the resources, so that a view's first frame
-                    // with pipelines queued also gets its buffers.
-                    prepare_spectacles_pipelines
-                        .in_set(RenderSystems::Prepare)
-                        .before(RenderSystems::PrepareResources),
-                    prepare_spectacles_resources.in_set(RenderSystems::PrepareResources),
-                    prepare_spectacles_bind_groups.in_set(RenderSystems::PrepareBindGroups),
+                prepare_systems(
+                    prepare_spectacles_pipelines,
+                    prepare_spectacles_resources,
+                    prepare_spectacles_bind_groups,
                 ),
             )
             .add_systems(

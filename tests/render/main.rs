@@ -7,8 +7,10 @@
 mod compound_eye;
 mod dome;
 mod foveated_lod;
+mod fuzz_corpus;
 mod lens_flare;
 mod plugin_shape;
+mod randomised;
 // The showcase's scenes are the examples' (they use the umbrella crate's
 // plugin features, all of which `showcase` turns on; CI builds with
 // --all-features).

@@ -15,6 +15,8 @@
 //! - [`Headless::check_pipelines`] proves every pipeline compiles, also on
 //!   wgpu's noop backend where no driver exists;
 //! - [`metrics`] computes PSNR, SSIM and ꟻLIP;
+//! - [`randomise`] draws a settings component's every field over its whole
+//!   type range (NaN and infinities included), for property tests;
 //! - [`textures`] makes test patterns (a checkerboard, a texture of its own
 //!   coordinates, a soft spot) to put in front of the camera.
 //!
@@ -77,6 +79,7 @@ mod headless;
 mod kernel;
 pub mod metrics;
 mod noop;
+pub mod randomise;
 pub mod textures;
 mod timing;
 

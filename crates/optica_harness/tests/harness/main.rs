@@ -7,5 +7,6 @@ mod golden_workflow;
 mod headless;
 mod kernel;
 mod metrics;
+mod randomise;
 mod timing;
 mod user_scene;

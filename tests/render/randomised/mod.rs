@@ -1,0 +1,5 @@
+//! Reliability measured at random (issue: every setting a user can reach,
+//! randomised): the plugins' settings over their whole type range on the
+//! CPU twins.
+
+mod settings;

@@ -213,6 +213,24 @@ impl Headless {
         })
     }
 
+    /// Builds the app and keeps it running, for a test that steps it, changes
+    /// the scene and reads frames back as it goes (a soak, settings drawn
+    /// at random frame after frame). [`Headless::frames`] is not used: the
+    /// caller steps. Holds the harness' one-app-at-a-time lock until dropped.
+    pub fn start(&self, setup: impl FnOnce(&mut App)) -> Result<HeadlessRun, HarnessError> {
+        let guard = lock();
+        if self.adapter == Adapter::Noop {
+            return Err(HarnessError::NoPixelsOnNoop);
+        }
+        let (app, handle) = self.prepare(setup, false)?;
+        Ok(HeadlessRun {
+            app,
+            handle,
+            hdr: self.hdr,
+            _one_at_a_time: guard,
+        })
+    }
+
     /// Runs the app for [`Headless::frames`] frames and checks that every
     /// pipeline compiled, that wgpu reported no error and that the app did
     /// not ask to exit. Works on [`Adapter::Noop`], where no driver exists.
@@ -388,6 +406,66 @@ impl Headless {
             RenderErrorPolicy::StopRendering
         }));
         Ok(app)
+    }
+}
+
+/// A headless app kept running ([`Headless::start`]): step it, reach into
+/// its world, read its frame back, ask how much GPU memory it holds.
+pub struct HeadlessRun {
+    app: App,
+    handle: Handle<Image>,
+    hdr: bool,
+    _one_at_a_time: std::sync::MutexGuard<'static, ()>,
+}
+
+impl HeadlessRun {
+    /// The app, to change its scene between frames.
+    pub fn app(&mut self) -> &mut App {
+        &mut self.app
+    }
+
+    /// One frame; an error when wgpu reported one (a validation error
+    /// among them) or the app asked to exit.
+    pub fn step(&mut self) -> Result<(), HarnessError> {
+        step(&mut self.app)
+    }
+
+    /// Waits for pipelines still compiling, then reads the target back at
+    /// its current size (the steps this takes are frames of the app).
+    pub fn frame(&mut self) -> Result<RenderedFrame, HarnessError> {
+        settle(&mut self.app)?;
+        let size = self
+            .app
+            .world()
+            .resource::<Assets<Image>>()
+            .get(&self.handle)
+            .map(|i| i.size())
+            .ok_or(HarnessError::NoReadback(0))?;
+        let data = read_back(&mut self.app, self.handle.clone())?;
+        let pixels = if self.hdr {
+            Pixels::Hdr(decode_rgba16f(&data, size.x, size.y)?)
+        } else {
+            Pixels::Rgba8(decode_rgba8(&data, size.x, size.y)?)
+        };
+        Ok(RenderedFrame {
+            adapter: adapter_info(&mut self.app)?,
+            pixels,
+            pipelines: pipeline_states(&mut self.app)?.ok,
+        })
+    }
+
+    /// The render target, to resize it (`Image::resize`): the cameras
+    /// drawing into it follow.
+    pub fn target(&self) -> Handle<Image> {
+        self.handle.clone()
+    }
+
+    /// GPU memory the device's allocator holds (bytes allocated, bytes
+    /// reserved), where the backend reports it (Vulkan and DX12 do).
+    pub fn gpu_memory(&self) -> Option<(u64, u64)> {
+        let device = self.app.world().get_resource::<RenderDevice>()?;
+        let report = device.wgpu_device().generate_allocator_report()?;
+        Some((report.total_allocated_bytes, report.total_reserved_bytes))
     }
 }
 

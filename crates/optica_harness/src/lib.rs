@@ -88,7 +88,8 @@ pub use error::HarnessError;
 pub use frame::{Pixels, RenderedFrame};
 pub use golden::{Golden, GoldenOutcome, Tolerance, UpdateMode, WriteReason};
 pub use headless::{
-    DEFAULT_TIME_STEP, HarnessTarget, Headless, MAX_SETTLE_FRAMES, MAX_SIDE, PipelineReport,
+    DEFAULT_TIME_STEP, HarnessTarget, Headless, HeadlessRun, MAX_SETTLE_FRAMES, MAX_SIDE,
+    PipelineReport,
     PluginsHook,
 };
 pub use kernel::KERNEL_WORKGROUP;

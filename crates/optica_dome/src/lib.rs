@@ -188,7 +188,7 @@ pub use refine::{
 };
 pub use settings::{
     DomeApparentSize, DomeCamera, DomeLens, DomeMode, DomeSees, DomeStatus, FACE_PX_RANGE,
-    MAX_FOV_DEG,
+    MAX_FOV_DEG, MIN_TOLERANCE_PX,
 };
 pub use twin_mesh::{pre_subdivide_mesh_asset, refine_mesh_asset};
 
@@ -254,7 +254,11 @@ impl Plugin for DomePlugin {
                 (refine::refine_twins, refine::light_the_dome_layer)
                     .after(bevy::transform::TransformSystems::Propagate)
                     .after(bevy::camera::CameraUpdateSystems)
-                    .run_if(any_with_component::<DomeCamera>),
+                    // Also while twins outlive the last dome camera: the
+                    // frame after it goes, `refine_twins` despawns them
+                    // (gated on the camera alone they stayed, found by the
+                    // soak).
+                    .run_if(any_with_component::<DomeCamera>.or_else(any_with_component::<DomeTwinOf>)),
             )
             .add_systems(
                 Update,

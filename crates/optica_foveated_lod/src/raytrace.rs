@@ -459,10 +459,22 @@ pub(crate) fn prepare_tracer_views(
             scale,
             outer_level: outer_level(&tracer),
             reflect_max: tracer.reflect_max.min(MAX_REFLECT),
-            background: tracer.background.to_vec3(),
-            ambient: tracer.ambient.to_vec3(),
+            background: tracer_colour(tracer.background),
+            ambient: tracer_colour(tracer.ambient),
         });
     }
+}
+
+/// The most a channel of an `Rgba16Float` target holds: a brighter
+/// background or ambient would be infinite there.
+const MAX_CHANNEL: f32 = 65504.0;
+
+/// A [`GazeRayTracer`] colour as the tracer uses it: each channel in
+/// `0..=MAX_CHANNEL`, NaN as 0 (a negative or infinite channel, from code
+/// or a panel dragged to its end, would otherwise draw NaN pixels).
+fn tracer_colour(c: LinearRgba) -> Vec3 {
+    let channel = |v: f32| if v.is_nan() { 0.0 } else { v.clamp(0.0, MAX_CHANNEL) };
+    Vec3::new(channel(c.red), channel(c.green), channel(c.blue))
 }
 
 /// The outer layer's level threshold in use: in [0, 1], 0 (none) for NaN
@@ -491,8 +503,8 @@ pub fn reference_of(traced: &TracedScene, tracer: &GazeRayTracer) -> Option<Trac
     TracerScene::new(
         scene.objects().to_vec(),
         scene.lights().to_vec(),
-        lin(tracer.ambient),
-        lin(tracer.background),
+        tracer_colour(tracer.ambient).as_dvec3(),
+        tracer_colour(tracer.background).as_dvec3(),
     )
     .ok()
 }

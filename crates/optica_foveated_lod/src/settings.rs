@@ -331,9 +331,11 @@ pub struct GazeRayTracer {
     /// (the outer layer; 0.5 by default, 0 for none).
     pub outer_level: f32,
     /// The colour of rays that hit nothing and of pixels outside the
-    /// visual field (linear).
+    /// visual field (linear). Each channel is used clamped to 0..=65,504
+    /// (the most a half-float target holds); NaN counts as 0.
     pub background: LinearRgba,
-    /// Ambient light, added as ambient × albedo (linear).
+    /// Ambient light, added as ambient × albedo (linear; clamped as
+    /// [`GazeRayTracer::background`]).
     pub ambient: LinearRgba,
 }
 

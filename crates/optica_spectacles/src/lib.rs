@@ -364,8 +364,8 @@ pub mod twins {
 }
 pub use settings::{
     CurvedMirror, MirrorMethod, MirrorViewer,
-    Accommodation, Astigmatism, CloneDefocus, CloneShading, Eye, FieldBox, LensMaterial, MAX_CLONES, Pupil,
-    Spectacles,
+    Accommodation, Astigmatism, CloneDefocus, CloneShading, Eye, FieldBox, LensMaterial, MAX_CLONES,
+    MAX_LENS_VERTICES, Pupil, Spectacles,
 };
 
 /// The clone material's vertex stage where the device has clip distances
@@ -430,9 +430,13 @@ impl Plugin for SpectaclesPlugin {
             )
             .configure_sets(
                 PostUpdate,
+                // Also while clones outlive the last eye: the frame after
+                // it goes, `sync_twins` despawns them (gated on the eye
+                // alone they stayed, ten entities a mesh, found by the soak).
                 (SpectaclesSystems::Defocus, SpectaclesSystems::Refraction).distributive_run_if(
                     any_with_component::<Eye>
                         .or_else(any_with_component::<clones::CloneRig>)
+                        .or_else(any_with_component::<CloneOf>)
                         .or_else(any_with_component::<Spectacles>)
                         .or_else(any_with_component::<refraction::LensRefraction>),
                 ),

@@ -4,7 +4,7 @@
 
 use bevy::prelude::*;
 use optica_optics::glass::Glass;
-use optica_optics::input::InvalidInput;
+use optica_optics::input::{Expected, InvalidInput};
 use optica_optics::spectacles::CurvedMirror as MirrorOptics;
 use optica_optics::spectacles::{
     self as optics, AdaptedEyes, HofstetterBound, LensDesignParams, Prescription,
@@ -445,7 +445,8 @@ pub struct Spectacles {
     pub refraction: bool,
     /// The lens's tessellation, rings × segments of its back surface (the
     /// paper: ~1,500 vertices, 24 × 64): the refraction is traced at each
-    /// vertex and interpolated between them.
+    /// vertex and interpolated between them. At most [`MAX_LENS_VERTICES`]
+    /// vertices.
     pub tessellation: UVec2,
     /// The lens's optical centre off the line of sight (mm, to the
     /// wearer's left and up): glasses that sit off centre, or slide. The
@@ -525,13 +526,36 @@ impl Spectacles {
 
     /// The designed lens, in the eye's frame.
     ///
-    /// Errors: bad numbers, or a prescription no lens of this blank can
-    /// carry (e.g. +20 D in CR-39 on a 50 mm blank: its front surface
-    /// would close before the rim), as [`SpectaclesError`].
+    /// Errors: bad numbers, a tessellation of more than
+    /// [`MAX_LENS_VERTICES`] vertices, or a prescription no lens of this
+    /// blank can carry (e.g. +20 D in CR-39 on a 50 mm blank: its front
+    /// surface would close before the rim), as [`SpectaclesError`].
     pub fn design(&self) -> Result<optics::SpectacleLens, SpectaclesError> {
+        if self.refraction {
+            let vertices = u64::from(self.tessellation.x) * u64::from(self.tessellation.y);
+            if vertices > MAX_LENS_VERTICES {
+                return Err(InvalidInput::new(
+                    "lens tessellation rings × segments",
+                    vertices as f64,
+                    Expected::Range {
+                        min: 3.0,
+                        max: MAX_LENS_VERTICES as f64,
+                    },
+                )
+                .into());
+            }
+        }
         optics::design_lens(&self.prescription()?, &self.design_params()?)
     }
 }
+
+/// The most vertices a lens's tessellation ([`Spectacles::tessellation`],
+/// rings × segments) may have: 2¹⁸, 170 times the paper's ~1,500. Each
+/// takes 48 bytes of a GPU buffer the refraction pass binds whole; 3.3
+/// million of them (160 MB) passed the other checks and overran the 128
+/// MiB a storage binding may hold, stopping rendering with a wgpu error
+/// (found by drawing random accepted settings).
+pub const MAX_LENS_VERTICES: u64 = 1 << 18;
 
 /// A curved mirror in the scene, seen by the camera with [`MirrorViewer`].
 ///

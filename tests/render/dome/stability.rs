@@ -554,3 +554,29 @@ fn twins_are_a_relationship_that_users_can_filter_out() {
     assert_eq!(twins, vec![1, 1], "one twin per mesh and camera");
     assert_eq!(all, 4, "meshes and their twins");
 }
+
+/// A tolerance below a hundredth of a pixel is refused by name: the
+/// triangles grow as its inverse (a 90° triangle on a 64 px dome is 6.5
+/// million triangles at 10⁻⁶ px, a minute of refinement), which random
+/// accepted settings drawn at 32² found as an app that stopped and grew
+/// by gigabytes. The floor itself is accepted.
+#[test]
+fn a_tolerance_finer_than_the_floor_is_refused_by_name() {
+    use optica_dome::MIN_TOLERANCE_PX;
+    for bad in [1e-6, 1e-3, 0.009] {
+        let refused = DomeCamera {
+            tolerance_px: bad,
+            ..default()
+        }
+        .validate();
+        assert!(
+            matches!(&refused, Err(Error::Setting(e)) if e.what == "tolerance (px)" && e.value == f64::from(bad)),
+            "{refused:?}"
+        );
+    }
+    let floor = DomeCamera {
+        tolerance_px: MIN_TOLERANCE_PX,
+        ..default()
+    };
+    assert_eq!(floor.validate(), Ok(()));
+}

@@ -349,3 +349,29 @@ fn clip_distances_and_the_discard_cut_clones_alike() {
     assert!(both < 1e-3, "clip distances and the discard differ by {both}");
     assert!(blur > 0.05, "the blurred view is the sharp one (differs by {blur})");
 }
+
+/// Despawning the last eye camera despawns its clones too. The plugin's
+/// systems were gated on an eye existing, so the frame after the last one
+/// went nothing removed the clones: ten entities a mesh stayed for good
+/// (found by the soak).
+#[test]
+fn the_last_eye_takes_its_clones_with_it() {
+    let mut run = Headless::new(32, 32)
+        .start(scene(targets(), Some((Eye::default(), CloneDefocus { clones: 4, ..default() })), None, 0.8))
+        .expect("app");
+    for _ in 0..4 {
+        run.step().expect("frame");
+    }
+    let count = |run: &mut optica_harness::HeadlessRun| {
+        let world = run.app().world_mut();
+        world.query_filtered::<(), With<CloneOf>>().iter(world).count()
+    };
+    assert_eq!(count(&mut run), 4, "four clones of the target while the eye looks");
+    let world = run.app().world_mut();
+    let eye = world.query_filtered::<Entity, With<Eye>>().single(world).expect("the eye");
+    world.despawn(eye);
+    for _ in 0..3 {
+        run.step().expect("frame");
+    }
+    assert_eq!(count(&mut run), 0, "clones left after the last eye went");
+}

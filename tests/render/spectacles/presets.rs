@@ -159,3 +159,27 @@ fn naked_presets_blur_as_their_closed_form() {
         assert!(with < 0.25 * without, "{name} at {z} m: {with}′ with glasses, {without}′ without");
     }
 }
+
+/// A lens tessellated past the bound is refused by name instead of
+/// reaching the GPU: 3.3 million vertices (160 MB) passed the other checks
+/// and overran a storage binding, a wgpu error that stopped rendering
+/// (found by drawing random accepted settings). The bound itself is
+/// accepted.
+#[test]
+fn a_lens_tessellated_past_the_bound_is_refused_by_name() {
+    use bevy::math::UVec2;
+    use optica_spectacles::{MAX_LENS_VERTICES, Spectacles};
+    let mut lens = Spectacles::sphere(-2.0);
+    lens.tessellation = UVec2::new(1024, 3272);
+    let refused = lens.design().map(|_| ()).map_err(|e| e.to_string());
+    assert!(
+        matches!(&refused, Err(e) if e.contains("lens tessellation rings × segments") && e.contains("3350528")),
+        "{refused:?}"
+    );
+    lens.tessellation = UVec2::new(256, (MAX_LENS_VERTICES / 256) as u32);
+    assert!(lens.design().is_ok());
+    // Without refraction the tessellation is not used, and not checked.
+    lens.tessellation = UVec2::new(1024, 3272);
+    lens.refraction = false;
+    assert!(lens.design().is_ok());
+}

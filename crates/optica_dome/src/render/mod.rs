@@ -17,7 +17,7 @@ use bevy::prelude::*;
 use optica_plugin_kit::prepare_systems;
 use bevy::render::extract_component::ExtractComponentPlugin;
 use bevy::render::render_resource::{CachedRenderPipelineId, SpecializedRenderPipelines};
-use bevy::render::{GpuResourceAppExt, Render, RenderApp, RenderStartup};
+use bevy::render::{GpuResourceAppExt, Render, RenderApp, RenderStartup, RenderSystems};
 
 use crate::DomeRimMask;
 use crate::cube::DomeCubeSampling;
@@ -25,6 +25,7 @@ use crate::cube::DomeCubeSampling;
 mod passes;
 mod pipelines;
 mod prepare;
+mod rim_mask;
 
 use passes::resample;
 use pipelines::{ResamplePipeline, init_resample_pipeline, prepare_resample_pipelines};
@@ -49,6 +50,12 @@ impl Plugin for CubeResamplePlugin {
                     prepare_resample_resources,
                     prepare_resample_bind_groups,
                 ),
+            )
+            // After the rim masks' uniforms are written, before Bevy makes
+            // their bind groups.
+            .add_systems(
+                Render,
+                rim_mask::drop_stale_rim_mask_bind_groups.in_set(RenderSystems::PrepareResourcesFlush),
             )
             .add_systems(
                 Core3d,

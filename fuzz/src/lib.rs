@@ -35,9 +35,15 @@ pub fn lens(data: &[u8]) {
             return;
         }
     };
-    assert!(!lens.surfaces().is_empty() && lens.surfaces().len() <= optica_optics::lens::MAX_SURFACES);
+    assert!(
+        !lens.surfaces().is_empty() && lens.surfaces().len() <= optica_optics::lens::MAX_SURFACES
+    );
     if let Ok(p) = lens.paraxial(550.0) {
-        assert!(p.efl_mm.is_finite() || p.efl_mm.is_infinite(), "paraxial EFL {}", p.efl_mm);
+        assert!(
+            p.efl_mm.is_finite() || p.efl_mm.is_infinite(),
+            "paraxial EFL {}",
+            p.efl_mm
+        );
     }
     for wl in WAVELENGTHS {
         let Ok(prepared) = PreparedLens::new(&lens, wl) else {
@@ -55,7 +61,11 @@ pub fn lens(data: &[u8]) {
             if let Ok(ray) = beam.ray_at(0.5, 0.5)
                 && let Ok(hit) = prepared.trace(ray, path)
             {
-                assert!(hit.throughput.is_finite() && hit.throughput >= 0.0, "throughput {}", hit.throughput);
+                assert!(
+                    hit.throughput.is_finite() && hit.throughput >= 0.0,
+                    "throughput {}",
+                    hit.throughput
+                );
             }
             let options = EstimateOptions {
                 cells_per_side: 2,
@@ -64,8 +74,16 @@ pub fn lens(data: &[u8]) {
             if let TracePath::Ghost { .. } = path
                 && let Ok(g) = estimate_ghost(&prepared, path, &beam, &aperture, &options)
             {
-                assert!(g.power.is_finite() && g.power >= 0.0, "ghost power {}", g.power);
-                assert!(g.intensity.is_finite() && g.intensity >= 0.0, "ghost intensity {}", g.intensity);
+                assert!(
+                    g.power.is_finite() && g.power >= 0.0,
+                    "ghost power {}",
+                    g.power
+                );
+                assert!(
+                    g.intensity.is_finite() && g.intensity >= 0.0,
+                    "ghost intensity {}",
+                    g.intensity
+                );
             }
         }
     }
@@ -96,12 +114,24 @@ pub fn head_trace(data: &[u8]) {
     };
     assert!(!trace.is_empty());
     let samples = trace.samples();
-    assert!(samples.windows(2).all(|w| w[0].timestamp_s <= w[1].timestamp_s));
+    assert!(
+        samples
+            .windows(2)
+            .all(|w| w[0].timestamp_s <= w[1].timestamp_s)
+    );
     assert!(samples.iter().all(|s| s.timestamp_s.is_finite()));
     samples.iter().for_each(check_head);
     let period = trace.period_s();
     assert!(period >= 0.0, "period {period}");
-    for t in [0.0, 0.5, trace.duration_s(), 1e9, -1.0, f64::NAN, f64::INFINITY] {
+    for t in [
+        0.0,
+        0.5,
+        trace.duration_s(),
+        1e9,
+        -1.0,
+        f64::NAN,
+        f64::INFINITY,
+    ] {
         for looping in [false, true] {
             if let Some(head) = trace.at(t, looping) {
                 check_head(head);
@@ -128,7 +158,11 @@ pub fn dtrack(data: &[u8]) {
     for body in &frame.bodies {
         let head = settings.head_of(body, frame.timestamp_s);
         if head.valid {
-            assert!(head.eyes.iter().all(|e| e.is_finite()), "valid head with eyes {:?}", head.eyes);
+            assert!(
+                head.eyes.iter().all(|e| e.is_finite()),
+                "valid head with eyes {:?}",
+                head.eyes
+            );
             assert!(head.orientation.is_finite());
         }
         check_head(&head);

@@ -32,7 +32,11 @@ fn replay(target: &str, check: fn(&[u8])) -> usize {
             let outcome = std::panic::catch_unwind(|| check(&data));
             let took = start.elapsed();
             assert!(outcome.is_ok(), "{}: the check panicked", file.display());
-            assert!(took < TIME_CAP, "{}: {took:?}, over the cap", file.display());
+            assert!(
+                took < TIME_CAP,
+                "{}: {took:?}, over the cap",
+                file.display()
+            );
             count += 1;
         }
     }

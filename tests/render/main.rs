@@ -18,3 +18,9 @@ mod soak;
 #[cfg(feature = "showcase")]
 mod showcase;
 mod spectacles;
+
+/// A count from the environment variable `name` (a long run's size), or
+/// `default` (the test command's).
+pub fn count_from_env<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
+}

@@ -43,10 +43,7 @@ const SIZES: [u32; 3] = [48, 56, 64];
 const MAX_MESHES: usize = 6;
 
 fn frames() -> u32 {
-    std::env::var("OPTICA_SOAK_FRAMES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(240)
+    crate::count_from_env("OPTICA_SOAK_FRAMES", 240)
 }
 
 /// Marks what the churn made, with the quarter a camera draws into.
@@ -74,19 +71,33 @@ fn rss_bytes() -> u64 {
 /// Pipelines in the render world's cache, by label.
 fn pipelines(run: &mut HeadlessRun) -> std::collections::BTreeMap<String, usize> {
     let mut counts = std::collections::BTreeMap::new();
-    let cache = run.app().sub_app(RenderApp).world().resource::<bevy::render::render_resource::PipelineCache>();
+    let cache = run
+        .app()
+        .sub_app(RenderApp)
+        .world()
+        .resource::<bevy::render::render_resource::PipelineCache>();
     for p in cache.pipelines() {
         let label = match &p.descriptor {
-            bevy::render::render_resource::PipelineDescriptor::RenderPipelineDescriptor(d) => d.label.clone(),
-            bevy::render::render_resource::PipelineDescriptor::ComputePipelineDescriptor(d) => d.label.clone(),
+            bevy::render::render_resource::PipelineDescriptor::RenderPipelineDescriptor(d) => {
+                d.label.clone()
+            }
+            bevy::render::render_resource::PipelineDescriptor::ComputePipelineDescriptor(d) => {
+                d.label.clone()
+            }
         };
-        *counts.entry(label.map_or("(unlabelled)".into(), |l| l.to_string())).or_insert(0) += 1;
+        *counts
+            .entry(label.map_or("(unlabelled)".into(), |l| l.to_string()))
+            .or_insert(0) += 1;
     }
     counts
 }
 
 fn render_resources(run: &mut HeadlessRun) -> usize {
-    run.app().sub_app(RenderApp).world().iter_resources().count()
+    run.app()
+        .sub_app(RenderApp)
+        .world()
+        .iter_resources()
+        .count()
 }
 
 fn entities(run: &mut HeadlessRun) -> usize {
@@ -161,16 +172,34 @@ fn churn(world: &mut World, rng: &mut SplitMix64, target: &Handle<Image>) {
             let mut which = rng.random_range(0..4);
             // (One kind only, to find which one a regression comes from:
             // 0 flare, 1 dome, 2 spectacles, 3 tracer, 4 a plain camera.)
-            if let Some(only) = std::env::var("OPTICA_SOAK_CAMERA").ok().and_then(|v| v.parse().ok()) {
+            if let Some(only) = std::env::var("OPTICA_SOAK_CAMERA")
+                .ok()
+                .and_then(|v| v.parse().ok())
+            {
                 which = only;
             }
             match which {
-                0 => world.spawn((camera(slot), LensFlare { grid: 8, ..LensFlare::new(lens) })),
+                0 => world.spawn((
+                    camera(slot),
+                    LensFlare {
+                        grid: 8,
+                        ..LensFlare::new(lens)
+                    },
+                )),
                 1 => {
-                    let mode = if rng.random() { DomeMode::Vertex } else { DomeMode::CubeMap { face_px: 32 } };
+                    let mode = if rng.random() {
+                        DomeMode::Vertex
+                    } else {
+                        DomeMode::CubeMap { face_px: 32 }
+                    };
                     world.spawn((camera(slot), DomeCamera { mode, ..default() }))
                 }
-                2 => world.spawn((camera(slot), Eye::default(), Spectacles::sphere(-2.0), CloneDefocus::default())),
+                2 => world.spawn((
+                    camera(slot),
+                    Eye::default(),
+                    Spectacles::sphere(-2.0),
+                    CloneDefocus::default(),
+                )),
                 3 => world.spawn((camera(slot), GazeRayTracer::default())),
                 // A plain camera: the baseline of a memory comparison.
                 _ => world.spawn(camera(slot)),
@@ -183,16 +212,35 @@ fn churn(world: &mut World, rng: &mut SplitMix64, target: &Handle<Image>) {
             if q.iter(world).filter(|c| c.slot.is_none()).count() >= MAX_MESHES {
                 return;
             }
-            let mesh = world.resource_mut::<Assets<Mesh>>().add(Sphere::new(0.4).mesh().ico(2).unwrap());
-            let at = Transform::from_xyz(rng.random_range(-1.0..1.0), 0.5, rng.random_range(-1.0..1.0));
+            let mesh = world
+                .resource_mut::<Assets<Mesh>>()
+                .add(Sphere::new(0.4).mesh().ico(2).unwrap());
+            let at = Transform::from_xyz(
+                rng.random_range(-1.0..1.0),
+                0.5,
+                rng.random_range(-1.0..1.0),
+            );
             if rng.random() {
-                let material = world.resource_mut::<Assets<CompoundEyeMaterial>>().add(CompoundEyeMaterial {
-                    base: optica_report::fixtures::eye_base(),
-                    extension: CompoundEye::default(),
-                });
-                world.spawn((Mesh3d(mesh), MeshMaterial3d(material), at, Churned { slot: None }));
+                let material =
+                    world
+                        .resource_mut::<Assets<CompoundEyeMaterial>>()
+                        .add(CompoundEyeMaterial {
+                            base: optica_report::fixtures::eye_base(),
+                            extension: CompoundEye::default(),
+                        });
+                world.spawn((
+                    Mesh3d(mesh),
+                    MeshMaterial3d(material),
+                    at,
+                    Churned { slot: None },
+                ));
             } else {
-                world.spawn((Mesh3d(mesh), at, RayTraced::diffuse(LinearRgba::rgb(0.6, 0.5, 0.4)), Churned { slot: None }));
+                world.spawn((
+                    Mesh3d(mesh),
+                    at,
+                    RayTraced::diffuse(LinearRgba::rgb(0.6, 0.5, 0.4)),
+                    Churned { slot: None },
+                ));
             }
         }
         // Despawn one of the churned.
@@ -210,7 +258,9 @@ fn churn(world: &mut World, rng: &mut SplitMix64, target: &Handle<Image>) {
         7 => {
             let hot = world.resource::<HotLens>();
             let bytes: Vec<u8> = if rng.random_range(0..3) == 0 {
-                (0..rng.random_range(0..400)).map(|_| rng.random()).collect()
+                (0..rng.random_range(0..400))
+                    .map(|_| rng.random())
+                    .collect()
             } else {
                 hot.good.clone()
             };
@@ -322,21 +372,27 @@ struct Peaks {
 impl Peaks {
     fn add(&mut self, run: &HeadlessRun) {
         self.rss = self.rss.max(rss_bytes());
-        self.gpu = self.gpu.max(run.gpu_memory().map_or(0, |(allocated, _)| allocated));
+        self.gpu = self
+            .gpu
+            .max(run.gpu_memory().map_or(0, |(allocated, _)| allocated));
     }
 }
 
-#[test]
-fn a_churning_app_with_all_five_plugins_stays_finite_and_bounded() {
-    let total = frames();
-    let dir = std::env::temp_dir().join(format!("optica-soak-{}", std::process::id()));
+/// The soak's app: all five plugins, a flaring sun, a ground both drawn
+/// and ray traced, a plain camera owning the target, and the lens file in
+/// a folder of its own (`dir`), which the churn rewrites.
+fn start(dir: &std::path::Path) -> HeadlessRun {
     std::fs::create_dir_all(dir.join("lenses")).expect("temp dir");
-    let good = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/lenses/tessar-us2854889.lens")).expect("lens");
+    let good = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/lenses/tessar-us2854889.lens"
+    ))
+    .expect("lens");
     let path = dir.join("lenses/hot.lens");
     std::fs::write(&path, &good).expect("lens");
     let root: &'static str = Box::leak(dir.to_string_lossy().into_owned().into_boxed_str());
     let hot_path = path.clone();
-    let mut run = Headless::new(SIZES[2], SIZES[2])
+    Headless::new(SIZES[2], SIZES[2])
         .hdr(true)
         .default_plugins(move |g| {
             g.set(bevy::asset::AssetPlugin {
@@ -345,86 +401,124 @@ fn a_churning_app_with_all_five_plugins_stays_finite_and_bounded() {
             })
         })
         .start(move |app: &mut App| {
-            app.add_plugins((CompoundEyePlugin, DomePlugin, FoveatedLodPlugin, LensFlarePlugin, SpectaclesPlugin))
-                .insert_resource(HeadSource::External)
-                .insert_resource(TrackedHead::looking(Vec3::new(0.0, 0.8, 3.0), Quat::IDENTITY, Some(Vec3::NEG_Z), 0.063))
-                .add_systems(
-                    Startup,
-                    move |mut commands: Commands,
-                          assets: Res<AssetServer>,
-                          mut meshes: ResMut<Assets<Mesh>>,
-                          mut materials: ResMut<Assets<StandardMaterial>>| {
-                        commands.insert_resource(HotLens {
-                            path: hot_path.clone(),
-                            good: good.clone(),
-                            handle: assets.load("lenses/hot.lens"),
-                        });
-                        commands.spawn((
-                            DirectionalLight {
-                                illuminance: 50_000.0,
-                                shadow_maps_enabled: false,
-                                ..default()
-                            },
-                            Transform::IDENTITY.looking_to(Vec3::new(0.1, -0.3, -1.0), Vec3::Y),
-                            FlareSource::default(),
-                        ));
-                        commands.spawn((
-                            Mesh3d(meshes.add(Plane3d::default().mesh().size(6.0, 6.0).build())),
-                            MeshMaterial3d(materials.add(Color::srgb(0.5, 0.5, 0.45))),
-                            RayTraced::diffuse(LinearRgba::rgb(0.5, 0.5, 0.45)),
-                        ));
-                        // The target's owner: a plain camera under the churned ones.
-                        commands.spawn((Camera3d::default(), Transform::from_xyz(0.0, 2.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y)));
-                    },
-                );
+            app.add_plugins((
+                CompoundEyePlugin,
+                DomePlugin,
+                FoveatedLodPlugin,
+                LensFlarePlugin,
+                SpectaclesPlugin,
+            ))
+            .insert_resource(HeadSource::External)
+            .insert_resource(TrackedHead::looking(
+                Vec3::new(0.0, 0.8, 3.0),
+                Quat::IDENTITY,
+                Some(Vec3::NEG_Z),
+                0.063,
+            ))
+            .add_systems(
+                Startup,
+                move |mut commands: Commands,
+                      assets: Res<AssetServer>,
+                      mut meshes: ResMut<Assets<Mesh>>,
+                      mut materials: ResMut<Assets<StandardMaterial>>| {
+                    commands.insert_resource(HotLens {
+                        path: hot_path.clone(),
+                        good: good.clone(),
+                        handle: assets.load("lenses/hot.lens"),
+                    });
+                    commands.spawn((
+                        DirectionalLight {
+                            illuminance: 50_000.0,
+                            shadow_maps_enabled: false,
+                            ..default()
+                        },
+                        Transform::IDENTITY.looking_to(Vec3::new(0.1, -0.3, -1.0), Vec3::Y),
+                        FlareSource::default(),
+                    ));
+                    commands.spawn((
+                        Mesh3d(meshes.add(Plane3d::default().mesh().size(6.0, 6.0).build())),
+                        MeshMaterial3d(materials.add(Color::srgb(0.5, 0.5, 0.45))),
+                        RayTraced::diffuse(LinearRgba::rgb(0.5, 0.5, 0.45)),
+                    ));
+                    // The target's owner: a plain camera under the churned ones.
+                    commands.spawn((
+                        Camera3d::default(),
+                        Transform::from_xyz(0.0, 2.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y),
+                    ));
+                },
+            );
         })
-        .expect("app");
+        .expect("app")
+}
+
+/// Despawns everything the churn made and puts the settings, the tracker
+/// and the target's size back, then runs a few frames.
+fn clear(run: &mut HeadlessRun, target: &Handle<Image>) {
+    let world = run.app().world_mut();
+    let mut q = world.query_filtered::<Entity, With<Churned>>();
+    for e in q.iter(world).collect::<Vec<_>>() {
+        world.despawn(e);
+    }
+    // Settings back to their defaults, the tracker back, the size back.
+    world.insert_resource(Foveation::default());
+    world.insert_resource(TrackedHead::looking(
+        Vec3::new(0.0, 0.8, 3.0),
+        Quat::IDENTITY,
+        Some(Vec3::NEG_Z),
+        0.063,
+    ));
+    let mut images = world.resource_mut::<Assets<Image>>();
+    if let Some(mut image) = images.get_mut(target) {
+        image.resize(bevy::render::render_resource::Extent3d {
+            width: SIZES[2],
+            height: SIZES[2],
+            depth_or_array_layers: 1,
+        });
+    }
+    for _ in 0..8 {
+        run.step().expect("a frame after the churn");
+    }
+}
+
+/// Reads the frame back; panics, naming the cameras, on a value that is
+/// not finite.
+fn check_frame(run: &mut HeadlessRun, k: u32) {
+    let frame = run.frame().unwrap_or_else(|e| panic!("frame {k}: {e}"));
+    let img = frame.hdr().expect("HDR");
+    let bad: Vec<(u32, u32)> = img
+        .enumerate_pixels()
+        .filter(|(_, _, p)| p.0.iter().any(|v| !v.is_finite()))
+        .map(|(x, y, _)| (x, y))
+        .collect();
+    if !bad.is_empty() {
+        panic!(
+            "frame {k}: {} pixels not finite, first {:?}; cameras: {}",
+            bad.len(),
+            &bad[..bad.len().min(4)],
+            cameras(run.app().world_mut())
+        );
+    }
+}
+
+#[test]
+fn a_churning_app_with_all_five_plugins_stays_finite_and_bounded() {
+    let total = frames();
+    let dir = std::env::temp_dir().join(format!("optica-soak-{}", std::process::id()));
+    let mut run = start(&dir);
     let target = run.target();
     let mut rng = SplitMix64::seed_from_u64(0x50a4);
-    let clear = |run: &mut HeadlessRun| {
-        let world = run.app().world_mut();
-        let mut q = world.query_filtered::<Entity, With<Churned>>();
-        for e in q.iter(world).collect::<Vec<_>>() {
-            world.despawn(e);
-        }
-        // Settings back to their defaults, the tracker back, the size back.
-        world.insert_resource(Foveation::default());
-        world.insert_resource(TrackedHead::looking(Vec3::new(0.0, 0.8, 3.0), Quat::IDENTITY, Some(Vec3::NEG_Z), 0.063));
-        let mut images = world.resource_mut::<Assets<Image>>();
-        if let Some(mut image) = images.get_mut(&target) {
-            image.resize(bevy::render::render_resource::Extent3d {
-                width: SIZES[2],
-                height: SIZES[2],
-                depth_or_array_layers: 1,
-            });
-        }
-        for _ in 0..8 {
-            run.step().expect("a frame after the churn");
-        }
-    };
-    let check_frame = |run: &mut HeadlessRun, k: u32| {
-        let frame = run.frame().unwrap_or_else(|e| panic!("frame {k}: {e}"));
-        let img = frame.hdr().expect("HDR");
-        let bad: Vec<(u32, u32)> = img
-            .enumerate_pixels()
-            .filter(|(_, _, p)| p.0.iter().any(|v| !v.is_finite()))
-            .map(|(x, y, _)| (x, y))
-            .collect();
-        if !bad.is_empty() {
-            panic!("frame {k}: {} pixels not finite, first {:?}; cameras: {}", bad.len(), &bad[..bad.len().min(4)], cameras(run.app().world_mut()));
-        }
-    };
     run.step().expect("first frame");
     // Warm-up: every kind of change, then back to the scene alone.
     let warm = (total / 5).max(40);
     for k in 0..warm {
         churn(run.app().world_mut(), &mut rng, &target);
-        run.step().unwrap_or_else(|e| panic!("warm-up frame {k}: {e}"));
+        run.step()
+            .unwrap_or_else(|e| panic!("warm-up frame {k}: {e}"));
         if k % 20 == 19 {
             check_frame(&mut run, k);
         }
     }
-    clear(&mut run);
+    clear(&mut run, &target);
     let (entities0, resources0) = (entities(&mut run), render_resources(&mut run));
     let census0 = census(&mut run);
     // The soak.
@@ -458,7 +552,7 @@ fn a_churning_app_with_all_five_plugins_stays_finite_and_bounded() {
         }
     }
     check_frame(&mut run, soak);
-    clear(&mut run);
+    clear(&mut run, &target);
     let (entities1, resources1) = (entities(&mut run), render_resources(&mut run));
     let _ = std::fs::remove_dir_all(&dir);
     eprintln!(
@@ -471,15 +565,25 @@ fn a_churning_app_with_all_five_plugins_stays_finite_and_bounded() {
     );
     if entities1 != entities0 {
         let census1 = census(&mut run);
-        let keys: std::collections::BTreeSet<&String> = census0.keys().chain(census1.keys()).collect();
+        let keys: std::collections::BTreeSet<&String> =
+            census0.keys().chain(census1.keys()).collect();
         let grown: Vec<_> = keys
             .into_iter()
             .filter(|k| census0.get(*k) != census1.get(*k))
-            .map(|k| format!("{} (was {}) × [{k}]", census1.get(k).copied().unwrap_or(0), census0.get(k).copied().unwrap_or(0)))
+            .map(|k| {
+                format!(
+                    "{} (was {}) × [{k}]",
+                    census1.get(k).copied().unwrap_or(0),
+                    census0.get(k).copied().unwrap_or(0)
+                )
+            })
             .collect();
         panic!("entities after the churn: {entities0} → {entities1}; changed: {grown:#?}");
     }
-    assert_eq!(resources1, resources0, "render-world resources after the churn");
+    assert_eq!(
+        resources1, resources0,
+        "render-world resources after the churn"
+    );
     // Memory is held to the bound in the long run only (5,000 frames or
     // more, `docs/reliability.md`): a CI-sized run's first tenth still meets
     // shader variants and cube faces for the first time. The long run does
@@ -489,7 +593,17 @@ fn a_churning_app_with_all_five_plugins_stays_finite_and_bounded() {
     if total >= 5000 {
         // 5 %, plus 8 MiB: the allocators round up by blocks.
         let bounded = |a: u64, b: u64| b <= a + a / 20 + (8 << 20);
-        assert!(bounded(first.rss, last.rss), "RSS {} → {}", first.rss, last.rss);
-        assert!(bounded(first.gpu, last.gpu), "GPU memory {} → {}", first.gpu, last.gpu);
+        assert!(
+            bounded(first.rss, last.rss),
+            "RSS {} → {}",
+            first.rss,
+            last.rss
+        );
+        assert!(
+            bounded(first.gpu, last.gpu),
+            "GPU memory {} → {}",
+            first.gpu,
+            last.gpu
+        );
     }
 }

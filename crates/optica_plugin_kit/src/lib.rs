@@ -20,14 +20,14 @@
 #![warn(missing_docs)]
 
 use bevy::core_pipeline::FullscreenShader;
+use bevy::ecs::schedule::ScheduleConfigs;
+use bevy::ecs::system::ScheduleSystem;
 use bevy::prelude::*;
+use bevy::render::RenderSystems;
 use bevy::render::render_resource::{
     BindGroupLayoutDescriptor, ColorTargetState, ColorWrites, FragmentState,
     RenderPipelineDescriptor, TextureFormat,
 };
-use bevy::ecs::schedule::ScheduleConfigs;
-use bevy::ecs::system::ScheduleSystem;
-use bevy::render::RenderSystems;
 use bevy::shader::ShaderDefVal;
 
 /// A plugin's prepare systems in the `Render` schedule, in the shape of

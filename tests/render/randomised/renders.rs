@@ -18,20 +18,25 @@ use rand_xoshiro::SplitMix64;
 const SIZE: u32 = 32;
 
 fn draws() -> u64 {
-    std::env::var("OPTICA_RANDOM_RENDERS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(6)
+    crate::count_from_env("OPTICA_RANDOM_RENDERS", 6)
 }
 
 /// `base` redrawn (a share of its fields, from `seed`) until `accepted`
 /// takes it; `None` after 500 tries.
-fn accepted<T: Reflect + Clone>(base: &T, seed: &mut u64, accepted: impl Fn(&T) -> bool) -> Option<T> {
+fn accepted<T: Reflect + Clone>(
+    base: &T,
+    seed: &mut u64,
+    accepted: impl Fn(&T) -> bool,
+) -> Option<T> {
     for _ in 0..500 {
         *seed = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut value = base.clone();
         let mut rng = SplitMix64::seed_from_u64(*seed);
-        randomise_some(&mut value, &mut rng, [0.05, 0.15, 0.3][(*seed % 3) as usize]);
+        randomise_some(
+            &mut value,
+            &mut rng,
+            [0.05, 0.15, 0.3][(*seed % 3) as usize],
+        );
         if accepted(&value) {
             return Some(value);
         }
@@ -50,13 +55,17 @@ fn any<T: Reflect + Clone>(base: &T, seed: u64) -> T {
 /// read back and every value checked.
 fn run(what: &str, run: &mut HeadlessRun, count: u64, mut redraw: impl FnMut(&mut World, u64)) {
     // The scene's startup systems first.
-    run.step().unwrap_or_else(|e| panic!("{what}, first frame: {e}"));
+    run.step()
+        .unwrap_or_else(|e| panic!("{what}, first frame: {e}"));
     for k in 0..count {
         redraw(run.app().world_mut(), k);
         for _ in 0..2 {
-            run.step().unwrap_or_else(|e| panic!("{what}, draw {k}: {e}"));
+            run.step()
+                .unwrap_or_else(|e| panic!("{what}, draw {k}: {e}"));
         }
-        let frame = run.frame().unwrap_or_else(|e| panic!("{what}, draw {k}: {e}"));
+        let frame = run
+            .frame()
+            .unwrap_or_else(|e| panic!("{what}, draw {k}: {e}"));
         let img = frame.hdr().expect("HDR");
         let bad = img.as_raw().iter().filter(|v| !v.is_finite()).count();
         assert_eq!(bad, 0, "{what}, draw {k}: {bad} values not finite");
@@ -74,16 +83,22 @@ fn random_lens_flares_draw_finite() {
     let mut app = headless()
         .start(|app: &mut App| {
             app.add_plugins(LensFlarePlugin);
-            app.add_systems(Startup, |mut commands: Commands, assets: Res<AssetServer>| {
-                commands.spawn(crate::lens_flare::sun(Vec3::new(0.1, -0.1, 1.0).normalize(), 100_000.0));
-                commands.spawn((
-                    optica_report::fixtures::black_hdr_camera(),
-                    LensFlare {
-                        grid: 8,
-                        ..LensFlare::new(assets.load("lenses/tessar-us2854889.lens"))
-                    },
-                ));
-            });
+            app.add_systems(
+                Startup,
+                |mut commands: Commands, assets: Res<AssetServer>| {
+                    commands.spawn(crate::lens_flare::sun(
+                        Vec3::new(0.1, -0.1, 1.0).normalize(),
+                        100_000.0,
+                    ));
+                    commands.spawn((
+                        optica_report::fixtures::black_hdr_camera(),
+                        LensFlare {
+                            grid: 8,
+                            ..LensFlare::new(assets.load("lenses/tessar-us2854889.lens"))
+                        },
+                    ));
+                },
+            );
         })
         .expect("app");
     let mut seed = 1;
@@ -94,7 +109,8 @@ fn random_lens_flares_draw_finite() {
             grid: 8,
             ..LensFlare::new(flare.lens.clone())
         };
-        let mut drawn = accepted(&base, &mut seed, |f| f.validate().is_ok()).expect("an accepted flare");
+        let mut drawn =
+            accepted(&base, &mut seed, |f| f.validate().is_ok()).expect("an accepted flare");
         // The lens stays; the sizes stay affordable on a CPU device.
         drawn.lens = flare.lens.clone();
         drawn.grid = drawn.grid.min(24);
@@ -108,10 +124,20 @@ fn random_domes_draw_finite() {
     use optica_dome::{DomeCamera, DomeMode};
     let mut app = headless()
         .start(optica_report::fixtures::dome_room(
-            [Color::srgb(1.0, 0.2, 0.2), Color::srgb(0.2, 1.0, 0.2), Color::srgb(0.2, 0.2, 1.0), Color::WHITE, Color::srgb(1.0, 1.0, 0.2), Color::srgb(0.5, 0.5, 0.5)],
+            [
+                Color::srgb(1.0, 0.2, 0.2),
+                Color::srgb(0.2, 1.0, 0.2),
+                Color::srgb(0.2, 0.2, 1.0),
+                Color::WHITE,
+                Color::srgb(1.0, 1.0, 0.2),
+                Color::srgb(0.5, 0.5, 0.5),
+            ],
             2,
             |commands| {
-                commands.spawn(crate::dome::dome_camera(DomeCamera::default(), optica_report::fixtures::zenith()));
+                commands.spawn(crate::dome::dome_camera(
+                    DomeCamera::default(),
+                    optica_report::fixtures::zenith(),
+                ));
             },
         ))
         .expect("app");
@@ -121,10 +147,15 @@ fn random_domes_draw_finite() {
         let mut dome = q.single_mut(world).expect("dome");
         // Both modes: the draws switch only to unit variants.
         let base = DomeCamera {
-            mode: if k % 2 == 0 { DomeMode::Vertex } else { DomeMode::CubeMap { face_px: 64 } },
+            mode: if k % 2 == 0 {
+                DomeMode::Vertex
+            } else {
+                DomeMode::CubeMap { face_px: 64 }
+            },
             ..default()
         };
-        let mut drawn = accepted(&base, &mut seed, |d| d.validate().is_ok()).expect("an accepted dome");
+        let mut drawn =
+            accepted(&base, &mut seed, |d| d.validate().is_ok()).expect("an accepted dome");
         // The cube faces stay affordable on a CPU device (accepted up to
         // 16,384 px: 13 GB of HDR faces).
         if let DomeMode::CubeMap { face_px } = &mut drawn.mode {
@@ -149,7 +180,8 @@ fn random_compound_eyes_draw_finite() {
         .expect("app");
     let mut seed = 3;
     run("compound eye", &mut app, draws(), |world, _| {
-        let drawn = accepted(&CompoundEye::default(), &mut seed, |e| e.validate().is_ok()).expect("an accepted eye");
+        let drawn = accepted(&CompoundEye::default(), &mut seed, |e| e.validate().is_ok())
+            .expect("an accepted eye");
         let mut materials = world.resource_mut::<Assets<CompoundEyeMaterial>>();
         let mut n = 0;
         for (_, m) in materials.iter_mut() {
@@ -175,8 +207,10 @@ fn random_spectacles_draw_finite() {
     run("spectacles", &mut app, draws(), |world, k| {
         let mut q = world.query::<(&mut Eye, &mut Spectacles, &mut CloneDefocus)>();
         let (mut eye, mut spectacles, mut defocus) = q.single_mut(world).expect("eye");
-        *eye = accepted(&Eye::default(), &mut seed, |e| e.optics().is_ok()).expect("an accepted eye");
-        *spectacles = accepted(&Spectacles::sphere(-2.0), &mut seed, |s| s.design().is_ok()).expect("accepted glasses");
+        *eye =
+            accepted(&Eye::default(), &mut seed, |e| e.optics().is_ok()).expect("an accepted eye");
+        *spectacles = accepted(&Spectacles::sphere(-2.0), &mut seed, |s| s.design().is_ok())
+            .expect("accepted glasses");
         // No check of its own: the plugin clamps the clone count.
         *defocus = any(&CloneDefocus::default(), k.wrapping_mul(7919));
     });
@@ -184,7 +218,9 @@ fn random_spectacles_draw_finite() {
 
 #[test]
 fn random_foveated_tracers_draw_finite() {
-    use optica_foveated_lod::{FoveatedLodPlugin, Foveation, GazeRayTracer, HeadSource, RayTraced, TrackedHead};
+    use optica_foveated_lod::{
+        FoveatedLodPlugin, Foveation, GazeRayTracer, HeadSource, RayTraced, TrackedHead,
+    };
     let eye = Vec3::new(0.0, 0.8, 3.0);
     let head = TrackedHead::looking(eye, Quat::IDENTITY, Some(Vec3::NEG_Z), 0.063);
     let start = head.clone();
@@ -194,26 +230,30 @@ fn random_foveated_tracers_draw_finite() {
                 .insert_resource(HeadSource::External)
                 .insert_resource(Foveation::default())
                 .insert_resource(start)
-                .add_systems(Startup, move |mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>| {
-                    commands.spawn((
-                        Mesh3d(meshes.add(Sphere::new(0.5).mesh().ico(2).unwrap())),
-                        Transform::from_xyz(0.0, 0.5, 0.0),
-                        RayTraced::mirror(LinearRgba::rgb(0.9, 0.9, 0.95), 0.7),
-                    ));
-                    commands.spawn((
-                        Mesh3d(meshes.add(Plane3d::default().mesh().size(10.0, 10.0).build())),
-                        RayTraced::diffuse(LinearRgba::rgb(0.5, 0.5, 0.5)),
-                    ));
-                    commands.spawn((
-                        GazeRayTracer::default(),
-                        Transform::from_translation(eye).looking_at(Vec3::ZERO, Vec3::Y),
-                    ));
-                });
+                .add_systems(
+                    Startup,
+                    move |mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>| {
+                        commands.spawn((
+                            Mesh3d(meshes.add(Sphere::new(0.5).mesh().ico(2).unwrap())),
+                            Transform::from_xyz(0.0, 0.5, 0.0),
+                            RayTraced::mirror(LinearRgba::rgb(0.9, 0.9, 0.95), 0.7),
+                        ));
+                        commands.spawn((
+                            Mesh3d(meshes.add(Plane3d::default().mesh().size(10.0, 10.0).build())),
+                            RayTraced::diffuse(LinearRgba::rgb(0.5, 0.5, 0.5)),
+                        ));
+                        commands.spawn((
+                            GazeRayTracer::default(),
+                            Transform::from_translation(eye).looking_at(Vec3::ZERO, Vec3::Y),
+                        ));
+                    },
+                );
         })
         .expect("app");
     let mut seed = 5;
     run("foveated LOD", &mut app, draws(), |world, k| {
-        let foveation = accepted(&Foveation::default(), &mut seed, |f| f.check().is_ok()).expect("accepted foveation");
+        let foveation = accepted(&Foveation::default(), &mut seed, |f| f.check().is_ok())
+            .expect("accepted foveation");
         world.insert_resource(foveation);
         // The tracer's settings and the tracked head have no check of their
         // own: the plugin clamps them, and a head that is not finite is a

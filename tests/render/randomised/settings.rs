@@ -18,10 +18,7 @@ use rand_xoshiro::SplitMix64;
 /// Cases per plugin: 5,000 in the test command, `OPTICA_RANDOM_CASES` for
 /// a longer run (`docs/reliability.md`).
 fn cases() -> u32 {
-    std::env::var("OPTICA_RANDOM_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(5000)
+    crate::count_from_env("OPTICA_RANDOM_CASES", 5000)
 }
 
 /// Counts of what the cases gave, so that a run that only ever refused
@@ -34,10 +31,21 @@ struct Outcomes {
 
 impl Outcomes {
     fn check(&self, what: &str) {
-        eprintln!("{what}: {} accepted, {} refused", self.accepted, self.refused);
+        eprintln!(
+            "{what}: {} accepted, {} refused",
+            self.accepted, self.refused
+        );
         let n = self.accepted + self.refused;
-        assert!(self.accepted * 20 >= n, "{what}: only {} of {n} accepted", self.accepted);
-        assert!(self.refused * 20 >= n, "{what}: only {} of {n} refused", self.refused);
+        assert!(
+            self.accepted * 20 >= n,
+            "{what}: only {} of {n} accepted",
+            self.accepted
+        );
+        assert!(
+            self.refused * 20 >= n,
+            "{what}: only {} of {n} refused",
+            self.refused
+        );
     }
 }
 
@@ -99,7 +107,10 @@ fn lens_flare_settings_are_refused_by_name_or_traced_finite() {
         };
         assert!(lens.stop_semi_aperture_mm().is_finite() && lens.stop_semi_aperture_mm() > 0.0);
         for g in &ghosts {
-            assert!(g.relative.is_finite() && g.power.is_finite(), "{g:?}\n{flare:?}");
+            assert!(
+                g.relative.is_finite() && g.power.is_finite(),
+                "{g:?}\n{flare:?}"
+            );
         }
         // The diffraction textures at small sizes (an FFT a case).
         let small = |side: u32| side <= 128;
@@ -143,13 +154,20 @@ fn dome_settings_are_refused_by_name_or_project_finite() {
             .unwrap_or_else(|e| panic!("accepted dome refused by the twin: {e}\n{dome:?}"));
         for k in 0..32 {
             let a = k as f64 * 0.61;
-            let dir = DVec3::new(a.cos() * (k as f64 * 0.1).sin(), a.sin() * (k as f64 * 0.1).sin(), -(k as f64 * 0.1).cos());
+            let dir = DVec3::new(
+                a.cos() * (k as f64 * 0.1).sin(),
+                a.sin() * (k as f64 * 0.1).sin(),
+                -(k as f64 * 0.1).cos(),
+            );
             if let Some(px) = projection.project(dir).visible_pixel() {
                 assert!(px.is_finite(), "{dir} → {px}\n{dome:?}");
             }
             let pixel = DVec2::new(2.0 * k as f64 + 0.5, 1.5 * k as f64 + 0.5);
             if let Some(view) = projection.unproject(pixel) {
-                assert!(view.is_finite() && (view.length() - 1.0).abs() < 1e-6, "{pixel} → {view}\n{dome:?}");
+                assert!(
+                    view.is_finite() && (view.length() - 1.0).abs() < 1e-6,
+                    "{pixel} → {view}\n{dome:?}"
+                );
             }
         }
         true
@@ -175,7 +193,10 @@ fn foveation_settings_are_refused_by_name_or_give_finite_levels() {
                 let a = k as f64 * 0.4;
                 let local = DVec3::new(a.cos(), (0.3 * a).sin(), a.sin());
                 let level = field.level_local(local);
-                assert!(level.is_finite() && level >= 0.0, "{local} → {level}\n{foveation:?}");
+                assert!(
+                    level.is_finite() && level >= 0.0,
+                    "{local} → {level}\n{foveation:?}"
+                );
             }
         }
         true
@@ -199,7 +220,11 @@ fn compound_eye_settings_are_refused_by_name_or_shade_finite() {
         let facets = f64::from(eye.facets_per_uv);
         let axes = TextureAxes::from_triangle(
             [DVec3::ZERO, DVec3::X, DVec3::Z],
-            [DVec2::ZERO, DVec2::new(facets, 0.0), DVec2::new(0.0, facets)],
+            [
+                DVec2::ZERO,
+                DVec2::new(facets, 0.0),
+                DVec2::new(0.0, facets),
+            ],
         );
         let Ok(axes) = axes else {
             // A facet density the unit quad's texture cannot carry
@@ -208,7 +233,11 @@ fn compound_eye_settings_are_refused_by_name_or_shade_finite() {
         };
         let kind = eye.lattice_kind();
         let r = f64::from(eye.lens_radius) * kind.cell_inradius(axes.u(), axes.v());
-        let lens = LensParams::new(r, f64::from(eye.lens_index), f64::from(eye.pigment_depth) * r);
+        let lens = LensParams::new(
+            r,
+            f64::from(eye.lens_index),
+            f64::from(eye.pigment_depth) * r,
+        );
         let Ok(lens) = lens else {
             // A lens too small or large for f64 on this quad.
             return true;
@@ -225,10 +254,15 @@ fn compound_eye_settings_are_refused_by_name_or_shade_finite() {
             let a = k as f64 * 0.37;
             let origin = DVec3::new(0.3 + 0.02 * k as f64, 1.0, 0.4);
             let dir = DVec3::new(0.3 * a.cos(), -1.0, 0.3 * a.sin()).normalize();
-            let Ok(ray) = Ray::new(origin, dir) else { continue };
+            let Ok(ray) = Ray::new(origin, dir) else {
+                continue;
+            };
             let shade = shade_with(&lattice, &ray, &options);
             if let Some(hit) = shade.hit() {
-                assert!(hit.uv.is_finite() && hit.point.is_finite(), "{shade:?}\n{eye:?}");
+                assert!(
+                    hit.uv.is_finite() && hit.point.is_finite(),
+                    "{shade:?}\n{eye:?}"
+                );
             }
         }
         true
@@ -253,7 +287,12 @@ fn spectacles_settings_are_refused_by_name_or_traced_finite() {
         match eye.optics() {
             Ok(optics) => {
                 for z in [0.1, 0.5, 2.0, 100.0] {
-                    for d in naked_eye_displacements(&optics, &placement, DVec3::new(0.05, 0.02, z), &samples) {
+                    for d in naked_eye_displacements(
+                        &optics,
+                        &placement,
+                        DVec3::new(0.05, 0.02, z),
+                        &samples,
+                    ) {
                         assert!(d.is_finite(), "{d}\n{eye:?}");
                     }
                 }
@@ -266,10 +305,22 @@ fn spectacles_settings_are_refused_by_name_or_traced_finite() {
         match spectacles.design() {
             Ok(lens) => {
                 let d = spectacles.decentration_mm.as_dvec2() * 1e-3;
-                let (rings, segments) = (spectacles.tessellation.x.min(12), spectacles.tessellation.y.min(16));
-                if let Ok(trace) = trace_lens(&lens, DVec3::new(d.x, d.y, 0.0), rings as usize, segments as usize, false) {
+                let (rings, segments) = (
+                    spectacles.tessellation.x.min(12),
+                    spectacles.tessellation.y.min(16),
+                );
+                if let Ok(trace) = trace_lens(
+                    &lens,
+                    DVec3::new(d.x, d.y, 0.0),
+                    rings as usize,
+                    segments as usize,
+                    false,
+                ) {
                     for v in &trace.vertices {
-                        assert!(v.back.is_finite() && v.origin.is_finite() && v.dir.is_finite(), "{v:?}\n{spectacles:?}");
+                        assert!(
+                            v.back.is_finite() && v.origin.is_finite() && v.dir.is_finite(),
+                            "{v:?}\n{spectacles:?}"
+                        );
                     }
                 }
             }

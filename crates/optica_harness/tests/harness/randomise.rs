@@ -35,7 +35,10 @@ fn knobs() -> Knobs {
         gain: 1.0,
         on: false,
         offset: Vec3::ZERO,
-        inner: Some(Inner { depth: 2.0, steps: 4 }),
+        inner: Some(Inner {
+            depth: 2.0,
+            steps: 4,
+        }),
         mode: Mode::Scaled(0.5),
     }
 }
@@ -94,5 +97,8 @@ fn a_zero_share_changes_nothing_and_a_small_one_little() {
         unchanged += usize::from(k == knobs());
     }
     // Eight leaves at 10 % each: about 0.9^8 = 43 % unchanged.
-    assert!((50..130).contains(&unchanged), "{unchanged} of 200 unchanged");
+    assert!(
+        (50..130).contains(&unchanged),
+        "{unchanged} of 200 unchanged"
+    );
 }

@@ -11,6 +11,7 @@ mod fuzz_corpus;
 mod lens_flare;
 mod plugin_shape;
 mod randomised;
+mod shader_variants;
 mod soak;
 // The showcase's scenes are the examples' (they use the umbrella crate's
 // plugin features, all of which `showcase` turns on; CI builds with

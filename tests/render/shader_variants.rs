@@ -52,9 +52,17 @@ fn assert_labels(what: &str, report: &PipelineReport, expected: &[(&str, usize)]
 
 #[test]
 fn every_shader_variant_builds_on_noop() {
-    // Lens flare: a round and a bladed iris, the starburst, ghosts at a
-    // quarter of the resolution (upsampled), occlusion with and without
-    // MSAA.
+    lens_flare_variants();
+    dome_variants();
+    tracer_variants();
+    spectacles_variants();
+    compound_eye_variants();
+}
+
+/// Lens flare: a round and a bladed iris, the starburst, ghosts at a
+/// quarter of the resolution (upsampled), occlusion with and without
+/// MSAA.
+fn lens_flare_variants() {
     let flare = build(|app: &mut App| {
         use optica_lens_flare::{LensFlare, LensFlarePlugin};
         app.add_plugins(LensFlarePlugin);
@@ -90,8 +98,10 @@ fn every_shader_variant_builds_on_noop() {
             ("optica_lens_flare_occlusion", 2),
         ],
     );
+}
 
-    // Dome: vertex and cube mode, a fisheye (rim mask) and the panorama.
+/// Dome: vertex and cube mode, a fisheye (rim mask) and the panorama.
+fn dome_variants() {
     let dome = build(|app: &mut App| {
         use optica_dome::{DomeCamera, DomeLens, DomeMode};
         let z = optica_report::fixtures::zenith();
@@ -122,8 +132,10 @@ fn every_shader_variant_builds_on_noop() {
             ),
         ],
     );
+}
 
-    // Foveated LOD: the three trace entries and the blit.
+/// Foveated LOD: the three trace entries and the blit.
+fn tracer_variants() {
     let tracer = build(|app: &mut App| {
         use optica_foveated_lod::{
             FoveatedLodPlugin, GazeRayTracer, HeadSource, RayTraced, TrackedHead,
@@ -163,10 +175,12 @@ fn every_shader_variant_builds_on_noop() {
             ("optica_foveated_lod_blit", 1),
         ],
     );
+}
 
-    // Spectacles (one eye draws clones at a time, so an app each): a
-    // reprojected eye with glasses refracting the view and a mirror, one
-    // shaded in full, one reprojected with MSAA.
+/// Spectacles (one eye draws clones at a time, so an app each): a
+/// reprojected eye with glasses refracting the view and a mirror, one
+/// shaded in full, one reprojected with MSAA.
+fn spectacles_variants() {
     for (shading, msaa, glasses) in [
         (
             optica_spectacles::CloneShading::Reprojected,
@@ -227,10 +241,12 @@ fn every_shader_variant_builds_on_noop() {
         }
         assert_labels(&what, &spectacles, &expected);
     }
+}
 
-    // Compound eye: forward, and the deferred renderer's G-buffer variant
-    // (the one lavapipe cannot compile) with its prepass: more pipelines
-    // than the same scene with the plain material alone.
+/// Compound eye: forward, and the deferred renderer's G-buffer variant
+/// (the one lavapipe cannot compile) with its prepass: more pipelines
+/// than the same scene with the plain material alone.
+fn compound_eye_variants() {
     let eye_scene = |eye: bool, deferred: bool| {
         build(move |app: &mut App| {
             let material = eye.then(|| optica_compound_eye::CompoundEye::default());

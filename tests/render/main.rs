@@ -25,3 +25,13 @@ mod spectacles;
 pub fn count_from_env<T: std::str::FromStr>(name: &str, default: T) -> T {
     std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
 }
+
+/// Runs `setup` for `frames` frames on wgpu's noop backend (naga validates
+/// every shader; no driver needed) and checks that every pipeline compiled.
+pub fn noop_pipelines(frames: u32, setup: impl FnOnce(&mut bevy::prelude::App)) -> optica_harness::PipelineReport {
+    optica_harness::Headless::new(32, 32)
+        .adapter(optica_harness::Adapter::Noop)
+        .frames(frames)
+        .check_pipelines(setup)
+        .expect("pipelines compile")
+}

@@ -24,14 +24,10 @@
 
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
-use optica_harness::{Adapter, Headless, PipelineReport};
+use optica_harness::PipelineReport;
 
 fn build(setup: impl FnOnce(&mut App)) -> PipelineReport {
-    Headless::new(32, 32)
-        .adapter(Adapter::Noop)
-        .frames(4)
-        .check_pipelines(setup)
-        .expect("every pipeline builds on noop")
+    crate::noop_pipelines(4, setup)
 }
 
 /// How many pipelines with `label` the report holds.

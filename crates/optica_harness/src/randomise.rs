@@ -38,10 +38,7 @@ pub fn randomise(value: &mut dyn PartialReflect, rng: &mut impl Rng) {
 /// from, a small share gives settings that are mostly accepted, a large one
 /// settings that are mostly refused.
 pub fn randomise_some(value: &mut dyn PartialReflect, rng: &mut impl Rng, share: f64) {
-    if is_primitive(value) {
-        if coin(rng, share) {
-            randomise_primitive(value, rng);
-        }
+    if randomise_primitive(value, rng, share) {
         return;
     }
     match value.reflect_mut() {
@@ -147,21 +144,16 @@ fn any_u64(rng: &mut impl Rng) -> u64 {
     }
 }
 
-/// Whether [`randomise_primitive`] draws `value`.
-fn is_primitive(value: &mut dyn PartialReflect) -> bool {
-    macro_rules! any_of {
-        ($($t:ty),*) => { false $(|| value.try_downcast_mut::<$t>().is_some())* };
-    }
-    any_of!(f32, f64, u8, u16, u32, u64, usize, i32, i64, bool)
-}
-
-/// Redraws `value` when it is a number or a flag; `false` otherwise.
-fn randomise_primitive(value: &mut dyn PartialReflect, rng: &mut impl Rng) -> bool {
+/// When `value` is a number or a flag: redraws it with probability
+/// `share` and returns `true`; `false` otherwise.
+fn randomise_primitive(value: &mut dyn PartialReflect, rng: &mut impl Rng, share: f64) -> bool {
     macro_rules! draw {
         ($($t:ty => $make:expr),* $(,)?) => {
             $(
                 if let Some(v) = value.try_downcast_mut::<$t>() {
-                    *v = $make;
+                    if coin(rng, share) {
+                        *v = $make;
+                    }
                     return true;
                 }
             )*

@@ -4,16 +4,12 @@
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_compound_eye::CompoundEye;
-use optica_harness::{Adapter, Headless, PipelineReport};
+use optica_harness::{Headless, PipelineReport};
 
 use super::{base, deferred, ortho, scene};
 
 fn pipelines(setup: impl FnOnce(&mut App)) -> PipelineReport {
-    Headless::new(32, 32)
-        .adapter(Adapter::Noop)
-        .frames(2)
-        .check_pipelines(setup)
-        .expect("pipelines compile")
+    crate::noop_pipelines(2, setup)
 }
 
 fn camera() -> Transform {

@@ -5,14 +5,10 @@
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_dome::DomePlugin;
-use optica_harness::{Adapter, Headless, PipelineReport};
+use optica_harness::PipelineReport;
 
 fn pipelines(setup: impl FnOnce(&mut App)) -> PipelineReport {
-    Headless::new(32, 32)
-        .adapter(Adapter::Noop)
-        .frames(2)
-        .check_pipelines(setup)
-        .expect("pipelines compile")
+    crate::noop_pipelines(2, setup)
 }
 
 fn scene(app: &mut App) {

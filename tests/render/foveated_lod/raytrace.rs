@@ -465,3 +465,20 @@ fn traced_balls_golden() {
         .expect("render");
     optica_harness::assert_golden!(&frame);
 }
+
+/// A background or ambient that is not a colour (±∞, NaN, negative; from
+/// code, or a panel dragged to its end) draws finite pixels: each channel
+/// is clamped to 0..=65,504 and NaN counts as 0. Before, an infinite
+/// ambient drew NaN pixels (found by the soak).
+#[test]
+fn colours_that_are_not_colours_draw_finite_pixels() {
+    let forward = (TARGET - EYE).normalize();
+    let tracer = GazeRayTracer {
+        background: LinearRgba::new(f32::NAN, -1.0, 1e30, 1.0),
+        ambient: LinearRgba::new(f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 1.0),
+        ..default()
+    };
+    let (image, _) = trace(forward, tracer, 0.0);
+    let bad = image.iter().filter(|p| !p.is_finite()).count();
+    assert_eq!(bad, 0, "{bad} of {} pixels not finite", image.len());
+}

@@ -5,7 +5,7 @@
 
 use bevy::post_process::bloom::Bloom;
 use bevy::prelude::*;
-use optica_harness::{Adapter, Headless, PipelineReport, RenderedFrame};
+use optica_harness::{Headless, PipelineReport, RenderedFrame};
 use optica_lens_flare::{
     FlareGhosts,
     GhostResolution, LensFlare, LensFlarePlugin, RingingSettings, StarburstSettings,
@@ -319,11 +319,7 @@ fn ringing_ripples_a_ghost_and_keeps_its_light() {
 }
 
 fn pipelines(setup: impl FnOnce(&mut App)) -> PipelineReport {
-    Headless::new(32, 32)
-        .adapter(Adapter::Noop)
-        .frames(6)
-        .check_pipelines(setup)
-        .expect("pipelines compile")
+    crate::noop_pipelines(6, setup)
 }
 
 #[test]

@@ -15,11 +15,7 @@ use optica_spectacles::twins::{CubeFace, EyeOptics, MirrorEnvironment};
 use super::{Target, scene};
 
 fn pipelines(setup: impl FnOnce(&mut App)) -> PipelineReport {
-    Headless::new(32, 32)
-        .adapter(Adapter::Noop)
-        .frames(3)
-        .check_pipelines(setup)
-        .expect("pipelines compile")
+    crate::noop_pipelines(3, setup)
 }
 
 fn targets() -> Vec<Target> {

@@ -55,7 +55,9 @@ impl Plugin for CubeResamplePlugin {
             // their bind groups.
             .add_systems(
                 Render,
-                rim_mask::drop_stale_rim_mask_bind_groups.in_set(RenderSystems::PrepareResourcesFlush),
+                rim_mask::drop_stale_rim_mask_bind_groups
+                    .in_set(RenderSystems::PrepareResourcesFlush)
+                    .run_if(any_with_component::<DomeRimMask>),
             )
             .add_systems(
                 Core3d,

@@ -2,9 +2,8 @@
 //! scene can select, built as a pipeline on wgpu's noop backend (naga
 //! validates each shader there, with no driver): one list, so that a
 //! variant a driver cannot compile is still validated, and a new variant is
-//! added here. Lavapipe compiles all of them except the compound eye's
-//! deferred G-buffer variant (Mesa 22.3's llvmpipe crashes on it; its
-//! pixels are checked by an ignored test on another driver).
+//! added here. Mesa 25's lavapipe compiles all of them; Mesa 22.3's
+//! crashes on the compound eye's deferred G-buffer variant.
 //!
 //! | plugin | shader | variants (what selects them) |
 //! |---|---|---|

@@ -110,9 +110,9 @@
 //!   the mirror with that probability (a fixed dither, the same in both
 //!   paths), so that it is lit once. An `unlit` base material shows its
 //!   base colour times the pigment.
-//!   The deferred variant is checked for validity on wgpu's noop backend
-//!   only: Mesa 22.3's lavapipe crashes compiling it, so its pixels are not
-//!   compared there.
+//!   The deferred renderer's pixels match the forward renderer's (tested
+//!   on Mesa 25's lavapipe; Mesa 22.3's llvmpipe crashes compiling the
+//!   deferred variant, so use Mesa 23 or later on a CPU device).
 //! - The lattice lives under the surface only optically: depth, shadows and
 //!   the silhouette are those of the mesh.
 //!

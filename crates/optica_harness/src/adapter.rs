@@ -109,6 +109,40 @@ impl AdapterInfo {
         self.device_type == "Cpu"
     }
 
+    /// The Mesa release of a Mesa driver (lavapipe included), read from
+    /// its driver info; `None` for other drivers. Tests that a Mesa release
+    /// cannot run (Mesa 22.3's lavapipe crashes compiling some shaders)
+    /// check it and fail with the fix, instead of taking the test process
+    /// down with them.
+    ///
+    /// ```
+    /// use optica_harness::AdapterInfo;
+    /// let mut info = AdapterInfo {
+    ///     name: "llvmpipe (LLVM 15.0.6, 256 bits)".into(),
+    ///     backend: "Vulkan".into(),
+    ///     device_type: "Cpu".into(),
+    ///     driver: "llvmpipe".into(),
+    ///     driver_info: "Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)".into(),
+    /// };
+    /// assert_eq!(info.mesa_version(), Some((25, 0, 7)));
+    /// info.driver_info = "Mesa 22.3.6 (LLVM 15.0.6)".into();
+    /// assert_eq!(info.mesa_version(), Some((22, 3, 6)));
+    /// info.driver_info = "570.124.06".into();
+    /// assert_eq!(info.mesa_version(), None);
+    /// ```
+    pub fn mesa_version(&self) -> Option<(u32, u32, u32)> {
+        let rest = self.driver_info.strip_prefix("Mesa ")?;
+        let release: String = rest
+            .chars()
+            .take_while(|c| c.is_ascii_digit() || *c == '.')
+            .collect();
+        let mut parts = release.split('.').map(|p| p.parse::<u32>().ok());
+        let major = parts.next()??;
+        let minor = parts.next().flatten().unwrap_or(0);
+        let patch = parts.next().flatten().unwrap_or(0);
+        Some((major, minor, patch))
+    }
+
     /// One line for logs and reports: `name, driver_info (backend)`.
     pub fn summary(&self) -> String {
         if self.driver_info.is_empty() {

@@ -376,6 +376,12 @@ impl Headless {
             .disable::<PipelinedRenderingPlugin>()
             // Several apps per test process: only one may own the global logger.
             .disable::<bevy::log::LogPlugin>();
+        // (Bevy's log for one app, e.g. an example's headless run, when asked.)
+        let plugins = if std::env::var_os("OPTICA_HARNESS_LOG").is_some() {
+            plugins.enable::<bevy::log::LogPlugin>()
+        } else {
+            plugins
+        };
         #[cfg(feature = "winit")]
         let plugins = plugins.disable::<bevy::winit::WinitPlugin>();
         let plugins = match &self.plugins {

@@ -57,6 +57,11 @@
 //! the failure says which families do have a golden. `tests/harness/golden_workflow.rs`
 //! exercises every mode.
 //!
+//! A headless app runs without Bevy's `LogPlugin` (a test process holds
+//! several apps, and only one may own the global logger); set
+//! `OPTICA_HARNESS_LOG` (to anything) to keep it in a process that runs one
+//! app, e.g. an example's headless run, with `RUST_LOG` as usual.
+//!
 //! ## GPU timing of a pass
 //!
 //! This is `tests/harness/timing.rs`: a render pass that records its own time

@@ -149,8 +149,7 @@ fn the_material_casts_shadows_and_works_with_prepasses() {
 
 /// The deferred renderer: the material's G-buffer variant (the same
 /// shader under `PREPASS_PIPELINE`) compiles and is built for a deferred
-/// camera. Pixels are compared with forward by an ignored test in
-/// `render_paths.rs`: Mesa 22.3's llvmpipe crashes compiling that variant.
+/// camera. Its pixels are compared with forward in `render_paths.rs`.
 #[test]
 fn the_material_builds_its_deferred_pipeline_on_noop() {
     let plain = pipelines(|app| {

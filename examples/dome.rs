@@ -13,6 +13,8 @@
 //! cargo run --example dome --features dome,egui,window -- [--fov 180] [--tilt 0] [--tolerance 0.5] [--lens equisolid] [--cube FACE_PX] [--out DIR]
 //! # A render farm's job: frames 0..240 of the show, 4K, to ./show
 //! cargo run --release --example dome --features dome -- --export show --frames 0..240 --size 4096
+//! # The farm's last step: which frames of 0..240 are missing (exit status 1 if any)
+//! cargo run --release --example dome --features dome -- --export show --frames 0..240 --check
 //! ```
 //!
 //! `--lens` picks the projection: the radial mappings `equidistant` (the
@@ -30,7 +32,10 @@
 //! single `A` work too) at `--size` px (default 2048, up to 8192) and
 //! `--fps` (default 30): every frame depends on its number alone, so a farm
 //! manager (Flamenco, OpenCue, a Slurm array job) can give each machine its
-//! own range.
+//! own range. A task that cannot write its frames exits with status 1.
+//! `--check` renders nothing: it lists the frames of the range with no PNG
+//! and the `--frames` ranges that render them again (`scripts/farm/`
+//! runs a show as a Slurm array job).
 
 #[path = "scenes/common.rs"]
 mod common;
@@ -54,6 +59,8 @@ struct Args {
     dome: DomeCamera,
     out: Option<String>,
     export: Option<(DomeExport, u32)>,
+    /// List the export's missing frames instead of rendering.
+    check: bool,
 }
 
 fn parse_args() -> Result<Args, String> {
@@ -61,6 +68,7 @@ fn parse_args() -> Result<Args, String> {
     let mut dome = DomeCamera::default();
     let (mut out, mut export_dir, mut frames, mut size, mut fps) =
         (None, None, None, 2048u32, 30.0f32);
+    let mut check = false;
     while let Some(a) = args.next() {
         let mut value = || args.next().ok_or(format!("{a} needs a value"));
         let number = |v: String| -> Result<f32, String> {
@@ -113,6 +121,7 @@ fn parse_args() -> Result<Args, String> {
                     .map_err(|_| format!("--size: `{v}` is not a size"))?;
             }
             "--fps" => fps = number(value()?)?,
+            "--check" => check = true,
             _ => return Err(format!("unknown argument {a}")),
         }
     }
@@ -126,18 +135,33 @@ fn parse_args() -> Result<Args, String> {
             export.validate().map_err(|e| e.to_string())?;
             Some((export, size))
         }
-        None if frames.is_some() => return Err("--frames needs --export DIR".into()),
+        None if frames.is_some() || check => {
+            return Err("--frames and --check need --export DIR".into());
+        }
         None => None,
     };
-    Ok(Args { dome, out, export })
+    Ok(Args {
+        dome,
+        out,
+        export,
+        check,
+    })
 }
 
 fn main() {
-    let Args { dome, out, export } = parse_args().unwrap_or_else(|e| {
+    let Args {
+        dome,
+        out,
+        export,
+        check,
+    } = parse_args().unwrap_or_else(|e| {
         eprintln!("dome: {e}");
         std::process::exit(2);
     });
     if let Some((export, size)) = export {
+        if check {
+            check_sequence(&export);
+        }
         export_sequence(dome, export, size);
         return;
     }
@@ -225,11 +249,43 @@ fn export_sequence(dome: DomeCamera, export: DomeExport, size: u32) {
         },
     );
     let start = std::time::Instant::now();
-    app.run();
+    let exit = app.run();
+    if exit.is_error() {
+        eprintln!("dome: frames {frames:?} not all written");
+        std::process::exit(1);
+    }
     println!(
         "dome: frames {frames:?} at {size} px across in {:.1} s",
         start.elapsed().as_secs_f64()
     );
+}
+
+/// A farm's final step: says which frames of the export have no PNG and
+/// the ranges that render them again; exits 0 when none is missing, else 1.
+fn check_sequence(export: &DomeExport) -> ! {
+    let missing = export.missing();
+    let total = export.frames.len();
+    if missing.is_empty() {
+        println!(
+            "dome: all {total} frames of {:?} are in {}",
+            export.frames,
+            export.dir.display()
+        );
+        std::process::exit(0);
+    }
+    let list: Vec<String> = missing.iter().map(u32::to_string).collect();
+    let ranges: Vec<String> = optica::dome::frame_ranges(&missing)
+        .iter()
+        .map(|r| format!("{}..{}", r.start, r.end))
+        .collect();
+    println!(
+        "dome: {} of {total} frames missing in {}: {}",
+        missing.len(),
+        export.dir.display(),
+        list.join(" ")
+    );
+    println!("dome: rerun --frames {}", ranges.join(" --frames "));
+    std::process::exit(1);
 }
 
 /// Keeps the window's shape that of the image (2:1 for the panorama) when

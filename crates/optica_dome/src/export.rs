@@ -5,7 +5,7 @@
 //! `n` is the same image whichever range rendered it.
 
 use std::ops::Range;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -13,7 +13,7 @@ use bevy::app::AppExit;
 use bevy::camera::RenderTarget;
 use bevy::prelude::*;
 use bevy::render::render_resource::{CachedPipelineState, PipelineCache};
-use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured, save_to_disk};
+use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::render::{Render, RenderApp, RenderSystems};
 use bevy::shader::ShaderCacheError;
 
@@ -94,6 +94,20 @@ impl DomeExport {
         self.dir.join(format!("domemaster_{frame:06}.png"))
     }
 
+    /// The frames of [`DomeExport::frames`] with no finished PNG in
+    /// [`DomeExport::dir`]: what a farm's final step reports, and what a
+    /// rerun must render (see [`frame_ranges`] for the ranges to hand out
+    /// again). A frame counts as written when its file starts with PNG's
+    /// signature; the export writes each frame under another name and
+    /// renames it when complete, so a task killed mid-write leaves its
+    /// frame missing, not truncated.
+    pub fn missing(&self) -> Vec<u32> {
+        self.frames
+            .clone()
+            .filter(|&frame| !is_png(&self.path_of(frame)))
+            .collect()
+    }
+
     /// Checks the range, the rate and the folder (creating it).
     pub fn validate(&self) -> Result<(), Error> {
         if self.frames.is_empty() {
@@ -105,6 +119,51 @@ impl DomeExport {
             message: e.to_string(),
         })
     }
+}
+
+/// Whether `path` is a file that starts with PNG's signature.
+fn is_png(path: &Path) -> bool {
+    use std::io::Read;
+    const SIGNATURE: [u8; 8] = [0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a];
+    let mut head = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut file| file.read_exact(&mut head))
+        .is_ok_and(|()| head == SIGNATURE)
+}
+
+/// Sorted frame numbers grouped into ranges of consecutive frames
+/// (`[4, 5, 9]` → `[4..6, 9..10]`): the `--frames` ranges a rerun renders.
+///
+/// ```
+/// use optica_dome::frame_ranges;
+/// assert_eq!(frame_ranges(&[4, 5, 9]), vec![4..6, 9..10]);
+/// assert!(frame_ranges(&[]).is_empty());
+/// ```
+pub fn frame_ranges(frames: &[u32]) -> Vec<Range<u32>> {
+    let mut ranges: Vec<Range<u32>> = Vec::new();
+    for &frame in frames {
+        match ranges.last_mut() {
+            Some(last) if last.end == frame => last.end = frame.saturating_add(1),
+            _ => ranges.push(frame..frame.saturating_add(1)),
+        }
+    }
+    ranges
+}
+
+/// Writes a captured frame as `path`, through `path.part` renamed when
+/// complete, so that no half-written PNG carries a frame's name.
+fn write_frame(image: &Image, path: &Path) -> Result<(), String> {
+    let rgba = image
+        .clone()
+        .try_into_dynamic()
+        .map_err(|e| format!("frame not convertible to an image: {e}"))?;
+    // The alpha channel holds no coverage here (as Bevy's own screenshot
+    // saving does, it is dropped).
+    let rgb = rgba.to_rgb8();
+    let part = path.with_extension("png.part");
+    rgb.save_with_format(&part, image::ImageFormat::Png)
+        .map_err(|e| format!("{}: {e}", part.display()))?;
+    std::fs::rename(&part, path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Parses a frame range as a farm manager writes it: `A..B` (B excluded),
@@ -275,23 +334,29 @@ fn capture_frame(
     };
     let frame = state.next;
     state.capturing = true;
-    commands
-        .spawn(screenshot)
-        .observe(save_to_disk(export.path_of(frame)))
-        .observe(
-            move |_: On<ScreenshotCaptured>,
-                  mut state: ResMut<ExportState>,
-                  export: Res<DomeExport>,
-                  mut exit: MessageWriter<AppExit>| {
-                info!("optica_dome export: frame {frame} written");
-                state.capturing = false;
-                state.next = frame + 1;
-                // Every frame settles as the first one does, so that its
-                // image does not depend on the frame before it.
-                state.warmup = export.warmup_updates;
-                if state.next >= export.frames.end && export.exit_when_done {
-                    exit.write(AppExit::Success);
+    commands.spawn(screenshot).observe(
+        move |captured: On<ScreenshotCaptured>,
+              mut state: ResMut<ExportState>,
+              export: Res<DomeExport>,
+              mut exit: MessageWriter<AppExit>| {
+            // A frame that cannot be written fails the task (a farm sees
+            // its exit status), rather than being skipped.
+            if let Err(why) = write_frame(&captured.image, &export.path_of(frame)) {
+                error!("optica_dome export: frame {frame} not written: {why}");
+                if export.exit_when_done {
+                    exit.write(AppExit::error());
                 }
-            },
-        );
+                return;
+            }
+            info!("optica_dome export: frame {frame} written");
+            state.capturing = false;
+            state.next = frame + 1;
+            // Every frame settles as the first one does, so that its
+            // image does not depend on the frame before it.
+            state.warmup = export.warmup_updates;
+            if state.next >= export.frames.end && export.exit_when_done {
+                exit.write(AppExit::Success);
+            }
+        },
+    );
 }

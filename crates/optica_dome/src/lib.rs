@@ -112,6 +112,44 @@
 //! into ranges ([`parse_frame_range`] reads `A..B`). The `dome` example
 //! does it from the command line (`--export DIR --frames A..B --size N`).
 //!
+//! ### On a render farm
+//!
+//! Each farm task renders one range into a folder every node sees; a
+//! final step lists what is missing ([`DomeExport::missing`], the
+//! example's `--check`) and the ranges that render it again
+//! ([`frame_ranges`]). A frame is written under another name and renamed
+//! when complete, so a task killed mid-write leaves its frame missing, not
+//! truncated, and a task that cannot write exits with status 1. Frame `n`
+//! is the same image, bit for bit, whichever task rendered it.
+//!
+//! `scripts/farm/` does this on Slurm as an array job:
+//!
+//! ```sh
+//! # Frames 0..240 at 4K in 30 tasks of 8 frames, then the check step:
+//! scripts/farm/submit-show.sh target/release/examples/dome /shared/show 0..240 8 -- --size 4096
+//! # The check step's output names the tasks to rerun, e.g. 2 and 17:
+//! scripts/farm/submit-show.sh target/release/examples/dome /shared/show 0..240 8 --tasks 2,17 -- --size 4096
+//! ```
+//!
+//! - **What a node needs:** the binary (the example built with
+//!   `--release --features dome`, or your own app with
+//!   [`DomeExportPlugin`]) and a Vulkan driver. No GPU is required: Mesa's
+//!   lavapipe (`mesa-vulkan-drivers`, Mesa 23 or later) renders on the
+//!   CPU, the same frames up to its rasterisation.
+//! - **Sizing ranges:** a task pays a start (Bevy, the device, the
+//!   pipelines) before its first frame: 0.9 s, then 0.43 s a frame at
+//!   1024² (debug build, lavapipe, 2 cores). Give each task at least ten
+//!   times its start in frames (here 20 or more), and no more than a node
+//!   should lose to a failure; for a farm of mixed nodes, more tasks than
+//!   nodes so that fast nodes take more of them. Every frame is rendered
+//!   from a settled state ([`DomeExport::warmup_updates`]), so a range
+//!   costs the same whatever frame it starts at.
+//! - **Tested** by `scripts/farm/slurm-test.sh` against a real Slurm (a
+//!   one-node cluster on the loopback, `scripts/farm/local-slurm.sh`):
+//!   4 tasks × 2 frames at 64², one task killed, the check step naming its
+//!   frames, the rerun of that task alone, and every frame compared bit for
+//!   bit with one process's render.
+//!
 //! ## Status and limits
 //!
 //! Any number of dome cameras, in either mode: each vertex-mode camera gets
@@ -169,7 +207,7 @@ mod shader_hook;
 mod twin_mesh;
 
 pub use cube::{DomeCubeFace, DomeCubeFaces, FIVE_FACE_MAX_FOV_DEG};
-pub use export::{DomeExport, DomeExportPlugin, DomeShowClock, parse_frame_range};
+pub use export::{DomeExport, DomeExportPlugin, DomeShowClock, frame_ranges, parse_frame_range};
 
 /// Inner parts for the render tests (the plugin crates' own unit tests do
 /// not run: Bevy links once, in the umbrella's test binary): the export's

@@ -7,9 +7,9 @@ use std::path::{Path, PathBuf};
 use bevy::prelude::*;
 use optica_dome::lines::Graticule;
 use optica_dome::{
-    DomeCamera, DomeExport, DomeExportPlugin, DomeShowClock, Error, parse_frame_range,
+    DomeCamera, DomeExport, DomeExportPlugin, DomeShowClock, Error, frame_ranges, parse_frame_range,
 };
-use optica_harness::Headless;
+use optica_harness::{HarnessError, Headless};
 
 use super::scene::room_seen_by;
 use super::zenith;
@@ -24,6 +24,16 @@ fn scratch(name: &str) -> PathBuf {
 /// Exports `frames` of the room at 10 fps, the camera turning 1 rad a
 /// second.
 fn export(dir: &Path, frames: std::ops::Range<u32>) {
+    export_exiting(dir, frames, false).expect("render");
+}
+
+/// As [`export`], the plugin asking the app to exit when done (or on a
+/// failure) if `exit_when_done`: the harness's error says how it exited.
+fn export_exiting(
+    dir: &Path,
+    frames: std::ops::Range<u32>,
+    exit_when_done: bool,
+) -> Result<(), HarnessError> {
     let dir = dir.to_owned();
     Headless::new(64, 64)
         .frames(24)
@@ -52,7 +62,7 @@ fn export(dir: &Path, frames: std::ops::Range<u32>) {
                 },
             );
             app.add_plugins(DomeExportPlugin(DomeExport {
-                exit_when_done: false,
+                exit_when_done,
                 ..DomeExport::new(dir, frames, 10.0)
             }))
             .add_systems(
@@ -65,7 +75,7 @@ fn export(dir: &Path, frames: std::ops::Range<u32>) {
                 },
             );
         })
-        .expect("render");
+        .map(|_| ())
 }
 
 fn load(path: PathBuf) -> image::RgbImage {
@@ -107,8 +117,47 @@ fn a_split_range_gives_the_same_frames() {
     let changed = differ(&alone, &frames[1]);
     eprintln!("frame 4 on its own differs in {changed} px");
     assert_eq!(changed, 0, "frame 4 on its own differs in {changed} px");
+
+    // A farm's final step: the frames of a show with no finished PNG, and
+    // the ranges that render them again. No half-written file is left.
+    let show = |frames| DomeExport::new(&whole, frames, 10.0);
+    assert!(show(3..6).missing().is_empty());
+    assert_eq!(show(0..8).missing(), vec![0, 1, 2, 6, 7]);
+    assert_eq!(frame_ranges(&show(0..8).missing()), vec![0..3, 6..8]);
+    let leftovers: Vec<_> = std::fs::read_dir(&whole)
+        .expect("show folder")
+        .filter_map(|e| e.ok())
+        .filter(|e| !e.file_name().to_string_lossy().ends_with(".png"))
+        .map(|e| e.file_name())
+        .collect();
+    assert!(leftovers.is_empty(), "left in the folder: {leftovers:?}");
+    // A truncated file and an unfinished write count as missing.
+    std::fs::write(whole.join(name(6)), b"\x89PN").expect("write");
+    std::fs::write(whole.join(format!("{}.part", name(7))), b"").expect("write");
+    assert_eq!(show(6..8).missing(), vec![6, 7]);
+    assert_eq!(
+        frame_ranges(&[2, 3, 4, 9, 11, 12]),
+        vec![2..5, 9..10, 11..13]
+    );
     let _ = std::fs::remove_dir_all(whole);
     let _ = std::fs::remove_dir_all(part);
+}
+
+/// A frame the export cannot write ends the run with an error (a farm
+/// task's exit status), and the frame stays missing.
+#[test]
+fn a_frame_that_cannot_be_written_fails_the_export() {
+    let dir = scratch("unwritable");
+    // A folder where frame 4's PNG would go: the rename onto it fails.
+    let blocked = dir.join("domemaster_000004.png");
+    std::fs::create_dir_all(blocked.join("in_the_way")).expect("folder");
+    let exit = export_exiting(&dir, 3..6, true);
+    assert!(
+        matches!(&exit, Err(HarnessError::Exited(how)) if how.contains("Error")),
+        "{exit:?}"
+    );
+    assert_eq!(DomeExport::new(&dir, 3..6, 10.0).missing(), vec![4, 5]);
+    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]

@@ -85,3 +85,55 @@ write("dtrack", "zero-matrix", "6d 1 [0 1][0 0 0 0 0 0][0 0 0 0 0 0 0 0 0]\n")
 for k, text in enumerate(["0..10", "5", "3..=7", "0..=0", "10..5", "7..7", "4294967295", "0..=4294967295",
                           "", "..", "..=", "a..b", " 1 .. 2 ", "-1..3", "99999999999", "1..2..3"]):
     write("frame_range", f"{k}", text)
+
+# CAVE cluster datagrams: "OPCV", the version byte, then postcard (varint
+# enum index and lengths, little-endian floats). Each message kind, a head
+# with each number made extreme, truncations, another version.
+import struct
+
+def varint(n):
+    out = bytearray()
+    while True:
+        b = n & 0x7F
+        n >>= 7
+        if n:
+            out.append(b | 0x80)
+        else:
+            out.append(b)
+            return bytes(out)
+
+def text(s):
+    b = s.encode()
+    return varint(len(b)) + b
+
+def head(floats, timestamp=0.5, valid=1, gaze=True, eye_gaze=False):
+    # eyes [Vec3; 2], orientation Quat, gaze Option<Vec3>, eye_gaze Option<[Vec3; 2]>, timestamp f64, valid bool
+    f = list(floats)
+    out = struct.pack("<6f", *f[0:6]) + struct.pack("<4f", *f[6:10])
+    out += (b"\x01" + struct.pack("<3f", *f[10:13])) if gaze else b"\x00"
+    out += (b"\x01" + struct.pack("<6f", *f[13:19])) if eye_gaze else b"\x00"
+    return out + struct.pack("<d", timestamp) + bytes([valid])
+
+HEADER = b"OPCV\x01"
+good_head = [-0.0315, 1.6, 0, 0.0315, 1.6, 0, 0, 0, 0, 1, 0, 0, -1, 0, 0, -1, 0, 0, -1]
+sample = HEADER + varint(1) + varint(42) + head(good_head)
+write("cave_datagram", "join", HEADER + varint(0) + text("front"))
+write("cave_datagram", "sample", sample)
+write("cave_datagram", "sample-eye-gaze", HEADER + varint(1) + varint(7) + head(good_head, eye_gaze=True))
+write("cave_datagram", "drawn", HEADER + varint(2) + varint(42) + text("floor/left"))
+write("cave_datagram", "end", HEADER + varint(3))
+write("cave_datagram", "huge-n", HEADER + varint(1) + varint(2**64 - 1) + head(good_head))
+write("cave_datagram", "long-name", HEADER + varint(0) + text("w" * 900))
+write("cave_datagram", "huge-name-length", HEADER + varint(0) + varint(2**63) + b"front")
+write("cave_datagram", "other-version", b"OPCV\x02" + sample[5:])
+write("cave_datagram", "bad-variant", HEADER + varint(9))
+for cut in range(5, len(sample), 7):
+    write("cave_datagram", f"truncated-{cut}", sample[:cut])
+for i in range(len(good_head)):
+    for k, e in enumerate([0.0, -1.0, 1e30, float("nan"), float("inf"), -float("inf")]):
+        f = list(good_head)
+        f[i] = e
+        write("cave_datagram", f"head{i}-{k}", HEADER + varint(1) + varint(1) + head(f, eye_gaze=True))
+for k, t in enumerate([float("nan"), float("inf"), -1e300, 0.0]):
+    write("cave_datagram", f"time-{k}", HEADER + varint(1) + varint(1) + head(good_head, timestamp=t))
+write("cave_datagram", "valid-2", HEADER + varint(1) + varint(1) + head(good_head, valid=2))

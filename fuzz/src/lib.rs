@@ -5,8 +5,8 @@
 //!
 //! Every format a user can hand the project: a `.lens` prescription (the
 //! bytes the asset loader gets, through the checks the lens flare makes
-//! before it traces), a head-trace CSV, a DTrack datagram, and a dome
-//! export's frame range. For each input the outcome is a typed error that
+//! before it traces), a head-trace CSV, a DTrack datagram, a dome
+//! export's frame range, and a datagram of the CAVE cluster's head stream. For each input the outcome is a typed error that
 //! says where (a line and a field where the format has them), or a value
 //! that passes the plugin's own checks; a panic anywhere is a failure the
 //! fuzzer reports. The time and memory caps per input are libFuzzer's
@@ -14,6 +14,7 @@
 //! this folder) and the replay's.
 
 use optica_dome::parse_frame_range;
+use optica_foveated_lod::cluster::{ClusterMessage, MAX_DATAGRAM};
 use optica_foveated_lod::dtrack::{DTrackFrame, DTrackSettings};
 use optica_foveated_lod::{HeadTrace, TrackedHead};
 use optica_optics::glam::DVec3;
@@ -178,5 +179,39 @@ pub fn frame_range(data: &[u8]) {
     match parse_frame_range(text) {
         Ok(range) => assert!(!range.is_empty(), "{range:?}"),
         Err(e) => assert!(!e.to_string().is_empty()),
+    }
+}
+
+/// A datagram of a multi-process CAVE's head stream, as a wall or the head
+/// source reads it. Accepted: a message that encodes back to a datagram
+/// that decodes to the same message (a sample's orientation, normalised
+/// on decoding, within 1e-6); a sample's head as above.
+pub fn cave_datagram(data: &[u8]) {
+    // Neither side reads more than MAX_DATAGRAM bytes of a datagram.
+    let data = &data[..data.len().min(MAX_DATAGRAM)];
+    let message = match ClusterMessage::decode(data) {
+        Ok(message) => message,
+        Err(e) => {
+            assert!(!e.to_string().is_empty());
+            return;
+        }
+    };
+    let again = ClusterMessage::decode(&message.encode()).expect("an encoded message decodes");
+    match (&message, &again) {
+        (ClusterMessage::Sample { n, head }, ClusterMessage::Sample { n: m, head: h }) => {
+            assert_eq!(n, m);
+            assert_eq!(head.valid, h.valid);
+            if head.valid {
+                assert!(head.orientation.abs_diff_eq(h.orientation, 1e-6));
+            }
+        }
+        (a, b) => assert_eq!(a, b, "a message that does not survive encoding"),
+    }
+    match &message {
+        ClusterMessage::Sample { head, .. } => check_head(head),
+        ClusterMessage::Join { wall } | ClusterMessage::Drawn { wall, .. } => {
+            assert!(wall.len() <= MAX_DATAGRAM, "a name longer than its datagram");
+        }
+        ClusterMessage::End => {}
     }
 }

@@ -50,6 +50,7 @@ fn every_fuzz_corpus_input_gives_an_error_or_a_checked_value() {
         ("head_trace", targets::head_trace, 50),
         ("dtrack", targets::dtrack, 50),
         ("frame_range", targets::frame_range, 20),
+        ("cave_datagram", targets::cave_datagram, 50),
     ] {
         let n = replay(target, check);
         eprintln!("{target}: {n} inputs replayed");

@@ -9,7 +9,7 @@ use optica_optics::foveated_lod::{
 use optica_optics::glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::settings::{CheckedFoveation, FieldEyes};
+use crate::settings::{CheckedFoveation, FieldEyes, FoveationClock};
 use crate::trace::HeadTrace;
 
 /// Which eye: index 0 is the left eye, 1 the right.
@@ -272,6 +272,26 @@ pub(crate) struct GazeFilters {
     /// the tracker was last known to see the head, not from when it last
     /// moved.
     last: [TrackerSample; 3],
+    /// The clock's reading at the last update (s).
+    last_now: Option<f64>,
+}
+
+impl GazeFilters {
+    /// The clock's reading now: real time, or the head sample's time (the
+    /// last reading where that is not finite).
+    fn now(&self, clock: FoveationClock, head: &TrackedHead, real_s: f64) -> f64 {
+        clock_now(clock, head, real_s, self.last_now)
+    }
+}
+
+/// [`FoveationClock`]'s reading: `real_s`, or the head sample's time (or
+/// `last` where it is not finite; 0 with neither).
+pub(crate) fn clock_now(clock: FoveationClock, head: &TrackedHead, real_s: f64, last: Option<f64>) -> f64 {
+    match clock {
+        FoveationClock::Real => real_s,
+        FoveationClock::HeadSample if head.timestamp_s.is_finite() => head.timestamp_s,
+        FoveationClock::HeadSample => last.unwrap_or(0.0),
+    }
 }
 
 impl GazeFilters {
@@ -283,6 +303,7 @@ impl GazeFilters {
             trackers: [t.clone(), t.clone(), t],
             timeout_s,
             last: [TrackerSample::Missing; 3],
+            last_now: None,
         }
     }
 }
@@ -315,13 +336,17 @@ pub(crate) fn filter_gaze(
         *filters = GazeFilters::new(settings.hold_timeout_s);
     }
     work.gaze_updates += 1;
-    let now = time.elapsed_secs_f64();
+    let now = filters.now(settings.clock, &head, time.elapsed_secs_f64());
     let eyes = [Eye::Left, Eye::Right, Eye::Cyclopean];
     let mut next = GazeState {
         estimates: state.estimates,
         fields: eyes.map(|eye| settings.field(eye)),
     };
-    let before = now - time.delta_secs_f64();
+    let before = match settings.clock {
+        FoveationClock::Real => now - time.delta_secs_f64(),
+        FoveationClock::HeadSample => filters.last_now.unwrap_or(now),
+    };
+    filters.last_now = Some(now);
     for (i, eye) in eyes.into_iter().enumerate() {
         let sample = head.sample(eye);
         let last = filters.last[i];

@@ -329,11 +329,14 @@ impl Default for FoveationGate {
 /// ([`FoveationGate`]) and swaps the meshes. Does nothing in a frame where
 /// neither the gaze, the settings, the object nor a pending dwell asks for
 /// it.
-#[allow(clippy::type_complexity)]
+// (A Bevy system: its parameters are what it reads and writes.)
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub(crate) fn select_levels(
     gaze: Res<GazeState>,
     settings: Res<CheckedFoveation>,
     time: Res<Time<Real>>,
+    head: Res<crate::TrackedHead>,
+    mut last_now: Local<Option<f64>>,
     mut pending: ResMut<DwellPending>,
     mut work: ResMut<FoveationWork>,
     mut gate: ResMut<FoveationGate>,
@@ -350,7 +353,8 @@ pub(crate) fn select_levels(
     >,
 ) {
     let everything = gaze.is_changed() || settings.is_changed() || pending.0;
-    let now = time.elapsed_secs_f64();
+    let now = crate::head::clock_now(settings.clock, &head, time.elapsed_secs_f64(), *last_now);
+    *last_now = Some(now);
     let s = settings.hysteresis.steps();
     let d = settings.hysteresis.dead_band();
     let mut still_pending = false;

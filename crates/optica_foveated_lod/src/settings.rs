@@ -35,6 +35,22 @@ pub enum FieldBoundary {
     TrueEllipse,
 }
 
+/// The clock that ages a level's dwell and a held gaze.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
+pub enum FoveationClock {
+    /// The app's real time (`Time<Real>`): a dwell is real seconds
+    /// whatever the frame rate.
+    #[default]
+    Real,
+    /// The head sample's own time, [`TrackedHead::timestamp_s`](crate::TrackedHead::timestamp_s):
+    /// the levels are then a function of the head samples alone, so
+    /// processes fed the same samples choose the same levels (the walls of
+    /// a CAVE across processes, see [`crate::cluster`]), and a replay
+    /// chooses the same levels at any frame rate. A sample whose time is
+    /// not finite counts as at the last finite one (time stands still).
+    HeadSample,
+}
+
 /// The foveation settings: the visual field (eq. 1–8 of Mochizuki and
 /// Makino), how the tracker's dropouts are handled, and how levels are
 /// quantised and held against flicker.
@@ -82,6 +98,9 @@ pub struct Foveation {
     /// this fraction of the [`GazeLod`](crate::GazeLod) objects' triangles
     /// (see [`FoveationGate`](crate::FoveationGate)); 0 always foveates.
     pub min_saving: f32,
+    /// The clock of [`min_dwell_s`](Self::min_dwell_s) and
+    /// [`hold_timeout_s`](Self::hold_timeout_s).
+    pub clock: FoveationClock,
 }
 
 impl Default for Foveation {
@@ -102,6 +121,7 @@ impl Default for Foveation {
             min_dwell_s: h.min_dwell_s() as f32,
             hold_timeout_s: 0.2,
             min_saving: 0.2,
+            clock: FoveationClock::Real,
         }
     }
 }
@@ -121,6 +141,8 @@ pub struct CheckedFoveation {
     pub hold_timeout_s: f32,
     /// The mesh path's saving threshold, in [0, 1].
     pub min_saving: f32,
+    /// The clock of the dwell and the hold.
+    pub clock: FoveationClock,
 }
 
 impl Default for CheckedFoveation {
@@ -177,6 +199,7 @@ impl Foveation {
             fields,
             hysteresis,
             hold_timeout_s,
+            clock: self.clock,
         })
     }
 }

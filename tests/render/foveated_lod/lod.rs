@@ -266,3 +266,56 @@ fn foveation_is_left_out_where_it_saves_little() {
     assert!(gate.active && gate.saving >= 0.2, "{gate:?}");
     assert!(state(&app, objects[0]).triangles < 5780);
 }
+
+/// On the head samples' clock (`FoveationClock::HeadSample`), the dwell is
+/// counted in the samples' own time, whatever the app's clock does: after
+/// a saccade onto an object and away, samples 1/30 s apart hold its detail
+/// for 7 or 8 of them (0.25 s), where the app's 1/60 s updates hold it for
+/// 15; and samples whose time is not finite stand still (the dwell does
+/// not end).
+#[test]
+fn on_the_head_samples_clock_the_dwell_counts_sample_time() {
+    use optica_foveated_lod::{FoveationClock, HeadSource, TrackedHead};
+    let held = |clock: FoveationClock, stamp: &dyn Fn(u32) -> f64| {
+        let mut app = cpu_app();
+        app.insert_resource(HeadSource::External)
+            .insert_resource(Foveation { clock, ..default() });
+        let e = spawn(&mut app, 1, GazeLod::default())[0];
+        let mut k = 0;
+        let mut look = |app: &mut App, yaw: f32| {
+            let gaze = Quat::from_rotation_y(-yaw.to_radians()) * Vec3::NEG_Z;
+            let mut head =
+                TrackedHead::looking(Vec3::new(0.0, 1.6, 0.0), Quat::IDENTITY, Some(gaze), 0.063);
+            head.timestamp_s = stamp(k);
+            k += 1;
+            app.insert_resource(head);
+            app.update();
+        };
+        for _ in 0..30 {
+            look(&mut app, 80.0);
+        }
+        assert!(state(&app, e).step <= 3, "coarse away from the gaze");
+        look(&mut app, 0.0);
+        assert_eq!(
+            state(&app, e).step,
+            8,
+            "full detail in the frame of the saccade"
+        );
+        (0..60)
+            .take_while(|_| {
+                look(&mut app, 80.0);
+                state(&app, e).step == 8
+            })
+            .count()
+    };
+    let samples = held(FoveationClock::HeadSample, &|k| k as f64 / 30.0);
+    let real = held(FoveationClock::Real, &|k| k as f64 / 30.0);
+    eprintln!("dwell held {samples} samples on their clock, {real} updates on the app's");
+    assert!((7..=8).contains(&samples), "held {samples} samples");
+    assert!((14..=16).contains(&real), "held {real} updates");
+    // Samples without a time after the saccade: the clock stands still.
+    let frozen = held(FoveationClock::HeadSample, &|k| {
+        if k <= 30 { k as f64 / 30.0 } else { f64::NAN }
+    });
+    assert_eq!(frozen, 60, "held {frozen}");
+}

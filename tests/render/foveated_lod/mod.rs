@@ -3,6 +3,7 @@
 //! lavapipe, and nothing run for a scene without a consumer.
 
 mod cave;
+mod cluster;
 mod lod;
 mod raytrace;
 mod tracking;

@@ -24,7 +24,7 @@ use bevy::{
 };
 use image::{Rgba32FImage, RgbaImage};
 
-use crate::timing::{FrameTimings, SpanCollector};
+use crate::timing::{FrameTimings, PairedTimings, RatioInterval, SpanCollector, Stats};
 use crate::{Adapter, AdapterInfo, HarnessError, Pixels, RenderedFrame};
 
 /// A change to Bevy's `DefaultPlugins` before the app is built, e.g. an
@@ -313,6 +313,97 @@ impl Headless {
             frame_ms,
             collector.finish(frames as usize),
         ))
+    }
+
+    /// Times an effect against its baseline so that the machine's load
+    /// cannot fake the ratio: the two scenes run as two apps side by side,
+    /// both warmed up (`warmup` frames, then until no pipeline waits), then
+    /// `blocks` blocks of `frames_per_block` frames each, alternating
+    /// between them (effect then baseline, then baseline then effect, …, so
+    /// that a drift in the machine's speed falls on both alike). Each block
+    /// pair gives a ratio, the effect's median frame over the baseline's;
+    /// [`PairedTimings::ratio`] is their median with a 95 % bootstrap
+    /// interval. A goal such as "at most 2× the baseline" is met when the
+    /// interval's upper bound is.
+    ///
+    /// ```no_run
+    /// use bevy::prelude::*;
+    /// use optica_harness::Headless;
+    /// let timed = Headless::new(64, 64)
+    ///     .time_paired(2, 8, 4, |app| { /* the scene with the effect */ }, |app| { /* without */ })
+    ///     .unwrap();
+    /// println!("{:.2}x [{:.2}, {:.2}]", timed.ratio.median, timed.ratio.low, timed.ratio.high);
+    /// ```
+    pub fn time_paired(
+        &self,
+        warmup: u32,
+        blocks: u32,
+        frames_per_block: u32,
+        effect: impl FnOnce(&mut App),
+        baseline: impl FnOnce(&mut App),
+    ) -> Result<PairedTimings, HarnessError> {
+        let started = std::time::Instant::now();
+        let _one_at_a_time = lock();
+        if self.adapter == Adapter::Noop {
+            return Err(HarnessError::NoPixelsOnNoop);
+        }
+        if blocks == 0 || frames_per_block == 0 {
+            return Err(HarnessError::NoFrames);
+        }
+        let mut apps = [self.prepare(effect, true)?.0, self.prepare(baseline, true)?.0];
+        for app in &mut apps {
+            for _ in 0..warmup {
+                step(app)?;
+            }
+            settle(app)?;
+        }
+        let mut collectors = [SpanCollector::default(), SpanCollector::default()];
+        for (app, collector) in apps.iter_mut().zip(&mut collectors) {
+            collector.skip_seen(app.world());
+        }
+        let mut frame_ms: [Vec<f64>; 2] = Default::default();
+        let mut ratios = Vec::with_capacity(blocks as usize);
+        for block in 0..blocks {
+            let order = if block % 2 == 0 { [0, 1] } else { [1, 0] };
+            let mut medians = [0.0; 2];
+            for which in order {
+                let mut times = Vec::with_capacity(frames_per_block as usize);
+                for _ in 0..frames_per_block {
+                    let t = std::time::Instant::now();
+                    step(&mut apps[which])?;
+                    times.push(t.elapsed().as_secs_f64() * 1e3);
+                    collectors[which].collect(apps[which].world());
+                }
+                medians[which] = Stats::of(&times).map_or(f64::NAN, |s| s.median);
+                frame_ms[which].extend(times);
+            }
+            ratios.push(medians[0] / medians[1]);
+        }
+        let frames = (blocks * frames_per_block) as usize;
+        let mut timings = Vec::with_capacity(2);
+        for ((app, mut collector), frame_ms) in apps.iter_mut().zip(collectors).zip(frame_ms) {
+            for _ in 0..crate::timing::MAX_DIAGNOSTIC_LAG_FRAMES {
+                if collector.complete(frames) {
+                    break;
+                }
+                step(app)?;
+                collector.collect(app.world());
+            }
+            timings.push(FrameTimings::new(
+                adapter_info(app)?,
+                frame_ms,
+                collector.finish(frames),
+            ));
+        }
+        let ratio = RatioInterval::bootstrap(&ratios).ok_or(HarnessError::NoFrames)?;
+        let baseline = timings.pop().expect("two apps");
+        let effect = timings.pop().expect("two apps");
+        Ok(PairedTimings {
+            effect,
+            baseline,
+            ratio,
+            elapsed_s: started.elapsed().as_secs_f64(),
+        })
     }
 
     /// The app with its target image, set up and finished, before any frame.

@@ -99,5 +99,6 @@ pub use headless::{
 };
 pub use kernel::KERNEL_WORKGROUP;
 pub use timing::{
-    FrameTimings, MAX_DIAGNOSTIC_LAG_FRAMES, PassTime, SpanTiming, Stats, TimeSource,
+    BOOTSTRAP_RESAMPLES, FrameTimings, MAX_DIAGNOSTIC_LAG_FRAMES, PairedTimings, PassTime,
+    RatioInterval, SpanTiming, Stats, TimeSource,
 };

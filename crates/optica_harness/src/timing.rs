@@ -287,3 +287,81 @@ impl SpanCollector {
         spans.into_values().collect()
     }
 }
+
+/// A ratio of two frame times with its confidence interval, from blocks of
+/// frames timed alternately (see [`Headless::time_paired`](crate::Headless::time_paired)).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RatioInterval {
+    /// The median over blocks of each block's ratio (the effect's median
+    /// frame time in the block over its baseline's in the adjacent block).
+    pub median: f64,
+    /// The interval's lower bound.
+    pub low: f64,
+    /// The interval's upper bound: the figure a "no more than" goal is
+    /// judged by.
+    pub high: f64,
+    /// The interval's confidence (0.95).
+    pub confidence: f64,
+    /// How many block ratios it comes from.
+    pub blocks: usize,
+}
+
+/// Bootstrap resamples behind a [`RatioInterval`].
+pub const BOOTSTRAP_RESAMPLES: usize = 2000;
+
+impl RatioInterval {
+    /// The median of `ratios` and its 95 % percentile-bootstrap interval
+    /// ([`BOOTSTRAP_RESAMPLES`] resamples with replacement, a fixed seed, so
+    /// the same ratios give the same interval). `None` without a finite,
+    /// positive ratio.
+    ///
+    /// ```
+    /// use optica_harness::RatioInterval;
+    /// let r = RatioInterval::bootstrap(&[1.9, 2.0, 2.1, 2.0, 1.95, 2.05]).unwrap();
+    /// assert!((r.median - 2.0).abs() < 1e-12);
+    /// assert!(r.low <= r.median && r.median <= r.high);
+    /// assert!(r.low >= 1.9 && r.high <= 2.1);
+    /// // One block: no spread to go by, the interval is the point.
+    /// let one = RatioInterval::bootstrap(&[1.5]).unwrap();
+    /// assert_eq!((one.low, one.high), (1.5, 1.5));
+    /// ```
+    pub fn bootstrap(ratios: &[f64]) -> Option<Self> {
+        use rand::{RngExt, SeedableRng};
+        let ratios: Vec<f64> = ratios
+            .iter()
+            .copied()
+            .filter(|r| r.is_finite() && *r > 0.0)
+            .collect();
+        let median = Stats::of(&ratios)?.median;
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(0x0971_CA);
+        let n = ratios.len();
+        let mut medians: Vec<f64> = (0..BOOTSTRAP_RESAMPLES)
+            .map(|_| {
+                let resample: Vec<f64> = (0..n).map(|_| ratios[rng.random_range(0..n)]).collect();
+                Stats::of(&resample).map_or(median, |s| s.median)
+            })
+            .collect();
+        medians.sort_by(f64::total_cmp);
+        let at = |q: f64| medians[((BOOTSTRAP_RESAMPLES - 1) as f64 * q).round() as usize];
+        Some(Self {
+            median,
+            low: at(0.025).min(median),
+            high: at(0.975).max(median),
+            confidence: 0.95,
+            blocks: n,
+        })
+    }
+}
+
+/// An effect timed against its baseline by [`Headless::time_paired`](crate::Headless::time_paired).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairedTimings {
+    /// Every timed frame of the effect's app, over all blocks.
+    pub effect: FrameTimings,
+    /// Every timed frame of the baseline's app, over all blocks.
+    pub baseline: FrameTimings,
+    /// Effect over baseline, by block, with its interval.
+    pub ratio: RatioInterval,
+    /// Wall time of the whole measurement, the two apps' start included (s).
+    pub elapsed_s: f64,
+}

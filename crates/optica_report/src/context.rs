@@ -68,6 +68,23 @@ impl SweepContext {
     pub fn pick<T>(&self, quick: T, full: T) -> T {
         if self.quick { quick } else { full }
     }
+
+    /// How a ratio's effect and baseline are timed against each other
+    /// (`Headless::time_paired`): the number of alternating blocks and the
+    /// frames in each; 4 blocks of 2 frames quick, 12 of 4 in full.
+    pub fn blocks(&self) -> (u32, u32) {
+        self.pick((4, 2), (12, 4))
+    }
+
+    /// Words for a report's baseline text: how its ratios were timed.
+    pub fn paired_words(&self, warmup: u32) -> String {
+        let (blocks, frames) = self.blocks();
+        format!(
+            "timed against each row in {blocks} alternating blocks of {frames} frames after {warmup} \
+             warm-up (two apps side by side); the ratio is the median of the blocks' ratios with its \
+             95 % bootstrap interval"
+        )
+    }
 }
 
 /// Runs `f` repeatedly and returns the median wall time of one call in

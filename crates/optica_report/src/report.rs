@@ -18,7 +18,7 @@
 
 use std::collections::BTreeMap;
 
-use optica_harness::AdapterInfo;
+use optica_harness::{AdapterInfo, PairedTimings, RatioInterval};
 use serde::{Deserialize, Serialize};
 
 /// A plugin's error-against-run-time sweep and its stability cases.
@@ -71,6 +71,11 @@ pub struct Row {
     /// Cost counters that are not times (optional addition to the shape).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub work: BTreeMap<String, f64>,
+    /// Where the method and its baseline were timed in alternating blocks
+    /// (`Headless::time_paired`): the ratio's median over blocks and its
+    /// 95 % interval. Goals on the ratio are judged by its upper bound.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ratio: Option<RatioInterval>,
 }
 
 /// One stiff or extreme case and whether the method handled it.
@@ -193,7 +198,27 @@ impl Row {
             baseline_time_ms,
             timings: BTreeMap::new(),
             work: BTreeMap::new(),
+            ratio: None,
         }
+    }
+
+    /// A row whose times come from an effect and its baseline timed in
+    /// alternating blocks: their median frames, and the ratio's interval.
+    pub fn paired(knob: f64, timed: &PairedTimings) -> Self {
+        Self {
+            ratio: Some(timed.ratio),
+            ..Self::new(
+                knob,
+                timed.effect.frame_ms.median,
+                timed.baseline.frame_ms.median,
+            )
+        }
+    }
+
+    /// The ratio's upper bound where the row has an interval, else the
+    /// plain ratio: what a "no more than" goal is judged by.
+    pub fn ratio_high(&self) -> f64 {
+        self.ratio.map_or_else(|| self.ratio(), |r| r.high)
     }
 
     /// Puts the row in series `name`.
@@ -214,9 +239,13 @@ impl Row {
         self
     }
 
-    /// Time over the baseline's (NaN without a baseline).
+    /// Time over the baseline's: the median of the block ratios where the
+    /// two were timed in alternating blocks, else the two medians' ratio
+    /// (NaN without a baseline).
     pub fn ratio(&self) -> f64 {
-        if self.baseline_time_ms > 0.0 {
+        if let Some(r) = self.ratio {
+            r.median
+        } else if self.baseline_time_ms > 0.0 {
             self.time_ms / self.baseline_time_ms
         } else {
             f64::NAN

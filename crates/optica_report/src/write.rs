@@ -75,6 +75,16 @@ pub fn markdown(report: &Report) -> String {
     if !report.baseline.is_empty() {
         let _ = writeln!(s, "- baseline: {}", report.baseline);
     }
+    if let Some(r) = report.rows.iter().find_map(|r| r.ratio) {
+        let _ = writeln!(
+            s,
+            "- ratios with an interval: the row's effect and its baseline timed as two apps in \
+             {} alternating blocks of frames; the median of the blocks' ratios and its {:.0} % \
+             bootstrap interval (a goal on a ratio is met when the interval's upper bound meets it)",
+            r.blocks,
+            100.0 * r.confidence
+        );
+    }
     s.push('\n');
     s.push_str(&main_table(report, usize::MAX));
     let headline = report.headline_errors();
@@ -142,7 +152,7 @@ fn main_table(report: &Report, max_rows: usize) -> String {
     for e in &errors {
         let _ = write!(s, " {e} |");
     }
-    let _ = writeln!(s, " time ms | baseline ms | ratio |");
+    let _ = writeln!(s, " time ms | baseline ms | ratio [95 % interval] |");
     let _ = writeln!(
         s,
         "|{}",
@@ -156,12 +166,15 @@ fn main_table(report: &Report, max_rows: usize) -> String {
         for e in &errors {
             let _ = write!(s, " {} |", row.error.get(e).map_or("–".into(), |v| num(*v)));
         }
+        let ratio = match row.ratio {
+            Some(r) => format!("{} [{}, {}]", num(r.median), num(r.low), num(r.high)),
+            None => num(row.ratio()),
+        };
         let _ = writeln!(
             s,
-            " {} | {} | {} |",
+            " {} | {} | {ratio} |",
             num(row.time_ms),
             num(row.baseline_time_ms),
-            num(row.ratio())
         );
     }
     if report.rows.len() > max_rows {
@@ -563,6 +576,29 @@ mod tests {
     use super::*;
     use crate::Row;
 
+    /// A ratio timed in alternating blocks is printed with its interval,
+    /// and the page says how it was timed.
+    #[test]
+    fn a_paired_ratio_is_printed_with_its_interval() {
+        let mut r = Report::cpu("demo", "n");
+        let mut row = Row::new(4.0, 6.0, 3.0).err("rel", 0.25);
+        row.ratio = Some(optica_harness::RatioInterval {
+            median: 1.9,
+            low: 1.75,
+            high: 2.25,
+            confidence: 0.95,
+            blocks: 12,
+        });
+        r.rows.push(row);
+        assert_eq!(r.rows[0].ratio(), 1.9);
+        assert_eq!(r.rows[0].ratio_high(), 2.25);
+        let md = markdown(&r);
+        assert!(md.contains("| 4 | 0.2500 | 6 | 3 | 1.900 [1.750, 2.250] |"), "{md}");
+        assert!(md.contains("12 alternating blocks"), "{md}");
+        let json = serde_json::to_value(&r.rows[0]).unwrap();
+        assert_eq!(json["ratio"]["high"], 2.25);
+    }
+
     #[test]
     fn numbers_read_well() {
         assert_eq!(num(0.0), "0");
@@ -598,7 +634,7 @@ mod tests {
         // The main table leads with the knob, the error and the ratio; the
         // work counter is in the details.
         assert!(
-            md.contains("| n | rel | time ms | baseline ms | ratio |"),
+            md.contains("| n | rel | time ms | baseline ms | ratio [95 % interval] |"),
             "{md}"
         );
         assert!(md.contains("| 4 | 0.2500 | 6 | 1 | 6 |"), "{md}");

@@ -244,3 +244,65 @@ fn a_pass_span_counts_the_work_of_its_shaders() {
     // for compute passes).
     assert!(!near.contains_key("compute_shader_invocations"), "{near:?}");
 }
+
+/// An effect that can only add cost, timed against its baseline in
+/// alternating blocks: a system that busy-waits 20 ms a frame over a frame
+/// of a few ms. Its ratio's whole interval lies above 1, and the same scene
+/// against itself gives an interval around 1; both apps' frames and the
+/// effect's pass spans are kept.
+#[test]
+fn an_effect_against_its_baseline_in_alternating_blocks() {
+    fn busy(_: Query<&Camera>) {
+        let start = std::time::Instant::now();
+        while start.elapsed() < std::time::Duration::from_millis(20) {
+            std::hint::spin_loop();
+        }
+    }
+    let headless = Headless::new(64, 64);
+    let timed = headless
+        .time_paired(
+            2,
+            6,
+            2,
+            |app| {
+                scene(app);
+                app.add_plugins(ClearPassPlugin).add_systems(Update, busy);
+            },
+            scene,
+        )
+        .expect("paired run");
+    let r = timed.ratio;
+    eprintln!(
+        "busy effect: {:.2} [{:.2}, {:.2}] over {} blocks, frames {:.2} / {:.2} ms, {:.1} s",
+        r.median,
+        r.low,
+        r.high,
+        r.blocks,
+        timed.effect.frame_ms.median,
+        timed.baseline.frame_ms.median,
+        timed.elapsed_s
+    );
+    assert_eq!(r.blocks, 6);
+    assert_eq!(
+        (timed.effect.frame_ms.n, timed.baseline.frame_ms.n),
+        (12, 12)
+    );
+    assert!(r.low > 1.0, "an effect that adds 20 ms a frame: {r:?}");
+    assert!(r.low <= r.median && r.median <= r.high);
+    assert!(timed.effect.span("my_plugin/clear").is_some());
+    assert!(timed.baseline.span("my_plugin/clear").is_none());
+
+    let same = headless
+        .time_paired(2, 6, 2, scene, scene)
+        .expect("paired run")
+        .ratio;
+    eprintln!(
+        "same scene: {:.2} [{:.2}, {:.2}]",
+        same.median, same.low, same.high
+    );
+    assert!(same.low < 1.5 && same.high > 0.67, "{same:?}");
+    assert!(matches!(
+        headless.time_paired(1, 0, 2, scene, scene),
+        Err(optica_harness::HarnessError::NoFrames)
+    ));
+}

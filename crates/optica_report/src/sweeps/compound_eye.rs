@@ -207,15 +207,15 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
     let size = ctx.pick(96, 256);
     let facets_per_uv = ctx.pick(50.0, 128.0);
     let slices: Vec<u32> = ctx.pick(vec![0, 2, 8, 32], vec![0, 1, 2, 4, 8, 16, 32, 64]);
-    let (warmup, frames) = ctx.pick((1, 4), (4, 20));
+    let warmup = ctx.pick(1, 4);
     let facet_px = pixels_per_facet(
         &eye_settings(facets_per_uv, 8, false, EyeOutput::Shaded),
         size,
     );
 
-    ctx.progress(0, 2 * slices.len() + 1, "plain StandardMaterial baseline");
+    ctx.progress(0, 2 * slices.len() + 1, "plain StandardMaterial");
     let headless = ctx.headless(size, size);
-    let base = headless.time_frames(warmup, frames, scene(None))?;
+    let base = headless.render(scene(None))?;
     let mut report = Report::rendered("compound_eye", "slices", base.adapter.clone());
     report.reference = format!(
         "optica_optics::compound_eye::trace_exact through every pixel centre ({size}², the same hexagonal lattice of \
@@ -224,9 +224,9 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
          {facet_px:.1} px wide at the pseudopupil"
     );
     report.baseline = format!(
-        "the same square with a plain StandardMaterial, timed right after each row, {frames} frames after \
-         {warmup} warm-up, median; \
-         `opaque_gpu_ms` is the main pass's GPU time (timestamp queries)"
+        "the same square with a plain StandardMaterial, {}; \
+         `opaque_gpu_ms` is the main pass's GPU time (timestamp queries)",
+        ctx.paired_words(warmup)
     );
 
     let expected_foot = foot_pixel(size);
@@ -257,19 +257,22 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
             let gpu: Vec<f64> = img.pixels().map(|p| p.0[0] as f64).collect();
             let m = optica_harness::metrics::compare(&reference_grey, &grey(&gpu, size))
                 .map_err(|e| SweepError::Setup(e.to_string()))?;
-            let timings = headless.time_frames(
+            // Against the plain frame in alternating blocks: lavapipe frame
+            // times drift by 20 % over a run and more with other work.
+            let (blocks, per_block) = ctx.blocks();
+            let paired = headless.time_paired(
                 warmup,
-                frames,
+                blocks,
+                per_block,
                 scene(Some(eye_settings(
                     facets_per_uv,
                     k,
                     neighbours,
                     EyeOutput::Shaded,
                 ))),
+                scene(None),
             )?;
-            // The plain frame right after, so that both see the same
-            // machine load (lavapipe frame times drift by 20 % over a run).
-            let plain = headless.time_frames(warmup, frames, scene(None))?;
+            let (timings, plain) = (&paired.effect, &paired.baseline);
             let gpu_centroid = centroid(&gpu, size, facet_px);
             let centroid_facets = match (gpu_centroid, reference_centroid) {
                 (Some(g), Some(r)) => (g - r).length() / facet_px,
@@ -277,7 +280,7 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
             };
             let foot_facets =
                 gpu_centroid.map_or(f64::NAN, |g| (g - expected_foot).length() / facet_px);
-            let mut row = Row::new(f64::from(k), timings.frame_ms.median, plain.frame_ms.median)
+            let mut row = Row::paired(f64::from(k), &paired)
                 .series(series)
                 .err("psnr_db", m.psnr_db)
                 .err("flip_mean", m.flip_mean)
@@ -285,12 +288,12 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
                 .err("centroid_facets", centroid_facets)
                 .work("centroid_to_normal_facets", foot_facets)
                 .timing("frame_iqr_ms", timings.frame_ms.iqr());
-            row = with_pass_times(row, &timings, &plain);
+            row = with_pass_times(row, timings, plain);
             report.rows.push(row);
         }
     }
-    exact_path(ctx, &mut report, size, facets_per_uv, (warmup, frames))?;
-    costs(ctx, &mut report, size, facets_per_uv, (warmup, frames))?;
+    exact_path(ctx, &mut report, size, facets_per_uv, warmup)?;
+    costs(ctx, &mut report, size, facets_per_uv, warmup)?;
     stability(ctx, &mut report, size)?;
     Ok(report)
 }
@@ -309,7 +312,7 @@ fn exact_path(
     report: &mut Report,
     size: u32,
     facets_per_uv: f32,
-    (warmup, frames): (u32, u32),
+    warmup: u32,
 ) -> Result<(), SweepError> {
     use rayon::prelude::*;
     let headless = ctx.headless(size, size);
@@ -337,13 +340,16 @@ fn exact_path(
         let gpu_factor: Vec<f64> = gpu.iter().map(|p| f64::from(p[0])).collect();
         let m = optica_harness::metrics::compare(&grey(&reference, size), &grey(&gpu_factor, size))
             .map_err(|e| SweepError::Setup(e.to_string()))?;
-        let timings = headless.time_frames(warmup, frames, scene(Some(eye(EyeOutput::Shaded))))?;
-        let plain = headless.time_frames(warmup, frames, scene(None))?;
-        let mut row = Row::new(
-            f64::from(lenses),
-            timings.frame_ms.median,
-            plain.frame_ms.median,
-        )
+        let (blocks, per_block) = ctx.blocks();
+        let paired = headless.time_paired(
+            warmup,
+            blocks,
+            per_block,
+            scene(Some(eye(EyeOutput::Shaded))),
+            scene(None),
+        )?;
+        let (timings, plain) = (&paired.effect, &paired.baseline);
+        let mut row = Row::paired(f64::from(lenses), &paired)
         .series("exact path")
         .err("psnr_db", m.psnr_db)
         .err("flip_mean", m.flip_mean)
@@ -376,7 +382,7 @@ fn exact_path(
                 .err(&format!("within_0_02_{name}"), share(within))
                 .work(&format!("pixels_{name}"), n as f64);
         }
-        row = with_pass_times(row, &timings, &plain);
+        row = with_pass_times(row, timings, plain);
         report.rows.push(row);
     }
     Ok(())
@@ -557,27 +563,32 @@ fn costs(
     report: &mut Report,
     size: u32,
     facets_per_uv: f32,
-    (warmup, frames): (u32, u32),
+    warmup: u32,
 ) -> Result<(), SweepError> {
     let headless = ctx.headless(size, size);
-    let time = |eye: Option<CompoundEye>| -> Result<f64, SweepError> {
-        Ok(headless
-            .time_frames(warmup, frames, scene(eye))?
-            .frame_ms
-            .median)
+    let (blocks, per_block) = ctx.blocks();
+    // Each against the plain material in alternating blocks.
+    let time = |eye: CompoundEye| -> Result<optica_harness::PairedTimings, SweepError> {
+        Ok(headless.time_paired(warmup, blocks, per_block, scene(Some(eye)), scene(None))?)
     };
-    let defaults = time(Some(CompoundEye {
+    let interval = |p: &optica_harness::PairedTimings| {
+        format!(
+            "{:.2}× [{:.2}, {:.2}] the plain material ({:.2} ms)",
+            p.ratio.median, p.ratio.low, p.ratio.high, p.baseline.frame_ms.median
+        )
+    };
+    let defaults = time(CompoundEye {
         facets_per_uv,
         ..default()
-    }))?;
-    let base_ms = time(None)?;
+    })?;
     report.case(
         "cost at the material's defaults",
-        defaults.is_finite(),
+        defaults.ratio.high.is_finite(),
         format!(
             "exact path, neighbours (up to {MAX_EXACT_LENSES} lenses), prefilter on, Fresnel, {facets_per_uv} facets \
-             per UV: frame {defaults:.2} ms, {:.2}× the plain material ({base_ms:.2} ms, timed right after)",
-            defaults / base_ms
+             per UV: frame {:.2} ms, {} ({blocks} alternating blocks of {per_block} frames, 95 % interval)",
+            defaults.effect.frame_ms.median,
+            interval(&defaults)
         ),
     );
     let tiny = sub_pixel_facets_per_uv(ctx);
@@ -586,16 +597,17 @@ fn costs(
         exact: true,
         ..eye_settings(tiny, 0, true, EyeOutput::Shaded)
     };
-    let (on, off) = (time(Some(sub_pixel(true)))?, time(Some(sub_pixel(false)))?);
-    let base_ms = time(None)?;
+    let (on, off) = (time(sub_pixel(true))?, time(sub_pixel(false))?);
     report.case(
         "cost of the prefilter at sub-pixel facets",
-        on.is_finite() && off.is_finite(),
+        on.ratio.high.is_finite() && off.ratio.high.is_finite(),
         format!(
-            "~0.5 px per facet, exact path, neighbours: prefiltered {on:.2} ms ({:.2}× plain), unfiltered \
-             {off:.2} ms ({:.2}× plain)",
-            on / base_ms,
-            off / base_ms
+            "~0.5 px per facet, exact path, neighbours: prefiltered {:.2} ms ({}), unfiltered \
+             {:.2} ms ({})",
+            on.effect.frame_ms.median,
+            interval(&on),
+            off.effect.frame_ms.median,
+            interval(&off)
         ),
     );
     Ok(())
@@ -656,19 +668,21 @@ fn stability(ctx: &SweepContext, report: &mut Report, size: u32) -> Result<(), S
             f.facet_px, f.prefiltered.0, f.unfiltered.0
         ));
         // The lit eye at the material's defaults, against the plain square.
-        let (warmup, frames) = ctx.pick((1, 4), (4, 20));
+        let warmup = ctx.pick(1, 4);
+        let (blocks, per_block) = ctx.blocks();
         let headless = ctx.headless(size, size);
-        let lit = headless.time_frames(
+        let paired = headless.time_paired(
             warmup,
-            frames,
+            blocks,
+            per_block,
             scene(Some(CompoundEye {
                 facets_per_uv: facets,
                 ..default()
             })),
+            scene(None),
         )?;
-        let plain = headless.time_frames(warmup, frames, scene(None))?;
         report.rows.push(
-            Row::new(f.facet_px, lit.frame_ms.median, plain.frame_ms.median)
+            Row::paired(f.facet_px, &paired)
                 .series("zoom-out (prefilter)")
                 .err("flip_mean", f.prefiltered.0)
                 .err("psnr_db", f.prefiltered.1)

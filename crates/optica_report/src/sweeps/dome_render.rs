@@ -263,12 +263,12 @@ struct Measured {
     max_px: f64,
     wrong: f64,
     cracks: usize,
-    frame_ms: f64,
-    baseline_ms: f64,
+    /// The dome's frame against the perspective camera's.
+    paired: optica_harness::PairedTimings,
 }
 
 /// Renders the room through `camera` at `size`, measures its edges and
-/// times it against Bevy's perspective camera right after.
+/// times it against Bevy's perspective camera in alternating blocks.
 fn measure(
     ctx: &SweepContext,
     report: &mut Report,
@@ -276,7 +276,7 @@ fn measure(
     camera: DomeCamera,
     tolerance: f64,
 ) -> Result<Measured, SweepError> {
-    let (warmup, frames) = ctx.pick((1, 3), (2, 8));
+    let warmup = ctx.pick(1, 2);
     let headless = ctx.headless(size, size);
     let dome = camera
         .projection(size)
@@ -284,14 +284,19 @@ fn measure(
     let frame = headless.render(scene(Some(camera)))?;
     report.adapter.get_or_insert(frame.adapter.clone());
     let (max_px, wrong, cracks) = edge_errors(&frame.to_rgba8(), &dome, tolerance);
-    let timed = headless.time_frames(warmup, frames, scene(Some(camera)))?;
-    let plain = headless.time_frames(warmup, frames, scene(None))?;
+    let (blocks, per_block) = ctx.blocks();
+    let paired = headless.time_paired(
+        warmup,
+        blocks,
+        per_block,
+        scene(Some(camera)),
+        scene(None),
+    )?;
     Ok(Measured {
         max_px,
         wrong,
         cracks,
-        frame_ms: timed.frame_ms.median,
-        baseline_ms: plain.frame_ms.median,
+        paired,
     })
 }
 
@@ -342,7 +347,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
                 .sum::<usize>()
         });
         report.rows.push(
-            Row::new(f64::from(tolerance), m.frame_ms, m.baseline_ms)
+            Row::paired(f64::from(tolerance), &m.paired)
                 .series("vertex mode, rendered")
                 .err("pixel_max_px", m.max_px)
                 .err("pixel_wrong_frac", m.wrong)
@@ -357,7 +362,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         let camera = DomeCamera::default();
         let m = measure(ctx, report, 4096, camera, f64::from(camera.tolerance_px))?;
         report.rows.push(
-            Row::new(f64::from(camera.tolerance_px), m.frame_ms, m.baseline_ms)
+            Row::paired(f64::from(camera.tolerance_px), &m.paired)
                 .series("vertex mode, rendered, 4K")
                 .err("pixel_max_px", m.max_px)
                 .err("pixel_wrong_frac", m.wrong)
@@ -378,7 +383,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         // Cracks do not arise in the cube mode; every wrong pixel counts.
         let m = measure(ctx, report, size, camera, f64::INFINITY)?;
         report.rows.push(
-            Row::new(f64::from(face_px), m.frame_ms, m.baseline_ms)
+            Row::paired(f64::from(face_px), &m.paired)
                 .series("cube mode, rendered")
                 .err("pixel_max_px", m.max_px)
                 .err("pixel_wrong_frac", m.wrong)

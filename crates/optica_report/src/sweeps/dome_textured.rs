@@ -26,8 +26,8 @@
 //!   image circle: `flip_mean` (ꟻLIP at 67 px/°), `psnr_db`, and the same
 //!   against the point-sampled reference.
 //! * Time: the frame in each mode and Bevy's default perspective camera
-//!   on the same scene in the same run (`baseline_time_ms`), so
-//!   `time_ms / baseline_time_ms` is each mode's cost in views.
+//!   on the same scene, timed in alternating blocks (`baseline_time_ms`;
+//!   the ratio with its 95 % interval is each mode's cost in views).
 //! * Work: `fragments`, the pixels the scene's triangles cover in the
 //!   frame (vertex mode: the twins' projected areas, CPU; these scenes have
 //!   no overdraw) or the face images' pixels (cube mode: `face_pixels`, all
@@ -449,7 +449,7 @@ fn star_face_pixels(camera: &DomeCamera, face_px: u32, size: u32) -> f64 {
         .sum()
 }
 
-/// One scene's references and its perspective-camera baseline.
+/// One scene's references.
 struct Bench {
     content: Content,
     size: u32,
@@ -457,11 +457,10 @@ struct Bench {
     mask: Vec<bool>,
     supersampled: image::RgbaImage,
     point: image::RgbaImage,
-    baseline_ms: f64,
 }
 
 impl Bench {
-    fn new(ctx: &SweepContext, content: Content, size: u32) -> Result<Self, SweepError> {
+    fn new(content: Content, size: u32) -> Result<Self, SweepError> {
         let dome = DomeCamera::default()
             .projection(size)
             .map_err(|e| SweepError::Setup(e.to_string()))?;
@@ -475,12 +474,6 @@ impl Bench {
                 reference_stars(&dome, size, 1),
             ),
         };
-        let (warmup, frames) = ctx.pick((1, 3), (2, 8));
-        let plain = ctx.headless(size, size).time_frames(
-            warmup,
-            frames,
-            scene(content, size, None, Msaa::Off),
-        )?;
         Ok(Self {
             content,
             size,
@@ -488,7 +481,6 @@ impl Bench {
             dome,
             supersampled: supersampled.to_rgba8(),
             point: point.to_rgba8(),
-            baseline_ms: plain.frame_ms.median,
         })
     }
 
@@ -508,18 +500,22 @@ impl Bench {
         let image = frame.to_rgba8();
         let (flip, psnr) = errors(&self.supersampled, &image, &self.mask);
         let (flip_point, psnr_point) = errors(&self.point, &image, &self.mask);
-        let (warmup, frames) = ctx.pick((1, 3), (2, 8));
-        let timed = headless.time_frames(
+        // Against the perspective view of the same scene, in alternating blocks.
+        let warmup = ctx.pick(1, 2);
+        let (blocks, per_block) = ctx.blocks();
+        let paired = headless.time_paired(
             warmup,
-            frames,
+            blocks,
+            per_block,
             scene(self.content, self.size, Some(camera), msaa),
+            scene(self.content, self.size, None, Msaa::Off),
         )?;
         let mode = match (camera.mode, msaa) {
             (DomeMode::Vertex, Msaa::Off) => "vertex mode",
             (DomeMode::Vertex, _) => "vertex mode, 4× MSAA",
             (DomeMode::CubeMap { .. }, _) => "cube mode",
         };
-        Ok(Row::new(knob, timed.frame_ms.median, self.baseline_ms)
+        Ok(Row::paired(knob, &paired)
             .series(&format!("{}, {mode}", self.content.name()))
             .err("flip_mean", flip)
             .err("psnr_db", psnr)
@@ -539,7 +535,7 @@ pub fn textured_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     let steps = 2 * (2 * tolerances.len() + faces.len());
     let mut step = 0;
     for content in [Content::Room, Content::Stars] {
-        let bench = Bench::new(ctx, content, size)?;
+        let bench = Bench::new(content, size)?;
         for &tolerance in &tolerances {
             // The twin's coverage does not depend on the sample count.
             let (fragments, triangles) =

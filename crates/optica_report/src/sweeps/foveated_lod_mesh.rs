@@ -27,6 +27,7 @@
 
 use bevy::camera::{ClearColorConfig, RenderTarget};
 use bevy::prelude::*;
+use optica_harness::PairedTimings;
 use bevy::render::render_resource::TextureFormat;
 use bevy::render::view::Msaa;
 use image::RgbaImage;
@@ -299,8 +300,8 @@ fn triangles_drawn(scene: Scene, floor_gaze: bool, foveation: Foveation) -> (f64
 
 /// One measured case: foveated against full quality, same run.
 struct Case {
-    foveated_ms: f64,
-    full_ms: f64,
+    /// The foveated frame against full quality's.
+    paired: PairedTimings,
     errors: Vec<(&'static str, f64)>,
     triangles: (f64, f64),
     gate: FoveationGate,
@@ -314,7 +315,7 @@ fn measure(
     report: &mut Report,
 ) -> Result<Case, SweepError> {
     let size = ctx.pick(48, 256);
-    let (warmup, frames) = ctx.pick((3, 4), (5, 30));
+    let warmup = ctx.pick(3, 5);
     let headless = ctx.headless(size, size).frames(4);
     let mut images = Vec::new();
     let mut triangles = Vec::new();
@@ -328,18 +329,19 @@ fn measure(
         triangles.push(drawn);
         gates.push(gate);
     }
-    let mut times = Vec::new();
-    for enabled in [true, false] {
-        let fov = foveation(enabled, central_deg);
-        let t = headless.time_frames(warmup, frames, |app| {
-            setup(app, scene, floor_gaze, fov.clone(), size)
-        })?;
-        times.push(t.frame_ms.median);
-    }
+    // Foveated against full quality in alternating blocks.
+    let (blocks, per_block) = ctx.blocks();
+    let (foveated, full) = (foveation(true, central_deg), foveation(false, central_deg));
+    let paired = headless.time_paired(
+        warmup,
+        blocks,
+        per_block,
+        |app| setup(app, scene, floor_gaze, foveated, size),
+        |app| setup(app, scene, floor_gaze, full, size),
+    )?;
     let field = pixel_field(size, floor_gaze, central_deg);
     Ok(Case {
-        foveated_ms: times[0],
-        full_ms: times[1],
+        paired,
         errors: banded_error(&images[0], &images[1], &field),
         triangles: (triangles[0], triangles[1]),
         gate: gates[0].clone(),
@@ -456,7 +458,7 @@ fn plugin_stability(report: &mut Report) {
 }
 
 fn row(case: &Case, knob: f64, series: &str) -> Row {
-    let mut r = Row::new(knob, case.foveated_ms, case.full_ms)
+    let mut r = Row::paired(knob, &case.paired)
         .series(series)
         .work("triangles_foveated", case.triangles.0)
         .work("triangles_full", case.triangles.1)

@@ -37,6 +37,7 @@ use std::sync::{Arc, Mutex};
 
 use bevy::camera::{ClearColorConfig, RenderTarget};
 use bevy::prelude::*;
+use optica_harness::PairedTimings;
 use bevy::render::render_resource::TextureFormat;
 use bevy::render::view::Msaa;
 use optica_foveated_lod::twins::{TracedScene, reference_of};
@@ -155,8 +156,8 @@ pub(super) fn setup(
 
 /// One measured case: foveated against full quality, same run.
 struct Case {
-    foveated_ms: f64,
-    full_ms: f64,
+    /// The foveated frame against full quality's.
+    paired: PairedTimings,
     errors: Vec<(&'static str, f64)>,
     state: GazeRayTracerState,
     /// Rays and triangle tests of the twin, foveated over full quality.
@@ -230,7 +231,7 @@ fn measure(
     report: &mut Report,
 ) -> Result<Case, SweepError> {
     let size = ctx.pick(48, 256);
-    let (warmup, frames) = ctx.pick((2, 3), (4, 20));
+    let warmup = ctx.pick(2, 4);
     let headless = ctx.headless(size, size).frames(4);
     let seen = Arc::new(Mutex::new(Seen::default()));
     let mut images = Vec::new();
@@ -241,20 +242,21 @@ fn measure(
         report.adapter.get_or_insert(frame.adapter.clone());
         images.push(frame.to_rgba8());
     }
-    let mut times = Vec::new();
-    for foveate in [true, false] {
-        let t = tracer(foveate, scale);
-        let timing = headless.time_frames(warmup, frames, |app| {
-            setup(app, scene, floor_gaze, t, size, None)
-        })?;
-        times.push(timing.frame_ms.median);
-    }
+    // Foveated against full quality in alternating blocks.
+    let (blocks, per_block) = ctx.blocks();
+    let (foveated, full) = (tracer(true, scale), tracer(false, scale));
+    let paired = headless.time_paired(
+        warmup,
+        blocks,
+        per_block,
+        |app| setup(app, scene, floor_gaze, foveated, size, None),
+        |app| setup(app, scene, floor_gaze, full, size, None),
+    )?;
     let seen = seen.lock().expect("the app has finished").clone();
     let (rays_ratio, tests_ratio) = twin_work(&seen, &tracer(true, scale), ctx.pick(24, 64))?;
     let field = pixel_field(size, floor_gaze, 30.0);
     Ok(Case {
-        foveated_ms: times[0],
-        full_ms: times[1],
+        paired,
         errors: banded_error(&images[0], &images[1], &field),
         state: seen.front.unwrap_or_default(),
         rays_ratio,
@@ -326,7 +328,7 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
 }
 
 fn row(case: &Case, empty_ms: f64, knob: f64, series: &str) -> Row {
-    let mut r = Row::new(knob, case.foveated_ms, case.full_ms)
+    let mut r = Row::paired(knob, &case.paired)
         .series(series)
         .timing("empty_scene_frame_ms", empty_ms)
         .work("ray_saving_estimate", case.state.saving as f64)

@@ -433,7 +433,8 @@ fn counted(mut row: Row, timed: &FrameTimings) -> Row {
 }
 
 /// One row: the flare of `setup` rendered on black against `reference`
-/// (when given), and the lit scene timed with it against `plain`.
+/// (when given), and the lit scene timed with it against the scene
+/// without the flare, in alternating blocks.
 #[allow(clippy::too_many_arguments)]
 fn row(
     ctx: &SweepContext,
@@ -442,7 +443,6 @@ fn row(
     setup: Setup,
     size: u32,
     reference: Option<&[[f64; 3]]>,
-    plain_ms: f64,
     timing: (u32, u32),
     knob: f64,
 ) -> Result<(), SweepError> {
@@ -455,13 +455,18 @@ fn row(
         .map_err(|_| SweepError::Setup("log".into()))?
         .clone()
         .ok_or_else(|| SweepError::Setup("the flare chose no ghosts".into()))?;
-    let timed = ctx.headless(size, size).hdr(true).time_frames(
+    // The lit scene with the flare against it without, in alternating blocks.
+    let (blocks, per_block) = ctx.blocks();
+    let paired = ctx.headless(size, size).hdr(true).time_paired(
         timing.0,
-        timing.1,
+        blocks,
+        per_block,
         scene(Some(setup.clone()), true, None),
+        scene(None, true, None),
     )?;
+    let timed = &paired.effect;
     let flare = timed.pass("optica/lens_flare");
-    let mut row = Row::new(knob, timed.frame_ms.median, plain_ms)
+    let mut row = Row::paired(knob, &paired)
         .series(series)
         .work("ghosts", ghosts.drawn().count() as f64)
         .work(
@@ -478,7 +483,7 @@ fn row(
                 flare.is_some_and(|p| p.source == TimeSource::GpuTimestamps),
             )),
         );
-    row = counted(row, &timed);
+    row = counted(row, timed);
     if let Some(reference) = reference {
         let img = frame
             .hdr()
@@ -559,12 +564,6 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         &format!("CPU reference, {rays}² rays per ghost"),
     );
     let reference_3 = reference(&ghosts, size, rays, 3, Spectrum::Gained)?;
-    let plain = ctx
-        .headless(size, size)
-        .hdr(true)
-        .time_frames(timing.0, timing.1, scene(None, true, None))?
-        .frame_ms
-        .median;
     // A row of `series` at `knob`, against `reference` when given.
     let add = |report: &mut Report,
                series: &str,
@@ -572,7 +571,7 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
                reference: Option<&[[f64; 3]]>,
                knob: f64| {
         row(
-            ctx, report, series, setup, size, reference, plain, timing, knob,
+            ctx, report, series, setup, size, reference, timing, knob,
         )
     };
     let r = Some(reference_3.as_slice());
@@ -724,12 +723,6 @@ fn zoom_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> 
     ctx.progress(1, 1, "zoom, every unblocked ghost, 16² on average");
     let (w, h) = (1280, 720);
     let zoom_setup = zoom_setup()?;
-    let plain_wide = ctx
-        .headless(w, h)
-        .hdr(true)
-        .time_frames(3, 4, scene(None, true, None))?
-        .frame_ms
-        .median;
     let log = Arc::new(Mutex::new(None));
     ctx.headless(64, 64).frames(8).render(scene(
         Some(zoom_setup.clone()),
@@ -759,12 +752,17 @@ fn zoom_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> 
             coarse_px,
             ..zoom_setup.clone()
         };
-        let timed =
-            ctx.headless(w, h)
-                .hdr(true)
-                .time_frames(3, 4, scene(Some(setup), true, None))?;
+        let (blocks, per_block) = ctx.blocks();
+        let paired = ctx.headless(w, h).hdr(true).time_paired(
+            3,
+            blocks,
+            per_block,
+            scene(Some(setup), true, None),
+            scene(None, true, None),
+        )?;
+        let timed = &paired.effect;
         let flare = timed.pass("optica/lens_flare");
-        let mut row = Row::new(16.0, timed.frame_ms.median, plain_wide);
+        let mut row = Row::paired(16.0, &paired);
         if let Some(px) = coarse_px {
             row = row.work("coarse_ghost_px", f64::from(px));
         }
@@ -778,7 +776,7 @@ fn zoom_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> 
                 .work("spectrum_budget_ms_per_frame", SPECTRUM_BUDGET_MS)
                 .work("size_px", f64::from(w))
                 .work("flare_ms", flare.map_or(f64::NAN, |p| p.ms.median)),
-            &timed,
+            timed,
         ));
     }
     Ok(())

@@ -14,7 +14,7 @@
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use image::RgbaImage;
-use optica_harness::{FrameTimings, HarnessError, TimeSource};
+use optica_harness::{HarnessError, TimeSource};
 
 use super::SweepError;
 use crate::{Report, Row, SweepContext};
@@ -109,7 +109,7 @@ pub fn downsample_linear(image: &RgbaImage, factor: u32) -> RgbaImage {
 /// Runs the sweep.
 pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
     let size = ctx.pick(64, 256);
-    let (warmup, frames) = ctx.pick((1, 4), (5, 30));
+    let warmup = ctx.pick(1, 5);
     let knobs = [1u32, 2, 4, 8];
 
     ctx.progress(0, knobs.len() + 1, "reference");
@@ -124,10 +124,10 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
         size
     );
     report.baseline = format!(
-        "the frame with MSAA off, {frames} frames after {warmup} warm-up, median; `opaque_gpu_ms` is the main opaque pass's GPU time"
+        "the frame with MSAA off, {}; `opaque_gpu_ms` is the main opaque pass's GPU time",
+        ctx.paired_words(warmup)
     );
-
-    let mut baseline: Option<FrameTimings> = None;
+    let (blocks, per_block) = ctx.blocks();
     let mut skipped = Vec::new();
     for (i, &samples) in knobs.iter().enumerate() {
         ctx.progress(i + 1, knobs.len() + 1, &format!("{samples} samples"));
@@ -145,11 +145,16 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
             }
             Err(e) => return Err(e.into()),
         };
-        let timings = headless.time_frames(warmup, frames, |app| scene(app, samples))?;
-        let base = baseline
-            .get_or_insert_with(|| timings.clone())
-            .frame_ms
-            .median;
+        // Against MSAA off in alternating blocks (off against itself for
+        // the first row: the interval noise alone gives).
+        let paired = headless.time_paired(
+            warmup,
+            blocks,
+            per_block,
+            |app| scene(app, samples),
+            |app| scene(app, 1),
+        )?;
+        let timings = &paired.effect;
         let m =
             optica_harness::metrics::compare(&reference_image, &frame.to_rgba8()).map_err(|e| {
                 SweepError::Harness(HarnessError::Golden {
@@ -157,7 +162,7 @@ pub fn run(ctx: &SweepContext) -> Result<Report, SweepError> {
                     message: e.to_string(),
                 })
             })?;
-        let mut row = Row::new(samples as f64, timings.frame_ms.median, base)
+        let mut row = Row::paired(samples as f64, &paired)
             .err("psnr_db", m.psnr_db)
             .err("flip_mean", m.flip_mean)
             .err("one_minus_ssim", 1.0 - m.ssim)

@@ -374,19 +374,21 @@ pub fn mirror_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepE
     // Where Bevy's reflection probes do not work (lavapipe) the plugin
     // draws the plain cube map for the parallax-corrected one: the rows say
     // which was drawn.
-    let plain =
-        ctx.headless(size, size)
-            .time_frames(timing.0, timing.1, mirror_scene(None, true, 0.0))?;
+    // Each against the plain scene, in alternating blocks.
+    let (blocks, per_block) = ctx.blocks();
     let total = cases.len();
     for (step, (series, knob, mirror, turn)) in cases.into_iter().enumerate() {
         ctx.progress(step + 1, total, &series);
         let (error, frame, device) = render_mirror(ctx, &mirror, size, turn)?;
         report.adapter.get_or_insert(frame.adapter.clone());
-        let timed = ctx.headless(size, size).time_frames(
+        let paired = ctx.headless(size, size).time_paired(
             timing.0,
-            timing.1,
+            blocks,
+            per_block,
             mirror_scene(Some(mirror.clone()), true, turn),
+            mirror_scene(None, true, 0.0),
         )?;
+        let timed = &paired.effect;
         // Known once a device exists.
         let series = if matches!(mirror.method, MirrorMethod::ParallaxCorrectedCubeMap { .. })
             && !device.reflection_probes
@@ -398,7 +400,7 @@ pub fn mirror_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepE
         } else {
             series
         };
-        let mut row = Row::new(knob, timed.frame_ms.median, plain.frame_ms.median);
+        let mut row = Row::paired(knob, &paired);
         if matches!(mirror.method, MirrorMethod::PerVertex) {
             let pass = timed.pass("optica/spectacles/mirror");
             row = row
@@ -413,7 +415,7 @@ pub fn mirror_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepE
                 .err("mirror_wall_mean_px", error.wall_mean_px)
                 .err("mirror_wrong_surface", error.wrong_surface)
                 .work("pixels", error.pixels as f64)
-                .work("frame_ratio", timed.frame_ms.median / plain.frame_ms.median)
+                .work("frame_ratio", paired.ratio.median)
                 .work("size_px", f64::from(size)),
         );
     }

@@ -71,6 +71,7 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
     let size = ctx.pick(128, 256);
     let rings: Vec<u32> = ctx.pick(vec![6, 24], vec![3, 6, 12, 24, 48]);
     let timing = ctx.pick((4, 3), (8, 15));
+    let (blocks, per_block) = ctx.blocks();
     let tan = f64::from(FOV / 2.0).tan();
     let px_per_m = f64::from(size) / (2.0 * tan * f64::from(PLANE_Z));
     let total = rings.len() + 1;
@@ -140,20 +141,19 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
             s.chromatic_aberration,
         )
         .map_err(|e| SweepError::Setup(e.to_string()))?;
-        let timed =
-            ctx.headless(size, size)
-                .time_frames(timing.0, timing.1, lit_room(s.clone()))?;
-        let plain = ctx.headless(size, size).time_frames(
+        let paired = ctx.headless(size, size).time_paired(
             timing.0,
-            timing.1,
+            blocks,
+            per_block,
+            lit_room(s.clone()),
             lit_room(Spectacles {
                 refraction: false,
                 ..s.clone()
             }),
         )?;
-        let pass = timed.pass("optica/spectacles/refraction");
+        let pass = paired.effect.pass("optica/spectacles/refraction");
         report.rows.push(
-            Row::new(f64::from(r), timed.frame_ms.median, plain.frame_ms.median)
+            Row::paired(f64::from(r), &paired)
                 .series("refraction, −4 D (knob rings)")
                 .err("refraction_mean_px", sum / n.max(1) as f64)
                 .err("refraction_max_px", max)
@@ -170,39 +170,36 @@ pub fn refraction_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Sw
     }
 
     ctx.progress(total, total, "moving lens");
-    let still = ctx
-        .headless(size, size)
-        .time_frames(timing.0, timing.1, lit_room(lens(24)))?;
-    let achromatic = ctx.headless(size, size).time_frames(
+    let chromatic = ctx.headless(size, size).time_paired(
         timing.0,
-        timing.1,
+        blocks,
+        per_block,
+        lit_room(lens(24)),
         lit_room(Spectacles {
             chromatic_aberration: false,
             ..lens(24)
         }),
     )?;
     report.rows.push(
-        Row::new(24.0, still.frame_ms.median, achromatic.frame_ms.median)
+        Row::paired(24.0, &chromatic)
             .series("chromatic aberration: on against off (knob rings)")
-            .work(
-                "frame_ratio",
-                still.frame_ms.median / achromatic.frame_ms.median,
-            )
+            .work("frame_ratio", chromatic.ratio.median)
             .work("size_px", f64::from(size)),
     );
-    let moving = ctx
-        .headless(size, size)
-        .time_frames(timing.0, timing.1, |app: &mut App| {
+    let moving = ctx.headless(size, size).time_paired(
+        timing.0,
+        blocks,
+        per_block,
+        |app: &mut App| {
             lit_room(lens(24))(app);
             app.insert_resource(Slide(1.0)).add_systems(Update, slide);
-        })?;
+        },
+        lit_room(lens(24)),
+    )?;
     report.rows.push(
-        Row::new(24.0, moving.frame_ms.median, still.frame_ms.median)
+        Row::paired(24.0, &moving)
             .series("moving lens: retraced every frame against still (knob rings)")
-            .work(
-                "frame_ratio",
-                moving.frame_ms.median / still.frame_ms.median,
-            )
+            .work("frame_ratio", moving.ratio.median)
             .work("size_px", f64::from(size)),
     );
     Ok(())

@@ -34,6 +34,7 @@
 use bevy::camera::Hdr;
 use bevy::post_process::dof::{DepthOfField, DepthOfFieldMode};
 use bevy::prelude::*;
+use optica_harness::PairedTimings;
 use bevy::render::view::Msaa;
 use optica_harness::textures::checker;
 use optica_harness::{RenderedFrame, metrics};
@@ -239,12 +240,16 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     let render = |viewer: Viewer| -> Result<RenderedFrame, SweepError> {
         Ok(ctx.headless(size, size).frames(FRAMES).render(room(viewer, false))?)
     };
-    let time = |viewer: Viewer, px: u32| -> Result<f64, SweepError> {
-        Ok(ctx
-            .headless(px, px)
-            .time_frames(timing.0 + FRAMES, timing.1, room(viewer, true))?
-            .frame_ms
-            .median)
+    // Each view against the sharp view, in alternating blocks.
+    let (blocks, per_block) = ctx.blocks();
+    let time = |viewer: Viewer, px: u32| -> Result<PairedTimings, SweepError> {
+        Ok(ctx.headless(px, px).time_paired(
+            timing.0 + FRAMES,
+            blocks,
+            per_block,
+            room(viewer, true),
+            room(Viewer::Sharp, true),
+        )?)
     };
 
     progress("references");
@@ -258,11 +263,12 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         glasses: true,
     })?;
     progress("sharp frames");
-    let sharp_ms = time(Viewer::Sharp, size)?;
+    // The sharp view against itself: the interval that noise alone gives.
+    let sharp_pair = time(Viewer::Sharp, size)?;
     let sharp = render(Viewer::Sharp)?;
     let (sharp_psnr, sharp_flip) = error(&naked_ref, &sharp)?;
     report.rows.push(
-        Row::new(0.0, sharp_ms, sharp_ms)
+        Row::paired(0.0, &sharp_pair)
             .series("rendered: no eye (sharp), against the naked reference")
             .err("psnr_db", sharp_psnr)
             .err("flip_mean", sharp_flip)
@@ -280,14 +286,14 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
                 glasses: false,
             };
             let (psnr, flip) = error(&naked_ref, &render(viewer.clone())?)?;
-            let ms = time(viewer, size)?;
+            let timed = time(viewer, size)?;
             report.rows.push(
-                Row::new(f64::from(s), ms, sharp_ms)
+                Row::paired(f64::from(s), &timed)
                     .series(&format!("rendered: naked, {name} (knob S)"))
                     .err("psnr_db", psnr)
                     .err("flip_mean", flip)
                     .work("clones", f64::from(s))
-                    .work("frame_ratio", ms / sharp_ms)
+                    .work("frame_ratio", timed.ratio.median)
                     .work("size_px", f64::from(size)),
             );
         }
@@ -297,14 +303,14 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             glasses: true,
         };
         let (psnr, flip) = error(&glasses_ref, &render(viewer.clone())?)?;
-        let ms = time(viewer, size)?;
+        let timed = time(viewer, size)?;
         report.rows.push(
-            Row::new(f64::from(s), ms, sharp_ms)
+            Row::paired(f64::from(s), &timed)
                 .series("rendered: −0.78 D glasses, reprojected (knob S)")
                 .err("psnr_db", psnr)
                 .err("flip_mean", flip)
                 .work("clones", f64::from(s))
-                .work("frame_ratio", ms / sharp_ms)
+                .work("frame_ratio", timed.ratio.median)
                 .work("size_px", f64::from(size)),
         );
     }
@@ -316,14 +322,14 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             glasses: true,
         };
         let (psnr, flip) = error(&glasses_ref, &render(viewer.clone())?)?;
-        let ms = time(viewer, size)?;
+        let timed = time(viewer, size)?;
         report.rows.push(
-            Row::new(f64::from(k), ms, sharp_ms)
+            Row::paired(f64::from(k), &timed)
                 .series("rendered: −0.78 D glasses, S = 10 (knob scale)")
                 .err("psnr_db", psnr)
                 .err("flip_mean", flip)
                 .work("field_scale", f64::from(k))
-                .work("frame_ratio", ms / sharp_ms)
+                .work("frame_ratio", timed.ratio.median)
                 .work("size_px", f64::from(size)),
         );
     }
@@ -335,29 +341,28 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         progress(&format!("Bevy DepthOfField, {name}"));
         let viewer = Viewer::BevyDof(mode);
         let (psnr, flip) = error(&naked_ref, &render(viewer.clone())?)?;
-        let ms = time(viewer, size)?;
+        let timed = time(viewer, size)?;
         report.rows.push(
-            Row::new(0.0, ms, sharp_ms)
+            Row::paired(0.0, &timed)
                 .series(&format!("rendered: Bevy DepthOfField {name}, focus 1 m, against the naked reference"))
                 .err("psnr_db", psnr)
                 .err("flip_mean", flip)
-                .work("frame_ratio", ms / sharp_ms)
+                .work("frame_ratio", timed.ratio.median)
                 .work("size_px", f64::from(size)),
         );
     }
 
     progress("S cameras");
-    let ms = time(Viewer::Cameras(10), size)?;
+    let timed = time(Viewer::Cameras(10), size)?;
     report.rows.push(
-        Row::new(10.0, ms, sharp_ms)
+        Row::paired(10.0, &timed)
             .series("mechanism: S cameras, each drawing the scene shaded (knob S)")
-            .work("frame_ratio", ms / sharp_ms)
+            .work("frame_ratio", timed.ratio.median)
             .work("size_px", f64::from(size)),
     );
 
     progress(&format!("{big}²"));
-    let big_sharp = time(Viewer::Sharp, big)?;
-    let big_ms = time(
+    let big_timed = time(
         Viewer::Eye {
             defocus: defocus(10, CloneShading::Reprojected, 1.0),
             glasses: true,
@@ -365,9 +370,9 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
         big,
     )?;
     report.rows.push(
-        Row::new(10.0, big_ms, big_sharp)
+        Row::paired(10.0, &big_timed)
             .series(&format!("rendered at {big}²: −0.78 D glasses, reprojected (knob S)"))
-            .work("frame_ratio", big_ms / big_sharp)
+            .work("frame_ratio", big_timed.ratio.median)
             .work("size_px", f64::from(big)),
     );
     Ok(())

@@ -508,10 +508,19 @@ fn light_with_cube(
         // (placed on the mirror each frame) a box holding only the
         // mirror, uncorrected.
         let (correction, place) = match parallax {
-            Some((centre, half)) => (
-                ParallaxCorrection::Auto,
-                Transform::from_translation(centre).with_scale(2.0 * half),
-            ),
+            // Bevy samples the cube map along the box hit point in the
+            // probe's own space, which is the world's direction from the
+            // probe only under a uniform scale: the probe is a cube round
+            // the room and the room's box is its parallax bound. (Scaled
+            // to the room's box, a 7 × 7 × 3 m room showed its walls
+            // 19 px away from where they are, worse than no correction.)
+            Some((centre, half)) => {
+                let side = 2.0 * half.max_element();
+                (
+                    ParallaxCorrection::Custom(half / side),
+                    Transform::from_translation(centre).with_scale(Vec3::splat(side)),
+                )
+            }
             None => (ParallaxCorrection::None, Transform::default()),
         };
         return Some(

@@ -639,7 +639,12 @@ pub enum MirrorMethod {
     CubeMap,
     /// Bevy's parallax-corrected reflection probe: the cube map captured at
     /// the centre of the room's box every frame, the reflection corrected
-    /// against the box's walls.
+    /// against the box's walls (exact on them: 0.11 px in the report's
+    /// scene on Mesa 25's lavapipe). The probe is a cube round the room
+    /// (side: the box's largest size), the box its parallax bound: Bevy
+    /// corrects in the probe's own space, which keeps directions only
+    /// under a uniform scale. A device without reflection probes draws the
+    /// plain cube map instead (see [`MirrorState`](crate::MirrorState)).
     ParallaxCorrectedCubeMap {
         /// The room box's centre (world, m).
         room_centre: Vec3,

@@ -222,8 +222,11 @@ pub struct MirrorError {
     pub mean_px: f64,
     /// Its 95th percentile (px).
     pub p95_px: f64,
-    /// Mean over the card's pixels (the local object, px).
+    /// Mean over the card's pixels (the local object, px); NaN where no
+    /// pixel of the card's exact reflection shows the card.
     pub card_mean_px: f64,
+    /// Pixels of the card's exact reflection that show the card.
+    pub card_shown: usize,
     /// Mean over the wall's pixels (px).
     pub wall_mean_px: f64,
     /// Share of the mirror's pixels showing the wrong surface.
@@ -294,6 +297,7 @@ pub fn mirror_error(
             .copied()
             .unwrap_or(f64::NAN),
         card_mean_px: mean(&card),
+        card_shown: card.len(),
         wall_mean_px: mean(&wall),
         wrong_surface: wrong as f64 / total.max(1) as f64,
         pixels: d.len(),
@@ -407,12 +411,18 @@ pub fn mirror_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepE
                 .timing("trace_ms", trace_time_ms(&mirror)?)
                 .timing("march_pass_ms", pass.map_or(f64::NAN, |p| p.ms.median));
         }
+        // A card that is nowhere where it should be (the parallax-corrected
+        // cube map draws what stands inside the room onto the room's box)
+        // has no displacement to give: its pixels count as wrong surface.
+        if error.card_shown > 0 {
+            row = row.err("mirror_card_mean_px", error.card_mean_px);
+        }
         report.rows.push(
             row.series(&series)
                 .err("mirror_mean_px", error.mean_px)
                 .err("mirror_p95_px", error.p95_px)
-                .err("mirror_card_mean_px", error.card_mean_px)
                 .err("mirror_wall_mean_px", error.wall_mean_px)
+                .work("mirror_card_pixels_shown", error.card_shown as f64)
                 .err("mirror_wrong_surface", error.wrong_surface)
                 .work("pixels", error.pixels as f64)
                 .work("frame_ratio", paired.ratio.median)
@@ -499,13 +509,19 @@ mod tests {
             cube.error
         );
         let pccm = row("parallax-corrected", 128.0);
+        // The card misplaced by many pixels, or not shown where it is.
         assert!(
-            pccm.error["mirror_card_mean_px"] > 5.0 * fine.error["mirror_card_mean_px"].max(0.5),
+            pccm.error
+                .get("mirror_card_mean_px")
+                .is_none_or(|&e| e > 5.0 * fine.error["mirror_card_mean_px"].max(0.5)),
             "{:?}",
             pccm.error
         );
         if !pccm.series.contains("not supported here") {
+            // The walls where they are (they were 19 px away while the
+            // probe was scaled to the room's box).
             assert!(pccm.error["mirror_wall_mean_px"] < 1.0, "{:?}", pccm.error);
+            assert!(pccm.error["mirror_wrong_surface"] > 0.01, "{:?}", pccm.error);
         } else {
             // The plain cube map stands in, and says so.
             assert!(pccm.series.contains("not supported here"));

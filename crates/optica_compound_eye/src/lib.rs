@@ -109,7 +109,8 @@
 //!   prefilter leaves a share of escaping rays in a pixel, the pixel shows
 //!   the mirror with that probability (a fixed dither, the same in both
 //!   paths), so that it is lit once. An `unlit` base material shows its
-//!   base colour times the pigment.
+//!   base colour times the pigment, and where a ray escapes, the same lit
+//!   mirror as a lit eye (what lies beyond the eye is seen either way).
 //!   The deferred renderer's pixels match the forward renderer's (tested
 //!   on Mesa 25's lavapipe; Mesa 22.3's llvmpipe crashes compiling the
 //!   deferred variant, so use Mesa 23 or later on a CPU device).

@@ -26,9 +26,24 @@ fn camera() -> Transform {
 
 /// The eye lit by a uniform environment map of `sky` on the camera.
 fn render(output: EyeOutput, sky: Option<Color>) -> RenderedFrame {
+    render_base(output, sky, false)
+}
+
+/// As [`render`], the eye's base material `unlit` if asked.
+fn render_base(output: EyeOutput, sky: Option<Color>, unlit: bool) -> RenderedFrame {
     Headless::new(SIZE, SIZE)
         .hdr(true)
         .render(move |app: &mut App| {
+            if unlit {
+                app.add_systems(
+                    PostStartup,
+                    |mut eyes: ResMut<Assets<optica_compound_eye::CompoundEyeMaterial>>| {
+                        for (_, material) in eyes.iter_mut() {
+                            material.base.unlit = true;
+                        }
+                    },
+                );
+            }
             scene(
                 Mesh::from(Rectangle::new(2.0, 2.0)),
                 Transform::IDENTITY,
@@ -58,6 +73,17 @@ fn render(output: EyeOutput, sky: Option<Color>) -> RenderedFrame {
 
 #[test]
 fn escaping_rays_show_the_environment() {
+    escaping_rays_show_the_sky(false);
+}
+
+/// An unlit eye as the lit one: where a ray escapes it shows what lies
+/// beyond the eye (before, the unlit branch showed the base colour there).
+#[test]
+fn escaping_rays_of_an_unlit_eye_show_the_environment() {
+    escaping_rays_show_the_sky(true);
+}
+
+fn escaping_rays_show_the_sky(unlit: bool) {
     // Where the rays escape: the optics-only output's green channel.
     let optics = render(EyeOutput::PigmentOnly, None);
     let optics = optics.hdr().expect("an HDR frame");
@@ -79,27 +105,38 @@ fn escaping_rays_show_the_environment() {
     );
     // Under a green sky and a blue sky: the escaping pixels take the sky's
     // colour (a mirror-like view along the escaping ray), far more than the
-    // red-brown surface's pixels, which only get its diffuse light.
-    for (sky, channel) in [
+    // red-brown surface's pixels, which only get its diffuse light (or,
+    // unlit, show their base colour), and far more than under the other sky.
+    let skies = [
         (Color::srgb(0.0, 1.0, 0.0), 1usize),
         (Color::srgb(0.0, 0.0, 1.0), 2),
-    ] {
-        let frame = render(EyeOutput::Shaded, Some(sky));
-        let img = frame.hdr().expect("an HDR frame");
-        assert!(
-            img.as_raw().iter().all(|v| v.is_finite()),
-            "a non-finite pixel"
-        );
-        let mean = |px: &[(u32, u32)]| {
+    ];
+    let frames: Vec<RenderedFrame> = skies
+        .iter()
+        .map(|&(sky, _)| render_base(EyeOutput::Shaded, Some(sky), unlit))
+        .collect();
+    for (k, &(_, channel)) in skies.iter().enumerate() {
+        let mean = |frame: &RenderedFrame, px: &[(u32, u32)]| {
+            let img = frame.hdr().expect("an HDR frame");
+            assert!(
+                img.as_raw().iter().all(|v| v.is_finite()),
+                "a non-finite pixel"
+            );
             px.iter()
                 .map(|&(x, y)| img.get_pixel(x, y).0[channel])
                 .sum::<f32>()
                 / px.len() as f32
         };
-        let (sky_seen, surface) = (mean(&escaped), mean(&absorbed));
+        let (sky_seen, surface) = (mean(&frames[k], &escaped), mean(&frames[k], &absorbed));
+        let other_sky = mean(&frames[1 - k], &escaped);
+        eprintln!(
+            "unlit {unlit}, sky channel {channel}: escaped {sky_seen} (under the other sky \
+             {other_sky}), absorbed {surface}"
+        );
         assert!(
-            sky_seen > 3.0 * surface,
-            "sky channel {channel}: escaped {sky_seen}, absorbed {surface}"
+            sky_seen > 3.0 * surface && sky_seen > 3.0 * other_sky,
+            "unlit {unlit}, sky channel {channel}: escaped {sky_seen} (other sky {other_sky}), \
+             absorbed {surface}"
         );
     }
 }

@@ -286,8 +286,19 @@ fn as_mirror(pbr_input: PbrInput, escape_dir: vec3<f32>) -> PbrInput {
     mirror.material.metallic = 1.0;
     mirror.material.perceptual_roughness = 0.089;
     mirror.material.emissive = vec4<f32>(0.0);
+    // What lies beyond the eye is seen whatever the base material's
+    // lighting: an unlit eye's escaping rays show it lit too.
+    mirror.material.flags &= ~STANDARD_MATERIAL_FLAGS_UNLIT_BIT;
     mirror.N = normalize(pbr_input.V + escape_dir);
     return mirror;
+}
+
+// Whether the pixel shows the mirror: with the probability of the escape
+// weight, by a fixed dither (interleaved gradient noise, Jimenez 2014).
+fn shows_mirror(response: Response, pixel: vec2<f32>) -> bool {
+    let f = floor(pixel);
+    let threshold = fract(52.9829189 * fract(dot(f, vec2<f32>(0.06711056, 0.00583715))));
+    return threshold < response.escape_weight;
 }
 
 // What the pixel shows: the lattice's material, or the mirror where its ray
@@ -301,10 +312,8 @@ fn as_mirror(pbr_input: PbrInput, escape_dir: vec3<f32>) -> PbrInput {
 // the report's sub-pixel case, ꟻLIP 0.16 against the supersampled render,
 // against 0.054 dithered and 0.053 for mixed colours). The G-buffer holds
 // one material a pixel in any case.
-fn shown_material(lattice: PbrInput, pbr_input: PbrInput, response: Response, pixel: vec2<f32>) -> PbrInput {
-    let f = floor(pixel);
-    let threshold = fract(52.9829189 * fract(dot(f, vec2<f32>(0.06711056, 0.00583715))));
-    if threshold < response.escape_weight {
+fn shown_material(lattice: PbrInput, pbr_input: PbrInput, response: Response, mirror: bool) -> PbrInput {
+    if mirror {
         return as_mirror(pbr_input, response.escape_dir);
     }
     return lattice;
@@ -332,8 +341,9 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
     if (material.flags & FLAG_PIGMENT_ONLY) != 0u {
         lattice.material.base_color = optics_colour(response);
         lattice.material.flags |= STANDARD_MATERIAL_FLAGS_UNLIT_BIT;
-    } else if !unlit {
-        lattice = shown_material(lattice, pbr_input, response, in.position.xy);
+    } else {
+        // Unlit, the lattice stays unlit and an escaping ray's mirror is lit.
+        lattice = shown_material(lattice, pbr_input, response, shows_mirror(response, in.position.xy));
     }
     return deferred_output(in, lattice);
 #else
@@ -342,10 +352,13 @@ fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> Fragment
         out.color = optics_colour(response);
         return out;
     }
-    if unlit {
+    // Unlit, the lattice shows its colour as it is, and an escaping ray
+    // what lies beyond, lit, as in a lit eye (one lighting call site).
+    let mirror = shows_mirror(response, in.position.xy);
+    if unlit && !mirror {
         out.color = lattice.material.base_color;
     } else {
-        out.color = apply_pbr_lighting(shown_material(lattice, pbr_input, response, in.position.xy));
+        out.color = apply_pbr_lighting(shown_material(lattice, pbr_input, response, mirror));
     }
     out.color = main_pass_post_lighting_processing(pbr_input, out.color);
     return out;

@@ -89,8 +89,12 @@
 //! voxels (12 ms) eye coordinates are still closer than the box at one and
 //! a half times them (0.11 against 0.29 mrad, 70 ms). Where the corrected
 //! near or far point falls between two layers the blend across that kink
-//! leaves about the box's error. It is off by default (the paper's
-//! layout); the GPU lookup is held to its CPU twin within 3.3e-6 of the
+//! leaves about the box's error. Beyond the box's far face (2.13 m), where
+//! the box falls back to the set where the sight line leaves it, scaled by
+//! distance, eye coordinates are 4× closer: 0.27 against 1.04 mrad at
+//! 2.5–10 m (the `far_mean_mrad` columns; 30 points, `--quick`, release).
+//! It is on by default ([`FieldBox::eye_coordinates`]; off gives the
+//! paper's box); the GPU lookup is held to its CPU twin within 3.3e-6 of the
 //! set's size (the render test
 //! `naked_eye_and_field_lookup_match_the_cpu_twin`, at 5e8c293,
 //! 2026-12-02).

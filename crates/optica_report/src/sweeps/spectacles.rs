@@ -26,7 +26,11 @@
 //!   distance correction (−0.78 D) with a +2.00 add; an eye-coordinates
 //!   series (`_eyegrid`, S = 10): the plain case with the voxels laid out
 //!   in eye coordinates (`FieldGrid::Eye`, the same voxel count). Every
-//!   series also gives `near_mean_mrad` over the points nearer than 0.3 m.
+//!   series also gives `near_mean_mrad` over the points nearer than 0.3 m,
+//!   and the plain and eye-coordinate series `far_mean_mrad` over points
+//!   2.5–10 m away (half as many), beyond the paper's box, looked up as the
+//!   plugin does (the box: the set where the sight line leaves it, scaled
+//!   by distance).
 //!   The rendered series (`spectacles_render`,
 //!   `spectacles_refraction`) follow in the same report.
 //! * Errors (per point, then mean / max over points): `mean_mm`, `max_mm` —
@@ -47,7 +51,7 @@
 use optica_optics::glam::{DVec3, Vec3};
 use optica_optics::spectacles::{
     DEFAULT_DENSE_SAMPLES, DisplacementField, Eye, EyePlacement, FieldGrid, FieldSettings, LensDesignParams,
-    LensMesh, Prescription, SpectacleLens, SpectaclesError, design_lens, precompute_field,
+    LensMesh, Prescription, SpectacleLens, SpectaclesError, Spread, design_lens, precompute_field,
     reference_at, refract_vertices,
 };
 
@@ -63,12 +67,24 @@ struct RefPoint {
     edge: f64,
 }
 
-/// Quasi-random points seen through the lens, with their references.
+/// Quasi-random points seen through the lens, 0.1–2 m away, with their
+/// references.
 fn reference_points(
     eye: &Eye,
     pl: &EyePlacement,
     lens: &SpectacleLens,
     want: usize,
+) -> (Vec<RefPoint>, usize) {
+    reference_points_in(eye, pl, lens, want, (0.1, 2.0))
+}
+
+/// As [`reference_points`], at distances log-uniform in `(near, far)` (m).
+fn reference_points_in(
+    eye: &Eye,
+    pl: &EyePlacement,
+    lens: &SpectacleLens,
+    want: usize,
+    (near, far): (f64, f64),
 ) -> (Vec<RefPoint>, usize) {
     let mut out = Vec::new();
     let mut skipped = 0;
@@ -78,7 +94,7 @@ fn reference_points(
         // A point of the back surface within 85 % of the rim, and a depth.
         let r = 0.85 * lens.rim_radius_m() * halton(i, 2).sqrt();
         let phi = std::f64::consts::TAU * halton(i, 3);
-        let z = 0.1 * 20f64.powf(halton(i, 5)); // 0.1–2 m, log-uniform
+        let z = near * (far / near).powf(halton(i, 5)); // log-uniform
         let Some(on_lens) = lens.back().point(r * phi.cos(), r * phi.sin()) else {
             continue;
         };
@@ -112,6 +128,25 @@ fn errors(field: &DisplacementField, pts: &[RefPoint]) -> (f64, f64, f64, f64) {
     }
     let n = pts.len().max(1) as f64;
     (sum / n, max, ang / n, edge / n)
+}
+
+/// Mean angular error (rad) of `field` at points seen from the eye's
+/// pupil as the plugin looks them up: inside the field, the voxel's set;
+/// beyond the paper's box, the set where the sight line leaves it, scaled
+/// by distance (the documented fallback); in eye coordinates, the layers
+/// that reach infinity.
+fn sight_errors(field: &DisplacementField, pts: &[RefPoint]) -> f64 {
+    let mut ang = 0.0;
+    for q in pts {
+        let s = field
+            .displacement_along_sight(q.p, DVec3::ZERO)
+            .map(|(map, k)| {
+                Spread::of(field.expand(map).iter().map(|v| v.as_dvec3() * k))
+            })
+            .map_or(0.0, |s| s.rms_radius_m);
+        ang += (s - q.rms).abs() / q.dist;
+    }
+    ang / pts.len().max(1) as f64
 }
 
 /// The lens of the sweep: +1.5 D reading lens at n = 1.66 (the paper's index).
@@ -225,6 +260,8 @@ pub fn run(ctx: &SweepContext) -> Report {
         }
     };
     let plain = reference_points(&eye, &pl, &lens, n_points);
+    // Beyond the paper's box (its far face at 2.13 m): a chart across a room.
+    let (far, _) = reference_points_in(&eye, &pl, &lens, n_points / 2, (2.5, 10.0));
     let astig = reference_points(&astigmat, &pl, &toric, n_points);
     let pal = reference_points(&eye, &pl, &progressive, n_points);
 
@@ -275,14 +312,21 @@ pub fn run(ctx: &SweepContext) -> Report {
             let (mean, max, ang, edge) = errors(&field, pts);
             let near: Vec<RefPoint> = pts.iter().filter(|q| q.dist < 0.3).cloned().collect();
             let (_, _, near_ang, _) = errors(&field, &near);
+            // (The far points are the plain lens's.)
+            let far_ang = matches!(case, Plain | EyeGrid).then(|| sight_errors(&field, &far));
             let s = field.stats();
+            let mut row = Row::new(k, t, t_base);
+            if let Some(far_ang) = far_ang {
+                row = row.err(&format!("far_mean_mrad{suffix}"), far_ang * 1e3);
+            }
             report.rows.push(
-                Row::new(k, t, t_base)
+                row
                     .err(&format!("mean_mm{suffix}"), mean * 1e3)
                     .err(&format!("max_mm{suffix}"), max * 1e3)
                     .err(&format!("mean_mrad{suffix}"), ang * 1e3)
                     .err(&format!("edge_mean_mm{suffix}"), edge * 1e3)
                     .err(&format!("near_mean_mrad{suffix}"), near_ang * 1e3)
+
                     .work("clones", *clones as f64)
                     .work("voxels", field.counts().len() as f64)
                     .work("aims", s.aims as f64)

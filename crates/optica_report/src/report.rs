@@ -204,6 +204,8 @@ impl Row {
 
     /// A row whose times come from an effect and its baseline timed in
     /// alternating blocks: their median frames, and the ratio's interval.
+    /// The blocks and the time the measurement took are in its work
+    /// counters (`timing_blocks`, `timing_s`).
     pub fn paired(knob: f64, timed: &PairedTimings) -> Self {
         Self {
             ratio: Some(timed.ratio),
@@ -213,6 +215,8 @@ impl Row {
                 timed.baseline.frame_ms.median,
             )
         }
+        .work("timing_blocks", timed.ratio.blocks as f64)
+        .work("timing_s", timed.elapsed_s)
     }
 
     /// The ratio's upper bound where the row has an interval, else the

@@ -210,7 +210,10 @@ pub fn cave_datagram(data: &[u8]) {
     match &message {
         ClusterMessage::Sample { head, .. } => check_head(head),
         ClusterMessage::Join { wall } | ClusterMessage::Drawn { wall, .. } => {
-            assert!(wall.len() <= MAX_DATAGRAM, "a name longer than its datagram");
+            assert!(
+                wall.len() <= MAX_DATAGRAM,
+                "a name longer than its datagram"
+            );
         }
         ClusterMessage::End => {}
     }

@@ -286,7 +286,12 @@ impl GazeFilters {
 
 /// [`FoveationClock`]'s reading: `real_s`, or the head sample's time (or
 /// `last` where it is not finite; 0 with neither).
-pub(crate) fn clock_now(clock: FoveationClock, head: &TrackedHead, real_s: f64, last: Option<f64>) -> f64 {
+pub(crate) fn clock_now(
+    clock: FoveationClock,
+    head: &TrackedHead,
+    real_s: f64,
+    last: Option<f64>,
+) -> f64 {
     match clock {
         FoveationClock::Real => real_s,
         FoveationClock::HeadSample if head.timestamp_s.is_finite() => head.timestamp_s,

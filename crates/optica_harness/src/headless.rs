@@ -350,7 +350,10 @@ impl Headless {
         if blocks == 0 || frames_per_block == 0 {
             return Err(HarnessError::NoFrames);
         }
-        let mut apps = [self.prepare(effect, true)?.0, self.prepare(baseline, true)?.0];
+        let mut apps = [
+            self.prepare(effect, true)?.0,
+            self.prepare(baseline, true)?.0,
+        ];
         for app in &mut apps {
             for _ in 0..warmup {
                 step(app)?;

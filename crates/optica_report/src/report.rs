@@ -158,6 +158,38 @@ impl Report {
         });
     }
 
+    /// A goal on the time ratio of the rows `which` picks, judged by each
+    /// ratio's upper bound (`Row::ratio_high`), recorded as a stability
+    /// case: ok when every ratio was measured (a goal not met is said in
+    /// the detail, not failed: performance goals are figures of the report,
+    /// not assertions of its tests). Returns whether every row met it.
+    pub fn ratio_goal(&mut self, case: &str, goal: f64, which: impl Fn(&Row) -> bool) -> bool {
+        let rows: Vec<&Row> = self.rows.iter().filter(|r| which(r)).collect();
+        let measured = !rows.is_empty() && rows.iter().all(|r| r.ratio_high().is_finite());
+        let met = rows.iter().filter(|r| r.ratio_high() <= goal).count();
+        let worst = rows
+            .iter()
+            .max_by(|a, b| a.ratio_high().total_cmp(&b.ratio_high()))
+            .map(|r| {
+                format!(
+                    "; worst `{}` at {}: {:.2} (upper bound {:.2})",
+                    r.series,
+                    r.knob,
+                    r.ratio(),
+                    r.ratio_high()
+                )
+            })
+            .unwrap_or_default();
+        let all = met == rows.len() && measured;
+        let detail = format!(
+            "goal: at most {goal}× at the 95 % interval's upper bound; {} in {met} of {} rows{worst}",
+            if all { "met" } else { "not met" },
+            rows.len()
+        );
+        self.case(case, measured, detail);
+        all
+    }
+
     /// What a sweep's own test must fail on, in words: a non-finite time,
     /// error or work counter in any row, and any stability case that is not ok.
     /// Empty for a sane report.

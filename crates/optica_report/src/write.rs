@@ -593,7 +593,10 @@ mod tests {
         assert_eq!(r.rows[0].ratio(), 1.9);
         assert_eq!(r.rows[0].ratio_high(), 2.25);
         let md = markdown(&r);
-        assert!(md.contains("| 4 | 0.2500 | 6 | 3 | 1.900 [1.750, 2.250] |"), "{md}");
+        assert!(
+            md.contains("| 4 | 0.2500 | 6 | 3 | 1.900 [1.750, 2.250] |"),
+            "{md}"
+        );
         assert!(md.contains("12 alternating blocks"), "{md}");
         let json = serde_json::to_value(&r.rows[0]).unwrap();
         assert_eq!(json["ratio"]["high"], 2.25);

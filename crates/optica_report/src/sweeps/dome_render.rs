@@ -64,7 +64,9 @@ fn face_meshes() -> Vec<(Mesh, Transform)> {
 /// camera looking at the ceiling.
 pub(super) fn scene(dome: Option<DomeCamera>) -> impl FnOnce(&mut App) {
     let colours = COLOURS.map(|[r, g, b]| Color::srgb_u8(r, g, b));
-    dome_room(colours, 1, move |commands| spawn_view(commands, dome, Msaa::Off))
+    dome_room(colours, 1, move |commands| {
+        spawn_view(commands, dome, Msaa::Off)
+    })
 }
 
 /// The view of the dome sweeps' scenes, from the room's centre at the
@@ -85,7 +87,10 @@ pub(super) fn spawn_view(commands: &mut Commands, dome: Option<DomeCamera>, msaa
 /// The face the ray from the room's centre along `dir` meets.
 fn face_of(dir: DVec3) -> usize {
     let axis = cube_face_axis(dir).as_vec3();
-    ROOM_AXES.iter().position(|f| *f == axis).unwrap_or(usize::MAX)
+    ROOM_AXES
+        .iter()
+        .position(|f| *f == axis)
+        .unwrap_or(usize::MAX)
 }
 
 /// The face a pixel position truly shows (None outside the image circle).
@@ -188,10 +193,7 @@ fn edge_errors(img: &image::RgbaImage, dome: &DomeProjection, tolerance: f64) ->
         if raw[..3].iter().all(|&v| v < 8) {
             return None;
         }
-        if let Some(k) = COLOURS
-            .iter()
-            .position(|c| *c == [raw[0], raw[1], raw[2]])
-        {
+        if let Some(k) = COLOURS.iter().position(|c| *c == [raw[0], raw[1], raw[2]]) {
             return Some(k);
         }
         let p = DVec3::new(linear(raw[0]), linear(raw[1]), linear(raw[2]));
@@ -285,13 +287,8 @@ fn measure(
     report.adapter.get_or_insert(frame.adapter.clone());
     let (max_px, wrong, cracks) = edge_errors(&frame.to_rgba8(), &dome, tolerance);
     let (blocks, per_block) = ctx.blocks();
-    let paired = headless.time_paired(
-        warmup,
-        blocks,
-        per_block,
-        scene(Some(camera)),
-        scene(None),
-    )?;
+    let paired =
+        headless.time_paired(warmup, blocks, per_block, scene(Some(camera)), scene(None))?;
     Ok(Measured {
         max_px,
         wrong,

@@ -40,8 +40,8 @@ use bevy::asset::RenderAssetUsages;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
-use optica_dome::{DomeCamera, DomeMode, DomePlugin, refine_mesh_asset};
 use optica_dome::twins::CubeLayout;
+use optica_dome::{DomeCamera, DomeMode, DomePlugin, refine_mesh_asset};
 use optica_harness::metrics::flip_map;
 use optica_optics::dome::{DomeProjection, SplitRule};
 use optica_optics::glam::{DQuat, DVec2, DVec3};
@@ -61,7 +61,6 @@ const LIGHT: u8 = 208;
 const STARS: usize = 2000;
 const STAR_DISTANCE: f64 = 10.0;
 const STAR_MAX_POLAR_DEG: f64 = 88.0;
-
 
 /// The room's faces: outward axis and the two axes its texture runs along.
 fn room_faces() -> [(DVec3, DVec3, DVec3); 6] {

@@ -27,7 +27,6 @@
 
 use bevy::camera::{ClearColorConfig, RenderTarget};
 use bevy::prelude::*;
-use optica_harness::PairedTimings;
 use bevy::render::render_resource::TextureFormat;
 use bevy::render::view::Msaa;
 use image::RgbaImage;
@@ -35,6 +34,7 @@ use optica_foveated_lod::{
     CaveView, Eye, FoveatedLodPlugin, Foveation, FoveationGate, GazeLod, GazeLodState, HeadSource,
     TrackedHead, WallRect,
 };
+use optica_harness::PairedTimings;
 use optica_optics::foveated_lod::GazeFrame;
 use optica_optics::glam::DVec3;
 
@@ -380,6 +380,9 @@ pub fn mesh_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepErr
             "mesh: central field (B, front gaze)",
         ));
     }
+    report.ratio_goal("mesh path never slower than full quality", 1.0, |r| {
+        r.series.starts_with("mesh:")
+    });
     plugin_stability(report);
     Ok(())
 }

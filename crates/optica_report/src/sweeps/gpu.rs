@@ -125,13 +125,11 @@ fn flare(ctx: &SweepContext) -> Result<Row, SweepError> {
         .pass("optica/lens_flare")
         .map_or(f64::NAN, |p| p.ms.median);
     let goal = 0.25;
-    Ok(
-        Row::paired(w as f64, &timed)
-            .series("lens flare: zoom, 16² grid, 1280x720, flare pass")
-            .work("pass_ms", pass)
-            .work("goal_pass_ms", goal)
-            .work("meets_goal", f64::from(u8::from(pass <= goal))),
-    )
+    Ok(Row::paired(w as f64, &timed)
+        .series("lens flare: zoom, 16² grid, 1280x720, flare pass")
+        .work("pass_ms", pass)
+        .work("goal_pass_ms", goal)
+        .work("meets_goal", f64::from(u8::from(pass <= goal))))
 }
 
 fn dome(ctx: &SweepContext) -> Result<Row, SweepError> {
@@ -247,7 +245,8 @@ fn foveated(ctx: &SweepContext) -> Result<Vec<Row>, SweepError> {
             best = Some((timed, scene.name, floor));
         }
     }
-    let (timed, name, floor) = best.ok_or_else(|| SweepError::Setup("no tracer case ran".into()))?;
+    let (timed, name, floor) =
+        best.ok_or_else(|| SweepError::Setup("no tracer case ran".into()))?;
     let goal = 0.2;
     rows.push(
         Row::paired(s as f64, &timed)

@@ -568,15 +568,12 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     );
     let reference_3 = reference(&ghosts, size, rays, 3, Spectrum::Gained)?;
     // A row of `series` at `knob`, against `reference` when given.
-    let add = |report: &mut Report,
-               series: &str,
-               setup: Setup,
-               reference: Option<&[[f64; 3]]>,
-               knob: f64| {
-        row(
-            ctx, report, series, setup, size, reference, timing, knob,
-        )
-    };
+    let add =
+        |report: &mut Report,
+         series: &str,
+         setup: Setup,
+         reference: Option<&[[f64; 3]]>,
+         knob: f64| { row(ctx, report, series, setup, size, reference, timing, knob) };
     let r = Some(reference_3.as_slice());
     for (i, &grid) in grids.iter().enumerate() {
         ctx.progress(i + 1, grids.len(), &format!("rendered, grid {grid}²"));
@@ -636,6 +633,11 @@ pub fn rendered_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     if !ctx.quick {
         zoom_rows(ctx, report)?;
     }
+    report.ratio_goal(
+        "the flare at its defaults against the frame without it",
+        1.5,
+        |r| r.series.contains("(defaults)"),
+    );
     Ok(())
 }
 

@@ -521,7 +521,11 @@ mod tests {
             // The walls where they are (they were 19 px away while the
             // probe was scaled to the room's box).
             assert!(pccm.error["mirror_wall_mean_px"] < 1.0, "{:?}", pccm.error);
-            assert!(pccm.error["mirror_wrong_surface"] > 0.01, "{:?}", pccm.error);
+            assert!(
+                pccm.error["mirror_wrong_surface"] > 0.01,
+                "{:?}",
+                pccm.error
+            );
         } else {
             // The plain cube map stands in, and says so.
             assert!(pccm.series.contains("not supported here"));

@@ -26,8 +26,8 @@
 use bevy::prelude::*;
 use optica_optics::glass::LAMBDA_C_NM;
 use optica_optics::spectacles::plane_seen_through_lens;
-use optica_spectacles::twins::{camera_z, trace_lens};
 use optica_spectacles::Spectacles;
+use optica_spectacles::twins::{camera_z, trace_lens};
 
 use super::SweepError;
 use crate::{Report, Row, SweepContext};

@@ -182,7 +182,7 @@ impl Report {
             .unwrap_or_default();
         let all = met == rows.len() && measured;
         let detail = format!(
-            "goal: at most {goal}× at the 95 % interval's upper bound; {} in {met} of {} rows{worst}",
+            "goal: at most {goal}× at the 95 % interval's upper bound, {}: {met} of {} rows within it{worst}",
             if all { "met" } else { "not met" },
             rows.len()
         );
@@ -298,6 +298,32 @@ impl Row {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A goal on ratios is judged by each interval's upper bound, and a
+    /// goal not met is said, not failed.
+    #[test]
+    fn ratio_goals_go_by_the_upper_bound() {
+        let interval = |median, high| RatioInterval {
+            median,
+            low: median * 0.9,
+            high,
+            confidence: 0.95,
+            blocks: 12,
+        };
+        let mut r = Report::cpu("demo", "n");
+        for (knob, median, high) in [(1.0, 0.8, 0.95), (2.0, 0.9, 1.1)] {
+            let mut row = Row::new(knob, median, 1.0).series("mesh: case");
+            row.ratio = Some(interval(median, high));
+            r.rows.push(row);
+        }
+        assert!(!r.ratio_goal("never slower", 1.0, |row| row.series.starts_with("mesh:")));
+        assert!(r.ratio_goal("at most 1.2", 1.2, |row| row.series.starts_with("mesh:")));
+        assert!(r.stability.iter().all(|c| c.ok), "measured: ok");
+        let detail = &r.stability[0].detail;
+        assert!(detail.contains("not met: 1 of 2 rows within it"), "{detail}");
+        assert!(detail.contains("upper bound 1.10"), "{detail}");
+        assert!(r.problems().is_empty());
+    }
 
     #[test]
     fn problems_name_non_finite_numbers_and_failed_cases() {

@@ -320,7 +320,10 @@ mod tests {
         assert!(r.ratio_goal("at most 1.2", 1.2, |row| row.series.starts_with("mesh:")));
         assert!(r.stability.iter().all(|c| c.ok), "measured: ok");
         let detail = &r.stability[0].detail;
-        assert!(detail.contains("not met: 1 of 2 rows within it"), "{detail}");
+        assert!(
+            detail.contains("not met: 1 of 2 rows within it"),
+            "{detail}"
+        );
         assert!(detail.contains("upper bound 1.10"), "{detail}");
         assert!(r.problems().is_empty());
     }

@@ -486,7 +486,16 @@ mod tests {
         for c in &report.stability {
             eprintln!("{}: {} — {}", c.case, c.ok, c.detail);
         }
-        assert_eq!(report.stability.len(), 5);
+        // The plugin's five hostile heads and the goal on the ratios.
+        assert_eq!(report.stability.len(), 6);
+        assert!(
+            report
+                .stability
+                .iter()
+                .any(|c| c.case.contains("never slower") && c.detail.contains("rows within it")),
+            "{:?}",
+            report.stability
+        );
         for r in &report.rows {
             eprintln!(
                 "{} {}: {:.2}/{:.2} ms {:?} {:?}",

@@ -284,35 +284,12 @@ impl Headless {
             return Err(HarnessError::NoFrames);
         }
         let (mut app, _) = self.prepare(setup, true)?;
-        for _ in 0..warmup {
-            step(&mut app)?;
-        }
-        settle(&mut app)?;
-        let mut collector = SpanCollector::default();
-        // Spans of warm-up frames still arrive in the first timed frames:
-        // start from whatever the store holds now.
-        collector.skip_seen(app.world());
+        let mut collector = warm_up(&mut app, warmup)?;
         let mut frame_ms = Vec::with_capacity(frames as usize);
         for _ in 0..frames {
-            let started = std::time::Instant::now();
-            step(&mut app)?;
-            frame_ms.push(started.elapsed().as_secs_f64() * 1e3);
-            collector.collect(app.world());
+            frame_ms.push(timed_step(&mut app, &mut collector)?);
         }
-        // Diagnostics are read back asynchronously, one to three frames
-        // late: run untimed frames until every span has caught up.
-        for _ in 0..crate::timing::MAX_DIAGNOSTIC_LAG_FRAMES {
-            if collector.complete(frames as usize) {
-                break;
-            }
-            step(&mut app)?;
-            collector.collect(app.world());
-        }
-        Ok(FrameTimings::new(
-            adapter_info(&mut app)?,
-            frame_ms,
-            collector.finish(frames as usize),
-        ))
+        finish_timings(&mut app, collector, frame_ms)
     }
 
     /// Times an effect against its baseline so that the machine's load
@@ -354,16 +331,10 @@ impl Headless {
             self.prepare(effect, true)?.0,
             self.prepare(baseline, true)?.0,
         ];
-        for app in &mut apps {
-            for _ in 0..warmup {
-                step(app)?;
-            }
-            settle(app)?;
-        }
-        let mut collectors = [SpanCollector::default(), SpanCollector::default()];
-        for (app, collector) in apps.iter_mut().zip(&mut collectors) {
-            collector.skip_seen(app.world());
-        }
+        let mut collectors = [
+            warm_up(&mut apps[0], warmup)?,
+            warm_up(&mut apps[1], warmup)?,
+        ];
         let mut frame_ms: [Vec<f64>; 2] = Default::default();
         let mut ratios = Vec::with_capacity(blocks as usize);
         for block in 0..blocks {
@@ -372,31 +343,16 @@ impl Headless {
             for which in order {
                 let mut times = Vec::with_capacity(frames_per_block as usize);
                 for _ in 0..frames_per_block {
-                    let t = std::time::Instant::now();
-                    step(&mut apps[which])?;
-                    times.push(t.elapsed().as_secs_f64() * 1e3);
-                    collectors[which].collect(apps[which].world());
+                    times.push(timed_step(&mut apps[which], &mut collectors[which])?);
                 }
                 medians[which] = Stats::of(&times).map_or(f64::NAN, |s| s.median);
                 frame_ms[which].extend(times);
             }
             ratios.push(medians[0] / medians[1]);
         }
-        let frames = (blocks * frames_per_block) as usize;
         let mut timings = Vec::with_capacity(2);
-        for ((app, mut collector), frame_ms) in apps.iter_mut().zip(collectors).zip(frame_ms) {
-            for _ in 0..crate::timing::MAX_DIAGNOSTIC_LAG_FRAMES {
-                if collector.complete(frames) {
-                    break;
-                }
-                step(app)?;
-                collector.collect(app.world());
-            }
-            timings.push(FrameTimings::new(
-                adapter_info(app)?,
-                frame_ms,
-                collector.finish(frames),
-            ));
+        for ((app, collector), frame_ms) in apps.iter_mut().zip(collectors).zip(frame_ms) {
+            timings.push(finish_timings(app, collector, frame_ms)?);
         }
         let ratio = RatioInterval::bootstrap(&ratios).ok_or(HarnessError::NoFrames)?;
         let baseline = timings.pop().expect("two apps");
@@ -706,6 +662,52 @@ fn read_back(app: &mut App, handle: Handle<Image>) -> Result<Vec<u8>, HarnessErr
         }
     }
     Err(HarnessError::NoReadback(READBACK_FRAMES))
+}
+
+/// Runs `warmup` untimed frames and then until no pipeline waits; the span
+/// collector to time the frames after them with.
+fn warm_up(app: &mut App, warmup: u32) -> Result<SpanCollector, HarnessError> {
+    for _ in 0..warmup {
+        step(app)?;
+    }
+    settle(app)?;
+    let mut collector = SpanCollector::default();
+    // Spans of warm-up frames still arrive in the first timed frames:
+    // start from whatever the store holds now.
+    collector.skip_seen(app.world());
+    Ok(collector)
+}
+
+/// One timed frame: its wall time (ms), its spans collected.
+fn timed_step(app: &mut App, collector: &mut SpanCollector) -> Result<f64, HarnessError> {
+    let started = std::time::Instant::now();
+    step(app)?;
+    let ms = started.elapsed().as_secs_f64() * 1e3;
+    collector.collect(app.world());
+    Ok(ms)
+}
+
+/// The timings of the frames timed so far. Diagnostics are read back
+/// asynchronously, one to three frames late: untimed frames run until every
+/// span has caught up.
+fn finish_timings(
+    app: &mut App,
+    mut collector: SpanCollector,
+    frame_ms: Vec<f64>,
+) -> Result<FrameTimings, HarnessError> {
+    let frames = frame_ms.len();
+    for _ in 0..crate::timing::MAX_DIAGNOSTIC_LAG_FRAMES {
+        if collector.complete(frames) {
+            break;
+        }
+        step(app)?;
+        collector.collect(app.world());
+    }
+    Ok(FrameTimings::new(
+        adapter_info(app)?,
+        frame_ms,
+        collector.finish(frames),
+    ))
 }
 
 /// How many extra frames a run waits for pipelines whose shaders are still

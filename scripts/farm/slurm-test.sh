@@ -68,5 +68,9 @@ for f in $(seq 0 7); do
     fi
 done
 [ "$same" = 8 ] || fail "$same of 8 frames bit for bit"
+# The show moves: blank or frozen frames would also compare equal.
+if cmp -s "$work/one-process/domemaster_000000.png" "$work/one-process/domemaster_000007.png"; then
+    fail "frames 0 and 7 of the one-process render are the same image"
+fi
 echo "slurm-test: passed: 4 tasks × 2 frames at 64², task 2 killed and rerun alone," \
     "8 of 8 frames bit for bit equal to one process, in $(($(date +%s) - start_s)) s"

@@ -337,6 +337,20 @@ fn a_cave_across_processes_draws_each_frame_from_its_sample() {
             exact += 1;
         }
     }
+    // The frames show the scene and follow the head: a blank render on
+    // both sides would compare equal.
+    for wall in ["front", "right", "floor"] {
+        let png = frame(&reference, wall, 0).expect("reference");
+        let img = image::load_from_memory(&png).expect("png").to_rgba8();
+        let mut colours: Vec<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+        colours.sort();
+        colours.dedup();
+        assert!(colours.len() > 16, "{wall}: {} colours", colours.len());
+    }
+    assert!(
+        frame(&reference, "front", 0) != frame(&reference, "front", FRAMES - 1),
+        "the front wall does not follow the head"
+    );
     let clean = report(&launched);
     eprintln!(
         "{exact} of 36 wall frames bit for bit; latency: {}",

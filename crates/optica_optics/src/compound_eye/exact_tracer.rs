@@ -344,15 +344,19 @@ mod tests {
         brute_next_lens(l, &view, None)
     }
 
-    /// Brute force from a point already past the polygon, skipping `exclude`.
+    /// Brute force from a point already past the polygon, skipping `exclude`:
+    /// over a 61 × 61 block of lenses round the lens left (a long exit walk
+    /// goes further than 30 lenses from the first: found by this test with
+    /// a hexagonal walk whose 16th lens was [32, −16]).
     fn brute_next_lens(
         l: &Lattice,
         view: &Ray,
         exclude: Option<[i64; 2]>,
     ) -> Option<([i64; 2], f64)> {
         let mut best: Option<([i64; 2], f64)> = None;
-        for i in -30..=30 {
-            for j in -30..=30 {
+        let [ci, cj] = exclude.unwrap_or([0, 0]);
+        for i in ci - 30..=ci + 30 {
+            for j in cj - 30..=cj + 30 {
                 if Some([i, j]) == exclude {
                     continue;
                 }

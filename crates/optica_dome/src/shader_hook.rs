@@ -7,16 +7,29 @@
 //! sets for custom projections, and by the parameters the dome's
 //! `clip_from_view` carries. Other views take Bevy's own path unchanged.
 //!
-//! The patch is applied to the loaded shader asset once, when the first
-//! `DomeCamera` appears; a scene without one keeps Bevy's shader as it is.
+//! A second patch makes attributes exact inside refined triangles: Bevy's
+//! `pbr_fragment::pbr_input_from_standard_material` (where the standard
+//! material's forward, deferred and prepass fragments read their vertex
+//! output) first moves each dome fragment's interpolated position along its
+//! screen differences to where its own ray meets its triangle's plane, and
+//! every attribute by the same step (D11 of `optica_optics::dome`,
+//! `plane_step` in `projection.wgsl`). Without it the rasteriser
+//! interpolates texture coordinates across each refined triangle's image,
+//! which no w makes exact under a fisheye.
+//!
+//! The patches are applied to the loaded shader assets once, when the first
+//! `DomeCamera` appears; a scene without one keeps Bevy's shaders as they are.
 
 use bevy::prelude::*;
 use bevy::shader::Source;
 
 use crate::{DomeCamera, DomeMode, DomeStatus, Error};
 
-/// Bevy's shader library that the patch extends.
+/// Bevy's shader library that the projection patch extends.
 const VIEW_TRANSFORMATIONS: &str = "embedded://bevy_pbr/render/view_transformations.wgsl";
+
+/// Bevy's fragment library that the exact-attribute patch extends.
+const PBR_FRAGMENT: &str = "embedded://bevy_pbr/render/pbr_fragment.wgsl";
 
 /// The import line the branch needs, added after this one.
 const ANCHOR_IMPORT: &str = "#import bevy_pbr::prepass_bindings";
@@ -46,12 +59,94 @@ const BRANCHES: [(&str, &str); 2] = [
 /// Marks the patch in the source, so it is applied once.
 const MARKER: &str = "// optica_dome: equidistant branch";
 
-/// Bevy's `view_transformations` shader and whether the patch is in:
-/// `None` until the shader has loaded, then the patch's outcome.
+/// The fragment patch: its marker, the line its import follows, the
+/// signature whose parameter it renames, and the function it adds.
+const FRAGMENT_MARKER: &str = "// optica_dome: exact attributes";
+const FRAGMENT_ANCHOR_IMPORT: &str = "#import bevy_pbr::{";
+const FRAGMENT_SIGNATURE: &str = "fn pbr_input_from_standard_material(\n    in: VertexOutput,";
+const FRAGMENT_RENAMED: &str = "fn pbr_input_from_standard_material(\n    in_dome: VertexOutput,";
+/// Opens the renamed function's body: the exact input under the old name.
+const FRAGMENT_BODY: &str = "\n    let in = optica_dome_exact(in_dome);";
+const FRAGMENT_BODY_ANCHOR: &str = ") -> pbr_types::PbrInput {";
+/// The function the patch adds before `pbr_input_from_standard_material`:
+/// it works on whichever `VertexOutput` the pipeline imported (forward,
+/// prepass), through the shader defs that declare its fields.
+const FRAGMENT_EXACT: &str = "
+// The vertex output with its attributes exact at this fragment's pixel in
+// a dome view (D11 of optica_optics::dome): the interpolated position
+// moved along its screen differences to its own ray's point on the
+// triangle's plane, every other attribute by the same step.
+fn optica_dome_exact(in: VertexOutput) -> VertexOutput {
+    var out = in;
+#ifdef VIEW_PROJECTION_NONSTANDARD
+#ifndef MESHLET_MESH_MATERIAL_PASS
+    if dome_projection::is_dome(view.clip_from_view) {
+        let p = in.world_position.xyz;
+        let dp_dx = dpdxFine(p);
+        let dp_dy = dpdyFine(p);
+        let ray = dome_projection::view_ray(in.position.xy, view.viewport, view.clip_from_view);
+        let world_ray = (view.world_from_view * vec4<f32>(ray.xyz, 0.0)).xyz;
+        let s = dome_projection::plane_step(view.world_position, world_ray, p, dp_dx, dp_dy) * ray.w;
+        out.world_position = vec4<f32>(p + s.x * dp_dx + s.y * dp_dy, in.world_position.w);
+#ifdef VERTEX_UVS_A
+        out.uv = in.uv + s.x * dpdxFine(in.uv) + s.y * dpdyFine(in.uv);
+#endif
+#ifdef VERTEX_UVS_B
+        out.uv_b = in.uv_b + s.x * dpdxFine(in.uv_b) + s.y * dpdyFine(in.uv_b);
+#endif
+#ifdef VERTEX_COLORS
+        out.color = in.color + s.x * dpdxFine(in.color) + s.y * dpdyFine(in.color);
+#endif
+#ifdef PREPASS_PIPELINE
+#ifdef NORMAL_PREPASS_OR_DEFERRED_PREPASS
+        out.world_normal = in.world_normal + s.x * dpdxFine(in.world_normal) + s.y * dpdyFine(in.world_normal);
+#ifdef VERTEX_TANGENTS
+        out.world_tangent = in.world_tangent + s.x * dpdxFine(in.world_tangent) + s.y * dpdyFine(in.world_tangent);
+#endif
+#endif
+#else
+        out.world_normal = in.world_normal + s.x * dpdxFine(in.world_normal) + s.y * dpdyFine(in.world_normal);
+#ifdef VERTEX_TANGENTS
+        out.world_tangent = in.world_tangent + s.x * dpdxFine(in.world_tangent) + s.y * dpdyFine(in.world_tangent);
+#endif
+#endif
+    }
+#endif
+#endif
+    return out;
+}
+";
+
+/// One of Bevy's shaders the plugin patches: its handle, how to patch its
+/// text, and the outcome (`None` until the shader has loaded).
+struct Patch {
+    handle: Handle<Shader>,
+    apply: fn(&str) -> Result<String, Error>,
+    marker: &'static str,
+    outcome: Option<Result<(), Error>>,
+}
+
+/// Bevy's `view_transformations` and `pbr_fragment` shaders and whether the
+/// patches are in.
 #[derive(Resource)]
 pub(crate) struct ViewTransformations {
-    handle: Handle<Shader>,
-    outcome: Option<Result<(), Error>>,
+    patches: [Patch; 2],
+}
+
+impl ViewTransformations {
+    /// `None` until every patched shader has loaded, then the first
+    /// failure or success.
+    fn outcome(&self) -> Option<Result<(), Error>> {
+        let mut all = Ok(());
+        for patch in &self.patches {
+            match &patch.outcome {
+                None => return None,
+                Some(Err(e)) if all.is_ok() => all = Err(e.clone()),
+                Some(_) => {}
+            }
+        }
+        Some(all)
+    }
 }
 
 impl FromWorld for ViewTransformations {
@@ -63,22 +158,31 @@ impl FromWorld for ViewTransformations {
                 "optica_dome: DomePlugin needs Bevy's AssetPlugin (add it after DefaultPlugins)"
             );
         };
-        Self {
-            handle: assets.load(VIEW_TRANSFORMATIONS),
+        let patch = |path: &'static str, apply, marker| Patch {
+            handle: assets.load(path),
+            apply,
+            marker,
             outcome: None,
+        };
+        Self {
+            patches: [
+                patch(VIEW_TRANSFORMATIONS, patched, MARKER),
+                patch(PBR_FRAGMENT, patched_fragment, FRAGMENT_MARKER),
+            ],
         }
     }
 }
 
-/// Whether the patch still has to be applied.
+/// Whether a patch still has to be applied.
 pub(crate) fn patch_pending(hook: Option<Res<ViewTransformations>>) -> bool {
-    hook.is_none_or(|h| h.outcome.is_none())
+    hook.is_none_or(|h| h.outcome().is_none())
 }
 
-/// Applies the patch once Bevy's shader is loaded. A source that does not
-/// look as expected (another Bevy version) is left alone, with an error in
-/// the log and in every vertex-mode camera's [`DomeStatus`]: those cameras
-/// then render with a plain perspective.
+/// Applies the patches once Bevy's shaders are loaded. A source that does
+/// not look as expected (another Bevy version) is left alone, with an error
+/// in the log and in every vertex-mode camera's [`DomeStatus`]: without the
+/// projection those cameras render with a plain perspective; without the
+/// fragment patch, with attributes interpolated inside refined triangles.
 pub(crate) fn patch_view_transformations(
     mut commands: Commands,
     hook: Option<ResMut<ViewTransformations>>,
@@ -88,31 +192,36 @@ pub(crate) fn patch_view_transformations(
         commands.init_resource::<ViewTransformations>();
         return;
     };
-    let Some(shader) = shaders.get(&hook.handle) else {
-        return;
-    };
-    let new = match &shader.source {
-        Source::Wgsl(source) if source.contains(MARKER) => Ok(None),
-        Source::Wgsl(source) => patched(source).map(|text| {
-            let mut new = Shader::from_wgsl(text, shader.path.clone());
-            new.file_dependencies = shader.file_dependencies.clone();
-            new.shader_defs = shader.shader_defs.clone();
-            Some(new)
-        }),
-        _ => Err(Error::ShaderPatch("Bevy's view shader is not WGSL")),
-    };
-    let outcome = new.and_then(|new| match new {
-        Some(new) => shaders
-            .insert(hook.handle.id(), new)
-            .map_err(|_| Error::ShaderPatch("the patched shader could not replace Bevy's")),
-        None => Ok(()),
-    });
-    if let Err(why) = &outcome {
-        error!(
-            "optica_dome: {why} (a Bevy other than 0.19?); vertex-mode dome cameras draw a plain perspective"
-        );
+    for patch in &mut hook.patches {
+        if patch.outcome.is_some() {
+            continue;
+        }
+        let Some(shader) = shaders.get(&patch.handle) else {
+            continue;
+        };
+        let new = match &shader.source {
+            Source::Wgsl(source) if source.contains(patch.marker) => Ok(None),
+            Source::Wgsl(source) => (patch.apply)(source).map(|text| {
+                let mut new = Shader::from_wgsl(text, shader.path.clone());
+                new.file_dependencies = shader.file_dependencies.clone();
+                new.shader_defs = shader.shader_defs.clone();
+                Some(new)
+            }),
+            _ => Err(Error::ShaderPatch("Bevy's shader is not WGSL")),
+        };
+        let outcome = new.and_then(|new| match new {
+            Some(new) => shaders
+                .insert(patch.handle.id(), new)
+                .map_err(|_| Error::ShaderPatch("the patched shader could not replace Bevy's")),
+            None => Ok(()),
+        });
+        if let Err(why) = &outcome {
+            error!(
+                "optica_dome: {why} (a Bevy other than 0.19?); vertex-mode dome cameras draw a plain perspective or interpolate attributes"
+            );
+        }
+        patch.outcome = Some(outcome);
     }
-    hook.outcome = Some(outcome);
 }
 
 /// Puts the patch's outcome in every dome camera's [`DomeStatus`]: the
@@ -121,9 +230,14 @@ pub(crate) fn report_patch(
     hook: Option<Res<ViewTransformations>>,
     mut cameras: Query<(&DomeCamera, &mut DomeStatus)>,
 ) {
-    let Some(outcome) = hook.as_ref().and_then(|h| h.outcome.as_ref()) else {
+    let Some(outcome) = hook.as_ref().and_then(|h| h.outcome()) else {
         return;
     };
+    let outcome = &outcome;
+    // The projection alone decides whether the dome is drawn as a dome.
+    let projected = hook
+        .as_ref()
+        .is_some_and(|h| matches!(h.patches[0].outcome, Some(Ok(()))));
     for (dome, mut status) in &mut cameras {
         let patch_error = match (outcome, dome.mode) {
             (Err(e), DomeMode::Vertex) => Some(e.clone()),
@@ -133,7 +247,7 @@ pub(crate) fn report_patch(
             Some(Error::ShaderPatch(_)) | None => patch_error,
             refused => refused.clone(),
         };
-        let vertex_projection = Some(outcome.is_ok());
+        let vertex_projection = Some(projected);
         if status.error != error || status.vertex_projection != vertex_projection {
             status.error = error;
             status.vertex_projection = vertex_projection;
@@ -154,5 +268,31 @@ pub fn patched(source: &str) -> Result<String, Error> {
         let at = text.find(signature).ok_or(missing(signature))? + signature.len();
         text.insert_str(at, branch);
     }
+    Ok(text)
+}
+
+/// Bevy's `pbr_fragment` source with the exact-attribute step, or the line
+/// that was not found.
+pub fn patched_fragment(source: &str) -> Result<String, Error> {
+    let missing = Error::ShaderPatch;
+    let mut text = source.to_string();
+    let at = text
+        .find(FRAGMENT_ANCHOR_IMPORT)
+        .ok_or(missing(FRAGMENT_ANCHOR_IMPORT))?;
+    text.insert_str(
+        at,
+        &format!("{FRAGMENT_MARKER}\n#import optica_dome::projection as dome_projection\n"),
+    );
+    let at = text
+        .find(FRAGMENT_SIGNATURE)
+        .ok_or(missing(FRAGMENT_SIGNATURE))?;
+    text.replace_range(at..at + FRAGMENT_SIGNATURE.len(), FRAGMENT_RENAMED);
+    let body = text[at..]
+        .find(FRAGMENT_BODY_ANCHOR)
+        .ok_or(missing(FRAGMENT_BODY_ANCHOR))?
+        + at
+        + FRAGMENT_BODY_ANCHOR.len();
+    text.insert_str(body, FRAGMENT_BODY);
+    text.insert_str(at, FRAGMENT_EXACT);
     Ok(text)
 }

@@ -12,6 +12,7 @@ mod pipelines;
 mod projection;
 mod scene;
 mod stability;
+mod texture;
 
 use bevy::prelude::*;
 use bevy::render::view::Msaa;

@@ -200,3 +200,83 @@ fn clip_of_view(p: vec3<f32>, m: mat4x4<f32>) -> vec4<f32> {
     let scale = vec2<f32>(m[0][0], length(vec2<f32>(m[1][1], m[2][1])));
     return dome_clip(q, m[3][2], lens, scale);
 }
+
+// The unit view-space direction seen at the framebuffer position `frag`
+// (a pixel centre) of the dome view whose clip_from_view is `m` (check
+// `is_dome(m)` first) and whose viewport is `viewport` (x, y, width,
+// height): the inverse of `clip_of_view` (`DomeProjection::unproject`,
+// `EquirectProjection::unproject` on the CPU). w is 0 beyond the image
+// circle, where no direction is seen.
+fn view_ray(frag: vec2<f32>, viewport: vec4<f32>, m: mat4x4<f32>) -> vec4<f32> {
+    let ndc = vec2<f32>(
+        2.0 * (frag.x - viewport.x) / viewport.z - 1.0,
+        1.0 - 2.0 * (frag.y - viewport.y) / viewport.w,
+    );
+    let lens = lens_from(m);
+    var q: vec3<f32>;
+    if lens.kind == EQUIRECTANGULAR {
+        let lon = ndc.x * PI;
+        let lat = ndc.y * 0.5 * PI;
+        q = vec3<f32>(cos(lat) * sin(lon), sin(lat), cos(lat) * cos(lon));
+    } else {
+        let scale = vec2<f32>(m[0][0], length(vec2<f32>(m[1][1], m[2][1])));
+        let v = ndc / scale;
+        let u = length(v);
+        if u > 1.0 {
+            return vec4<f32>(0.0);
+        }
+        let theta = lens_theta(lens, u);
+        var azimuth = vec2<f32>(0.0);
+        if u > 0.0 {
+            azimuth = v / u;
+        }
+        q = vec3<f32>(sin(theta) * azimuth, cos(theta));
+    }
+    // Dome coordinates (right, up, axis) back to view space.
+    let axis = vec3<f32>(m[0][3], m[1][3], m[2][3]);
+    let up = cross(vec3<f32>(1.0, 0.0, 0.0), axis);
+    return vec4<f32>(vec3<f32>(q.x, 0.0, 0.0) + q.y * up + q.z * axis, 1.0);
+}
+
+// optica_optics::dome::fragment MAX_STEP_PX.
+const MAX_STEP_PX: f32 = 64.0;
+// optica_optics::dome::fragment GRAZING_SIN.
+const GRAZING_SIN: f32 = 1.0e-4;
+
+// The step (a, b) that moves a fragment's interpolated position `p` along
+// its screen differences `dp_dx`, `dp_dy` to where the ray from `origin`
+// along `ray` meets their plane: `p + a·dp_dx + b·dp_dy` lies on the ray,
+// and every attribute interpolated with `p` moves by the same step along
+// its own differences (D11, `optica_optics::dome::plane_step` on the
+// CPU). Zero — keep the interpolated attributes — where the CPU twin
+// gives none: differences (nearly) parallel, a grazing ray, a plane behind
+// the origin, a step past MAX_STEP_PX or input that is not finite.
+fn plane_step(origin: vec3<f32>, ray: vec3<f32>, p: vec3<f32>, dp_dx: vec3<f32>, dp_dy: vec3<f32>) -> vec2<f32> {
+    let n = cross(dp_dx, dp_dy);
+    let nn = length(n);
+    let dd = length(ray);
+    if !(nn > GRAZING_SIN * length(dp_dx) * length(dp_dy)) || !(dd > 0.0) {
+        return vec2<f32>(0.0);
+    }
+    let across = dot(ray, n);
+    if !(abs(across) > GRAZING_SIN * nn * dd) {
+        return vec2<f32>(0.0);
+    }
+    let t = dot(p - origin, n) / across;
+    if !(t > 0.0) {
+        return vec2<f32>(0.0);
+    }
+    let delta = origin + t * ray - p;
+    let xx = dot(dp_dx, dp_dx);
+    let xy = dot(dp_dx, dp_dy);
+    let yy = dot(dp_dy, dp_dy);
+    let det = xx * yy - xy * xy;
+    let rx = dot(delta, dp_dx);
+    let ry = dot(delta, dp_dy);
+    let step = vec2<f32>(yy * rx - xy * ry, xx * ry - xy * rx) / det;
+    // NaN and infinity fail both comparisons.
+    if !(abs(step.x) <= MAX_STEP_PX && abs(step.y) <= MAX_STEP_PX) {
+        return vec2<f32>(0.0);
+    }
+    return step;
+}

@@ -91,6 +91,10 @@
 //!   `N = |v × a|/|v|`. It equals D6 for F = fθ. The chord-gap rule takes
 //!   its largest value over samples along the arc (for the equidistant lens
 //!   the arc's largest θ, where D6 is largest).
+//! * **D11** (ours) — exact attributes inside a refined triangle: each
+//!   fragment moves its interpolated position along its screen
+//!   differences to where its own ray meets the triangle's plane, and its
+//!   attributes by the same step ([`plane_step`], `fragment.rs`).
 //! * **E1, E2** (the equirectangular panorama, not a fisheye: longitude
 //!   and latitude on a 2:1 image, and the curvature of a great circle's
 //!   image there) — see [`EquirectProjection`]; its seam and poles are cut
@@ -149,6 +153,7 @@
 //! | `refine.rs` | §3.2: segments and polylines |
 //! | `triangle.rs` | §3.3: triangles and meshes, crack-free |
 //! | `interior.rs` | conforming bisection of interior edges (our addition) |
+//! | `fragment.rs` | D11: exact attributes per fragment (our addition) |
 //! | `equirect.rs` | E1, E2: [`EquirectProjection`], the 360° × 180° panorama |
 //! | `equirect_refine.rs` | panorama refinement: quarter cuts, seam and poles |
 //! | `panorama.rs` | [`Panorama`]: either projection behind one type |
@@ -170,6 +175,7 @@ mod clip;
 mod equirect;
 mod equirect_refine;
 mod error;
+mod fragment;
 mod interior;
 mod lens;
 #[cfg(feature = "reference")]
@@ -188,6 +194,7 @@ pub use classify::{
     ApparentSize, PrimitiveKind, Treatment, classify, pre_subdivide, pre_subdivision_piece_rad,
 };
 pub use clip::clip_segment;
+pub use fragment::{MAX_STEP_PX, plane_step};
 #[cfg(feature = "reference")]
 pub use equirect::equirect_chord_error_px;
 pub use equirect::{

@@ -524,6 +524,27 @@ impl Bench {
     }
 }
 
+/// The textured room through a zenith dome camera `camera` at `size` px
+/// (one sample per pixel), its point-sampled reference (the CPU twin's ray
+/// through each pixel centre) and the pixels compared (1 px or more inside
+/// the image circle). For the render tests' check that the vertex mode's
+/// texture is exact inside triangles.
+pub fn room_against_point_reference(
+    headless: &optica_harness::Headless,
+    size: u32,
+    camera: DomeCamera,
+) -> Result<(image::RgbaImage, image::RgbaImage, Vec<bool>), SweepError> {
+    let dome = camera
+        .projection(size)
+        .map_err(|e| SweepError::Setup(e.to_string()))?;
+    let frame = headless.render(scene(Content::Room, size, Some(camera), Msaa::Off))?;
+    Ok((
+        frame.to_rgba8(),
+        reference_room(&dome, size, 1).to_rgba8(),
+        compared(&dome, size),
+    ))
+}
+
 /// Appends the textured comparison: for each scene, series `<scene>,
 /// vertex mode` (knob: pixel tolerance) and `<scene>, cube mode` (knob:
 /// face size in px), all at one output size.

@@ -81,8 +81,7 @@ pub fn dome_ui(
         .selected_text(edit.lens.name())
         .show_ui(ui, |ui| {
             for lens in DomeLens::ALL {
-                let chosen =
-                    std::mem::discriminant(&edit.lens) == std::mem::discriminant(&lens);
+                let chosen = std::mem::discriminant(&edit.lens) == std::mem::discriminant(&lens);
                 if ui.selectable_label(chosen, lens.name()).clicked() && !chosen {
                     edit.lens = lens;
                 }
@@ -106,6 +105,9 @@ pub fn dome_ui(
             .logarithmic(true)
             .text("tolerance (px)"),
     );
+    if edit.mode == DomeMode::Vertex {
+        ui.checkbox(&mut edit.exact_attributes, "exact texture inside triangles");
+    }
     if let Err(e) = edit.validate() {
         ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
     }
@@ -115,8 +117,10 @@ pub fn dome_ui(
             stats.rebuilt, stats.vertices, stats.kept, stats.cpu_ms
         ));
     }
-    if let Some(e) = status.and_then(|s| s.error.as_ref()).filter(|e| matches!(e, crate::Error::ShaderPatch(_))) {
+    if let Some(e) = status
+        .and_then(|s| s.error.as_ref())
+        .filter(|e| matches!(e, crate::Error::ShaderPatch(_)))
+    {
         ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
     }
 }
-

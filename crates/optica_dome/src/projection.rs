@@ -12,11 +12,15 @@ use bevy::prelude::*;
 /// code, which reads the matrix as an infinite reverse-Z perspective, sees
 /// depths off by at most 3e-4 in NDC.
 pub(crate) const THETA_SCALE: f32 = 1.0e-4;
-/// `clip_from_view[3][0] = LENS_MARK·(1 + lens)`, the lens's number (0
-/// equidistant … 4 polynomial, 5 equirectangular): it marks the matrix as
-/// a dome camera's for the shader. A clip-space x offset of 1e-3 at most
-/// 6e-3, which no ordinary projection has.
+/// `clip_from_view[3][0] = LENS_MARK·(1 + lens + INTERPOLATED·k)`, the
+/// lens's number (0 equidistant … 4 polynomial, 5 equirectangular) and
+/// k = 1 where the camera leaves attributes interpolated
+/// (`DomeCamera::exact_attributes` off): it marks the matrix as a dome
+/// camera's for the shader. A clip-space x offset of 1e-3 at most 1.4e-2,
+/// which no ordinary projection has.
 pub(crate) const LENS_MARK: f32 = 1.0e-3;
+/// What `exact_attributes: false` adds to the lens's number in the mark.
+pub(crate) const INTERPOLATED: u32 = 8;
 
 /// The projection of a [`crate::DomeCamera`], kept in the camera's
 /// `Projection::custom` by the plugin. Not meant to be built by hand.
@@ -36,6 +40,9 @@ pub struct DomeClip {
     /// the target, less on the longer one (the circle fits the shorter
     /// side). Kept up to date from the target's size by Bevy.
     pub scale: Vec2,
+    /// Whether fragments take their own ray's attributes
+    /// (`DomeCamera::exact_attributes`).
+    pub exact_attributes: bool,
 }
 
 impl DomeClip {
@@ -55,6 +62,7 @@ impl DomeClip {
             far: camera.far,
             lens: camera.lens,
             scale: Vec2::ONE,
+            exact_attributes: camera.exact_attributes,
         }
     }
 
@@ -97,7 +105,12 @@ impl DomeClip {
             Vec4::W,
         );
         let (lens, shape) = self.lens_code();
-        let mark = LENS_MARK * (1 + lens) as f32;
+        let interpolated = if self.exact_attributes {
+            0
+        } else {
+            INTERPOLATED
+        };
+        let mark = LENS_MARK * (1 + lens + interpolated) as f32;
         let s = Mat4::from_cols(
             Vec4::new(self.scale.x, shape.y, shape.z, 0.0),
             Vec4::new(0.0, self.scale.y, 0.0, 0.0),

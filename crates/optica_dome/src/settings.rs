@@ -63,6 +63,14 @@ pub struct DomeCamera {
     /// How directions map to the image: a fisheye's radial mapping
     /// (equidistant by default), or the equirectangular panorama.
     pub lens: DomeLens,
+    /// Vertex mode: give every fragment the texture coordinates, normal
+    /// and colour of the point its own ray meets, instead of the values the
+    /// rasteriser interpolates across each refined triangle's image (which
+    /// put texture up to pixels from its place). On by default; off saves
+    /// its per-fragment cost (see the `dome` report's textured room) where
+    /// a scene has no texture to show it. Edges are placed by
+    /// [`Self::tolerance_px`] either way.
+    pub exact_attributes: bool,
 }
 
 /// The projection of a [`DomeCamera`]. The fisheyes are radial: a
@@ -196,6 +204,7 @@ impl Default for DomeCamera {
             far: 1000.0,
             mode: DomeMode::Vertex,
             lens: DomeLens::Equidistant,
+            exact_attributes: true,
         }
     }
 }

@@ -80,7 +80,7 @@ fn optica_dome_exact(in: VertexOutput) -> VertexOutput {
     var out = in;
 #ifdef VIEW_PROJECTION_NONSTANDARD
 #ifndef MESHLET_MESH_MATERIAL_PASS
-    if dome_projection::is_dome(view.clip_from_view) {
+    if dome_projection::is_dome(view.clip_from_view) && dome_projection::exact_attributes(view.clip_from_view) {
         let p = in.world_position.xyz;
         let dp_dx = dpdxFine(p);
         let dp_dy = dpdyFine(p);

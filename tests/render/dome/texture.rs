@@ -19,9 +19,10 @@ const SIZE: u32 = 160;
 /// The fraction of the compared pixels away from the room's edges and the
 /// rim (more than the tolerance and a pixel from any pixel whose ray meets
 /// another face, or from the image circle) whose grey differs from the reference's, and how many there are.
-fn wrong_inside_faces(tolerance_px: f32) -> (f64, usize) {
+fn wrong_inside_faces(tolerance_px: f32, exact_attributes: bool) -> (f64, usize) {
     let camera = DomeCamera {
         tolerance_px,
+        exact_attributes,
         ..default()
     };
     let dome = camera.projection(SIZE).expect("valid camera");
@@ -79,11 +80,18 @@ fn wrong_inside_faces(tolerance_px: f32) -> (f64, usize) {
 /// Every pixel inside a face shows the checker cell its ray meets, however
 /// large the refined triangles: at 8 px the room's faces are two triangles
 /// across tens of pixels, where interpolated texture coordinates would put
-/// cells pixels away from their place.
+/// cells pixels away from their place (as they do with
+/// `exact_attributes` off).
 #[test]
 fn texture_inside_refined_triangles_is_where_the_lens_puts_it() {
+    let (interpolated, _) = wrong_inside_faces(8.0, false);
+    assert!(
+        interpolated > 0.2,
+        "interpolated attributes: only {:.2} % wrong at 8 px",
+        100.0 * interpolated
+    );
     for tolerance in [8.0, 0.5] {
-        let (wrong, n) = wrong_inside_faces(tolerance);
+        let (wrong, n) = wrong_inside_faces(tolerance, true);
         assert!(n > 6000, "{n} pixels compared at {tolerance} px");
         assert!(
             wrong < 0.002,

@@ -18,6 +18,8 @@
 const THETA_SCALE: f32 = 1.0e-4;
 // projection.rs LENS_MARK.
 const LENS_MARK: f32 = 1.0e-3;
+// projection.rs INTERPOLATED.
+const INTERPOLATED: i32 = 8;
 
 const PI: f32 = 3.14159265358979;
 
@@ -40,14 +42,27 @@ fn theta_max_of(m: mat4x4<f32>) -> f32 {
     return -num / den / THETA_SCALE;
 }
 
-// The lens number marked in `m`, or −1.
-fn lens_of(m: mat4x4<f32>) -> i32 {
+// The number marked in `m` (1 + lens, plus INTERPOLATED where attributes
+// stay interpolated), or 0.
+fn mark_of(m: mat4x4<f32>) -> i32 {
     let k = m[3][0] / LENS_MARK;
     let n = round(k);
-    if abs(k - n) > 1.0e-3 || n < 1.0 || n > 6.0 {
-        return -1;
+    if abs(k - n) > 1.0e-3 || n < 1.0 || n > 14.0 || (n > 6.0 && n < 9.0) {
+        return 0;
     }
-    return i32(n) - 1;
+    return i32(n);
+}
+
+// The lens number marked in `m`, or −1.
+fn lens_of(m: mat4x4<f32>) -> i32 {
+    return (mark_of(m) - 1) % INTERPOLATED;
+}
+
+// Whether the dome view whose clip_from_view is `m` gives fragments their
+// own ray's attributes (`DomeCamera::exact_attributes`).
+fn exact_attributes(m: mat4x4<f32>) -> bool {
+    let n = mark_of(m);
+    return n >= 1 && n <= 6;
 }
 
 // Whether `m` is a dome camera's clip_from_view (a projection the mesh

@@ -88,6 +88,12 @@ pub const PARTS: &[(&str, SweepFn)] = &[
         dome_scale::scene_size(&mut report, ctx);
         Ok(report)
     }),
+    ("dome_textured", |ctx| {
+        let mut report = crate::Report::cpu("dome_textured", "tolerance_px (cube mode: face_px)");
+        dome_textured::textured_rows(ctx, &mut report)?;
+        report.main_errors = errors(&["flip_mean", "flip_point"]);
+        Ok(report)
+    }),
     // The absolute GPU figures and their goals (not in `all`: it refuses a
     // CPU adapter unless --allow-cpu).
     ("gpu", gpu::run),

@@ -17,4 +17,8 @@ pub enum Error {
     /// facets are traced at every size (no moiré filtering below a pixel).
     #[error("compound eye prefilter: {0}")]
     Prefilter(#[from] CompoundEyeError),
+    /// [`insert_axis_field`](crate::insert_axis_field) cannot write a field
+    /// into this mesh, and says why.
+    #[error("compound eye axis field: {0}")]
+    AxisField(&'static str),
 }

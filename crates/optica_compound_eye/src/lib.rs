@@ -92,6 +92,13 @@
 //!   `along_its_tangents_a_coarse_sphere_shows_no_seams`, at e60af8c,
 //!   2026-12-03), i.e. no seam. It gives up the UVs' stretch and shear, so
 //!   it suits (nearly) conformal UVs; [`EyeCap`] has them, and tangents.
+//!   With [`CompoundEye::axis_field`] the axes follow a smooth field that
+//!   [`insert_axis_field`] writes into the mesh (each vertex's triangles'
+//!   axes averaged, in its tangents and second UV channel): continuous
+//!   across edges like the tangents, and with the UVs' stretch and shear
+//!   kept (the render test
+//!   `along_its_axis_field_a_coarse_sphere_keeps_its_stretch_and_shows_no_seams`,
+//!   0.98× on the same sphere, measured 2026-12-05).
 //! - **Degenerate UVs** (a triangle whose UVs collapse onto a line or a
 //!   point: the facet coordinate's screen-space gradients parallel to within
 //!   `1e-4` in sine) get no lattice: they render as the plain base material.
@@ -181,6 +188,7 @@ use bevy::pbr::MaterialExtension;
 use bevy::prelude::*;
 use bevy::shader::{ShaderRef, load_shader_library};
 
+mod axis_field;
 mod error;
 mod eye_cap;
 #[cfg(feature = "egui")]
@@ -191,6 +199,7 @@ mod settings;
 
 #[cfg(feature = "egui")]
 pub use panel::{CompoundEyePanel, CompoundEyePanelPlugin, compound_eye_ui};
+pub use axis_field::insert_axis_field;
 pub use error::Error;
 pub use eye_cap::EyeCap;
 pub use presets::EyePreset;

@@ -127,6 +127,9 @@ pub fn compound_eye_ui(ui: &mut egui::Ui, eye: &mut CompoundEye) -> bool {
             ui.label("lattice axes");
             ui.checkbox(&mut eye.tangent_axes, "along the mesh's tangents");
             ui.end_row();
+            ui.label("");
+            ui.checkbox(&mut eye.axis_field, "along the mesh's axis field");
+            ui.end_row();
             ui.label("lens search");
             ui.checkbox(&mut eye.exact, "exact (walk the lattice)");
             ui.end_row();

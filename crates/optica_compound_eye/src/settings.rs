@@ -127,6 +127,15 @@ pub struct CompoundEye {
     /// conformal, such as [`EyeCap`](crate::EyeCap). Without tangents on
     /// the mesh the UVs' axes are used.
     pub tangent_axes: bool,
+    /// Lay the lattice along the smooth axis field that
+    /// [`insert_axis_field`](crate::insert_axis_field) writes into the mesh
+    /// (its tangents and second UV channel): each vertex carries its
+    /// triangles' texture axes averaged, interpolated across every
+    /// triangle, so a coarse mesh shows no seams **and** the UVs' stretch
+    /// and shear are kept (which [`Self::tangent_axes`] gives up). Without
+    /// the field on the mesh (no tangents or no second UV channel) the
+    /// other axes are used.
+    pub axis_field: bool,
     /// Lens (sphere) radius as a fraction of the cell's inradius, `(0, 1]`;
     /// 1 = neighbouring lenses touch.
     pub lens_radius: f32,
@@ -200,6 +209,7 @@ impl Default for CompoundEye {
             facets_per_uv: 40.0,
             lattice: EyeLattice::Hexagonal,
             tangent_axes: false,
+            axis_field: false,
             lens_radius: 1.0,
             lens_index: 1.5,
             pigment_depth: 2.0,
@@ -298,6 +308,7 @@ mod flags {
     pub const EXACT: u32 = 64;
     pub const TABLE: u32 = 128;
     pub const TANGENT_AXES: u32 = 256;
+    pub const AXIS_FIELD: u32 = 512;
 }
 
 /// The uniform the shader reads (`CompoundEyeUniform` in `compound_eye.wgsl`).
@@ -328,7 +339,8 @@ impl From<&CompoundEye> for CompoundEyeUniform {
             | flag(e.output == EyeOutput::PigmentOnly, flags::PIGMENT_ONLY)
             | flag(e.exact, flags::EXACT)
             | flag(e.prefilter_table.is_some(), flags::TABLE)
-            | flag(e.tangent_axes, flags::TANGENT_AXES);
+            | flag(e.tangent_axes, flags::TANGENT_AXES)
+            | flag(e.axis_field, flags::AXIS_FIELD);
         Self {
             facets_per_uv: e.facets_per_uv,
             lens_radius: e.lens_radius,

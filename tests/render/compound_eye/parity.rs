@@ -48,10 +48,18 @@ struct Setup {
 impl Setup {
     /// The lattice the shader builds at `at` with the mesh's normal
     /// `shading`: the axes laid on it, the lens sized to their cell.
-    fn on_normal(&self, at: DVec3, shading: DVec3, tangent: Option<DVec3>) -> Lattice {
+    fn on_normal(
+        &self,
+        at: DVec3,
+        shading: DVec3,
+        tangent: Option<DVec3>,
+        shape: Option<DVec2>,
+    ) -> Lattice {
         let mut axes = self.lattice.axes().on_normal(at, shading);
-        if let Some(t) = tangent {
-            axes = axes.on_tangent(at, t);
+        match (tangent, shape) {
+            (Some(t), Some(s)) => axes = axes.on_field(at, t, s),
+            (Some(t), None) => axes = axes.on_tangent(at, t),
+            _ => {}
         }
         let kind = self.lattice.kind();
         let (radius, index, depth) = self.lens;
@@ -165,18 +173,20 @@ fn footprint(axes: &TextureAxes, i: u32, j: u32, view: Vec3) -> Option<f64> {
 }
 
 fn compare_on(quad: Mesh, eye: CompoundEye) -> Agreement {
-    compare_on_normal(quad, eye, None, None, true, view_dir())
+    compare_on_normal(quad, eye, None, None, None, true, view_dir())
 }
 
-/// `compare_on` with every vertex normal of `quad` set to `shading` (and
-/// its tangent to `tangent`) when given; the CPU lattice is laid on them,
-/// pixel by pixel, when `cpu_follows` (the GPU follows the tangent only
-/// with `tangent_axes`).
+/// `compare_on` with every vertex normal of `quad` set to `shading` (its
+/// tangent to `tangent`, its axis field's shape, the second UVs, to
+/// `shape`) when given; the CPU lattice is laid on them, pixel by pixel,
+/// when `cpu_follows` (the GPU follows the tangent only with
+/// `tangent_axes` or `axis_field`, the shape only with `axis_field`).
 fn compare_on_normal(
     mut quad: Mesh,
     eye: CompoundEye,
     shading: Option<Vec3>,
     tangent: Option<Vec4>,
+    shape: Option<Vec2>,
     cpu_follows: bool,
     view: Vec3,
 ) -> Agreement {
@@ -187,7 +197,11 @@ fn compare_on_normal(
     if let Some(t) = tangent {
         quad.insert_attribute(Mesh::ATTRIBUTE_TANGENT, vec![t.to_array(); count]);
     }
+    if let Some(s) = shape {
+        quad.insert_attribute(Mesh::ATTRIBUTE_UV_1, vec![s.to_array(); count]);
+    }
     let cpu_tangent = tangent.map(|t| t.truncate().as_dvec3());
+    let cpu_shape = shape.map(|s| s.as_dvec2());
     let eye = CompoundEye {
         output: EyeOutput::PigmentOnly,
         ..eye
@@ -229,7 +243,7 @@ fn compare_on_normal(
             let on_normal;
             let lattice = match shading.filter(|_| cpu_follows) {
                 Some(m) => {
-                    on_normal = setup.on_normal(ray.origin(), m.as_dvec3(), cpu_tangent);
+                    on_normal = setup.on_normal(ray.origin(), m.as_dvec3(), cpu_tangent, cpu_shape);
                     &on_normal
                 }
                 None => &setup.lattice,
@@ -392,11 +406,19 @@ fn lattice_on_a_leaning_vertex_normal_matches_its_cpu_twin() {
         ..default()
     };
     let leaning = Vec3::new(0.28, -0.21, 1.0).normalize();
-    let a = compare_on_normal(quad(), eye.clone(), Some(leaning), None, true, view_dir());
+    let a = compare_on_normal(
+        quad(),
+        eye.clone(),
+        Some(leaning),
+        None,
+        None,
+        true,
+        view_dir(),
+    );
     assert_agrees("hexagonal, leaning normal", &a);
     // The lean matters: against the triangle's own lattice the render is
     // far off.
-    let flat = compare_on_normal(quad(), eye, Some(leaning), None, false, view_dir());
+    let flat = compare_on_normal(quad(), eye, Some(leaning), None, None, false, view_dir());
     eprintln!(
         "against the flat lattice: {:.2} % within 0.02, mean {:.4}",
         100.0 * flat.within,
@@ -405,22 +427,24 @@ fn lattice_on_a_leaning_vertex_normal_matches_its_cpu_twin() {
     assert!(flat.within < 0.9, "{:.4} within 0.02", flat.within);
 }
 
+/// The quad with sheared, stretched and mirrored UVs.
+fn sheared_quad() -> Mesh {
+    let mut mesh = quad();
+    if let Some(VertexAttributeValues::Float32x2(uv)) = mesh.attribute_mut(Mesh::ATTRIBUTE_UV_0) {
+        for t in uv.iter_mut() {
+            *t = [-1.3 * t[0] + 0.4 * t[1], 0.8 * t[1] + 0.1 * t[0]];
+        }
+    }
+    mesh
+}
+
 /// Sheared, stretched and mirrored UVs on a quad with a leaning normal and
 /// a tangent 30° off its u axis: with `tangent_axes` the shader lays square
 /// facets of the UVs' cell area along the tangent, as
 /// `TextureAxes::on_tangent` does.
 #[test]
 fn lattice_along_the_tangent_matches_its_cpu_twin() {
-    let sheared = || {
-        let mut mesh = quad();
-        if let Some(VertexAttributeValues::Float32x2(uv)) = mesh.attribute_mut(Mesh::ATTRIBUTE_UV_0)
-        {
-            for t in uv.iter_mut() {
-                *t = [-1.3 * t[0] + 0.4 * t[1], 0.8 * t[1] + 0.1 * t[0]];
-            }
-        }
-        mesh
-    };
+    let sheared = sheared_quad;
     let eye = CompoundEye {
         facets_per_uv: 7.0,
         lattice: EyeLattice::Hexagonal,
@@ -435,6 +459,7 @@ fn lattice_along_the_tangent_matches_its_cpu_twin() {
         eye.clone(),
         Some(leaning),
         Some(tangent),
+        None,
         true,
         view_dir(),
     );
@@ -450,11 +475,60 @@ fn lattice_along_the_tangent_matches_its_cpu_twin() {
         uv_axes,
         Some(leaning),
         Some(tangent),
+        None,
         true,
         view_dir(),
     );
     eprintln!(
         "the UVs' axes against the tangent's: {:.2} % within 0.02, mean {:.4}",
+        100.0 * b.within,
+        b.mean
+    );
+    assert!(b.within < 0.9, "{:.4} within 0.02", b.within);
+}
+
+/// Sheared, stretched and mirrored UVs on a quad with a leaning normal,
+/// and an axis field 30° off the u axis with its own stretch and shear:
+/// with `axis_field` the shader lays the lattice along the field, as
+/// `TextureAxes::on_field` does (the square tangent frame is far from it).
+#[test]
+fn lattice_along_an_axis_field_matches_its_cpu_twin() {
+    let eye = CompoundEye {
+        facets_per_uv: 7.0,
+        lattice: EyeLattice::Hexagonal,
+        axis_field: true,
+        prefilter: false,
+        ..default()
+    };
+    let leaning = Vec3::new(0.28, -0.21, 1.0).normalize();
+    let tangent = Vec4::new(30f32.to_radians().cos(), 30f32.to_radians().sin(), 0.0, 1.0);
+    let shape = Vec2::new(0.35, 1.6);
+    let a = compare_on_normal(
+        sheared_quad(),
+        eye.clone(),
+        Some(leaning),
+        Some(tangent),
+        Some(shape),
+        true,
+        view_dir(),
+    );
+    assert_agrees("hexagonal along an axis field", &a);
+    let square = CompoundEye {
+        axis_field: false,
+        tangent_axes: true,
+        ..eye
+    };
+    let b = compare_on_normal(
+        sheared_quad(),
+        square,
+        Some(leaning),
+        Some(tangent),
+        Some(shape),
+        true,
+        view_dir(),
+    );
+    eprintln!(
+        "the tangent frame against the field: {:.2} % within 0.02, mean {:.4}",
         100.0 * b.within,
         b.mean
     );
@@ -498,7 +572,7 @@ fn the_exact_path_matches_the_exact_tracer_at_every_incidence() {
                     prefilter: false,
                     ..default()
                 };
-                let a = compare_on_normal(quad(), eye, None, None, true, view);
+                let a = compare_on_normal(quad(), eye, None, None, None, true, view);
                 n += a.pixels;
                 within += a.within * a.pixels as f64;
                 same += a.same_outcome;

@@ -136,10 +136,22 @@ fn sphere_camera() -> Transform {
     Transform::from_xyz(0.3, 0.4, 5.0).looking_at(Vec3::ZERO, Vec3::Y)
 }
 
-fn render_sphere(mesh: Mesh, tangent_axes: bool) -> RenderedFrame {
+/// Which axes the sphere's lattice follows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Axes {
+    /// The UVs' own, per triangle, laid on the interpolated normal.
+    Uv,
+    /// The mesh's tangents (`tangent_axes`).
+    Tangent,
+    /// The smooth axis field (`axis_field`, `insert_axis_field`).
+    Field,
+}
+
+fn render_sphere(mesh: Mesh, axes: Axes) -> RenderedFrame {
     let eye = CompoundEye {
         facets_per_uv: 24.0,
-        tangent_axes,
+        tangent_axes: axes == Axes::Tangent,
+        axis_field: axes == Axes::Field,
         ..eye(EyeOutput::PigmentOnly)
     };
     Headless::new(SPHERE_SIZE, SPHERE_SIZE)
@@ -194,13 +206,15 @@ fn triangle_per_pixel(mesh: &Mesh) -> Vec<Option<usize>> {
 /// How much more the optics output of a 14 × 8 UV sphere (196 triangles,
 /// 26° apart at the equator) changes from one pixel to the next across a
 /// triangle edge than within a triangle: 1 where no edge shows.
-fn seam_ratio(tangent_axes: bool) -> f64 {
+fn seam_ratio(axes: Axes) -> f64 {
     let mut mesh = sphere(14, 8);
-    if tangent_axes {
-        mesh = mesh.with_generated_tangents().expect("tangents");
+    match axes {
+        Axes::Uv => {}
+        Axes::Tangent => mesh = mesh.with_generated_tangents().expect("tangents"),
+        Axes::Field => optica_compound_eye::insert_axis_field(&mut mesh).expect("a field"),
     }
     let triangles = triangle_per_pixel(&mesh);
-    let frame = render_sphere(mesh, tangent_axes);
+    let frame = render_sphere(mesh, axes);
     let img = frame.hdr().unwrap();
     let at = |i: u32, j: u32| triangles[(j * SPHERE_SIZE + i) as usize];
     // Neighbouring pixels, both well inside the silhouette (the facing
@@ -233,7 +247,7 @@ fn seam_ratio(tangent_axes: bool) -> f64 {
     let (across_mean, within_mean) = (across.0 / across.1 as f64, within.0 / within.1 as f64);
     let ratio = across_mean / within_mean;
     eprintln!(
-        "tangent axes {tangent_axes}: mean step across an edge {across_mean:.4} ({} pairs), within a triangle \
+        "{axes:?} axes: mean step across an edge {across_mean:.4} ({} pairs), within a triangle \
          {within_mean:.4} ({} pairs): {ratio:.3}",
         across.1, within.1
     );
@@ -250,7 +264,7 @@ fn seam_ratio(tangent_axes: bool) -> f64 {
 /// the UVs' axes changing at each edge (piecewise-linear UVs).
 #[test]
 fn a_coarse_sphere_shows_no_seams_at_its_triangle_edges() {
-    let ratio = seam_ratio(false);
+    let ratio = seam_ratio(Axes::Uv);
     assert!(ratio < 1.4, "edges show: {ratio:.3}");
 }
 
@@ -258,7 +272,17 @@ fn a_coarse_sphere_shows_no_seams_at_its_triangle_edges() {
 /// the edges too: no seam is left.
 #[test]
 fn along_its_tangents_a_coarse_sphere_shows_no_seams() {
-    let ratio = seam_ratio(true);
+    let ratio = seam_ratio(Axes::Tangent);
+    assert!(ratio < 1.1, "edges show: {ratio:.3}");
+}
+
+/// Along the smooth axis field the lattice keeps the UVs' stretch (the
+/// sphere's cells widen towards the poles) and shows no seams either: the
+/// field's shape is interpolated across the edges where each triangle's
+/// own axes jump.
+#[test]
+fn along_its_axis_field_a_coarse_sphere_keeps_its_stretch_and_shows_no_seams() {
+    let ratio = seam_ratio(Axes::Field);
     assert!(ratio < 1.1, "edges show: {ratio:.3}");
 }
 

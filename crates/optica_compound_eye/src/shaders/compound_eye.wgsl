@@ -48,6 +48,7 @@ const FLAG_PIGMENT_ONLY: u32 = 32u;
 const FLAG_EXACT: u32 = 64u;
 const FLAG_TABLE: u32 = 128u;
 const FLAG_TANGENT_AXES: u32 = 256u;
+const FLAG_AXIS_FIELD: u32 = 512u;
 
 // texture_axes.rs UV_DET_REL_EPS for f32 derivatives: a triangle whose
 // facet-coordinate gradients (or world axes U, V) are closer to parallel than
@@ -210,6 +211,17 @@ fn lattice_response(in: VertexOutput, view: vec3<f32>, normal: vec3<f32>) -> Res
             u = along[0];
             v = along[1];
         }
+#ifdef VERTEX_UVS_B
+        // texture_axes.rs `TextureAxes::on_field`: along the smooth axis
+        // field `insert_axis_field` put in the tangents and second UVs.
+        // (After the tangent frame it gives the same axes: that frame
+        // keeps the cell's area and its axes' sides.)
+        if (material.flags & FLAG_AXIS_FIELD) != 0u {
+            let along = eye::axes_on_field(u, v, n, in.world_tangent.xyz, in.uv_b);
+            u = along[0];
+            v = along[1];
+        }
+#endif
 #endif
         var kind = eye::KIND_SQUARE;
         if (material.flags & FLAG_HEXAGONAL) != 0u {

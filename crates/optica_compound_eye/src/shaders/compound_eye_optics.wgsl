@@ -123,6 +123,33 @@ fn axes_on_tangent(u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, tangent: vec3<f32>)
     return array<vec3<f32>, 2>(side * t, side * b);
 }
 
+// texture_axes.rs `TextureAxes::on_field`: the axes `u`, `v` (normal `n`)
+// laid along a smooth axis field, `u` along the in-plane part of `tangent`
+// and `v = |u|·(shape.x·T + shape.y·B)`, of the same cell area; returns
+// (u, v). The tangent frame's square axes where the shape is not finite
+// or its aspect `shape.y` is not above 1e-4; unchanged where the tangent
+// is zero, not finite or (within 1e-4 in sine) along the normal.
+fn axes_on_field(u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, tangent: vec3<f32>, shape: vec2<f32>) -> array<vec3<f32>, 2> {
+    let in_plane = tangent - dot(tangent, n) * n;
+    if !(length(in_plane) > 1e-4 * length(tangent)) {
+        return array<vec3<f32>, 2>(u, v);
+    }
+    // NaN fails every comparison.
+    if !(shape.y > 1e-4 && shape.y < 3.0e38 && abs(shape.x) < 3.0e38) {
+        return axes_on_tangent(u, v, n, tangent);
+    }
+    var t = normalize(in_plane);
+    if dot(t, u) < 0.0 {
+        t = -t;
+    }
+    var b = cross(n, t);
+    if dot(b, v) < 0.0 {
+        b = -b;
+    }
+    let side = sqrt(length(cross(u, v)) / shape.y);
+    return array<vec3<f32>, 2>(side * t, side * (shape.x * t + shape.y * b));
+}
+
 fn make_lattice(origin: vec3<f32>, u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, kind: u32) -> Lattice {
     var l: Lattice;
     l.origin = origin;

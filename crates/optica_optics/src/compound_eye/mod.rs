@@ -111,7 +111,7 @@
 //!
 //! | items | what |
 //! |---|---|
-//! | [`scale_uv`], [`TextureAxes`] (thresholds [`UV_DET_REL_EPS`], [`AREA_REL_EPS`], [`NORMAL_COS_EPS`]), [`TextureAxes::on_normal`] ([`MIN_SHADING_COS`]) | `U_p`, `V_p`, `P_c` per triangle (6.1–6.15), UV ↔ point (6.2, 6.26–6.27) |
+//! | [`scale_uv`], [`TextureAxes`] (thresholds [`UV_DET_REL_EPS`], [`AREA_REL_EPS`], [`NORMAL_COS_EPS`]), [`TextureAxes::on_normal`] ([`MIN_SHADING_COS`]), [`axis_field`] and [`TextureAxes::on_field`] (a smooth field of axes, our addition) | `U_p`, `V_p`, `P_c` per triangle (6.1–6.15), UV ↔ point (6.2, 6.26–6.27) |
 //! | [`LensParams`], [`Lattice`], [`PigmentPlaneHit`], [`LatticeKind`], [`LensCell`], [`MAX_SLICES`], [`MIN_COS`] | lens parameters, the lattice of one triangle: cells, lens centres, slices, pigment plane (6.16–6.25, 6.29) |
 //! | [`refract_through_ball`], [`BallExit`], [`BallFailure`], [`ball_focal_length`] | refraction into and out of one sphere (6.28), ball-lens focus |
 //! | [`shade`], [`shade_with`], [`shade_fragment_with`], [`ShadeOptions`], [`MAX_LENSES`] | the per-fragment path (the thesis's, and followed into neighbouring lenses): the CPU twin of the shader |
@@ -179,5 +179,5 @@ pub use shading_path::{
     shade_with,
 };
 pub use texture_axes::{
-    AREA_REL_EPS, MIN_SHADING_COS, NORMAL_COS_EPS, TextureAxes, UV_DET_REL_EPS, scale_uv,
+    AREA_REL_EPS, FieldVertex, axis_field, MIN_SHADING_COS, NORMAL_COS_EPS, TextureAxes, UV_DET_REL_EPS, scale_uv,
 };

@@ -425,12 +425,130 @@ impl TextureAxes {
         Self::assemble(origin, u, v, n, self.handedness, self.fallback)
     }
 
+    /// The lattice through `at` laid along a smooth axis field (see
+    /// [`axis_field`]): `U_p` along the interpolated `tangent` projected
+    /// into the lattice's plane, `V_p = |U_p|·(shear·T + aspect·B)` with
+    /// `(shear, aspect) = shape` (B = N × T, on `V_p`'s side), and the
+    /// cell's area kept. Both the tangent and the shape are interpolated
+    /// across triangle edges, so the lattice shows no seams, and unlike
+    /// [`TextureAxes::on_tangent`] it keeps the UVs' stretch and shear.
+    /// `N` and the texture coordinate of `at` are kept.
+    ///
+    /// Falls back to [`TextureAxes::on_tangent`] (square facets) when the
+    /// shape is not finite or its aspect is not above `1e-4`, and returns
+    /// `self` unchanged where that does.
+    pub fn on_field(&self, at: DVec3, tangent: DVec3, shape: DVec2) -> Self {
+        let n = self.normal;
+        let in_plane = tangent - tangent.dot(n) * n;
+        if !(in_plane.length() > SHADER_UV_DET_REL_EPS * tangent.length()) {
+            return *self;
+        }
+        if !(shape.is_finite() && shape.y > SHADER_UV_DET_REL_EPS) {
+            return self.on_tangent(at, tangent);
+        }
+        let t = in_plane.normalize();
+        let t = if t.dot(self.u) < 0.0 { -t } else { t };
+        let b = n.cross(t);
+        let b = if b.dot(self.v) < 0.0 { -b } else { b };
+        // |U × V| = L²·aspect keeps the cell's area.
+        let side = (self.gram.sqrt() / shape.y).sqrt();
+        let (u, v) = (side * t, side * (shape.x * t + shape.y * b));
+        let uv = self.uv_of(at);
+        let origin = at - uv.x * u - uv.y * v;
+        Self::assemble(origin, u, v, n, self.handedness, self.fallback)
+    }
+
     /// A tangent in Bevy's `Mesh::ATTRIBUTE_TANGENT` convention: `xyz` is
     /// `U_p` normalised, `w` the handedness, so that `w · (N × T)` points
     /// along `V_p`'s component orthogonal to `U_p`.
     pub fn tangent_vec4(&self) -> DVec4 {
         self.u.normalize_or_zero().extend(self.handedness)
     }
+}
+
+/// One vertex of a smooth axis field ([`axis_field`]): the lattice's
+/// direction and shape there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FieldVertex {
+    /// `U_p`'s direction in the plane of the vertex normal, in Bevy's
+    /// `Mesh::ATTRIBUTE_TANGENT` convention (`w` the handedness); zero where
+    /// the vertex has no usable triangle.
+    pub tangent: DVec4,
+    /// `V_p` in units of `|U_p|` in the frame (T, B = w·N × T):
+    /// `(shear, aspect)`, so `V_p = |U_p|·(shear·T + aspect·B)`; `(0, 1)`
+    /// (a square) where the vertex has no usable triangle.
+    pub shape: DVec2,
+}
+
+/// A smooth field of lattice axes over a triangle mesh: at each vertex the
+/// area-weighted mean of its triangles' `U_p`, `V_p` (eq. 6.8–6.9, from the
+/// texture coordinates `uvs`), laid into the plane of its `normals`, as a
+/// direction and a shape ([`FieldVertex`]). A shader interpolates both
+/// across each triangle and rebuilds the axes with
+/// [`TextureAxes::on_field`]: continuous across edges, where each
+/// triangle's own axes jump when the UVs' stretch changes (a UV sphere's
+/// rows), and with the stretch and shear kept, which a plain tangent frame
+/// ([`TextureAxes::on_tangent`]) gives up.
+///
+/// The shape is a ratio, so the field does not depend on the facets per
+/// UV unit nor on a uniform scale of the mesh. Triangles with degenerate
+/// positions or UVs, or indices out of range, are skipped; a vertex left
+/// with none gets the neutral value. A zero or non-finite normal is
+/// replaced by the vertex's triangles' mean normal.
+pub fn axis_field(
+    positions: &[DVec3],
+    normals: &[DVec3],
+    uvs: &[DVec2],
+    triangles: &[[u32; 3]],
+) -> Vec<FieldVertex> {
+    let n = positions.len();
+    let mut sums = vec![(DVec3::ZERO, DVec3::ZERO, DVec3::ZERO); n];
+    for tri in triangles {
+        let i = tri.map(|k| k as usize);
+        if i.iter().any(|&k| k >= n || k >= uvs.len()) {
+            continue;
+        }
+        let p = i.map(|k| positions[k]);
+        let Ok(axes) = TextureAxes::from_triangle(p, i.map(|k| uvs[k])) else {
+            continue;
+        };
+        let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+        for k in i {
+            let s = &mut sums[k];
+            s.0 += area * axes.u();
+            s.1 += area * axes.v();
+            s.2 += area * axes.normal();
+        }
+    }
+    let neutral = FieldVertex {
+        tangent: DVec4::ZERO,
+        shape: DVec2::Y,
+    };
+    sums.iter()
+        .enumerate()
+        .map(|(k, &(u, v, mean_normal))| {
+            let m = normals
+                .get(k)
+                .and_then(|m| m.try_normalize())
+                .or_else(|| mean_normal.try_normalize());
+            let Some(m) = m else {
+                return neutral;
+            };
+            let u = u - u.dot(m) * m;
+            let v = v - v.dot(m) * m;
+            let (len, cross) = (u.length(), u.cross(v));
+            if !(len > 0.0 && cross.length() > SHADER_UV_DET_REL_EPS * len * v.length()) {
+                return neutral;
+            }
+            let t = u / len;
+            let handed = if cross.dot(m) < 0.0 { -1.0 } else { 1.0 };
+            let b = handed * m.cross(t);
+            FieldVertex {
+                tangent: t.extend(handed),
+                shape: DVec2::new(v.dot(t), v.dot(b)) / len,
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -813,6 +931,111 @@ mod tests {
                 prop_assert!(n.dot(a.normal()) > 0.0);
                 prop_assert!(a.depth(u + v).abs() <= 1e-12 * (1.0 + scale));
             }
+        }
+    }
+
+    /// A plane with sheared, stretched UVs: every triangle has the same
+    /// axes, so the field holds them exactly and `on_field` rebuilds them.
+    #[test]
+    fn a_field_over_affine_uvs_rebuilds_the_triangles_axes() {
+        let positions: Vec<DVec3> = (0..9)
+            .map(|k| DVec3::new(f64::from(k % 3), f64::from(k / 3), 0.0))
+            .collect();
+        let uvs: Vec<DVec2> = positions
+            .iter()
+            .map(|p| DVec2::new(-1.3 * p.x + 0.4 * p.y, 0.8 * p.y + 0.1 * p.x))
+            .collect();
+        let normals = vec![DVec3::Z; 9];
+        let mut triangles = vec![];
+        for j in 0..2u32 {
+            for i in 0..2u32 {
+                let a = j * 3 + i;
+                triangles.push([a, a + 1, a + 4]);
+                triangles.push([a, a + 4, a + 3]);
+            }
+        }
+        let field = axis_field(&positions, &normals, &uvs, &triangles);
+        let tri = [0, 1, 4].map(|k| positions[k]);
+        let axes = TextureAxes::from_triangle(tri, [0, 1, 4].map(|k| uvs[k])).unwrap();
+        for (k, f) in field.iter().enumerate() {
+            let rebuilt = axes.on_field(positions[k], f.tangent.truncate(), f.shape);
+            assert!(
+                close(rebuilt.u(), axes.u(), 1e-12),
+                "{k}: {rebuilt:?} {axes:?}"
+            );
+            assert!(
+                close(rebuilt.v(), axes.v(), 1e-12),
+                "{k}: {rebuilt:?} {axes:?}"
+            );
+            assert!(close(rebuilt.origin(), axes.origin(), 1e-12));
+            assert_eq!(f.tangent.w, axes.handedness());
+        }
+        // Mirrored UVs: the handedness follows.
+        let mirrored: Vec<DVec2> = uvs.iter().map(|t| DVec2::new(-t.x, t.y)).collect();
+        let field = axis_field(&positions, &normals, &mirrored, &triangles);
+        assert!(field.iter().all(|f| f.tangent.w == -axes.handedness()));
+    }
+
+    /// On a UV sphere's rows the UVs' stretch changes at every edge; the
+    /// field at a vertex lies between its triangles' axes.
+    #[test]
+    fn the_field_averages_the_stretch_of_a_vertex_s_triangles() {
+        // Two rows of a latitude band, stretched differently.
+        let ring = |lat: f64| -> Vec<DVec3> {
+            (0..3)
+                .map(|i| {
+                    let lon = f64::from(i) * 0.4;
+                    DVec3::new(lat.cos() * lon.cos(), lat.sin(), lat.cos() * lon.sin())
+                })
+                .collect()
+        };
+        let positions: Vec<DVec3> = [0.0, 0.45, 0.9].into_iter().flat_map(ring).collect();
+        let uvs: Vec<DVec2> = (0..9)
+            .map(|k| DVec2::new(f64::from(k % 3) * 0.4, f64::from(k / 3) * 0.45))
+            .collect();
+        let normals: Vec<DVec3> = positions.clone();
+        let triangles = vec![[0, 3, 1], [1, 3, 4], [3, 6, 4], [4, 6, 7]];
+        let field = axis_field(&positions, &normals, &uvs, &triangles);
+        let aspect = |t: [u32; 3]| {
+            let a = TextureAxes::from_triangle(
+                t.map(|k| positions[k as usize]),
+                t.map(|k| uvs[k as usize]),
+            )
+            .unwrap();
+            a.cell_heights().1 / a.u().length()
+        };
+        // Vertex 4's triangles: one below it, two above (1.10 to 1.60).
+        let aspects = [aspect([1, 3, 4]), aspect([3, 6, 4]), aspect([4, 6, 7])];
+        let (lo, hi) = (
+            aspects.iter().copied().fold(f64::INFINITY, f64::min),
+            aspects.iter().copied().fold(0.0, f64::max),
+        );
+        let middle = field[4].shape.y;
+        assert!(hi > 1.3 * lo, "{aspects:?}");
+        assert!(middle > lo && middle < hi, "{lo} < {middle} < {hi}");
+        assert!((field[4].tangent.truncate().length() - 1.0).abs() < 1e-12);
+        assert!(field[4].tangent.truncate().dot(normals[4]).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_field_without_usable_triangles_is_neutral_and_on_field_falls_back() {
+        let positions = vec![DVec3::ZERO, DVec3::X, 2.0 * DVec3::X, DVec3::Y];
+        let uvs = vec![DVec2::ZERO, DVec2::X, DVec2::Y, DVec2::ONE];
+        // Collinear positions, an index out of range.
+        let field = axis_field(&positions, &[], &uvs, &[[0, 1, 2], [0, 1, 9]]);
+        assert!(
+            field
+                .iter()
+                .all(|f| f.tangent == DVec4::ZERO && f.shape == DVec2::Y)
+        );
+        let axes = TextureAxes::from_axes(DVec3::ZERO, 2.0 * DVec3::X, DVec3::Y, DVec3::Z).unwrap();
+        let at = DVec3::new(0.3, 0.2, 0.0);
+        assert_eq!(axes.on_field(at, DVec3::ZERO, DVec2::Y), axes);
+        for bad in [DVec2::NAN, DVec2::ZERO, DVec2::new(0.0, -1.0)] {
+            assert_eq!(
+                axes.on_field(at, DVec3::X, bad),
+                axes.on_tangent(at, DVec3::X)
+            );
         }
     }
 }

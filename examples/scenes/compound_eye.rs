@@ -142,13 +142,14 @@ pub fn spawn(
     // whose UVs have no pole (a UV sphere would show one as rings of
     // shrinking facets), its axis pointing out of the head and its rim,
     // 130° from the axis, sunk into the head.
-    let eye_mesh = meshes.add(
-        EyeCap {
-            half_angle: 130f32.to_radians(),
-            ..default()
-        }
-        .build(),
-    );
+    let mut cap = EyeCap {
+        half_angle: 130f32.to_radians(),
+        ..default()
+    }
+    .build();
+    // Its smooth axis field too, for the panel's "along the mesh's axis field".
+    optica_compound_eye::insert_axis_field(&mut cap).expect("the cap is a triangle mesh with UVs");
+    let eye_mesh = meshes.add(cap);
     for side in [-1.0f32, 1.0] {
         let material = eyes.add(CompoundEyeMaterial {
             base: StandardMaterial {

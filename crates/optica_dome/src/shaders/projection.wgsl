@@ -237,15 +237,11 @@ fn view_ray(frag: vec2<f32>, viewport: vec4<f32>, m: mat4x4<f32>) -> vec4<f32> {
         let scale = vec2<f32>(m[0][0], length(vec2<f32>(m[1][1], m[2][1])));
         let v = ndc / scale;
         let u = length(v);
+        let theta = lens_theta(lens, u);
+        q = vec3<f32>(select(0.0, sin(theta) / u, u > 0.0) * v, cos(theta));
         if u > 1.0 {
             return vec4<f32>(0.0);
         }
-        let theta = lens_theta(lens, u);
-        var azimuth = vec2<f32>(0.0);
-        if u > 0.0 {
-            azimuth = v / u;
-        }
-        q = vec3<f32>(sin(theta) * azimuth, cos(theta));
     }
     // Dome coordinates (right, up, axis) back to view space.
     let axis = vec3<f32>(m[0][3], m[1][3], m[2][3]);
@@ -267,31 +263,24 @@ const GRAZING_SIN: f32 = 1.0e-4;
 // gives none: differences (nearly) parallel, a grazing ray, a plane behind
 // the origin, a step past MAX_STEP_PX or input that is not finite.
 fn plane_step(origin: vec3<f32>, ray: vec3<f32>, p: vec3<f32>, dp_dx: vec3<f32>, dp_dy: vec3<f32>) -> vec2<f32> {
+    // Every fragment runs this: no branch and no square root, one test of
+    // all the conditions at the end.
     let n = cross(dp_dx, dp_dy);
-    let nn = length(n);
-    let dd = length(ray);
-    if !(nn > GRAZING_SIN * length(dp_dx) * length(dp_dy)) || !(dd > 0.0) {
-        return vec2<f32>(0.0);
-    }
-    let across = dot(ray, n);
-    if !(abs(across) > GRAZING_SIN * nn * dd) {
-        return vec2<f32>(0.0);
-    }
-    let t = dot(p - origin, n) / across;
-    if !(t > 0.0) {
-        return vec2<f32>(0.0);
-    }
-    let delta = origin + t * ray - p;
+    let nn = dot(n, n);
     let xx = dot(dp_dx, dp_dx);
     let xy = dot(dp_dx, dp_dy);
     let yy = dot(dp_dy, dp_dy);
-    let det = xx * yy - xy * xy;
+    let across = dot(ray, n);
+    let to_p = p - origin;
+    let t = dot(to_p, n) / across;
+    let delta = t * ray - to_p;
     let rx = dot(delta, dp_dx);
     let ry = dot(delta, dp_dy);
-    let step = vec2<f32>(yy * rx - xy * ry, xx * ry - xy * rx) / det;
-    // NaN and infinity fail both comparisons.
-    if !(abs(step.x) <= MAX_STEP_PX && abs(step.y) <= MAX_STEP_PX) {
-        return vec2<f32>(0.0);
-    }
-    return step;
+    // The Gram determinant xx·yy − xy² is |n|² (Lagrange's identity).
+    let step = vec2<f32>(yy * rx - xy * ry, xx * ry - xy * rx) * (1.0 / nn);
+    let eps2 = GRAZING_SIN * GRAZING_SIN;
+    // NaN and infinity fail the comparisons.
+    let ok = nn > eps2 * xx * yy && across * across > eps2 * nn * dot(ray, ray) && t > 0.0
+        && abs(step.x) <= MAX_STEP_PX && abs(step.y) <= MAX_STEP_PX;
+    return select(vec2<f32>(0.0), step, ok);
 }

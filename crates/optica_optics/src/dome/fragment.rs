@@ -55,24 +55,24 @@ pub fn plane_step(
     dp_dx: DVec3,
     dp_dy: DVec3,
 ) -> Option<DVec2> {
+    // As the shader does it (no square roots): the conditions on squares.
     let n = dp_dx.cross(dp_dy);
-    let (nn, dd) = (n.length(), ray.length());
-    if !(nn > GRAZING_SIN * dp_dx.length() * dp_dy.length()) || !(dd > 0.0) {
-        return None;
-    }
+    let nn = n.length_squared();
+    let (xx, xy, yy) = (dp_dx.dot(dp_dx), dp_dx.dot(dp_dy), dp_dy.dot(dp_dy));
+    let eps2 = GRAZING_SIN * GRAZING_SIN;
     let across = ray.dot(n);
-    if !(across.abs() > GRAZING_SIN * nn * dd) {
+    if !(nn > eps2 * xx * yy && across * across > eps2 * nn * ray.length_squared()) {
         return None;
     }
-    let t = (p - origin).dot(n) / across;
+    let to_p = p - origin;
+    let t = to_p.dot(n) / across;
     if !(t > 0.0) {
         return None;
     }
-    let delta = origin + t * ray - p;
-    let (xx, xy, yy) = (dp_dx.dot(dp_dx), dp_dx.dot(dp_dy), dp_dy.dot(dp_dy));
-    let det = xx * yy - xy * xy;
+    let delta = t * ray - to_p;
     let (rx, ry) = (delta.dot(dp_dx), delta.dot(dp_dy));
-    let step = DVec2::new(yy * rx - xy * ry, xx * ry - xy * rx) / det;
+    // The Gram determinant xx·yy − xy² is |n|² (Lagrange's identity).
+    let step = DVec2::new(yy * rx - xy * ry, xx * ry - xy * rx) / nn;
     (step.is_finite() && step.abs().max_element() <= MAX_STEP_PX).then_some(step)
 }
 

@@ -26,6 +26,7 @@
 //!   (done once for a static camera, each frame for a moving one).
 
 use bevy::camera::visibility::RenderLayers;
+use bevy::core_pipeline::tonemapping::DebandDither;
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_dome::{DomeCamera, DomeMode, refine_mesh_asset};
@@ -70,10 +71,12 @@ pub(super) fn scene(dome: Option<DomeCamera>) -> impl FnOnce(&mut App) {
 }
 
 /// The view of the dome sweeps' scenes, from the room's centre at the
-/// zenith, drawing on black, untonemapped: `dome`, or (None) Bevy's
-/// default perspective camera, the baseline of their frame times.
+/// zenith, drawing on black, untonemapped and undithered (Bevy's deband
+/// dither moves a sixth of the pixels one grey level, which the exact
+/// references do not): `dome`, or (None) Bevy's default perspective
+/// camera, the baseline of their frame times.
 pub(super) fn spawn_view(commands: &mut Commands, dome: Option<DomeCamera>, msaa: Msaa) {
-    let look = (black_untonemapped(msaa), zenith());
+    let look = (black_untonemapped(msaa), DebandDither::Disabled, zenith());
     match dome {
         Some(dome) => {
             commands.spawn((dome, look));

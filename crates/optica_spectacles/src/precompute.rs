@@ -219,8 +219,14 @@ pub(crate) fn update_optics(
             commands.entity(entity).insert(status);
             continue;
         };
-        // The lens: an impossible prescription keeps the last good lens.
-        let lens = match spectacles.map(Spectacles::design) {
+        // The lens, where the frame holds it (the field blurs through the
+        // decentred lens): an impossible prescription keeps the last good
+        // lens.
+        let lens = match spectacles.map(|s| {
+            let d = s.decentration_mm.as_dvec2() * 1e-3;
+            s.design()
+                .and_then(|l| l.decentred(d).map_err(optics::SpectaclesError::from))
+        }) {
             None => None,
             Some(Ok(l)) => Some(l),
             Some(Err(e)) => {

@@ -458,7 +458,9 @@ pub struct Spectacles {
     /// wearer's left and up): glasses that sit off centre, or slide. The
     /// lens is retraced whenever it changes (~0.2 ms at the default
     /// tessellation; the `spectacles` report's series
-    /// `refraction, −4 D (knob rings)`).
+    /// `refraction, −4 D (knob rings)`), and the defocus field with it (the
+    /// blur moves with the lens). An offset of the blank's radius or more
+    /// is refused (the lens would not be before the eye).
     pub decentration_mm: Vec2,
     /// Draws the lens's chromatic aberration from the material's Abbe
     /// number: the view's red, green and blue are refracted as the C, d and

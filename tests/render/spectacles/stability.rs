@@ -142,6 +142,24 @@ fn cases() -> Vec<Case> {
             }),
             refused: Some((Refused::Spectacles, "axis")),
         },
+        Case {
+            name: "−6 D decentred about 8 mm (5 mm in, 6 mm down): refracts and blurs from where it sits",
+            eye: eye(-6.0, 1.0, 6.0),
+            spectacles: Some(Spectacles {
+                decentration_mm: Vec2::new(5.0, -6.0),
+                ..Spectacles::sphere(-6.0)
+            }),
+            refused: None,
+        },
+        Case {
+            name: "decentred 30 mm on a 50 mm blank (the eye's axis off the lens)",
+            eye: eye(-3.0, 1.0, 4.0),
+            spectacles: Some(Spectacles {
+                decentration_mm: Vec2::new(30.0, 0.0),
+                ..Spectacles::sphere(-3.0)
+            }),
+            refused: Some((Refused::Spectacles, "lens decentration")),
+        },
     ]
 }
 

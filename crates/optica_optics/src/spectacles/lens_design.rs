@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::error::{LensSide, SpectaclesError};
 use super::lens_surface::{LensSurface, ProgressiveAddition, ProgressiveSurface, ToricSurface};
 use crate::glass::Glass;
-use crate::input::{self, InvalidInput};
+use crate::input::{self, Expected, InvalidInput};
 use crate::ray::Ray;
 use crate::surface::{SphericalSurface, refract};
 
@@ -83,7 +83,12 @@ impl Prescription {
         let add_d = input::in_range("near addition (D)", add_d, 0.0, MAX_ADDITION_D)?;
         let m = MAX_LENS_POWER_D;
         input::in_range("sphere + addition (D)", self.sphere_d + add_d, -m, m)?;
-        input::in_range("sphere + cylinder + addition (D)", self.sphere_d + self.cylinder_d + add_d, -m, m)?;
+        input::in_range(
+            "sphere + cylinder + addition (D)",
+            self.sphere_d + self.cylinder_d + add_d,
+            -m,
+            m,
+        )?;
         Ok(Self { add_d, ..self })
     }
 
@@ -360,6 +365,9 @@ pub struct SpectacleLens {
     centre_thickness_m: f64,
     front_power_d: f64,
     back_power_d: [f64; 2],
+    /// Where the optical centre sits off the eye's axis (m, eye frame x
+    /// and y); zero as designed.
+    decentration_m: DVec2,
 }
 
 fn sphere_sag(c: f64, r: f64) -> Option<f64> {
@@ -452,7 +460,10 @@ pub fn design_lens(
     // back surface's power F2 = (1 − n)·c2 in the optician's frame grows by
     // the add, c2 by add/(1 − n), the eye frame's curvature by add/(n − 1).
     let addition = if rx.add_d > 0.0 {
-        Some(ProgressiveAddition::new(rx.add_d / (n - 1.0), params.corridor_m)?)
+        Some(ProgressiveAddition::new(
+            rx.add_d / (n - 1.0),
+            params.corridor_m,
+        )?)
     } else {
         None
     };
@@ -549,6 +560,7 @@ pub fn design_lens(
         centre_thickness_m: t,
         front_power_d: f1,
         back_power_d: f2,
+        decentration_m: DVec2::ZERO,
     })
 }
 
@@ -581,6 +593,40 @@ impl SpectacleLens {
             index: self.params.material().index(wavelength_nm),
             ..*self
         }
+    }
+
+    /// The same lens with its optical centre moved `decentration_m` (m, in
+    /// the eye frame's x and y) off the eye's axis, as a frame fitted
+    /// off-centre wears it: [`SpectacleLens::trace_from_eye`] and everything
+    /// built on it (bundles, the defocus field) then see it there, a prism
+    /// of `c·F` (Prentice) before the eye. The surfaces
+    /// ([`SpectacleLens::front`], [`SpectacleLens::back`]) stay in the
+    /// lens's own frame, centred.
+    ///
+    /// Errors: a non-finite offset, or one that puts the eye's axis off
+    /// the blank (at least its radius).
+    pub fn decentred(self, decentration_m: DVec2) -> Result<Self, InvalidInput> {
+        let d = input::finite_vec2("lens decentration (m)", decentration_m)?;
+        if !(d.length() < self.rim_radius_m) {
+            return Err(InvalidInput::new(
+                "lens decentration (m)",
+                d.length(),
+                Expected::Range {
+                    min: 0.0,
+                    max: self.rim_radius_m,
+                },
+            ));
+        }
+        Ok(Self {
+            decentration_m: d,
+            ..self
+        })
+    }
+
+    /// Where the optical centre sits off the eye's axis (m, eye frame x
+    /// and y): zero unless [`SpectacleLens::decentred`].
+    pub fn decentration_m(&self) -> DVec2 {
+        self.decentration_m
     }
 
     /// Object-side surface, vertex at `z = d + t`.
@@ -676,7 +722,12 @@ impl SpectacleLens {
     ///
     /// Errors: a non-finite input; [`SpectaclesError::Degenerate`] if a
     /// probe does not get through.
-    pub fn measured_power_at_d(&self, x: f64, y: f64, theta_deg: f64) -> Result<f64, SpectaclesError> {
+    pub fn measured_power_at_d(
+        &self,
+        x: f64,
+        y: f64,
+        theta_deg: f64,
+    ) -> Result<f64, SpectaclesError> {
         let theta = input::finite("meridian (deg)", theta_deg)?;
         let at = input::finite_vec2("lens point (m)", DVec2::new(x, y))?;
         let m = DVec2::from_angle(theta.to_radians());
@@ -1012,14 +1063,24 @@ mod tests {
             let deviation = incoming.angle_between(dd);
             let spread = dc.angle_between(df);
             let prentice = 0.5 * f.abs() / 100.0;
-            assert!(deviation > 0.8 * prentice && deviation < 1.5 * prentice, "{f} D: {deviation} rad");
+            assert!(
+                deviation > 0.8 * prentice && deviation < 1.5 * prentice,
+                "{f} D: {deviation} rad"
+            );
             let want = deviation / vd;
-            assert!((spread / want - 1.0).abs() < 0.1, "{f} D, V {vd}: {spread} rad vs {want}");
+            assert!(
+                (spread / want - 1.0).abs() < 0.1,
+                "{f} D, V {vd}: {spread} rad vs {want}"
+            );
             // Blue bends more: for a minus lens away from the centre, more outwards.
             assert!(lens.at_wavelength(LAMBDA_F_NM).index() > lens.index());
         }
         // No dispersion in a constant-index material.
-        let paper = design_lens(&Prescription::sphere(-6.0).unwrap(), &LensDesignParams::paper()).unwrap();
+        let paper = design_lens(
+            &Prescription::sphere(-6.0).unwrap(),
+            &LensDesignParams::paper(),
+        )
+        .unwrap();
         assert_eq!(paper.at_wavelength(LAMBDA_F_NM).index(), paper.index());
     }
 
@@ -1032,7 +1093,10 @@ mod tests {
         // half the add half-way down the corridor, and beside the corridor
         // the astigmatism no progressive surface avoids (Minkwitz).
         let params = LensDesignParams::default();
-        let rx = Prescription::sphere(0.0).unwrap().with_addition(2.0).unwrap();
+        let rx = Prescription::sphere(0.0)
+            .unwrap()
+            .with_addition(2.0)
+            .unwrap();
         let lens = design_lens(&rx, &params).unwrap();
         assert!(matches!(lens.back(), LensSurface::Progressive(_)));
         let power = |x: f64, y: f64| {
@@ -1041,9 +1105,17 @@ mod tests {
                 lens.measured_power_at_d(x, y, 90.0).unwrap(),
             )
         };
-        for (x, y, want) in [(0.0, 0.004, 0.0), (0.0, 0.0, 0.0), (0.0, -0.007, 1.0), (0.0, -0.018, 2.0)] {
+        for (x, y, want) in [
+            (0.0, 0.004, 0.0),
+            (0.0, 0.0, 0.0),
+            (0.0, -0.007, 1.0),
+            (0.0, -0.018, 2.0),
+        ] {
             let (h, v) = power(x, y);
-            assert!((h - want).abs() < 0.1 && (v - want).abs() < 0.1, "({x}, {y}): {h} / {v} vs {want}");
+            assert!(
+                (h - want).abs() < 0.1 && (v - want).abs() < 0.1,
+                "({x}, {y}): {h} / {v} vs {want}"
+            );
         }
         // Beside the corridor, half-way down, the astigmatism from the
         // oblique terms: the cylinder from the powers at 0°, 45° and 90°.
@@ -1054,13 +1126,25 @@ mod tests {
             2.0 * (0.25 * (a - c) * (a - c) + b * b).sqrt()
         };
         let (on, beside) = (cylinder(0.0, -0.007), cylinder(0.008, -0.007));
-        eprintln!("progressive +2.00: cylinder on the corridor {on:.2} D, 8 mm beside it {beside:.2} D");
+        eprintln!(
+            "progressive +2.00: cylinder on the corridor {on:.2} D, 8 mm beside it {beside:.2} D"
+        );
         assert!(on < 0.1 && beside > 1.0 && beside < 4.0, "{on} {beside}");
         // The centre's power is the sphere's, as without an add.
         assert!(lens.measured_back_vertex_power_d(0.0).unwrap().abs() < 0.01);
         // Bad additions.
-        assert!(Prescription::sphere(0.0).unwrap().with_addition(-1.0).is_err());
-        assert!(Prescription::sphere(19.0).unwrap().with_addition(2.0).is_err());
+        assert!(
+            Prescription::sphere(0.0)
+                .unwrap()
+                .with_addition(-1.0)
+                .is_err()
+        );
+        assert!(
+            Prescription::sphere(19.0)
+                .unwrap()
+                .with_addition(2.0)
+                .is_err()
+        );
         assert!(params.with_corridor_m(0.0).is_err());
     }
 }

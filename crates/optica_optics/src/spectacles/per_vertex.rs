@@ -1,6 +1,6 @@
 //! Per-vertex ray tracing through the lens (documented on [`LensTrace`]).
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -102,6 +102,34 @@ impl SpectacleLens {
     /// surface (glass → air). Every outcome is a [`LensTrace`] variant; a
     /// [`Ray`] is always traceable, so there is no error.
     pub fn trace_from_eye(&self, ray: &Ray) -> LensTrace {
+        let d = self.decentration_m();
+        if d == DVec2::ZERO {
+            return self.trace_centred(ray);
+        }
+        // A decentred lens: the ray in the lens's own frame, the outcome
+        // back in the eye's.
+        let shift = d.extend(0.0);
+        let local = Ray::from_unit(ray.origin() - shift, ray.dir());
+        match self.trace_centred(&local) {
+            LensTrace::Exit { back, front, dir } => LensTrace::Exit {
+                back: back + shift,
+                front: front + shift,
+                dir,
+            },
+            LensTrace::TotalInternalReflection { back, at } => LensTrace::TotalInternalReflection {
+                back: back + shift,
+                at: at + shift,
+            },
+            LensTrace::EdgeExit { back, at } => LensTrace::EdgeExit {
+                back: back + shift,
+                at: at + shift,
+            },
+            LensTrace::Missed => LensTrace::Missed,
+        }
+    }
+
+    /// [`SpectacleLens::trace_from_eye`] in the lens's own frame.
+    fn trace_centred(&self, ray: &Ray) -> LensTrace {
         let (rim, index, back_surface, front_surface) =
             (self.rim_radius_m(), self.index(), self.back(), self.front());
         let r2 = rim * rim;

@@ -12,8 +12,8 @@ use super::error::{LensSide, SpectaclesError};
 use super::eye::Eye;
 use super::lens_design::SpectacleLens;
 use super::lens_mesh::{MAX_POLAR_POINTS, polar_point_count, polar_points, too_many_points};
-use crate::ray::Ray;
 use crate::input::{self, Expected, InvalidInput};
+use crate::ray::Ray;
 use crate::voxel::VoxelGrid;
 
 /// Most clones (`S`) a field accepts: 1,024, a hundred times the paper's 10.
@@ -594,10 +594,13 @@ fn aims(
         .into_iter()
         .map(|(x, y)| {
             let p = match lens {
-                Some(l) => l
-                    .back()
-                    .point(x, y)
-                    .ok_or_else(|| l.not_to_rim(LensSide::Back))?,
+                // Over the blank wherever a decentred lens sits.
+                Some(l) => {
+                    l.back()
+                        .point(x, y)
+                        .ok_or_else(|| l.not_to_rim(LensSide::Back))?
+                        + l.decentration_m().extend(0.0)
+                }
                 None => DVec3::new(x, y, st.window_z_m),
             };
             Ok(input::direction(
@@ -829,7 +832,8 @@ pub fn precompute_field(
         // filled as angles (divided by that distance), so that a set
         // carried across layers keeps its angle, not its size.
         let per_layer = st.dims[0] * st.dims[1];
-        let layer_w = |i: usize| grid_lo.z + ((i / 2 / per_layer) as f64 + 0.5) * grid.cell_size().z;
+        let layer_w =
+            |i: usize| grid_lo.z + ((i / 2 / per_layer) as f64 + 0.5) * grid.cell_size().z;
         if layout != FieldLayout::Box {
             for (i, v) in maps.iter_mut().enumerate() {
                 *v *= layer_w(i) as f32;
@@ -867,7 +871,11 @@ pub fn precompute_field(
 /// to the voxel centre's distance (`1/z'` at the centre) by the ratio of
 /// the distances. A ray that does not travel away from the eye crosses
 /// nothing.
-fn crossed_cells(grid: &VoxelGrid<()>, chief: &Ray, layout: FieldLayout) -> Vec<([usize; 3], f64, f64)> {
+fn crossed_cells(
+    grid: &VoxelGrid<()>,
+    chief: &Ray,
+    layout: FieldLayout,
+) -> Vec<([usize; 3], f64, f64)> {
     match layout {
         FieldLayout::Box => grid
             .traverse(chief)
@@ -1144,8 +1152,14 @@ impl DisplacementField {
             return None;
         };
         let q = eye_coordinates(point, centre_z).filter(|q| q.is_finite())?;
-        let (lo, size, dims) = (self.counts.origin(), self.counts.cell_size(), self.counts.dims());
-        let across = |a: usize| (((q[a] - lo[a]) / size[a]).floor()).clamp(0.0, (dims[a] - 1) as f64) as usize;
+        let (lo, size, dims) = (
+            self.counts.origin(),
+            self.counts.cell_size(),
+            self.counts.dims(),
+        );
+        let across = |a: usize| {
+            (((q[a] - lo[a]) / size[a]).floor()).clamp(0.0, (dims[a] - 1) as f64) as usize
+        };
         // Layers by their centres: `k` below the point, `k + 1` above.
         let layer = ((q.z - lo.z) / size.z - 0.5).clamp(0.0, (dims[2] - 1) as f64);
         let k = (layer.floor() as usize).min(dims[2] - 1);
@@ -1192,11 +1206,7 @@ impl DisplacementField {
     /// linearly with distance, so the blur's angle is kept). `None` when
     /// the sight line never enters the box or a point is not finite (no
     /// blur). The plugin's vertex shader is the twin of this.
-    pub fn displacement_along_sight(
-        &self,
-        point: DVec3,
-        from: DVec3,
-    ) -> Option<([Vec3; 2], f64)> {
+    pub fn displacement_along_sight(&self, point: DVec3, from: DVec3) -> Option<([Vec3; 2], f64)> {
         if !point.is_finite() || !from.is_finite() {
             return None;
         }
@@ -1269,7 +1279,11 @@ mod tests {
         use crate::spectacles::field_reference::reference_at;
         let eye = Eye::from_near_far(0.5, 1.3, 0.012).unwrap();
         let pl = EyePlacement::default();
-        let lens = design_lens(&Prescription::sphere(1.5).unwrap(), &LensDesignParams::paper()).unwrap();
+        let lens = design_lens(
+            &Prescription::sphere(1.5).unwrap(),
+            &LensDesignParams::paper(),
+        )
+        .unwrap();
         let st = FieldSettings::paper().scaled(0.5).unwrap();
         let boxed = precompute_field(&eye, &pl, Some(&lens), &st).unwrap();
         let eyed = precompute_field(&eye, &pl, Some(&lens), &st.with_grid(FieldGrid::Eye)).unwrap();
@@ -1280,9 +1294,16 @@ mod tests {
             let mut n = 0;
             for k in 0..12 {
                 let a = k as f64 * 0.5;
-                let dir = DVec3::new(0.1 * a.cos() * (k % 3) as f64, 0.1 * a.sin() * (k % 3) as f64, 1.0).normalize();
+                let dir = DVec3::new(
+                    0.1 * a.cos() * (k % 3) as f64,
+                    0.1 * a.sin() * (k % 3) as f64,
+                    1.0,
+                )
+                .normalize();
                 let p = centre + dir * ((z - centre.z) / dir.z);
-                let Ok(r) = reference_at(&eye, &pl, Some(&lens), p, 64) else { continue };
+                let Ok(r) = reference_at(&eye, &pl, Some(&lens), p, 64) else {
+                    continue;
+                };
                 let got = f.spread_at(p).expect("inside the field").rms_radius_m;
                 sum += (got - r.spread.rms_radius_m).abs() / r.distance_m;
                 n += 1;
@@ -1299,7 +1320,10 @@ mod tests {
             let (b, e) = (error(&boxed, z), error(&eyed, z));
             eprintln!("{z} m: eye coordinates {e:.2e} rad, box {b:.2e} rad");
             if z < 0.25 {
-                assert!(e < 0.1 * b, "at {z} m: eye coordinates {e:.2e} rad, box {b:.2e} rad");
+                assert!(
+                    e < 0.1 * b,
+                    "at {z} m: eye coordinates {e:.2e} rad, box {b:.2e} rad"
+                );
             }
             sum_box += b;
             sum_eye += e;
@@ -1309,6 +1333,74 @@ mod tests {
         // reaches infinity); a point behind the centre has no set.
         assert!(eyed.map_at(DVec3::new(0.0, 0.0, 50.0)).is_some());
         assert!(eyed.map_at(DVec3::new(0.0, 0.0, centre.z - 0.01)).is_none());
+    }
+
+    /// A decentred lens blurs from where it sits: its field agrees with
+    /// the direct reference through the decentred lens, where the field of
+    /// the same lens centred (what the plugin drew before) does not.
+    #[test]
+    fn a_decentred_lens_s_field_follows_the_lens() {
+        use crate::spectacles::field_reference::reference_at;
+        let eye = Eye::from_near_far(0.5, 1.3, 0.012).unwrap();
+        let pl = EyePlacement::default();
+        let rx = Prescription::sphere(1.5)
+            .unwrap()
+            .with_addition(2.0)
+            .unwrap();
+        let centred = design_lens(&rx, &LensDesignParams::paper()).unwrap();
+        let decentred = centred.decentred(DVec2::new(0.004, -0.006)).unwrap();
+        let st = FieldSettings::paper().with_grid(FieldGrid::Eye);
+        let moved = precompute_field(&eye, &pl, Some(&decentred), &st).unwrap();
+        let kept = precompute_field(&eye, &pl, Some(&centred), &st).unwrap();
+        let centre = pl.centre_of_rotation();
+        let (mut moved_err, mut kept_err, mut n) = (0.0, 0.0, 0);
+        // Beyond the corrected near point (0.45 m here), where the near
+        // zone's blur, which decentring moves, shows.
+        for z in [0.7, 1.0, 1.5, 2.5] {
+            for k in 0..12 {
+                let a = k as f64 * 0.5;
+                let r = 0.12 * (k % 3) as f64;
+                let dir = DVec3::new(r * a.cos(), r * a.sin(), 1.0).normalize();
+                let p = centre + dir * ((z - centre.z) / dir.z);
+                let Ok(truth) = reference_at(&eye, &pl, Some(&decentred), p, 64) else {
+                    continue;
+                };
+                let err = |f: &DisplacementField| {
+                    let got = f.spread_at(p).expect("inside the field").rms_radius_m;
+                    (got - truth.spread.rms_radius_m).abs() / truth.distance_m
+                };
+                moved_err += err(&moved);
+                kept_err += err(&kept);
+                n += 1;
+            }
+        }
+        assert!(n >= 30, "{n} points");
+        let (moved_err, kept_err) = (moved_err / n as f64, kept_err / n as f64);
+        eprintln!("decentred field {moved_err:.2e} rad, centred field {kept_err:.2e} rad");
+        assert!(moved_err < 0.3 * kept_err, "{moved_err:.2e} {kept_err:.2e}");
+        // Through a decentred lens the trace is the centred one moved.
+        let ray = Ray::new(centre, DVec3::new(0.05, 0.02, 1.0)).unwrap();
+        let shift = DVec3::new(0.004, -0.006, 0.0);
+        let local = Ray::new(centre - shift, ray.dir()).unwrap();
+        match (
+            decentred.trace_from_eye(&ray),
+            centred.trace_from_eye(&local),
+        ) {
+            (
+                crate::spectacles::LensTrace::Exit {
+                    front: a, dir: da, ..
+                },
+                crate::spectacles::LensTrace::Exit {
+                    front: b, dir: db, ..
+                },
+            ) => {
+                assert!((a - (b + shift)).length() < 1e-15 && (da - db).length() < 1e-15);
+            }
+            other => panic!("{other:?}"),
+        }
+        // Off the blank: refused.
+        assert!(centred.decentred(DVec2::new(0.03, 0.0)).is_err());
+        assert!(centred.decentred(DVec2::NAN).is_err());
     }
 
     #[test]
@@ -1332,9 +1424,15 @@ mod tests {
         let exit_cell = f.counts().cell_of(exit - DVec3::Z * 1e-9).unwrap();
         assert_eq!(map, f.map(exit_cell).unwrap());
         // Beside the box (x beyond ±2.75 m all the way), behind the eye, NaN.
-        assert!(f.displacement_along_sight(DVec3::new(9.0, 0.0, 0.02), from).is_none());
+        assert!(
+            f.displacement_along_sight(DVec3::new(9.0, 0.0, 0.02), from)
+                .is_none()
+        );
         assert!(f.displacement_along_sight(DVec3::NAN, from).is_none());
-        assert!(f.displacement_along_sight(DVec3::new(0.0, 0.0, 5.0), DVec3::NAN).is_none());
+        assert!(
+            f.displacement_along_sight(DVec3::new(0.0, 0.0, 5.0), DVec3::NAN)
+                .is_none()
+        );
     }
 
     #[test]
@@ -1357,8 +1455,10 @@ mod tests {
         };
         let (matching, crossed) = (field(30.0), field(120.0));
         for p in [DVec3::new(0.0, 0.0, 1.5), DVec3::new(0.15, -0.1, 1.0)] {
-            let naked = Spread::of(crate::spectacles::naked_eye_displacements(&eye, &pl, p, &samples))
-                .rms_radius_m;
+            let naked = Spread::of(crate::spectacles::naked_eye_displacements(
+                &eye, &pl, p, &samples,
+            ))
+            .rms_radius_m;
             let rms = |f: &DisplacementField| {
                 Spread::of(f.displacements_at(p).unwrap().iter().map(|v| v.as_dvec3())).rms_radius_m
             };
@@ -1378,7 +1478,10 @@ mod tests {
         let pl = EyePlacement::default();
         let eye = Eye::new(0.0, 0.5, 0.004).unwrap();
         let field = |add: f64| {
-            let rx = Prescription::sphere(0.0).unwrap().with_addition(add).unwrap();
+            let rx = Prescription::sphere(0.0)
+                .unwrap()
+                .with_addition(add)
+                .unwrap();
             let lens = design_lens(&rx, &LensDesignParams::default()).unwrap();
             // 2 cm voxels over the book's region and the way ahead.
             let st = FieldSettings::paper()
@@ -1398,7 +1501,9 @@ mod tests {
         let chart = DVec3::new(0.0, 0.0, 5.0);
         let naked_book = 0.5 * eye.blur_disc_diameter_m((book - c).length()).unwrap() / 2f64.sqrt();
         let (pb, sb) = (rms(&progressive, book), rms(&single, book));
-        eprintln!("book: progressive {pb:.2e} m, single vision {sb:.2e} m (naked {naked_book:.2e})");
+        eprintln!(
+            "book: progressive {pb:.2e} m, single vision {sb:.2e} m (naked {naked_book:.2e})"
+        );
         assert!(sb > 0.5 * naked_book, "{sb} vs {naked_book}");
         assert!(pb < 0.25 * sb, "{pb} vs {sb}");
         // Far ahead, through the top: sharp in both (the box ends at
@@ -1408,7 +1513,12 @@ mod tests {
             let (m, k) = f.displacement_along_sight(chart, from).unwrap();
             (m[0].length().max(m[1].length()) as f64) * k
         };
-        assert!(far(&progressive) < 2e-4 && far(&single) < 2e-4, "{} {}", far(&progressive), far(&single));
+        assert!(
+            far(&progressive) < 2e-4 && far(&single) < 2e-4,
+            "{} {}",
+            far(&progressive),
+            far(&single)
+        );
     }
 
     #[test]

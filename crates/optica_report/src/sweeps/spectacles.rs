@@ -23,7 +23,12 @@
 //!   eye with −1.5 D of cylinder at 30° in the toric lens of its
 //!   prescription (+1.5 / −1.5 × 30), against its own reference points;
 //!   a progressive series (`_pal`, S = 10): the Fig. 8 eye in its
-//!   distance correction (−0.78 D) with a +2.00 add; an eye-coordinates
+//!   distance correction (−0.78 D) with a +2.00 add; the same lens
+//!   decentred (4, −6) mm (`_dec`: its field traced through the lens where
+//!   it sits, against reference points through it; `_dec_centred`: the
+//!   centred lens's field against the same points, how a decentred lens
+//!   was blurred before; both in eye coordinates, the plugin's default
+//!   grid); an eye-coordinates
 //!   series (`_eyegrid`, S = 10): the plain case with the voxels laid out
 //!   in eye coordinates (`FieldGrid::Eye`, the same voxel count). Every
 //!   series also gives `near_mean_mrad` over the points nearer than 0.3 m,
@@ -50,9 +55,9 @@
 
 use optica_optics::glam::{DVec3, Vec3};
 use optica_optics::spectacles::{
-    DEFAULT_DENSE_SAMPLES, DisplacementField, Eye, EyePlacement, FieldGrid, FieldSettings, LensDesignParams,
-    LensMesh, Prescription, SpectacleLens, SpectaclesError, Spread, design_lens, precompute_field,
-    reference_at, refract_vertices,
+    DEFAULT_DENSE_SAMPLES, DisplacementField, Eye, EyePlacement, FieldGrid, FieldSettings,
+    LensDesignParams, LensMesh, Prescription, SpectacleLens, SpectaclesError, Spread, design_lens,
+    precompute_field, reference_at, refract_vertices,
 };
 
 use crate::fixtures::halton;
@@ -140,9 +145,7 @@ fn sight_errors(field: &DisplacementField, pts: &[RefPoint]) -> f64 {
     for q in pts {
         let s = field
             .displacement_along_sight(q.p, DVec3::ZERO)
-            .map(|(map, k)| {
-                Spread::of(field.expand(map).iter().map(|v| v.as_dvec3() * k))
-            })
+            .map(|(map, k)| Spread::of(field.expand(map).iter().map(|v| v.as_dvec3() * k)))
             .map_or(0.0, |s| s.rms_radius_m);
         ang += (s - q.rms).abs() / q.dist;
     }
@@ -169,6 +172,13 @@ enum Case {
     Progressive,
     /// The plain case with the voxels in eye coordinates.
     EyeGrid,
+    /// The progressives decentred (4, −6) mm, their field traced through
+    /// the lens where it sits.
+    Decentred,
+    /// The same decentred progressives' reference points against the field
+    /// of the lens centred (how the plugin blurred a decentred lens
+    /// before its field followed the lens).
+    DecentredAsCentred,
 }
 
 impl Case {
@@ -179,6 +189,8 @@ impl Case {
             Case::Astigmatic => "_astig",
             Case::Progressive => "_pal",
             Case::EyeGrid => "_eyegrid",
+            Case::Decentred => "_dec",
+            Case::DecentredAsCentred => "_dec_centred",
         }
     }
 }
@@ -215,9 +227,12 @@ pub fn run(ctx: &SweepContext) -> Report {
         &LensDesignParams::paper(),
     )
     .expect("−0.78 D add +2.00 is a lens");
+    let decentred = progressive
+        .decentred(optica_optics::glam::DVec2::new(0.004, -0.006))
+        .expect("6 mm is on the blank");
     let scales: Vec<f64> = ctx.pick(vec![0.25, 0.5, 1.0], vec![0.25, 0.5, 0.75, 1.0, 1.25, 1.5]);
     // (S, scales, case).
-    use Case::{Astigmatic, EyeGrid, Plain, Progressive};
+    use Case::{Astigmatic, Decentred, DecentredAsCentred, EyeGrid, Plain, Progressive};
     let series: Vec<(usize, Vec<f64>, Case)> = ctx.pick(
         vec![
             (10, scales.clone(), Plain),
@@ -226,6 +241,8 @@ pub fn run(ctx: &SweepContext) -> Report {
             (10, vec![0.5, 1.0], Astigmatic),
             (10, vec![0.5, 1.0], Progressive),
             (10, scales.clone(), EyeGrid),
+            (10, vec![0.5, 1.0], Decentred),
+            (10, vec![0.5, 1.0], DecentredAsCentred),
         ],
         vec![
             (10, scales.clone(), Plain),
@@ -234,6 +251,8 @@ pub fn run(ctx: &SweepContext) -> Report {
             (10, scales.clone(), Astigmatic),
             (10, scales.clone(), Progressive),
             (10, scales.clone(), EyeGrid),
+            (10, scales.clone(), Decentred),
+            (10, scales.clone(), DecentredAsCentred),
         ],
     );
     let n_points = ctx.pick(60, 300);
@@ -264,6 +283,7 @@ pub fn run(ctx: &SweepContext) -> Report {
     let (far, _) = reference_points_in(&eye, &pl, &lens, n_points / 2, (2.5, 10.0));
     let astig = reference_points(&astigmat, &pl, &toric, n_points);
     let pal = reference_points(&eye, &pl, &progressive, n_points);
+    let dec = reference_points(&eye, &pl, &decentred, n_points);
 
     let mut step = 0;
     for (clones, ks, case) in &series {
@@ -275,11 +295,18 @@ pub fn run(ctx: &SweepContext) -> Report {
             Plain | EyeGrid => (&eye, &lens, &plain),
             Astigmatic => (&astigmat, &toric, &astig),
             Progressive => (&eye, &progressive, &pal),
+            Decentred => (&eye, &decentred, &dec),
+            DecentredAsCentred => (&eye, &progressive, &dec),
         };
         for &k in ks {
             step += 1;
             ctx.progress(step, total, &format!("S = {clones}, scale {k}"));
-            let grid = if *case == EyeGrid { FieldGrid::Eye } else { FieldGrid::Box };
+            // The decentred series in the plugin's default grid.
+            let grid = if matches!(case, EyeGrid | Decentred | DecentredAsCentred) {
+                FieldGrid::Eye
+            } else {
+                FieldGrid::Box
+            };
             let st = match FieldSettings::paper()
                 .scaled(k)
                 .and_then(|st| st.with_clones(*clones))
@@ -295,9 +322,7 @@ pub fn run(ctx: &SweepContext) -> Report {
                     continue;
                 }
             };
-            let (t, field) = time_ms(runs, budget, || {
-                precompute_field(eye, &pl, Some(lens), &st)
-            });
+            let (t, field) = time_ms(runs, budget, || precompute_field(eye, &pl, Some(lens), &st));
             let field = match field {
                 Ok(f) => f,
                 Err(e) => {
@@ -320,13 +345,11 @@ pub fn run(ctx: &SweepContext) -> Report {
                 row = row.err(&format!("far_mean_mrad{suffix}"), far_ang * 1e3);
             }
             report.rows.push(
-                row
-                    .err(&format!("mean_mm{suffix}"), mean * 1e3)
+                row.err(&format!("mean_mm{suffix}"), mean * 1e3)
                     .err(&format!("max_mm{suffix}"), max * 1e3)
                     .err(&format!("mean_mrad{suffix}"), ang * 1e3)
                     .err(&format!("edge_mean_mm{suffix}"), edge * 1e3)
                     .err(&format!("near_mean_mrad{suffix}"), near_ang * 1e3)
-
                     .work("clones", *clones as f64)
                     .work("voxels", field.counts().len() as f64)
                     .work("aims", s.aims as f64)
@@ -340,6 +363,10 @@ pub fn run(ctx: &SweepContext) -> Report {
                     .work("astigmatic", f64::from(u8::from(*case == Astigmatic)))
                     .work("progressive", f64::from(u8::from(*case == Progressive)))
                     .work("eye_grid", f64::from(u8::from(*case == EyeGrid)))
+                    .work(
+                        "decentred",
+                        f64::from(u8::from(matches!(case, Decentred | DecentredAsCentred))),
+                    )
                     .work("near_points", near.len() as f64)
                     .work("baseline_exits", exits as f64),
             );
@@ -507,8 +534,9 @@ mod tests {
         let ctx = SweepContext::new("spectacles", true, true);
         let r = run(&ctx);
         // S = 10 at three scales, S = 4 and 20 at one, the astigmatic and
-        // progressive series at two each, eye coordinates at three.
-        assert_eq!(r.rows.len(), 12);
+        // progressive series at two each, eye coordinates at three, the
+        // decentred lens's two series at two each.
+        assert_eq!(r.rows.len(), 16);
         let problems = r.problems();
         assert!(problems.is_empty(), "{problems:#?}");
         // The S = 10 series: rows 0..3 at scales 0.25, 0.5, 1.
@@ -535,12 +563,29 @@ mod tests {
         for key in ["mean_mrad", "near_mean_mrad"] {
             let (boxed, eyed) = (at_scale_1(key), at_scale_1(&format!("{key}_eyegrid")));
             eprintln!("{key}: box {boxed:.4}, eye coordinates {eyed:.4}");
-            assert!(eyed < boxed, "{key}: eye coordinates {eyed} against the box's {boxed}");
+            assert!(
+                eyed < boxed,
+                "{key}: eye coordinates {eyed} against the box's {boxed}"
+            );
         }
+        // A decentred lens's field follows its own references, which the
+        // centred lens's field does not.
+        let (moved, kept) = (
+            at_scale_1("mean_mrad_dec"),
+            at_scale_1("mean_mrad_dec_centred"),
+        );
+        eprintln!("decentred: its own field {moved:.4} mrad, the centred lens's {kept:.4}");
+        assert!(
+            moved < 0.5 * kept,
+            "decentred {moved} against centred {kept}"
+        );
         let plain = at_scale_1("mean_mm");
         for key in ["mean_mm_astig", "mean_mm_pal"] {
             let e = at_scale_1(key);
-            assert!(e.is_finite() && e < 2.0 * plain, "{key}: {e} against {plain}");
+            assert!(
+                e.is_finite() && e < 2.0 * plain,
+                "{key}: {e} against {plain}"
+            );
         }
     }
 }

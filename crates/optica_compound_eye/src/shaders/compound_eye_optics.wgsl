@@ -111,6 +111,14 @@ fn axes_on_tangent(u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, tangent: vec3<f32>)
     if !(length(in_plane) > 1e-4 * length(tangent)) {
         return array<vec3<f32>, 2>(u, v);
     }
+    let frame = unit_frame(u, v, n, in_plane);
+    let side = sqrt(length(cross(u, v)));
+    return array<vec3<f32>, 2>(side * frame[0], side * frame[1]);
+}
+
+// The unit frame (T, B) of a tangent's in-plane part `in_plane` (not
+// zero): T along it on `u`'s side, B = n × T on `v`'s side.
+fn unit_frame(u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, in_plane: vec3<f32>) -> array<vec3<f32>, 2> {
     var t = normalize(in_plane);
     if dot(t, u) < 0.0 {
         t = -t;
@@ -119,8 +127,7 @@ fn axes_on_tangent(u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, tangent: vec3<f32>)
     if dot(b, v) < 0.0 {
         b = -b;
     }
-    let side = sqrt(length(cross(u, v)));
-    return array<vec3<f32>, 2>(side * t, side * b);
+    return array<vec3<f32>, 2>(t, b);
 }
 
 // texture_axes.rs `TextureAxes::on_field`: the axes `u`, `v` (normal `n`)
@@ -138,16 +145,9 @@ fn axes_on_field(u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, tangent: vec3<f32>, s
     if !(shape.y > 1e-4 && shape.y < 3.0e38 && abs(shape.x) < 3.0e38) {
         return axes_on_tangent(u, v, n, tangent);
     }
-    var t = normalize(in_plane);
-    if dot(t, u) < 0.0 {
-        t = -t;
-    }
-    var b = cross(n, t);
-    if dot(b, v) < 0.0 {
-        b = -b;
-    }
+    let frame = unit_frame(u, v, n, in_plane);
     let side = sqrt(length(cross(u, v)) / shape.y);
-    return array<vec3<f32>, 2>(side * t, side * (shape.x * t + shape.y * b));
+    return array<vec3<f32>, 2>(side * frame[0], side * (shape.x * frame[0] + shape.y * frame[1]));
 }
 
 fn make_lattice(origin: vec3<f32>, u: vec3<f32>, v: vec3<f32>, n: vec3<f32>, kind: u32) -> Lattice {

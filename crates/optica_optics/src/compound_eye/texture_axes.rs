@@ -414,15 +414,22 @@ impl TextureAxes {
         if !(in_plane.length() > SHADER_UV_DET_REL_EPS * tangent.length()) {
             return *self;
         }
-        let t = in_plane.normalize();
-        let t = if t.dot(self.u) < 0.0 { -t } else { t };
-        let b = n.cross(t);
-        let b = if b.dot(self.v) < 0.0 { -b } else { b };
+        let (t, b) = self.unit_frame(in_plane);
         let side = self.gram.sqrt().sqrt();
         let (u, v) = (side * t, side * b);
         let uv = self.uv_of(at);
         let origin = at - uv.x * u - uv.y * v;
         Self::assemble(origin, u, v, n, self.handedness, self.fallback)
+    }
+
+    /// The unit frame (T, B) of a tangent's in-plane part (not zero): T
+    /// along it on `U_p`'s side, B = N × T on `V_p`'s side.
+    fn unit_frame(&self, in_plane: DVec3) -> (DVec3, DVec3) {
+        let t = in_plane.normalize();
+        let t = if t.dot(self.u) < 0.0 { -t } else { t };
+        let b = self.normal.cross(t);
+        let b = if b.dot(self.v) < 0.0 { -b } else { b };
+        (t, b)
     }
 
     /// The lattice through `at` laid along a smooth axis field (see
@@ -446,10 +453,7 @@ impl TextureAxes {
         if !(shape.is_finite() && shape.y > SHADER_UV_DET_REL_EPS) {
             return self.on_tangent(at, tangent);
         }
-        let t = in_plane.normalize();
-        let t = if t.dot(self.u) < 0.0 { -t } else { t };
-        let b = n.cross(t);
-        let b = if b.dot(self.v) < 0.0 { -b } else { b };
+        let (t, b) = self.unit_frame(in_plane);
         // |U × V| = L²·aspect keeps the cell's area.
         let side = (self.gram.sqrt() / shape.y).sqrt();
         let (u, v) = (side * t, side * (shape.x * t + shape.y * b));

@@ -167,10 +167,13 @@ fn random_domes_draw_finite() {
 
 #[test]
 fn random_compound_eyes_draw_finite() {
-    use optica_compound_eye::{CompoundEye, CompoundEyeMaterial};
+    use optica_compound_eye::{CompoundEye, CompoundEyeMaterial, insert_axis_field};
+    // With the smooth axis field, for draws that turn `axis_field` on.
+    let mut mesh = Sphere::new(1.0).mesh().uv(24, 12);
+    insert_axis_field(&mut mesh).expect("a UV sphere takes a field");
     let mut app = headless()
         .start(optica_report::fixtures::compound_eye_scene(
-            Sphere::new(1.0).mesh().uv(24, 12),
+            mesh,
             Transform::IDENTITY,
             Some(CompoundEye::default()),
             Transform::from_xyz(0.0, 0.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),

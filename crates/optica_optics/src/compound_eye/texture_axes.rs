@@ -1042,4 +1042,26 @@ mod tests {
             );
         }
     }
+
+    proptest! {
+        /// Any mesh, degenerate, non-finite or with indices out of range,
+        /// gives one finite field vertex per position: a unit tangent in
+        /// the normal's plane with a positive aspect, or the neutral value.
+        #[test]
+        fn any_mesh_gives_a_finite_field(
+            positions in prop::collection::vec(prop::array::uniform3(prop_oneof![9 => -2.0f64..2.0, 1 => Just(f64::NAN), 1 => Just(1e300)]), 3..12),
+            uvs in prop::collection::vec(prop::array::uniform2(prop_oneof![9 => -2.0f64..2.0, 1 => Just(f64::INFINITY)]), 0..12),
+            triangles in prop::collection::vec(prop::array::uniform3(0u32..14), 0..16),
+        ) {
+            let positions: Vec<DVec3> = positions.into_iter().map(DVec3::from).collect();
+            let uvs: Vec<DVec2> = uvs.into_iter().map(DVec2::from).collect();
+            let field = axis_field(&positions, &[], &uvs, &triangles);
+            prop_assert_eq!(field.len(), positions.len());
+            for f in field {
+                prop_assert!(f.tangent.is_finite() && f.shape.is_finite(), "{:?}", f);
+                let t = f.tangent.truncate();
+                prop_assert!(t == DVec3::ZERO || ((t.length() - 1.0).abs() < 1e-9 && f.shape.y > 0.0), "{:?}", f);
+            }
+        }
+    }
 }

@@ -14,6 +14,7 @@
 //! | dome | `cube_resample` | cube mode |
 //! | dome | the rim mask (Bevy's full-screen material) | fisheye lenses |
 //! | dome | Bevy's view shader, patched | vertex mode |
+//! | dome | Bevy's `pbr_fragment`, patched (exact attributes) | forward; normal prepass; deferred; with UVs, tangents and colours |
 //! | foveated LOD | `raytrace` | `trace_mid`, `trace_outer`, `trace_full` (`TRACE`), the blit |
 //! | spectacles | `resolve` | reprojected / `FULL` / `MULTISAMPLED` |
 //! | spectacles | `lens_refraction` | the copy and the lens draw |
@@ -127,6 +128,43 @@ fn dome_variants() {
             ),
         ],
     );
+    // The exact-attribute step in every fragment that reads Bevy's vertex
+    // output through `pbr_input_from_standard_material`: forward with a
+    // normal prepass, and the deferred G-buffer, on a mesh with UVs,
+    // tangents and colours (each field of the step's own `#ifdef`).
+    for deferred in [false, true] {
+        let report = build(move |app: &mut App| {
+            use bevy::core_pipeline::prepass::{DepthPrepass, NormalPrepass};
+            use optica_dome::DomeCamera;
+            let z = optica_report::fixtures::zenith();
+            optica_report::fixtures::dome_room([Color::WHITE; 6], 1, move |commands| {
+                commands.spawn((DomeCamera::default(), DepthPrepass, NormalPrepass, z));
+            })(app);
+            app.add_systems(
+                Startup,
+                |mut commands: Commands,
+                 mut meshes: ResMut<Assets<Mesh>>,
+                 mut materials: ResMut<Assets<StandardMaterial>>| {
+                    let mut mesh = Sphere::new(0.3)
+                        .mesh()
+                        .uv(12, 6)
+                        .with_generated_tangents()
+                        .expect("tangents");
+                    let colours = vec![[1.0f32, 0.5, 0.2, 1.0]; mesh.count_vertices()];
+                    mesh.insert_attribute(Mesh::ATTRIBUTE_COLOR, colours);
+                    commands.spawn((
+                        Mesh3d(meshes.add(mesh)),
+                        MeshMaterial3d(materials.add(StandardMaterial::default())),
+                        Transform::from_xyz(0.0, 0.5, 0.0),
+                    ));
+                },
+            );
+            if deferred {
+                crate::compound_eye::deferred(app);
+            }
+        });
+        assert!(report.ok > 0, "dome (deferred {deferred}): nothing built");
+    }
 }
 
 /// Foveated LOD: the three trace entries and the blit.

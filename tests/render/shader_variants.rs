@@ -14,7 +14,7 @@
 //! | dome | `cube_resample` | cube mode |
 //! | dome | the rim mask (Bevy's full-screen material) | fisheye lenses |
 //! | dome | Bevy's view shader, patched | vertex mode |
-//! | dome | Bevy's `pbr_fragment`, patched (exact attributes) | forward; normal prepass; deferred; with UVs, tangents and colours |
+//! | dome | Bevy's `pbr_fragment`, patched (exact attributes) | forward; deferred; with UVs, tangents and colours |
 //! | foveated LOD | `raytrace` | `trace_mid`, `trace_outer`, `trace_full` (`TRACE`), the blit |
 //! | spectacles | `resolve` | reprojected / `FULL` / `MULTISAMPLED` |
 //! | spectacles | `lens_refraction` | the copy and the lens draw |
@@ -129,8 +129,9 @@ fn dome_variants() {
         ],
     );
     // The exact-attribute step in every fragment that reads Bevy's vertex
-    // output through `pbr_input_from_standard_material`: forward with a
-    // normal prepass, and the deferred G-buffer, on a mesh with UVs,
+    // output through `pbr_input_from_standard_material`: forward (beside a
+    // normal prepass, whose own fragment does not read it), and the
+    // deferred G-buffer (the prepass `VertexOutput`), on a mesh with UVs,
     // tangents and colours (each field of the step's own `#ifdef`).
     for deferred in [false, true] {
         let report = build(move |app: &mut App| {

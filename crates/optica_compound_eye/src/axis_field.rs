@@ -14,8 +14,11 @@ use crate::Error;
 /// Writes the smooth axis field of `mesh`'s texture coordinates into its
 /// `Mesh::ATTRIBUTE_TANGENT` (the axes' direction; existing tangents are
 /// replaced) and `Mesh::ATTRIBUTE_UV_1` (their shape: stretch and shear),
-/// for a [`CompoundEye`](crate::CompoundEye) with `axis_field` on. Call it
-/// again after changing the mesh's positions or UVs.
+/// for a [`CompoundEye`](crate::CompoundEye) with `axis_field` on. After
+/// changing the mesh's positions or UVs, remove `Mesh::ATTRIBUTE_UV_1` and
+/// call it again. The shape is taken in the mesh's own space: an entity
+/// scaled unevenly stretches the facets' directions (the tangents) but not
+/// their shape.
 ///
 /// ```
 /// use bevy::prelude::*;
@@ -38,7 +41,7 @@ pub fn insert_axis_field(mesh: &mut Mesh) -> Result<(), Error> {
     }
     if mesh.attribute(Mesh::ATTRIBUTE_UV_1).is_some() {
         return Err(Error::AxisField(
-            "the mesh's second UV channel (Mesh::ATTRIBUTE_UV_1) is in use",
+            "the mesh's second UV channel (Mesh::ATTRIBUTE_UV_1) is in use (remove it to write a new field)",
         ));
     }
     let Some(VertexAttributeValues::Float32x3(positions)) =

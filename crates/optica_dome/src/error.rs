@@ -61,4 +61,13 @@ pub enum Error {
     /// as a plain perspective. The cube mode still works.
     #[error("the dome's vertex projection could not be patched into Bevy's view shader: {0}")]
     ShaderPatch(&'static str),
+    /// The exact-attribute step could not be put into Bevy's
+    /// `pbr_fragment.wgsl` (a Bevy whose shader text this version does not
+    /// know): vertex-mode cameras with
+    /// [`DomeCamera::exact_attributes`](crate::DomeCamera::exact_attributes)
+    /// are drawn, but with texture interpolated inside refined triangles.
+    #[error(
+        "the dome's exact-attribute step could not be patched into Bevy's fragment shader (texture is interpolated inside triangles): {0}"
+    )]
+    AttributePatch(&'static str),
 }

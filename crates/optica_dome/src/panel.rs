@@ -117,10 +117,12 @@ pub fn dome_ui(
             stats.rebuilt, stats.vertices, stats.kept, stats.cpu_ms
         ));
     }
-    if let Some(e) = status
-        .and_then(|s| s.error.as_ref())
-        .filter(|e| matches!(e, crate::Error::ShaderPatch(_)))
-    {
+    if let Some(e) = status.and_then(|s| s.error.as_ref()).filter(|e| {
+        matches!(
+            e,
+            crate::Error::ShaderPatch(_) | crate::Error::AttributePatch(_)
+        )
+    }) {
         ui.colored_label(egui::Color32::from_rgb(230, 120, 60), e.to_string());
     }
 }

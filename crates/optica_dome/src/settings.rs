@@ -321,7 +321,9 @@ pub struct DomeStatus {
     /// so). The cube mode does not need it.
     pub vertex_projection: Option<bool>,
     /// Why the camera is not drawn as set: refused settings (it keeps its
-    /// last good projection) or, in the vertex mode, the failed patch.
+    /// last good projection) or, in the vertex mode, a failed patch (of
+    /// the projection, or of the exact-attribute step where
+    /// [`DomeCamera::exact_attributes`] is on).
     #[reflect(ignore)]
     pub error: Option<Error>,
 }

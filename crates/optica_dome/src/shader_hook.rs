@@ -134,18 +134,18 @@ pub(crate) struct ViewTransformations {
 }
 
 impl ViewTransformations {
-    /// `None` until every patched shader has loaded, then the first
-    /// failure or success.
-    fn outcome(&self) -> Option<Result<(), Error>> {
-        let mut all = Ok(());
-        for patch in &self.patches {
-            match &patch.outcome {
-                None => return None,
-                Some(Err(e)) if all.is_ok() => all = Err(e.clone()),
-                Some(_) => {}
-            }
-        }
-        Some(all)
+    /// `None` until every patch has an outcome.
+    fn done(&self) -> bool {
+        self.patches.iter().all(|p| p.outcome.is_some())
+    }
+
+    /// The projection patch's outcome, and the exact-attribute patch's
+    /// (`None` while pending).
+    fn outcomes(&self) -> (Option<&Result<(), Error>>, Option<&Result<(), Error>>) {
+        (
+            self.patches[0].outcome.as_ref(),
+            self.patches[1].outcome.as_ref(),
+        )
     }
 }
 
@@ -175,7 +175,7 @@ impl FromWorld for ViewTransformations {
 
 /// Whether a patch still has to be applied.
 pub(crate) fn patch_pending(hook: Option<Res<ViewTransformations>>) -> bool {
-    hook.is_none_or(|h| h.outcome().is_none())
+    hook.is_none_or(|h| !h.done())
 }
 
 /// Applies the patches once Bevy's shaders are loaded. A source that does
@@ -192,12 +192,34 @@ pub(crate) fn patch_view_transformations(
         commands.init_resource::<ViewTransformations>();
         return;
     };
-    for patch in &mut hook.patches {
+    // The exact-attribute step reads the dome's projection back from the
+    // view: without the projection patch the view is drawn as a plain
+    // perspective and the step must not run.
+    let projected = hook.patches[0].outcome.clone();
+    for (k, patch) in hook.patches.iter_mut().enumerate() {
         if patch.outcome.is_some() {
             continue;
         }
+        if k > 0 {
+            match &projected {
+                None => continue,
+                Some(Err(_)) => {
+                    patch.outcome = Some(Err(Error::AttributePatch(
+                        "not applied: the vertex projection is not in Bevy's view shader",
+                    )));
+                    continue;
+                }
+                Some(Ok(())) => {}
+            }
+        }
         let Some(shader) = shaders.get(&patch.handle) else {
             continue;
+        };
+        // The error of this patch: the projection's or the attributes'.
+        let fail = if k == 0 {
+            Error::ShaderPatch
+        } else {
+            Error::AttributePatch
         };
         let new = match &shader.source {
             Source::Wgsl(source) if source.contains(patch.marker) => Ok(None),
@@ -207,47 +229,45 @@ pub(crate) fn patch_view_transformations(
                 new.shader_defs = shader.shader_defs.clone();
                 Some(new)
             }),
-            _ => Err(Error::ShaderPatch("Bevy's shader is not WGSL")),
+            _ => Err(fail("Bevy's shader is not WGSL")),
         };
         let outcome = new.and_then(|new| match new {
             Some(new) => shaders
                 .insert(patch.handle.id(), new)
-                .map_err(|_| Error::ShaderPatch("the patched shader could not replace Bevy's")),
+                .map_err(|_| fail("the patched shader could not replace Bevy's")),
             None => Ok(()),
         });
         if let Err(why) = &outcome {
-            error!(
-                "optica_dome: {why} (a Bevy other than 0.19?); vertex-mode dome cameras draw a plain perspective or interpolate attributes"
-            );
+            error!("optica_dome: {why} (a Bevy other than 0.19?)");
         }
         patch.outcome = Some(outcome);
     }
 }
 
-/// Puts the patch's outcome in every dome camera's [`DomeStatus`]: the
-/// vertex mode's error when it failed (settings refusals come first).
+/// Puts the patches' outcome in every dome camera's [`DomeStatus`]: in the
+/// vertex mode, the projection patch's error, else (with exact attributes
+/// on) the exact-attribute patch's (settings refusals come first).
 pub(crate) fn report_patch(
     hook: Option<Res<ViewTransformations>>,
     mut cameras: Query<(&DomeCamera, &mut DomeStatus)>,
 ) {
-    let Some(outcome) = hook.as_ref().and_then(|h| h.outcome()) else {
+    let Some(hook) = hook.filter(|h| h.done()) else {
         return;
     };
-    let outcome = &outcome;
-    // The projection alone decides whether the dome is drawn as a dome.
-    let projected = hook
-        .as_ref()
-        .is_some_and(|h| matches!(h.patches[0].outcome, Some(Ok(()))));
+    let (Some(projection), Some(attributes)) = hook.outcomes() else {
+        return;
+    };
     for (dome, mut status) in &mut cameras {
-        let patch_error = match (outcome, dome.mode) {
-            (Err(e), DomeMode::Vertex) => Some(e.clone()),
+        let patch_error = match (dome.mode, projection, attributes) {
+            (DomeMode::Vertex, Err(e), _) => Some(e.clone()),
+            (DomeMode::Vertex, Ok(()), Err(e)) if dome.exact_attributes => Some(e.clone()),
             _ => None,
         };
         let error = match &status.error {
-            Some(Error::ShaderPatch(_)) | None => patch_error,
+            Some(Error::ShaderPatch(_) | Error::AttributePatch(_)) | None => patch_error,
             refused => refused.clone(),
         };
-        let vertex_projection = Some(projected);
+        let vertex_projection = Some(projection.is_ok());
         if status.error != error || status.vertex_projection != vertex_projection {
             status.error = error;
             status.vertex_projection = vertex_projection;
@@ -274,7 +294,7 @@ pub fn patched(source: &str) -> Result<String, Error> {
 /// Bevy's `pbr_fragment` source with the exact-attribute step, or the line
 /// that was not found.
 pub fn patched_fragment(source: &str) -> Result<String, Error> {
-    let missing = Error::ShaderPatch;
+    let missing = Error::AttributePatch;
     let mut text = source.to_string();
     let at = text
         .find(FRAGMENT_ANCHOR_IMPORT)

@@ -115,7 +115,10 @@ pub(crate) mod mode {
 pub struct EyeOptics {
     /// The eye model.
     pub eye: optics::Eye,
-    /// The designed lens, when [`Spectacles`] are worn.
+    /// The designed lens, when [`Spectacles`] are worn, where the frame
+    /// holds it (`SpectacleLens::decentred` by
+    /// [`Spectacles::decentration_mm`]): trace it as it is, not through
+    /// `trace_lens`, which takes a centred lens and its shift.
     pub lens: Option<SpectacleLens>,
     /// The field through the lens: its vectors on the GPU, and its
     /// geometry and counters.

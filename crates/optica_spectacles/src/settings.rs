@@ -7,8 +7,7 @@ use optica_optics::glass::Glass;
 use optica_optics::input::{Expected, InvalidInput};
 use optica_optics::spectacles::CurvedMirror as MirrorOptics;
 use optica_optics::spectacles::{
-    self as optics, AdaptedEyes, HofstetterBound, LensDesignParams, Prescription,
-    SpectaclesError,
+    self as optics, AdaptedEyes, HofstetterBound, LensDesignParams, Prescription, SpectaclesError,
 };
 
 use crate::Error;
@@ -127,7 +126,11 @@ impl Eye {
     /// `from_near_far(0.2, 10.0, 12.0)`, Fig. 8(b) `from_near_far(0.5, 1.3, 12.0)`.
     /// Invalid numbers give an eye that [`Eye::optics`] refuses.
     pub fn from_near_far(near_m: f32, far_m: f32, pupil_mm: f32) -> Self {
-        let p_far = if far_m.is_infinite() { 0.0 } else { 1.0 / far_m };
+        let p_far = if far_m.is_infinite() {
+            0.0
+        } else {
+            1.0 / far_m
+        };
         Self {
             refractive_error_d: -p_far,
             accommodation: Accommodation::Dioptres(1.0 / near_m - p_far),
@@ -532,12 +535,15 @@ impl Spectacles {
             .with_corridor_m(f64::from(self.corridor_mm) * 1e-3)
     }
 
-    /// The designed lens, in the eye's frame.
+    /// The designed lens, in the eye's frame, centred (the refraction and
+    /// the defocus field each place it by [`Self::decentration_mm`]).
     ///
     /// Errors: bad numbers, a tessellation of more than
-    /// [`MAX_LENS_VERTICES`] vertices, or a prescription no lens of this
+    /// [`MAX_LENS_VERTICES`] vertices, a prescription no lens of this
     /// blank can carry (e.g. +20 D in CR-39 on a 50 mm blank: its front
-    /// surface would close before the rim), as [`SpectaclesError`].
+    /// surface would close before the rim), or a decentration that puts
+    /// the eye's axis off the blank, as [`SpectaclesError`]: a refused
+    /// lens is neither drawn nor blurred through.
     pub fn design(&self) -> Result<optics::SpectacleLens, SpectaclesError> {
         if self.refraction {
             let vertices = u64::from(self.tessellation.x) * u64::from(self.tessellation.y);
@@ -553,7 +559,20 @@ impl Spectacles {
                 .into());
             }
         }
-        optics::design_lens(&self.prescription()?, &self.design_params()?)
+        let lens = optics::design_lens(&self.prescription()?, &self.design_params()?)?;
+        let (off_mm, rim_mm) = (self.decentration_mm.length(), lens.rim_radius_m() * 1e3);
+        if !(f64::from(off_mm) < rim_mm) {
+            return Err(InvalidInput::new(
+                "lens decentration (mm)",
+                f64::from(off_mm),
+                Expected::Range {
+                    min: 0.0,
+                    max: rim_mm,
+                },
+            )
+            .into());
+        }
+        Ok(lens)
     }
 }
 

@@ -501,6 +501,14 @@ fn the_status_says_whether_the_projection_took() {
         optica_dome::hooks::patched("fn main() {}"),
         Err(Error::ShaderPatch("#import bevy_pbr::prepass_bindings"))
     );
+    // Bevy's fragment library without the function the exact-attribute
+    // step goes into: its own error, which names the line.
+    assert_eq!(
+        optica_dome::hooks::patched_fragment("#import bevy_pbr::{\n    pbr_types,\n}"),
+        Err(Error::AttributePatch(
+            "fn pbr_input_from_standard_material(\n    in: VertexOutput,"
+        ))
+    );
 }
 
 /// The vertex mode's twins are a Bevy relationship users can filter out:

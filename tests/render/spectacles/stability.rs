@@ -7,6 +7,7 @@ use std::sync::{Arc, Mutex};
 
 use bevy::prelude::*;
 use optica_harness::Headless;
+use optica_spectacles::twins::LensRefraction;
 use optica_spectacles::{
     Accommodation, CloneDefocus, Error, Eye, LensMaterial, Pupil, Spectacles, SpectaclesStatus,
 };
@@ -158,7 +159,7 @@ fn cases() -> Vec<Case> {
                 decentration_mm: Vec2::new(30.0, 0.0),
                 ..Spectacles::sphere(-3.0)
             }),
-            refused: Some((Refused::Spectacles, "lens decentration")),
+            refused: Some((Refused::Spectacles, "lens decentration (mm) = 30")),
         },
     ]
 }
@@ -173,7 +174,8 @@ fn extreme_eyes_and_lenses_render_finite() {
         },
     ];
     for case in cases() {
-        let status: Arc<Mutex<Option<SpectaclesStatus>>> = Arc::default();
+        // The status, and whether the lens's refraction is drawn.
+        let status: Arc<Mutex<Option<(SpectaclesStatus, bool)>>> = Arc::default();
         let sink = status.clone();
         let frame = Headless::new(48, 48)
             .hdr(true)
@@ -191,11 +193,14 @@ fn extreme_eyes_and_lenses_render_finite() {
                     case.spectacles.clone(),
                     1.0,
                 )(app);
-                app.add_systems(Last, move |s: Query<&SpectaclesStatus>| {
-                    if let Ok(s) = s.single() {
-                        *sink.lock().unwrap() = Some(s.clone());
-                    }
-                });
+                app.add_systems(
+                    Last,
+                    move |s: Query<(&SpectaclesStatus, Has<LensRefraction>)>| {
+                        if let Ok((s, refracted)) = s.single() {
+                            *sink.lock().unwrap() = Some((s.clone(), refracted));
+                        }
+                    },
+                );
             })
             .unwrap_or_else(|e| panic!("{}: {e}", case.name));
         let img = frame.hdr().unwrap();
@@ -205,7 +210,8 @@ fn extreme_eyes_and_lenses_render_finite() {
             case.name
         );
         let status = status.lock().unwrap().clone();
-        let error = status.as_ref().and_then(|s| s.error.clone());
+        let error = status.as_ref().and_then(|s| s.0.error.clone());
+        let refracted = status.as_ref().is_some_and(|s| s.1);
         eprintln!(
             "{}: {}",
             case.name,
@@ -224,6 +230,13 @@ fn extreme_eyes_and_lenses_render_finite() {
                 case.name
             ),
             None => assert!(error.is_none(), "{}: refused: {error:?}", case.name),
+        }
+        // A refused lens is not drawn either: the eye is seen naked; a
+        // worn one is.
+        if matches!(case.refused, Some((Refused::Spectacles, _))) {
+            assert!(!refracted, "{}: a refused lens is refracted", case.name);
+        } else if case.spectacles.as_ref().is_some_and(|s| s.refraction) {
+            assert!(refracted, "{}: the lens is not refracted", case.name);
         }
     }
 }

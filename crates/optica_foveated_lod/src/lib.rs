@@ -349,11 +349,20 @@ impl Plugin for FoveatedLodPlugin {
                     FoveatedLodSystems::Gaze
                         .before(TransformSystems::Propagate)
                         .before(CameraUpdateSystems),
+                    // Before Bevy's mesh and material change checks
+                    // (`mark_3d_meshes_as_changed_if_their_assets_changed`,
+                    // then the materials' specialisation check): a mesh a
+                    // level swaps is seen by them in its own frame.
+                    // Unordered, the executor's choice of order would
+                    // decide whether it is seen this frame or the next,
+                    // and processes fed the same samples (CAVE walls)
+                    // could differ for a frame.
                     FoveatedLodSystems::Levels
                         .after(TransformSystems::Propagate)
                         .after(CameraUpdateSystems)
                         .before(VisibilitySystems::CalculateBounds)
-                        .before(VisibilitySystems::VisibilityPropagate),
+                        .before(VisibilitySystems::VisibilityPropagate)
+                        .before(bevy::mesh::mark_3d_meshes_as_changed_if_their_assets_changed),
                 ),
             )
             .add_systems(

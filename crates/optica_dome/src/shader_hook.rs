@@ -72,10 +72,24 @@ const FRAGMENT_BODY_ANCHOR: &str = ") -> pbr_types::PbrInput {";
 /// it works on whichever `VertexOutput` the pipeline imported (forward,
 /// prepass), through the shader defs that declare its fields.
 const FRAGMENT_EXACT: &str = "
+// `v` moved by the step `s` along its own screen differences (called in
+// uniform control flow: it takes derivatives).
+fn optica_dome_step2(v: vec2<f32>, s: vec2<f32>) -> vec2<f32> {
+    return v + s.x * dpdxFine(v) + s.y * dpdyFine(v);
+}
+fn optica_dome_step3(v: vec3<f32>, s: vec2<f32>) -> vec3<f32> {
+    return v + s.x * dpdxFine(v) + s.y * dpdyFine(v);
+}
+fn optica_dome_step4(v: vec4<f32>, s: vec2<f32>) -> vec4<f32> {
+    return v + s.x * dpdxFine(v) + s.y * dpdyFine(v);
+}
+
 // The vertex output with its attributes exact at this fragment's pixel in
 // a dome view (D11 of optica_optics::dome): the interpolated position
 // moved along its screen differences to its own ray's point on the
-// triangle's plane, every other attribute by the same step.
+// triangle's plane, every other attribute by the same step. (The normal
+// and tangent are there in the forward output always, in the prepass
+// output only for normals or the deferred G-buffer.)
 fn optica_dome_exact(in: VertexOutput) -> VertexOutput {
     var out = in;
 #ifdef VIEW_PROJECTION_NONSTANDARD
@@ -89,25 +103,25 @@ fn optica_dome_exact(in: VertexOutput) -> VertexOutput {
         let s = dome_projection::plane_step(view.world_position, world_ray, p, dp_dx, dp_dy) * ray.w;
         out.world_position = vec4<f32>(p + s.x * dp_dx + s.y * dp_dy, in.world_position.w);
 #ifdef VERTEX_UVS_A
-        out.uv = in.uv + s.x * dpdxFine(in.uv) + s.y * dpdyFine(in.uv);
+        out.uv = optica_dome_step2(in.uv, s);
 #endif
 #ifdef VERTEX_UVS_B
-        out.uv_b = in.uv_b + s.x * dpdxFine(in.uv_b) + s.y * dpdyFine(in.uv_b);
+        out.uv_b = optica_dome_step2(in.uv_b, s);
 #endif
 #ifdef VERTEX_COLORS
-        out.color = in.color + s.x * dpdxFine(in.color) + s.y * dpdyFine(in.color);
+        out.color = optica_dome_step4(in.color, s);
 #endif
 #ifdef PREPASS_PIPELINE
 #ifdef NORMAL_PREPASS_OR_DEFERRED_PREPASS
-        out.world_normal = in.world_normal + s.x * dpdxFine(in.world_normal) + s.y * dpdyFine(in.world_normal);
+        out.world_normal = optica_dome_step3(in.world_normal, s);
 #ifdef VERTEX_TANGENTS
-        out.world_tangent = in.world_tangent + s.x * dpdxFine(in.world_tangent) + s.y * dpdyFine(in.world_tangent);
+        out.world_tangent = optica_dome_step4(in.world_tangent, s);
 #endif
 #endif
 #else
-        out.world_normal = in.world_normal + s.x * dpdxFine(in.world_normal) + s.y * dpdyFine(in.world_normal);
+        out.world_normal = optica_dome_step3(in.world_normal, s);
 #ifdef VERTEX_TANGENTS
-        out.world_tangent = in.world_tangent + s.x * dpdxFine(in.world_tangent) + s.y * dpdyFine(in.world_tangent);
+        out.world_tangent = optica_dome_step4(in.world_tangent, s);
 #endif
 #endif
     }

@@ -530,7 +530,9 @@ impl Bench {
 }
 
 /// The textured room through a zenith dome camera `camera` at `size` px
-/// (one sample per pixel), its point-sampled reference (the CPU twin's ray
+/// (one sample per pixel; the default lens and field of view, as the
+/// sweep's references take them: only the tolerance and
+/// `exact_attributes` may differ), its point-sampled reference (the CPU twin's ray
 /// through each pixel centre) and the pixels compared (1 px or more inside
 /// the image circle). For the render tests' check that the vertex mode's
 /// texture is exact inside triangles.
@@ -539,15 +541,9 @@ pub fn room_against_point_reference(
     size: u32,
     camera: DomeCamera,
 ) -> Result<(image::RgbaImage, image::RgbaImage, Vec<bool>), SweepError> {
-    let dome = camera
-        .projection(size)
-        .map_err(|e| SweepError::Setup(e.to_string()))?;
+    let bench = Bench::new(Content::Room, size)?;
     let frame = headless.render(scene(Content::Room, size, Some(camera), Msaa::Off))?;
-    Ok((
-        frame.to_rgba8(),
-        reference_room(&dome, size, 1).to_rgba8(),
-        compared(&dome, size),
-    ))
+    Ok((frame.to_rgba8(), bench.point, bench.mask))
 }
 
 /// Appends the textured comparison: for each scene, series `<scene>,

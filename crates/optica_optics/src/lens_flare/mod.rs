@@ -132,6 +132,7 @@ mod error;
 mod ghosts;
 mod grid_trace;
 mod intensity;
+mod merge;
 mod pupil;
 #[cfg(feature = "reference")]
 mod raster;
@@ -160,6 +161,7 @@ pub use grid_trace::{
 pub use intensity::{
     CellKind, DEFAULT_MAX_GAIN, GridCell, GridRay, cell_intensity, vertex_intensities,
 };
+pub use merge::merged_block;
 pub use pupil::{
     Beam, ENTRANCE_PUPIL_MARGIN, MIN_LIGHT_Z, PupilBounds, PupilRect, light_direction,
     light_from_field,

@@ -53,6 +53,10 @@ pub(crate) struct GridJob {
     cell_base: u32,
     /// Where its row spans start among the cell pass's threads.
     span_base: u32,
+    /// The cell pass draws a smooth 2 × 2 block of its cells as one where
+    /// their irradiances are within this share of each other (0: never;
+    /// [`LensFlare::merge_cells`] for the coarse grids).
+    merge: f32,
 }
 
 impl GridJob {
@@ -182,14 +186,17 @@ pub(crate) struct FlareParams {
 }
 
 impl FlareParams {
-    /// What of the uniform the trace reads: grids, threads, surfaces per
-    /// lens and the sensor plane (bits).
-    pub(crate) fn trace_inputs(&self) -> [u32; 4] {
+    /// What of the uniform the trace and the cell pass read: grids,
+    /// threads, surfaces per lens, the sensor plane, the gain bound (bits)
+    /// and the cell pass's spans.
+    pub(crate) fn trace_inputs(&self) -> [u32; 6] {
         [
             self.jobs,
             self.threads,
             self.surfaces,
             self.sensor_z.to_bits(),
+            self.max_gain.to_bits(),
+            self.spans,
         ]
     }
 }
@@ -453,6 +460,7 @@ fn push_ghost_jobs(
                 rows: if flare.symmetry { n.div_ceil(2) } else { n },
                 cell_base: 0,
                 span_base: 0,
+                merge: if coarse { flare.merge_cells } else { 0.0 },
             });
         }
     }

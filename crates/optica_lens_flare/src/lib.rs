@@ -112,7 +112,11 @@
 //! ([`LensFlare::merge_wavelengths_px`]); and a ghost wider than
 //! [`LensFlare::coarse_ghost_px`] (a defocused one, smooth inside) is
 //! added up at half the ghosts' resolution in a pass of its own
-//! (`optica/lens_flare/coarse`) and scaled up into theirs.
+//! (`optica/lens_flare/coarse`) and scaled up into theirs, each smooth
+//! 2 × 2 block of its cells drawn as one ([`LensFlare::merge_cells`]).
+//! The cells' colours and triangles are made only when the rays are
+//! traced again (the draw applies the intensity and each light's
+//! visibility), so a still view pays only for the draw.
 //!
 //! ## Diffraction
 //!
@@ -167,8 +171,8 @@ pub use error::Error;
 pub use panel::{LensFlarePanelPlugin, lens_flare_ui};
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate};
 pub use settings::{
-    ApertureSettings, CoatingSettings, DEFAULT_COARSE_GHOST_PX, FlareOcclusion, FlareSource,
-    GhostResolution, LensFlare, MAX_GRID, MAX_WAVELENGTHS, RingingSettings, StarburstSettings,
+    ApertureSettings, CoatingSettings, DEFAULT_COARSE_GHOST_PX, DEFAULT_MERGE_CELLS,
+    FlareOcclusion, FlareSource, GhostResolution, LensFlare, MAX_GRID, MAX_WAVELENGTHS, RingingSettings, StarburstSettings,
 };
 
 /// The CPU and WGSL twins of what the flare's passes compute, and the

@@ -119,6 +119,10 @@ pub fn lens_flare_ui(
                 .text("when wider than (px of the ghosts' target)"),
         );
         edit.coarse_ghost_px = Some(px);
+        ui.add(
+            slider(&mut edit.merge_cells, 0.0..=2.0)
+                .text("merge their smooth cells (irradiance spread)"),
+        );
     } else {
         edit.coarse_ghost_px = None;
     }

@@ -14,6 +14,8 @@ pub const MAX_GRID: u32 = 512;
 pub const MAX_WAVELENGTHS: u32 = 16;
 /// [`LensFlare::coarse_ghost_px`]'s default.
 pub const DEFAULT_COARSE_GHOST_PX: f32 = 64.0;
+/// [`LensFlare::merge_cells`]'s default.
+pub const DEFAULT_MERGE_CELLS: f32 = 0.5;
 
 /// Physically based lens flare on a camera: ghosts (light reflected twice
 /// inside the lens) traced through a real lens prescription.
@@ -119,6 +121,21 @@ pub struct LensFlare {
     /// `None` adds every ghost up at `ghost_resolution`; `Some(0.0)` every
     /// ghost at half of it.
     pub coarse_ghost_px: Option<f32>,
+    /// A large ghost's cells (those added up at half resolution, see
+    /// [`LensFlare::coarse_ghost_px`]) are smaller than its pixels there,
+    /// and its draw costs by the cell. Where a 2 × 2 block of them is
+    /// smooth — every ray inside every rim, no cell folded or at the gain
+    /// bound, the largest irradiance within this share of the smallest,
+    /// and the block's outline off the four cells' area by at most a
+    /// tenth of this — it is drawn as one cell carrying their power. `0`
+    /// draws every cell. On the double Gauss at 512² on lavapipe the
+    /// default 0.5 shades 36,789 rays in the coarse pass instead of 45,045
+    /// and takes it from 7.3 ms to 5.0 ms, the flare from 1.52× [1.50,
+    /// 1.57] to 1.50× [1.49, 1.56] the frame without it, at the same
+    /// relative L1 against the reference (0.1385 against 0.1384); 1.0
+    /// gains little more (1.48× [1.46, 1.49]) and adds error (0.1427).
+    /// Series `merged cells (defaults)`.
+    pub merge_cells: f32,
 }
 
 /// The resolution a [`LensFlare`] adds its ghosts up at: the cost of the
@@ -179,6 +196,7 @@ impl LensFlare {
             ringing: Some(RingingSettings::default()),
             ghost_resolution: GhostResolution::Quarter,
             coarse_ghost_px: Some(DEFAULT_COARSE_GHOST_PX),
+            merge_cells: DEFAULT_MERGE_CELLS,
         }
     }
 
@@ -195,6 +213,7 @@ impl LensFlare {
         if let Some(px) = self.coarse_ghost_px {
             input::non_negative("flare coarse_ghost_px", f64::from(px))?;
         }
+        input::non_negative("flare merge_cells", f64::from(self.merge_cells))?;
         input::in_range("flare min_relative", f64::from(self.min_relative), 0.0, 1.0)?;
         self.aperture.validate()?;
         if let Some(c) = &self.coating {

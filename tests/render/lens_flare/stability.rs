@@ -205,6 +205,16 @@ fn bad_numbers_in_the_settings_are_named() {
             matches!(&err, Error::Setting(e) if e.what == "flare coarse_ghost_px"),
             "{err:?}"
         );
+        let err = LensFlare {
+            merge_cells: bad,
+            ..flare.clone()
+        }
+        .validate()
+        .expect_err("refused");
+        assert!(
+            matches!(&err, Error::Setting(e) if e.what == "flare merge_cells"),
+            "{err:?}"
+        );
     }
     let err = LensFlare {
         wavelengths: 0,

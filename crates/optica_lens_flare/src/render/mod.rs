@@ -81,7 +81,8 @@ impl Plugin for FlareRenderPlugin {
 /// One view's buffers, bind groups and pipelines for this frame.
 #[derive(Component)]
 struct FlareBinding {
-    /// Whether the rays are traced this frame (else last frame's stand).
+    /// Whether the rays are traced and their cells coloured this frame
+    /// (else last frame's stand).
     retrace: bool,
     trace_group: BindGroup,
     cells_group: BindGroup,

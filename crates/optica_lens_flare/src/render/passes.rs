@@ -81,16 +81,19 @@ pub(super) fn flare_passes(
             &binding.trace_group,
             groups,
         );
+        // The cells' colours and triangles follow the rays alone (the
+        // draw scales them by the intensity and each light's visibility),
+        // so a still view's hold too.
+        let groups = groups_for(binding.spans);
+        compute_pass(
+            encoder,
+            &diagnostics,
+            "cells",
+            cells,
+            &binding.cells_group,
+            groups,
+        );
     }
-    let groups = groups_for(binding.spans);
-    compute_pass(
-        encoder,
-        &diagnostics,
-        "cells",
-        cells,
-        &binding.cells_group,
-        groups,
-    );
     // The ghosts: onto the view, or into their reduced-resolution target
     // (cleared), which is then scaled up onto the view with the
     // starburst.

@@ -132,7 +132,6 @@ pub(super) fn init_flare_pipelines(
                 uniform_buffer::<FlareParams>(false),
                 storage_buffer_read_only::<Vec<GridJob>>(false),
                 storage_buffer_read_only::<Vec<[f32; 12]>>(false),
-                storage_buffer_read_only::<Vec<f32>>(false),
                 storage_buffer::<Vec<[f32; 4]>>(false),
                 storage_buffer::<Vec<u32>>(false),
             ),

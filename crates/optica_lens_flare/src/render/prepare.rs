@@ -125,7 +125,7 @@ struct BindGroups {
 struct TraceKey {
     jobs: Vec<GridJob>,
     surfaces: Vec<GpuSurface>,
-    params: [u32; 4],
+    params: [u32; 6],
 }
 
 /// Frames in Bevy's TAA jitter sequence (eight Halton (2, 3) offsets, the
@@ -616,7 +616,6 @@ fn make_groups(
                 u.clone(),
                 j,
                 ray_buffer.as_entire_binding(),
-                visibility.as_entire_binding(),
                 cell_colors.as_entire_binding(),
                 indices.as_entire_binding(),
             )),

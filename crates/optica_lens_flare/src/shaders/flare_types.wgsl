@@ -64,6 +64,26 @@ struct GridJob {
     rows: u32,
     cell_base: u32,
     span_base: u32,
+    // The cell pass draws a 2 × 2 block of its cells as one where their
+    // irradiances are within this share of each other (0: never).
+    merge: f32,
+}
+
+// A cell's light and wavelength (nm, below 4096) in the one float the
+// draw reads flat with its colour: light · 4096 + wavelength (exact for
+// the light, the wavelength to a sixty-fourth of a nm below 64 lights).
+const CELL_TAG_STEP: f32 = 4096.0;
+
+fn cell_tag(light: u32, wl: f32) -> f32 {
+    return f32(light) * CELL_TAG_STEP + wl;
+}
+
+fn tag_light(tag: f32) -> u32 {
+    return u32(floor(tag / CELL_TAG_STEP));
+}
+
+fn tag_wavelength(tag: f32) -> f32 {
+    return tag - floor(tag / CELL_TAG_STEP) * CELL_TAG_STEP;
 }
 
 // Where a light's depth is read: its image (NDC) and the largest scene

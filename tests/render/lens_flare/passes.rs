@@ -650,7 +650,7 @@ fn a_still_view_follows_the_intensity() {
 /// the twin's tests allow (a spread of 100) still keeps the light within
 /// a few per cent. Every ghost is coarse here, the Tessar at 128².
 /// Measured: at 0.5 light −0.14 %, relative L1 0.89 %, coarse vertices
-/// shaded 15,793 against 19,679; at 100 light +0.07 %, L1 3.0 %. Bounds
+/// shaded 9,016 against 13,161; at 100 light +0.07 %, L1 3.0 %. Bounds
 /// 1 %, 5 %, 0.9× and 5 %.
 #[test]
 fn smooth_cells_drawn_as_one_keep_their_light() {

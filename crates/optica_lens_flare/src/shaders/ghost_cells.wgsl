@@ -8,8 +8,8 @@
 // (`optica_optics::lens_flare::cell_intensity`) times the grid's colour,
 // with its light and wavelength (`cell_tag`). Its two triangles go to its
 // six places in the index buffer; any other cell gets two empty triangles
-// there (every index its first corner), which the rasteriser drops before
-// shading a pixel. The draw then shades each ray once (shared vertices)
+// there (every index the same ray, `EMPTY`), which the rasteriser drops
+// before shading a pixel. The draw then shades each ray once (shared vertices)
 // instead of six times per cell, and adds the cells in the same order
 // every frame (an order that changed would change the sum's rounding, and
 // the flare would shimmer). A grid with `merge` set draws each smooth
@@ -30,6 +30,10 @@
 // Cells one invocation colours: a span of a row, whose shared corners are
 // read once (lavapipe pays for every invocation, however small).
 const SPAN_CELLS: u32 = 4u;
+
+// The one ray every empty triangle is made of: the draw shades it once,
+// not the first corner of every cell left out.
+const EMPTY: u32 = 0u;
 
 // The grid that span `i` belongs to (grids lie in order).
 fn job_of_span(i: u32) -> u32 {
@@ -101,7 +105,7 @@ fn cell(job: GridJob, index: u32, first: u32, c0: RayOut, c1: RayOut, c2: RayOut
         // (> 1) every pixel would be.
         || min(min(c0.r_rel, c1.r_rel), min(c2.r_rel, c3.r_rel)) > 1.0 {
         for (var v = 0u; v < 6u; v += 1u) {
-            indices[at + v] = first;
+            indices[at + v] = EMPTY;
         }
         return;
     }
@@ -175,12 +179,12 @@ fn block(job: GridJob, row: u32, col: u32) {
     indices[at + 3u] = f;
     indices[at + 4u] = f + 2u * n + 2u;
     indices[at + 5u] = f + 2u * n;
-    // The other three cells' triangles empty, on the block's first ray,
-    // so that the rays inside the block are not shaded for them.
+    // The other three cells' triangles empty, so that the rays inside
+    // the block are not shaded for them.
     for (var v = 0u; v < 6u; v += 1u) {
-        indices[at + 6u + v] = f;
-        indices[6u * (index + m) + v] = f;
-        indices[6u * (index + m + 1u) + v] = f;
+        indices[at + 6u + v] = EMPTY;
+        indices[6u * (index + m) + v] = EMPTY;
+        indices[6u * (index + m + 1u) + v] = EMPTY;
     }
 }
 

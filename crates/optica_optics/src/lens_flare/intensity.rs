@@ -230,19 +230,23 @@ pub fn vertex_intensities(cells: &[GridCell], n: usize, pupil_mm2: f64, max_gain
     out
 }
 
+/// A live ray at sensor point (x, y) with throughput `t`, inside every
+/// rim: the unit tests' grid point.
+#[cfg(test)]
+pub(super) fn test_ray(x: f64, y: f64, t: f64) -> GridRay {
+    GridRay {
+        alive: true,
+        sensor: DVec2::new(x, y),
+        r_rel: 0.5,
+        stop_xy: [DVec2::ZERO; MAX_STOP_CROSSINGS],
+        throughput: t,
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use super::test_ray as ray;
     use super::*;
-
-    fn ray(x: f64, y: f64, t: f64) -> GridRay {
-        GridRay {
-            alive: true,
-            sensor: DVec2::new(x, y),
-            r_rel: 0.5,
-            stop_xy: [DVec2::ZERO; 3],
-            throughput: t,
-        }
-    }
 
     #[test]
     fn halved_cell_quadruples_intensity() {

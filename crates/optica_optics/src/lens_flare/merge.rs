@@ -94,17 +94,8 @@ pub fn merged_block(
 
 #[cfg(test)]
 mod tests {
+    use super::super::intensity::test_ray as ray;
     use super::*;
-
-    fn ray(x: f64, y: f64, t: f64) -> GridRay {
-        GridRay {
-            alive: true,
-            sensor: DVec2::new(x, y),
-            r_rel: 0.5,
-            stop_xy: [DVec2::ZERO; 3],
-            throughput: t,
-        }
-    }
 
     /// The 3 × 3 rays of `map` at pupil points (col, row) ∈ {0, 1, 2}².
     fn block(map: impl Fn(f64, f64) -> (DVec2, f64)) -> [[GridRay; 3]; 3] {

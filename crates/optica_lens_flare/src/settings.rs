@@ -129,11 +129,11 @@ pub struct LensFlare {
     /// and the block's outline off the four cells' area by at most a
     /// tenth of this — it is drawn as one cell carrying their power. `0`
     /// draws every cell. On the double Gauss at 512² on lavapipe the
-    /// default 0.5 shades 36,789 rays in the coarse pass instead of 45,045
-    /// and takes it from 7.3 ms to 5.0 ms, the flare from 1.52× [1.50,
-    /// 1.57] to 1.50× [1.49, 1.56] the frame without it, at the same
-    /// relative L1 against the reference (0.1385 against 0.1384); 1.0
-    /// gains little more (1.48× [1.46, 1.49]) and adds error (0.1427).
+    /// default 0.5 shades 22,703 rays in the coarse pass instead of 32,062
+    /// and takes the flare from 1.53× [1.51, 1.55] to 1.45× [1.42, 1.51]
+    /// the frame without it, at the same relative L1 against the reference
+    /// (0.1385 against 0.1384); 1.0 gains a little more (1.43× [1.42,
+    /// 1.45]) and adds error (0.1427).
     /// Series `merged cells (defaults)`.
     pub merge_cells: f32,
 }

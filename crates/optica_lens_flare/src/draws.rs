@@ -187,9 +187,10 @@ pub(crate) struct FlareParams {
 
 impl FlareParams {
     /// What of the uniform the trace and the cell pass read: grids,
-    /// threads, surfaces per lens, the sensor plane, the gain bound (bits)
-    /// and the cell pass's spans.
-    pub(crate) fn trace_inputs(&self) -> [u32; 6] {
+    /// threads, surfaces per lens, the sensor plane, the gain bound, the
+    /// cell pass's spans and the iris it merges cells inside (floats as
+    /// bits).
+    pub(crate) fn trace_inputs(&self) -> [u32; 10] {
         [
             self.jobs,
             self.threads,
@@ -197,6 +198,10 @@ impl FlareParams {
             self.sensor_z.to_bits(),
             self.max_gain.to_bits(),
             self.spans,
+            self.blades,
+            self.rotation.to_bits(),
+            self.radius.to_bits(),
+            self.arc_w.to_bits(),
         ]
     }
 }

@@ -172,7 +172,8 @@ pub use panel::{LensFlarePanelPlugin, lens_flare_ui};
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate};
 pub use settings::{
     ApertureSettings, CoatingSettings, DEFAULT_COARSE_GHOST_PX, DEFAULT_MERGE_CELLS,
-    FlareOcclusion, FlareSource, GhostResolution, LensFlare, MAX_GRID, MAX_WAVELENGTHS, RingingSettings, StarburstSettings,
+    FlareOcclusion, FlareSource, GhostResolution, LensFlare, MAX_GRID, MAX_WAVELENGTHS,
+    RingingSettings, StarburstSettings,
 };
 
 /// The CPU and WGSL twins of what the flare's passes compute, and the

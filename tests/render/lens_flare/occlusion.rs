@@ -7,7 +7,9 @@
 use bevy::prelude::*;
 use bevy::render::view::Msaa;
 use optica_harness::Headless;
-use optica_lens_flare::{FlareOcclusion, FlareSource, LensFlare, LensFlarePlugin};
+use optica_lens_flare::{
+    DEFAULT_COARSE_GHOST_PX, FlareOcclusion, FlareSource, LensFlare, LensFlarePlugin,
+};
 
 const SIZE: u32 = 128;
 const TESSAR: &str = "lenses/tessar-us2854889.lens";
@@ -43,6 +45,8 @@ struct Case {
     occlusion: Option<FlareOcclusion>,
     /// At this frame the wall is moved out of the way.
     move_out_at: Option<u32>,
+    /// `LensFlare::coarse_ghost_px`.
+    coarse_ghost_px: Option<f32>,
 }
 
 impl Default for Case {
@@ -53,6 +57,7 @@ impl Default for Case {
             msaa: Msaa::Off,
             occlusion: Some(FlareOcclusion::default()),
             move_out_at: None,
+            coarse_ghost_px: Some(DEFAULT_COARSE_GHOST_PX),
         }
     }
 }
@@ -60,87 +65,10 @@ impl Default for Case {
 /// The flare's total light (sum of all channels; walls are black and
 /// unlit, so the frame is the flare).
 fn total(case: Case) -> f64 {
-    let Case {
-        light,
-        wall,
-        msaa,
-        occlusion,
-        move_out_at,
-    } = case;
     let frame = Headless::new(SIZE, SIZE)
         .hdr(true)
         .frames(14)
-        .render(move |app: &mut App| {
-            app.add_plugins(LensFlarePlugin);
-            app.add_systems(
-                Startup,
-                move |mut commands: Commands,
-                      assets: Res<AssetServer>,
-                      mut meshes: ResMut<Assets<Mesh>>,
-                      mut materials: ResMut<Assets<StandardMaterial>>| {
-                    let black = materials.add(StandardMaterial {
-                        base_color: Color::BLACK,
-                        unlit: true,
-                        ..default()
-                    });
-                    match light {
-                        Light::Sun => {
-                            commands.spawn(super::sun(travel(), 100_000.0));
-                        }
-                        Light::Bulb => {
-                            commands.spawn((
-                                PointLight {
-                                    intensity: 4.0e8,
-                                    range: 100.0,
-                                    ..default()
-                                },
-                                Transform::from_translation(towards_sun()),
-                                FlareSource::default(),
-                                Mesh3d(meshes.add(Sphere::new(0.05))),
-                                MeshMaterial3d(black.clone()),
-                            ));
-                        }
-                    }
-                    if let Some(offset) = wall {
-                        // Facing the camera, 4 units out along the line of
-                        // sight to the light, shifted by `offset`.
-                        let centre = towards_sun().normalize() * 4.0;
-                        let rotation = Transform::IDENTITY.looking_to(centre, Vec3::Y).rotation;
-                        let shifted = centre + rotation * offset.extend(0.0);
-                        commands.spawn((
-                            Mesh3d(meshes.add(Cuboid::new(1.5, 1.5, 0.1))),
-                            MeshMaterial3d(black.clone()),
-                            Transform::from_translation(shifted).with_rotation(rotation),
-                            Wall,
-                        ));
-                    }
-                    commands
-                        .spawn((
-                            super::black_hdr_camera(),
-                            Transform::IDENTITY,
-                            LensFlare {
-                                grid: 16,
-                                occlusion,
-                                ..LensFlare::new(assets.load(TESSAR))
-                            },
-                        ))
-                        .insert(msaa);
-                },
-            );
-            if let Some(at) = move_out_at {
-                app.add_systems(
-                    Update,
-                    move |mut frame: Local<u32>, mut walls: Query<&mut Transform, With<Wall>>| {
-                        *frame += 1;
-                        if *frame == at {
-                            for mut t in &mut walls {
-                                t.translation += Vec3::new(-20.0, 0.0, 0.0);
-                            }
-                        }
-                    },
-                );
-            }
-        })
+        .render(scene(case))
         .expect("render");
     let img = frame.hdr().expect("HDR");
     assert!(
@@ -151,6 +79,123 @@ fn total(case: Case) -> f64 {
         .chunks(4)
         .map(|p| f64::from(p[0] + p[1] + p[2]))
         .sum()
+}
+
+/// The scene of `case`: its light, its wall, the Tessar's flare.
+fn scene(case: Case) -> impl FnOnce(&mut App) {
+    let Case {
+        light,
+        wall,
+        msaa,
+        occlusion,
+        move_out_at,
+        coarse_ghost_px,
+    } = case;
+    move |app: &mut App| {
+        app.add_plugins(LensFlarePlugin);
+        app.add_systems(
+            Startup,
+            move |mut commands: Commands,
+                  assets: Res<AssetServer>,
+                  mut meshes: ResMut<Assets<Mesh>>,
+                  mut materials: ResMut<Assets<StandardMaterial>>| {
+                let black = materials.add(StandardMaterial {
+                    base_color: Color::BLACK,
+                    unlit: true,
+                    ..default()
+                });
+                match light {
+                    Light::Sun => {
+                        commands.spawn(super::sun(travel(), 100_000.0));
+                    }
+                    Light::Bulb => {
+                        commands.spawn((
+                            PointLight {
+                                intensity: 4.0e8,
+                                range: 100.0,
+                                ..default()
+                            },
+                            Transform::from_translation(towards_sun()),
+                            FlareSource::default(),
+                            Mesh3d(meshes.add(Sphere::new(0.05))),
+                            MeshMaterial3d(black.clone()),
+                        ));
+                    }
+                }
+                if let Some(offset) = wall {
+                    // Facing the camera, 4 units out along the line of
+                    // sight to the light, shifted by `offset`.
+                    let centre = towards_sun().normalize() * 4.0;
+                    let rotation = Transform::IDENTITY.looking_to(centre, Vec3::Y).rotation;
+                    let shifted = centre + rotation * offset.extend(0.0);
+                    commands.spawn((
+                        Mesh3d(meshes.add(Cuboid::new(1.5, 1.5, 0.1))),
+                        MeshMaterial3d(black.clone()),
+                        Transform::from_translation(shifted).with_rotation(rotation),
+                        Wall,
+                    ));
+                }
+                commands
+                    .spawn((
+                        super::black_hdr_camera(),
+                        Transform::IDENTITY,
+                        LensFlare {
+                            grid: 16,
+                            occlusion,
+                            coarse_ghost_px,
+                            ..LensFlare::new(assets.load(TESSAR))
+                        },
+                    ))
+                    .insert(msaa);
+            },
+        );
+        if let Some(at) = move_out_at {
+            app.add_systems(
+                Update,
+                move |mut frame: Local<u32>, mut walls: Query<&mut Transform, With<Wall>>| {
+                    *frame += 1;
+                    if *frame == at {
+                        for mut t in &mut walls {
+                            t.translation += Vec3::new(-20.0, 0.0, 0.0);
+                        }
+                    }
+                },
+            );
+        }
+    }
+}
+
+/// A hidden light's ghosts cost no pixels: the draw collapses its rays
+/// (each carries its light) to one point outside the view, so its
+/// triangles are culled before shading. Read from the fragments lavapipe
+/// counts in the ghosts' pass (every ghost in it: no coarse ghosts, whose
+/// scaling up would be counted there too): some in the open, none behind
+/// the wall.
+#[test]
+fn a_hidden_lights_ghosts_shade_no_pixel() {
+    let fragments = |wall: Option<Vec2>| {
+        let timed = Headless::new(SIZE, SIZE)
+            .hdr(true)
+            .time_frames(
+                10,
+                2,
+                scene(Case {
+                    wall,
+                    coarse_ghost_px: None,
+                    ..Case::default()
+                }),
+            )
+            .expect("timed");
+        timed
+            .span("optica/lens_flare/draw")
+            .and_then(|s| s.counts.get("fragment_shader_invocations"))
+            .map_or(0.0, |c| c.median)
+    };
+    let open = fragments(None);
+    let hidden = fragments(Some(Vec2::ZERO));
+    eprintln!("ghost fragments: open {open}, behind the wall {hidden}");
+    assert!(open > 0.0, "the open light drew nothing");
+    assert_eq!(hidden, 0.0, "a hidden light's ghosts were shaded");
 }
 
 #[test]

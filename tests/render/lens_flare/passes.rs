@@ -493,8 +493,8 @@ fn large_ghosts_added_up_at_half_resolution_keep_their_light() {
 /// The rays depend only on the grids, the lens and the settings: a still
 /// camera traces them once, not every frame, and colours their cells once
 /// (the draw applies the intensity and each light's visibility, which can
-/// change every frame); a turning camera traces and colours every frame. Reduced-resolution ghosts add a composite pass.
-/// Read from the work lavapipe counts per pass: the frames of the timed
+/// change every frame); a turning camera traces and colours every frame.
+/// Reduced-resolution ghosts add a composite pass. Read from the work lavapipe counts per pass: the frames of the timed
 /// ones in which a pass ran and counted invocations.
 #[test]
 fn a_still_view_traces_once_and_a_turning_one_every_frame() {

@@ -125,7 +125,7 @@ struct BindGroups {
 struct TraceKey {
     jobs: Vec<GridJob>,
     surfaces: Vec<GpuSurface>,
-    params: [u32; 6],
+    params: [u32; 10],
 }
 
 /// Frames in Bevy's TAA jitter sequence (eight Halton (2, 3) offsets, the

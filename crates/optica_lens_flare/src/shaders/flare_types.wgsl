@@ -69,23 +69,6 @@ struct GridJob {
     merge: f32,
 }
 
-// A cell's light and wavelength (nm, below 4096) in the one float the
-// draw reads flat with its colour: light · 4096 + wavelength (exact for
-// the light, the wavelength to a sixty-fourth of a nm below 64 lights).
-const CELL_TAG_STEP: f32 = 4096.0;
-
-fn cell_tag(light: u32, wl: f32) -> f32 {
-    return f32(light) * CELL_TAG_STEP + wl;
-}
-
-fn tag_light(tag: f32) -> u32 {
-    return u32(floor(tag / CELL_TAG_STEP));
-}
-
-fn tag_wavelength(tag: f32) -> f32 {
-    return tag - floor(tag / CELL_TAG_STEP) * CELL_TAG_STEP;
-}
-
 // Where a light's depth is read: its image (NDC) and the largest scene
 // depth that does not hide it; read_depth 0 for a light with no image.
 struct LightProbe {
@@ -103,5 +86,6 @@ struct RayOut {
     stop_second: vec2<f32>,
     stop_third: vec2<f32>,
     alive: f32,
-    pad: f32,
+    // Its grid's light (`GridJob::light`), for the draw's visibility.
+    light: f32,
 }

@@ -6,7 +6,7 @@
 // corner blocked by a rim) gets its colour written at its first corner:
 // the irradiance from its change of area with the bounded gain
 // (`optica_optics::lens_flare::cell_intensity`) times the grid's colour,
-// with its light and wavelength (`cell_tag`). Its two triangles go to its
+// with its wavelength. Its two triangles go to its
 // six places in the index buffer; any other cell gets two empty triangles
 // there (every index the same ray, `EMPTY`), which the rasteriser drops
 // before shading a pixel. The draw then shades each ray once (shared vertices)
@@ -17,12 +17,13 @@
 // cells are smaller than its coarse pixels, and the draw's cost grows
 // with their number.
 
-#import optica_lens_flare::types::{FlareParams, GridJob, RayOut, cell_tag}
+#import optica_lens_flare::types::{FlareParams, GridJob, RayOut}
+#import optica_lens_flare::aperture::aperture_contains_all
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
 @group(0) @binding(1) var<storage, read> jobs: array<GridJob>;
 @group(0) @binding(2) var<storage, read> rays: array<RayOut>;
-// Per ray: the colour (rgb) and `cell_tag` (w) of the cell whose first
+// Per ray: the colour (rgb) and wavelength (w) of the cell whose first
 // corner it is; the draw's provoking vertex reads it flat.
 @group(0) @binding(3) var<storage, read_write> cell_colors: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> indices: array<u32>;
@@ -117,7 +118,7 @@ fn cell(job: GridJob, index: u32, first: u32, c0: RayOut, c1: RayOut, c2: RayOut
         + abs(triangle_area2(c0.sensor, c2.sensor, c3.sensor)));
     let mean_t = 0.25 * (c0.throughput + c1.throughput + c2.throughput + c3.throughput);
     let irradiance = mean_t * a_p / max(a_s, a_p / params.max_gain);
-    cell_colors[first] = vec4<f32>(job.color.rgb * irradiance, cell_tag(job.light, job.color.w));
+    cell_colors[first] = vec4<f32>(job.color.rgb * irradiance, job.color.w);
     let n = job.n;
     indices[at] = first;
     indices[at + 1u] = first + 1u;
@@ -149,13 +150,17 @@ fn block(job: GridJob, row: u32, col: u32) {
     let r02 = rays[f + 2u];
     let r12 = rays[f + n + 2u];
     let r22 = rays[f + 2u * n + 2u];
-    // Every ray traced (not continued by the fill) and inside every rim:
-    // no pixel of the block is clipped, cell by cell or as one.
+    // Every ray traced (not continued by the fill), inside every rim and
+    // through the iris's blades: no pixel of the block is clipped, cell by
+    // cell or as one.
     var merged = -1.0;
     if min(min(min(r00.alive, r01.alive), min(r02.alive, r10.alive)),
             min(min(r11.alive, r12.alive), min(min(r20.alive, r21.alive), r22.alive))) >= 1.0
         && max(max(max(r00.r_rel, r01.r_rel), max(r02.r_rel, r10.r_rel)),
-            max(max(r11.r_rel, r12.r_rel), max(max(r20.r_rel, r21.r_rel), r22.r_rel))) <= 1.0 {
+            max(max(r11.r_rel, r12.r_rel), max(max(r20.r_rel, r21.r_rel), r22.r_rel))) <= 1.0
+        && through_blades(r00) && through_blades(r01) && through_blades(r02)
+        && through_blades(r10) && through_blades(r11) && through_blades(r12)
+        && through_blades(r20) && through_blades(r21) && through_blades(r22) {
         merged = merged_block(job,
             r00.sensor, r01.sensor, r02.sensor, r10.sensor, r11.sensor, r12.sensor,
             r20.sensor, r21.sensor, r22.sensor,
@@ -171,7 +176,7 @@ fn block(job: GridJob, row: u32, col: u32) {
         cell(job, index + m + 1u, f + n + 1u, r11, r12, r22, r21);
         return;
     }
-    cell_colors[f] = vec4<f32>(job.color.rgb * merged, cell_tag(job.light, job.color.w));
+    cell_colors[f] = vec4<f32>(job.color.rgb * merged, job.color.w);
     let at = 6u * index;
     indices[at] = f;
     indices[at + 1u] = f + 2u;
@@ -186,6 +191,13 @@ fn block(job: GridJob, row: u32, col: u32) {
         indices[6u * (index + m) + v] = EMPTY;
         indices[6u * (index + m + 1u) + v] = EMPTY;
     }
+}
+
+// Whether ray `r` passes the iris's blades at every crossing of the stop
+// plane (a round iris: always; its rim is in `r_rel`).
+fn through_blades(r: RayOut) -> bool {
+    return params.blades == 0u || aperture_contains_all(r.stop_first, r.stop_second, r.stop_third,
+        params.blades, params.rotation, params.radius, params.arc_w);
 }
 
 // The doubled signed areas of the cell a, b, c, d's two triangles (a, b, c)

@@ -1,16 +1,16 @@
 // The flare's draw pass: every cell the cell pass kept as two triangles on
 // the screen, in its colour (its irradiance, from `ghost_cells.wgsl`,
-// scaled here by the flare's intensity and its light's visibility), clipped per pixel where r_rel > 1
-// or outside the iris, added to the HDR view before tonemapping.
+// scaled here by the flare's intensity and its light's visibility),
+// clipped per pixel where r_rel > 1 or outside the iris, added to the HDR
+// view before tonemapping.
 
-#import optica_lens_flare::types::{FlareParams, LightProbe, RayOut, tag_light, tag_wavelength}
+#import optica_lens_flare::types::{FlareParams, LightProbe, RayOut}
 #ifdef BLADED_IRIS
 #import optica_lens_flare::aperture::aperture_contains_all
 #endif
 
 @group(0) @binding(0) var<uniform> params: FlareParams;
-// Per ray: the colour and `cell_tag` (light, wavelength) of the cell it is
-// the first corner of.
+// Per ray: the colour and wavelength of the cell it is the first corner of.
 @group(0) @binding(1) var<storage, read> cell_colors: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> rays: array<RayOut>;
 // Each light's visibility through the scene's depth (`visibility.wgsl`).
@@ -78,15 +78,21 @@ fn vertex(@builtin(vertex_index) ray: u32) -> VertexOut {
     let cell = cell_colors[ray];
     let ndc = -r.sensor / vec2<f32>(params.half_height_mm * params.aspect, params.half_height_mm);
     out.position = vec4<f32>(ndc, 0.0, 1.0);
-    let seen = clamp(visibility[tag_light(cell.w)], 0.0, 1.0);
+    // Every ray carries its grid's light: a hidden light's rays all land
+    // on one point outside the view, so its triangles are empty and
+    // culled before a pixel is shaded.
+    let seen = clamp(visibility[u32(r.light)], 0.0, 1.0);
     out.color = cell.rgb * params.intensity * seen;
+    if seen <= 0.0 {
+        out.position = vec4<f32>(2.0, 2.0, 0.0, 1.0);
+    }
     out.r_rel = r.r_rel;
     out.stop_first = r.stop_first;
 #ifdef BLADED_IRIS
     out.stop_second = r.stop_second;
     out.stop_third = r.stop_third;
 #endif
-    out.wl = tag_wavelength(cell.w);
+    out.wl = cell.w;
     return out;
 }
 

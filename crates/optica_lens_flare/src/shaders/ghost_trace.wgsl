@@ -62,7 +62,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
     rays[job.ray_base + row * n + col] = RayOut(
         turn(r.sensor, job.rotation), r.r_rel, r.throughput,
         turn(r.stop_first, job.rotation), turn(r.stop_second, job.rotation), turn(r.stop_third, job.rotation),
-        alive, 0.0,
+        alive, f32(job.light),
     );
     // With symmetry the mirror row lands at (x, −y) before the turn.
     let mirror = n - 1u - row;
@@ -71,7 +71,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) 
         rays[job.ray_base + mirror * n + col] = RayOut(
             turn(r.sensor * m, job.rotation), r.r_rel, r.throughput,
             turn(r.stop_first * m, job.rotation), turn(r.stop_second * m, job.rotation), turn(r.stop_third * m, job.rotation),
-            alive, 0.0,
+            alive, f32(job.light),
         );
     }
 }
@@ -144,7 +144,7 @@ fn fill(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) g
         rays[i] = RayOut(
             sum.sensor / w, max(sum.r_rel / w, at_stop), sum.throughput / w,
             stop_first, stop_second, stop_third,
-            0.5, 0.0,
+            0.5, f32(job.light),
         );
     }
 }

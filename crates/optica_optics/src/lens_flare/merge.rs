@@ -7,6 +7,7 @@
 
 use glam::DVec2;
 
+use super::aperture::Aperture;
 use super::intensity::{DEFAULT_MAX_GAIN, GridRay};
 
 /// Twice the signed area of the triangle a, b, c.
@@ -28,8 +29,9 @@ fn halves(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> [f64; 2] {
 /// beam of `pupil_mm2` per cell). `None` where the block is not smooth
 /// enough to merge:
 ///
-/// * a ray dead or outside a rim (`r_rel > 1`): a clipped edge runs
-///   through the block;
+/// * a ray that does not pass (dead, outside a rim, or outside
+///   `aperture` at a crossing of the stop plane,
+///   [`GridRay::passes`]): a clipped edge runs through the block;
 /// * a triangle of any cell, or of the one cell, turned against the
 ///   others (a fold, a caustic);
 /// * a cell at the gain bound `max_gain` (its irradiance is capped);
@@ -40,6 +42,7 @@ fn halves(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> [f64; 2] {
 /// * `spread` not positive and finite, or `pupil_mm2` not.
 pub fn merged_block(
     rays: [[&GridRay; 3]; 3],
+    aperture: &Aperture,
     pupil_mm2: f64,
     max_gain: f64,
     spread: f64,
@@ -47,7 +50,7 @@ pub fn merged_block(
     if !(spread > 0.0 && spread.is_finite() && pupil_mm2 > 0.0 && pupil_mm2.is_finite()) {
         return None;
     }
-    if rays.iter().flatten().any(|r| !r.alive || !(r.r_rel <= 1.0)) {
+    if !rays.iter().flatten().all(|r| r.passes(aperture)) {
         return None;
     }
     let g = if max_gain.is_finite() && max_gain >= 1.0 {
@@ -107,9 +110,14 @@ mod tests {
         })
     }
 
+    /// A round iris far wider than the test rays' stop points (at 0).
+    fn wide_iris() -> Aperture {
+        Aperture::circle(10.0).expect("a circle")
+    }
+
     fn merged(b: &[[GridRay; 3]; 3], spread: f64) -> Option<f64> {
         let refs = [0, 1, 2].map(|r| [0, 1, 2].map(|c| &b[r][c]));
-        merged_block(refs, 1.0, DEFAULT_MAX_GAIN, spread)
+        merged_block(refs, &wide_iris(), 1.0, DEFAULT_MAX_GAIN, spread)
     }
 
     #[test]
@@ -189,6 +197,17 @@ mod tests {
         let b = block(ramp);
         assert_eq!(merged(&b, 0.5), None);
         assert!(merged(&b, 1.5).is_some());
+        // A blade edge between the rays at the stop: one ray's crossing
+        // outside a hexagonal iris.
+        let mut b = block(flat);
+        b[2][0].stop_xy = [DVec2::new(0.0, 0.99); 3];
+        let refs = [0, 1, 2].map(|r| [0, 1, 2].map(|c| &b[r][c]));
+        let hexagon = Aperture::polygon(6, 0.0, 1.0).expect("a hexagon");
+        assert_eq!(
+            merged_block(refs, &hexagon, 1.0, DEFAULT_MAX_GAIN, 0.5),
+            None
+        );
+        assert!(merged_block(refs, &wide_iris(), 1.0, DEFAULT_MAX_GAIN, 0.5).is_some());
         // A cell at the gain bound.
         let tiny = |u: f64, v: f64| (DVec2::new(1e-4 * u, 1e-4 * v), 1.0);
         assert_eq!(merged(&block(tiny), 0.5), None);

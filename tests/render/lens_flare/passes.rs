@@ -649,8 +649,8 @@ fn a_still_view_follows_the_intensity() {
 /// image, with fewer rays shaded in the coarse pass; merging every block
 /// the twin's tests allow (a spread of 100) still keeps the light within
 /// a few per cent. Every ghost is coarse here, the Tessar at 128².
-/// Measured: at 0.5 light −0.14 %, relative L1 0.89 %, coarse vertices
-/// shaded 9,016 against 13,161; at 100 light +0.07 %, L1 3.0 %. Bounds
+/// Measured: at 0.5 light −0.13 %, relative L1 0.87 %, coarse vertices
+/// shaded 9,180 against 13,161; at 100 light +0.13 %, L1 2.9 %. Bounds
 /// 1 %, 5 %, 0.9× and 5 %.
 #[test]
 fn smooth_cells_drawn_as_one_keep_their_light() {

@@ -388,20 +388,43 @@ fn no_flare_camera_no_flare_pipeline() {
 
 /// The flare's light per pixel (all channels, row by row) with `edit`.
 fn layer(edit: impl Fn(&mut LensFlare) + Send + Sync + 'static) -> Vec<f64> {
+    let travel = Vec3::new(-0.15, -0.15, 1.0).normalize();
+    layer_of(scene_with(travel, true, edit))
+}
+
+/// The light per pixel (all channels, row by row) of the 12th frame of
+/// `setup`.
+fn layer_of(setup: impl FnOnce(&mut App)) -> Vec<f64> {
     let frame = Headless::new(SIZE, SIZE)
         .hdr(true)
         .frames(12)
-        .render(scene_with(
-            Vec3::new(-0.15, -0.15, 1.0).normalize(),
-            true,
-            edit,
-        ))
+        .render(setup)
         .expect("render");
-    let img = frame.hdr().expect("HDR");
-    img.as_raw()
-        .chunks(4)
-        .map(|p| f64::from(p[0] + p[1] + p[2]))
+    light(&frame)
+}
+
+/// A frame's light per pixel (all channels, row by row).
+fn light(frame: &RenderedFrame) -> Vec<f64> {
+    frame
+        .hdr()
+        .expect("HDR")
+        .pixels()
+        .map(|p| f64::from(p.0[0] + p.0[1] + p.0[2]))
         .collect()
+}
+
+/// `other`'s light against `reference`'s: (its total's relative change,
+/// the relative L1 of the two over every pixel).
+fn compared(reference: &[f64], other: &[f64]) -> (f64, f64) {
+    let total = reference.iter().sum::<f64>();
+    let energy = other.iter().sum::<f64>() / total - 1.0;
+    let l1 = reference
+        .iter()
+        .zip(other)
+        .map(|(a, b)| (a - b).abs())
+        .sum::<f64>()
+        / total;
+    (energy, l1)
 }
 
 /// Ghosts added up at half or a quarter of the view's resolution and
@@ -413,21 +436,13 @@ fn layer(edit: impl Fn(&mut LensFlare) + Send + Sync + 'static) -> Vec<f64> {
 #[test]
 fn ghosts_added_up_at_a_reduced_resolution_keep_their_light() {
     let full = layer(|f| f.ghost_resolution = GhostResolution::Full);
-    let sum = |v: &[f64]| v.iter().sum::<f64>();
-    let total = sum(&full);
-    assert!(total > 0.0);
+    assert!(full.iter().sum::<f64>() > 0.0);
     for (resolution, max_l1) in [
         (GhostResolution::Half, 0.1),
         (GhostResolution::Quarter, 0.25),
     ] {
         let reduced = layer(move |f| f.ghost_resolution = resolution);
-        let energy = sum(&reduced) / total - 1.0;
-        let l1 = full
-            .iter()
-            .zip(&reduced)
-            .map(|(a, b)| (a - b).abs())
-            .sum::<f64>()
-            / total;
+        let (energy, l1) = compared(&full, &reduced);
         eprintln!("{resolution:?}: light {energy:+.4}, relative L1 {l1:.4}");
         assert!(energy.abs() < 0.02, "{resolution:?}: light {energy}");
         assert!(l1 < max_l1, "{resolution:?}: relative L1 {l1}");
@@ -451,15 +466,8 @@ fn large_ghosts_added_up_at_half_resolution_keep_their_light() {
     };
     let fine = layer(at(None));
     let coarse = layer(at(Some(0.0)));
-    let total = fine.iter().sum::<f64>();
-    assert!(total > 0.0);
-    let energy = coarse.iter().sum::<f64>() / total - 1.0;
-    let l1 = fine
-        .iter()
-        .zip(&coarse)
-        .map(|(a, b)| (a - b).abs())
-        .sum::<f64>()
-        / total;
+    assert!(fine.iter().sum::<f64>() > 0.0);
+    let (energy, l1) = compared(&fine, &coarse);
     eprintln!("every ghost coarse: light {energy:+.4}, relative L1 {l1:.4}");
     assert!(energy.abs() < 0.03, "light {energy}");
     assert!(l1 < 0.15, "relative L1 {l1}");
@@ -580,13 +588,6 @@ fn bloom_spreads_the_flare() {
             })
             .expect("render")
     };
-    let light = |f: &RenderedFrame| -> Vec<f64> {
-        f.hdr()
-            .expect("HDR")
-            .pixels()
-            .map(|p| f64::from(p.0[0] + p.0[1] + p.0[2]))
-            .collect()
-    };
     let (plain, bloomed) = (light(&frame(false)), light(&frame(true)));
     assert!(plain.iter().sum::<f64>() > 0.0 && bloomed.iter().all(|v| v.is_finite()));
     let mut order: Vec<usize> = (0..plain.len()).collect();
@@ -607,39 +608,22 @@ fn bloom_spreads_the_flare() {
 fn a_still_view_follows_the_intensity() {
     let travel = Vec3::new(-0.15, -0.15, 1.0).normalize();
     let from_start = layer(|f| f.intensity = 0.5);
-    let frame = Headless::new(SIZE, SIZE)
-        .hdr(true)
-        .frames(12)
-        .render(move |app: &mut App| {
-            scene(travel, true)(app);
-            app.add_systems(
-                Update,
-                |mut frames: Local<u32>, mut flares: Query<&mut LensFlare>| {
-                    *frames += 1;
-                    if *frames == 8 {
-                        for mut f in &mut flares {
-                            f.intensity = 0.5;
-                        }
+    let switched = layer_of(move |app: &mut App| {
+        scene(travel, true)(app);
+        app.add_systems(
+            Update,
+            |mut frames: Local<u32>, mut flares: Query<&mut LensFlare>| {
+                *frames += 1;
+                if *frames == 8 {
+                    for mut f in &mut flares {
+                        f.intensity = 0.5;
                     }
-                },
-            );
-        })
-        .expect("render");
-    let switched: Vec<f64> = frame
-        .hdr()
-        .expect("HDR")
-        .as_raw()
-        .chunks(4)
-        .map(|p| f64::from(p[0] + p[1] + p[2]))
-        .collect();
-    let total = from_start.iter().sum::<f64>();
-    assert!(total > 0.0);
-    let l1 = from_start
-        .iter()
-        .zip(&switched)
-        .map(|(a, b)| (a - b).abs())
-        .sum::<f64>()
-        / total;
+                }
+            },
+        );
+    });
+    assert!(from_start.iter().sum::<f64>() > 0.0);
+    let (_, l1) = compared(&from_start, &switched);
     assert!(l1 < 1e-4, "relative L1 {l1}");
 }
 
@@ -662,20 +646,9 @@ fn smooth_cells_drawn_as_one_keep_their_light() {
         }
     };
     let cells = layer(at(0.0));
-    let total = cells.iter().sum::<f64>();
-    assert!(total > 0.0);
-    let compare = |merged: &[f64]| {
-        let energy = merged.iter().sum::<f64>() / total - 1.0;
-        let l1 = cells
-            .iter()
-            .zip(merged)
-            .map(|(a, b)| (a - b).abs())
-            .sum::<f64>()
-            / total;
-        (energy, l1)
-    };
-    let (energy, l1) = compare(&layer(at(0.5)));
-    let (energy_all, l1_all) = compare(&layer(at(100.0)));
+    assert!(cells.iter().sum::<f64>() > 0.0);
+    let (energy, l1) = compared(&cells, &layer(at(0.5)));
+    let (energy_all, l1_all) = compared(&cells, &layer(at(100.0)));
     eprintln!(
         "merged at 0.5: light {energy:+.4}, relative L1 {l1:.4}; at 100: {energy_all:+.4}, {l1_all:.4}"
     );

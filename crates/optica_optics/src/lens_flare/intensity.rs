@@ -104,8 +104,18 @@ impl GridCell {
 }
 
 /// Signed area of the triangle (a, b, c): positive when counter-clockwise.
-fn triangle_signed_area(a: DVec2, b: DVec2, c: DVec2) -> f64 {
+pub(super) fn triangle_signed_area(a: DVec2, b: DVec2, c: DVec2) -> f64 {
     0.5 * (b - a).perp_dot(c - a)
+}
+
+/// The gain bound `max_gain` where it is usable (finite, at least 1), else
+/// [`DEFAULT_MAX_GAIN`].
+pub(super) fn gain_bound(max_gain: f64) -> f64 {
+    if max_gain.is_finite() && max_gain >= 1.0 {
+        max_gain
+    } else {
+        DEFAULT_MAX_GAIN
+    }
 }
 
 /// The cell with corners `[c00, c10, c11, c01]` (counter-clockwise on the
@@ -154,11 +164,7 @@ pub fn cell_intensity(corners: [&GridRay; 4], pupil_mm2: f64, max_gain: f64) -> 
     if corners.iter().any(|r| !r.alive) || !(pupil_mm2 > 0.0 && pupil_mm2.is_finite()) {
         return GridCell::DEAD;
     }
-    let g = if max_gain.is_finite() && max_gain >= 1.0 {
-        max_gain
-    } else {
-        DEFAULT_MAX_GAIN
-    };
+    let g = gain_bound(max_gain);
     let [a, b, c, d] = corners.map(|r| r.sensor);
     let s1 = triangle_signed_area(a, b, c);
     let s2 = triangle_signed_area(a, c, d);
@@ -194,11 +200,7 @@ pub fn cell_intensity(corners: [&GridRay; 4], pupil_mm2: f64, max_gain: f64) -> 
 /// alive cell touches. `cells` is `(n−1)²` row-major for `n` rays per side;
 /// any other length gives all zeros. `max_gain` as in [`cell_intensity`].
 pub fn vertex_intensities(cells: &[GridCell], n: usize, pupil_mm2: f64, max_gain: f64) -> Vec<f64> {
-    let g = if max_gain.is_finite() && max_gain >= 1.0 {
-        max_gain
-    } else {
-        DEFAULT_MAX_GAIN
-    };
+    let g = gain_bound(max_gain);
     let m = n.saturating_sub(1);
     let mut out = vec![0.0; n * n];
     if cells.len() != m * m {

@@ -8,17 +8,12 @@
 use glam::DVec2;
 
 use super::aperture::Aperture;
-use super::intensity::{DEFAULT_MAX_GAIN, GridRay};
+use super::intensity::{GridRay, gain_bound, triangle_signed_area};
 
-/// Twice the signed area of the triangle a, b, c.
-fn area2(a: DVec2, b: DVec2, c: DVec2) -> f64 {
-    (b - a).perp_dot(c - a)
-}
-
-/// The doubled signed areas of the cell a, b, c, d's triangles (a, b, c)
-/// and (a, c, d).
+/// The signed areas of the cell a, b, c, d's triangles (a, b, c) and
+/// (a, c, d).
 fn halves(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> [f64; 2] {
-    [area2(a, b, c), area2(a, c, d)]
+    [triangle_signed_area(a, b, c), triangle_signed_area(a, c, d)]
 }
 
 /// The irradiance of the 2 × 2 cells on the rays `rays[row][column]`
@@ -53,11 +48,6 @@ pub fn merged_block(
     if !rays.iter().flatten().all(|r| r.passes(aperture)) {
         return None;
     }
-    let g = if max_gain.is_finite() && max_gain >= 1.0 {
-        max_gain
-    } else {
-        DEFAULT_MAX_GAIN
-    };
     let p = |row: usize, col: usize| rays[row][col].sensor;
     let t = |row: usize, col: usize| rays[row][col].throughput;
     // The four cells, row by row, each from its first corner (row, col).
@@ -74,10 +64,10 @@ pub fn merged_block(
     {
         return None;
     }
-    let floor = pupil_mm2 / g;
+    let floor = pupil_mm2 / gain_bound(max_gain);
     let (mut lo, mut hi, mut power, mut area) = (f64::INFINITY, 0.0f64, 0.0, 0.0);
     for ((r, c), h) in firsts.into_iter().zip(cell_halves) {
-        let a = 0.5 * orientation * (h[0] + h[1]);
+        let a = orientation * (h[0] + h[1]);
         if a < floor {
             return None;
         }
@@ -88,7 +78,7 @@ pub fn merged_block(
         power += mean_t * pupil_mm2;
         area += a;
     }
-    let one_area = 0.5 * orientation * (one[0] + one[1]);
+    let one_area = orientation * (one[0] + one[1]);
     if hi > lo * (1.0 + spread) || (one_area - area).abs() > 0.1 * spread * area {
         return None;
     }
@@ -97,7 +87,7 @@ pub fn merged_block(
 
 #[cfg(test)]
 mod tests {
-    use super::super::intensity::test_ray as ray;
+    use super::super::intensity::{DEFAULT_MAX_GAIN, test_ray as ray};
     use super::*;
 
     /// The 3 × 3 rays of `map` at pupil points (col, row) ∈ {0, 1, 2}².
@@ -140,15 +130,10 @@ mod tests {
         let b = block(map);
         let e = merged(&b, 0.5).expect("a gentle block merges");
         let refs = [0, 1, 2].map(|r| [0, 1, 2].map(|c| &b[r][c]));
-        let one = 0.5
-            * (halves(
-                refs[0][0].sensor,
-                refs[0][2].sensor,
-                refs[2][2].sensor,
-                refs[2][0].sensor,
-            )
+        let corners = [refs[0][0], refs[0][2], refs[2][2], refs[2][0]].map(|r| r.sensor);
+        let one: f64 = halves(corners[0], corners[1], corners[2], corners[3])
             .iter()
-            .sum::<f64>());
+            .sum();
         let mut power = 0.0;
         for (r, c) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
             let cell = super::super::cell_intensity(

@@ -106,10 +106,11 @@
 //!   at most [`SPECTRUM_BUDGET_MS`](twins::SPECTRUM_BUDGET_MS) a frame once each ghost has one.
 //! - *Intensity LOD* and *aperture culling*: [`FlareGhosts`].
 //!
-//! Beyond the blog, two savings where the result would not differ:
-//! a ghost whose image moves by less than a pixel across the band is drawn
-//! once, at the middle wavelength, in the band's colour
-//! ([`LensFlare::merge_wavelengths_px`]); and a ghost wider than
+//! Beyond the blog, two savings that trade a little error for time (each
+//! a knob with its series in the report): a ghost whose image moves by
+//! less than two pixels across the band is drawn once, at the middle
+//! wavelength, in the band's colour, losing colour fringes at most that
+//! wide ([`LensFlare::merge_wavelengths_px`]); and a ghost wider than
 //! [`LensFlare::coarse_ghost_px`] (a defocused one, smooth inside) is
 //! added up at half the ghosts' resolution in a pass of its own
 //! (`optica/lens_flare/coarse`) and scaled up into theirs, each smooth
@@ -172,8 +173,8 @@ pub use panel::{LensFlarePanelPlugin, lens_flare_ui};
 pub use precompute::{FlareGhosts, GhostChoice, GhostFate};
 pub use settings::{
     ApertureSettings, CoatingSettings, DEFAULT_COARSE_GHOST_PX, DEFAULT_MERGE_CELLS,
-    FlareOcclusion, FlareSource, GhostResolution, LensFlare, MAX_GRID, MAX_WAVELENGTHS,
-    RingingSettings, StarburstSettings,
+    DEFAULT_MERGE_WAVELENGTHS_PX, FlareOcclusion, FlareSource, GhostResolution, LensFlare,
+    MAX_GRID, MAX_WAVELENGTHS, RingingSettings, StarburstSettings,
 };
 
 /// The CPU and WGSL twins of what the flare's passes compute, and the

@@ -16,6 +16,8 @@ pub const MAX_WAVELENGTHS: u32 = 16;
 pub const DEFAULT_COARSE_GHOST_PX: f32 = 64.0;
 /// [`LensFlare::merge_cells`]'s default.
 pub const DEFAULT_MERGE_CELLS: f32 = 0.5;
+/// [`LensFlare::merge_wavelengths_px`]'s default.
+pub const DEFAULT_MERGE_WAVELENGTHS_PX: f32 = 2.0;
 
 /// Physically based lens flare on a camera: ghosts (light reflected twice
 /// inside the lens) traced through a real lens prescription.
@@ -76,11 +78,22 @@ pub struct LensFlare {
     pub wavelengths: u32,
     /// A ghost whose image moves by less than this many pixels across the
     /// band (where the ghosts are added up: see
-    /// [`LensFlare::ghost_resolution`]) is drawn once, at the middle
-    /// wavelength, in the colour of the whole band, instead of once per
-    /// wavelength: its wavelengths would draw the same image. `0` draws
-    /// every wavelength of every ghost. Measured per ghost and degree of
-    /// field angle (`optica_optics::lens_flare::GhostSpectrum::spread_mm`).
+    /// [`LensFlare::ghost_resolution`], and half that resolution for the
+    /// large ghosts of [`LensFlare::coarse_ghost_px`]) is drawn once, at
+    /// the middle wavelength, in the colour of the whole band, instead of
+    /// once per wavelength: a third of its cells and pixels at three
+    /// wavelengths. Below a pixel its wavelengths would draw the same
+    /// image; above, the price is its colour fringes, at most this wide.
+    /// `0` draws every wavelength of every ghost. Measured per ghost and
+    /// degree of field angle
+    /// (`optica_optics::lens_flare::GhostSpectrum::spread_mm`).
+    ///
+    /// On the double Gauss at 512² on lavapipe (report series `merged
+    /// wavelengths (defaults)`), the default 2 takes the flare's passes
+    /// from 12.6 ms to 10.5 ms and the frame from 1.50× [1.48, 1.52] to
+    /// 1.43× [1.42, 1.46] the frame without the flare, against 1, at a
+    /// relative L1 against the reference of 0.1433 instead of 0.1385
+    /// (0.1263 at 0, every wavelength drawn).
     pub merge_wavelengths_px: f32,
     /// The iris.
     pub aperture: ApertureSettings,
@@ -112,11 +125,11 @@ pub struct LensFlare {
     /// ones, smooth inside, and their softened iris edge is a small part of
     /// their light; they are also most of the flare's pixels: on the zoom
     /// (311 ghosts, 1280×720) the default cuts the fragments shaded from
-    /// 23.9 M to 9.0 M and the flare pass from about 400 ms to 230 ms on
+    /// 9.4 M to 2.1 M and the flare's passes from 55 ms to 23 ms on
     /// lavapipe (series `zoom 1280x720, no coarse ghosts` against
     /// `zoom 1280x720`). The price is softer edges on the bright large
     /// ghosts: on the double Gauss at 512² the relative L1 against the
-    /// reference goes from 0.10 to 0.14 (128 px: 0.13; series
+    /// reference goes from 0.11 to 0.14 (128 px: 0.14; series
     /// `no coarse ghosts (defaults)` against `coarse ghosts (defaults)`).
     /// `None` adds every ghost up at `ghost_resolution`; `Some(0.0)` every
     /// ghost at half of it.
@@ -128,12 +141,12 @@ pub struct LensFlare {
     /// bound, the largest irradiance within this share of the smallest,
     /// and the block's outline off the four cells' area by at most a
     /// tenth of this — it is drawn as one cell carrying their power. `0`
-    /// draws every cell. On the double Gauss at 512² on lavapipe the
-    /// default 0.5 shades 22,703 rays in the coarse pass instead of 32,062
-    /// and takes the flare from 1.53× [1.51, 1.55] to 1.45× [1.42, 1.51]
-    /// the frame without it, at the same relative L1 against the reference
-    /// (0.1385 against 0.1384); 1.0 gains a little more (1.43× [1.42,
-    /// 1.45]) and adds error (0.1427).
+    /// draws every cell. On the double Gauss at 512² on lavapipe, at the
+    /// other defaults, 0.5 shades 20,402 rays in the coarse pass instead
+    /// of 29,281 and takes the flare from 1.46× [1.42, 1.48] to 1.41×
+    /// [1.39, 1.46] the frame without it, at the same relative L1 against
+    /// the reference (0.1433 against 0.1432); 1.0 gains little more (1.41×
+    /// [1.40, 1.42]) and adds error (0.1474).
     /// Series `merged cells (defaults)`.
     pub merge_cells: f32,
 }
@@ -185,7 +198,7 @@ impl LensFlare {
             adaptive_grid: true,
             symmetry: true,
             wavelengths: 3,
-            merge_wavelengths_px: 1.0,
+            merge_wavelengths_px: DEFAULT_MERGE_WAVELENGTHS_PX,
             aperture: ApertureSettings::default(),
             coating: Some(CoatingSettings::default()),
             intensity: 1.0,

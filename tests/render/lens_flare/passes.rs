@@ -429,19 +429,27 @@ fn compared(reference: &[f64], other: &[f64]) -> (f64, f64) {
 
 /// Ghosts added up at half or a quarter of the view's resolution and
 /// scaled up keep their light (the texels hold irradiance, and bilinear
-/// scaling keeps a mean) and their place, only softened. Measured on the
-/// Tessar at 128²: light −0.01 % (half) and +1.2 % (quarter), relative L1
-/// against every pixel 3.3 % and 6.2 %; bounds 2 % and 10 % / 25 %. A texel
+/// scaling keeps a mean) and their place, only softened. Every wavelength
+/// is drawn (`merge_wavelengths_px` 0): which ghosts merge depends on the
+/// resolution, and would be measured too. Measured on the Tessar at 128²:
+/// light +0.02 % (half) and +1.5 % (quarter), relative L1 against every
+/// pixel 2.4 % and 5.3 %; bounds 2 % and 10 % / 25 %. A texel
 /// scale left out would be off by 4× or 16×, a flipped target by ~100 %.
 #[test]
 fn ghosts_added_up_at_a_reduced_resolution_keep_their_light() {
-    let full = layer(|f| f.ghost_resolution = GhostResolution::Full);
+    let full = layer(|f| {
+        f.ghost_resolution = GhostResolution::Full;
+        f.merge_wavelengths_px = 0.0;
+    });
     assert!(full.iter().sum::<f64>() > 0.0);
     for (resolution, max_l1) in [
         (GhostResolution::Half, 0.1),
         (GhostResolution::Quarter, 0.25),
     ] {
-        let reduced = layer(move |f| f.ghost_resolution = resolution);
+        let reduced = layer(move |f| {
+            f.ghost_resolution = resolution;
+            f.merge_wavelengths_px = 0.0;
+        });
         let (energy, l1) = compared(&full, &reduced);
         eprintln!("{resolution:?}: light {energy:+.4}, relative L1 {l1:.4}");
         assert!(energy.abs() < 0.02, "{resolution:?}: light {energy}");

@@ -45,8 +45,8 @@ use optica_lens_flare::twins::{
     SPECTRUM_BUDGET_MS, SensorMapping, passing_at_step, spectral_gains, spectrum_at_step,
 };
 use optica_lens_flare::{
-    DEFAULT_COARSE_GHOST_PX, DEFAULT_MERGE_CELLS, FlareGhosts, FlareSource, GhostResolution,
-    LensAsset, LensFlare, LensFlarePlugin,
+    DEFAULT_COARSE_GHOST_PX, DEFAULT_MERGE_CELLS, DEFAULT_MERGE_WAVELENGTHS_PX, FlareGhosts,
+    FlareSource, GhostResolution, LensAsset, LensFlare, LensFlarePlugin,
 };
 use optica_optics::glam::{DVec2, DVec3};
 use optica_optics::glass::LAMBDA_D_NM;
@@ -111,7 +111,7 @@ impl Setup {
             symmetry: true,
             diffraction: false,
             wavelengths: 3,
-            merge_px: 1.0,
+            merge_px: DEFAULT_MERGE_WAVELENGTHS_PX,
             coarse_px: Some(DEFAULT_COARSE_GHOST_PX),
             merge_cells: DEFAULT_MERGE_CELLS,
             resolution: GhostResolution::default(),
@@ -552,7 +552,7 @@ fn row(
 /// the band integral (a reference at 33 wavelengths, plain weights); `ghost resolution
 /// (defaults)`, whose knob is the divisor of the view's side the ghosts
 /// are added up at (1 and 4 quick, 1, 2, 4 full); `merged wavelengths
-/// (defaults)`, whose knob is `merge_wavelengths_px` (0 and 1 quick; 0,
+/// (defaults)`, whose knob is `merge_wavelengths_px` (0 and 2 quick; 0,
 /// 0.5, 1, 2 full); `coarse ghosts (defaults)`, whose knob is
 /// `coarse_ghost_px` (16 quick; 32, 64, 128, 192 full), and `no coarse
 /// ghosts (defaults)`; `merged cells (defaults)`, whose knob is
@@ -718,7 +718,7 @@ fn default_rows(
     }
     // The fourth knob, the image spread below which a ghost's wavelengths
     // are drawn as one (0: never), with the defaults.
-    for merge_px in ctx.pick(vec![0.0, 1.0], vec![0.0, 0.5, 1.0, 2.0]) {
+    for merge_px in ctx.pick(vec![0.0, 2.0], vec![0.0, 0.5, 1.0, 2.0]) {
         let setup = Setup {
             merge_px,
             ..Setup::double_gauss(DEFAULT_GRID, budget)
@@ -868,7 +868,10 @@ mod tests {
                 fine.error["rel_l1"] < coarse.error["rel_l1"],
                 "{series}: {rows:?}"
             );
-            assert!(fine.error["rel_l1"] < 0.5, "{series}: {rows:?}");
+            // (At the quick run's 128² the ghosts are added up at 32², where
+            // the default merge of a ghost's wavelengths, 2 of its pixels,
+            // loses fringes 8 pixels wide: 0.54 here, 0.14 at 512².)
+            assert!(fine.error["rel_l1"] < 0.6, "{series}: {rows:?}");
             assert!(fine.error["rel_energy"].abs() < 0.1, "{series}: {rows:?}");
             assert!(fine.error["psnr_db"] > 30.0, "{series}: {rows:?}");
         }
@@ -886,18 +889,24 @@ mod tests {
         for r in [one, three] {
             assert!(r.error["rel_energy"].abs() < 0.05, "{r:?}");
         }
-        // Drawing a ghost's wavelengths as one where they coincide draws
-        // fewer rays and adds no visible error.
+        // Drawing a ghost's wavelengths as one where they nearly coincide
+        // draws fewer rays and costs only their fringes: +0.017 relative L1
+        // at 512², +0.12 here, where 2 pixels of the ghosts' 32² target
+        // are 8 of the view's (a merged ghost in the wrong colour or place
+        // would be off by most of its light).
         let (every, merged) = (
             find("merged wavelengths (defaults)", 0.0),
-            find("merged wavelengths (defaults)", 1.0),
+            find(
+                "merged wavelengths (defaults)",
+                f64::from(DEFAULT_MERGE_WAVELENGTHS_PX),
+            ),
         );
         assert!(
             merged.work["draw_vertices"] < every.work["draw_vertices"],
             "{every:?} vs {merged:?}"
         );
         assert!(
-            merged.error["rel_l1"] < every.error["rel_l1"] + 0.02,
+            merged.error["rel_l1"] < every.error["rel_l1"] + 0.15,
             "{every:?} vs {merged:?}"
         );
         // Large ghosts added up at half the resolution shade fewer
@@ -908,8 +917,13 @@ mod tests {
             find("no coarse ghosts (defaults)", 16.0),
             find("coarse ghosts (defaults)", 16.0),
         );
+        // (The ghosts' own fragments: the coarse target's scaling up adds
+        // one per pixel of the ghosts' quarter-resolution target to the
+        // draw's count, 1,024 here against about 1,400 ghost fragments.)
         let shaded = |r: &Row| {
-            r.work["draw_fragments"] + r.work.get("coarse_fragments").copied().unwrap_or(0.0)
+            let coarse = r.work.get("coarse_fragments").copied();
+            let upsampled = coarse.map_or(0.0, |_| (r.work["size_px"] / 4.0).powi(2));
+            r.work["draw_fragments"] + coarse.unwrap_or(0.0) - upsampled
         };
         assert!(coarse.work["coarse_fragments"] > 0.0, "{coarse:?}");
         assert!(shaded(coarse) < shaded(fine), "{fine:?} vs {coarse:?}");

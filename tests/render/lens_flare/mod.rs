@@ -30,6 +30,16 @@ pub fn sun(travel: Vec3, lux: f32) -> impl Bundle {
     )
 }
 
+/// The walls' material: black and unlit, so that a frame with walls in it
+/// is still only the flare's light.
+pub fn black_wall() -> StandardMaterial {
+    StandardMaterial {
+        base_color: Color::BLACK,
+        unlit: true,
+        ..default()
+    }
+}
+
 /// A camera at the origin looking along −Z, clearing to black, HDR,
 /// untonemapped, one sample per pixel: its image is the flare's light.
 pub use optica_report::fixtures::black_hdr_camera;

@@ -99,11 +99,7 @@ fn scene(case: Case) -> impl FnOnce(&mut App) {
                   assets: Res<AssetServer>,
                   mut meshes: ResMut<Assets<Mesh>>,
                   mut materials: ResMut<Assets<StandardMaterial>>| {
-                let black = materials.add(StandardMaterial {
-                    base_color: Color::BLACK,
-                    unlit: true,
-                    ..default()
-                });
+                let black = materials.add(super::black_wall());
                 match light {
                     Light::Sun => {
                         commands.spawn(super::sun(travel(), 100_000.0));

@@ -55,11 +55,7 @@ fn frame(scene: Scene, taa: bool, frames: u32) -> Vec<f32> {
                     if taa {
                         camera.insert(TemporalAntiAliasing::default());
                     }
-                    let black = materials.add(StandardMaterial {
-                        base_color: Color::BLACK,
-                        unlit: true,
-                        ..default()
-                    });
+                    let black = materials.add(super::black_wall());
                     match scene {
                         Scene::Open | Scene::Edge => {
                             // No blend with the last frame's visibility:

@@ -918,11 +918,12 @@ mod tests {
             find("coarse ghosts (defaults)", 16.0),
         );
         // (The ghosts' own fragments: the coarse target's scaling up adds
-        // one per pixel of the ghosts' quarter-resolution target to the
+        // one per pixel of the ghosts' reduced-resolution target to the
         // draw's count, 1,024 here against about 1,400 ghost fragments.)
+        let divisor = f64::from(GhostResolution::default().divisor());
         let shaded = |r: &Row| {
             let coarse = r.work.get("coarse_fragments").copied();
-            let upsampled = coarse.map_or(0.0, |_| (r.work["size_px"] / 4.0).powi(2));
+            let upsampled = coarse.map_or(0.0, |_| (r.work["size_px"] / divisor).powi(2));
             r.work["draw_fragments"] + coarse.unwrap_or(0.0) - upsampled
         };
         assert!(coarse.work["coarse_fragments"] > 0.0, "{coarse:?}");

@@ -32,6 +32,13 @@
 //! * Series "periphery scale": scene B with the front gaze, the knob the
 //!   middle layer's grid scale (1: every pixel at its level, only eq. 9 and
 //!   10 save; 2, the default; 4; 8), the outer layer twice as coarse.
+//! * Series "central field alone": each case (quick: one) with every extent
+//!   of the visual field at the central radius, so that only the central
+//!   field is traced (at level 1, as the paper asks) and the rest is
+//!   background. Its ratio is the floor of the paper's method on this
+//!   adapter: what no treatment of the periphery can go below. The case
+//!   "floor of the paper's method" says where that floor lies above the
+//!   0.35 goal.
 
 use std::sync::{Arc, Mutex};
 
@@ -223,13 +230,35 @@ fn twin_work(seen: &Seen, t: &GazeRayTracer, size: usize) -> Result<(f64, f64), 
     ))
 }
 
+/// The visual field with its periphery shut: every extent at the central
+/// field's radius, so that eq. 8 gives level 1 inside the central field and
+/// 0 (the background, no ray) everywhere else. The foveated frame then costs
+/// what the paper's method cannot save, whatever it did with the periphery.
+fn central_field_alone(app: &mut App) {
+    let f = Foveation::default();
+    let c = f.central_deg;
+    app.insert_resource(Foveation {
+        ear_deg: c,
+        nose_deg: c,
+        upper_deg: c,
+        lower_deg: c,
+        ..f
+    });
+}
+
 fn measure(
     ctx: &SweepContext,
     scene: Scene,
     floor_gaze: bool,
     scale: u32,
+    central_alone: bool,
     report: &mut Report,
 ) -> Result<Case, SweepError> {
+    let field_of = |app: &mut App| {
+        if central_alone {
+            central_field_alone(app);
+        }
+    };
     let size = ctx.pick(48, 256);
     let warmup = ctx.pick(2, 4);
     let headless = ctx.headless(size, size).frames(4);
@@ -238,7 +267,12 @@ fn measure(
     for foveate in [true, false] {
         let s = foveate.then(|| seen.clone());
         let t = tracer(foveate, scale);
-        let frame = headless.render(|app| setup(app, scene, floor_gaze, t, size, s))?;
+        let frame = headless.render(|app| {
+            setup(app, scene, floor_gaze, t, size, s);
+            if foveate {
+                field_of(app);
+            }
+        })?;
         report.adapter.get_or_insert(frame.adapter.clone());
         images.push(frame.to_rgba8());
     }
@@ -249,7 +283,10 @@ fn measure(
         warmup,
         blocks,
         per_block,
-        |app| setup(app, scene, floor_gaze, foveated, size, None),
+        |app| {
+            setup(app, scene, floor_gaze, foveated, size, None);
+            field_of(app);
+        },
         |app| setup(app, scene, floor_gaze, full, size, None),
     )?;
     let seen = seen.lock().expect("the app has finished").clone();
@@ -288,12 +325,19 @@ fn empty_scene_frame_ms(ctx: &SweepContext) -> Result<f64, SweepError> {
     Ok(timing.frame_ms.median)
 }
 
+/// The series of the cases' floors: the central field traced at full
+/// quality and nothing else ([`central_field_alone`]).
+const FLOOR_SERIES: &str = "ray tracer, central field alone";
+
 /// Adds the ray tracer's rows to the `foveated_lod` report.
 pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), SweepError> {
     // Quick: two of the eight cases, one knob value.
     let cases = ctx.pick(vec![(SCENES[0], false), (SCENES[3], true)], paper_cases());
     let scales: Vec<u32> = ctx.pick(vec![4], vec![1, 2, 4, 8]);
-    let total = cases.len() + scales.len() + 1;
+    // The floor of every case: its central field traced, nothing else (quick:
+    // one case).
+    let floors = ctx.pick(vec![(SCENES[3], true)], cases.clone());
+    let total = cases.len() + scales.len() + floors.len() + 1;
     ctx.progress(0, total, "ray tracer, empty scene");
     let empty_ms = empty_scene_frame_ms(ctx)?;
     let mut step = 1;
@@ -305,7 +349,7 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             &format!("ray tracer, {}, {gaze_name}", scene.name),
         );
         step += 1;
-        let case = measure(ctx, scene, floor_gaze, 2, report)?;
+        let case = measure(ctx, scene, floor_gaze, 2, false, report)?;
         report.rows.push(row(
             &case,
             empty_ms,
@@ -316,12 +360,31 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
     for scale in scales {
         ctx.progress(step, total, &format!("ray tracer, periphery scale {scale}"));
         step += 1;
-        let case = measure(ctx, SCENES[1], false, scale, report)?;
+        let case = measure(ctx, SCENES[1], false, scale, false, report)?;
         report.rows.push(row(
             &case,
             empty_ms,
             scale as f64,
             "ray tracer: periphery scale (B, front gaze)",
+        ));
+    }
+    for &(scene, floor_gaze) in &floors {
+        let gaze_name = gaze_name(floor_gaze);
+        ctx.progress(
+            step,
+            total,
+            &format!(
+                "ray tracer, central field alone, {}, {gaze_name}",
+                scene.name
+            ),
+        );
+        step += 1;
+        let case = measure(ctx, scene, floor_gaze, 2, true, report)?;
+        report.rows.push(row(
+            &case,
+            empty_ms,
+            30.0,
+            &format!("{FLOOR_SERIES}: {}, {gaze_name}", scene.name),
         ));
     }
     // The paper's best frame ratio is 0.278: each of its cases at most
@@ -340,7 +403,37 @@ pub fn raytrace_rows(ctx: &SweepContext, report: &mut Report) -> Result<(), Swee
             r.series == series && r.knob == knob
         });
     }
+    floor_case(report, 0.35);
     Ok(())
+}
+
+/// A case that states the floor rows in words: how the central field alone
+/// compares with the goal `goal`. Where a floor's lower bound lies above
+/// it, no treatment of the periphery can meet the goal in that case.
+fn floor_case(report: &mut Report, goal: f64) {
+    let floors: Vec<&Row> = report
+        .rows
+        .iter()
+        .filter(|r| r.series.starts_with(FLOOR_SERIES))
+        .collect();
+    let lows: Vec<f64> = floors
+        .iter()
+        .map(|r| r.ratio.map_or(r.ratio(), |i| i.low))
+        .collect();
+    let measured = !floors.is_empty() && lows.iter().all(|l| l.is_finite());
+    let above = lows.iter().filter(|&&l| l > goal).count();
+    let (min, max) = lows
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &l| {
+            (a.min(l), b.max(l))
+        });
+    let detail = format!(
+        "the central field traced at full quality and nothing else: lower bounds {min:.2}–{max:.2} \
+         of the full-quality frame; in {above} of {} cases even that lies above {goal}×, so no \
+         treatment of the periphery meets the goal there",
+        floors.len()
+    );
+    report.case("ray tracer: floor of the paper's method", measured, detail);
 }
 
 fn row(case: &Case, empty_ms: f64, knob: f64, series: &str) -> Row {
@@ -369,7 +462,7 @@ mod tests {
         let ctx = SweepContext::new("foveated_lod", true, true);
         let mut report = Report::cpu("foveated_lod", "level_steps_S");
         raytrace_rows(&ctx, &mut report).expect("the ray tracer rows run on lavapipe");
-        assert_eq!(report.rows.len(), 3);
+        assert_eq!(report.rows.len(), 4);
         for r in &report.rows {
             eprintln!(
                 "{} {}: {:.2}/{:.2} ms {:?} {:?}",
@@ -388,6 +481,28 @@ mod tests {
                 assert!(r.work["ray_saving_estimate"] < 0.2, "{:?}", r.work);
             }
         }
+        // The floor row traces the same case's central field and no
+        // periphery: fewer rays, and more error beyond the central field.
+        let floor = &report.rows[3];
+        let case = report
+            .rows
+            .iter()
+            .find(|r| r.series == "ray tracer: D diffuse, front, floor gaze")
+            .expect("the floor's case is among the quick cases");
+        assert!(floor.series.starts_with(FLOOR_SERIES), "{}", floor.series);
+        assert!(
+            floor.work["twin_rays_ratio"] < case.work["twin_rays_ratio"],
+            "{:?} {:?}",
+            floor.work,
+            case.work
+        );
+        assert!(
+            floor.error["rmse_beyond_30deg"] > case.error["rmse_beyond_30deg"],
+            "{:?} {:?}",
+            floor.error,
+            case.error
+        );
+        assert_eq!(floor.error["rmse_0_5deg"], 0.0);
         assert!(report.problems().is_empty(), "{:?}", report.problems());
     }
 }

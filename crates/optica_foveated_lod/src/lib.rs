@@ -230,16 +230,19 @@
 //! Measured (`optica_report foveated_lod`, series
 //! `ray tracer: <scene>, <gaze>`, lavapipe, release; the paper's CAVE of
 //! three 256² walls, eight 5,780-triangle models and a floor, its four
-//! scenes and two gazes, frame time against `foveate: false` in the same
-//! run): 0.38–0.59 of full quality's frame with the defaults, the
-//! central field equal to full quality's and the image beyond 30° within an
-//! RMSE of 0.01–0.15 (8-bit sRGB, largest where the field's edge cuts
-//! models off). The CPU twin of the same schedule traces 16–27 % of full
-//! quality's rays; the rest of the frame (some 55 ms of 280–450 on
-//! lavapipe) is Bevy's own three-camera frame, which foveation cannot
-//! shorten. Coarser layers (`periphery_scale` 4, 8; series
-//! `ray tracer: periphery scale (B, front gaze)`) bring it to 0.29–0.30
-//! at an RMSE beyond 30° of 0.017–0.028.
+//! scenes and two gazes, frame time against `foveate: false` in
+//! alternating blocks, 2026-12-05): 0.48–0.72 of full quality's frame
+//! with the defaults (the paper's own table: 0.28–1.27), the central field
+//! equal to full quality's and the image beyond 30° within an RMSE of
+//! 0.01–0.15 (8-bit sRGB, largest where the field's edge cuts models off).
+//! The CPU twin of the same schedule traces 16–27 % of full quality's
+//! rays. What foveation cannot save: the central field, traced exactly as
+//! full quality traces it, and Bevy's own three-camera frame (7.5–9.4 ms
+//! of 28–45 ms). The series `ray tracer, central field alone` measures
+//! that floor, the central field traced and nothing else: 0.37–0.54 of
+//! full quality's frame. Coarser layers (`periphery_scale` 4, 8; series
+//! `ray tracer: periphery scale (B, front gaze)`) bring scene B from 0.50
+//! to 0.44–0.45 at an RMSE beyond 30° of 0.017–0.028.
 //!
 //! Limits: the objects are tested one after another (no BVH over them;
 //! fine for tens of objects); shadow rays treat transparent objects as

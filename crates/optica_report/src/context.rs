@@ -87,27 +87,6 @@ impl SweepContext {
     }
 }
 
-/// Runs `f` repeatedly and returns the median wall time of one call in
-/// milliseconds, with the last result. Runs at least `min_runs` times and
-/// keeps going until about `budget_ms` has passed (at most 101 runs), so
-/// that fast calls are timed over many runs and slow ones only a few.
-pub fn time_ms<R>(min_runs: usize, budget_ms: f64, mut f: impl FnMut() -> R) -> (f64, R) {
-    let mut times = Vec::new();
-    let start = Instant::now();
-    let mut last;
-    loop {
-        let t = Instant::now();
-        last = std::hint::black_box(f());
-        times.push(t.elapsed().as_secs_f64() * 1e3);
-        let spent = start.elapsed().as_secs_f64() * 1e3;
-        if times.len() >= min_runs.max(1) && (spent >= budget_ms || times.len() >= 101) {
-            break;
-        }
-    }
-    times.sort_by(|a, b| a.total_cmp(b));
-    (times[times.len() / 2], last)
-}
-
 /// The CPU in words: its model name (from `/proc/cpuinfo` on Linux) and the
 /// number of threads this process may use.
 pub fn cpu_description() -> String {

@@ -30,12 +30,14 @@
 #![warn(missing_docs)]
 
 mod context;
+mod cpu_timing;
 pub mod fixtures;
 mod report;
 pub mod sweeps;
 mod write;
 
-pub use context::{SweepContext, cpu_description, time_ms};
+pub use context::{SweepContext, cpu_description};
+pub use cpu_timing::{PairedCpu, time_ms, time_paired_ms};
 pub use report::{Report, Row, StabilityCase};
 pub use write::{WriteError, commit, markdown, summary, write_all, write_summary};
 

@@ -19,6 +19,8 @@
 use std::collections::BTreeMap;
 
 use optica_harness::{AdapterInfo, PairedTimings, RatioInterval};
+
+use crate::PairedCpu;
 use serde::{Deserialize, Serialize};
 
 /// A plugin's error-against-run-time sweep and its stability cases.
@@ -212,6 +214,25 @@ impl Report {
                 }
             }
         }
+        // Every ratio comes with its interval: a ratio of two times taken
+        // one after the other is what a load that comes and goes can fake.
+        for row in self
+            .rows
+            .iter()
+            .filter(|r| r.baseline_time_ms > 0.0 && r.ratio.is_none())
+        {
+            out.push(format!(
+                "{} = {}{}: a ratio without its interval (time it with `Headless::time_paired` \
+                 or `time_paired_ms`)",
+                self.knob,
+                row.knob,
+                if row.series.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", row.series)
+                }
+            ));
+        }
         for c in self.stability.iter().filter(|c| !c.ok) {
             out.push(format!("stability case `{}` failed: {}", c.case, c.detail));
         }
@@ -248,6 +269,21 @@ impl Row {
             )
         }
         .work("timing_blocks", timed.ratio.blocks as f64)
+        .work("timing_s", timed.elapsed_s)
+    }
+
+    /// A row whose times come from CPU work and its baseline timed in
+    /// alternating blocks ([`time_paired_ms`](crate::time_paired_ms)):
+    /// their median calls and the ratio's interval, with the blocks and
+    /// the time the measurement took as work counters, as in
+    /// [`Row::paired`].
+    pub fn paired_cpu(knob: f64, timed: &PairedCpu) -> Self {
+        let blocks = timed.ratio.map_or(0, |r| r.blocks);
+        Self {
+            ratio: timed.ratio,
+            ..Self::new(knob, timed.effect_ms, timed.baseline_ms)
+        }
+        .work("timing_blocks", blocks as f64)
         .work("timing_s", timed.elapsed_s)
     }
 
@@ -329,17 +365,35 @@ mod tests {
     }
 
     #[test]
-    fn problems_name_non_finite_numbers_and_failed_cases() {
+    fn problems_name_non_finite_numbers_bare_ratios_and_failed_cases() {
+        let interval = RatioInterval {
+            median: 2.0,
+            low: 1.9,
+            high: 2.1,
+            confidence: 0.95,
+            blocks: 4,
+        };
         let mut r = Report::cpu("demo", "n");
-        r.rows
-            .push(Row::new(1.0, 2.0, 1.0).err("rel", 0.1).work("rays", 10.0));
+        let mut row = Row::new(1.0, 2.0, 1.0).err("rel", 0.1).work("rays", 10.0);
+        row.ratio = Some(interval);
+        r.rows.push(row);
+        // A row without a baseline gives no ratio, so it needs no interval.
+        r.rows.push(Row::new(3.0, 2.0, 0.0).err("rel", 0.1));
         r.case("fine", true, "ok");
-        assert!(r.problems().is_empty());
+        assert!(r.problems().is_empty(), "{:?}", r.problems());
+        let mut nan = Row::new(2.0, f64::NAN, 1.0).err("rel", f64::INFINITY);
+        nan.ratio = Some(interval);
+        r.rows.push(nan);
         r.rows
-            .push(Row::new(2.0, f64::NAN, 1.0).err("rel", f64::INFINITY));
+            .push(Row::new(4.0, 2.0, 1.0).series("timed one after the other"));
         r.case("broken", false, "NaN pixel");
         let p = r.problems();
-        assert_eq!(p.len(), 3, "{p:?}");
-        assert!(p[0].contains("time_ms") && p[1].contains("rel") && p[2].contains("broken"));
+        assert_eq!(p.len(), 4, "{p:?}");
+        assert!(p[0].contains("time_ms") && p[1].contains("rel"), "{p:?}");
+        assert!(
+            p[2].contains("n = 4 (timed one after the other): a ratio without its interval"),
+            "{p:?}"
+        );
+        assert!(p[3].contains("broken"), "{p:?}");
     }
 }

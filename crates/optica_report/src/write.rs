@@ -78,9 +78,10 @@ pub fn markdown(report: &Report) -> String {
     if let Some(r) = report.rows.iter().find_map(|r| r.ratio) {
         let _ = writeln!(
             s,
-            "- ratios with an interval: the row's effect and its baseline timed as two apps in \
-             {} alternating blocks of frames; the median of the blocks' ratios and its {:.0} % \
-             bootstrap interval (a goal on a ratio is met when the interval's upper bound meets it)",
+            "- ratios with an interval: the row's effect and its baseline timed in {} alternating \
+             blocks (frames of two apps side by side; calls of the two functions where both run on \
+             the CPU); the median of the blocks' ratios and its {:.0} % bootstrap interval (a goal \
+             on a ratio is met when the interval's upper bound meets it)",
             r.blocks,
             100.0 * r.confidence
         );

@@ -50,7 +50,7 @@ use optica_optics::dome::{
 };
 use optica_optics::glam::DVec3;
 
-use crate::{Report, Row, SweepContext, time_ms};
+use crate::{Report, Row, SweepContext, time_ms, time_paired_ms};
 
 /// The inside-out room seen by a zenith camera 1.7 m above its floor.
 pub(super) fn room() -> TriMesh {
@@ -173,7 +173,8 @@ pub fn run(ctx: &SweepContext) -> Result<Report, super::SweepError> {
     let room = room();
     let (un_max, un_mean) = unrefined_errors(&proj, &edges);
 
-    let (base_ms, _) = time_ms(runs, budget, || {
+    // The baseline, timed against each tolerance in alternating blocks.
+    let unrefined = || {
         let mut visible = 0usize;
         for &[a, b] in &edges {
             for p in [a, b] {
@@ -181,27 +182,33 @@ pub fn run(ctx: &SweepContext) -> Result<Report, super::SweepError> {
             }
         }
         visible
-    });
+    };
 
     let total = tolerances.len();
     for (i, &tol) in tolerances.iter().enumerate() {
         ctx.progress(i + 1, total, &format!("tolerance {tol} px"));
         let rule = chord_gap(tol);
-        let (ms, emitted) = time_ms(runs, budget, || {
-            let r = refine_segments(&proj, &edges, rule);
-            let mut visible = 0usize;
-            for p in r.strips.iter().flatten() {
-                visible += usize::from(matches!(proj.project(*p), Projected::Visible(_)));
-            }
-            (r.stats.emitted, visible)
-        });
+        let (timed, emitted) = time_paired_ms(
+            ctx.blocks().0,
+            runs,
+            budget,
+            || {
+                let r = refine_segments(&proj, &edges, rule);
+                let mut visible = 0usize;
+                for p in r.strips.iter().flatten() {
+                    visible += usize::from(matches!(proj.project(*p), Projected::Visible(_)));
+                }
+                (r.stats.emitted, visible)
+            },
+            unrefined,
+        );
         let (max, mean, segments) = per_edge_errors(&proj, &edges, rule);
         let paper = SplitRule::visual_angle_for_tolerance(&proj, tol).expect("valid tolerance");
         let (paper_max, _, paper_segments) = per_edge_errors(&proj, &edges, paper);
         let mesh = refine_mesh(&proj, &room, rule);
         let mesh_err = EdgeErrors::of_mesh(&proj, &mesh.mesh);
         report.rows.push(
-            Row::new(tol, ms, base_ms)
+            Row::paired_cpu(tol, &timed)
                 .err("max_px", max)
                 .err("mean_px", mean)
                 .err("paper_max_px", paper_max)
@@ -237,31 +244,37 @@ fn lenses(report: &mut Report, ctx: &SweepContext, tolerances: &[f64]) {
         ctx.progress(k + 1, LENSES.len(), &format!("lens {name}"));
         let proj = lens_dome(lens, fov);
         let edges = random_edges(&proj, n_edges, 89f64.to_radians(), 1.0..60.0, 0x00D0_3E01);
-        let (base_ms, _) = time_ms(runs, budget, || {
+        let unrefined = || {
             edges
                 .iter()
                 .flatten()
                 .filter(|p| matches!(proj.project(**p), Projected::Visible(_)))
                 .count()
-        });
+        };
         let (un_max, un_mean) = unrefined_errors(&proj, &edges);
         for &tol in tolerances {
             let rule = chord_gap(tol);
-            let (ms, emitted) = time_ms(runs, budget, || {
-                let r = refine_segments(&proj, &edges, rule);
-                let visible = r
-                    .strips
-                    .iter()
-                    .flatten()
-                    .filter(|p| matches!(proj.project(**p), Projected::Visible(_)))
-                    .count();
-                (r.stats.emitted, visible)
-            });
+            let (timed, emitted) = time_paired_ms(
+                ctx.blocks().0,
+                runs,
+                budget,
+                || {
+                    let r = refine_segments(&proj, &edges, rule);
+                    let visible = r
+                        .strips
+                        .iter()
+                        .flatten()
+                        .filter(|p| matches!(proj.project(**p), Projected::Visible(_)))
+                        .count();
+                    (r.stats.emitted, visible)
+                },
+                unrefined,
+            );
             let (max, mean, _) = per_edge_errors(&proj, &edges, rule);
             let mesh = refine_mesh(&proj, &room, rule);
             let mesh_err = EdgeErrors::of_mesh(&proj, &mesh.mesh);
             report.rows.push(
-                Row::new(tol, ms, base_ms)
+                Row::paired_cpu(tol, &timed)
                     .series(&format!("lens: {name} {fov}°"))
                     .err("max_px", max)
                     .err("mean_px", mean)

@@ -27,7 +27,7 @@ use optica_optics::dome::{
 };
 use optica_optics::glam::DVec3;
 
-use crate::{Report, Row, SweepContext, time_ms};
+use crate::{Report, Row, SweepContext, time_paired_ms};
 
 /// The panorama of the series.
 fn panorama() -> EquirectProjection {
@@ -84,13 +84,14 @@ pub fn panorama_rows(report: &mut Report, ctx: &SweepContext, tolerances: &[f64]
     let (runs, budget) = ctx.pick((2, 20.0), (5, 200.0));
     let edges = edges_all_round(n_edges);
     let room = super::dome::room();
-    let (base_ms, _) = time_ms(runs, budget, || {
+    // The baseline, timed against each tolerance in alternating blocks.
+    let unrefined = || {
         edges
             .iter()
             .flatten()
             .filter_map(|v| p.pixel_of_direction(*v))
             .count()
-    });
+    };
     // One piece per quarter: the visual-angle rule with a piece of 180°.
     let whole = SplitRule::visual_angle(std::f64::consts::PI).expect("valid rule");
     let (un_max, un_mean) = per_edge_errors(&p, &edges, whole);
@@ -102,16 +103,22 @@ pub fn panorama_rows(report: &mut Report, ctx: &SweepContext, tolerances: &[f64]
             &format!("equirectangular, {tol} px"),
         );
         let rule = SplitRule::chord_gap(tol).expect("valid tolerance");
-        let (ms, emitted) = time_ms(runs, budget, || {
-            let r = refine_segments_equirect(&p, &edges, rule);
-            let projected = r
-                .strips
-                .iter()
-                .flatten()
-                .filter_map(|v| p.pixel_of_direction(*v))
-                .count();
-            (r.stats.emitted, projected)
-        });
+        let (timed, emitted) = time_paired_ms(
+            ctx.blocks().0,
+            runs,
+            budget,
+            || {
+                let r = refine_segments_equirect(&p, &edges, rule);
+                let projected = r
+                    .strips
+                    .iter()
+                    .flatten()
+                    .filter_map(|v| p.pixel_of_direction(*v))
+                    .count();
+                (r.stats.emitted, projected)
+            },
+            unrefined,
+        );
         let (max, mean) = per_edge_errors(&p, &edges, rule);
         let mesh = refine_mesh_equirect(&p, &room, rule).mesh;
         let (mut mesh_max, mut area) = (0.0f64, 0.0);
@@ -130,7 +137,7 @@ pub fn panorama_rows(report: &mut Report, ctx: &SweepContext, tolerances: &[f64]
         // Pixel rows grow downwards: the room's inward faces wind clockwise.
         let room_area_err = (-area / (size.x * size.y) - 1.0).abs();
         report.rows.push(
-            Row::new(tol, ms, base_ms)
+            Row::paired_cpu(tol, &timed)
                 .series("lens: equirectangular 360°")
                 .err("max_px", max)
                 .err("mean_px", mean)

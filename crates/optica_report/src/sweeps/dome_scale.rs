@@ -22,7 +22,7 @@ use optica_dome::DomeCamera;
 use optica_dome::twins::{Twin, TwinJob, twins_of_meshes};
 use optica_optics::dome::SplitRule;
 
-use crate::{Report, Row, SweepContext, time_ms};
+use crate::{Report, Row, SweepContext, time_paired_ms};
 
 /// Triangles of one sphere of the city.
 const SPHERE_TRIANGLES: usize = 960;
@@ -78,7 +78,8 @@ pub fn scene_size(report: &mut Report, ctx: &SweepContext) {
         ctx.progress(i + 1, sizes.len(), &format!("scene of {size} triangles"));
         let (mesh, places) = city(size);
         let mut step = 0;
-        let (base_ms, _) = time_ms(runs, budget, || {
+        // The baseline, timed against the refinement in alternating blocks.
+        let transform_only = || {
             let Some(VertexAttributeValues::Float32x3(p)) =
                 mesh.attribute(Mesh::ATTRIBUTE_POSITION)
             else {
@@ -94,9 +95,9 @@ pub fn scene_size(report: &mut Report, ctx: &SweepContext) {
                         .sum::<f32>()
                 })
                 .sum::<f32>()
-        });
+        };
         let projection = projection.into();
-        let (ms, (vertices, unsplit)) = time_ms(runs, budget, || {
+        let refine = || {
             step += 1;
             let view = camera_at(step);
             let jobs: Vec<TwinJob> = places
@@ -115,9 +116,11 @@ pub fn scene_size(report: &mut Report, ctx: &SweepContext) {
                     Twin::Same => (v, u + 1),
                     Twin::Refined(m) => (v + m.count_vertices(), u),
                 })
-        });
+        };
+        let (timed, (vertices, unsplit)) =
+            time_paired_ms(ctx.blocks().0, runs, budget, refine, transform_only);
         report.rows.push(
-            Row::new(size as f64, ms, base_ms)
+            Row::paired_cpu(size as f64, &timed)
                 .series("scene size, moving camera (knob: triangles)")
                 .work("input_triangles", (places.len() * SPHERE_TRIANGLES) as f64)
                 .work("meshes", places.len() as f64)

@@ -27,7 +27,7 @@ use optica_optics::foveated_lod::{
 };
 use optica_optics::glam::DVec3;
 
-use crate::{Report, Row, SweepContext, time_ms};
+use crate::{Report, Row, SweepContext, time_paired_ms};
 
 /// The gaze of the sweep: 35° right and 15° down of −z (the front wall's view axis).
 fn sweep_gaze(eye: DVec3) -> GazeFrame {
@@ -72,20 +72,25 @@ pub fn run(ctx: &SweepContext) -> Report {
 
     let total = steps.len() + 1;
     ctx.progress(0, total, "full-quality baseline");
-    let (t_full, full) = time_ms(runs, budget, || {
-        render_full_quality(&scene, &cam, &settings)
-    });
+    let full = render_full_quality(&scene, &cam, &settings);
 
     for (i, &s) in steps.iter().enumerate() {
         ctx.progress(i + 1, total, &format!("S = {s}"));
-        let (t, img) = time_ms(runs, budget, || {
-            let lv = pixel_levels(&cam, &settings, &field, &gaze, LevelQuantization::Steps(s));
-            render(&scene, &cam, &settings, &lv).expect("one level per pixel")
-        });
+        // Against full quality in alternating blocks.
+        let (timed, img) = time_paired_ms(
+            ctx.blocks().0,
+            runs,
+            budget,
+            || {
+                let lv = pixel_levels(&cam, &settings, &field, &gaze, LevelQuantization::Steps(s));
+                render(&scene, &cam, &settings, &lv).expect("one level per pixel")
+            },
+            || render_full_quality(&scene, &cam, &settings),
+        );
         let e = rmse(&img.pixels, &full.pixels).unwrap_or(f64::NAN);
         let g = weighted_rmse(&img.pixels, &full.pixels, &weights).unwrap_or(f64::NAN);
         report.rows.push(
-            Row::new(s as f64, t, t_full)
+            Row::paired_cpu(s as f64, &timed)
                 .err("rmse", e)
                 .err("gaze_weighted_rmse", g)
                 .work("rays", img.stats.rays() as f64)

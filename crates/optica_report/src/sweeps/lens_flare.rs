@@ -41,7 +41,7 @@ use optica_optics::lens_flare::{
     trace_grid,
 };
 
-use crate::{Report, Row, SweepContext, time_ms};
+use crate::{Report, Row, SweepContext, time_paired_ms};
 
 const WAVELENGTH_NM: f64 = 550.0;
 const FIELD_DEG: f64 = 10.0;
@@ -129,10 +129,7 @@ pub fn run(ctx: &SweepContext) -> Report {
     let opts = GridOptions::default();
     let total = sizes.len() + 1;
     ctx.progress(0, total, "reference");
-    let (t_ref, reference) = time_ms(1, 0.0, || {
-        reference_image(&lens, path, &beam, &ap, window, k, 1, &opts)
-    });
-    let reference = match reference {
+    let reference = match reference_image(&lens, path, &beam, &ap, window, k, 1, &opts) {
         Ok(r) => r,
         Err(e) => {
             report.case("reference", false, e.to_string());
@@ -156,16 +153,23 @@ pub fn run(ctx: &SweepContext) -> Report {
     for (step, &n) in sizes.iter().enumerate() {
         ctx.progress(step + 1, total, &format!("N = {n}"));
         let budget = ctx.pick(50.0, 300.0);
-        let (t, out) = time_ms(3, budget, || {
-            trace_grid(&lens, path, &beam, n, &opts)
-                .map(|g| (rasterise(&g, &ap, window), g.stats()))
-        });
+        // Against the reference's computation, in alternating blocks.
+        let (timed, out) = time_paired_ms(
+            ctx.blocks().0,
+            3,
+            budget,
+            || {
+                trace_grid(&lens, path, &beam, n, &opts)
+                    .map(|g| (rasterise(&g, &ap, window), g.stats()))
+            },
+            || reference_image(&lens, path, &beam, &ap, window, k, 1, &opts),
+        );
         let Ok((img, stats)) = out else { continue };
         let Some(e) = compare(&img, &reference.image) else {
             continue;
         };
         report.rows.push(
-            Row::new(n as f64, t, t_ref)
+            Row::paired_cpu(n as f64, &timed)
                 .err("rel_l1", e.rel_l1)
                 .err("rel_l2", e.rel_l2)
                 .err("rel_energy", e.rel_energy.abs())

@@ -27,7 +27,7 @@ use optica_optics::lens::{
 };
 use optica_optics::ray::Ray;
 
-use crate::{Report, Row, SweepContext, time_ms};
+use crate::{Report, Row, SweepContext, time_paired_ms};
 
 /// Field angle of the point source (degrees): slightly off axis, so that the
 /// ghost is not rotationally symmetric and its centroid moves.
@@ -186,10 +186,14 @@ pub fn run(ctx: &SweepContext) -> Report {
     let (budget, min_runs) = ctx.pick((15.0, 1), (300.0, 5));
     for (step, &n) in knobs.iter().enumerate() {
         let (rays, area) = pupil_grid(n, half, pupil_z, FIELD_DEG);
-        let (t_ghost, results) = time_ms(min_runs, budget, || prepared.trace_many(&rays, path));
-        let (t_primary, _) = time_ms(min_runs, budget, || {
-            prepared.trace_many(&rays, TracePath::Primary)
-        });
+        // The ghost path against the primary one in alternating blocks.
+        let (timed, results) = time_paired_ms(
+            ctx.blocks().0,
+            min_runs,
+            budget,
+            || prepared.trace_many(&rays, path),
+            || prepared.trace_many(&rays, TracePath::Primary),
+        );
         let s = ghost_stats(&results, area);
         let rel = |a: f64, b: f64| {
             if b != 0.0 {
@@ -200,7 +204,7 @@ pub fn run(ctx: &SweepContext) -> Report {
         };
         let rho = reference.rms_radius.max(1e-12);
         report.rows.push(
-            Row::new(n as f64, t_ghost, t_primary)
+            Row::paired_cpu(n as f64, &timed)
                 .err("energy_rel", rel(s.energy, reference.energy))
                 .err("rms_radius_rel", rel(s.rms_radius, reference.rms_radius))
                 .err(

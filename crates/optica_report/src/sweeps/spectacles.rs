@@ -61,7 +61,7 @@ use optica_optics::spectacles::{
 };
 
 use crate::fixtures::halton;
-use crate::{Report, Row, SweepContext, time_ms};
+use crate::{Report, Row, SweepContext, time_paired_ms};
 
 /// A test point and its reference RMS and edge radii.
 #[derive(Clone)]
@@ -264,9 +264,10 @@ pub fn run(ctx: &SweepContext) -> Report {
         .mesh(LensMesh::PAPER_RINGS, LensMesh::PAPER_SEGMENTS)
         .expect("mesh");
     let back = mesh.back_positions().to_vec();
-    let (t_base, traces) = time_ms(3, ctx.pick(20.0, 500.0), || {
-        refract_vertices(&lens, pl.centre_of_rotation(), &back)
-    });
+    // The baseline, timed against each field's precomputation in
+    // alternating blocks.
+    let per_vertex = || refract_vertices(&lens, pl.centre_of_rotation(), &back);
+    let traces = per_vertex();
     let exits = match &traces {
         Ok(t) => t.iter().filter(|t| t.is_exit()).count(),
         Err(e) => {
@@ -322,7 +323,13 @@ pub fn run(ctx: &SweepContext) -> Report {
                     continue;
                 }
             };
-            let (t, field) = time_ms(runs, budget, || precompute_field(eye, &pl, Some(lens), &st));
+            let (timed, field) = time_paired_ms(
+                ctx.blocks().0,
+                runs,
+                budget,
+                || precompute_field(eye, &pl, Some(lens), &st),
+                per_vertex,
+            );
             let field = match field {
                 Ok(f) => f,
                 Err(e) => {
@@ -340,7 +347,7 @@ pub fn run(ctx: &SweepContext) -> Report {
             // (The far points are the plain lens's.)
             let far_ang = matches!(case, Plain | EyeGrid).then(|| sight_errors(&field, &far));
             let s = field.stats();
-            let mut row = Row::new(k, t, t_base);
+            let mut row = Row::paired_cpu(k, &timed);
             if let Some(far_ang) = far_ang {
                 row = row.err(&format!("far_mean_mrad{suffix}"), far_ang * 1e3);
             }

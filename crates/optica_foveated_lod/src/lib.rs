@@ -231,7 +231,7 @@
 //! `ray tracer: <scene>, <gaze>`, lavapipe, release; the paper's CAVE of
 //! three 256² walls, eight 5,780-triangle models and a floor, its four
 //! scenes and two gazes, frame time against `foveate: false` in
-//! alternating blocks, 2026-12-05): 0.48–0.72 of full quality's frame
+//! alternating blocks, 2026-12-05): 0.46–0.69 of full quality's frame
 //! with the defaults (the paper's own table: 0.28–1.27), the central field
 //! equal to full quality's and the image beyond 30° within an RMSE of
 //! 0.01–0.15 (8-bit sRGB, largest where the field's edge cuts models off).

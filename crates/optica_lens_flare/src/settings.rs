@@ -125,8 +125,8 @@ pub struct LensFlare {
     /// ones, smooth inside, and their softened iris edge is a small part of
     /// their light; they are also most of the flare's pixels: on the zoom
     /// (311 ghosts, 1280×720) the default cuts the fragments shaded from
-    /// 9.4 M to 2.1 M and the flare's passes from 55 ms to 23 ms on
-    /// lavapipe (series `zoom 1280x720, no coarse ghosts` against
+    /// 9.4 M to 2.1 M and the flare's passes from 52–55 ms to 23–25 ms on
+    /// lavapipe in two full runs (series `zoom 1280x720, no coarse ghosts` against
     /// `zoom 1280x720`). The price is softer edges on the bright large
     /// ghosts: on the double Gauss at 512² the relative L1 against the
     /// reference goes from 0.11 to 0.14 (128 px: 0.14; series
@@ -143,10 +143,11 @@ pub struct LensFlare {
     /// tenth of this — it is drawn as one cell carrying their power. `0`
     /// draws every cell. On the double Gauss at 512² on lavapipe, at the
     /// other defaults, 0.5 shades 20,402 rays in the coarse pass instead
-    /// of 29,281 and takes the flare from 1.46× [1.42, 1.48] to 1.41×
-    /// [1.39, 1.46] the frame without it, at the same relative L1 against
-    /// the reference (0.1433 against 0.1432); 1.0 gains little more (1.41×
-    /// [1.40, 1.42]) and adds error (0.1474).
+    /// of 29,281 and takes the flare from 1.49× [1.47, 1.54] to 1.36×
+    /// [1.36, 1.42] the frame without it in one full run (1.46× to 1.41×
+    /// in another), at the same relative L1 against the reference (0.1433
+    /// against 0.1432); 1.0 gains nothing more (1.42× [1.40, 1.46]) and
+    /// adds error (0.1474).
     /// Series `merged cells (defaults)`.
     pub merge_cells: f32,
 }

@@ -97,6 +97,33 @@ fn chord_gap(tolerance_px: f64) -> SplitRule {
     SplitRule::chord_gap(tolerance_px).expect("valid tolerance")
 }
 
+/// What the timed refinement does: the edges refined by `rule` and every
+/// point of their strips projected; (segments emitted, points visible).
+fn refined_and_projected(
+    proj: &DomeProjection,
+    edges: &[[DVec3; 2]],
+    rule: SplitRule,
+) -> (usize, usize) {
+    let r = refine_segments(proj, edges, rule);
+    let visible = r
+        .strips
+        .iter()
+        .flatten()
+        .filter(|p| matches!(proj.project(**p), Projected::Visible(_)))
+        .count();
+    (r.stats.emitted, visible)
+}
+
+/// The refinement's baseline: each edge's two endpoints projected, one
+/// unrefined chord per edge; the points visible.
+fn projected_endpoints(proj: &DomeProjection, edges: &[[DVec3; 2]]) -> usize {
+    edges
+        .iter()
+        .flatten()
+        .filter(|p| matches!(proj.project(**p), Projected::Visible(_)))
+        .count()
+}
+
 /// Per input edge: the worst chord error of its refined pieces. Edges that
 /// fail to refine or measure are skipped (none in the sweep's scene).
 fn per_edge_errors(
@@ -173,34 +200,17 @@ pub fn run(ctx: &SweepContext) -> Result<Report, super::SweepError> {
     let room = room();
     let (un_max, un_mean) = unrefined_errors(&proj, &edges);
 
-    // The baseline, timed against each tolerance in alternating blocks.
-    let unrefined = || {
-        let mut visible = 0usize;
-        for &[a, b] in &edges {
-            for p in [a, b] {
-                visible += usize::from(matches!(proj.project(p), Projected::Visible(_)));
-            }
-        }
-        visible
-    };
-
     let total = tolerances.len();
     for (i, &tol) in tolerances.iter().enumerate() {
         ctx.progress(i + 1, total, &format!("tolerance {tol} px"));
         let rule = chord_gap(tol);
+        // Against the unrefined edges, in alternating blocks.
         let (timed, emitted) = time_paired_ms(
             ctx.blocks().0,
             runs,
             budget,
-            || {
-                let r = refine_segments(&proj, &edges, rule);
-                let mut visible = 0usize;
-                for p in r.strips.iter().flatten() {
-                    visible += usize::from(matches!(proj.project(*p), Projected::Visible(_)));
-                }
-                (r.stats.emitted, visible)
-            },
-            unrefined,
+            || refined_and_projected(&proj, &edges, rule),
+            || projected_endpoints(&proj, &edges),
         );
         let (max, mean, segments) = per_edge_errors(&proj, &edges, rule);
         let paper = SplitRule::visual_angle_for_tolerance(&proj, tol).expect("valid tolerance");
@@ -244,13 +254,6 @@ fn lenses(report: &mut Report, ctx: &SweepContext, tolerances: &[f64]) {
         ctx.progress(k + 1, LENSES.len(), &format!("lens {name}"));
         let proj = lens_dome(lens, fov);
         let edges = random_edges(&proj, n_edges, 89f64.to_radians(), 1.0..60.0, 0x00D0_3E01);
-        let unrefined = || {
-            edges
-                .iter()
-                .flatten()
-                .filter(|p| matches!(proj.project(**p), Projected::Visible(_)))
-                .count()
-        };
         let (un_max, un_mean) = unrefined_errors(&proj, &edges);
         for &tol in tolerances {
             let rule = chord_gap(tol);
@@ -258,17 +261,8 @@ fn lenses(report: &mut Report, ctx: &SweepContext, tolerances: &[f64]) {
                 ctx.blocks().0,
                 runs,
                 budget,
-                || {
-                    let r = refine_segments(&proj, &edges, rule);
-                    let visible = r
-                        .strips
-                        .iter()
-                        .flatten()
-                        .filter(|p| matches!(proj.project(**p), Projected::Visible(_)))
-                        .count();
-                    (r.stats.emitted, visible)
-                },
-                unrefined,
+                || refined_and_projected(&proj, &edges, rule),
+                || projected_endpoints(&proj, &edges),
             );
             let (max, mean, _) = per_edge_errors(&proj, &edges, rule);
             let mesh = refine_mesh(&proj, &room, rule);

@@ -50,7 +50,7 @@ use optica_optics::dome::{
 };
 use optica_optics::glam::DVec3;
 
-use crate::{Report, Row, SweepContext, time_ms, time_paired_ms};
+use crate::{PairedCpu, Report, Row, SweepContext, time_ms, time_paired_ms};
 
 /// The inside-out room seen by a zenith camera 1.7 m above its floor.
 pub(super) fn room() -> TriMesh {
@@ -95,6 +95,25 @@ const LENSES: [(&str, FisheyeLens, f64); 4] = [
 /// The chord-gap rule at `tolerance_px`.
 fn chord_gap(tolerance_px: f64) -> SplitRule {
     SplitRule::chord_gap(tolerance_px).expect("valid tolerance")
+}
+
+/// The refinement of `edges` by `rule` timed against projecting their
+/// endpoints alone, in alternating blocks (`runs` calls and `budget` ms at
+/// least, each); with (segments emitted, points visible).
+fn time_refinement(
+    ctx: &SweepContext,
+    (runs, budget): (usize, f64),
+    proj: &DomeProjection,
+    edges: &[[DVec3; 2]],
+    rule: SplitRule,
+) -> (PairedCpu, (usize, usize)) {
+    time_paired_ms(
+        ctx.blocks().0,
+        runs,
+        budget,
+        || refined_and_projected(proj, edges, rule),
+        || projected_endpoints(proj, edges),
+    )
 }
 
 /// What the timed refinement does: the edges refined by `rule` and every
@@ -204,14 +223,7 @@ pub fn run(ctx: &SweepContext) -> Result<Report, super::SweepError> {
     for (i, &tol) in tolerances.iter().enumerate() {
         ctx.progress(i + 1, total, &format!("tolerance {tol} px"));
         let rule = chord_gap(tol);
-        // Against the unrefined edges, in alternating blocks.
-        let (timed, emitted) = time_paired_ms(
-            ctx.blocks().0,
-            runs,
-            budget,
-            || refined_and_projected(&proj, &edges, rule),
-            || projected_endpoints(&proj, &edges),
-        );
+        let (timed, emitted) = time_refinement(ctx, (runs, budget), &proj, &edges, rule);
         let (max, mean, segments) = per_edge_errors(&proj, &edges, rule);
         let paper = SplitRule::visual_angle_for_tolerance(&proj, tol).expect("valid tolerance");
         let (paper_max, _, paper_segments) = per_edge_errors(&proj, &edges, paper);
@@ -257,13 +269,7 @@ fn lenses(report: &mut Report, ctx: &SweepContext, tolerances: &[f64]) {
         let (un_max, un_mean) = unrefined_errors(&proj, &edges);
         for &tol in tolerances {
             let rule = chord_gap(tol);
-            let (timed, emitted) = time_paired_ms(
-                ctx.blocks().0,
-                runs,
-                budget,
-                || refined_and_projected(&proj, &edges, rule),
-                || projected_endpoints(&proj, &edges),
-            );
+            let (timed, emitted) = time_refinement(ctx, (runs, budget), &proj, &edges, rule);
             let (max, mean, _) = per_edge_errors(&proj, &edges, rule);
             let mesh = refine_mesh(&proj, &room, rule);
             let mesh_err = EdgeErrors::of_mesh(&proj, &mesh.mesh);

@@ -12,20 +12,27 @@ use optica_harness::{RatioInterval, Stats};
 /// keeps going until about `budget_ms` has passed (at most 101 runs), so
 /// that fast calls are timed over many runs and slow ones only a few.
 pub fn time_ms<R>(min_runs: usize, budget_ms: f64, mut f: impl FnMut() -> R) -> (f64, R) {
-    let mut times = Vec::new();
-    let start = Instant::now();
-    let mut last;
-    loop {
-        let t = Instant::now();
-        last = std::hint::black_box(f());
-        times.push(t.elapsed().as_secs_f64() * 1e3);
-        let spent = start.elapsed().as_secs_f64() * 1e3;
-        if times.len() >= min_runs.max(1) && (spent >= budget_ms || times.len() >= 101) {
-            break;
-        }
-    }
+    let min = min_runs.max(1);
+    let (mut times, last) = calls(min, min.max(101), budget_ms, &mut f);
     times.sort_by(|a, b| a.total_cmp(b));
     (times[times.len() / 2], last)
+}
+
+/// Calls `f` at least `min` times and on until about `budget_ms` have
+/// passed or `max` calls are made: each call's wall time (ms) and the last
+/// result.
+fn calls<T>(min: usize, max: usize, budget_ms: f64, f: &mut impl FnMut() -> T) -> (Vec<f64>, T) {
+    let start = Instant::now();
+    let mut times = Vec::new();
+    loop {
+        let t = Instant::now();
+        let out = std::hint::black_box(f());
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+        let spent = start.elapsed().as_secs_f64() * 1e3;
+        if times.len() >= min && (spent >= budget_ms || times.len() >= max) {
+            return (times, out);
+        }
+    }
 }
 
 /// A function and its baseline timed in alternating blocks
@@ -51,8 +58,8 @@ pub struct PairedCpu {
 /// Each side runs at least `min_runs` calls in all and keeps going until
 /// about `budget_ms` of its own calls have passed (at most 101 calls, or
 /// `min_runs` where that is more), both spread evenly over the blocks, and
-/// at least one call a block. Returns
-/// the times and the effect's last result.
+/// at least one call a block. Returns the times and the effect's last
+/// result.
 pub fn time_paired_ms<R, B>(
     blocks: u32,
     min_runs: usize,
@@ -65,36 +72,17 @@ pub fn time_paired_ms<R, B>(
     let min_per_block = min_runs.div_ceil(blocks).max(1);
     let max_per_block = (101 / blocks).max(min_per_block);
     let budget_per_block = budget_ms / blocks as f64;
-    // Calls of one side within a block, ms each.
-    fn block<T>(
-        min: usize,
-        max: usize,
-        budget_ms: f64,
-        f: &mut impl FnMut() -> T,
-    ) -> (Vec<f64>, T) {
-        let start = Instant::now();
-        let mut times = Vec::new();
-        loop {
-            let t = Instant::now();
-            let out = std::hint::black_box(f());
-            times.push(t.elapsed().as_secs_f64() * 1e3);
-            let spent = start.elapsed().as_secs_f64() * 1e3;
-            if times.len() >= min && (spent >= budget_ms || times.len() >= max) {
-                return (times, out);
-            }
-        }
-    }
     let median = |t: &[f64]| Stats::of(t).map_or(f64::NAN, |s| s.median);
     let (mut all_effect, mut all_baseline, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
     let mut last = None;
     let (min, max, budget) = (min_per_block, max_per_block, budget_per_block);
     for b in 0..blocks {
         let ((effect_times, out), base) = if b % 2 == 0 {
-            let e = block(min, max, budget, &mut effect);
-            (e, block(min, max, budget, &mut baseline).0)
+            let e = calls(min, max, budget, &mut effect);
+            (e, calls(min, max, budget, &mut baseline).0)
         } else {
-            let base = block(min, max, budget, &mut baseline).0;
-            (block(min, max, budget, &mut effect), base)
+            let base = calls(min, max, budget, &mut baseline).0;
+            (calls(min, max, budget, &mut effect), base)
         };
         last = Some(out);
         ratios.push(median(&effect_times) / median(&base));

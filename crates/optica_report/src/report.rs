@@ -19,9 +19,9 @@
 use std::collections::BTreeMap;
 
 use optica_harness::{AdapterInfo, PairedTimings, RatioInterval};
+use serde::{Deserialize, Serialize};
 
 use crate::PairedCpu;
-use serde::{Deserialize, Serialize};
 
 /// A plugin's error-against-run-time sweep and its stability cases.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
